@@ -1,0 +1,311 @@
+#include "capture/aravis_camera.h"
+
+#include <cmath>
+#include <fstream>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+namespace pvcap {
+
+using namespace std::chrono_literals;
+
+namespace {
+// GVSP overhead on top of the pixels: IP/UDP/GVSP headers per ~1500-byte packet.
+constexpr double kProtocolOverhead = 1.03;
+}  // namespace
+
+long read_rmem_max() {
+  std::ifstream in("/proc/sys/net/core/rmem_max");
+  long v = 0;
+  in >> v;
+  return in ? v : 0;
+}
+
+std::size_t buffer_count_for(const CameraConfig& config) {
+  if (config.buffer_count > 0) return std::size_t(config.buffer_count);
+  return std::max<std::size_t>(8, std::size_t(std::ceil(config.frame_rate * 0.5)));
+}
+
+Status preflight(const std::string& label, const LinkBudget& b) {
+  const double mbps = double(b.payload_bytes) * 8.0 * b.frame_rate * kProtocolOverhead / 1e6;
+  if (mbps > b.link_mbps)
+    return Error{fmt::format(
+        "{}: {} bytes per frame at {:.1f} fps needs {:.0f} Mbit/s, more than its {:.0f} Mbit/s link: lower "
+        "frame_rate, crop width/height, or set link_mbps if the link is faster",
+        label, b.payload_bytes, b.frame_rate, mbps, b.link_mbps)};
+  if (b.socket_buffer_bytes > 0 && b.rmem_max > 0 && b.socket_buffer_bytes > b.rmem_max)
+    return Error{fmt::format(
+        "{}: socket_buffer_bytes {} is above the kernel limit net.core.rmem_max = {}; raise the limit "
+        "(sysctl -w net.core.rmem_max={}) or lower socket_buffer_bytes",
+        label, b.socket_buffer_bytes, b.rmem_max, b.socket_buffer_bytes)};
+  return {};
+}
+
+AravisCamera::AravisCamera(int index, CameraConfig config, EventHandler on_event)
+    : index_(index),
+      config_(std::move(config)),
+      on_event_(std::move(on_event)),
+      // Good frames are bounded by the buffer pool; the slack carries failed-frame records.
+      queue_(buffer_count_for(config_) + 256) {
+  arv::route_glib_logs_to_spdlog();
+}
+
+AravisCamera::~AravisCamera() { stop(); }
+
+std::string AravisCamera::label() const {
+  std::string where;
+  if (!config_.serial.empty()) where += "serial " + config_.serial;
+  if (!config_.address.empty()) where += (where.empty() ? "at " : " at ") + config_.address;
+  return fmt::format("{} ({})", config_.name, where);
+}
+
+std::chrono::milliseconds AravisCamera::stall_timeout() const {
+  const auto ten_periods = std::chrono::milliseconds(std::int64_t(10'000.0 / config_.frame_rate));
+  return std::max<std::chrono::milliseconds>(500ms, ten_periods);
+}
+
+CameraSettings AravisCamera::settings() const {
+  std::lock_guard lock(mu_);
+  return settings_;
+}
+
+StreamCounters AravisCamera::counters() const {
+  std::lock_guard lock(mu_);
+  StreamCounters total = past_counters_;
+  if (stream_) total += stream_->counters();
+  return total;
+}
+
+void AravisCamera::emit(CameraEvent::Kind kind, std::string message) {
+  if (on_event_) on_event_(CameraEvent{index_, kind, host_now(), std::move(message)});
+}
+
+void AravisCamera::on_control_lost(ArvGvDevice*, void* self) {
+  auto* cam = static_cast<AravisCamera*>(self);
+  cam->control_lost_.store(true);
+  cam->wake_.notify_all();
+}
+
+Status AravisCamera::apply_features() {
+  ArvCamera* cam = camera_.get();
+  arv::GErrorSlot err;
+  auto check = [&](const std::string& what) -> Status {
+    if (err) return Error{fmt::format("{}: setting {} failed: {}", label(), what, err.message())};
+    return {};
+  };
+#define PVCAP_TRY(expr)      \
+  do {                       \
+    Status s_ = (expr);      \
+    if (!s_.ok()) return s_; \
+  } while (0)
+
+  arv_camera_stop_acquisition(cam, err.out());  // a camera left streaming by a crashed run
+  arv_camera_set_pixel_format_from_string(cam, config_.pixel_format.c_str(), err.out());
+  PVCAP_TRY(check(fmt::format("PixelFormat to {}", config_.pixel_format)));
+  arv_camera_set_region(cam, config_.offset_x, config_.offset_y, config_.width, config_.height, err.out());
+  PVCAP_TRY(check(fmt::format("the region (OffsetX/OffsetY/Width/Height) to {}x{}+{}+{}", config_.width,
+                              config_.height, config_.offset_x, config_.offset_y)));
+  if (config_.trigger == TriggerMode::FreeRun) {
+    arv_camera_clear_triggers(cam, err.out());
+    PVCAP_TRY(check("TriggerMode to Off"));
+    arv_camera_set_frame_rate(cam, config_.frame_rate, err.out());
+    PVCAP_TRY(check(fmt::format("AcquisitionFrameRate to {}", config_.frame_rate)));
+  } else {
+    const std::string source = config_.trigger == TriggerMode::Software ? "Software" : config_.trigger_source;
+    arv_camera_set_trigger(cam, source.c_str(), err.out());
+    PVCAP_TRY(check(fmt::format("TriggerSource to {}", source)));
+  }
+  arv_camera_set_exposure_time(cam, config_.exposure_us, err.out());
+  PVCAP_TRY(check(fmt::format("ExposureTime to {} us", config_.exposure_us)));
+  arv_camera_set_gain(cam, config_.gain, err.out());
+  PVCAP_TRY(check(fmt::format("Gain to {}", config_.gain)));
+  if (config_.packet_size > 0) {
+    arv_camera_gv_set_packet_size(cam, config_.packet_size, err.out());
+    PVCAP_TRY(check(fmt::format("GevSCPSPacketSize to {}", config_.packet_size)));
+  } else {
+    arv_camera_gv_auto_packet_size(cam, err.out());
+    PVCAP_TRY(check("GevSCPSPacketSize (automatic negotiation)"));
+  }
+#undef PVCAP_TRY
+
+  // Read back what the camera actually does: it may round or clamp.
+  CameraSettings s;
+  auto str = [&](const char* v) { return std::string(v ? v : ""); };
+  s.vendor = str(arv_camera_get_vendor_name(cam, nullptr));
+  s.model = str(arv_camera_get_model_name(cam, nullptr));
+  s.serial = str(arv_camera_get_device_serial_number(cam, nullptr));
+  s.device_id = str(arv_camera_get_device_id(cam, nullptr));
+  s.firmware = str(arv_camera_get_string(cam, "DeviceFirmwareVersion", nullptr));
+  if (s.firmware.empty()) s.firmware = str(arv_camera_get_string(cam, "DeviceVersion", nullptr));
+  ArvDevice* dev = arv_camera_get_device(cam);
+  if (ARV_IS_GV_DEVICE(dev)) {
+    GSocketAddress* sock = arv_gv_device_get_device_address(ARV_GV_DEVICE(dev));
+    if (sock && G_IS_INET_SOCKET_ADDRESS(sock)) {
+      GInetAddress* addr = g_inet_socket_address_get_address(G_INET_SOCKET_ADDRESS(sock));
+      gchar* text = g_inet_address_to_string(addr);
+      s.address = text;
+      g_free(text);
+    }
+    s.timestamp_tick_hz = arv_gv_device_get_timestamp_tick_frequency(ARV_GV_DEVICE(dev), nullptr);
+  }
+  s.pixel_format = str(arv_camera_get_pixel_format_as_string(cam, nullptr));
+  arv_camera_get_region(cam, &s.x, &s.y, &s.width, &s.height, nullptr);
+  s.frame_rate = arv_camera_get_frame_rate(cam, nullptr);
+  s.exposure_us = arv_camera_get_exposure_time(cam, nullptr);
+  s.gain = arv_camera_get_gain(cam, nullptr);
+  s.trigger = to_string(config_.trigger);
+  s.packet_size = arv_camera_gv_get_packet_size(cam, nullptr);
+  s.payload = arv_camera_get_payload(cam, err.out());
+  if (err || s.payload == 0) return Error{fmt::format("{}: cannot read PayloadSize: {}", label(), err.message())};
+  s.buffer_count = buffer_count_for(config_);
+  settings_ = s;
+  return {};
+}
+
+Status AravisCamera::connect_and_configure(std::uint32_t connection) {
+  const std::string id = config_.address.empty() ? config_.serial : config_.address;
+  arv::GErrorSlot err;
+  arv::GPtr<ArvCamera> cam(arv_camera_new(id.c_str(), err.out()));
+  if (!cam)
+    return Error{fmt::format("{}: no camera answers ({}); check power, cabling and that it is on this subnet "
+                             "(`pvcap devices` lists what answers)",
+                             label(), err.message().empty() ? "not found" : err.message())};
+  std::lock_guard lock(mu_);
+  camera_ = std::move(cam);
+  if (!config_.serial.empty()) {
+    const char* serial = arv_camera_get_device_serial_number(camera_.get(), nullptr);
+    if (!serial || config_.serial != serial) {
+      const std::string got = serial ? serial : "?";
+      camera_.reset();
+      return Error{fmt::format("{}: the camera at {} has serial {}, not {}", label(), id, got, config_.serial)};
+    }
+  }
+  if (Status s = apply_features(); !s.ok()) {
+    camera_.reset();
+    return s;
+  }
+  const LinkBudget budget{settings_.payload, settings_.frame_rate, config_.link_mbps, config_.socket_buffer_bytes,
+                          read_rmem_max()};
+  if (Status s = preflight(label(), budget); !s.ok()) {
+    camera_.reset();
+    return s;
+  }
+  auto stream = AravisStream::create(camera_.get(), index_, connection, settings_.payload, settings_.buffer_count,
+                                     config_.packet_resend, config_.socket_buffer_bytes, queue_);
+  if (!stream) {
+    camera_.reset();
+    return Error{fmt::format("{}: {}", label(), stream.error().message)};
+  }
+  stream_ = std::move(stream.value());
+  ArvDevice* dev = arv_camera_get_device(camera_.get());
+  control_lost_.store(false);
+  control_lost_id_ = g_signal_connect(dev, "control-lost", G_CALLBACK(&AravisCamera::on_control_lost), this);
+  return {};
+}
+
+Status AravisCamera::open() {
+  Status s = connect_and_configure(connection_);
+  if (s.ok()) {
+    const CameraSettings st = settings();
+    spdlog::info("{}: {} {} serial {} at {}, {} {}x{}+{}+{} @ {:.2f} fps, packet {} B, {} buffers of {} B",
+                 label(), st.vendor, st.model, st.serial, st.address, st.pixel_format, st.width, st.height, st.x,
+                 st.y, st.frame_rate, st.packet_size, st.buffer_count, st.payload);
+  }
+  return s;
+}
+
+Status AravisCamera::start() {
+  {
+    std::lock_guard lock(mu_);
+    if (!camera_) return Error{fmt::format("{}: start() before a successful open()", label())};
+    arv::GErrorSlot err;
+    arv_camera_start_acquisition(camera_.get(), err.out());
+    if (err) return Error{fmt::format("{}: AcquisitionStart failed: {}", label(), err.message())};
+  }
+  started_at_ = host_now();
+  running_.store(true);
+  control_thread_ = std::thread([this] { control_loop(); });
+  return {};
+}
+
+void AravisCamera::teardown_connection(bool camera_reachable) {
+  std::shared_ptr<AravisStream> stream;
+  arv::GPtr<ArvCamera> camera;
+  {
+    std::lock_guard lock(mu_);
+    stream = std::move(stream_);
+    camera = std::move(camera_);
+    if (stream) past_counters_ += stream->counters();
+  }
+  if (camera && camera_reachable) arv_camera_stop_acquisition(camera.get(), nullptr);
+  if (stream) stream->quiesce();
+  if (camera && control_lost_id_) g_signal_handler_disconnect(arv_camera_get_device(camera.get()), control_lost_id_);
+  control_lost_id_ = 0;
+  // `stream` stays alive while frames leased from it are still queued or being encoded.
+}
+
+void AravisCamera::control_loop() {
+  bool connected = true;
+  HostNs next_attempt{0};
+  while (running_.load()) {
+    {
+      std::unique_lock lock(wake_mu_);
+      wake_.wait_for(lock, 50ms, [&] { return !running_.load() || control_lost_.load(); });
+    }
+    if (!running_.load()) break;
+    const HostNs now = host_now();
+    if (connected) {
+      HostNs last;
+      {
+        std::lock_guard lock(mu_);
+        last = stream_ ? stream_->last_arrival() : HostNs{0};
+      }
+      if (last.ns == 0) last = started_at_;
+      const auto silent_ms = (now.ns - last.ns) / 1'000'000;
+      const bool stalled = config_.trigger == TriggerMode::FreeRun && silent_ms > stall_timeout().count();
+      if (stalled || control_lost_.load()) {
+        emit(CameraEvent::Kind::Lost,
+             fmt::format("{}: camera lost ({}) -- unplugged, powered off, or its link is down; the other "
+                         "cameras keep recording, reconnecting every second",
+                         label(), control_lost_.load() ? "control channel lost" :
+                                                         fmt::format("no frame for {} ms", silent_ms)));
+        teardown_connection(false);
+        connected = false;
+        next_attempt = now;
+      }
+    } else if (now >= next_attempt) {
+      next_attempt = HostNs{now.ns + 1'000'000'000};
+      Status s = connect_and_configure(++connection_);
+      if (s.ok()) {
+        arv::GErrorSlot err;
+        {
+          std::lock_guard lock(mu_);
+          arv_camera_start_acquisition(camera_.get(), err.out());
+        }
+        if (!err) {
+          started_at_ = host_now();
+          connected = true;
+          emit(CameraEvent::Kind::Reconnected, fmt::format("{}: reconnected, recording again", label()));
+        } else {
+          teardown_connection(false);
+        }
+      } else {
+        spdlog::debug("{}: reconnect attempt failed: {}", label(), s.error().message);
+      }
+    }
+  }
+  if (connected) teardown_connection(true);
+}
+
+void AravisCamera::stop() {
+  if (running_.exchange(false)) {
+    wake_.notify_all();
+    if (control_thread_.joinable()) control_thread_.join();
+  } else {
+    teardown_connection(true);  // opened but never started
+  }
+  queue_.close();
+}
+
+}  // namespace pvcap

@@ -1,0 +1,119 @@
+#pragma once
+// One GigE Vision camera of the rig, through Aravis: connect, apply the rig
+// config as GenICam features, check the link budget, stream into a bounded
+// queue, watch for loss and reconnect.
+//
+// Threads: open()/start()/stop() are called from the app's thread. Frames are
+// produced on Aravis' stream thread (see aravis_stream.h). A control thread per
+// camera watches for a stalled stream or a lost control channel, reports it
+// through the event handler within `stall_timeout()`, and tries to reconnect
+// every second; it may block on network timeouts, which is why it is not the
+// stream thread and not shared with other cameras.
+#include <atomic>
+#include <condition_variable>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "capture/aravis_handles.h"
+#include "capture/aravis_stream.h"
+#include "capture/camera_frame.h"
+#include "core/bounded_queue.h"
+#include "core/result.h"
+#include "core/rig_config.h"
+
+namespace pvcap {
+
+// What the camera reports after configuration (it may round what was asked).
+struct CameraSettings {
+  std::string vendor, model, serial, device_id, address, firmware;
+  std::string pixel_format;
+  int x = 0, y = 0, width = 0, height = 0;
+  double frame_rate = 0, exposure_us = 0, gain = 0;
+  std::string trigger;
+  unsigned packet_size = 0;
+  std::size_t payload = 0;
+  std::size_t buffer_count = 0;
+  std::uint64_t timestamp_tick_hz = 0;
+};
+
+struct CameraEvent {
+  enum class Kind { Lost, Reconnected, Warning };
+  int camera = 0;
+  Kind kind = Kind::Warning;
+  HostNs at;
+  std::string message;
+};
+
+// The link and kernel limits a configuration must fit in.
+struct LinkBudget {
+  std::size_t payload_bytes = 0;  // one frame
+  double frame_rate = 0;
+  double link_mbps = 1000;
+  int socket_buffer_bytes = 0;    // requested (0 = auto)
+  long rmem_max = 0;              // net.core.rmem_max
+};
+// Refuses a configuration the link or kernel cannot carry; the message says what to change.
+Status preflight(const std::string& camera_label, const LinkBudget& budget);
+// Reads net.core.rmem_max (0 when unreadable).
+long read_rmem_max();
+// Buffers to allocate: the config's, or about half a second of frames (at least 8).
+std::size_t buffer_count_for(const CameraConfig& config);
+
+class AravisCamera {
+ public:
+  using EventHandler = std::function<void(const CameraEvent&)>;
+
+  AravisCamera(int index, CameraConfig config, EventHandler on_event);
+  ~AravisCamera();
+  AravisCamera(const AravisCamera&) = delete;
+  AravisCamera& operator=(const AravisCamera&) = delete;
+
+  // Connects, applies the configuration, preflights, allocates buffers. Errors name the
+  // camera and the feature that failed.
+  Status open();
+  // Starts acquisition and supervision.
+  Status start();
+  // Stops acquisition and supervision; closes the frame queue (the consumer drains it).
+  void stop();
+
+  BoundedQueue<CameraFrame>& frames() { return queue_; }
+  const CameraConfig& config() const { return config_; }
+  CameraSettings settings() const;
+  StreamCounters counters() const;  // summed over every connection
+  std::string label() const;        // "cam0 (serial PVSIM0 at 127.0.0.2)"
+  // A frame period without frames for this long (free-run) means the camera is lost.
+  std::chrono::milliseconds stall_timeout() const;
+
+ private:
+  Status connect_and_configure(std::uint32_t connection);
+  Status apply_features();
+  void teardown_connection(bool camera_reachable);
+  void control_loop();
+  void emit(CameraEvent::Kind kind, std::string message);
+  static void on_control_lost(ArvGvDevice* device, void* self);
+
+  const int index_;
+  const CameraConfig config_;
+  EventHandler on_event_;
+  BoundedQueue<CameraFrame> queue_;
+
+  mutable std::mutex mu_;  // guards camera_, stream_, settings_, past_counters_
+  arv::GPtr<ArvCamera> camera_;
+  std::shared_ptr<AravisStream> stream_;
+  CameraSettings settings_;
+  StreamCounters past_counters_;
+  gulong control_lost_id_ = 0;
+
+  std::atomic<bool> control_lost_{false};
+  std::atomic<bool> running_{false};
+  std::uint32_t connection_ = 0;
+  HostNs started_at_;
+  std::thread control_thread_;
+  std::mutex wake_mu_;
+  std::condition_variable wake_;
+};
+
+}  // namespace pvcap

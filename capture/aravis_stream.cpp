@@ -1,0 +1,125 @@
+#include "capture/aravis_stream.h"
+
+#include <thread>
+
+#include <fmt/format.h>
+
+namespace pvcap {
+
+StreamCounters& StreamCounters::operator+=(const StreamCounters& o) {
+  completed += o.completed;
+  failures += o.failures;
+  underruns += o.underruns;
+  resent_packets += o.resent_packets;
+  missing_packets += o.missing_packets;
+  queue_overflows += o.queue_overflows;
+  return *this;
+}
+
+Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, int camera_index,
+                                                           std::uint32_t connection, std::size_t payload,
+                                                           std::size_t buffer_count, bool packet_resend,
+                                                           int socket_buffer_bytes,
+                                                           BoundedQueue<CameraFrame>& queue) {
+  std::shared_ptr<AravisStream> self(new AravisStream(queue, camera_index, connection));
+  arv::GErrorSlot err;
+  self->stream_.reset(arv_camera_create_stream(camera, nullptr, nullptr, err.out()));
+  if (!self->stream_) return Error{fmt::format("cannot create the video stream: {}", err.message())};
+  if (ARV_IS_GV_STREAM(self->stream_.get())) {
+    g_object_set(self->stream_.get(), "packet-resend",
+                 packet_resend ? ARV_GV_STREAM_PACKET_RESEND_ALWAYS : ARV_GV_STREAM_PACKET_RESEND_NEVER, nullptr);
+    if (socket_buffer_bytes > 0)
+      g_object_set(self->stream_.get(), "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_FIXED, "socket-buffer-size",
+                   socket_buffer_bytes, nullptr);
+  }
+  for (std::size_t i = 0; i < buffer_count; ++i)
+    arv_stream_push_buffer(self->stream_.get(), arv_buffer_new_allocate(payload));
+  self->signal_id_ = g_signal_connect(self->stream_.get(), "new-buffer", G_CALLBACK(&AravisStream::on_new_buffer),
+                                      self.get());
+  arv_stream_set_emit_signals(self->stream_.get(), TRUE);
+  return self;
+}
+
+AravisStream::~AravisStream() {
+  if (!stream_) return;
+  accepting_.store(false);
+  arv_stream_set_emit_signals(stream_.get(), FALSE);
+  g_signal_handler_disconnect(stream_.get(), signal_id_);
+  // Joins Aravis' stream thread and frees the buffers: no lease is out by now.
+  stream_.reset();
+}
+
+void AravisStream::quiesce() {
+  accepting_.store(false);
+  while (in_callback_.load() > 0) std::this_thread::yield();
+}
+
+void AravisStream::on_new_buffer(ArvStream* stream, void* self_ptr) {
+  auto* self = static_cast<AravisStream*>(self_ptr);
+  self->in_callback_.fetch_add(1);
+  if (ArvBuffer* buffer = arv_stream_try_pop_buffer(stream)) self->handle(buffer);
+  self->in_callback_.fetch_sub(1);
+}
+
+// Runs on Aravis' stream thread: stamp, push, return. Never waits.
+void AravisStream::handle(ArvBuffer* buffer) {
+  const HostNs arrival = host_now();
+  last_arrival_ns_.store(arrival.ns, std::memory_order_relaxed);
+  if (!accepting_.load(std::memory_order_relaxed)) {
+    arv_stream_push_buffer(stream_.get(), buffer);
+    return;
+  }
+  CameraFrame frame;
+  frame.camera = camera_index_;
+  frame.connection = connection_;
+  frame.frame_id = arv_buffer_get_frame_id(buffer);
+  frame.device_ts = DeviceNs{std::int64_t(arv_buffer_get_timestamp(buffer))};
+  frame.host_ts = arrival;
+  frame.aravis_system_ns = std::int64_t(arv_buffer_get_system_timestamp(buffer));
+  const ArvBufferStatus status = arv_buffer_get_status(buffer);
+  std::shared_ptr<AravisStream> keep = weak_from_this().lock();
+  if (status == ARV_BUFFER_STATUS_SUCCESS && keep) {
+    frame.status = FrameStatus::Good;
+    frame.pixel_format = arv_buffer_get_image_pixel_format(buffer);
+    frame.width = arv_buffer_get_image_width(buffer);
+    frame.height = arv_buffer_get_image_height(buffer);
+    frame.data = static_cast<const std::uint8_t*>(arv_buffer_get_image_data(buffer, &frame.size));
+    frame.lease = BufferLease([keep = std::move(keep), buffer] { arv_stream_push_buffer(keep->stream_.get(), buffer); });
+  } else {
+    frame.status = FrameStatus::Incomplete;
+    const char* name = nullptr;
+    switch (status) {
+      case ARV_BUFFER_STATUS_MISSING_PACKETS: name = "missing_packets"; break;
+      case ARV_BUFFER_STATUS_TIMEOUT: name = "timeout"; break;
+      case ARV_BUFFER_STATUS_SIZE_MISMATCH: name = "size_mismatch"; break;
+      case ARV_BUFFER_STATUS_ABORTED: name = "aborted"; break;
+      case ARV_BUFFER_STATUS_WRONG_PACKET_ID: name = "wrong_packet_id"; break;
+      case ARV_BUFFER_STATUS_CLEARED: name = "cleared"; break;
+      case ARV_BUFFER_STATUS_SUCCESS: name = "stream_closing"; break;
+      default: name = "failed"; break;
+    }
+    frame.detail = name;
+    arv_stream_push_buffer(stream_.get(), buffer);
+  }
+  if (queue_.try_push(frame)) pushed_.fetch_add(1, std::memory_order_relaxed);
+  else overflows_.fetch_add(1, std::memory_order_relaxed);  // `frame` releases its buffer here
+}
+
+StreamCounters AravisStream::counters() const {
+  StreamCounters c;
+  guint64 completed = 0, failures = 0, underruns = 0;
+  arv_stream_get_statistics(stream_.get(), &completed, &failures, &underruns);
+  c.completed = completed;
+  c.failures = failures;
+  c.underruns = underruns;
+  if (ARV_IS_GV_STREAM(stream_.get())) {
+    guint64 resent = 0, missing = 0;
+    arv_gv_stream_get_statistics(ARV_GV_STREAM(stream_.get()), &resent, &missing);
+    c.resent_packets = resent;
+    c.missing_packets = missing;
+  }
+  c.queue_overflows = overflows_.load();
+  return c;
+}
+
+}  // namespace pvcap

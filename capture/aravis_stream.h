@@ -1,0 +1,72 @@
+#pragma once
+// One GVSP stream of one camera connection: its buffer pool and the callback
+// that runs on Aravis' stream thread.
+//
+// Thread rules (as in arvstream.h): `on_new_buffer` runs on Aravis' stream
+// thread and does three things only: stamp the arrival time, push a CameraFrame
+// into the bounded queue (without waiting), return. Buffers go back to the pool
+// when the consumer drops the frame's lease, from any thread. The object stays
+// alive while any lease is out (leases hold a shared_ptr), so a reconnection
+// can replace the stream while old frames are still being encoded.
+#include <atomic>
+#include <cstdint>
+#include <memory>
+
+#include <arv.h>
+
+#include "capture/aravis_handles.h"
+#include "capture/camera_frame.h"
+#include "core/bounded_queue.h"
+#include "core/result.h"
+
+namespace pvcap {
+
+struct StreamCounters {
+  std::uint64_t completed = 0;   // Aravis: buffers completed
+  std::uint64_t failures = 0;    // Aravis: buffers failed (missing packets, timeouts)
+  std::uint64_t underruns = 0;   // Aravis: frames arriving with no free buffer
+  std::uint64_t resent_packets = 0;
+  std::uint64_t missing_packets = 0;
+  std::uint64_t queue_overflows = 0;  // pvcap: frames dropped because the queue was full
+  StreamCounters& operator+=(const StreamCounters& o);
+};
+
+class AravisStream : public std::enable_shared_from_this<AravisStream> {
+ public:
+  // Creates the stream on `camera` with `buffer_count` buffers of `payload` bytes. Frames go
+  // to `queue` stamped with `camera_index` and `connection`.
+  static Result<std::shared_ptr<AravisStream>> create(ArvCamera* camera, int camera_index, std::uint32_t connection,
+                                                      std::size_t payload, std::size_t buffer_count,
+                                                      bool packet_resend, int socket_buffer_bytes,
+                                                      BoundedQueue<CameraFrame>& queue);
+  ~AravisStream();
+  AravisStream(const AravisStream&) = delete;
+  AravisStream& operator=(const AravisStream&) = delete;
+
+  // Stops callbacks from pushing further frames and waits for a running callback to
+  // finish, so none can take a new reference afterwards (leases still return buffers).
+  // Call before dropping the last owner reference.
+  void quiesce();
+  StreamCounters counters() const;
+  HostNs last_arrival() const { return HostNs{last_arrival_ns_.load(std::memory_order_relaxed)}; }
+  std::uint64_t frames_pushed() const { return pushed_.load(std::memory_order_relaxed); }
+
+ private:
+  AravisStream(BoundedQueue<CameraFrame>& queue, int camera_index, std::uint32_t connection)
+      : queue_(queue), camera_index_(camera_index), connection_(connection) {}
+  static void on_new_buffer(ArvStream* stream, void* self);
+  void handle(ArvBuffer* buffer);
+
+  arv::GPtr<ArvStream> stream_;
+  BoundedQueue<CameraFrame>& queue_;
+  const int camera_index_;
+  const std::uint32_t connection_;
+  std::atomic<bool> accepting_{true};
+  std::atomic<int> in_callback_{0};
+  std::atomic<std::int64_t> last_arrival_ns_{0};
+  std::atomic<std::uint64_t> pushed_{0};
+  std::atomic<std::uint64_t> overflows_{0};
+  gulong signal_id_ = 0;
+};
+
+}  // namespace pvcap

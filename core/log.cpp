@@ -1,0 +1,41 @@
+#include "core/log.h"
+
+#include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+namespace pvcap::log {
+
+namespace {
+std::shared_ptr<spdlog::sinks::basic_file_sink_mt> g_file_sink;
+}
+
+void init_console(const std::string& level) {
+  auto console = std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
+  console->set_pattern("%^[%H:%M:%S.%e %l]%$ %v");
+  console->set_level(spdlog::level::from_str(level));
+  auto logger = std::make_shared<spdlog::logger>("pvcap", console);
+  logger->set_level(spdlog::level::debug);
+  logger->flush_on(spdlog::level::warn);
+  spdlog::set_default_logger(logger);
+}
+
+std::filesystem::path add_session_file(const std::filesystem::path& dir) {
+  const auto path = dir / "pvcap.log";
+  g_file_sink = std::make_shared<spdlog::sinks::basic_file_sink_mt>(path.string());
+  g_file_sink->set_pattern("[%Y-%m-%dT%H:%M:%S.%f %l t%t] %v");
+  g_file_sink->set_level(spdlog::level::debug);
+  spdlog::default_logger()->sinks().push_back(g_file_sink);
+  spdlog::flush_every(std::chrono::seconds(1));
+  return path;
+}
+
+void remove_session_file() {
+  if (!g_file_sink) return;
+  g_file_sink->flush();
+  auto& sinks = spdlog::default_logger()->sinks();
+  std::erase(sinks, std::static_pointer_cast<spdlog::sinks::sink>(g_file_sink));
+  g_file_sink.reset();
+}
+
+}  // namespace pvcap::log

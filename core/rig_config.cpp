@@ -1,0 +1,234 @@
+#include "core/rig_config.h"
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "core/result.h"
+
+namespace pvcap {
+
+const char* to_string(TriggerMode mode) {
+  switch (mode) {
+    case TriggerMode::FreeRun: return "free-run";
+    case TriggerMode::Software: return "software";
+    case TriggerMode::Hardware: return "hardware";
+  }
+  return "?";
+}
+
+namespace {
+
+// Reads one YAML map, remembering which keys were used so leftovers are errors.
+class MapReader {
+ public:
+  MapReader(const YAML::Node& node, const std::filesystem::path& file, std::string where)
+      : node_(node), file_(file), where_(std::move(where)) {
+    if (!node_.IsMap()) fail(node_, "", "expected a mapping of key: value");
+  }
+
+  [[noreturn]] void fail(const YAML::Node& at, const std::string& key, const std::string& what) const {
+    const std::string path = key.empty() ? where_ : (where_.empty() ? key : where_ + "." + key);
+    throw UserError(fmt::format("{}:{}: {}{}{}", file_.string(), at.Mark().line + 1, path,
+                                path.empty() ? "" : ": ", what));
+  }
+
+  bool has(const char* key) const { return bool(node_[key]); }
+
+  YAML::Node child(const char* key) {
+    used_.insert(key);
+    return node_[key];
+  }
+
+  template <typename T>
+  void get(const char* key, T& out) {
+    used_.insert(key);
+    const YAML::Node v = node_[key];
+    if (!v) return;
+    if (!v.IsScalar()) fail(v, key, "expected a single value");
+    try {
+      out = v.as<T>();
+    } catch (const YAML::Exception&) {
+      fail(v, key, fmt::format("'{}' is not a valid {}", v.Scalar(), type_name<T>()));
+    }
+  }
+
+  template <typename T>
+  void require(const char* key, T& out) {
+    if (!has(key)) fail(node_, key, "missing (required)");
+    get(key, out);
+  }
+
+  template <typename T>
+  void get_in_range(const char* key, T& out, T lo, T hi) {
+    get(key, out);
+    if (has(key) && (out < lo || out > hi || (std::is_floating_point_v<T> && std::isnan(double(out)))))
+      fail(node_[key], key, fmt::format("{} is out of range [{}, {}]", out, lo, hi));
+  }
+
+  // Unknown keys are errors: a misspelt "frame_rat" must not silently become the default.
+  void finish() const {
+    for (const auto& kv : node_) {
+      const std::string k = kv.first.Scalar();
+      if (!used_.count(k)) {
+        std::string known;
+        for (const auto& u : used_) known += (known.empty() ? "" : ", ") + u;
+        fail(kv.first, k, fmt::format("unknown key (known here: {})", known));
+      }
+    }
+  }
+
+  const YAML::Node& node() const { return node_; }
+
+ private:
+  template <typename T>
+  static const char* type_name() {
+    if constexpr (std::is_same_v<T, bool>) return "boolean (true/false)";
+    else if constexpr (std::is_integral_v<T>) return "integer";
+    else if constexpr (std::is_floating_point_v<T>) return "number";
+    else return "string";
+  }
+
+  YAML::Node node_;
+  const std::filesystem::path& file_;
+  std::string where_;
+  std::set<std::string> used_;
+};
+
+CameraConfig parse_camera(const YAML::Node& node, const std::filesystem::path& file, std::size_t index) {
+  CameraConfig c;
+  c.name = fmt::format("cam{}", index);
+  MapReader r(node, file, fmt::format("cameras[{}]", index));
+  c.line = node.Mark().line + 1;
+  r.get("name", c.name);
+  r.get("serial", c.serial);
+  r.get("address", c.address);
+  if (c.serial.empty() && c.address.empty()) r.fail(node, "", "needs a 'serial' or an 'address'");
+  r.get("pixel_format", c.pixel_format);
+  static const std::set<std::string> formats = {"BayerRG8", "BayerBG8", "BayerGB8", "BayerGR8", "Mono8", "RGB8"};
+  if (!formats.count(c.pixel_format))
+    r.fail(node["pixel_format"], "pixel_format",
+           fmt::format("'{}' is not supported (BayerRG8, BayerBG8, BayerGB8, BayerGR8, Mono8, RGB8)", c.pixel_format));
+  r.get_in_range("width", c.width, 16, 8192);
+  r.get_in_range("height", c.height, 16, 8192);
+  r.get_in_range("offset_x", c.offset_x, 0, 8192);
+  r.get_in_range("offset_y", c.offset_y, 0, 8192);
+  if (c.width % 2 || c.height % 2) r.fail(node, "width", "width and height must be even (Bayer pattern)");
+  r.get_in_range("frame_rate", c.frame_rate, 0.1, 1000.0);
+  r.get_in_range("exposure_us", c.exposure_us, 1.0, 10'000'000.0);
+  r.get_in_range("gain", c.gain, 0.0, 1000.0);
+  std::string trigger = "free-run";
+  r.get("trigger", trigger);
+  if (trigger == "free-run") c.trigger = TriggerMode::FreeRun;
+  else if (trigger == "software") c.trigger = TriggerMode::Software;
+  else if (trigger == "hardware") c.trigger = TriggerMode::Hardware;
+  else r.fail(node["trigger"], "trigger", fmt::format("'{}' is not one of free-run, software, hardware", trigger));
+  r.get("trigger_source", c.trigger_source);
+  r.get_in_range("packet_size", c.packet_size, 0, 65000);
+  if (c.packet_size != 0 && c.packet_size < 576) r.fail(node["packet_size"], "packet_size", "must be 0 (auto) or >= 576");
+  r.get_in_range("socket_buffer_bytes", c.socket_buffer_bytes, 0, 1 << 30);
+  r.get("packet_resend", c.packet_resend);
+  r.get_in_range("buffer_count", c.buffer_count, 0, 10000);
+  r.get_in_range("link_mbps", c.link_mbps, 1.0, 1'000'000.0);
+  r.get_in_range("latency_ns", c.latency_ns, std::int64_t{0}, std::int64_t{10'000'000'000});
+  r.finish();
+  return c;
+}
+
+StoreConfig parse_store(const YAML::Node& node, const std::filesystem::path& file) {
+  StoreConfig s;
+  MapReader r(node, file, "store");
+  r.get("video_codec", s.video_codec);
+  r.get_in_range("crf", s.crf, 0, 51);
+  r.get("preset", s.preset);
+  r.get("video_pixel_format", s.video_pixel_format);
+  r.get_in_range("video_fps", s.video_fps, 0.0, 1000.0);
+  double gop_s = s.gop_seconds_x10 / 10.0;
+  r.get_in_range("gop_seconds", gop_s, 0.1, 1.0);
+  s.gop_seconds_x10 = int(std::lround(gop_s * 10));
+  r.get_in_range("queue_frames", s.queue_frames, 2, 10000);
+  r.finish();
+  return s;
+}
+
+SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, std::size_t n_cameras) {
+  SimConfig s;
+  MapReader r(node, file, "sim");
+  r.get("seed", s.seed);
+  const YAML::Node cams = r.child("cameras");
+  if (cams) {
+    if (!cams.IsSequence()) r.fail(cams, "cameras", "expected a list, one entry per rig camera");
+    if (cams.size() != n_cameras)
+      r.fail(cams, "cameras", fmt::format("has {} entries but the rig has {} cameras", cams.size(), n_cameras));
+    for (std::size_t i = 0; i < cams.size(); ++i) {
+      SimCameraClock c;
+      MapReader cr(cams[i], file, fmt::format("sim.cameras[{}]", i));
+      cr.get_in_range("clock_offset_ms", c.offset_ms, 0.0, 1e9);  // device time at power-on; >= 0
+      cr.get_in_range("drift_ppm", c.drift_ppm, -10000.0, 10000.0);
+      cr.get_in_range("jitter_us", c.jitter_us, 0.0, 1e6);
+      cr.get_in_range("packet_loss", c.packet_loss, 0.0, 1.0);
+      if (cr.has("stop_after_s")) {
+        double v = 0;
+        cr.get_in_range("stop_after_s", v, 0.0, 1e7);
+        c.stop_after_s = v;
+      }
+      cr.finish();
+      s.cameras.push_back(c);
+    }
+  } else {
+    s.cameras.resize(n_cameras);
+  }
+  r.finish();
+  return s;
+}
+
+}  // namespace
+
+RigConfig parse_rig_config(const std::string& text, const std::filesystem::path& source) {
+  RigConfig rig;
+  rig.source = source;
+  rig.text = text;
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    throw UserError(fmt::format("{}:{}: YAML syntax error: {}", source.string(), e.mark.line + 1, e.msg));
+  }
+  if (!root || root.IsNull()) throw UserError(fmt::format("{}:1: the rig file is empty", source.string()));
+  try {
+    MapReader r(root, source, "");
+    r.require("name", rig.name);
+    const YAML::Node cams = r.child("cameras");
+    if (!cams || !cams.IsSequence() || cams.size() == 0)
+      r.fail(cams ? cams : root, "cameras", "expected a non-empty list of cameras");
+    std::set<std::string> names, ids;
+    for (std::size_t i = 0; i < cams.size(); ++i) {
+      CameraConfig c = parse_camera(cams[i], source, i);
+      if (!names.insert(c.name).second)
+        r.fail(cams[i], fmt::format("cameras[{}].name", i), fmt::format("'{}' is used twice", c.name));
+      if (!ids.insert(c.id()).second)
+        r.fail(cams[i], fmt::format("cameras[{}]", i), fmt::format("camera '{}' is listed twice", c.id()));
+      rig.cameras.push_back(std::move(c));
+    }
+    if (const YAML::Node store = r.child("store")) rig.store = parse_store(store, source);
+    if (const YAML::Node sim = r.child("sim")) rig.sim = parse_sim(sim, source, rig.cameras.size());
+    r.finish();
+  } catch (const YAML::Exception& e) {
+    throw UserError(fmt::format("{}:{}: {}", source.string(), e.mark.line + 1, e.msg));
+  }
+  return rig;
+}
+
+RigConfig load_rig_config(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw UserError(fmt::format("{}: cannot open the rig file", path.string()));
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_rig_config(ss.str(), path);
+}
+
+}  // namespace pvcap

@@ -1,0 +1,77 @@
+#pragma once
+// The rig description (rig-configs/*.yaml): which cameras, how to set them up,
+// how to store, and, for the simulated rig, how the simulated devices behave.
+// Parsing rejects unknown keys and names file:line and key in every error.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace pvcap {
+
+enum class TriggerMode { FreeRun, Software, Hardware };
+const char* to_string(TriggerMode mode);
+
+struct CameraConfig {
+  std::string name;     // short label used in file names and messages, e.g. "cam0"
+  std::string serial;   // match by serial number, or
+  std::string address;  // by IPv4 address (one of the two is required)
+  std::string pixel_format = "BayerRG8";
+  int width = 1920;
+  int height = 1080;
+  int offset_x = 0;
+  int offset_y = 0;
+  double frame_rate = 60.0;   // Hz; free-run rate (ignored when triggered)
+  double exposure_us = 8000;  // µs
+  double gain = 0;            // camera units (dB on most GigE cameras)
+  TriggerMode trigger = TriggerMode::FreeRun;
+  std::string trigger_source = "Line0";  // for TriggerMode::Hardware
+  int packet_size = 0;                   // bytes; 0 = negotiate the largest that works
+  int socket_buffer_bytes = 0;           // 0 = let Aravis size it from the payload
+  bool packet_resend = true;
+  int buffer_count = 0;   // 0 = about half a second of frames, at least 8
+  double link_mbps = 1000;  // the camera's link: preflight refuses a payload x rate above it
+  std::int64_t latency_ns = 0;  // known constant exposure-to-timestamp latency (datasheet)
+  int line = 0;           // where in the file this camera is described
+  std::string id() const { return !serial.empty() ? serial : address; }
+};
+
+struct StoreConfig {
+  std::string video_codec = "libx264";  // any FFmpeg encoder; "ffv1" for lossless
+  int crf = 10;                         // libx264 quality (lower is better; 0 = lossless)
+  std::string preset = "veryfast";      // libx264 speed preset
+  std::string video_pixel_format = "yuv444p";  // keep full chroma: skin colour is the signal
+  double video_fps = 15.0;  // frames kept in video per second per camera; 0 = every frame
+  int gop_seconds_x10 = 10;  // key frame interval in tenths of a second (<= 1 s)
+  int queue_frames = 24;     // per-camera frames waiting for the encoder before drops
+};
+
+struct SimCameraClock {
+  double offset_ms = 0;   // device clock minus true time at t = 0
+  double drift_ppm = 0;   // device clock rate error
+  double jitter_us = 0;   // std-dev of device timestamp noise
+  double packet_loss = 0;  // fraction of GVSP packets not sent
+  std::optional<double> stop_after_s;  // camera vanishes (process-wide) after this many seconds
+};
+
+struct SimConfig {
+  std::vector<SimCameraClock> cameras;  // one per rig camera, same order
+  std::uint64_t seed = 1;
+};
+
+struct RigConfig {
+  std::filesystem::path source;  // the file it came from
+  std::string text;              // the file's text, stored with each session
+  std::string name;
+  std::vector<CameraConfig> cameras;
+  StoreConfig store;
+  std::optional<SimConfig> sim;  // present for a simulated rig
+};
+
+// Loads and validates a rig file. Throws UserError("file:line: key: problem").
+RigConfig load_rig_config(const std::filesystem::path& path);
+// The same from text (tests, fuzzing); `source` names it in messages.
+RigConfig parse_rig_config(const std::string& text, const std::filesystem::path& source);
+
+}  // namespace pvcap

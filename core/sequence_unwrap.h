@@ -1,0 +1,46 @@
+#pragma once
+// Unwraps a device's short rolling counter (GigE Vision 16-bit block ids, the
+// Sensel's 8-bit counter) into a 64-bit sequence, and says how many values were
+// skipped since the previous one, so drops are counted by the device's own
+// numbering rather than by what the host happened to see.
+#include <cstdint>
+#include <optional>
+
+namespace pvcap {
+
+class SequenceUnwrapper {
+ public:
+  // `bits`: counter width. `zero_is_skipped`: GigE Vision 1.x never uses block id 0,
+  // so 65535 is followed by 1.
+  SequenceUnwrapper(int bits, bool zero_is_skipped)
+      : modulus_(std::uint64_t{1} << bits), skip_zero_(zero_is_skipped) {}
+
+  struct Step {
+    std::uint64_t sequence = 0;  // unwrapped value (the first raw value is its own sequence)
+    std::uint64_t missing = 0;   // values skipped since the previous accepted one
+    bool out_of_order = false;   // repeated or behind the previous value: not accepted
+  };
+
+  Step next(std::uint64_t raw) {
+    raw %= modulus_;
+    if (!last_raw_) {
+      last_raw_ = raw;
+      last_seq_ = raw;
+      return {raw, 0, false};
+    }
+    std::uint64_t delta = (raw + modulus_ - *last_raw_) % modulus_;
+    if (delta == 0 || delta > modulus_ / 2) return {last_seq_, 0, true};
+    if (skip_zero_ && raw < *last_raw_) delta -= 1;  // crossed the wrap, where 0 does not exist
+    last_raw_ = raw;
+    last_seq_ += delta;
+    return {last_seq_, delta - 1, false};
+  }
+
+ private:
+  std::uint64_t modulus_;
+  bool skip_zero_;
+  std::optional<std::uint64_t> last_raw_;
+  std::uint64_t last_seq_ = 0;
+};
+
+}  // namespace pvcap

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages pvcap builds and runs against, only when some are
+# missing (so a machine that has them needs no network). Run as root.
+set -euo pipefail
+packages=(
+  build-essential cmake ninja-build pkg-config git
+  libaravis-dev aravis-tools            # GigE Vision cameras (and the fake-camera engine for the sim)
+  libusb-1.0-0-dev                      # Sensel Morph over USB
+  libopencv-dev libopencv-contrib-dev   # debayer, scene rendering, ArUco, homographies
+  libavcodec-dev libavformat-dev libavutil-dev libswscale-dev ffmpeg
+  libsqlite3-dev sqlite3
+  libspdlog-dev libfmt-dev libcli11-dev libyaml-cpp-dev nlohmann-json3-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libumockdev-dev umockdev              # emulated USB device for the Sensel tests
+  iproute2 util-linux                   # network namespaces for the simulated rig
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  if [ "$(id -u)" != 0 ]; then
+    echo "pvcap: missing Debian packages: ${missing[*]}" >&2
+    echo "pvcap: run this script as root, or: apt-get install ${missing[*]}" >&2
+    exit 1
+  fi
+  echo "pvcap: installing ${#missing[@]} missing Debian packages: ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -q
+  apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi

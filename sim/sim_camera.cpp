@@ -1,0 +1,104 @@
+#include "sim/sim_camera.h"
+
+#include <cstring>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "core/time.h"
+#include "sim/scene.h"
+#include "sim/timecode.h"
+
+namespace pvcap::sim {
+
+Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConfig& camera,
+                                                     const SimCameraClock& clock, std::int64_t t0_ns,
+                                                     std::uint64_t seed, const std::filesystem::path& truth_dir) {
+  if (camera.address.empty())
+    return Error{fmt::format("{}: a simulated camera needs an 'address' (127.0.0.x)", camera.name)};
+  std::unique_ptr<SimCamera> self(new SimCamera());
+  self->index_ = index;
+  self->name_ = camera.name;
+  self->clock_ = SimClock{t0_ns, clock.offset_ms * 1e6, clock.drift_ppm * 1e-6, clock.jitter_us * 1e3};
+  self->rng_.seed(seed * 1000 + std::uint64_t(index));
+  const auto truth_path = truth_dir / (camera.name + "_frames.csv");
+  self->truth_.open(truth_path);
+  if (!self->truth_) return Error{fmt::format("cannot write ground truth {}", truth_path.string())};
+  self->truth_ << "frame_id,true_ns,device_ns,width,height\n";
+
+  const std::string serial = camera.serial.empty() ? fmt::format("PVSIM{}", index) : camera.serial;
+  self->fake_.reset(arv_gv_fake_camera_new(camera.address.c_str(), serial.c_str()));
+  if (!self->fake_ || !arv_gv_fake_camera_is_running(self->fake_.get()))
+    return Error{fmt::format("{}: the fake camera could not listen on {} (is the address on an interface? the "
+                             "simulated rig runs in its own network namespace)",
+                             camera.name, camera.address)};
+  if (clock.packet_loss > 0) g_object_set(self->fake_.get(), "gvsp-lost-ratio", clock.packet_loss, nullptr);
+  arv_fake_camera_set_fill_pattern(arv_gv_fake_camera_get_fake_camera(self->fake_.get()), &SimCamera::fill,
+                                   self.get());
+  return self;
+}
+
+SimCamera::~SimCamera() {
+  fake_.reset();  // joins the fake camera's thread: no fill runs after this
+  std::lock_guard lock(mu_);
+  truth_.flush();
+}
+
+std::uint64_t SimCamera::frames_emitted() const {
+  std::lock_guard lock(const_cast<std::mutex&>(mu_));
+  return emitted_;
+}
+
+cv::Matx33d SimCamera::homography(cv::Size size) const { return camera_homography(index_, size); }
+
+void SimCamera::fill(ArvBuffer* buffer, void* self, guint32, guint32, ArvPixelFormat format) {
+  static_cast<SimCamera*>(self)->fill_buffer(buffer, format);
+}
+
+const cv::Mat& SimCamera::base_image(int width, int height, ArvPixelFormat format) {
+  const auto key = std::make_tuple(width, height, std::uint32_t(format));
+  auto it = bases_.find(key);
+  if (it == bases_.end()) {
+    std::string pfnc;
+    switch (format) {
+      case ARV_PIXEL_FORMAT_BAYER_RG_8: pfnc = "BayerRG8"; break;
+      case ARV_PIXEL_FORMAT_BAYER_BG_8: pfnc = "BayerBG8"; break;
+      case ARV_PIXEL_FORMAT_BAYER_GR_8: pfnc = "BayerGR8"; break;
+      case ARV_PIXEL_FORMAT_BAYER_GB_8: pfnc = "BayerGB8"; break;
+      case ARV_PIXEL_FORMAT_RGB_8_PACKED: pfnc = "RGB8"; break;
+      default: pfnc = "Mono8"; break;
+    }
+    const cv::Size size(width, height);
+    const cv::Mat bgr = render_scene_bgr(default_pad(), homography(size), size);
+    it = bases_.emplace(key, to_sensor_format(bgr, pfnc)).first;
+    spdlog::debug("sim {}: rendered the scene at {}x{} {}", name_, width, height, pfnc);
+  }
+  return it->second;
+}
+
+// Runs on the fake camera's thread, once per frame, at the frame's capture instant.
+void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format) {
+  const std::int64_t true_ns = host_now().ns;
+  std::lock_guard lock(mu_);
+  const int width = arv_buffer_get_image_width(buffer);
+  const int height = arv_buffer_get_image_height(buffer);
+  std::size_t size = 0;
+  auto* data = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &size)));
+  const cv::Mat& base = base_image(width, height, format);
+  const std::size_t bytes = base.total() * base.elemSize();
+  if (!data || size < bytes) return;
+  std::memcpy(data, base.data, bytes);
+  const auto frame_id = std::uint16_t(arv_buffer_get_frame_id(buffer));
+  if (base.type() == CV_8UC1) {
+    cv::Mat view(height, width, CV_8UC1, data);
+    draw_timecode(view, Timecode{true_ns, frame_id});
+  }
+  const double noise = clock_.jitter_ns > 0 ? noise_(rng_) * clock_.jitter_ns : 0.0;
+  const std::int64_t device_ns = std::max<std::int64_t>(0, clock_.device_time(true_ns) + std::int64_t(noise));
+  arv_buffer_set_timestamp(buffer, guint64(device_ns));
+  truth_ << frame_id << ',' << true_ns << ',' << device_ns << ',' << width << ',' << height << '\n';
+  ++emitted_;
+  if (emitted_ % 32 == 0) truth_.flush();  // a killed run keeps nearly all of its truth
+}
+
+}  // namespace pvcap::sim

@@ -1,0 +1,67 @@
+#pragma once
+// One simulated GigE Vision camera: Aravis' own fake-camera engine
+// (ArvGvFakeCamera) serves real GVCP/GVSP on an address, while pvcap supplies
+// the pixels (scene + timecode) and the device clock (offset, drift, jitter).
+// Every emitted frame is logged to a ground-truth CSV as it happens.
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <random>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "capture/aravis_handles.h"
+#include "core/result.h"
+#include "core/rig_config.h"
+
+namespace pvcap::sim {
+
+struct SimClock {
+  std::int64_t t0_ns = 0;  // true time (host CLOCK_MONOTONIC) taken as the device's power-on
+  double offset_ns = 0;    // device time at t0
+  double drift = 0;        // rate error (ppm * 1e-6)
+  double jitter_ns = 0;    // std-dev of timestamp noise
+  // The device timestamp a frame captured at true time `true_ns` carries (without noise).
+  std::int64_t device_time(std::int64_t true_ns) const {
+    return std::int64_t(offset_ns + double(true_ns - t0_ns) * (1.0 + drift));
+  }
+};
+
+class SimCamera {
+ public:
+  // Serves `camera` (address must be an IPv4 address on this host) with `clock`.
+  // Ground truth goes to `truth_dir/<name>_frames.csv`.
+  static Result<std::unique_ptr<SimCamera>> create(int index, const CameraConfig& camera, const SimCameraClock& clock,
+                                                   std::int64_t t0_ns, std::uint64_t seed,
+                                                   const std::filesystem::path& truth_dir);
+  ~SimCamera();
+  SimCamera(const SimCamera&) = delete;
+  SimCamera& operator=(const SimCamera&) = delete;
+
+  const SimClock& clock() const { return clock_; }
+  std::uint64_t frames_emitted() const;
+  // The ground-truth homography for images of `size`.
+  cv::Matx33d homography(cv::Size size) const;
+
+ private:
+  SimCamera() = default;
+  static void fill(ArvBuffer* buffer, void* self, guint32 exposure_us, guint32 gain, ArvPixelFormat format);
+  void fill_buffer(ArvBuffer* buffer, ArvPixelFormat format);
+  const cv::Mat& base_image(int width, int height, ArvPixelFormat format);
+
+  int index_ = 0;
+  std::string name_;
+  SimClock clock_;
+  arv::GPtr<ArvGvFakeCamera> fake_;
+  std::mutex mu_;  // fill runs on the fake camera's thread; truth is read from others
+  std::mt19937_64 rng_;
+  std::normal_distribution<double> noise_{0.0, 1.0};
+  std::map<std::tuple<int, int, std::uint32_t>, cv::Mat> bases_;
+  std::ofstream truth_;
+  std::uint64_t emitted_ = 0;
+};
+
+}  // namespace pvcap::sim

@@ -1,0 +1,36 @@
+#pragma once
+// The simulated camera rig: one SimCamera per camera of a rig config that has a
+// `sim:` section, each on its own 127.0.0.x address, with the clocks and faults
+// the config gives. Writes the ground truth of the run into `truth_dir`:
+// rig.json (clocks, homographies, pad geometry) and <camera>_frames.csv.
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include "core/result.h"
+#include "core/rig_config.h"
+#include "sim/sim_camera.h"
+
+namespace pvcap::sim {
+
+class SimRig {
+ public:
+  static Result<std::unique_ptr<SimRig>> create(const RigConfig& rig, const std::filesystem::path& truth_dir);
+  ~SimRig();
+
+  // Serves until `stop` becomes true, removing cameras whose stop_after_s has passed.
+  void run(const std::atomic<bool>& stop);
+  std::size_t camera_count() const { return cameras_.size(); }
+
+ private:
+  SimRig() = default;
+  RigConfig rig_;
+  std::int64_t t0_ns_ = 0;
+  std::vector<std::unique_ptr<SimCamera>> cameras_;
+};
+
+// The camera addresses of a simulated rig (for the network namespace).
+std::vector<std::string> sim_addresses(const RigConfig& rig);
+
+}  // namespace pvcap::sim
