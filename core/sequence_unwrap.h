@@ -4,7 +4,6 @@
 // skipped since the previous one, so drops are counted by the device's own
 // numbering rather than by what the host happened to see.
 #include <cstdint>
-#include <optional>
 
 namespace pvcap {
 
@@ -23,14 +22,15 @@ class SequenceUnwrapper {
 
   Step next(std::uint64_t raw) {
     raw %= modulus_;
-    if (!last_raw_) {
+    if (!started_) {
+      started_ = true;
       last_raw_ = raw;
       last_seq_ = raw;
       return {raw, 0, false};
     }
-    std::uint64_t delta = (raw + modulus_ - *last_raw_) % modulus_;
+    std::uint64_t delta = (raw + modulus_ - last_raw_) % modulus_;
     if (delta == 0 || delta > modulus_ / 2) return {last_seq_, 0, true};
-    if (skip_zero_ && raw < *last_raw_) delta -= 1;  // crossed the wrap, where 0 does not exist
+    if (skip_zero_ && raw < last_raw_) delta -= 1;  // crossed the wrap, where 0 does not exist
     last_raw_ = raw;
     last_seq_ += delta;
     return {last_seq_, delta - 1, false};
@@ -39,7 +39,8 @@ class SequenceUnwrapper {
  private:
   std::uint64_t modulus_;
   bool skip_zero_;
-  std::optional<std::uint64_t> last_raw_;
+  bool started_ = false;
+  std::uint64_t last_raw_ = 0;
   std::uint64_t last_seq_ = 0;
 };
 

@@ -82,12 +82,12 @@ void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format) {
   std::lock_guard lock(mu_);
   const int width = arv_buffer_get_image_width(buffer);
   const int height = arv_buffer_get_image_height(buffer);
-  std::size_t size = 0;
-  auto* data = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &size)));
+  // arv_buffer_get_data reports the received size, which is 0 while filling; the fake camera
+  // has already checked that the allocation holds the payload (width x height x pixel size).
+  auto* data = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, nullptr)));
   const cv::Mat& base = base_image(width, height, format);
-  const std::size_t bytes = base.total() * base.elemSize();
-  if (!data || size < bytes) return;
-  std::memcpy(data, base.data, bytes);
+  if (!data) return;
+  std::memcpy(data, base.data, base.total() * base.elemSize());
   const auto frame_id = std::uint16_t(arv_buffer_get_frame_id(buffer));
   if (base.type() == CV_8UC1) {
     cv::Mat view(height, width, CV_8UC1, data);

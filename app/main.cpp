@@ -1,0 +1,163 @@
+// pvcap: capture and synchronization for visual hand-pressure datasets.
+// Thin: parses the command line, wires modules, runs. See docs/ for the user guide.
+#include <signal.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <filesystem>
+#include <iostream>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "app/recorder.h"
+#include "capture/aravis_discovery.h"
+#include "core/log.h"
+#include "core/result.h"
+#include "core/rig_config.h"
+#include "core/version.h"
+#include "sim/netns.h"
+#include "sim/sim_rig.h"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+void on_signal(int) {
+  if (g_stop.exchange(true)) _exit(130);  // a second Ctrl-C: leave now
+}
+
+void install_stop_handlers() {
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
+std::filesystem::path self_exe() {
+  std::error_code ec;
+  auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::filesystem::path("pvcap") : p;
+}
+
+// A simulated rig's cameras need their 127.0.0.x addresses; unless this process
+// already sees them (e.g. started by a test inside a namespace), make a private
+// network namespace that has them. Must run before any thread starts.
+void ensure_sim_network(const pvcap::RigConfig& rig) {
+  const auto addresses = pvcap::sim::sim_addresses(rig);
+  if (pvcap::sim::addresses_present(addresses)) return;
+  if (pvcap::Status s = pvcap::sim::enter_private_network(addresses); !s.ok()) throw pvcap::UserError(s.error().message);
+}
+
+int cmd_devices(bool json) {
+  const auto cams = pvcap::discover_gige_cameras();
+  if (json) {
+    for (const auto& c : cams)
+      fmt::print("{{\"kind\":\"camera\",\"vendor\":\"{}\",\"model\":\"{}\",\"serial\":\"{}\",\"address\":\"{}\","
+                 "\"interface\":\"{}\",\"mac\":\"{}\",\"id\":\"{}\"}}\n",
+                 c.vendor, c.model, c.serial, c.address, c.protocol, c.physical_id, c.device_id);
+    return 0;
+  }
+  if (cams.empty()) {
+    fmt::print("no GigE Vision camera answered discovery (check power, cabling, and that the cameras are on a "
+               "subnet of one of this machine's interfaces)\n");
+    return 0;
+  }
+  fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} {}\n", "interface", "vendor", "model", "serial", "address", "mac");
+  for (const auto& c : cams)
+    fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} {}\n", c.protocol, c.vendor, c.model, c.serial, c.address,
+               c.physical_id);
+  return 0;
+}
+
+int cmd_sim(const pvcap::RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration) {
+  auto made = pvcap::sim::SimRig::create(rig, truth);
+  if (!made) throw pvcap::UserError(made.error().message);
+  fmt::print(stderr, "pvcap sim: serving {} cameras; pid {} (inspect with: nsenter --net=/proc/{}/ns/net "
+                     "arv-tool-0.8)\n",
+             made.value()->camera_count(), getpid(), getpid());
+  std::atomic<bool> stop{false};
+  std::thread timer;
+  if (duration)
+    timer = std::thread([&] {
+      const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(*duration);
+      while (!g_stop.load() && std::chrono::steady_clock::now() < end)
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      g_stop.store(true);
+    });
+  made.value()->run(g_stop);
+  if (timer.joinable()) timer.join();
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"pvcap: capture and synchronization for visual hand-pressure datasets", "pvcap"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string(pvcap::kVersion));
+  std::string log_level = "info";
+  app.add_option("--log-level", log_level, "console log level: trace, debug, info, warn, error, off")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
+
+  auto* devices = app.add_subcommand("devices", "list the cameras (and sensors) this machine can reach");
+  bool devices_json = false;
+  std::string devices_sim;
+  devices->add_flag("--json", devices_json, "one JSON object per device");
+  devices->add_option("--sim", devices_sim, "first start this simulated rig (a rig file with a sim: section)")
+      ->check(CLI::ExistingFile);
+
+  auto* session = app.add_subcommand("session", "record a session into a new session folder");
+  std::string rig_path;
+  std::string root = "sessions";
+  std::optional<double> duration;
+  session->add_option("--rig", rig_path, "rig description (rig-configs/*.yaml)")->required()->check(CLI::ExistingFile);
+  session->add_option("--root", root, "folder that receives the new session folder")->capture_default_str();
+  session->add_option("--duration", duration, "stop after this many seconds (otherwise Ctrl-C stops)")
+      ->check(CLI::PositiveNumber);
+
+  auto* sim = app.add_subcommand("sim", "serve a simulated rig (GigE Vision cameras over loopback)");
+  std::string sim_rig, truth = "sim-truth";
+  std::optional<double> sim_duration;
+  sim->add_option("--rig", sim_rig, "rig file with a sim: section")->required()->check(CLI::ExistingFile);
+  sim->add_option("--truth", truth, "folder for the ground truth of the run")->capture_default_str();
+  sim->add_option("--duration", sim_duration, "stop after this many seconds")->check(CLI::PositiveNumber);
+
+  CLI11_PARSE(app, argc, argv);
+  pvcap::log::init_console(log_level);
+  install_stop_handlers();
+  try {
+    if (*devices) {
+      if (!devices_sim.empty()) {
+        const auto rig = pvcap::load_rig_config(devices_sim);
+        ensure_sim_network(rig);
+        auto tmp = std::filesystem::temp_directory_path() / fmt::format("pvcap-devices-{}", getpid());
+        auto made = pvcap::sim::SimRig::create(rig, tmp);
+        if (!made) throw pvcap::UserError(made.error().message);
+        const int rc = cmd_devices(devices_json);
+        made.value().reset();
+        std::filesystem::remove_all(tmp);
+        return rc;
+      }
+      return cmd_devices(devices_json);
+    }
+    if (*session) {
+      const auto rig = pvcap::load_rig_config(rig_path);
+      if (rig.sim) ensure_sim_network(rig);
+      pvcap::RecordOptions opts{root, duration, rig.sim ? 10.0 : 0.0, self_exe()};
+      return pvcap::record_session(rig, opts, g_stop);
+    }
+    if (*sim) {
+      const auto rig = pvcap::load_rig_config(sim_rig);
+      if (!rig.sim) throw pvcap::UserError(fmt::format("{}: has no sim: section", sim_rig));
+      ensure_sim_network(rig);
+      return cmd_sim(rig, truth, sim_duration);
+    }
+  } catch (const pvcap::UserError& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+  return 0;
+}

@@ -1,0 +1,286 @@
+#include "app/recorder.h"
+
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <thread>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "capture/aravis_camera.h"
+#include "capture/pixel_format.h"
+#include "core/log.h"
+#include "core/sequence_unwrap.h"
+#include "core/time.h"
+#include "storage/session_writer.h"
+#include "sync/grid_keeper.h"
+
+extern char** environ;
+
+namespace pvcap {
+
+namespace {
+
+using namespace std::chrono_literals;
+
+// Per-camera counts the operator sees, filled by that camera's worker thread.
+struct CameraTally {
+  std::atomic<std::uint64_t> received{0}, good{0}, incomplete{0}, not_received{0}, reordered{0}, subsampled{0},
+      encoder_behind{0}, submitted{0}, lost_events{0};
+};
+
+// The simulator runs as a child process in our network namespace, like a separate box on the wire.
+class SimProcess {
+ public:
+  SimProcess(const std::filesystem::path& exe, const std::filesystem::path& rig, const std::filesystem::path& truth) {
+    std::vector<std::string> args = {exe.string(), "--log-level", "warn", "sim", "--rig", rig.string(),
+                                     "--truth", truth.string()};
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    if (posix_spawn(&pid_, exe.c_str(), nullptr, nullptr, argv.data(), environ) != 0) pid_ = -1;
+  }
+  ~SimProcess() {
+    if (pid_ <= 0) return;
+    kill(pid_, SIGTERM);
+    int status = 0;
+    for (int i = 0; i < 50 && waitpid(pid_, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(100ms);
+    if (waitpid(pid_, &status, WNOHANG) == 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, &status, 0);
+    }
+  }
+  bool started() const { return pid_ > 0; }
+
+ private:
+  pid_t pid_ = -1;
+};
+
+std::string settings_json(const CameraSettings& s, const CameraConfig& c) {
+  nlohmann::json j = {{"pixel_format", s.pixel_format}, {"x", s.x}, {"y", s.y}, {"width", s.width},
+                      {"height", s.height}, {"frame_rate", s.frame_rate}, {"exposure_us", s.exposure_us},
+                      {"gain", s.gain}, {"trigger", s.trigger}, {"packet_size", s.packet_size},
+                      {"payload", s.payload}, {"buffer_count", s.buffer_count},
+                      {"timestamp_tick_hz", s.timestamp_tick_hz}, {"device_id", s.device_id},
+                      {"packet_resend", c.packet_resend}, {"socket_buffer_bytes", c.socket_buffer_bytes},
+                      {"latency_ns", c.latency_ns}};
+  return j.dump();
+}
+
+void camera_worker(AravisCamera& camera, std::int64_t device_id, SessionWriter& writer, CameraTally& tally,
+                   std::int64_t anchor_ns, double video_fps) {
+  SequenceUnwrapper unwrap(16, /*zero_is_skipped=*/true);
+  std::uint32_t connection = UINT32_MAX;
+  GridKeeper keeper(anchor_ns, video_fps, camera.config().frame_rate);
+  auto& queue = camera.frames();
+  while (!queue.closed_and_empty()) {
+    auto frame = queue.pop_for(100ms);
+    if (!frame) continue;
+    tally.received.fetch_add(1, std::memory_order_relaxed);
+    if (frame->connection != connection) {  // frame ids restart with each connection
+      unwrap = SequenceUnwrapper(16, true);
+      connection = frame->connection;
+    }
+    const auto step = unwrap.next(frame->frame_id);
+    FrameRecord rec{device_id, frame->connection, step.sequence, frame->frame_id, frame->device_ts.ns,
+                    frame->host_ts.ns, frame->aravis_system_ns, to_string(frame->status), false, "", {}, {}};
+    if (step.missing > 0) {
+      tally.not_received.fetch_add(step.missing, std::memory_order_relaxed);
+      writer.record(DropRecord{device_id, frame->connection, step.sequence - step.missing, step.missing,
+                               "not_received", frame->host_ts.ns});
+    }
+    if (step.out_of_order) {
+      tally.reordered.fetch_add(1, std::memory_order_relaxed);
+      rec.reason = "repeated_or_reordered_frame_id";
+    } else if (frame->status != FrameStatus::Good) {
+      tally.incomplete.fetch_add(1, std::memory_order_relaxed);
+      rec.reason = frame->detail;
+    } else if (!keeper.keep(frame->host_ts.ns)) {
+      tally.good.fetch_add(1, std::memory_order_relaxed);
+      tally.subsampled.fetch_add(1, std::memory_order_relaxed);
+      rec.reason = "subsampled";
+    } else {
+      tally.good.fetch_add(1, std::memory_order_relaxed);
+      cv::Mat bgr;
+      if (Status s = to_bgr(frame->data, frame->size, frame->width, frame->height, frame->pixel_format, bgr); !s) {
+        rec.reason = "unsupported_pixels: " + s.error().message;
+      } else {
+        frame->lease.reset();  // the camera gets its buffer back before we encode
+        if (writer.submit_video(device_id, std::move(bgr), rec)) {
+          tally.submitted.fetch_add(1, std::memory_order_relaxed);
+          continue;  // the encoder records it with its video position
+        }
+        tally.encoder_behind.fetch_add(1, std::memory_order_relaxed);
+        rec.reason = "encoder_behind";
+      }
+    }
+    writer.record(std::move(rec));
+  }
+}
+
+Status open_with_wait(AravisCamera& camera, double wait_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
+  for (;;) {
+    Status s = camera.open();
+    if (s.ok() || std::chrono::steady_clock::now() >= deadline) return s;
+    std::this_thread::sleep_for(200ms);
+  }
+}
+
+}  // namespace
+
+int record_session(const RigConfig& rig, const RecordOptions& options, const std::atomic<bool>& stop_requested) {
+  const std::int64_t wall0 = wall_now_ns();
+  const std::int64_t host0 = host_now().ns;
+
+  // The simulated rig's truth goes beside the sessions; it is moved into the session folder once that exists.
+  std::unique_ptr<SimProcess> sim;
+  std::filesystem::path truth_tmp;
+  if (rig.sim) {
+    truth_tmp = options.root / fmt::format(".sim-truth-{}", getpid());
+    std::filesystem::create_directories(truth_tmp);
+    sim = std::make_unique<SimProcess>(options.self_exe, rig.source, truth_tmp);
+    if (!sim->started()) {
+      spdlog::error("cannot start the camera simulator ({})", options.self_exe.string());
+      return 1;
+    }
+  }
+
+  // Open every camera before creating anything on disk: a rig that is not ready leaves no empty session.
+  std::vector<std::unique_ptr<AravisCamera>> cameras;
+  std::vector<std::unique_ptr<CameraTally>> tallies;
+  SessionWriter* writer_for_events = nullptr;
+  std::vector<std::int64_t> device_ids(rig.cameras.size(), 0);
+  std::mutex events_mu;
+  for (std::size_t i = 0; i < rig.cameras.size(); ++i) {
+    tallies.push_back(std::make_unique<CameraTally>());
+    cameras.push_back(std::make_unique<AravisCamera>(int(i), rig.cameras[i], [&, i](const CameraEvent& e) {
+      if (e.kind == CameraEvent::Kind::Lost) {
+        spdlog::error("{}", e.message);
+        tallies[i]->lost_events.fetch_add(1);
+      } else {
+        spdlog::warn("{}", e.message);
+      }
+      std::lock_guard lock(events_mu);
+      if (writer_for_events)
+        writer_for_events->record(EventRecord{e.at.ns,
+                                              e.kind == CameraEvent::Kind::Lost          ? "camera_lost"
+                                              : e.kind == CameraEvent::Kind::Reconnected ? "camera_reconnected"
+                                                                                         : "camera_warning",
+                                              device_ids[i], e.message});
+    }));
+  }
+  for (auto& cam : cameras) {
+    if (Status s = open_with_wait(*cam, options.device_wait_s); !s.ok()) {
+      spdlog::error("{}", s.error().message);
+      spdlog::error("no session was recorded: every camera of {} must be ready", rig.source.string());
+      if (!truth_tmp.empty()) std::filesystem::remove_all(truth_tmp);
+      return 1;
+    }
+  }
+
+  auto created = SessionWriter::create(options.root, rig, wall0, host0);
+  if (!created) {
+    spdlog::error("{}", created.error().message);
+    return 1;
+  }
+  SessionWriter& writer = *created.value();
+  log::add_session_file(writer.dir());
+  if (!truth_tmp.empty()) std::filesystem::rename(truth_tmp, writer.dir() / "sim-truth");
+  spdlog::info("recording session {}", writer.dir().string());
+
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    const CameraSettings s = cameras[i]->settings();
+    DeviceRecord d{"camera", rig.cameras[i].name, s.vendor, s.model, s.serial, s.address, s.firmware,
+                   settings_json(s, rig.cameras[i])};
+    auto id = writer.add_camera(d, s.width, s.height);
+    if (!id) {
+      spdlog::error("{}", id.error().message);
+      (void)writer.close("failed to start");
+      return 1;
+    }
+    device_ids[i] = id.value();
+  }
+  {
+    std::lock_guard lock(events_mu);
+    writer_for_events = &writer;
+  }
+  writer.start();
+
+  std::vector<std::thread> workers;
+  for (std::size_t i = 0; i < cameras.size(); ++i)
+    workers.emplace_back(camera_worker, std::ref(*cameras[i]), device_ids[i], std::ref(writer), std::ref(*tallies[i]),
+                         host0, rig.store.video_fps);
+  for (auto& cam : cameras) {
+    if (Status s = cam->start(); !s.ok()) spdlog::error("{}", s.error().message);
+  }
+  const std::int64_t rec_start = host_now().ns;
+  std::string end_reason = "stopped by operator";
+  auto last_progress = std::chrono::steady_clock::now();
+  while (true) {
+    std::this_thread::sleep_for(100ms);
+    const double elapsed = double(host_now().ns - rec_start) / 1e9;
+    if (stop_requested.load()) break;
+    if (options.duration_s && elapsed >= *options.duration_s) {
+      end_reason = "duration reached";
+      break;
+    }
+    if (auto failure = writer.failure()) {
+      spdlog::error("storage failed, stopping capture (everything written so far is kept): {}", *failure);
+      end_reason = "storage failure: " + *failure;
+      break;
+    }
+    if (std::chrono::steady_clock::now() - last_progress >= 2s) {
+      last_progress = std::chrono::steady_clock::now();
+      std::string line = fmt::format("{:6.1f} s", elapsed);
+      for (std::size_t i = 0; i < cameras.size(); ++i) {
+        const auto& t = *tallies[i];
+        line += fmt::format(" | {} {} rx, {} video, {} lost", rig.cameras[i].name, t.received.load(),
+                            writer.camera_stats(device_ids[i]).frames_in_video,
+                            t.not_received.load() + t.incomplete.load() + t.encoder_behind.load());
+      }
+      spdlog::info("{}", line);
+    }
+  }
+
+  for (auto& cam : cameras) cam->stop();
+  for (auto& w : workers) w.join();
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    const StreamCounters c = cameras[i]->counters();
+    writer.add_stream_stats({device_ids[i], c.completed, c.failures, c.underruns, c.resent_packets, c.missing_packets,
+                             c.queue_overflows});
+  }
+  sim.reset();
+  const Status closed = writer.close(end_reason);
+
+  // The report the operator reads.
+  fmt::print("\nsession: {}\n", writer.dir().string());
+  fmt::print("ended: {} after {:.1f} s\n", end_reason, double(host_now().ns - rec_start) / 1e9);
+  fmt::print("{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>10} {:>9}\n", "camera", "received", "good", "in video",
+             "incomplete", "not received", "enc. behind", "lost conn");
+  bool any_loss = false;
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    const auto& t = *tallies[i];
+    const auto st = writer.camera_stats(device_ids[i]);
+    fmt::print("{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>10} {:>9}\n", rig.cameras[i].name, t.received.load(),
+               t.good.load(), st.frames_in_video, t.incomplete.load(), t.not_received.load(),
+               t.encoder_behind.load(), t.lost_events.load());
+    any_loss |= t.incomplete.load() + t.not_received.load() + t.encoder_behind.load() + t.lost_events.load() > 0;
+  }
+  fmt::print("video keeps {} frames/s per camera ({}); every received frame is in session.db with its reason\n",
+             rig.store.video_fps > 0 ? fmt::format("{:g}", rig.store.video_fps) : "all", rig.store.video_codec);
+  if (any_loss) fmt::print("frames were lost: see the drops and frames tables (reason column) in session.db\n");
+  if (writer.index_records_lost() > 0) fmt::print("WARNING: {} index records were lost\n", writer.index_records_lost());
+  log::remove_session_file();
+  if (!closed.ok()) {
+    spdlog::error("{}", closed.error().message);
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace pvcap

@@ -1,0 +1,17 @@
+#pragma once
+// Camera pixel formats (PFNC codes as Aravis reports them) to BGR images.
+#include <cstdint>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "core/result.h"
+
+namespace pvcap {
+
+// Debayers / converts `data` (width x height, PFNC `pixel_format`) into `bgr` (CV_8UC3).
+Status to_bgr(const std::uint8_t* data, std::size_t size, int width, int height, std::uint32_t pixel_format,
+              cv::Mat& bgr);
+std::string pixel_format_name(std::uint32_t pixel_format);
+
+}  // namespace pvcap

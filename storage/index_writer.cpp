@@ -1,0 +1,80 @@
+#include "storage/index_writer.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "core/time.h"
+
+namespace pvcap {
+
+IndexWriter::IndexWriter(SessionIndex& index, std::size_t capacity, std::chrono::milliseconds batch_period)
+    : index_(index), queue_(capacity), batch_period_(batch_period) {}
+
+IndexWriter::~IndexWriter() { stop(); }
+
+void IndexWriter::start() { thread_ = std::thread([this] { run(); }); }
+
+bool IndexWriter::push(Record record) {
+  if (failed_.load(std::memory_order_relaxed) || !queue_.try_push(record)) {
+    lost_.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  return true;
+}
+
+void IndexWriter::stop() {
+  queue_.close();
+  if (thread_.joinable()) thread_.join();
+}
+
+std::optional<std::string> IndexWriter::failure() const {
+  std::lock_guard lock(failure_mu_);
+  return failure_;
+}
+
+void IndexWriter::write_batch(std::vector<Record>& batch) {
+  if (batch.empty() || failed_.load()) return;
+  try {
+    sqlite::Transaction tx(index_.db());
+    for (const Record& r : batch) {
+      std::visit(
+          [&](const auto& rec) {
+            using T = std::decay_t<decltype(rec)>;
+            if constexpr (std::is_same_v<T, FrameRecord>) index_.add_frame(rec);
+            else if constexpr (std::is_same_v<T, DropRecord>) index_.add_drop(rec);
+            else index_.add_event(rec);
+          },
+          r);
+    }
+    tx.commit();
+    written_.fetch_add(batch.size());
+  } catch (const sqlite::SqliteError& e) {
+    std::lock_guard lock(failure_mu_);
+    failure_ = e.disk_full() ? fmt::format("the disk is full or failing: {}", e.what()) : std::string(e.what());
+    failed_.store(true);
+    lost_.fetch_add(batch.size());
+    spdlog::error("session index: {}", *failure_);
+  }
+  batch.clear();
+}
+
+void IndexWriter::run() {
+  std::vector<Record> batch;
+  auto batch_started = std::chrono::steady_clock::now();
+  std::uint64_t lost_reported = 0;
+  while (!queue_.closed_and_empty()) {
+    if (auto r = queue_.pop_for(std::chrono::milliseconds(50))) {
+      if (batch.empty()) batch_started = std::chrono::steady_clock::now();
+      batch.push_back(std::move(*r));
+    }
+    if (const std::uint64_t lost = lost_.load(); lost > lost_reported && !failed_.load()) {
+      batch.push_back(EventRecord{host_now().ns, "index_overflow", std::nullopt,
+                                  fmt::format("{} index records were lost: the index queue was full", lost - lost_reported)});
+      lost_reported = lost;
+    }
+    if (!batch.empty() && std::chrono::steady_clock::now() - batch_started >= batch_period_) write_batch(batch);
+  }
+  write_batch(batch);
+}
+
+}  // namespace pvcap

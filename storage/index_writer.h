@@ -1,0 +1,52 @@
+#pragma once
+// Writes index records on its own thread, in transactions of at most
+// `batch_period` (default 250 ms): producers push without waiting; a crash loses
+// at most the open batch. Records are held in a bounded queue sized for many
+// seconds of every stream; if it ever fills, the overflow is counted and
+// written as a drop record when there is room again.
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <variant>
+
+#include "core/bounded_queue.h"
+#include "storage/session_index.h"
+
+namespace pvcap {
+
+class IndexWriter {
+ public:
+  using Record = std::variant<FrameRecord, DropRecord, EventRecord>;
+
+  IndexWriter(SessionIndex& index, std::size_t capacity = 200'000,
+              std::chrono::milliseconds batch_period = std::chrono::milliseconds(250));
+  ~IndexWriter();
+
+  void start();
+  // False when the queue is full (the record is counted as lost) or after a failure.
+  bool push(Record record);
+  // Writes what is queued and stops the thread.
+  void stop();
+  // Set when writing failed (e.g. disk full): the message names the file and the cause.
+  std::optional<std::string> failure() const;
+  std::uint64_t records_written() const { return written_.load(); }
+  std::uint64_t records_lost() const { return lost_.load(); }
+
+ private:
+  void run();
+  void write_batch(std::vector<Record>& batch);
+
+  SessionIndex& index_;
+  BoundedQueue<Record> queue_;
+  const std::chrono::milliseconds batch_period_;
+  std::thread thread_;
+  std::atomic<std::uint64_t> written_{0}, lost_{0};
+  std::atomic<bool> failed_{false};
+  mutable std::mutex failure_mu_;
+  std::optional<std::string> failure_;
+};
+
+}  // namespace pvcap

@@ -1,0 +1,151 @@
+#include "storage/session_index.h"
+
+#include <fmt/format.h>
+
+namespace pvcap {
+
+namespace {
+constexpr const char* kSchema = R"sql(
+CREATE TABLE session (
+  id INTEGER PRIMARY KEY,
+  started_wall_ns INTEGER NOT NULL,
+  started_host_ns INTEGER NOT NULL,
+  ended_host_ns INTEGER,
+  end_reason TEXT,
+  pvcap_version TEXT NOT NULL,
+  rig_name TEXT NOT NULL,
+  rig_path TEXT NOT NULL,
+  rig_config TEXT NOT NULL,
+  simulated INTEGER NOT NULL
+);
+CREATE TABLE devices (
+  id INTEGER PRIMARY KEY,
+  kind TEXT NOT NULL,
+  name TEXT NOT NULL UNIQUE,
+  vendor TEXT, model TEXT, serial TEXT, address TEXT, firmware TEXT,
+  settings_json TEXT NOT NULL
+);
+CREATE TABLE video_files (
+  id INTEGER PRIMARY KEY,
+  device_id INTEGER NOT NULL REFERENCES devices(id),
+  path TEXT NOT NULL UNIQUE,
+  codec TEXT NOT NULL,
+  pixel_format TEXT NOT NULL,
+  width INTEGER NOT NULL,
+  height INTEGER NOT NULL
+);
+CREATE TABLE frames (
+  device_id INTEGER NOT NULL REFERENCES devices(id),
+  connection INTEGER NOT NULL,
+  sequence INTEGER NOT NULL,
+  frame_id INTEGER NOT NULL,
+  device_ns INTEGER NOT NULL,
+  host_ns INTEGER NOT NULL,
+  aravis_system_ns INTEGER NOT NULL,
+  status TEXT NOT NULL,
+  kept INTEGER NOT NULL,
+  reason TEXT,
+  video_file_id INTEGER REFERENCES video_files(id),
+  video_index INTEGER
+);
+CREATE INDEX frames_by_time ON frames(device_id, host_ns);
+CREATE INDEX frames_by_video ON frames(video_file_id, video_index);
+CREATE TABLE drops (
+  device_id INTEGER NOT NULL REFERENCES devices(id),
+  connection INTEGER NOT NULL,
+  first_sequence INTEGER NOT NULL,
+  count INTEGER NOT NULL,
+  reason TEXT NOT NULL,
+  host_ns INTEGER NOT NULL
+);
+CREATE TABLE events (
+  host_ns INTEGER NOT NULL,
+  kind TEXT NOT NULL,
+  device_id INTEGER REFERENCES devices(id),
+  message TEXT NOT NULL
+);
+CREATE TABLE stream_stats (
+  device_id INTEGER NOT NULL REFERENCES devices(id),
+  completed INTEGER NOT NULL, failures INTEGER NOT NULL, underruns INTEGER NOT NULL,
+  resent_packets INTEGER NOT NULL, missing_packets INTEGER NOT NULL, queue_overflows INTEGER NOT NULL
+);
+)sql";
+}  // namespace
+
+SessionIndex SessionIndex::create(const std::filesystem::path& path) {
+  if (std::filesystem::exists(path)) throw sqlite::SqliteError(0, fmt::format("{}: already exists", path.string()));
+  auto db = std::make_unique<sqlite::Database>(path, sqlite::Database::Mode::Create);
+  db->apply_resilient_pragmas();
+  {
+    sqlite::Transaction tx(*db);
+    db->exec(kSchema);
+    db->set_user_version(kSchemaVersion);
+    tx.commit();
+  }
+  return SessionIndex(std::move(db));
+}
+
+SessionIndex::SessionIndex(std::unique_ptr<sqlite::Database> db) : db_(std::move(db)) {
+  insert_frame_.emplace(db_->prepare(
+      "INSERT INTO frames (device_id, connection, sequence, frame_id, device_ns, host_ns, aravis_system_ns, status, "
+      "kept, reason, video_file_id, video_index) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)"));
+  insert_drop_.emplace(db_->prepare(
+      "INSERT INTO drops (device_id, connection, first_sequence, count, reason, host_ns) VALUES (?,?,?,?,?,?)"));
+  insert_event_.emplace(db_->prepare("INSERT INTO events (host_ns, kind, device_id, message) VALUES (?,?,?,?)"));
+}
+
+std::int64_t SessionIndex::add_session(const SessionRecord& s) {
+  db_->prepare(
+         "INSERT INTO session (started_wall_ns, started_host_ns, pvcap_version, rig_name, rig_path, rig_config, "
+         "simulated) VALUES (?,?,?,?,?,?,?)")
+      .bind_all(s.started_wall_ns, s.started_host_ns, s.pvcap_version, s.rig_name, s.rig_path, s.rig_config,
+                int(s.simulated))
+      .run();
+  return db_->last_insert_rowid();
+}
+
+std::int64_t SessionIndex::add_device(const DeviceRecord& d) {
+  db_->prepare(
+         "INSERT INTO devices (kind, name, vendor, model, serial, address, firmware, settings_json) "
+         "VALUES (?,?,?,?,?,?,?,?)")
+      .bind_all(d.kind, d.name, d.vendor, d.model, d.serial, d.address, d.firmware, d.settings_json)
+      .run();
+  return db_->last_insert_rowid();
+}
+
+std::int64_t SessionIndex::add_video_file(const VideoFileRecord& v) {
+  db_->prepare("INSERT INTO video_files (device_id, path, codec, pixel_format, width, height) VALUES (?,?,?,?,?,?)")
+      .bind_all(v.device_id, v.path, v.codec, v.pixel_format, v.width, v.height)
+      .run();
+  return db_->last_insert_rowid();
+}
+
+void SessionIndex::add_frame(const FrameRecord& f) {
+  insert_frame_
+      ->bind_all(f.device_id, std::int64_t(f.connection), f.sequence, f.frame_id, f.device_ns, f.host_ns,
+                 f.aravis_system_ns, f.status, int(f.kept), f.reason, f.video_file_id, f.video_index)
+      .run();
+}
+
+void SessionIndex::add_drop(const DropRecord& d) {
+  insert_drop_->bind_all(d.device_id, std::int64_t(d.connection), d.first_sequence, d.count, d.reason, d.host_ns).run();
+}
+
+void SessionIndex::add_event(const EventRecord& e) {
+  insert_event_->bind_all(e.host_ns, e.kind, e.device_id, e.message).run();
+}
+
+void SessionIndex::add_stream_stats(const StreamStatsRecord& s) {
+  db_->prepare(
+         "INSERT INTO stream_stats (device_id, completed, failures, underruns, resent_packets, missing_packets, "
+         "queue_overflows) VALUES (?,?,?,?,?,?,?)")
+      .bind_all(s.device_id, s.completed, s.failures, s.underruns, s.resent_packets, s.missing_packets,
+                s.queue_overflows)
+      .run();
+}
+
+void SessionIndex::finish_session(std::int64_t ended_host_ns, const std::string& end_reason) {
+  db_->prepare("UPDATE session SET ended_host_ns = ?, end_reason = ?").bind_all(ended_host_ns, end_reason).run();
+}
+
+}  // namespace pvcap

@@ -1,0 +1,98 @@
+#pragma once
+// The session index (session.db): schema and the statements that fill it.
+// Single-threaded: the IndexWriter's thread is its only user while recording.
+// The schema is documented in docs/store.md; kSchemaVersion is PRAGMA user_version.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "storage/sqlite/database.h"
+
+namespace pvcap {
+
+inline constexpr int kSchemaVersion = 1;
+
+struct SessionRecord {
+  std::int64_t started_wall_ns = 0;
+  std::int64_t started_host_ns = 0;
+  std::string pvcap_version;
+  std::string rig_name;
+  std::string rig_path;
+  std::string rig_config;  // the YAML text as loaded
+  bool simulated = false;
+};
+
+struct DeviceRecord {
+  std::string kind;  // "camera"
+  std::string name, vendor, model, serial, address, firmware;
+  std::string settings_json;  // what the device reported after configuration
+};
+
+struct VideoFileRecord {
+  std::int64_t device_id = 0;
+  std::string path;  // relative to the session directory
+  std::string codec, pixel_format;
+  int width = 0, height = 0;
+};
+
+struct FrameRecord {
+  std::int64_t device_id = 0;
+  std::uint32_t connection = 0;
+  std::uint64_t sequence = 0;  // unwrapped frame id within the connection
+  std::uint64_t frame_id = 0;  // as sent by the camera
+  std::int64_t device_ns = 0;
+  std::int64_t host_ns = 0;
+  std::int64_t aravis_system_ns = 0;
+  std::string status;   // good | incomplete
+  bool kept = false;    // pixels are in the video
+  std::string reason;   // why not kept (or why incomplete)
+  std::optional<std::int64_t> video_file_id;
+  std::optional<std::int64_t> video_index;  // 0-based frame number in that file
+};
+
+struct DropRecord {
+  std::int64_t device_id = 0;
+  std::uint32_t connection = 0;
+  std::uint64_t first_sequence = 0;
+  std::uint64_t count = 0;
+  std::string reason;
+  std::int64_t host_ns = 0;  // when the drop was noticed
+};
+
+struct EventRecord {
+  std::int64_t host_ns = 0;
+  std::string kind;
+  std::optional<std::int64_t> device_id;
+  std::string message;
+};
+
+struct StreamStatsRecord {
+  std::int64_t device_id = 0;
+  std::uint64_t completed = 0, failures = 0, underruns = 0, resent_packets = 0, missing_packets = 0,
+                queue_overflows = 0;
+};
+
+class SessionIndex {
+ public:
+  // Creates a new index at `path` (which must not exist) with the current schema.
+  static SessionIndex create(const std::filesystem::path& path);
+
+  std::int64_t add_session(const SessionRecord& s);
+  std::int64_t add_device(const DeviceRecord& d);
+  std::int64_t add_video_file(const VideoFileRecord& v);
+  void add_frame(const FrameRecord& f);
+  void add_drop(const DropRecord& d);
+  void add_event(const EventRecord& e);
+  void add_stream_stats(const StreamStatsRecord& s);
+  void finish_session(std::int64_t ended_host_ns, const std::string& end_reason);
+
+  sqlite::Database& db() { return *db_; }
+
+ private:
+  explicit SessionIndex(std::unique_ptr<sqlite::Database> db);
+  std::unique_ptr<sqlite::Database> db_;
+  std::optional<sqlite::Statement> insert_frame_, insert_drop_, insert_event_;
+};
+
+}  // namespace pvcap

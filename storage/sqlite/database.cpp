@@ -1,0 +1,106 @@
+#include "storage/sqlite/database.h"
+
+#include <sqlite3.h>
+
+#include <fmt/format.h>
+
+namespace pvcap::sqlite {
+
+bool SqliteError::disk_full() const { return (code_ & 0xff) == SQLITE_FULL || (code_ & 0xff) == SQLITE_IOERR; }
+
+namespace {
+[[noreturn]] void fail(sqlite3* db, int rc, std::string_view what) {
+  const char* file = db ? sqlite3_db_filename(db, "main") : nullptr;
+  throw SqliteError(rc, fmt::format("{}{}{}: {} (SQLite code {})", file ? file : "", file ? ": " : "", what,
+                                    db ? sqlite3_errmsg(db) : sqlite3_errstr(rc), rc));
+}
+}  // namespace
+
+Statement::Statement(sqlite3* db, std::string_view sql) : db_(db) {
+  const int rc = sqlite3_prepare_v2(db, sql.data(), int(sql.size()), &stmt_, nullptr);
+  if (rc != SQLITE_OK) fail(db, rc, fmt::format("cannot prepare '{}'", sql.substr(0, 60)));
+}
+Statement::~Statement() { sqlite3_finalize(stmt_); }
+Statement::Statement(Statement&& o) noexcept : db_(o.db_), stmt_(o.stmt_) { o.stmt_ = nullptr; }
+
+Statement& Statement::bind(int i, std::int64_t v) {
+  if (int rc = sqlite3_bind_int64(stmt_, i, v); rc != SQLITE_OK) fail(db_, rc, "bind");
+  return *this;
+}
+Statement& Statement::bind(int i, double v) {
+  if (int rc = sqlite3_bind_double(stmt_, i, v); rc != SQLITE_OK) fail(db_, rc, "bind");
+  return *this;
+}
+Statement& Statement::bind(int i, std::string_view v) {
+  if (int rc = sqlite3_bind_text(stmt_, i, v.data(), int(v.size()), SQLITE_TRANSIENT); rc != SQLITE_OK)
+    fail(db_, rc, "bind");
+  return *this;
+}
+Statement& Statement::bind(int i, std::nullopt_t) {
+  if (int rc = sqlite3_bind_null(stmt_, i); rc != SQLITE_OK) fail(db_, rc, "bind");
+  return *this;
+}
+
+bool Statement::step() {
+  const int rc = sqlite3_step(stmt_);
+  if (rc == SQLITE_ROW) return true;
+  if (rc == SQLITE_DONE) return false;
+  fail(db_, rc, "step");
+}
+void Statement::run() {
+  while (step()) {
+  }
+  reset();
+}
+void Statement::reset() {
+  sqlite3_reset(stmt_);
+  sqlite3_clear_bindings(stmt_);
+}
+std::int64_t Statement::column_int(int c) const { return sqlite3_column_int64(stmt_, c); }
+double Statement::column_double(int c) const { return sqlite3_column_double(stmt_, c); }
+std::string Statement::column_text(int c) const {
+  const auto* t = sqlite3_column_text(stmt_, c);
+  return t ? std::string(reinterpret_cast<const char*>(t)) : std::string();
+}
+bool Statement::column_null(int c) const { return sqlite3_column_type(stmt_, c) == SQLITE_NULL; }
+
+Database::Database(const std::filesystem::path& path, Mode mode) : path_(path) {
+  int flags = mode == Mode::ReadOnly ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE;
+  if (mode == Mode::Create) flags |= SQLITE_OPEN_CREATE;
+  const int rc = sqlite3_open_v2(path.c_str(), &db_, flags | SQLITE_OPEN_NOMUTEX, nullptr);
+  if (rc != SQLITE_OK) {
+    const std::string msg = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(rc);
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw SqliteError(rc, fmt::format("{}: cannot open the session index: {}", path.string(), msg));
+  }
+  sqlite3_busy_timeout(db_, 2000);
+}
+
+Database::~Database() { sqlite3_close_v2(db_); }
+
+void Database::apply_resilient_pragmas() {
+  exec("PRAGMA journal_mode=WAL");
+  exec("PRAGMA synchronous=NORMAL");
+  exec("PRAGMA foreign_keys=ON");
+}
+
+void Database::exec(std::string_view sql) {
+  char* err = nullptr;
+  const std::string s(sql);
+  const int rc = sqlite3_exec(db_, s.c_str(), nullptr, nullptr, &err);
+  if (rc != SQLITE_OK) {
+    const std::string msg = err ? err : sqlite3_errstr(rc);
+    sqlite3_free(err);
+    throw SqliteError(rc, fmt::format("{}: {} (in '{}')", path_.string(), msg, s.substr(0, 60)));
+  }
+}
+
+int Database::user_version() {
+  Statement st(db_, "PRAGMA user_version");
+  return st.step() ? int(st.column_int(0)) : 0;
+}
+void Database::set_user_version(int v) { exec(fmt::format("PRAGMA user_version={}", v)); }
+std::int64_t Database::last_insert_rowid() const { return sqlite3_last_insert_rowid(db_); }
+
+}  // namespace pvcap::sqlite

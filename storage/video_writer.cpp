@@ -1,0 +1,179 @@
+#include "storage/video_writer.h"
+
+extern "C" {
+#include <libavcodec/avcodec.h>
+#include <libavformat/avformat.h>
+#include <libavutil/error.h>
+#include <libavutil/opt.h>
+#include <libavutil/pixdesc.h>
+#include <libswscale/swscale.h>
+}
+
+#include <cstdarg>
+#include <mutex>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+namespace pvcap {
+
+namespace {
+std::string av_error(int rc) {
+  char buf[AV_ERROR_MAX_STRING_SIZE] = {};
+  av_strerror(rc, buf, sizeof buf);
+  return buf;
+}
+constexpr AVRational kMicros{1, 1'000'000};
+
+// FFmpeg's own log goes to the session log, not the operator's console; its warnings stay visible.
+void route_av_log_once() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    av_log_set_callback([](void* avcl, int level, const char* fmt, va_list args) {
+      if (level > AV_LOG_VERBOSE) return;
+      char line[1024];
+      int print_prefix = 1;
+      av_log_format_line2(avcl, level, fmt, args, line, sizeof line, &print_prefix);
+      std::string text(line);
+      while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
+      if (text.empty()) return;
+      if (level <= AV_LOG_ERROR) spdlog::error("ffmpeg: {}", text);
+      else if (level <= AV_LOG_WARNING) spdlog::warn("ffmpeg: {}", text);
+      else spdlog::debug("ffmpeg: {}", text);
+    });
+  });
+}
+}  // namespace
+
+struct VideoWriter::Impl {
+  AVFormatContext* fmt = nullptr;
+  AVCodecContext* enc = nullptr;
+  AVStream* stream = nullptr;
+  AVFrame* frame = nullptr;
+  AVPacket* packet = nullptr;
+  SwsContext* sws = nullptr;
+  bool header_written = false;
+  ~Impl() {
+    sws_freeContext(sws);
+    av_packet_free(&packet);
+    av_frame_free(&frame);
+    avcodec_free_context(&enc);
+    if (fmt) {
+      if (fmt->pb) avio_closep(&fmt->pb);
+      avformat_free_context(fmt);
+    }
+  }
+};
+
+Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::path& path, const VideoSettings& s) {
+  route_av_log_once();
+  std::unique_ptr<VideoWriter> w(new VideoWriter());
+  w->path_ = path;
+  w->impl_ = std::make_unique<Impl>();
+  Impl& im = *w->impl_;
+  const std::string where = path.string();
+
+  const AVCodec* codec = avcodec_find_encoder_by_name(s.codec.c_str());
+  if (!codec) return Error{fmt::format("{}: FFmpeg has no encoder '{}' (store.video_codec)", where, s.codec)};
+  const AVPixelFormat pix = av_get_pix_fmt(s.pixel_format.c_str());
+  if (pix == AV_PIX_FMT_NONE)
+    return Error{fmt::format("{}: unknown pixel format '{}' (store.video_pixel_format)", where, s.pixel_format)};
+  int rc = avformat_alloc_output_context2(&im.fmt, nullptr, "matroska", path.c_str());
+  if (rc < 0) return Error{fmt::format("{}: cannot create a Matroska file: {}", where, av_error(rc))};
+  im.enc = avcodec_alloc_context3(codec);
+  im.enc->width = s.width;
+  im.enc->height = s.height;
+  im.enc->pix_fmt = pix;
+  im.enc->time_base = kMicros;
+  im.enc->framerate = av_d2q(s.nominal_fps > 0 ? s.nominal_fps : 30, 1000);
+  im.enc->gop_size = std::max(1, s.gop_frames);
+  im.enc->keyint_min = 1;
+  im.enc->max_b_frames = 0;
+  im.enc->thread_count = s.threads;
+  if (im.fmt->oformat->flags & AVFMT_GLOBALHEADER) im.enc->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
+  AVDictionary* opts = nullptr;
+  if (s.codec == "libx264") {
+    av_dict_set(&opts, "preset", s.preset.c_str(), 0);
+    av_dict_set(&opts, "crf", std::to_string(s.crf).c_str(), 0);
+    // In-band SPS/PPS on every key frame: any GOP decodes on its own.
+    av_dict_set(&opts, "x264-params", "repeat-headers=1:bframes=0", 0);
+  } else if (s.codec == "ffv1") {
+    av_dict_set(&opts, "level", "3", 0);
+    av_dict_set(&opts, "slicecrc", "1", 0);
+  }
+  rc = avcodec_open2(im.enc, codec, &opts);
+  av_dict_free(&opts);
+  if (rc < 0)
+    return Error{fmt::format("{}: cannot open encoder {} for {}x{} {}: {}", where, s.codec, s.width, s.height,
+                             s.pixel_format, av_error(rc))};
+  im.stream = avformat_new_stream(im.fmt, nullptr);
+  im.stream->time_base = {1, 1000};
+  avcodec_parameters_from_context(im.stream->codecpar, im.enc);
+  rc = avio_open(&im.fmt->pb, path.c_str(), AVIO_FLAG_WRITE);
+  if (rc < 0) return Error{fmt::format("{}: cannot create the video file: {}", where, av_error(rc))};
+  AVDictionary* mux = nullptr;
+  av_dict_set(&mux, "cluster_time_limit", "1000", 0);  // close a cluster every second: crash loses <= 1 s
+  im.fmt->flags |= AVFMT_FLAG_FLUSH_PACKETS;
+  rc = avformat_write_header(im.fmt, &mux);
+  av_dict_free(&mux);
+  if (rc < 0) return Error{fmt::format("{}: cannot write the video header: {}", where, av_error(rc))};
+  im.header_written = true;
+  im.frame = av_frame_alloc();
+  im.frame->format = pix;
+  im.frame->width = s.width;
+  im.frame->height = s.height;
+  if ((rc = av_frame_get_buffer(im.frame, 0)) < 0) return Error{fmt::format("{}: {}", where, av_error(rc))};
+  im.packet = av_packet_alloc();
+  im.sws = sws_getContext(s.width, s.height, AV_PIX_FMT_BGR24, s.width, s.height, pix, SWS_AREA, nullptr, nullptr,
+                          nullptr);
+  if (!im.sws) return Error{fmt::format("{}: no conversion from BGR to {}", where, s.pixel_format)};
+  return w;
+}
+
+VideoWriter::~VideoWriter() { (void)close(); }
+
+Status VideoWriter::encode(bool flush) {
+  Impl& im = *impl_;
+  int rc = avcodec_send_frame(im.enc, flush ? nullptr : im.frame);
+  if (rc < 0 && rc != AVERROR_EOF) return Error{fmt::format("{}: encoder: {}", path_.string(), av_error(rc))};
+  while ((rc = avcodec_receive_packet(im.enc, im.packet)) >= 0) {
+    av_packet_rescale_ts(im.packet, im.enc->time_base, im.stream->time_base);
+    im.packet->stream_index = im.stream->index;
+    rc = av_interleaved_write_frame(im.fmt, im.packet);
+    if (rc < 0) return Error{fmt::format("{}: cannot write video: {}", path_.string(), av_error(rc))};
+  }
+  if (rc != AVERROR(EAGAIN) && rc != AVERROR_EOF)
+    return Error{fmt::format("{}: encoder: {}", path_.string(), av_error(rc))};
+  return {};
+}
+
+Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us) {
+  Impl& im = *impl_;
+  if (closed_) return Error{fmt::format("{}: write after close", path_.string())};
+  if (bgr.type() != CV_8UC3 || bgr.cols != im.enc->width || bgr.rows != im.enc->height)
+    return Error{fmt::format("{}: frame is {}x{}, the video is {}x{}", path_.string(), bgr.cols, bgr.rows,
+                             im.enc->width, im.enc->height)};
+  // Matroska keeps milliseconds: keep timestamps strictly increasing at that resolution.
+  if (pts_us / 1000 <= last_pts_us_ / 1000 && last_pts_us_ >= 0) pts_us = (last_pts_us_ / 1000 + 1) * 1000;
+  last_pts_us_ = pts_us;
+  int rc = av_frame_make_writable(im.frame);
+  if (rc < 0) return Error{fmt::format("{}: {}", path_.string(), av_error(rc))};
+  const std::uint8_t* src[1] = {bgr.data};
+  const int src_stride[1] = {int(bgr.step[0])};
+  sws_scale(im.sws, src, src_stride, 0, bgr.rows, im.frame->data, im.frame->linesize);
+  im.frame->pts = pts_us;
+  if (Status s = encode(false); !s.ok()) return s.error();
+  return frames_++;
+}
+
+Status VideoWriter::close() {
+  if (closed_ || !impl_ || !impl_->header_written) return {};
+  closed_ = true;
+  Status s = encode(true);
+  const int rc = av_write_trailer(impl_->fmt);
+  if (s.ok() && rc < 0) s = Error{fmt::format("{}: cannot finish the video: {}", path_.string(), av_error(rc))};
+  avio_closep(&impl_->fmt->pb);
+  return s;
+}
+
+}  // namespace pvcap
