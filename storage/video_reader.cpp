@@ -1,0 +1,94 @@
+#include "storage/video_reader.h"
+
+extern "C" {
+#include <libavcodec/avcodec.h>
+#include <libavformat/avformat.h>
+#include <libavutil/imgutils.h>
+#include <libswscale/swscale.h>
+}
+
+#include <fmt/format.h>
+
+namespace pvcap {
+
+struct VideoReader::Impl {
+  AVFormatContext* fmt = nullptr;
+  AVCodecContext* dec = nullptr;
+  AVFrame* frame = nullptr;
+  AVPacket* packet = nullptr;
+  SwsContext* sws = nullptr;
+  int stream = -1;
+  bool draining = false;
+  ~Impl() {
+    sws_freeContext(sws);
+    av_packet_free(&packet);
+    av_frame_free(&frame);
+    avcodec_free_context(&dec);
+    avformat_close_input(&fmt);
+  }
+};
+
+Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::path& path) {
+  std::unique_ptr<VideoReader> r(new VideoReader());
+  r->path_ = path;
+  r->impl_ = std::make_unique<Impl>();
+  Impl& im = *r->impl_;
+  if (avformat_open_input(&im.fmt, path.c_str(), nullptr, nullptr) < 0)
+    return Error{fmt::format("{}: not a readable video file", path.string())};
+  if (avformat_find_stream_info(im.fmt, nullptr) < 0)
+    return Error{fmt::format("{}: no stream information", path.string())};
+  const AVCodec* codec = nullptr;
+  im.stream = av_find_best_stream(im.fmt, AVMEDIA_TYPE_VIDEO, -1, -1, &codec, 0);
+  if (im.stream < 0 || !codec) return Error{fmt::format("{}: no decodable video stream", path.string())};
+  im.dec = avcodec_alloc_context3(codec);
+  avcodec_parameters_to_context(im.dec, im.fmt->streams[im.stream]->codecpar);
+  im.dec->thread_count = 1;
+  if (avcodec_open2(im.dec, codec, nullptr) < 0) return Error{fmt::format("{}: cannot open decoder", path.string())};
+  im.frame = av_frame_alloc();
+  im.packet = av_packet_alloc();
+  return r;
+}
+
+VideoReader::~VideoReader() = default;
+int VideoReader::width() const { return impl_->dec->width; }
+int VideoReader::height() const { return impl_->dec->height; }
+
+Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
+  Impl& im = *impl_;
+  for (;;) {
+    const int rc = avcodec_receive_frame(im.dec, im.frame);
+    if (rc == 0) {
+      const AVRational tb = im.fmt->streams[im.stream]->time_base;
+      pts_ms = av_rescale_q(im.frame->best_effort_timestamp, tb, AVRational{1, 1000});
+      im.sws = sws_getCachedContext(im.sws, im.frame->width, im.frame->height, AVPixelFormat(im.frame->format),
+                                    im.frame->width, im.frame->height, AV_PIX_FMT_BGR24, SWS_POINT, nullptr, nullptr,
+                                    nullptr);
+      bgr.create(im.frame->height, im.frame->width, CV_8UC3);
+      std::uint8_t* dst[1] = {bgr.data};
+      const int dst_stride[1] = {int(bgr.step[0])};
+      sws_scale(im.sws, im.frame->data, im.frame->linesize, 0, im.frame->height, dst, dst_stride);
+      return true;
+    }
+    if (rc == AVERROR_EOF) return false;
+    if (rc != AVERROR(EAGAIN)) return Error{fmt::format("{}: decoding failed", path_.string())};
+    if (im.draining) return false;
+    // Feed the decoder.
+    for (;;) {
+      const int rr = av_read_frame(im.fmt, im.packet);
+      if (rr < 0) {  // end of file (or a truncated tail): drain what is buffered
+        im.draining = true;
+        avcodec_send_packet(im.dec, nullptr);
+        break;
+      }
+      if (im.packet->stream_index == im.stream) {
+        const int sr = avcodec_send_packet(im.dec, im.packet);
+        av_packet_unref(im.packet);
+        if (sr < 0 && sr != AVERROR(EAGAIN)) return Error{fmt::format("{}: corrupt video packet", path_.string())};
+        break;
+      }
+      av_packet_unref(im.packet);
+    }
+  }
+}
+
+}  // namespace pvcap

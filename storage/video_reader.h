@@ -1,0 +1,33 @@
+#pragma once
+// Reads a session video back, frame by frame, as BGR images with their
+// timestamps (the libav* edge on the reading side).
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+
+#include <opencv2/core.hpp>
+
+#include "core/result.h"
+
+namespace pvcap {
+
+class VideoReader {
+ public:
+  static Result<std::unique_ptr<VideoReader>> open(const std::filesystem::path& path);
+  ~VideoReader();
+  VideoReader(const VideoReader&) = delete;
+  VideoReader& operator=(const VideoReader&) = delete;
+
+  // The next frame in file order; false at the end. `pts_ms` is its timestamp.
+  Result<bool> next(cv::Mat& bgr, std::int64_t& pts_ms);
+  int width() const;
+  int height() const;
+
+ private:
+  VideoReader() = default;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::filesystem::path path_;
+};
+
+}  // namespace pvcap

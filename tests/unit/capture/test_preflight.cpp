@@ -1,0 +1,34 @@
+#include <gtest/gtest.h>
+
+#include "capture/aravis_camera.h"
+
+using pvcap::LinkBudget;
+using pvcap::preflight;
+
+TEST(Preflight, Full1080p60BayerOnGigabitIsRefusedWithAWayOut) {
+  // 1920x1080 x 1 byte x 60 fps = 995 Mbit/s of pixels, over 1 Gbit/s with protocol overhead.
+  const auto s = preflight("cam0", LinkBudget{1920 * 1080, 60.0, 1000, 0, 4 << 20});
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("cam0"), std::string::npos);
+  EXPECT_NE(s.error().message.find("lower frame_rate"), std::string::npos) << s.error().message;
+}
+
+TEST(Preflight, SameStreamOnTenGigabitPasses) {
+  EXPECT_TRUE(preflight("cam0", LinkBudget{1920 * 1080, 60.0, 10000, 0, 4 << 20}).ok());
+}
+
+TEST(Preflight, SocketBufferAboveKernelLimitNamesTheSysctl) {
+  const auto s = preflight("cam1", LinkBudget{640 * 480, 30.0, 1000, 64 << 20, 4 << 20});
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("net.core.rmem_max"), std::string::npos) << s.error().message;
+}
+
+TEST(Preflight, BufferPoolCoversHalfASecond) {
+  pvcap::CameraConfig c;
+  c.frame_rate = 60;
+  EXPECT_EQ(pvcap::buffer_count_for(c), 30u);
+  c.frame_rate = 5;
+  EXPECT_EQ(pvcap::buffer_count_for(c), 8u);
+  c.buffer_count = 100;
+  EXPECT_EQ(pvcap::buffer_count_for(c), 100u);
+}

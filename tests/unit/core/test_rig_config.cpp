@@ -1,0 +1,103 @@
+#include <gtest/gtest.h>
+
+#include "core/result.h"
+#include "core/rig_config.h"
+
+using pvcap::parse_rig_config;
+using pvcap::UserError;
+
+namespace {
+std::string error_of(const std::string& yaml) {
+  try {
+    parse_rig_config(yaml, "rig.yaml");
+  } catch (const UserError& e) {
+    return e.what();
+  }
+  return "";
+}
+const char* kGood = R"(name: lab
+cameras:
+  - name: top
+    serial: 21A0001
+    frame_rate: 60
+    trigger: hardware
+    trigger_source: Line1
+  - address: 192.168.10.12
+store:
+  video_fps: 15
+  crf: 12
+)";
+}  // namespace
+
+TEST(RigConfig, ParsesCamerasAndDefaults) {
+  const auto rig = parse_rig_config(kGood, "rig.yaml");
+  ASSERT_EQ(rig.cameras.size(), 2u);
+  EXPECT_EQ(rig.cameras[0].name, "top");
+  EXPECT_EQ(rig.cameras[0].trigger, pvcap::TriggerMode::Hardware);
+  EXPECT_EQ(rig.cameras[0].trigger_source, "Line1");
+  EXPECT_EQ(rig.cameras[1].name, "cam1");  // default name from position
+  EXPECT_EQ(rig.cameras[1].address, "192.168.10.12");
+  EXPECT_EQ(rig.cameras[1].width, 1920);
+  EXPECT_EQ(rig.store.crf, 12);
+  EXPECT_FALSE(rig.sim.has_value());
+}
+
+TEST(RigConfig, UnknownKeyIsAnErrorWithLineAndPath) {
+  const std::string e = error_of("name: x\ncameras:\n  - serial: A\n    frame_rat: 60\n");
+  EXPECT_NE(e.find("rig.yaml:4:"), std::string::npos) << e;
+  EXPECT_NE(e.find("cameras[0].frame_rat"), std::string::npos) << e;
+  EXPECT_NE(e.find("unknown key"), std::string::npos) << e;
+}
+
+TEST(RigConfig, WrongTypeNamesTheValueAndTheKey) {
+  const std::string e = error_of("name: x\ncameras:\n  - serial: A\n    frame_rate: fast\n");
+  EXPECT_NE(e.find("rig.yaml:4:"), std::string::npos) << e;
+  EXPECT_NE(e.find("'fast' is not a valid number"), std::string::npos) << e;
+}
+
+TEST(RigConfig, OutOfRangeValueIsRefused) {
+  const std::string e = error_of("name: x\ncameras:\n  - serial: A\n    frame_rate: 0\n");
+  EXPECT_NE(e.find("out of range"), std::string::npos) << e;
+}
+
+TEST(RigConfig, CameraNeedsSerialOrAddress) {
+  EXPECT_NE(error_of("name: x\ncameras:\n  - name: a\n").find("needs a 'serial' or an 'address'"), std::string::npos);
+}
+
+TEST(RigConfig, DuplicateCameraIsRefused) {
+  EXPECT_NE(error_of("name: x\ncameras:\n  - serial: A\n  - serial: A\n").find("listed twice"), std::string::npos);
+}
+
+TEST(RigConfig, SyntaxErrorHasALine) {
+  const std::string e = error_of("name: x\ncameras: [\n");
+  EXPECT_NE(e.find("YAML syntax error"), std::string::npos) << e;
+  EXPECT_NE(e.find("rig.yaml:"), std::string::npos) << e;
+}
+
+TEST(RigConfig, MissingRequiredName) {
+  EXPECT_NE(error_of("cameras:\n  - serial: A\n").find("name: missing"), std::string::npos);
+}
+
+TEST(RigConfig, SimSectionMustMatchCameraCount) {
+  const std::string e = error_of("name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  cameras:\n    - {}\n    - {}\n");
+  EXPECT_NE(e.find("has 2 entries but the rig has 1 cameras"), std::string::npos) << e;
+}
+
+TEST(RigConfig, SimClocksAreRead) {
+  const auto rig = parse_rig_config(
+      "name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  seed: 3\n  cameras:\n    - {drift_ppm: 50, packet_loss: 0.01, "
+      "stop_after_s: 4}\n",
+      "rig.yaml");
+  ASSERT_TRUE(rig.sim);
+  EXPECT_EQ(rig.sim->seed, 3u);
+  EXPECT_DOUBLE_EQ(rig.sim->cameras[0].drift_ppm, 50);
+  EXPECT_DOUBLE_EQ(rig.sim->cameras[0].packet_loss, 0.01);
+  EXPECT_DOUBLE_EQ(*rig.sim->cameras[0].stop_after_s, 4);
+}
+
+TEST(RigConfig, ShippedRigFilesLoad) {
+  for (const char* f : {"sim.yaml", "lab-4cam.yaml"}) {
+    const auto rig = pvcap::load_rig_config(std::string(PVCAP_SOURCE_DIR) + "/rig-configs/" + f);
+    EXPECT_EQ(rig.cameras.size(), 4u) << f;
+  }
+}

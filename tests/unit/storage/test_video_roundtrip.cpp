@@ -1,0 +1,127 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "sim/scene.h"
+#include "sim/timecode.h"
+#include "storage/video_reader.h"
+#include "storage/video_writer.h"
+
+namespace fs = std::filesystem;
+using namespace pvcap;
+
+namespace {
+fs::path temp_dir(const std::string& name) {
+  const auto d = fs::temp_directory_path() / ("pvcap-test-" + name + "-" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+cv::Mat frame_with_timecode(int i) {
+  const cv::Size size(320, 180);
+  static const cv::Mat base = sim::render_scene_bgr(sim::default_pad(), sim::camera_homography(0, size), size);
+  cv::Mat grey(size, CV_8UC1, cv::Scalar(0));
+  cv::Mat bgr = base.clone();
+  cv::Mat mask(size, CV_8UC1, cv::Scalar(0));
+  sim::draw_timecode(grey, sim::Timecode{1'000'000LL * i, std::uint16_t(i)});
+  sim::draw_timecode(mask, sim::Timecode{0, 0});
+  // Paint the code's cells (including black ones) over the scene.
+  const int c = sim::timecode_cell_px(size.width);
+  cv::Rect band(c, c, 48 * c, 2 * c);
+  cv::Mat band_bgr;
+  cv::cvtColor(grey(band), band_bgr, cv::COLOR_GRAY2BGR);
+  band_bgr.copyTo(bgr(band));
+  return bgr;
+}
+}  // namespace
+
+TEST(VideoRoundTrip, DefaultCodecKeepsRealTimestampsAndReadableTimecodes) {
+  const auto dir = temp_dir("h264");
+  VideoSettings s;
+  s.width = 320;
+  s.height = 180;
+  s.gop_frames = 15;
+  auto w = VideoWriter::open(dir / "v.mkv", s);
+  ASSERT_TRUE(w) << w.error().message;
+  // Irregular spacing: the file must keep it, not a nominal rate.
+  std::vector<std::int64_t> pts_us;
+  std::int64_t t = 0;
+  for (int i = 0; i < 40; ++i) {
+    t += (i % 3 == 0) ? 90'000 : 50'000;
+    pts_us.push_back(t);
+    auto idx = w.value()->write(frame_with_timecode(i), t);
+    ASSERT_TRUE(idx) << idx.error().message;
+    EXPECT_EQ(idx.value(), i);
+  }
+  ASSERT_TRUE(w.value()->close().ok());
+
+  auto r = VideoReader::open(dir / "v.mkv");
+  ASSERT_TRUE(r) << r.error().message;
+  cv::Mat img;
+  std::int64_t pts_ms = 0;
+  int n = 0;
+  while (true) {
+    auto more = r.value()->next(img, pts_ms);
+    ASSERT_TRUE(more);
+    if (!more.value()) break;
+    ASSERT_LT(n, 40);
+    EXPECT_EQ(pts_ms, pts_us[std::size_t(n)] / 1000) << n;
+    const auto tc = sim::read_timecode(img);
+    ASSERT_TRUE(tc) << "frame " << n;
+    EXPECT_EQ(tc->frame_id, n);
+    ++n;
+  }
+  EXPECT_EQ(n, 40);
+  fs::remove_all(dir);
+}
+
+TEST(VideoRoundTrip, Ffv1IsBitExact) {
+  const auto dir = temp_dir("ffv1");
+  VideoSettings s;
+  s.codec = "ffv1";
+  s.pixel_format = "bgr0";
+  s.width = 320;
+  s.height = 180;
+  auto w = VideoWriter::open(dir / "v.mkv", s);
+  ASSERT_TRUE(w) << w.error().message;
+  std::vector<cv::Mat> frames;
+  for (int i = 0; i < 5; ++i) {
+    frames.push_back(frame_with_timecode(i));
+    ASSERT_TRUE(w.value()->write(frames.back(), i * 66'667));
+  }
+  ASSERT_TRUE(w.value()->close().ok());
+  auto r = VideoReader::open(dir / "v.mkv");
+  ASSERT_TRUE(r);
+  cv::Mat img;
+  std::int64_t pts = 0;
+  for (int i = 0; i < 5; ++i) {
+    auto more = r.value()->next(img, pts);
+    ASSERT_TRUE(more && more.value());
+    EXPECT_EQ(cv::norm(img, frames[std::size_t(i)], cv::NORM_INF), 0.0) << i;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(VideoWriter, UnknownCodecIsNamed) {
+  const auto dir = temp_dir("badcodec");
+  VideoSettings s;
+  s.codec = "no-such-codec";
+  s.width = 64;
+  s.height = 64;
+  auto w = VideoWriter::open(dir / "v.mkv", s);
+  ASSERT_FALSE(w);
+  EXPECT_NE(w.error().message.find("no encoder 'no-such-codec'"), std::string::npos) << w.error().message;
+  fs::remove_all(dir);
+}
+
+TEST(VideoReader, ForeignFileIsAnErrorNotACrash) {
+  const auto dir = temp_dir("foreign");
+  { std::ofstream(dir / "x.mkv") << "this is not a video"; }
+  auto r = VideoReader::open(dir / "x.mkv");
+  EXPECT_FALSE(r);
+  fs::remove_all(dir);
+}
