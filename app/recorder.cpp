@@ -14,6 +14,7 @@
 #include "capture/aravis_camera.h"
 #include "capture/pixel_format.h"
 #include "core/log.h"
+#include "core/gap_tracker.h"
 #include "core/sequence_unwrap.h"
 #include "core/time.h"
 #include "storage/session_writer.h"
@@ -29,8 +30,8 @@ using namespace std::chrono_literals;
 
 // Per-camera counts the operator sees, filled by that camera's worker thread.
 struct CameraTally {
-  std::atomic<std::uint64_t> received{0}, good{0}, incomplete{0}, not_received{0}, reordered{0}, subsampled{0},
-      encoder_behind{0}, submitted{0}, lost_events{0};
+  std::atomic<std::uint64_t> received{0}, good{0}, incomplete{0}, not_received{0}, duplicates{0}, encoder_behind{0},
+      lost_events{0};
 };
 
 // The simulator runs as a child process in our network namespace, like a separate box on the wire.
@@ -76,32 +77,48 @@ void camera_worker(AravisCamera& camera, std::int64_t device_id, SessionWriter& 
   SequenceUnwrapper unwrap(16, /*zero_is_skipped=*/true);
   std::uint32_t connection = UINT32_MAX;
   GridKeeper keeper(anchor_ns, video_fps, camera.config().frame_rate);
+  // A frame that times out incomplete is delivered after its successor: hold gaps open for a
+  // second so such a frame is counted once, as what it is.
+  auto report_gap = [&](const GapTracker::Gap& g) {
+    tally.not_received.fetch_add(g.count, std::memory_order_relaxed);
+    writer.record(DropRecord{device_id, connection, g.first, g.count, "not_received", g.noticed_ns});
+  };
+  GapTracker gaps(1'000'000'000, report_gap);
   auto& queue = camera.frames();
   while (!queue.closed_and_empty()) {
     auto frame = queue.pop_for(100ms);
+    gaps.settle(host_now().ns);
     if (!frame) continue;
     tally.received.fetch_add(1, std::memory_order_relaxed);
     if (frame->connection != connection) {  // frame ids restart with each connection
+      gaps.settle(0, /*flush_all=*/true);
       unwrap = SequenceUnwrapper(16, true);
       connection = frame->connection;
+    }
+    if (frame->frame_id == 0) {
+      // GigE Vision never sends id 0: this buffer got no leader packet, so it has no identity.
+      // The frame it was is counted in a gap; record the buffer, sequence 0 = unknown.
+      tally.duplicates.fetch_add(1, std::memory_order_relaxed);
+      writer.record(FrameRecord{device_id, frame->connection, 0, 0, frame->device_ts.ns, frame->host_ts.ns,
+                                frame->aravis_system_ns, to_string(frame->status), false,
+                                "no_frame_id_" + frame->detail, {}, {}});
+      continue;
     }
     const auto step = unwrap.next(frame->frame_id);
     FrameRecord rec{device_id, frame->connection, step.sequence, frame->frame_id, frame->device_ts.ns,
                     frame->host_ts.ns, frame->aravis_system_ns, to_string(frame->status), false, "", {}, {}};
-    if (step.missing > 0) {
-      tally.not_received.fetch_add(step.missing, std::memory_order_relaxed);
-      writer.record(DropRecord{device_id, frame->connection, step.sequence - step.missing, step.missing,
-                               "not_received", frame->host_ts.ns});
-    }
-    if (step.out_of_order) {
-      tally.reordered.fetch_add(1, std::memory_order_relaxed);
-      rec.reason = "repeated_or_reordered_frame_id";
+    gaps.missing(step.sequence - step.missing, step.missing, frame->host_ts.ns);
+    if (step.out_of_order && !gaps.arrived_late(step.sequence)) {
+      // Not a frame we were missing. An incomplete buffer whose leader packet was lost still
+      // carries the id and timestamp of the buffer's previous frame (seen with Aravis 0.8):
+      // the frame it really was is already counted in a gap, so it is recorded, not counted.
+      tally.duplicates.fetch_add(1, std::memory_order_relaxed);
+      rec.reason = frame->status == FrameStatus::Good ? "duplicate_frame_id" : "stale_metadata_" + frame->detail;
     } else if (frame->status != FrameStatus::Good) {
       tally.incomplete.fetch_add(1, std::memory_order_relaxed);
       rec.reason = frame->detail;
     } else if (!keeper.keep(frame->host_ts.ns)) {
       tally.good.fetch_add(1, std::memory_order_relaxed);
-      tally.subsampled.fetch_add(1, std::memory_order_relaxed);
       rec.reason = "subsampled";
     } else {
       tally.good.fetch_add(1, std::memory_order_relaxed);
@@ -110,16 +127,14 @@ void camera_worker(AravisCamera& camera, std::int64_t device_id, SessionWriter& 
         rec.reason = "unsupported_pixels: " + s.error().message;
       } else {
         frame->lease.reset();  // the camera gets its buffer back before we encode
-        if (writer.submit_video(device_id, std::move(bgr), rec)) {
-          tally.submitted.fetch_add(1, std::memory_order_relaxed);
-          continue;  // the encoder records it with its video position
-        }
+        if (writer.submit_video(device_id, std::move(bgr), rec)) continue;  // the encoder records it
         tally.encoder_behind.fetch_add(1, std::memory_order_relaxed);
         rec.reason = "encoder_behind";
       }
     }
     writer.record(std::move(rec));
   }
+  gaps.settle(0, /*flush_all=*/true);
 }
 
 Status open_with_wait(AravisCamera& camera, double wait_s) {
@@ -247,6 +262,9 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
     }
   }
 
+  const double recorded_s = double(host_now().ns - rec_start) / 1e9;
+  // All cameras stop at once; one blocked on a reconnect attempt must not keep the others recording.
+  for (auto& cam : cameras) cam->request_stop();
   for (auto& cam : cameras) cam->stop();
   for (auto& w : workers) w.join();
   for (std::size_t i = 0; i < cameras.size(); ++i) {
@@ -259,7 +277,7 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
 
   // The report the operator reads.
   fmt::print("\nsession: {}\n", writer.dir().string());
-  fmt::print("ended: {} after {:.1f} s\n", end_reason, double(host_now().ns - rec_start) / 1e9);
+  fmt::print("ended: {} after {:.1f} s\n", end_reason, recorded_s);
   fmt::print("{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>10} {:>9}\n", "camera", "received", "good", "in video",
              "incomplete", "not received", "enc. behind", "lost conn");
   bool any_loss = false;

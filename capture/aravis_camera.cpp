@@ -298,13 +298,15 @@ void AravisCamera::control_loop() {
   if (connected) teardown_connection(true);
 }
 
+void AravisCamera::request_stop() {
+  running_.store(false);
+  wake_.notify_all();
+}
+
 void AravisCamera::stop() {
-  if (running_.exchange(false)) {
-    wake_.notify_all();
-    if (control_thread_.joinable()) control_thread_.join();
-  } else {
-    teardown_connection(true);  // opened but never started
-  }
+  request_stop();
+  if (control_thread_.joinable()) control_thread_.join();  // its loop tears the connection down
+  else teardown_connection(true);                          // opened but never started
   queue_.close();
 }
 

@@ -76,7 +76,11 @@ class AravisCamera {
   Status open();
   // Starts acquisition and supervision.
   Status start();
-  // Stops acquisition and supervision; closes the frame queue (the consumer drains it).
+  // Asks the control thread to stop acquisition; returns at once (stop() several cameras
+  // in parallel by calling this on each first).
+  void request_stop();
+  // Stops acquisition and supervision and waits for it; closes the frame queue (the
+  // consumer drains it).
   void stop();
 
   BoundedQueue<CameraFrame>& frames() { return queue_; }

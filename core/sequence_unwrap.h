@@ -16,8 +16,8 @@ class SequenceUnwrapper {
 
   struct Step {
     std::uint64_t sequence = 0;  // unwrapped value (the first raw value is its own sequence)
-    std::uint64_t missing = 0;   // values skipped since the previous accepted one
-    bool out_of_order = false;   // repeated or behind the previous value: not accepted
+    std::uint64_t missing = 0;   // values skipped since the previous newest one
+    bool out_of_order = false;   // repeated (sequence == newest) or late (sequence < newest)
   };
 
   Step next(std::uint64_t raw) {
@@ -29,7 +29,12 @@ class SequenceUnwrapper {
       return {raw, 0, false};
     }
     std::uint64_t delta = (raw + modulus_ - last_raw_) % modulus_;
-    if (delta == 0 || delta > modulus_ / 2) return {last_seq_, 0, true};
+    if (delta == 0) return {last_seq_, 0, true};
+    if (delta > modulus_ / 2) {  // behind the newest: a late frame; say which one it is
+      std::uint64_t back = (last_raw_ + modulus_ - raw) % modulus_;
+      if (skip_zero_ && raw > last_raw_) back -= 1;  // the wrap lies between them
+      return {back <= last_seq_ ? last_seq_ - back : 0, 0, true};
+    }
     if (skip_zero_ && raw < last_raw_) delta -= 1;  // crossed the wrap, where 0 does not exist
     last_raw_ = raw;
     last_seq_ += delta;

@@ -92,6 +92,7 @@ void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format) {
   if (base.type() == CV_8UC1) {
     cv::Mat view(height, width, CV_8UC1, data);
     draw_timecode(view, Timecode{true_ns, frame_id});
+    draw_frame_stripe(view, frame_id);
   }
   const double noise = clock_.jitter_ns > 0 ? noise_(rng_) * clock_.jitter_ns : 0.0;
   const std::int64_t device_ns = std::max<std::int64_t>(0, clock_.device_time(true_ns) + std::int64_t(noise));

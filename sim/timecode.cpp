@@ -70,4 +70,35 @@ std::optional<Timecode> read_timecode(const cv::Mat& image) {
   return tc;
 }
 
+namespace {
+// splitmix64: non-linear, so two frame ids differ in about half of the cells.
+bool stripe_bit(std::uint16_t frame_id, int cell) {
+  std::uint64_t z = (std::uint64_t(frame_id) << 16 | std::uint64_t(cell)) + 0x9E3779B97F4A7C15ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return (z ^ (z >> 31)) & 1;
+}
+}  // namespace
+
+void draw_frame_stripe(cv::Mat& mosaic, std::uint16_t frame_id) {
+  CV_Assert(mosaic.type() == CV_8UC1);
+  const int c = timecode_cell_px(mosaic.cols);
+  const int x = mosaic.cols - 2 * c;
+  for (int k = 0; (k + 1) * c <= mosaic.rows; ++k) mosaic(cv::Rect(x, k * c, c, c)).setTo(stripe_bit(frame_id, k) ? 255 : 0);
+}
+
+int frame_stripe_mismatches(const cv::Mat& image, std::uint16_t frame_id) {
+  cv::Mat grey;
+  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  else grey = image;
+  const int c = timecode_cell_px(grey.cols);
+  const int x = grey.cols - 2 * c;
+  int bad = 0;
+  for (int k = 0; (k + 1) * c <= grey.rows; ++k) {
+    const cv::Rect centre(x + c / 4, k * c + c / 4, std::max(1, c / 2), std::max(1, c / 2));
+    if ((cv::mean(grey(centre))[0] >= 128) != stripe_bit(frame_id, k)) ++bad;
+  }
+  return bad;
+}
+
 }  // namespace pvcap::sim

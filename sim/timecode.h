@@ -30,4 +30,11 @@ void draw_timecode(cv::Mat& mosaic, const Timecode& tc);
 // Reads from an 8-bit BGR or grey image; empty when no valid timecode is there.
 std::optional<Timecode> read_timecode(const cv::Mat& image);
 
+// A column of cells down the right edge whose pattern depends on the frame id, so
+// that a frame assembled partly from an older frame's bytes (missing packets,
+// stale buffer) shows it wherever the stale part is.
+void draw_frame_stripe(cv::Mat& mosaic, std::uint16_t frame_id);
+// How many stripe cells disagree with `frame_id`'s pattern (0 for an intact frame).
+int frame_stripe_mismatches(const cv::Mat& image, std::uint16_t frame_id);
+
 }  // namespace pvcap::sim

@@ -61,9 +61,20 @@ TEST(SequenceUnwrap, RepeatedOrOlderIdIsFlaggedAndDoesNotMoveTheSequence) {
   SequenceUnwrapper u(16, true);
   (void)u.next(500);
   EXPECT_TRUE(u.next(500).out_of_order);
-  EXPECT_TRUE(u.next(499).out_of_order);
+  const auto late = u.next(499);
+  EXPECT_TRUE(late.out_of_order);
+  EXPECT_EQ(late.sequence, 499u);
   const auto s = u.next(501);
   EXPECT_FALSE(s.out_of_order);
   EXPECT_EQ(s.sequence, 501u);
   EXPECT_EQ(s.missing, 0u);
+}
+
+TEST(SequenceUnwrap, LateFrameAcrossTheWrapGetsItsOwnSequence) {
+  SequenceUnwrapper u(16, true);
+  (void)u.next(65534);
+  (void)u.next(1);  // 65535 missing so far; sequence 65536
+  const auto late = u.next(65535);
+  EXPECT_TRUE(late.out_of_order);
+  EXPECT_EQ(late.sequence, 65535u);
 }

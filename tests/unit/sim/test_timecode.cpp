@@ -47,3 +47,17 @@ TEST(Timecode, ImageWithoutTimecodeReadsAsNothing) {
   cv::Mat grey(360, 640, CV_8UC1, cv::Scalar(128));
   EXPECT_FALSE(read_timecode(grey).has_value());
 }
+
+TEST(FrameStripe, MatchesItsOwnFrameAndShowsAStaleBand) {
+  cv::Mat a(360, 640, CV_8UC1, cv::Scalar(100)), b;
+  draw_frame_stripe(a, 1000);
+  EXPECT_EQ(frame_stripe_mismatches(a, 1000), 0);
+  // Any other frame id disagrees in many cells (it is a different pattern).
+  EXPECT_GT(frame_stripe_mismatches(a, 1001), 5);
+  // A band of rows left over from frame 970 is visible.
+  b = a.clone();
+  cv::Mat old(360, 640, CV_8UC1, cv::Scalar(100));
+  draw_frame_stripe(old, 970);
+  old.rowRange(100, 200).copyTo(b.rowRange(100, 200));
+  EXPECT_GT(frame_stripe_mismatches(b, 1000), 0);
+}

@@ -1,0 +1,102 @@
+#include "session_under_test.h"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "storage/sqlite/database.h"
+
+namespace fs = std::filesystem;
+
+namespace pvcap::testing {
+
+std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, int height, double fps,
+                         double video_fps) {
+  std::string y = "name: test-rig\ncameras:\n";
+  for (std::size_t i = 0; i < cameras.size(); ++i)
+    y += fmt::format(
+        "  - name: cam{0}\n    serial: PVSIM{0}\n    address: 127.0.0.{1}\n    width: {2}\n    height: {3}\n"
+        "    frame_rate: {4}\n    packet_size: 8192\n",
+        i, i + 2, width, height, fps);
+  y += fmt::format("store:\n  video_fps: {}\n  preset: ultrafast\nsim:\n  seed: 11\n  cameras:\n", video_fps);
+  for (const auto& c : cameras) {
+    y += fmt::format("    - {{clock_offset_ms: {}, drift_ppm: {}, jitter_us: 10, packet_loss: {}", c.offset_ms,
+                     c.drift_ppm, c.packet_loss);
+    if (c.stop_after_s >= 0) y += fmt::format(", stop_after_s: {}", c.stop_after_s);
+    y += "}\n";
+  }
+  return y;
+}
+
+CommandResult run_pvcap(const std::string& args) {
+  CommandResult r;
+  const std::string cmd = std::string(PVCAP_BIN) + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf{};
+  while (std::size_t n = fread(buf.data(), 1, buf.size(), p)) r.output.append(buf.data(), n);
+  const int status = pclose(p);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+namespace {
+std::vector<TruthFrame> read_truth(const fs::path& csv) {
+  std::vector<TruthFrame> out;
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    TruthFrame t{};
+    unsigned fid = 0;
+    if (std::sscanf(line.c_str(), "%u,%ld,%ld", &fid, &t.true_ns, &t.device_ns) == 3) {
+      t.frame_id = std::uint16_t(fid);
+      out.push_back(t);
+    }
+  }
+  return out;
+}
+}  // namespace
+
+RecordedSession record(const std::string& test_name, const std::string& rig_yaml, double duration_s) {
+  RecordedSession s;
+  const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-{}-{}", test_name, getpid());
+  fs::remove_all(work);
+  fs::create_directories(work);
+  std::ofstream(work / "rig.yaml") << rig_yaml;
+  s.result = run_pvcap(fmt::format("session --rig {} --root {} --duration {}", (work / "rig.yaml").string(),
+                                   (work / "sessions").string(), duration_s));
+  if (!fs::exists(work / "sessions")) return s;
+  for (const auto& e : fs::directory_iterator(work / "sessions"))
+    if (e.is_directory() && e.path().filename().string()[0] != '.') s.dir = e.path();
+  if (s.dir.empty()) return s;
+
+  sqlite::Database db(s.dir / "session.db", sqlite::Database::Mode::ReadOnly);
+  auto devs = db.prepare("SELECT id, name FROM devices WHERE kind = 'camera' ORDER BY id");
+  while (devs.step()) {
+    CameraRecord c;
+    c.device_id = devs.column_int(0);
+    c.name = devs.column_text(1);
+    c.truth = read_truth(s.dir / "sim-truth" / (c.name + "_frames.csv"));
+    auto f = db.prepare(
+        "SELECT sequence, frame_id, device_ns, host_ns, status, coalesce(reason, ''), kept, coalesce(video_index, -1) "
+        "FROM frames WHERE device_id = ? ORDER BY host_ns");
+    f.bind(1, c.device_id);
+    while (f.step())
+      c.frames.push_back({std::uint64_t(f.column_int(0)), std::uint64_t(f.column_int(1)), f.column_int(2),
+                          f.column_int(3), f.column_text(4), f.column_text(5), f.column_int(6) != 0, f.column_int(7)});
+    auto d = db.prepare("SELECT first_sequence, count, reason FROM drops WHERE device_id = ?");
+    d.bind(1, c.device_id);
+    while (d.step()) c.drops.push_back({std::uint64_t(d.column_int(0)), std::uint64_t(d.column_int(1)), d.column_text(2)});
+    s.cameras.push_back(std::move(c));
+  }
+  return s;
+}
+
+}  // namespace pvcap::testing

@@ -1,0 +1,64 @@
+#pragma once
+// Runs the real `pvcap` command on a simulated rig and reads back what it
+// stored and what the simulator says really happened (sim-truth/).
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace pvcap::testing {
+
+struct SimCameraSpec {
+  double packet_loss = 0;
+  double stop_after_s = -1;  // < 0: never
+  double drift_ppm = 0;
+  double offset_ms = 1000;
+};
+
+// A rig of `cameras` simulated cameras at 127.0.0.2.. with the given size and rate.
+std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, int height, double fps,
+                         double video_fps);
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+CommandResult run_pvcap(const std::string& args);
+
+struct TruthFrame {
+  std::uint16_t frame_id;
+  std::int64_t true_ns, device_ns;
+};
+struct IndexFrame {
+  std::uint64_t sequence, frame_id;
+  std::int64_t device_ns, host_ns;
+  std::string status, reason;
+  bool kept;
+  std::int64_t video_index;  // -1 when not in the video
+};
+struct DropRange {
+  std::uint64_t first_sequence, count;
+  std::string reason;
+};
+struct CameraRecord {
+  std::string name;
+  std::int64_t device_id = 0;
+  std::vector<TruthFrame> truth;
+  std::vector<IndexFrame> frames;  // in arrival order
+  std::vector<DropRange> drops;
+};
+
+struct RecordedSession {
+  CommandResult result;
+  std::filesystem::path dir;  // the session folder
+  std::vector<CameraRecord> cameras;
+};
+
+// Writes the rig to a fresh work folder, runs `pvcap session` for `duration_s`, loads the outcome.
+RecordedSession record(const std::string& test_name, const std::string& rig_yaml, double duration_s);
+
+// GigE Vision 1.x frame id of an unwrapped sequence number (ids run 1..65535).
+inline std::uint16_t frame_id_of_sequence(std::uint64_t seq) { return std::uint16_t((seq - 1) % 65535 + 1); }
+
+}  // namespace pvcap::testing
