@@ -261,9 +261,11 @@ void AravisCamera::control_loop() {
         std::lock_guard lock(mu_);
         last = stream_ ? stream_->last_arrival() : HostNs{0};
       }
-      if (last.ns == 0) last = started_at_;
+      const bool first_frame_pending = last.ns == 0 || last < started_at_;
+      if (first_frame_pending) last = started_at_;
       const auto silent_ms = (now.ns - last.ns) / 1'000'000;
-      const bool stalled = config_.trigger == TriggerMode::FreeRun && silent_ms > stall_timeout().count();
+      const auto limit = first_frame_pending ? first_frame_timeout() : stall_timeout();
+      const bool stalled = config_.trigger == TriggerMode::FreeRun && silent_ms > limit.count();
       if (stalled || control_lost_.load()) {
         emit(CameraEvent::Kind::Lost,
              fmt::format("{}: camera lost ({}) -- unplugged, powered off, or its link is down; the other "

@@ -88,8 +88,10 @@ class AravisCamera {
   CameraSettings settings() const;
   StreamCounters counters() const;  // summed over every connection
   std::string label() const;        // "cam0 (serial PVSIM0 at 127.0.0.2)"
-  // A frame period without frames for this long (free-run) means the camera is lost.
+  // No frame for this long (free-run) means the camera is lost; the first frame after a
+  // (re)start gets `first_frame_timeout()` (exposure, sensor start-up, a slow first packet).
   std::chrono::milliseconds stall_timeout() const;
+  static constexpr std::chrono::milliseconds first_frame_timeout() { return std::chrono::milliseconds(3000); }
 
  private:
   Status connect_and_configure(std::uint32_t connection);

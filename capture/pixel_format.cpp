@@ -18,6 +18,13 @@ std::string pixel_format_name(std::uint32_t pf) {
   }
 }
 
+std::uint32_t pixel_format_code(const std::string& name) {
+  for (std::uint32_t pf : {ARV_PIXEL_FORMAT_BAYER_RG_8, ARV_PIXEL_FORMAT_BAYER_BG_8, ARV_PIXEL_FORMAT_BAYER_GR_8,
+                           ARV_PIXEL_FORMAT_BAYER_GB_8, ARV_PIXEL_FORMAT_MONO_8, ARV_PIXEL_FORMAT_RGB_8_PACKED})
+    if (pixel_format_name(pf) == name) return pf;
+  return 0;
+}
+
 Status to_bgr(const std::uint8_t* data, std::size_t size, int width, int height, std::uint32_t pf, cv::Mat& bgr) {
   const bool rgb = pf == ARV_PIXEL_FORMAT_RGB_8_PACKED;
   const std::size_t need = std::size_t(width) * std::size_t(height) * (rgb ? 3 : 1);

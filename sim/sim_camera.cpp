@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "capture/pixel_format.h"
 #include "core/time.h"
 #include "sim/scene.h"
 #include "sim/timecode.h"
@@ -33,6 +34,9 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
                              "simulated rig runs in its own network namespace)",
                              camera.name, camera.address)};
   if (clock.packet_loss > 0) g_object_set(self->fake_.get(), "gvsp-lost-ratio", clock.packet_loss, nullptr);
+  // Render the scene now for the configured format: the first frame must not stall the stream.
+  if (const std::uint32_t pf = pixel_format_code(camera.pixel_format))
+    (void)self->base_image(camera.width, camera.height, ArvPixelFormat(pf));
   arv_fake_camera_set_fill_pattern(arv_gv_fake_camera_get_fake_camera(self->fake_.get()), &SimCamera::fill,
                                    self.get());
   return self;
@@ -59,15 +63,7 @@ const cv::Mat& SimCamera::base_image(int width, int height, ArvPixelFormat forma
   const auto key = std::make_tuple(width, height, std::uint32_t(format));
   auto it = bases_.find(key);
   if (it == bases_.end()) {
-    std::string pfnc;
-    switch (format) {
-      case ARV_PIXEL_FORMAT_BAYER_RG_8: pfnc = "BayerRG8"; break;
-      case ARV_PIXEL_FORMAT_BAYER_BG_8: pfnc = "BayerBG8"; break;
-      case ARV_PIXEL_FORMAT_BAYER_GR_8: pfnc = "BayerGR8"; break;
-      case ARV_PIXEL_FORMAT_BAYER_GB_8: pfnc = "BayerGB8"; break;
-      case ARV_PIXEL_FORMAT_RGB_8_PACKED: pfnc = "RGB8"; break;
-      default: pfnc = "Mono8"; break;
-    }
+    const std::string pfnc = pixel_format_name(format);
     const cv::Size size(width, height);
     const cv::Mat bgr = render_scene_bgr(default_pad(), homography(size), size);
     it = bases_.emplace(key, to_sensor_format(bgr, pfnc)).first;

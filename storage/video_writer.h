@@ -18,7 +18,7 @@ namespace pvcap {
 struct VideoSettings {
   std::string codec = "libx264";
   int crf = 10;
-  std::string preset = "veryfast";
+  std::string preset = "ultrafast";
   std::string pixel_format = "yuv444p";
   int gop_frames = 15;       // at most this many frames between key frames
   double nominal_fps = 15;   // rate-control hint only; timestamps are real
