@@ -152,7 +152,8 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   const std::int64_t wall0 = wall_now_ns();
   const std::int64_t host0 = host_now().ns;
 
-  // The simulated rig's truth goes beside the sessions; it is moved into the session folder once that exists.
+  // The simulator writes its ground truth beside the sessions while it runs; once it has stopped,
+  // the truth is moved into the session folder.
   std::unique_ptr<SimProcess> sim;
   std::filesystem::path truth_tmp;
   if (rig.sim) {
@@ -205,7 +206,6 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   }
   SessionWriter& writer = *created.value();
   log::add_session_file(writer.dir());
-  if (!truth_tmp.empty()) std::filesystem::rename(truth_tmp, writer.dir() / "sim-truth");
   spdlog::info("recording session {}", writer.dir().string());
 
   for (std::size_t i = 0; i < cameras.size(); ++i) {
@@ -273,6 +273,11 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
                              c.queue_overflows});
   }
   sim.reset();
+  if (!truth_tmp.empty()) {
+    std::error_code ec;
+    std::filesystem::rename(truth_tmp, writer.dir() / "sim-truth", ec);
+    if (ec) spdlog::warn("simulator ground truth stays in {}: {}", truth_tmp.string(), ec.message());
+  }
   const Status closed = writer.close(end_reason);
 
   // The report the operator reads.

@@ -10,6 +10,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <filesystem>
@@ -195,20 +196,27 @@ int main(int argc, char** argv) {
   {
     const double fps = 30;
     Simulator sim(1, 1920, 1080, fps);
-    // Reference before and after ours, so warm-up or drift of the machine shows instead of biasing the ratio.
-    const auto bare1 = bare_aravis(camera(0, 1920, 1080, fps), seconds);
-    std::this_thread::sleep_for(300ms);
-    const auto ours = pvcap_path({camera(0, 1920, 1080, fps)}, seconds);
-    std::this_thread::sleep_for(300ms);
-    const auto bare2 = bare_aravis(camera(0, 1920, 1080, fps), seconds);
+    // Alternate reference and ours, three rounds each, and compare medians: a single pair
+    // swings by tens of percent on a shared machine.
     const auto per_frame_us = [](double cpu, std::uint64_t n) { return n ? cpu / double(n) * 1e6 : 0.0; };
-    const double b1 = per_frame_us(bare1.first, bare1.second), b2 = per_frame_us(bare2.first, bare2.second);
-    const double bare_us = (b1 + b2) / 2;
-    const double ours_us = per_frame_us(ours.cpu, ours.good);
-    fmt::print("cpu per 1080p frame @ {:.0f} fps: bare aravis loop {:.0f} us (runs before/after: {:.0f}, {:.0f}; {} + {} "
-               "frames), pvcap capture path {:.0f} us ({} frames), ratio pvcap/bare {:.2f}\n",
-               fps, bare_us, b1, b2, bare1.second, bare2.second, ours_us, ours.good,
-               bare_us > 0 ? ours_us / bare_us : 0.0);
+    std::vector<double> bare_us, ours_us;
+    std::uint64_t bare_frames = 0, ours_frames = 0;
+    for (int round = 0; round < 3; ++round) {
+      const auto bare = bare_aravis(camera(0, 1920, 1080, fps), seconds);
+      bare_us.push_back(per_frame_us(bare.first, bare.second));
+      bare_frames += bare.second;
+      std::this_thread::sleep_for(300ms);
+      const auto ours = pvcap_path({camera(0, 1920, 1080, fps)}, seconds);
+      ours_us.push_back(per_frame_us(ours.cpu, ours.good));
+      ours_frames += ours.good;
+      std::this_thread::sleep_for(300ms);
+    }
+    std::sort(bare_us.begin(), bare_us.end());
+    std::sort(ours_us.begin(), ours_us.end());
+    fmt::print("cpu per 1080p frame @ {:.0f} fps (median of 3, [min..max]): bare aravis loop {:.0f} us [{:.0f}..{:.0f}] "
+               "({} frames), pvcap capture path {:.0f} us [{:.0f}..{:.0f}] ({} frames), ratio pvcap/bare {:.2f}\n",
+               fps, bare_us[1], bare_us[0], bare_us[2], bare_frames, ours_us[1], ours_us[0], ours_us[2], ours_frames,
+               bare_us[1] > 0 ? ours_us[1] / bare_us[1] : 0.0);
   }
 
   // 2. Highest cameras x fps with zero drops (1080p BayerRG8, capture path).

@@ -226,7 +226,24 @@ Status AravisCamera::start() {
   started_at_ = host_now();
   running_.store(true);
   control_thread_ = std::thread([this] { control_loop(); });
+  if (config_.trigger == TriggerMode::Software) trigger_thread_ = std::thread([this] { trigger_loop(); });
   return {};
+}
+
+void AravisCamera::trigger_loop() {
+  const auto period = std::chrono::nanoseconds(std::int64_t(1e9 / config_.frame_rate));
+  auto next = std::chrono::steady_clock::now();
+  while (running_.load()) {
+    next += period;
+    {
+      std::unique_lock lock(wake_mu_);
+      wake_.wait_until(lock, next, [&] { return !running_.load(); });
+    }
+    if (!running_.load()) break;
+    std::lock_guard lock(mu_);
+    if (camera_) arv_camera_software_trigger(camera_.get(), nullptr);  // a lost camera is the watchdog's business
+    if (std::chrono::steady_clock::now() > next + period) next = std::chrono::steady_clock::now();  // no bursts
+  }
 }
 
 void AravisCamera::teardown_connection(bool camera_reachable) {
@@ -265,7 +282,8 @@ void AravisCamera::control_loop() {
       if (first_frame_pending) last = started_at_;
       const auto silent_ms = (now.ns - last.ns) / 1'000'000;
       const auto limit = first_frame_pending ? first_frame_timeout() : stall_timeout();
-      const bool stalled = config_.trigger == TriggerMode::FreeRun && silent_ms > limit.count();
+      // Hardware-triggered cameras may rightly be silent; free-run and software-triggered ones may not.
+      const bool stalled = config_.trigger != TriggerMode::Hardware && silent_ms > limit.count();
       if (stalled || control_lost_.load()) {
         emit(CameraEvent::Kind::Lost,
              fmt::format("{}: camera lost ({}) -- unplugged, powered off, or its link is down; the other "
@@ -307,6 +325,7 @@ void AravisCamera::request_stop() {
 
 void AravisCamera::stop() {
   request_stop();
+  if (trigger_thread_.joinable()) trigger_thread_.join();
   if (control_thread_.joinable()) control_thread_.join();  // its loop tears the connection down
   else teardown_connection(true);                          // opened but never started
   queue_.close();

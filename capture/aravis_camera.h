@@ -8,7 +8,8 @@
 // camera watches for a stalled stream or a lost control channel, reports it
 // through the event handler within `stall_timeout()`, and tries to reconnect
 // every second; it may block on network timeouts, which is why it is not the
-// stream thread and not shared with other cameras.
+// stream thread and not shared with other cameras. In software-trigger mode a
+// trigger thread per camera sends one trigger per frame period.
 #include <atomic>
 #include <condition_variable>
 #include <functional>
@@ -98,6 +99,7 @@ class AravisCamera {
   Status apply_features();
   void teardown_connection(bool camera_reachable);
   void control_loop();
+  void trigger_loop();  // TriggerMode::Software: one AcquisitionSoftwareTrigger per frame period
   void emit(CameraEvent::Kind kind, std::string message);
   static void on_control_lost(ArvGvDevice* device, void* self);
 
@@ -118,6 +120,7 @@ class AravisCamera {
   std::uint32_t connection_ = 0;
   HostNs started_at_;
   std::thread control_thread_;
+  std::thread trigger_thread_;
   std::mutex wake_mu_;
   std::condition_variable wake_;
 };

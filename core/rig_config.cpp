@@ -176,6 +176,13 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
         cr.get_in_range("stop_after_s", v, 0.0, 1e7);
         c.stop_after_s = v;
       }
+      if (cr.has("return_after_s")) {
+        double v = 0;
+        cr.get_in_range("return_after_s", v, 0.0, 1e7);
+        if (!c.stop_after_s || v <= *c.stop_after_s)
+          cr.fail(cams[i]["return_after_s"], "return_after_s", "needs a stop_after_s before it");
+        c.return_after_s = v;
+      }
       cr.finish();
       s.cameras.push_back(c);
     }

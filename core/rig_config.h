@@ -52,7 +52,8 @@ struct SimCameraClock {
   double drift_ppm = 0;   // device clock rate error
   double jitter_us = 0;   // std-dev of device timestamp noise
   double packet_loss = 0;  // fraction of GVSP packets not sent
-  std::optional<double> stop_after_s;  // camera vanishes (process-wide) after this many seconds
+  std::optional<double> stop_after_s;    // camera vanishes after this many seconds (from sim start)
+  std::optional<double> return_after_s;  // and comes back (power-cycled: frame ids restart) after this many
 };
 
 struct SimConfig {

@@ -23,9 +23,10 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   self->clock_ = SimClock{t0_ns, clock.offset_ms * 1e6, clock.drift_ppm * 1e-6, clock.jitter_us * 1e3};
   self->rng_.seed(seed * 1000 + std::uint64_t(index));
   const auto truth_path = truth_dir / (camera.name + "_frames.csv");
-  self->truth_.open(truth_path);
+  const bool fresh = !std::filesystem::exists(truth_path);  // a camera that comes back appends
+  self->truth_.open(truth_path, std::ios::app);
   if (!self->truth_) return Error{fmt::format("cannot write ground truth {}", truth_path.string())};
-  self->truth_ << "frame_id,true_ns,device_ns,width,height\n";
+  if (fresh) self->truth_ << "frame_id,true_ns,device_ns,width,height\n";
 
   const std::string serial = camera.serial.empty() ? fmt::format("PVSIM{}", index) : camera.serial;
   self->fake_.reset(arv_gv_fake_camera_new(camera.address.c_str(), serial.c_str()));
@@ -34,6 +35,10 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
                              "simulated rig runs in its own network namespace)",
                              camera.name, camera.address)};
   if (clock.packet_loss > 0) g_object_set(self->fake_.get(), "gvsp-lost-ratio", clock.packet_loss, nullptr);
+  // The engine looks for a pending software trigger once per 1/trigger_frequency: keep that well
+  // above the camera's rate so software-triggered frames are not delayed by the simulator.
+  arv_fake_camera_set_trigger_frequency(arv_gv_fake_camera_get_fake_camera(self->fake_.get()),
+                                        std::max(100.0, 4 * camera.frame_rate));
   // Render the scene now for the configured format: the first frame must not stall the stream.
   if (const std::uint32_t pf = pixel_format_code(camera.pixel_format))
     (void)self->base_image(camera.width, camera.height, ArvPixelFormat(pf));

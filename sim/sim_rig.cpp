@@ -26,7 +26,9 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
   if (ec) return Error{fmt::format("cannot create {}: {}", truth_dir.string(), ec.message())};
   std::unique_ptr<SimRig> self(new SimRig());
   self->rig_ = rig;
+  self->truth_dir_ = truth_dir;
   self->t0_ns_ = host_now().ns;
+  self->returned_.assign(rig.cameras.size(), false);
 
   nlohmann::json truth;
   truth["t0_ns"] = self->t0_ns_;
@@ -49,6 +51,7 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
                          {"image_size", {cam.width, cam.height}},
                          {"homography_mm_to_px", std::vector<double>(h.val, h.val + 9)}};
     if (clk.stop_after_s) jc["stop_after_s"] = *clk.stop_after_s;
+    if (clk.return_after_s) jc["return_after_s"] = *clk.return_after_s;
     truth["cameras"].push_back(jc);
     self->cameras_.push_back(std::move(made.value()));
   }
@@ -65,10 +68,20 @@ void SimRig::run(const std::atomic<bool>& stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     const double elapsed_s = double(host_now().ns - t0_ns_) / 1e9;
     for (std::size_t i = 0; i < cameras_.size(); ++i) {
-      const auto& after = rig_.sim->cameras[i].stop_after_s;
-      if (cameras_[i] && after && elapsed_s >= *after) {
-        spdlog::warn("sim: camera {} vanishes now (stop_after_s = {})", rig_.cameras[i].name, *after);
+      const SimCameraClock& clk = rig_.sim->cameras[i];
+      if (cameras_[i] && clk.stop_after_s && !returned_[i] && elapsed_s >= *clk.stop_after_s) {
+        spdlog::warn("sim: camera {} vanishes now (stop_after_s = {})", rig_.cameras[i].name, *clk.stop_after_s);
         cameras_[i].reset();
+      }
+      if (!cameras_[i] && clk.return_after_s && !returned_[i] && elapsed_s >= *clk.return_after_s) {
+        returned_[i] = true;
+        auto made = SimCamera::create(int(i), rig_.cameras[i], clk, t0_ns_, rig_.sim->seed + 1, truth_dir_);
+        if (made) {
+          cameras_[i] = std::move(made.value());
+          spdlog::warn("sim: camera {} is back (return_after_s = {})", rig_.cameras[i].name, *clk.return_after_s);
+        } else {
+          spdlog::error("sim: camera {} could not come back: {}", rig_.cameras[i].name, made.error().message);
+        }
       }
     }
   }

@@ -19,14 +19,17 @@ class SimRig {
   static Result<std::unique_ptr<SimRig>> create(const RigConfig& rig, const std::filesystem::path& truth_dir);
   ~SimRig();
 
-  // Serves until `stop` becomes true, removing cameras whose stop_after_s has passed.
+  // Serves until `stop` becomes true, removing cameras whose stop_after_s has passed and
+  // bringing them back (power-cycled) at return_after_s.
   void run(const std::atomic<bool>& stop);
   std::size_t camera_count() const { return cameras_.size(); }
 
  private:
   SimRig() = default;
   RigConfig rig_;
+  std::filesystem::path truth_dir_;
   std::int64_t t0_ns_ = 0;
+  std::vector<bool> returned_;
   std::vector<std::unique_ptr<SimCamera>> cameras_;
 };
 

@@ -17,18 +17,19 @@ namespace fs = std::filesystem;
 namespace pvcap::testing {
 
 std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, int height, double fps,
-                         double video_fps) {
+                         double video_fps, const std::string& trigger) {
   std::string y = "name: test-rig\ncameras:\n";
   for (std::size_t i = 0; i < cameras.size(); ++i)
     y += fmt::format(
         "  - name: cam{0}\n    serial: PVSIM{0}\n    address: 127.0.0.{1}\n    width: {2}\n    height: {3}\n"
-        "    frame_rate: {4}\n    packet_size: 8192\n",
-        i, i + 2, width, height, fps);
+        "    frame_rate: {4}\n    packet_size: 8192\n    trigger: {5}\n",
+        i, i + 2, width, height, fps, trigger);
   y += fmt::format("store:\n  video_fps: {}\n  preset: ultrafast\nsim:\n  seed: 11\n  cameras:\n", video_fps);
   for (const auto& c : cameras) {
     y += fmt::format("    - {{clock_offset_ms: {}, drift_ppm: {}, jitter_us: 10, packet_loss: {}", c.offset_ms,
                      c.drift_ppm, c.packet_loss);
     if (c.stop_after_s >= 0) y += fmt::format(", stop_after_s: {}", c.stop_after_s);
+    if (c.return_after_s >= 0) y += fmt::format(", return_after_s: {}", c.return_after_s);
     y += "}\n";
   }
   return y;
@@ -85,12 +86,14 @@ RecordedSession record(const std::string& test_name, const std::string& rig_yaml
     c.name = devs.column_text(1);
     c.truth = read_truth(s.dir / "sim-truth" / (c.name + "_frames.csv"));
     auto f = db.prepare(
-        "SELECT sequence, frame_id, device_ns, host_ns, status, coalesce(reason, ''), kept, coalesce(video_index, -1) "
+        "SELECT connection, sequence, frame_id, device_ns, host_ns, status, coalesce(reason, ''), kept, "
+        "coalesce(video_index, -1) "
         "FROM frames WHERE device_id = ? ORDER BY host_ns");
     f.bind(1, c.device_id);
     while (f.step())
-      c.frames.push_back({std::uint64_t(f.column_int(0)), std::uint64_t(f.column_int(1)), f.column_int(2),
-                          f.column_int(3), f.column_text(4), f.column_text(5), f.column_int(6) != 0, f.column_int(7)});
+      c.frames.push_back({std::uint32_t(f.column_int(0)), std::uint64_t(f.column_int(1)), std::uint64_t(f.column_int(2)),
+                          f.column_int(3), f.column_int(4), f.column_text(5), f.column_text(6), f.column_int(7) != 0,
+                          f.column_int(8)});
     auto d = db.prepare("SELECT first_sequence, count, reason FROM drops WHERE device_id = ?");
     d.bind(1, c.device_id);
     while (d.step()) c.drops.push_back({std::uint64_t(d.column_int(0)), std::uint64_t(d.column_int(1)), d.column_text(2)});

@@ -11,14 +11,15 @@ namespace pvcap::testing {
 
 struct SimCameraSpec {
   double packet_loss = 0;
-  double stop_after_s = -1;  // < 0: never
+  double stop_after_s = -1;    // < 0: never
+  double return_after_s = -1;  // < 0: never
   double drift_ppm = 0;
-  double offset_ms = 1000;
+  double offset_ms = 1000;     // fields are set by name in the tests ({.packet_loss = 0.01})
 };
 
 // A rig of `cameras` simulated cameras at 127.0.0.2.. with the given size and rate.
 std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, int height, double fps,
-                         double video_fps);
+                         double video_fps, const std::string& trigger = "free-run");
 
 struct CommandResult {
   int exit_code = -1;
@@ -31,6 +32,7 @@ struct TruthFrame {
   std::int64_t true_ns, device_ns;
 };
 struct IndexFrame {
+  std::uint32_t connection;
   std::uint64_t sequence, frame_id;
   std::int64_t device_ns, host_ns;
   std::string status, reason;

@@ -118,7 +118,8 @@ VideoCheck check_video(const fs::path& session, const CameraRecord& c) {
 
 TEST(SimSession, FourCamerasTenSecondsEveryFrameAccountedAndTimecodesMatch) {
   const double duration = 10;
-  const auto s = record("four", sim_rig_yaml({{0, -1, 40, 5000}, {0, -1, -65, 12500}, {0, -1, 90, 800}, {0, -1, -15, 31000}},
+  const auto s = record("four", sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000}, {.drift_ppm = -65, .offset_ms = 12500},
+                                             {.drift_ppm = 90, .offset_ms = 800}, {.drift_ppm = -15, .offset_ms = 31000}},
                                             kWidth, kHeight, kFps, 15), duration);
   ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
   ASSERT_FALSE(s.dir.empty()) << s.result.output;
@@ -152,7 +153,7 @@ TEST(SimSession, FourCamerasTenSecondsEveryFrameAccountedAndTimecodesMatch) {
 }
 
 TEST(SimSession, OnePercentPacketLossNeverStoresACorruptedFrame) {
-  const auto s = record("loss", sim_rig_yaml({{0.01, -1}, {0.01, -1}}, kWidth, kHeight, kFps, 0), 6);
+  const auto s = record("loss", sim_rig_yaml({{.packet_loss = 0.01}, {.packet_loss = 0.01}}, kWidth, kHeight, kFps, 0), 6);
   ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
   ASSERT_EQ(s.cameras.size(), 2u);
   std::size_t incomplete = 0;
@@ -187,7 +188,7 @@ TEST(SimSession, OnePercentPacketLossNeverStoresACorruptedFrame) {
 
 TEST(SimSession, KilledCameraIsReportedWithinTwoSecondsAndTheOthersKeepRecording) {
   const double duration = 8;
-  const auto s = record("kill", sim_rig_yaml({{0, -1}, {0, -1}, {0, 3.0}, {0, -1}}, kWidth, kHeight, 30, 15), duration);
+  const auto s = record("kill", sim_rig_yaml({{}, {}, {.stop_after_s = 3.0}, {}}, kWidth, kHeight, 30, 15), duration);
   ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
   EXPECT_NE(s.result.output.find("cam2 (serial PVSIM2 at 127.0.0.4): camera lost"), std::string::npos)
       << s.result.output;
@@ -214,6 +215,46 @@ TEST(SimSession, KilledCameraIsReportedWithinTwoSecondsAndTheOthersKeepRecording
     EXPECT_GT(double(c.frames.size()), 0.8 * duration * 30);
     EXPECT_EQ(account(c).unaccounted, 0u);
   }
+  fs::remove_all(s.dir.parent_path().parent_path());
+}
+
+TEST(SimSession, CameraThatComesBackIsReconnectedAndRecordsAgain) {
+  // cam1 vanishes 2 s after the simulator starts and is back (power-cycled) 3 s later.
+  const auto s = record("reconnect", sim_rig_yaml({{}, {.stop_after_s = 2.0, .return_after_s = 5.0}}, kWidth, kHeight, 30, 15), 11);
+  ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
+  EXPECT_NE(s.result.output.find("cam1 (serial PVSIM1 at 127.0.0.3): reconnected"), std::string::npos) << s.result.output;
+  ASSERT_EQ(s.cameras.size(), 2u);
+  const auto& c = s.cameras[1];
+  std::size_t before = 0, after = 0, kept_after = 0;
+  for (const auto& f : c.frames) {
+    if (f.connection == 0) ++before;
+    else {
+      ++after;
+      if (f.kept) ++kept_after;
+    }
+  }
+  EXPECT_GT(before, 10u);
+  EXPECT_GT(after, 30u) << "no frames after the reconnection";
+  EXPECT_GT(kept_after, 5u) << "frames after the reconnection did not reach the video";
+  pvcap::sqlite::Database db(s.dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  auto q = db.prepare("SELECT group_concat(kind) FROM (SELECT kind FROM events WHERE device_id = ? ORDER BY host_ns)");
+  q.bind(1, c.device_id);
+  ASSERT_TRUE(q.step());
+  EXPECT_EQ(q.column_text(0), "camera_lost,camera_reconnected");
+  // The video holds both connections' frames, each the frame its index row names.
+  const VideoCheck v = check_video(s.dir, c);
+  EXPECT_GT(v.decoded, 0u);
+  EXPECT_EQ(v.timecode_ok, v.decoded);
+  fs::remove_all(s.dir.parent_path().parent_path());
+}
+
+TEST(SimSession, SoftwareTriggeredCameraDeliversAtTheConfiguredRate) {
+  const double duration = 4, fps = 20;
+  const auto s = record("swtrigger", sim_rig_yaml({{}}, kWidth, kHeight, fps, 0, "software"), duration);
+  ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
+  ASSERT_EQ(s.cameras.size(), 1u);
+  EXPECT_NEAR(double(s.cameras[0].frames.size()), duration * fps, duration * fps * 0.2);
+  EXPECT_EQ(s.result.output.find("camera lost"), std::string::npos) << s.result.output;
   fs::remove_all(s.dir.parent_path().parent_path());
 }
 
