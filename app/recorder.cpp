@@ -137,11 +137,11 @@ void camera_worker(AravisCamera& camera, std::int64_t device_id, SessionWriter& 
   gaps.settle(0, /*flush_all=*/true);
 }
 
-Status open_with_wait(AravisCamera& camera, double wait_s) {
+Status open_with_wait(AravisCamera& camera, double wait_s, const std::atomic<bool>& stop_requested) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
   for (;;) {
     Status s = camera.open();
-    if (s.ok() || std::chrono::steady_clock::now() >= deadline) return s;
+    if (s.ok() || stop_requested.load() || std::chrono::steady_clock::now() >= deadline) return s;
     std::this_thread::sleep_for(200ms);
   }
 }
@@ -191,7 +191,7 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
     }));
   }
   for (auto& cam : cameras) {
-    if (Status s = open_with_wait(*cam, options.device_wait_s); !s.ok()) {
+    if (Status s = open_with_wait(*cam, options.device_wait_s, stop_requested); !s.ok()) {
       spdlog::error("{}", s.error().message);
       spdlog::error("no session was recorded: every camera of {} must be ready", rig.source.string());
       if (!truth_tmp.empty()) std::filesystem::remove_all(truth_tmp);
@@ -206,6 +206,9 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   }
   SessionWriter& writer = *created.value();
   log::add_session_file(writer.dir());
+  struct SessionLogGuard {
+    ~SessionLogGuard() { log::remove_session_file(); }
+  } session_log_guard;
   spdlog::info("recording session {}", writer.dir().string());
 
   for (std::size_t i = 0; i < cameras.size(); ++i) {
@@ -230,13 +233,19 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   for (std::size_t i = 0; i < cameras.size(); ++i)
     workers.emplace_back(camera_worker, std::ref(*cameras[i]), device_ids[i], std::ref(writer), std::ref(*tallies[i]),
                          host0, rig.store.video_fps);
+  std::string end_reason = "stopped by operator";
+  bool start_failed = false;
   for (auto& cam : cameras) {
-    if (Status s = cam->start(); !s.ok()) spdlog::error("{}", s.error().message);
+    if (Status s = cam->start(); !s.ok()) {
+      spdlog::error("{}; stopping: every camera of the rig must record", s.error().message);
+      end_reason = "a camera failed to start: " + s.error().message;
+      start_failed = true;
+      break;
+    }
   }
   const std::int64_t rec_start = host_now().ns;
-  std::string end_reason = "stopped by operator";
   auto last_progress = std::chrono::steady_clock::now();
-  while (true) {
+  while (!start_failed) {
     std::this_thread::sleep_for(100ms);
     const double elapsed = double(host_now().ns - rec_start) / 1e9;
     if (stop_requested.load()) break;
@@ -298,7 +307,7 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
              rig.store.video_fps > 0 ? fmt::format("{:g}", rig.store.video_fps) : "all", rig.store.video_codec);
   if (any_loss) fmt::print("frames were lost: see the drops and frames tables (reason column) in session.db\n");
   if (writer.index_records_lost() > 0) fmt::print("WARNING: {} index records were lost\n", writer.index_records_lost());
-  log::remove_session_file();
+  if (start_failed) return 1;
   if (!closed.ok()) {
     spdlog::error("{}", closed.error().message);
     return 1;
