@@ -1,0 +1,30 @@
+#pragma once
+// Wire dumps of a Sensel Morph in the two formats of Sensel-Morph-Liberation's
+// recorder (see ../shared/data/sensel-captures/README.md): one .json object, or
+// .jsonl with a header line and one line per frame. Loading checks the file's
+// shape; decoding the frames is the codec's job.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "capture/sensel_pressure_codec.h"
+#include "core/result.h"
+
+namespace pvcap::sensel {
+
+struct CapturedFrame {
+  std::size_t line = 0;  // .jsonl line (1-based) or .json frame index
+  std::vector<std::uint8_t> payload;
+  int checksum = -1;     // as recorded (-1: none recorded)
+};
+
+struct CaptureFile {
+  std::filesystem::path path;
+  std::vector<std::uint8_t> metadata;  // register 0x1C's 6 bytes
+  std::vector<CapturedFrame> frames;
+};
+
+Result<CaptureFile> load_capture_file(const std::filesystem::path& path);
+
+}  // namespace pvcap::sensel
