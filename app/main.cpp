@@ -13,6 +13,7 @@
 #include <spdlog/spdlog.h>
 
 #include "app/recorder.h"
+#include "app/sensel_decode.h"
 #include "capture/aravis_discovery.h"
 #include "core/log.h"
 #include "core/result.h"
@@ -125,6 +126,12 @@ int main(int argc, char** argv) {
   sim->add_option("--truth", truth, "folder for the ground truth of the run")->capture_default_str();
   sim->add_option("--duration", sim_duration, "stop after this many seconds")->check(CLI::PositiveNumber);
 
+  auto* sensel = app.add_subcommand("sensel", "Sensel Morph tools");
+  sensel->require_subcommand(1);
+  auto* sensel_decode = sensel->add_subcommand("decode", "decode a Sensel wire dump (.json or .jsonl) and summarise it");
+  std::vector<std::string> decode_files;
+  sensel_decode->add_option("FILE", decode_files, "capture files")->required()->check(CLI::ExistingFile);
+
   CLI11_PARSE(app, argc, argv);
   pvcap::log::init_console(log_level);
   install_stop_handlers();
@@ -148,6 +155,15 @@ int main(int argc, char** argv) {
       if (rig.sim) ensure_sim_network(rig);
       pvcap::RecordOptions opts{root, duration, rig.sim ? 10.0 : 0.0, self_exe()};
       return pvcap::record_session(rig, opts, g_stop);
+    }
+    if (*sensel_decode) {
+      int rc = 0;
+      for (const auto& f : decode_files) {
+        auto summary = pvcap::decode_sensel_capture(f);
+        if (!summary) throw pvcap::UserError(summary.error().message);
+        rc = std::max(rc, pvcap::print_sensel_summary(f, summary.value()));
+      }
+      return rc;
     }
     if (*sim) {
       const auto rig = pvcap::load_rig_config(sim_rig);
