@@ -1,0 +1,151 @@
+#include "sim/sensel_emulator.h"
+
+#include <cmath>
+#include <cstring>
+
+#include "capture/sensel_protocol.h"
+
+namespace pvcap::sim {
+
+using namespace sensel;
+
+SenselScene fingertip_scene(double x_mm, double y_mm, double peak_grams, double period_s) {
+  SenselScene s;
+  s.pressure = [=](std::int64_t true_ns, const Grid& g) {
+    std::vector<std::uint16_t> counts(std::size_t(g.cells()), 0);
+    const double phase = std::fmod(double(true_ns) / 1e9, period_s) / period_s;
+    const double force = phase < 0.5 ? std::sin(phase * 2 * M_PI) : 0.0;  // press, then rest
+    if (force <= 0) return counts;
+    const double cell_mm_x = 1.25 * g.xscale, cell_mm_y = 1.25 * g.yscale;
+    const double sigma_mm = 4.0;  // a fingertip's footprint
+    for (int r = 0; r < g.rows; ++r)
+      for (int c = 0; c < g.cols; ++c) {
+        const double dx = c * cell_mm_x - x_mm, dy = r * cell_mm_y - y_mm;
+        const double grams = peak_grams * force * std::exp(-(dx * dx + dy * dy) / (2 * sigma_mm * sigma_mm));
+        const double raw = grams * 8.0;  // counts = g * 2^UNIT_SHIFT_FORCE
+        if (raw > 3.5) counts[std::size_t(r * g.cols + c)] = std::uint16_t(std::min(raw, 32000.0));
+      }
+    return counts;
+  };
+  return s;
+}
+
+SenselEmulator::SenselEmulator(SenselScene scene, SenselClock clock, std::string serial)
+    : scene_(std::move(scene)), clock_(clock), serial_(std::move(serial)) {
+  soft_reset();
+}
+
+void SenselEmulator::soft_reset() {
+  regs_.fill(0);
+  std::memcpy(&regs_[reg::kMagic], kMagicText, 6);
+  const std::uint8_t fw[10] = {1, 0, 16, 78, 0, 1, 3, 0, 1, 0};  // protocol 1, v0.16.78 rel 1, device 3 rev 1
+  std::memcpy(&regs_[reg::kFirmwareInfo], fw, 10);
+  regs_[reg::kSensorCols] = 185;
+  regs_[reg::kSensorRows] = 105;
+  const std::uint32_t w = 230000, h = 130000;
+  std::memcpy(&regs_[reg::kWidthUm], &w, 4);
+  std::memcpy(&regs_[reg::kHeightUm], &h, 4);
+  regs_[reg::kScanFrameRate] = 125;
+  regs_[reg::kScanDetail] = 1;           // medium
+  regs_[reg::kFrameContent] = 0x07;      // pressure, labels, contacts
+  regs_[reg::kContentSupported] = 0x0F;
+  regs_[reg::kContactsMaxCount] = 16;
+  regs_[reg::kBaselineEnabled] = 1;
+  regs_[reg::kDynamicBaseline] = 1;      // on by default, as on the device
+  regs_[0xA0] = 8;
+  regs_[reg::kUnitShiftForce] = 3;
+  regs_[0xA3] = 4;
+}
+
+Grid SenselEmulator::grid() const { return regs_[reg::kScanDetail] == 0 ? kHighDetail : kMediumDetail; }
+
+std::vector<std::uint8_t> SenselEmulator::frame_payload(std::int64_t now_ns) {
+  Frame f;
+  f.content = regs_[reg::kFrameContent] & 0x0F;
+  f.counter = counter_++;
+  f.timestamp_us = clock_.at(now_ns);
+  const Grid g = grid();
+  std::vector<std::uint16_t> counts =
+      scene_.pressure ? scene_.pressure(now_ns, g) : std::vector<std::uint16_t>(std::size_t(g.cells()), 0);
+  if (f.content & kPressure) f.pressure = PressureImage{3, counts};
+  bool touched = false;
+  for (auto c : counts) touched |= c > 3;
+  if (f.content & kLabels) {
+    std::vector<std::uint8_t> labels(counts.size(), kNoLabel);
+    for (std::size_t i = 0; i < counts.size(); ++i)
+      if (counts[i] > 3) labels[i] = 0;
+    f.labels = std::move(labels);
+  }
+  if (f.content & kContacts) {
+    f.contact_groups = regs_[reg::kContactsMask] & 0x0F;
+    if (touched) {
+      Contact c;
+      c.id = 0;
+      c.state = 2;
+      std::uint32_t total = 0;
+      for (auto v : counts) total += v;
+      c.total_force = std::uint16_t(std::min<std::uint32_t>(total, 65535));
+      f.contacts.push_back(c);
+    }
+  }
+  if (f.content & kAccel) f.accel = Accel{0, 0, 15600};
+  return encode_frame(f);
+}
+
+std::vector<std::uint8_t> SenselEmulator::read_variable(std::uint8_t r, std::int64_t now_ns) {
+  std::vector<std::uint8_t> payload;
+  if (r == reg::kReadFrame) {
+    payload = frame_payload(now_ns);
+    ++frames_sent_;
+    auto out = response_read_variable(kRvsAck, r, payload);
+    if (corrupt_next_) out.back() ^= 0x5A, corrupt_next_ = false;
+    if (truncate_next_) out.resize(out.size() / 2), truncate_next_ = false;
+    return out;
+  }
+  if (r == reg::kSerialNumber) {
+    payload.assign(16, 0xFF);
+    std::memcpy(payload.data(), serial_.data(), std::min<std::size_t>(serial_.size(), 13));
+  } else if (r == reg::kCompressionMetadata) {
+    const Grid g = grid();
+    payload = {0, 0, std::uint8_t(g.cols), std::uint8_t(g.rows), std::uint8_t(g.xscale), std::uint8_t(g.yscale)};
+  } else {
+    return {kRvsNack, r};
+  }
+  return response_read_variable(kRvsAck, r, payload);
+}
+
+std::vector<std::uint8_t> SenselEmulator::on_host_bytes(std::span<const std::uint8_t> bytes, std::int64_t now_ns) {
+  pending_.insert(pending_.end(), bytes.begin(), bytes.end());
+  std::vector<std::uint8_t> out;
+  std::size_t pos = 0;
+  while (pending_.size() - pos >= 3) {
+    const std::uint8_t board = pending_[pos], r = pending_[pos + 1], size = pending_[pos + 2];
+    if (board == 0x81) {  // read
+      std::vector<std::uint8_t> answer =
+          size == 0 ? read_variable(r, now_ns)
+                    : response_read(r, std::span<const std::uint8_t>(&regs_[r], std::min<std::size_t>(size, 256u - r)));
+      out.insert(out.end(), answer.begin(), answer.end());
+      pos += 3;
+    } else if (board == 0x01) {  // write: 01 reg size data chk
+      if (pending_.size() - pos < 3u + size + 1u) break;
+      const std::span<const std::uint8_t> data(&pending_[pos + 3], size);
+      if (checksum(data) != pending_[pos + 3 + size]) {
+        out.push_back(kWriteNack);
+        out.push_back(r);
+      } else {
+        if (r == reg::kSoftReset && size >= 1 && data[0] == 1) soft_reset();
+        else
+          for (std::size_t i = 0; i < size && r + i < 256; ++i) regs_[r + i] = data[i];
+        const auto ack = response_write(r);
+        out.insert(out.end(), ack.begin(), ack.end());
+      }
+      pos += 3u + size + 1u;
+    } else {
+      ++pos;  // not a command start: resynchronise on the next byte
+    }
+  }
+  pending_.erase(pending_.begin(), pending_.begin() + std::ptrdiff_t(pos));
+  return out;
+}
+
+}  // namespace pvcap::sim

@@ -1,0 +1,67 @@
+#pragma once
+// A Sensel Morph that speaks the device's protocol (protocol spec §12): a
+// byte-addressed register file with the documented defaults and soft reset, the
+// command parser with acks and checksums, and frames built with the same
+// encoders the driver's decoder is tested against, from a pressure scene, on the
+// emulator's own clock. Transport-free: feed it host bytes, send back what it
+// returns (sensel_pty.h puts it behind a pseudo-terminal).
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "capture/sensel_frame.h"
+#include "capture/sensel_pressure_codec.h"
+
+namespace pvcap::sim {
+
+struct SenselScene {
+  // Raw counts on `grid` at true time `true_ns` (row-major); empty = nothing on the pad.
+  std::function<std::vector<std::uint16_t>(std::int64_t true_ns, const sensel::Grid& grid)> pressure;
+};
+// A fingertip pressing at (x_mm, y_mm) once every `period_s`, peaking at `peak_grams` on its
+// centre cell: a smooth press and release, nothing in between.
+SenselScene fingertip_scene(double x_mm, double y_mm, double peak_grams, double period_s);
+
+struct SenselClock {
+  std::int64_t t0_ns = 0;        // true time of the emulator's power-on
+  double start_us = 0;           // device timestamp at power-on (set near 2^32 to test the wrap)
+  double drift_ppm = 0;
+  std::uint32_t at(std::int64_t true_ns) const {
+    return std::uint32_t(std::uint64_t(start_us + double(true_ns - t0_ns) / 1e3 * (1.0 + drift_ppm * 1e-6)));
+  }
+};
+
+class SenselEmulator {
+ public:
+  SenselEmulator(SenselScene scene, SenselClock clock, std::string serial = "SM01164910368");
+
+  // Consumes host bytes; returns the device's answers (empty while a command is incomplete).
+  std::vector<std::uint8_t> on_host_bytes(std::span<const std::uint8_t> bytes, std::int64_t now_ns);
+
+  // Faults for tests: the next frame's checksum is wrong / the next frame is cut short.
+  void corrupt_next_frame() { corrupt_next_ = true; }
+  void truncate_next_frame() { truncate_next_ = true; }
+
+  sensel::Grid grid() const;  // of the current scan detail
+  std::uint8_t reg(std::uint8_t address) const { return regs_[address]; }
+  std::uint64_t frames_sent() const { return frames_sent_; }
+
+ private:
+  void soft_reset();
+  std::vector<std::uint8_t> frame_payload(std::int64_t now_ns);
+  std::vector<std::uint8_t> read_variable(std::uint8_t reg, std::int64_t now_ns);
+
+  SenselScene scene_;
+  SenselClock clock_;
+  std::string serial_;
+  std::array<std::uint8_t, 256> regs_{};
+  std::vector<std::uint8_t> pending_;  // host bytes not yet forming a whole command
+  std::uint8_t counter_ = 0;
+  std::uint64_t frames_sent_ = 0;
+  bool corrupt_next_ = false, truncate_next_ = false;
+};
+
+}  // namespace pvcap::sim

@@ -1,0 +1,99 @@
+#include <gtest/gtest.h>
+
+#include "capture/sensel_frame.h"
+#include "capture/sensel_protocol.h"
+#include "capture/sensel_units.h"
+#include "sim/sensel_emulator.h"
+
+using namespace pvcap::sensel;
+using pvcap::sim::SenselEmulator;
+
+namespace {
+// Sends one command and parses the single answer the way the driver does.
+Response ask(SenselEmulator& emu, const std::vector<std::uint8_t>& cmd, Expect expect, std::uint8_t reg,
+             std::uint8_t size = 0, std::int64_t now_ns = 0) {
+  const auto answer = emu.on_host_bytes(cmd, now_ns);
+  Response r = parse_response(answer, expect, reg, size);
+  EXPECT_EQ(r.consumed, answer.size());
+  return r;
+}
+}  // namespace
+
+TEST(SenselEmulator, AnswersTheOpenSequenceLikeTheDevice) {
+  SenselEmulator emu({}, {});
+  auto magic = ask(emu, command_read(reg::kMagic, 6), Expect::Read, reg::kMagic, 6);
+  ASSERT_EQ(magic.state, Response::State::Ok) << magic.error;
+  EXPECT_EQ(std::string(magic.data.begin(), magic.data.end()), "S3NS31");
+  const std::uint8_t one[] = {1};
+  EXPECT_EQ(ask(emu, command_write(reg::kSoftReset, one), Expect::Write, reg::kSoftReset).state, Response::State::Ok);
+  auto cols = ask(emu, command_read(reg::kSensorCols, 2), Expect::Read, reg::kSensorCols, 2);
+  EXPECT_EQ(cols.data, (std::vector<std::uint8_t>{185, 0}));
+  auto serial = ask(emu, command_read_variable(reg::kSerialNumber), Expect::ReadVariable, reg::kSerialNumber);
+  ASSERT_EQ(serial.data.size(), 16u);
+  EXPECT_EQ(serial.data[15], 0xFF);  // 13 characters and 0xFF padding
+  auto meta = ask(emu, command_read_variable(reg::kCompressionMetadata), Expect::ReadVariable,
+                  reg::kCompressionMetadata);
+  EXPECT_EQ(grid_from_metadata(meta.data).value(), kMediumDetail);  // medium after reset
+  const std::uint8_t high[] = {0};
+  ask(emu, command_write(reg::kScanDetail, high), Expect::Write, reg::kScanDetail);
+  meta = ask(emu, command_read_variable(reg::kCompressionMetadata), Expect::ReadVariable, reg::kCompressionMetadata);
+  EXPECT_EQ(grid_from_metadata(meta.data).value(), kHighDetail);
+  EXPECT_EQ(emu.reg(reg::kDynamicBaseline), 1) << "dynamic baselining is on by default, as on the device";
+}
+
+TEST(SenselEmulator, WriteWithABadChecksumIsRefused) {
+  SenselEmulator emu({}, {});
+  std::vector<std::uint8_t> cmd = {0x01, reg::kScanDetail, 0x01, 0x00, 0x07};  // checksum should be 0
+  const auto answer = emu.on_host_bytes(cmd, 0);
+  EXPECT_EQ(answer, (std::vector<std::uint8_t>{kWriteNack, reg::kScanDetail}));
+  EXPECT_EQ(emu.reg(reg::kScanDetail), 1);
+}
+
+TEST(SenselEmulator, KnownPressDecodesToTheDocumentedPressure) {
+  // 200 g peak on the centre cell at the top of the press (a quarter of the 2 s period).
+  pvcap::sim::SenselEmulator emu(pvcap::sim::fingertip_scene(100.0, 50.0, 200.0, 2.0), {});
+  const std::uint8_t high[] = {0};
+  ask(emu, command_write(reg::kScanDetail, high), Expect::Write, reg::kScanDetail);
+  const std::uint8_t content[] = {kPressure | kLabels | kContacts | kAccel};
+  ask(emu, command_write(reg::kFrameContent, content), Expect::Write, reg::kFrameContent);
+  const auto r = ask(emu, command_read_variable(reg::kReadFrame), Expect::ReadVariable, reg::kReadFrame, 0,
+                     500'000'000);
+  ASSERT_EQ(r.state, Response::State::Ok) << r.error;
+  auto f = parse_frame(r.data, kHighDetail);
+  ASSERT_TRUE(f) << f.error().message;
+  ASSERT_TRUE(f.value().pressure && f.value().accel);
+  EXPECT_EQ(f.value().contacts.size(), 1u);
+  // The centre cell (100 mm / 2.5 = column 40, 50 mm / 2.5 = row 20).
+  const std::uint16_t centre = f.value().pressure->counts[20 * 93 + 40];
+  EXPECT_NEAR(counts_to_grams(centre), 200.0, 0.2);
+  // 200 g on 2.5 x 2.5 mm: 1.96133 N / 6.25e-6 m^2 = 313.8 kPa.
+  EXPECT_NEAR(native_cell_kpa(centre, kHighDetail), 313.81, 0.5);
+  // Labels mark the pressed cells with the contact's id.
+  EXPECT_EQ((*f.value().labels)[20 * 93 + 40], 0);
+  EXPECT_EQ((*f.value().labels)[0], kNoLabel);
+}
+
+TEST(SenselEmulator, FaultInjectionBreaksExactlyOneFrame) {
+  SenselEmulator emu(pvcap::sim::fingertip_scene(100, 50, 100, 2.0), {});
+  emu.corrupt_next_frame();
+  auto bad = ask(emu, command_read_variable(reg::kReadFrame), Expect::ReadVariable, reg::kReadFrame);
+  EXPECT_EQ(bad.state, Response::State::Bad);
+  EXPECT_NE(bad.error.find("checksum"), std::string::npos);
+  auto good = ask(emu, command_read_variable(reg::kReadFrame), Expect::ReadVariable, reg::kReadFrame);
+  EXPECT_EQ(good.state, Response::State::Ok);
+  emu.truncate_next_frame();
+  const auto cut = emu.on_host_bytes(command_read_variable(reg::kReadFrame), 0);
+  EXPECT_EQ(parse_response(cut, Expect::ReadVariable, reg::kReadFrame).state, Response::State::NeedMore);
+}
+
+TEST(SenselEmulator, TimestampsFollowItsOwnClockAndWrap) {
+  pvcap::sim::SenselClock clock{0, 4294967295.0 - 500'000.0, 100.0};  // 0.5 s before the 32-bit wrap
+  SenselEmulator emu({}, clock);
+  std::vector<std::uint32_t> ts;
+  for (std::int64_t t : {0LL, 400'000'000LL, 800'000'000LL}) {
+    auto r = ask(emu, command_read_variable(reg::kReadFrame), Expect::ReadVariable, reg::kReadFrame, 0, t);
+    ts.push_back(parse_frame(r.data, kMediumDetail).value().timestamp_us);
+  }
+  EXPECT_LT(ts[2], ts[1]) << "the device clock wraps past 2^32 us";
+  EXPECT_NEAR(double(ts[1] - ts[0]), 400'000.0 * 1.0001, 2.0);  // 100 ppm fast
+}
