@@ -98,8 +98,8 @@ std::vector<std::uint8_t> SenselEmulator::read_variable(std::uint8_t r, std::int
     payload = frame_payload(now_ns);
     ++frames_sent_;
     auto out = response_read_variable(kRvsAck, r, payload);
-    if (corrupt_next_) out.back() ^= 0x5A, corrupt_next_ = false;
-    if (truncate_next_) out.resize(out.size() / 2), truncate_next_ = false;
+    if (corrupt_next_.exchange(false)) out.back() ^= 0x5A;
+    if (truncate_next_.exchange(false)) out.resize(out.size() / 2);
     return out;
   }
   if (r == reg::kSerialNumber) {

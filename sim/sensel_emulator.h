@@ -6,6 +6,7 @@
 // emulator's own clock. Transport-free: feed it host bytes, send back what it
 // returns (sensel_pty.h puts it behind a pseudo-terminal).
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <span>
@@ -61,7 +62,7 @@ class SenselEmulator {
   std::vector<std::uint8_t> pending_;  // host bytes not yet forming a whole command
   std::uint8_t counter_ = 0;
   std::uint64_t frames_sent_ = 0;
-  bool corrupt_next_ = false, truncate_next_ = false;
+  std::atomic<bool> corrupt_next_{false}, truncate_next_{false};  // set from test threads
 };
 
 }  // namespace pvcap::sim

@@ -1,0 +1,223 @@
+#include "capture/sensel_device.h"
+
+#include <chrono>
+
+#include <fmt/format.h>
+
+namespace pvcap::sensel {
+
+namespace {
+constexpr int kReadTimeoutMs = 500;  // the official library's single-attempt limit: longer is a stall
+
+// Runs `f` and stamps it with the midpoint of CLOCK_MONOTONIC before and after.
+template <typename F>
+auto stamped(F&& f) {
+  const HostNs before = host_now();
+  auto result = f();
+  const HostNs after = host_now();
+  return std::make_tuple(HostNs{before.ns + (after.ns - before.ns) / 2}, after.ns - before.ns, std::move(result));
+}
+}  // namespace
+
+SenselDevice::SenselDevice(TransportFactory factory, EventHandler on_event)
+    : factory_(std::move(factory)), on_event_(std::move(on_event)) {}
+
+SenselDevice::~SenselDevice() { stop(); }
+
+Result<std::unique_ptr<SenselDevice>> SenselDevice::open(TransportFactory factory, EventHandler on_event) {
+  std::unique_ptr<SenselDevice> d(new SenselDevice(std::move(factory), std::move(on_event)));
+  auto t = d->factory_();
+  if (!t) return t.error();
+  d->transport_ = std::move(t.value());
+  if (Status s = d->open_sequence(); !s.ok()) return s.error();
+  return d;
+}
+
+void SenselDevice::emit(SenselEvent::Kind kind, std::string message) {
+  if (on_event_) on_event_(SenselEvent{kind, host_now(), std::move(message)});
+}
+
+std::map<std::string, std::uint64_t> SenselDevice::rejected() const {
+  std::lock_guard lock(rejected_mu_);
+  return rejected_;
+}
+
+void SenselDevice::flush_input() {
+  inbox_.clear();
+  std::uint8_t buf[512];
+  for (int i = 0; i < 5; ++i) {
+    auto n = transport_->read(buf, 10);
+    if (!n || n.value() == 0) break;
+  }
+}
+
+Result<Response> SenselDevice::transact(const std::vector<std::uint8_t>& command, Expect expect, std::uint8_t reg,
+                                        std::uint8_t size) {
+  timed_out_ = false;
+  if (Status s = transport_->write(command); !s.ok()) return s.error();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kReadTimeoutMs);
+  std::uint8_t buf[1024];
+  for (;;) {
+    Response r = parse_response(inbox_, expect, reg, size);
+    if (r.state != Response::State::NeedMore) {
+      inbox_.erase(inbox_.begin(), inbox_.begin() + std::ptrdiff_t(std::min(r.consumed, inbox_.size())));
+      if (r.state == Response::State::Ok && r.ack == kAsyncData) continue;  // not ours in sync mode
+      return r;
+    }
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) {
+      timed_out_ = true;
+      return Error{fmt::format("{}: no complete answer to register 0x{:02x} within {} ms ({} bytes)",
+                               transport_->describe(), reg, kReadTimeoutMs, inbox_.size())};
+    }
+    auto n = transport_->read(buf, int(left.count()));
+    if (!n) return n.error();
+    inbox_.insert(inbox_.end(), buf, buf + n.value());
+  }
+}
+
+Status SenselDevice::write_reg(std::uint8_t reg, std::span<const std::uint8_t> data) {
+  auto r = transact(command_write(reg, data), Expect::Write, reg);
+  if (!r) return r.error();
+  if (r.value().state != Response::State::Ok)
+    return Error{fmt::format("{}: writing register 0x{:02x}: {}", transport_->describe(), reg, r.value().error)};
+  return {};
+}
+
+Status SenselDevice::open_sequence() {
+  const std::string where = transport_->describe();
+  auto read = [&](std::uint8_t reg, std::uint8_t size) -> Result<std::vector<std::uint8_t>> {
+    auto r = size ? transact(command_read(reg, size), Expect::Read, reg, size)
+                  : transact(command_read_variable(reg), Expect::ReadVariable, reg);
+    if (!r) return r.error();
+    if (r.value().state != Response::State::Ok)
+      return Error{fmt::format("{}: reading register 0x{:02x}: {}", where, reg, r.value().error)};
+    return r.value().data;
+  };
+  flush_input();
+  auto magic = read(reg::kMagic, 6);
+  if (!magic) return Error{fmt::format("{} (is this a Sensel Morph?)", magic.error().message)};
+  if (std::string(magic.value().begin(), magic.value().end()) != kMagicText)
+    return Error{fmt::format("{}: not a Sensel Morph (magic is not S3NS31)", where)};
+  const std::uint8_t one[] = {1};
+  if (Status s = write_reg(reg::kSoftReset, one); !s.ok()) return s;
+  auto fw = read(reg::kFirmwareInfo, 10);
+  if (!fw) return fw.error();
+  info_.firmware = fmt::format("{}.{}.{}", fw.value()[1], fw.value()[2], fw.value()[3] | (fw.value()[4] << 8));
+  auto serial = read(reg::kSerialNumber, 0);
+  if (!serial) return serial.error();
+  info_.serial.clear();
+  for (std::uint8_t c : serial.value())
+    if (c != 0xFF && c != 0) info_.serial.push_back(char(c));
+  auto meta = read(reg::kCompressionMetadata, 0);
+  if (!meta) return meta.error();
+  auto grid = grid_from_metadata(meta.value());
+  if (!grid) return Error{fmt::format("{}: {}", where, grid.error().message)};
+  info_.grid = grid.value();
+  return {};
+}
+
+Status SenselDevice::apply_config() {
+  const std::uint8_t detail[] = {std::uint8_t(config_.scan_detail)};
+  if (Status s = write_reg(reg::kScanDetail, detail); !s.ok()) return s;
+  const std::uint8_t content[] = {config_.content};
+  if (Status s = write_reg(reg::kFrameContent, content); !s.ok()) return s;
+  const std::uint8_t dynamic[] = {std::uint8_t(config_.dynamic_baseline ? 1 : 0)};
+  if (Status s = write_reg(reg::kDynamicBaseline, dynamic); !s.ok()) return s;
+  if (config_.frame_rate_cap > 0) {
+    const std::uint8_t rate[] = {std::uint8_t(config_.frame_rate_cap), std::uint8_t(config_.frame_rate_cap >> 8)};
+    if (Status s = write_reg(reg::kScanFrameRate, rate); !s.ok()) return s;
+  }
+  // The grid follows the scan detail: read it again rather than assume.
+  auto r = transact(command_read_variable(reg::kCompressionMetadata), Expect::ReadVariable, reg::kCompressionMetadata);
+  if (!r) return r.error();
+  if (r.value().state != Response::State::Ok) return Error{r.value().error};
+  auto grid = grid_from_metadata(r.value().data);
+  if (!grid) return grid.error();
+  info_.grid = grid.value();
+  return {};
+}
+
+Status SenselDevice::configure(const SenselConfig& config) {
+  config_ = config;
+  return apply_config();
+}
+
+Status SenselDevice::start() {
+  const std::uint8_t sync[] = {1};
+  if (Status s = write_reg(reg::kScanEnabled, sync); !s.ok()) return s;
+  running_.store(true);
+  thread_ = std::thread([this] { stream_loop(); });
+  return {};
+}
+
+void SenselDevice::stop() {
+  if (running_.exchange(false) && thread_.joinable()) thread_.join();
+  if (transport_) {
+    const std::uint8_t off[] = {0};
+    (void)write_reg(reg::kScanEnabled, off);
+  }
+  queue_.close();
+}
+
+void SenselDevice::stream_loop() {
+  auto reject = [&](const std::string& why) {
+    std::lock_guard lock(rejected_mu_);
+    ++rejected_[why];
+  };
+  while (running_.load()) {
+    if (!transport_) {  // unplugged: reopen every second
+      std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+      auto t = factory_();
+      if (!t) continue;
+      transport_ = std::move(t.value());
+      const std::uint8_t sync[] = {1};
+      if (open_sequence().ok() && apply_config().ok() && write_reg(reg::kScanEnabled, sync).ok()) {
+        counter_ = SequenceUnwrapper(8, false);  // a power-cycled device restarts its counter
+        emit(SenselEvent::Kind::Reconnected, fmt::format("{}: Sensel reconnected, streaming again", transport_->describe()));
+      } else {
+        transport_.reset();
+      }
+      continue;
+    }
+    auto [host, wait_ns, r] = stamped([&] { return transact(command_read_variable(reg::kReadFrame), Expect::ReadVariable, reg::kReadFrame); });
+    if (!r) {
+      const std::string msg = r.error().message;
+      if (timed_out_) {  // stall: the device answered nothing whole in time
+        reject("stall");
+        emit(SenselEvent::Kind::Stall, msg);
+        flush_input();
+      } else {
+        emit(SenselEvent::Kind::Unplugged, fmt::format("{}; everything captured so far is kept, reopening every second", msg));
+        transport_.reset();
+      }
+      continue;
+    }
+    if (r.value().state != Response::State::Ok) {
+      reject(r.value().error.find("checksum") != std::string::npos ? "checksum" : "bad response");
+      emit(SenselEvent::Kind::Garbage, fmt::format("{}: frame rejected: {}", transport_->describe(), r.value().error));
+      flush_input();
+      continue;
+    }
+    auto frame = parse_frame(r.value().data, info_.grid);
+    if (!frame) {
+      reject("undecodable frame");
+      emit(SenselEvent::Kind::Garbage, fmt::format("{}: frame rejected: {}", transport_->describe(), frame.error().message));
+      continue;
+    }
+    PressureSample s;
+    s.host_ts = host;
+    s.host_wait_ns = wait_ns;
+    const auto step = counter_.next(frame.value().counter);
+    s.sequence = step.sequence;
+    s.lost_before = step.missing;
+    lost_.fetch_add(step.missing);
+    s.device_ts = DeviceNs{std::int64_t(clock_.next(frame.value().timestamp_us).sequence) * 1000};
+    s.grid = info_.grid;
+    s.frame = std::move(frame.value());
+    frames_.fetch_add(1);
+    if (!queue_.try_push(s)) overflows_.fetch_add(1);
+  }
+}
+
+}  // namespace pvcap::sensel

@@ -1,0 +1,109 @@
+#pragma once
+// A Sensel Morph over any Transport: the open sequence (magic, soft reset, the
+// information registers), configuration from the rig, and a streaming thread
+// that polls frames (sync mode) and stamps each with pvcap's CLOCK_MONOTONIC
+// midpoint of request and answer.
+//
+// Threads: open()/configure()/start()/stop() from the app's thread; frames are
+// produced on the device's own thread into a bounded queue (never waits on the
+// consumer). A stall (no answer in 500 ms), garbage (a bad checksum, an
+// undecodable frame) and an unplug are reported through the event handler and
+// survived: garbage is skipped, an unplugged device is reopened every second.
+#include <atomic>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "capture/sensel_frame.h"
+#include "capture/sensel_protocol.h"
+#include "capture/sensel_transport.h"
+#include "core/bounded_queue.h"
+#include "core/result.h"
+#include "core/sequence_unwrap.h"
+#include "core/time.h"
+
+namespace pvcap::sensel {
+
+struct SenselConfig {
+  int scan_detail = 1;  // 0 high (93x53, ~50 Hz), 1 medium (47x27, ~125 Hz)
+  std::uint8_t content = kPressure | kLabels | kContacts | kAccel;
+  bool dynamic_baseline = false;  // off: static loads must not decay on a capture rig
+  int frame_rate_cap = 0;         // Hz written to SCAN_FRAME_RATE; 0 leaves the device's
+};
+
+struct SenselInfo {
+  std::string serial;    // register 0x0F (13 characters)
+  std::string firmware;  // "0.16.78"
+  Grid grid;
+};
+
+// One frame as the pipeline sees it: the raw counts on the native grid with its grid,
+// and all three time bases' inputs.
+struct PressureSample {
+  HostNs host_ts;                 // midpoint of request and answer
+  std::int64_t host_wait_ns = 0;  // answer time minus request time (the stamp's uncertainty)
+  DeviceNs device_ts;             // device µs timestamp, unwrapped past 2^32, in ns
+  std::uint64_t sequence = 0;     // rolling counter, unwrapped
+  std::uint64_t lost_before = 0;  // frames the counter says were skipped before this one
+  Grid grid;
+  Frame frame;                    // contacts, accelerometer, pressure counts, labels
+};
+
+struct SenselEvent {
+  enum class Kind { Stall, Garbage, Unplugged, Reconnected } kind;
+  HostNs at;
+  std::string message;
+};
+
+class SenselDevice {
+ public:
+  using TransportFactory = std::function<Result<std::unique_ptr<Transport>>()>;
+  using EventHandler = std::function<void(const SenselEvent&)>;
+
+  // Opens through `factory` (called again to reconnect) and runs the open sequence.
+  static Result<std::unique_ptr<SenselDevice>> open(TransportFactory factory, EventHandler on_event = nullptr);
+  ~SenselDevice();
+
+  Status configure(const SenselConfig& config);
+  Status start();
+  void stop();  // stops scanning; closes the queue after the last frame
+
+  const SenselInfo& info() const { return info_; }
+  BoundedQueue<PressureSample>& samples() { return queue_; }
+  std::uint64_t frames() const { return frames_.load(); }
+  std::uint64_t lost_frames() const { return lost_.load(); }
+  std::uint64_t queue_overflows() const { return overflows_.load(); }
+  std::map<std::string, std::uint64_t> rejected() const;  // reason -> count
+
+ private:
+  SenselDevice(TransportFactory factory, EventHandler on_event);
+  Status open_sequence();
+  Status apply_config();
+  Result<Response> transact(const std::vector<std::uint8_t>& command, Expect expect, std::uint8_t reg,
+                            std::uint8_t size = 0);
+  Status write_reg(std::uint8_t reg, std::span<const std::uint8_t> data);
+  void flush_input();
+  void stream_loop();
+  void emit(SenselEvent::Kind kind, std::string message);
+
+  TransportFactory factory_;
+  EventHandler on_event_;
+  std::unique_ptr<Transport> transport_;
+  std::vector<std::uint8_t> inbox_;  // bytes read but not yet parsed
+  bool timed_out_ = false;           // the last transact() failed for lack of an answer, not of a device
+  SenselInfo info_;
+  SenselConfig config_;
+  BoundedQueue<PressureSample> queue_{512};
+  SequenceUnwrapper counter_{8, false};
+  SequenceUnwrapper clock_{32, false};
+  std::atomic<bool> running_{false};
+  std::thread thread_;
+  std::atomic<std::uint64_t> frames_{0}, lost_{0}, overflows_{0};
+  mutable std::mutex rejected_mu_;
+  std::map<std::string, std::uint64_t> rejected_;
+};
+
+}  // namespace pvcap::sensel

@@ -1,0 +1,26 @@
+#pragma once
+// How bytes reach a Sensel Morph. Two transports behind one interface: a tty
+// (/dev/ttyACM*, or the emulator's pseudo-terminal) and, later, libusb bulk
+// endpoints. read() waits at most `timeout_ms`; 0 bytes means nothing arrived in
+// time; an Error means the device is gone (unplugged, hung up).
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+
+#include "core/result.h"
+
+namespace pvcap::sensel {
+
+class Transport {
+ public:
+  virtual ~Transport() = default;
+  virtual Status write(std::span<const std::uint8_t> bytes) = 0;
+  virtual Result<std::size_t> read(std::span<std::uint8_t> into, int timeout_ms) = 0;
+  virtual std::string describe() const = 0;  // for messages: "tty /dev/ttyACM0"
+};
+
+// Opens a tty in raw mode at 115200 8N1 (nominal on USB CDC).
+Result<std::unique_ptr<Transport>> open_tty(const std::string& path);
+
+}  // namespace pvcap::sensel

@@ -1,0 +1,86 @@
+#include <fcntl.h>
+#include <poll.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include <fmt/format.h>
+
+#include "capture/sensel_transport.h"
+
+namespace pvcap::sensel {
+
+namespace {
+
+class TtyTransport : public Transport {
+ public:
+  TtyTransport(int fd, std::string path) : fd_(fd), path_(std::move(path)) {}
+  ~TtyTransport() override { ::close(fd_); }
+
+  Status write(std::span<const std::uint8_t> bytes) override {
+    std::size_t done = 0;
+    while (done < bytes.size()) {
+      const ssize_t n = ::write(fd_, bytes.data() + done, bytes.size() - done);
+      if (n < 0) {
+        if (errno == EINTR || errno == EAGAIN) {
+          pollfd p{fd_, POLLOUT, 0};
+          ::poll(&p, 1, 100);
+          continue;
+        }
+        return Error{fmt::format("{}: write failed: {}", describe(), std::strerror(errno))};
+      }
+      done += std::size_t(n);
+    }
+    return {};
+  }
+
+  Result<std::size_t> read(std::span<std::uint8_t> into, int timeout_ms) override {
+    pollfd p{fd_, POLLIN, 0};
+    const int rc = ::poll(&p, 1, timeout_ms);
+    if (rc < 0 && errno != EINTR) return Error{fmt::format("{}: {}", describe(), std::strerror(errno))};
+    if (rc <= 0) return std::size_t{0};
+    if (p.revents & (POLLHUP | POLLERR | POLLNVAL) && !(p.revents & POLLIN))
+      return Error{fmt::format("{}: the device hung up (unplugged?)", describe())};
+    const ssize_t n = ::read(fd_, into.data(), into.size());
+    if (n < 0) {
+      if (errno == EAGAIN || errno == EINTR) return std::size_t{0};
+      return Error{fmt::format("{}: {} (unplugged?)", describe(), std::strerror(errno))};
+    }
+    if (n == 0) return Error{fmt::format("{}: end of file (unplugged?)", describe())};
+    return std::size_t(n);
+  }
+
+  std::string describe() const override { return "tty " + path_; }
+
+ private:
+  int fd_;
+  std::string path_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<Transport>> open_tty(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0)
+    return Error{fmt::format("tty {}: cannot open: {}{}", path, std::strerror(errno),
+                             errno == EACCES ? " (add the user to the dialout group or install a udev rule)" : "")};
+  termios t{};
+  if (tcgetattr(fd, &t) != 0) {
+    const int e = errno;
+    ::close(fd);
+    return Error{fmt::format("tty {}: not a terminal: {}", path, std::strerror(e))};
+  }
+  cfmakeraw(&t);
+  cfsetispeed(&t, B115200);
+  cfsetospeed(&t, B115200);
+  t.c_cflag |= CLOCAL | CREAD;
+  t.c_cc[VMIN] = 0;
+  t.c_cc[VTIME] = 0;
+  tcsetattr(fd, TCSANOW, &t);
+  tcflush(fd, TCIOFLUSH);
+  return std::unique_ptr<Transport>(new TtyTransport(fd, path));
+}
+
+}  // namespace pvcap::sensel

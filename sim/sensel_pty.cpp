@@ -1,0 +1,77 @@
+#include "sim/sensel_pty.h"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <stdlib.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+
+#include <fmt/format.h>
+
+#include "capture/sensel_protocol.h"
+#include "core/time.h"
+
+namespace pvcap::sim {
+
+Result<std::unique_ptr<SenselPty>> SenselPty::create(SenselEmulator& emulator) {
+  std::unique_ptr<SenselPty> p(new SenselPty(emulator));
+  p->master_ = posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+  if (p->master_ < 0 || grantpt(p->master_) != 0 || unlockpt(p->master_) != 0)
+    return Error{fmt::format("cannot create a pseudo-terminal: {}", std::strerror(errno))};
+  termios t{};
+  tcgetattr(p->master_, &t);
+  cfmakeraw(&t);
+  tcsetattr(p->master_, TCSANOW, &t);
+  p->slave_path_ = ptsname(p->master_);
+  p->thread_ = std::thread([raw = p.get()] { raw->serve(); });
+  return p;
+}
+
+SenselPty::~SenselPty() {
+  running_.store(false);
+  if (thread_.joinable()) thread_.join();
+  if (master_ >= 0) ::close(master_);
+}
+
+void SenselPty::unplug() {
+  running_.store(false);
+  if (thread_.joinable()) thread_.join();
+  ::close(master_);  // the slave side now reads EOF/EIO, as after a USB unplug
+  master_ = -1;
+}
+
+void SenselPty::serve() {
+  std::uint8_t buf[256];
+  auto next_frame = std::chrono::steady_clock::now();
+  while (running_.load()) {
+    pollfd p{master_, POLLIN, 0};
+    if (::poll(&p, 1, 50) <= 0 || !(p.revents & POLLIN)) continue;
+    const ssize_t n = ::read(master_, buf, sizeof buf);
+    if (n <= 0) continue;
+    if (const int stall = stall_ms_.exchange(0); stall > 0) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(stall));
+      continue;  // the request is lost, as on a hung device
+    }
+    // Pace frame reads like the device: one scan per period of the current detail.
+    const bool frame_read = n >= 3 && buf[0] == 0x81 && buf[1] == sensel::reg::kReadFrame && buf[2] == 0;
+    if (frame_read) {
+      const auto period = std::chrono::microseconds(emu_.grid() == sensel::kHighDetail ? 20000 : 8000);
+      std::this_thread::sleep_until(next_frame);
+      next_frame = std::max(next_frame + period, std::chrono::steady_clock::now());
+    }
+    const auto out = emu_.on_host_bytes(std::span<const std::uint8_t>(buf, std::size_t(n)), host_now().ns);
+    std::size_t done = 0;
+    // Answers go out in 64-byte pieces, like USB full-speed bulk packets.
+    while (done < out.size() && running_.load()) {
+      const ssize_t w = ::write(master_, out.data() + done, std::min<std::size_t>(64, out.size() - done));
+      if (w > 0) done += std::size_t(w);
+      else if (errno != EAGAIN && errno != EINTR) break;
+    }
+  }
+}
+
+}  // namespace pvcap::sim

@@ -1,0 +1,138 @@
+// The Sensel driver against the emulator behind a pseudo-terminal (the tty transport):
+// the whole open / configure / stream / close sequence, and the faults a lab sees.
+#include <gtest/gtest.h>
+
+#include <mutex>
+#include <thread>
+
+#include "capture/sensel_device.h"
+#include "sim/sensel_emulator.h"
+#include "sim/sensel_pty.h"
+
+using namespace pvcap;
+using namespace std::chrono_literals;
+
+namespace {
+
+struct Rig {
+  sim::SenselEmulator emu{sim::fingertip_scene(60.0, 60.0, 150.0, 0.5), sim::SenselClock{0, 4294000000.0, 50.0}};
+  std::unique_ptr<sim::SenselPty> pty;
+  std::unique_ptr<sensel::SenselDevice> device;
+  std::mutex mu;
+  std::vector<sensel::SenselEvent> events;
+
+  void open() {
+    auto p = sim::SenselPty::create(emu);
+    ASSERT_TRUE(p) << p.error().message;
+    pty = std::move(p.value());
+    const std::string path = pty->slave_path();
+    auto d = sensel::SenselDevice::open([path] { return sensel::open_tty(path); },
+                                        [this](const sensel::SenselEvent& e) {
+                                          std::lock_guard lock(mu);
+                                          events.push_back(e);
+                                        });
+    ASSERT_TRUE(d) << d.error().message;
+    device = std::move(d.value());
+  }
+  std::vector<sensel::PressureSample> drain() {
+    std::vector<sensel::PressureSample> out;
+    while (auto s = device->samples().pop_for(0ms)) out.push_back(std::move(*s));
+    return out;
+  }
+  bool saw(sensel::SenselEvent::Kind kind) {
+    std::lock_guard lock(mu);
+    for (const auto& e : events)
+      if (e.kind == kind) return true;
+    return false;
+  }
+};
+
+}  // namespace
+
+TEST(SenselDriver, OpensConfiguresAndStreamsOverATty) {
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.open());
+  EXPECT_EQ(rig.device->info().serial, "SM01164910368");
+  EXPECT_EQ(rig.device->info().firmware, "0.16.78");
+  ASSERT_TRUE(rig.device->configure({.scan_detail = 1}).ok());
+  EXPECT_EQ(rig.emu.reg(0x57), 0) << "dynamic baselining must be switched off";
+  EXPECT_EQ(rig.device->info().grid, sensel::kMediumDetail);
+  ASSERT_TRUE(rig.device->start().ok());
+  std::this_thread::sleep_for(1500ms);
+  rig.device->stop();
+  const auto samples = rig.drain();
+  // ~125 Hz at medium detail.
+  EXPECT_GT(samples.size(), 150u);
+  EXPECT_LT(samples.size(), 210u);
+  EXPECT_EQ(rig.device->lost_frames(), 0u);
+  bool pressed = false, wrapped = false;
+  for (std::size_t i = 1; i < samples.size(); ++i) {
+    EXPECT_GT(samples[i].host_ts, samples[i - 1].host_ts);
+    EXPECT_GT(samples[i].device_ts, samples[i - 1].device_ts) << "device time unwrapped past 2^32 us";
+    EXPECT_EQ(samples[i].sequence, samples[i - 1].sequence + 1);
+    wrapped |= samples[i].frame.timestamp_us < samples[i - 1].frame.timestamp_us;
+    for (auto c : samples[i].frame.pressure->counts) pressed |= c > 0;
+  }
+  EXPECT_TRUE(wrapped) << "the emulated clock starts just before its 32-bit wrap";
+  EXPECT_TRUE(pressed);
+  EXPECT_LT(samples[5].host_wait_ns, 50'000'000) << "request-to-answer time bounds the stamp's error";
+}
+
+TEST(SenselDriver, CorruptFrameIsRejectedAndCountedAndStreamingGoesOn) {
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.open());
+  ASSERT_TRUE(rig.device->configure({}).ok());
+  ASSERT_TRUE(rig.device->start().ok());
+  std::this_thread::sleep_for(300ms);
+  rig.emu.corrupt_next_frame();
+  std::this_thread::sleep_for(300ms);
+  rig.emu.truncate_next_frame();  // half a frame, then nothing: a stall until the timeout
+  std::this_thread::sleep_for(1000ms);
+  const auto before = rig.device->frames();
+  std::this_thread::sleep_for(300ms);
+  EXPECT_GT(rig.device->frames(), before) << "streaming stopped after the bad frames";
+  rig.device->stop();
+  const auto rejected = rig.device->rejected();
+  EXPECT_EQ(rejected.count("checksum"), 1u);
+  EXPECT_TRUE(rig.saw(sensel::SenselEvent::Kind::Garbage));
+}
+
+TEST(SenselDriver, StallIsReportedAndSurvived) {
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.open());
+  ASSERT_TRUE(rig.device->configure({}).ok());
+  ASSERT_TRUE(rig.device->start().ok());
+  std::this_thread::sleep_for(200ms);
+  rig.pty->stall_for(800);
+  std::this_thread::sleep_for(1500ms);
+  const auto before = rig.device->frames();
+  std::this_thread::sleep_for(300ms);
+  EXPECT_GT(rig.device->frames(), before);
+  rig.device->stop();
+  EXPECT_TRUE(rig.saw(sensel::SenselEvent::Kind::Stall));
+  EXPECT_GE(rig.device->rejected()["stall"], 1u);
+}
+
+TEST(SenselDriver, UnplugIsReportedAndNothingCapturedIsLost) {
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.open());
+  ASSERT_TRUE(rig.device->configure({}).ok());
+  ASSERT_TRUE(rig.device->start().ok());
+  std::this_thread::sleep_for(500ms);
+  const auto t_unplug = host_now();
+  rig.pty->unplug();
+  std::this_thread::sleep_for(600ms);
+  EXPECT_TRUE(rig.saw(sensel::SenselEvent::Kind::Unplugged));
+  {
+    std::lock_guard lock(rig.mu);
+    for (const auto& e : rig.events)
+      if (e.kind == sensel::SenselEvent::Kind::Unplugged) {
+        EXPECT_LT(e.at.ns - t_unplug.ns, 600'000'000);
+      }
+  }
+  const auto frames = rig.device->frames();
+  const auto start = std::chrono::steady_clock::now();
+  rig.device->stop();
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 2500ms) << "stop must not hang on a vanished device";
+  EXPECT_EQ(rig.drain().size(), frames) << "every frame captured before the unplug is still delivered";
+}
