@@ -13,6 +13,7 @@
 
 #include "capture/aravis_camera.h"
 #include "capture/pixel_format.h"
+#include "capture/sensel_device.h"
 #include "core/log.h"
 #include "core/gap_tracker.h"
 #include "core/sequence_unwrap.h"
@@ -137,6 +138,107 @@ void camera_worker(AravisCamera& camera, std::int64_t device_id, SessionWriter& 
   gaps.settle(0, /*flush_all=*/true);
 }
 
+// The Sensel's part of a session: open before anything is on disk, then a worker that
+// moves its samples into the store, one row per frame, at full rate.
+class SenselRecording {
+ public:
+  // `tty` is the device path, or "sim" with `sim_dir` holding the simulator's sensel.tty link.
+  static Result<std::unique_ptr<SenselRecording>> open(const SenselRigConfig& cfg, const std::filesystem::path& sim_dir,
+                                                        double wait_s, const std::atomic<bool>& stop_requested) {
+    std::unique_ptr<SenselRecording> r(new SenselRecording());
+    r->config_ = cfg;
+    const std::string path = cfg.tty == "sim" ? (sim_dir / "sensel.tty").string() : cfg.tty;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
+    for (;;) {
+      auto d = sensel::SenselDevice::open([path] { return sensel::open_tty(path); },
+                                          [raw = r.get()](const sensel::SenselEvent& e) { raw->on_event(e); });
+      if (d) {
+        r->device_ = std::move(d.value());
+        break;
+      }
+      if (stop_requested.load() || std::chrono::steady_clock::now() >= deadline)
+        return Error{fmt::format("Sensel (sensel.tty in the rig file, line {}): {}", cfg.line, d.error().message)};
+      std::this_thread::sleep_for(200ms);
+    }
+    if (Status s = r->device_->configure({.scan_detail = cfg.scan_detail,
+                                          .dynamic_baseline = cfg.dynamic_baseline,
+                                          .frame_rate_cap = cfg.frame_rate_cap});
+        !s.ok())
+      return Error{"Sensel: " + s.error().message};
+    const auto& info = r->device_->info();
+    spdlog::info("sensel: Sensel Morph serial {} firmware {} on {}, grid {}x{} (scan detail {}), dynamic baselining {}",
+                 info.serial, info.firmware, path, info.grid.cols, info.grid.rows,
+                 cfg.scan_detail == 0 ? "high" : "medium", cfg.dynamic_baseline ? "on" : "off");
+    return r;
+  }
+
+  DeviceRecord device_record() const {
+    const auto& info = device_->info();
+    nlohmann::json j = {{"tty", config_.tty}, {"scan_detail", config_.scan_detail == 0 ? "high" : "medium"},
+                        {"grid", {info.grid.cols, info.grid.rows, info.grid.xscale, info.grid.yscale}},
+                        {"dynamic_baseline", config_.dynamic_baseline}, {"frame_rate_cap", config_.frame_rate_cap},
+                        {"latency_ns", config_.latency_ns}};
+    return DeviceRecord{"sensel", "sensel", "Sensel", "Morph", info.serial, config_.tty, info.firmware, j.dump()};
+  }
+
+  Status start(SessionWriter& writer, std::int64_t device_id) {
+    writer_ = &writer;
+    device_id_ = device_id;
+    if (Status s = device_->start(); !s.ok()) return s;
+    worker_ = std::thread([this] { run(); });
+    return {};
+  }
+
+  void stop() {
+    device_->stop();
+    if (worker_.joinable()) worker_.join();
+    writer_ = nullptr;
+  }
+
+  std::string summary() const {
+    std::uint64_t rejected = 0;
+    for (const auto& [why, n] : device_->rejected()) rejected += n;
+    return fmt::format("{:<8} {:>9} frames stored, {} missing by its counter, {} rejected (stall/garbage), {} "
+                       "queue overflows",
+                       "sensel", stored_.load(), device_->lost_frames(), rejected, device_->queue_overflows());
+  }
+  bool lossy() const { return device_->lost_frames() + device_->queue_overflows() > 0 || !device_->rejected().empty(); }
+
+ private:
+  SenselRecording() = default;
+
+  void on_event(const sensel::SenselEvent& e) {
+    using K = sensel::SenselEvent::Kind;
+    if (e.kind == K::Reconnected) spdlog::warn("{}", e.message);
+    else spdlog::error("{}", e.message);
+    static const char* kinds[] = {"sensel_stall", "sensel_garbage", "sensel_unplugged", "sensel_reconnected"};
+    if (SessionWriter* w = writer_) w->record(EventRecord{e.at.ns, kinds[int(e.kind)], device_id_, e.message});
+  }
+
+  void run() {
+    auto& q = device_->samples();
+    SessionWriter& writer = *writer_.load();
+    while (!q.closed_and_empty()) {
+      auto s = q.pop_for(100ms);
+      if (!s) continue;
+      if (s->lost_before)
+        writer.record(DropRecord{device_id_, 0, s->sequence - s->lost_before, s->lost_before, "not_received",
+                                   s->host_ts.ns});
+      writer.record(PressureRecord{device_id_, 0, s->sequence, s->lost_before, s->device_ts.ns, s->host_ts.ns,
+                                     s->host_wait_ns, s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale,
+                                     sensel::encode_frame(s->frame)});
+      stored_.fetch_add(1, std::memory_order_relaxed);
+    }
+  }
+
+  SenselRigConfig config_;
+  std::unique_ptr<sensel::SenselDevice> device_;
+  std::atomic<SessionWriter*> writer_{nullptr};
+  std::int64_t device_id_ = 0;
+  std::thread worker_;
+  std::atomic<std::uint64_t> stored_{0};
+};
+
 Status open_with_wait(AravisCamera& camera, double wait_s, const std::atomic<bool>& stop_requested) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
   for (;;) {
@@ -199,6 +301,18 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
     }
   }
 
+  std::unique_ptr<SenselRecording> sensel;
+  if (rig.sensel) {
+    auto opened = SenselRecording::open(*rig.sensel, truth_tmp, rig.sim ? 10.0 : 2.0, stop_requested);
+    if (!opened) {
+      spdlog::error("{}", opened.error().message);
+      spdlog::error("no session was recorded: the Sensel of {} must be ready", rig.source.string());
+      if (!truth_tmp.empty()) std::filesystem::remove_all(truth_tmp);
+      return 1;
+    }
+    sensel = std::move(opened.value());
+  }
+
   auto created = SessionWriter::create(options.root, rig, wall0, host0);
   if (!created) {
     spdlog::error("{}", created.error().message);
@@ -223,6 +337,16 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
     }
     device_ids[i] = id.value();
   }
+  std::int64_t sensel_id = 0;
+  if (sensel) {
+    auto id = writer.add_device(sensel->device_record());
+    if (!id) {
+      spdlog::error("{}", id.error().message);
+      (void)writer.close("failed to start");
+      return 1;
+    }
+    sensel_id = id.value();
+  }
   {
     std::lock_guard lock(events_mu);
     writer_for_events = &writer;
@@ -241,6 +365,13 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
       end_reason = "a camera failed to start: " + s.error().message;
       start_failed = true;
       break;
+    }
+  }
+  if (sensel && !start_failed) {
+    if (Status s = sensel->start(writer, sensel_id); !s.ok()) {
+      spdlog::error("Sensel: {}; stopping", s.error().message);
+      end_reason = "the Sensel failed to start: " + s.error().message;
+      start_failed = true;
     }
   }
   const std::int64_t rec_start = host_now().ns;
@@ -274,6 +405,7 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   const double recorded_s = double(host_now().ns - rec_start) / 1e9;
   // All cameras stop at once; one blocked on a reconnect attempt must not keep the others recording.
   for (auto& cam : cameras) cam->request_stop();
+  if (sensel) sensel->stop();
   for (auto& cam : cameras) cam->stop();
   for (auto& w : workers) w.join();
   for (std::size_t i = 0; i < cameras.size(); ++i) {
@@ -302,6 +434,10 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
                t.good.load(), st.frames_in_video, t.incomplete.load(), t.not_received.load(),
                t.encoder_behind.load(), t.lost_events.load());
     any_loss |= t.incomplete.load() + t.not_received.load() + t.encoder_behind.load() + t.lost_events.load() > 0;
+  }
+  if (sensel) {
+    fmt::print("{}\n", sensel->summary());
+    any_loss |= sensel->lossy();
   }
   fmt::print("video keeps {} frames/s per camera ({}); every received frame is in session.db with its reason\n",
              rig.store.video_fps > 0 ? fmt::format("{:g}", rig.store.video_fps) : "all", rig.store.video_codec);

@@ -35,7 +35,13 @@ class BoundedQueue {
     std::unique_lock lock(mu_);
     cv_.wait_for(lock, timeout, [&] { return !items_.empty() || closed_; });
     if (items_.empty()) return std::nullopt;
-    T item = std::move(items_.front());
+    // GCC 12 reports moving a nested optional<vector> out of a deque as "used uninitialized"
+    // (a known false positive at -O2); the element is fully constructed.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+    std::optional<T> item(std::in_place, std::move(items_.front()));
+#pragma GCC diagnostic pop
     items_.pop_front();
     return item;
   }

@@ -139,6 +139,23 @@ CameraConfig parse_camera(const YAML::Node& node, const std::filesystem::path& f
   return c;
 }
 
+SenselRigConfig parse_sensel(const YAML::Node& node, const std::filesystem::path& file) {
+  SenselRigConfig c;
+  MapReader r(node, file, "sensel");
+  c.line = node.Mark().line + 1;
+  r.require("tty", c.tty);
+  std::string detail = "medium";
+  r.get("scan_detail", detail);
+  if (detail == "high") c.scan_detail = 0;
+  else if (detail == "medium") c.scan_detail = 1;
+  else r.fail(node["scan_detail"], "scan_detail", fmt::format("'{}' is not one of high, medium", detail));
+  r.get("dynamic_baseline", c.dynamic_baseline);
+  r.get_in_range("frame_rate_cap", c.frame_rate_cap, 0, 2000);
+  r.get_in_range("latency_ns", c.latency_ns, std::int64_t{0}, std::int64_t{1'000'000'000});
+  r.finish();
+  return c;
+}
+
 StoreConfig parse_store(const YAML::Node& node, const std::filesystem::path& file) {
   StoreConfig s;
   MapReader r(node, file, "store");
@@ -189,6 +206,16 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
   } else {
     s.cameras.resize(n_cameras);
   }
+  if (const YAML::Node sn = r.child("sensel")) {
+    MapReader sr(sn, file, "sim.sensel");
+    sr.get_in_range("press_x_mm", s.sensel.press_x_mm, 0.0, 230.0);
+    sr.get_in_range("press_y_mm", s.sensel.press_y_mm, 0.0, 130.0);
+    sr.get_in_range("peak_grams", s.sensel.peak_grams, 0.0, 4000.0);
+    sr.get_in_range("period_s", s.sensel.period_s, 0.1, 1000.0);
+    sr.get_in_range("clock_start_us", s.sensel.clock_start_us, 0.0, 4294967295.0);
+    sr.get_in_range("drift_ppm", s.sensel.drift_ppm, -10000.0, 10000.0);
+    sr.finish();
+  }
   r.finish();
   return s;
 }
@@ -221,8 +248,11 @@ RigConfig parse_rig_config(const std::string& text, const std::filesystem::path&
         r.fail(cams[i], fmt::format("cameras[{}]", i), fmt::format("camera '{}' is listed twice", c.id()));
       rig.cameras.push_back(std::move(c));
     }
+    if (const YAML::Node sensel = r.child("sensel")) rig.sensel = parse_sensel(sensel, source);
     if (const YAML::Node store = r.child("store")) rig.store = parse_store(store, source);
     if (const YAML::Node sim = r.child("sim")) rig.sim = parse_sim(sim, source, rig.cameras.size());
+    if (rig.sensel && rig.sensel->tty == "sim" && !rig.sim)
+      r.fail(root["sensel"], "sensel.tty", "'sim' needs a sim: section (a simulated rig)");
     r.finish();
   } catch (const YAML::Exception& e) {
     throw UserError(fmt::format("{}:{}: {}", source.string(), e.mark.line + 1, e.msg));

@@ -37,6 +37,23 @@ struct CameraConfig {
   std::string id() const { return !serial.empty() ? serial : address; }
 };
 
+struct SenselRigConfig {
+  std::string tty;              // /dev/ttyACM0 (or a udev name such as /dev/morph0); "sim": the simulator's
+  int scan_detail = 1;          // 0 high (93x53, ~50 Hz), 1 medium (47x27, ~125 Hz)
+  bool dynamic_baseline = false;  // off: a resting hand must not fade away
+  int frame_rate_cap = 0;       // Hz, 0 = the device's default
+  std::int64_t latency_ns = 0;  // known constant scan-to-answer latency
+  int line = 0;
+};
+
+struct SimSenselConfig {
+  double press_x_mm = 115, press_y_mm = 65;  // where the simulated fingertip presses (sensor mm)
+  double peak_grams = 300;                   // on its centre cell
+  double period_s = 2.0;                     // one press and release per period
+  double clock_start_us = 4294967295.0 - 3e6;  // device clock at start: wraps 3 s in
+  double drift_ppm = 30;
+};
+
 struct StoreConfig {
   std::string video_codec = "libx264";  // any FFmpeg encoder; "ffv1" for lossless
   int crf = 10;                         // libx264 quality (lower is better; 0 = lossless)
@@ -58,6 +75,7 @@ struct SimCameraClock {
 
 struct SimConfig {
   std::vector<SimCameraClock> cameras;  // one per rig camera, same order
+  SimSenselConfig sensel;
   std::uint64_t seed = 1;
 };
 
@@ -66,6 +84,7 @@ struct RigConfig {
   std::string text;              // the file's text, stored with each session
   std::string name;
   std::vector<CameraConfig> cameras;
+  std::optional<SenselRigConfig> sensel;
   StoreConfig store;
   std::optional<SimConfig> sim;  // present for a simulated rig
 };

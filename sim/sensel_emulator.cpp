@@ -89,6 +89,10 @@ std::vector<std::uint8_t> SenselEmulator::frame_payload(std::int64_t now_ns) {
     }
   }
   if (f.content & kAccel) f.accel = Accel{0, 0, 15600};
+  if (truth_) {
+    *truth_ << int(f.counter) << ',' << now_ns << ',' << f.timestamp_us << '\n';
+    if (f.counter % 32 == 0) truth_->flush();
+  }
   return encode_frame(f);
 }
 

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <ostream>
 #include <span>
 #include <string>
 #include <vector>
@@ -47,6 +48,8 @@ class SenselEmulator {
   void truncate_next_frame() { truncate_next_ = true; }
 
   sensel::Grid grid() const;  // of the current scan detail
+  // Ground truth: one line "counter,true_ns,device_us" per frame sent (flushed every 32).
+  void set_truth_log(std::ostream* out) { truth_ = out; }
   std::uint8_t reg(std::uint8_t address) const { return regs_[address]; }
   std::uint64_t frames_sent() const { return frames_sent_; }
 
@@ -60,6 +63,7 @@ class SenselEmulator {
   std::string serial_;
   std::array<std::uint8_t, 256> regs_{};
   std::vector<std::uint8_t> pending_;  // host bytes not yet forming a whole command
+  std::ostream* truth_ = nullptr;
   std::uint8_t counter_ = 0;
   std::uint64_t frames_sent_ = 0;
   std::atomic<bool> corrupt_next_{false}, truncate_next_{false};  // set from test threads

@@ -55,13 +55,34 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
     truth["cameras"].push_back(jc);
     self->cameras_.push_back(std::move(made.value()));
   }
+  if (rig.sensel && rig.sensel->tty == "sim") {
+    const SimSenselConfig& ss = rig.sim->sensel;
+    self->sensel_truth_.open(truth_dir / "sensel_frames.csv");
+    self->sensel_truth_ << "counter,true_ns,device_us\n";
+    self->sensel_ = std::make_unique<SenselEmulator>(
+        fingertip_scene(ss.press_x_mm, ss.press_y_mm, ss.peak_grams, ss.period_s),
+        SenselClock{self->t0_ns_, ss.clock_start_us, ss.drift_ppm});
+    self->sensel_->set_truth_log(&self->sensel_truth_);
+    auto pty = SenselPty::create(*self->sensel_);
+    if (!pty) return pty.error();
+    self->sensel_pty_ = std::move(pty.value());
+    std::error_code ec;
+    std::filesystem::create_symlink(self->sensel_pty_->slave_path(), truth_dir / "sensel.tty", ec);
+    if (ec) return Error{fmt::format("cannot publish the Sensel emulator's tty: {}", ec.message())};
+    truth["sensel"] = {{"tty", self->sensel_pty_->slave_path()}, {"press_x_mm", ss.press_x_mm},
+                       {"press_y_mm", ss.press_y_mm}, {"peak_grams", ss.peak_grams}, {"period_s", ss.period_s},
+                       {"clock_start_us", ss.clock_start_us}, {"drift_ppm", ss.drift_ppm}};
+  }
   std::ofstream(truth_dir / "rig.json") << truth.dump(2) << '\n';
   spdlog::info("sim: {} cameras serving ({}), ground truth in {}", self->cameras_.size(),
                fmt::join(sim_addresses(rig), ", "), truth_dir.string());
   return self;
 }
 
-SimRig::~SimRig() = default;
+SimRig::~SimRig() {
+  sensel_pty_.reset();  // stops serving before the emulator goes
+  sensel_.reset();
+}
 
 void SimRig::run(const std::atomic<bool>& stop) {
   while (!stop.load()) {

@@ -2,14 +2,19 @@
 // The simulated camera rig: one SimCamera per camera of a rig config that has a
 // `sim:` section, each on its own 127.0.0.x address, with the clocks and faults
 // the config gives. Writes the ground truth of the run into `truth_dir`:
-// rig.json (clocks, homographies, pad geometry) and <camera>_frames.csv.
+// rig.json (clocks, homographies, pad geometry) and <camera>_frames.csv. With a
+// `sensel: {tty: sim}` it also serves an emulated Sensel Morph on a pseudo-terminal,
+// linked as truth_dir/sensel.tty, logging sensel_frames.csv.
 #include <atomic>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <vector>
 
 #include "core/result.h"
 #include "core/rig_config.h"
+#include "sim/sensel_emulator.h"
+#include "sim/sensel_pty.h"
 #include "sim/sim_camera.h"
 
 namespace pvcap::sim {
@@ -30,6 +35,9 @@ class SimRig {
   std::filesystem::path truth_dir_;
   std::int64_t t0_ns_ = 0;
   std::vector<bool> returned_;
+  std::ofstream sensel_truth_;
+  std::unique_ptr<SenselEmulator> sensel_;
+  std::unique_ptr<SenselPty> sensel_pty_;
   std::vector<std::unique_ptr<SimCamera>> cameras_;
 };
 

@@ -41,6 +41,7 @@ void IndexWriter::write_batch(std::vector<Record>& batch) {
           [&](const auto& rec) {
             using T = std::decay_t<decltype(rec)>;
             if constexpr (std::is_same_v<T, FrameRecord>) index_.add_frame(rec);
+            else if constexpr (std::is_same_v<T, PressureRecord>) index_.add_pressure(rec);
             else if constexpr (std::is_same_v<T, DropRecord>) index_.add_drop(rec);
             else index_.add_event(rec);
           },

@@ -50,6 +50,18 @@ CREATE TABLE frames (
 );
 CREATE INDEX frames_by_time ON frames(device_id, host_ns);
 CREATE INDEX frames_by_video ON frames(video_file_id, video_index);
+CREATE TABLE pressure_frames (
+  device_id INTEGER NOT NULL REFERENCES devices(id),
+  connection INTEGER NOT NULL,
+  sequence INTEGER NOT NULL,
+  lost_before INTEGER NOT NULL,
+  device_ns INTEGER NOT NULL,
+  host_ns INTEGER NOT NULL,
+  host_wait_ns INTEGER NOT NULL,
+  grid_cols INTEGER NOT NULL, grid_rows INTEGER NOT NULL, grid_xscale INTEGER NOT NULL, grid_yscale INTEGER NOT NULL,
+  payload BLOB NOT NULL
+);
+CREATE INDEX pressure_by_time ON pressure_frames(device_id, host_ns);
 CREATE TABLE drops (
   device_id INTEGER NOT NULL REFERENCES devices(id),
   connection INTEGER NOT NULL,
@@ -91,6 +103,9 @@ SessionIndex::SessionIndex(std::unique_ptr<sqlite::Database> db) : db_(std::move
       "kept, reason, video_file_id, video_index) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)"));
   insert_drop_.emplace(db_->prepare(
       "INSERT INTO drops (device_id, connection, first_sequence, count, reason, host_ns) VALUES (?,?,?,?,?,?)"));
+  insert_pressure_.emplace(db_->prepare(
+      "INSERT INTO pressure_frames (device_id, connection, sequence, lost_before, device_ns, host_ns, host_wait_ns, "
+      "grid_cols, grid_rows, grid_xscale, grid_yscale, payload) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)"));
   insert_event_.emplace(db_->prepare("INSERT INTO events (host_ns, kind, device_id, message) VALUES (?,?,?,?)"));
 }
 
@@ -129,6 +144,13 @@ void SessionIndex::add_frame(const FrameRecord& f) {
 
 void SessionIndex::add_drop(const DropRecord& d) {
   insert_drop_->bind_all(d.device_id, std::int64_t(d.connection), d.first_sequence, d.count, d.reason, d.host_ns).run();
+}
+
+void SessionIndex::add_pressure(const PressureRecord& p) {
+  insert_pressure_
+      ->bind_all(p.device_id, std::int64_t(p.connection), p.sequence, p.lost_before, p.device_ns, p.host_ns,
+                 p.host_wait_ns, p.grid_cols, p.grid_rows, p.grid_xscale, p.grid_yscale, p.payload)
+      .run();
 }
 
 void SessionIndex::add_event(const EventRecord& e) {

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "storage/sqlite/database.h"
 
@@ -51,6 +52,21 @@ struct FrameRecord {
   std::optional<std::int64_t> video_index;  // 0-based frame number in that file
 };
 
+// One Sensel frame at full rate. `payload` is the frame exactly as the device sent it (the
+// device's own lossless compression: raw counts on the native grid, contacts, accelerometer,
+// labels); decode it with capture/sensel_frame.h on the grid stored beside it.
+struct PressureRecord {
+  std::int64_t device_id = 0;
+  std::uint32_t connection = 0;
+  std::uint64_t sequence = 0;     // rolling counter, unwrapped
+  std::uint64_t lost_before = 0;  // frames the counter skipped before this one
+  std::int64_t device_ns = 0;     // device µs clock, unwrapped, in ns
+  std::int64_t host_ns = 0;       // midpoint of request and answer
+  std::int64_t host_wait_ns = 0;  // request-to-answer time
+  int grid_cols = 0, grid_rows = 0, grid_xscale = 0, grid_yscale = 0;
+  std::vector<std::uint8_t> payload;
+};
+
 struct DropRecord {
   std::int64_t device_id = 0;
   std::uint32_t connection = 0;
@@ -83,6 +99,7 @@ class SessionIndex {
   std::int64_t add_video_file(const VideoFileRecord& v);
   void add_frame(const FrameRecord& f);
   void add_drop(const DropRecord& d);
+  void add_pressure(const PressureRecord& p);
   void add_event(const EventRecord& e);
   void add_stream_stats(const StreamStatsRecord& s);
   void finish_session(std::int64_t ended_host_ns, const std::string& end_reason);
@@ -92,7 +109,7 @@ class SessionIndex {
  private:
   explicit SessionIndex(std::unique_ptr<sqlite::Database> db);
   std::unique_ptr<sqlite::Database> db_;
-  std::optional<sqlite::Statement> insert_frame_, insert_drop_, insert_event_;
+  std::optional<sqlite::Statement> insert_frame_, insert_drop_, insert_event_, insert_pressure_;
 };
 
 }  // namespace pvcap

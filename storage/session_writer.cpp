@@ -97,6 +97,14 @@ Result<std::int64_t> SessionWriter::add_camera(const DeviceRecord& device, int w
   return id;
 }
 
+Result<std::int64_t> SessionWriter::add_device(const DeviceRecord& device) {
+  try {
+    return index_->add_device(device);
+  } catch (const sqlite::SqliteError& e) {
+    return Error{e.what()};
+  }
+}
+
 void SessionWriter::start() {
   index_writer_->start();
   for (auto& cam : cameras_) cam->thread = std::thread([this, c = cam.get()] { encode_loop(*c); });

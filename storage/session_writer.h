@@ -45,6 +45,9 @@ class SessionWriter {
   // Index records (any thread, never waits).
   void record(FrameRecord frame) { index_writer_->push(std::move(frame)); }
   void record(DropRecord drop) { index_writer_->push(std::move(drop)); }
+  void record(PressureRecord pressure) { index_writer_->push(std::move(pressure)); }
+  // Registers a non-video device (the Sensel); returns its device id.
+  Result<std::int64_t> add_device(const DeviceRecord& device);
   void record(EventRecord event) { index_writer_->push(std::move(event)); }
   // Queues a kept frame for its camera's video. False (and nothing queued) when the
   // encoder is behind; the caller records the frame as not kept, reason "encoder_behind".

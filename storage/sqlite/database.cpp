@@ -41,6 +41,17 @@ Statement& Statement::bind(int i, std::nullopt_t) {
   return *this;
 }
 
+Statement& Statement::bind(int i, const std::vector<std::uint8_t>& blob) {
+  if (int rc = sqlite3_bind_blob(stmt_, i, blob.data(), int(blob.size()), SQLITE_TRANSIENT); rc != SQLITE_OK)
+    fail(db_, rc, "bind");
+  return *this;
+}
+
+std::vector<std::uint8_t> Statement::column_blob(int c) const {
+  const auto* p = static_cast<const std::uint8_t*>(sqlite3_column_blob(stmt_, c));
+  return p ? std::vector<std::uint8_t>(p, p + sqlite3_column_bytes(stmt_, c)) : std::vector<std::uint8_t>{};
+}
+
 bool Statement::step() {
   const int rc = sqlite3_step(stmt_);
   if (rc == SQLITE_ROW) return true;

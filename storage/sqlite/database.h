@@ -41,6 +41,7 @@ class Statement {
   Statement& bind(int index, std::string_view v);
   Statement& bind(int index, const char* v) { return bind(index, std::string_view(v)); }
   Statement& bind(int index, std::nullopt_t);
+  Statement& bind(int index, const std::vector<std::uint8_t>& blob);
   template <typename T>
   Statement& bind(int index, const std::optional<T>& v) {
     return v ? bind(index, *v) : bind(index, std::nullopt);
@@ -61,6 +62,7 @@ class Statement {
   double column_double(int col) const;
   std::string column_text(int col) const;
   bool column_null(int col) const;
+  std::vector<std::uint8_t> column_blob(int col) const;
 
  private:
   sqlite3* db_;

@@ -17,14 +17,17 @@ namespace fs = std::filesystem;
 namespace pvcap::testing {
 
 std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, int height, double fps,
-                         double video_fps, const std::string& trigger) {
+                         double video_fps, const std::string& trigger, bool sensel) {
   std::string y = "name: test-rig\ncameras:\n";
   for (std::size_t i = 0; i < cameras.size(); ++i)
     y += fmt::format(
         "  - name: cam{0}\n    serial: PVSIM{0}\n    address: 127.0.0.{1}\n    width: {2}\n    height: {3}\n"
         "    frame_rate: {4}\n    packet_size: 8192\n    trigger: {5}\n",
         i, i + 2, width, height, fps, trigger);
-  y += fmt::format("store:\n  video_fps: {}\n  preset: ultrafast\nsim:\n  seed: 11\n  cameras:\n", video_fps);
+  if (sensel) y += "sensel:\n  tty: sim\n  scan_detail: medium\n";
+  y += fmt::format("store:\n  video_fps: {}\n  preset: ultrafast\nsim:\n  seed: 11\n", video_fps);
+  if (sensel) y += "  sensel: {press_x_mm: 100, press_y_mm: 60, peak_grams: 250, period_s: 1.0}\n";
+  y += "  cameras:\n";
   for (const auto& c : cameras) {
     y += fmt::format("    - {{clock_offset_ms: {}, drift_ppm: {}, jitter_us: 10, packet_loss: {}", c.offset_ms,
                      c.drift_ppm, c.packet_loss);

@@ -19,7 +19,7 @@ struct SimCameraSpec {
 
 // A rig of `cameras` simulated cameras at 127.0.0.2.. with the given size and rate.
 std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, int height, double fps,
-                         double video_fps, const std::string& trigger = "free-run");
+                         double video_fps, const std::string& trigger = "free-run", bool sensel = false);
 
 struct CommandResult {
   int exit_code = -1;

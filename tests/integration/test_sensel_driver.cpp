@@ -15,7 +15,9 @@ using namespace std::chrono_literals;
 namespace {
 
 struct Rig {
-  sim::SenselEmulator emu{sim::fingertip_scene(60.0, 60.0, 150.0, 0.5), sim::SenselClock{0, 4294000000.0, 50.0}};
+  // The device clock starts 0.7 s before its 32-bit wrap, counted from now.
+  sim::SenselEmulator emu{sim::fingertip_scene(60.0, 60.0, 150.0, 0.5),
+                          sim::SenselClock{host_now().ns, 4294967295.0 - 700'000.0, 50.0}};
   std::unique_ptr<sim::SenselPty> pty;
   std::unique_ptr<sensel::SenselDevice> device;
   std::mutex mu;

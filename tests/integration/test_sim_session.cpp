@@ -2,6 +2,8 @@
 // store is checked against the simulator's ground truth.
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <fstream>
 #include <map>
 #include <set>
@@ -11,6 +13,8 @@
 #include "sim/timecode.h"
 #include "storage/sqlite/database.h"
 #include "storage/video_reader.h"
+#include "capture/sensel_frame.h"
+#include "capture/sensel_units.h"
 
 using namespace pvcap::testing;
 namespace fs = std::filesystem;
@@ -107,7 +111,10 @@ VideoCheck check_video(const fs::path& session, const CameraRecord& c) {
       ++v.timecode_ok;
     else
       ADD_FAILURE() << c.name << ": video frame " << n << " timecode does not match its index row (frame id "
-                    << row->second->frame_id << ")";
+                    << row->second->frame_id << ", connection " << row->second->connection << ", device_ns "
+                    << row->second->device_ns << "; decoded "
+                    << (tc ? fmt::format("id {} true {}", tc->frame_id, tc->true_ns) : std::string("nothing"))
+                    << ", truth has " << true_time.count({row->second->frame_id, row->second->device_ns}) << ")";
     if (pvcap::sim::frame_stripe_mismatches(img, std::uint16_t(row->second->frame_id)) == 0) ++v.stripe_ok;
     else ADD_FAILURE() << c.name << ": video frame " << n << " holds pixels of another frame (corrupted)";
   }
@@ -255,6 +262,61 @@ TEST(SimSession, SoftwareTriggeredCameraDeliversAtTheConfiguredRate) {
   ASSERT_EQ(s.cameras.size(), 1u);
   EXPECT_NEAR(double(s.cameras[0].frames.size()), duration * fps, duration * fps * 0.2);
   EXPECT_EQ(s.result.output.find("camera lost"), std::string::npos) << s.result.output;
+  fs::remove_all(s.dir.parent_path().parent_path());
+}
+
+TEST(SimSession, SenselIsStoredAtFullRateWithItsDeviceAndArrivalTimes) {
+  const double duration = 5;
+  const auto s = record("sensel", sim_rig_yaml({{}}, kWidth, kHeight, 30, 15, "free-run", /*sensel=*/true), duration);
+  ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
+  EXPECT_NE(s.result.output.find("sensel "), std::string::npos) << s.result.output;
+  // Ground truth: every frame the emulated Morph sent (counter, true time, device µs clock).
+  std::map<std::uint32_t, std::int64_t> true_ns_by_device_us;
+  {
+    std::ifstream in(s.dir / "sim-truth" / "sensel_frames.csv");
+    std::string line;
+    std::getline(in, line);
+    unsigned counter = 0;
+    long long t = 0;
+    unsigned long dev = 0;
+    while (std::getline(in, line))
+      if (std::sscanf(line.c_str(), "%u,%lld,%lu", &counter, &t, &dev) == 3) true_ns_by_device_us[std::uint32_t(dev)] = t;
+  }
+  ASSERT_FALSE(true_ns_by_device_us.empty());
+  pvcap::sqlite::Database db(s.dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  auto q = db.prepare(
+      "SELECT p.sequence, p.device_ns, p.host_ns, p.grid_cols, p.grid_rows, p.grid_xscale, p.grid_yscale, p.payload "
+      "FROM pressure_frames p JOIN devices d ON d.id = p.device_id WHERE d.kind = 'sensel' ORDER BY p.host_ns");
+  std::size_t n = 0, matched = 0;
+  std::int64_t last_device = -1;
+  std::uint64_t last_seq = 0;
+  double peak_g = 0;
+  while (q.step()) {
+    ++n;
+    const pvcap::sensel::Grid grid{int(q.column_int(3)), int(q.column_int(4)), int(q.column_int(5)),
+                                   int(q.column_int(6))};
+    EXPECT_EQ(grid, pvcap::sensel::kMediumDetail);
+    auto f = pvcap::sensel::parse_frame(q.column_blob(7), grid);
+    ASSERT_TRUE(f) << f.error().message;
+    auto truth = true_ns_by_device_us.find(f.value().timestamp_us);
+    ASSERT_NE(truth, true_ns_by_device_us.end()) << "a stored frame the emulator never sent";
+    ++matched;
+    const std::int64_t latency = q.column_int(2) - truth->second;
+    EXPECT_GT(latency, -20'000'000) << "stamped long before it was made";
+    EXPECT_LT(latency, 50'000'000);
+    // Device time unwrapped across the emulator's 32-bit wrap (3 s into the run), strictly increasing.
+    EXPECT_GT(q.column_int(1), last_device);
+    last_device = q.column_int(1);
+    if (n > 1) {
+      EXPECT_EQ(std::uint64_t(q.column_int(0)), last_seq + 1);
+    }
+    last_seq = std::uint64_t(q.column_int(0));
+    for (auto c : f.value().pressure->counts) peak_g = std::max(peak_g, pvcap::sensel::counts_to_grams(c));
+  }
+  EXPECT_NEAR(double(n), duration * 125, duration * 125 * 0.2);
+  EXPECT_EQ(matched, n);
+  EXPECT_NEAR(peak_g, 250.0, 25.0) << "the emulated press peaks at 250 g on its centre cell";
+  EXPECT_GT(last_device, std::int64_t(4294967295LL) * 1000) << "the device clock wrapped and was unwrapped";
   fs::remove_all(s.dir.parent_path().parent_path());
 }
 
