@@ -15,6 +15,7 @@
 #include "app/recorder.h"
 #include "app/sensel_decode.h"
 #include "capture/aravis_discovery.h"
+#include "capture/sensel_device.h"
 #include "core/log.h"
 #include "core/result.h"
 #include "core/rig_config.h"
@@ -52,24 +53,55 @@ void ensure_sim_network(const pvcap::RigConfig& rig) {
   if (pvcap::Status s = pvcap::sim::enter_private_network(addresses); !s.ok()) throw pvcap::UserError(s.error().message);
 }
 
-int cmd_devices(bool json) {
+// Serial ports a Sensel Morph may be behind: cdc_acm devices, udev's /dev/morph* names, and extra paths.
+std::vector<std::string> sensel_candidates(const std::vector<std::string>& extra) {
+  std::vector<std::string> out = extra;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator("/dev", ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("ttyACM", 0) == 0 || name.rfind("morph", 0) == 0) out.push_back(e.path().string());
+  }
+  return out;
+}
+
+int cmd_devices(bool json, const std::vector<std::string>& extra_ttys) {
   const auto cams = pvcap::discover_gige_cameras();
+  struct FoundSensel {
+    std::string path;
+    pvcap::sensel::SenselInfo info;
+  };
+  std::vector<FoundSensel> sensels;
+  for (const auto& path : sensel_candidates(extra_ttys)) {
+    auto t = pvcap::sensel::open_tty(path);
+    if (!t) continue;
+    if (auto info = pvcap::sensel::SenselDevice::probe(std::move(t.value()))) sensels.push_back({path, info.value()});
+  }
   if (json) {
     for (const auto& c : cams)
       fmt::print("{{\"kind\":\"camera\",\"vendor\":\"{}\",\"model\":\"{}\",\"serial\":\"{}\",\"address\":\"{}\","
                  "\"interface\":\"{}\",\"mac\":\"{}\",\"id\":\"{}\"}}\n",
                  c.vendor, c.model, c.serial, c.address, c.protocol, c.physical_id, c.device_id);
+    for (const auto& s : sensels)
+      fmt::print("{{\"kind\":\"sensel\",\"serial\":\"{}\",\"firmware\":\"{}\",\"tty\":\"{}\",\"grid\":[{},{}]}}\n",
+                 s.info.serial, s.info.firmware, s.path, s.info.grid.cols, s.info.grid.rows);
     return 0;
   }
-  if (cams.empty()) {
+  if (cams.empty())
     fmt::print("no GigE Vision camera answered discovery (check power, cabling, and that the cameras are on a "
                "subnet of one of this machine's interfaces)\n");
-    return 0;
+  else {
+    fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} {}\n", "interface", "vendor", "model", "serial", "address", "mac");
+    for (const auto& c : cams)
+      fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} {}\n", c.protocol, c.vendor, c.model, c.serial, c.address,
+                 c.physical_id);
   }
-  fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} {}\n", "interface", "vendor", "model", "serial", "address", "mac");
-  for (const auto& c : cams)
-    fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} {}\n", c.protocol, c.vendor, c.model, c.serial, c.address,
-               c.physical_id);
+  if (sensels.empty())
+    fmt::print("no Sensel Morph answered on /dev/ttyACM* or /dev/morph* (check the cable; the user needs the "
+               "dialout group or a udev rule)\n");
+  else
+    for (const auto& s : sensels)
+      fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} firmware {}, grid {}x{}\n", "sensel", "Sensel", "Morph",
+                 s.info.serial, s.path, s.info.firmware, s.info.grid.cols, s.info.grid.rows);
   return 0;
 }
 
@@ -143,12 +175,14 @@ int main(int argc, char** argv) {
         auto tmp = std::filesystem::temp_directory_path() / fmt::format("pvcap-devices-{}", getpid());
         auto made = pvcap::sim::SimRig::create(rig, tmp);
         if (!made) throw pvcap::UserError(made.error().message);
-        const int rc = cmd_devices(devices_json);
+        std::vector<std::string> extra;
+        if (std::filesystem::exists(tmp / "sensel.tty")) extra.push_back((tmp / "sensel.tty").string());
+        const int rc = cmd_devices(devices_json, extra);
         made.value().reset();
         std::filesystem::remove_all(tmp);
         return rc;
       }
-      return cmd_devices(devices_json);
+      return cmd_devices(devices_json, {});
     }
     if (*session) {
       const auto rig = pvcap::load_rig_config(rig_path);

@@ -84,7 +84,16 @@ Status SenselDevice::write_reg(std::uint8_t reg, std::span<const std::uint8_t> d
   return {};
 }
 
-Status SenselDevice::open_sequence() {
+Result<SenselInfo> SenselDevice::probe(std::unique_ptr<Transport> transport) {
+  SenselDevice d(nullptr, nullptr);
+  d.transport_ = std::move(transport);
+  if (Status s = d.open_sequence(/*soft_reset=*/false); !s.ok()) return s.error();
+  SenselInfo info = d.info_;
+  d.transport_.reset();  // nothing to stop: scanning was never touched
+  return info;
+}
+
+Status SenselDevice::open_sequence(bool soft_reset) {
   const std::string where = transport_->describe();
   auto read = [&](std::uint8_t reg, std::uint8_t size) -> Result<std::vector<std::uint8_t>> {
     auto r = size ? transact(command_read(reg, size), Expect::Read, reg, size)
@@ -99,8 +108,10 @@ Status SenselDevice::open_sequence() {
   if (!magic) return Error{fmt::format("{} (is this a Sensel Morph?)", magic.error().message)};
   if (std::string(magic.value().begin(), magic.value().end()) != kMagicText)
     return Error{fmt::format("{}: not a Sensel Morph (magic is not S3NS31)", where)};
-  const std::uint8_t one[] = {1};
-  if (Status s = write_reg(reg::kSoftReset, one); !s.ok()) return s;
+  if (soft_reset) {
+    const std::uint8_t one[] = {1};
+    if (Status s = write_reg(reg::kSoftReset, one); !s.ok()) return s;
+  }
   auto fw = read(reg::kFirmwareInfo, 10);
   if (!fw) return fw.error();
   info_.firmware = fmt::format("{}.{}.{}", fw.value()[1], fw.value()[2], fw.value()[3] | (fw.value()[4] << 8));

@@ -65,6 +65,8 @@ class SenselDevice {
 
   // Opens through `factory` (called again to reconnect) and runs the open sequence.
   static Result<std::unique_ptr<SenselDevice>> open(TransportFactory factory, EventHandler on_event = nullptr);
+  // Reads serial, firmware and grid without resetting or configuring anything (for listings).
+  static Result<SenselInfo> probe(std::unique_ptr<Transport> transport);
   ~SenselDevice();
 
   Status configure(const SenselConfig& config);
@@ -80,7 +82,7 @@ class SenselDevice {
 
  private:
   SenselDevice(TransportFactory factory, EventHandler on_event);
-  Status open_sequence();
+  Status open_sequence(bool soft_reset = true);
   Status apply_config();
   Result<Response> transact(const std::vector<std::uint8_t>& command, Expect expect, std::uint8_t reg,
                             std::uint8_t size = 0);

@@ -343,12 +343,14 @@ TEST(PvcapCommand, MissingCameraIsNamedAndLeavesNoSession) {
   fs::remove_all(work);
 }
 
-TEST(PvcapCommand, DevicesListsTheSimulatedCameras) {
+TEST(PvcapCommand, DevicesListsTheSimulatedCamerasAndSensel) {
   const fs::path work = fs::temp_directory_path() / ("pvcap-it-devices-" + std::to_string(getpid()));
   fs::create_directories(work);
-  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}, {}, {}}, 320, 240, 10, 15);
+  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}, {}, {}}, 320, 240, 10, 15, "free-run", /*sensel=*/true);
   const auto r = run_pvcap("devices --sim " + (work / "rig.yaml").string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("SM01164910368"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("firmware 0.16.78, grid 47x27"), std::string::npos) << r.output;
   for (int i = 0; i < 4; ++i) {
     EXPECT_NE(r.output.find("PVSIM" + std::to_string(i)), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("127.0.0." + std::to_string(i + 2)), std::string::npos) << r.output;
