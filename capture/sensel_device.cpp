@@ -177,8 +177,9 @@ void SenselDevice::stream_loop() {
     ++rejected_[why];
   };
   while (running_.load()) {
-    if (!transport_) {  // unplugged: reopen every second
-      std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+    if (!transport_) {  // unplugged: reopen every second (stop() does not wait for the second to pass)
+      for (int i = 0; i < 20 && running_.load(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      if (!running_.load()) break;
       auto t = factory_();
       if (!t) continue;
       transport_ = std::move(t.value());

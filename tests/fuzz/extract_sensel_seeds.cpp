@@ -13,6 +13,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   namespace fs = std::filesystem;
+  if (!fs::is_directory(argv[1])) {
+    std::fprintf(stderr, "extract_sensel_seeds: %s is not a folder: the real Sensel captures are read from "
+                         "../shared beside the repository\n", argv[1]);
+    return 1;
+  }
   fs::create_directories(argv[2]);
   int written = 0;
   for (const auto& e : fs::directory_iterator(argv[1])) {
