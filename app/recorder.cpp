@@ -195,6 +195,7 @@ class SenselRecording {
     writer_ = nullptr;
   }
 
+  std::uint64_t stored() const { return stored_.load(); }
   std::string summary() const {
     std::uint64_t rejected = 0;
     for (const auto& [why, n] : device_->rejected()) rejected += n;
@@ -398,6 +399,7 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
                             writer.camera_stats(device_ids[i]).frames_in_video,
                             t.not_received.load() + t.incomplete.load() + t.encoder_behind.load());
       }
+      if (sensel) line += fmt::format(" | sensel {} frames", sensel->stored());
       spdlog::info("{}", line);
     }
   }
