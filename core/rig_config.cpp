@@ -214,6 +214,8 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
     sr.get_in_range("period_s", s.sensel.period_s, 0.1, 1000.0);
     sr.get_in_range("clock_start_us", s.sensel.clock_start_us, 0.0, 4294967295.0);
     sr.get_in_range("drift_ppm", s.sensel.drift_ppm, -10000.0, 10000.0);
+    sr.get_in_range("usb_jitter_mean_ms", s.sensel.usb_jitter_mean_ms, 0.0, 100.0);
+    sr.get_in_range("usb_jitter_max_ms", s.sensel.usb_jitter_max_ms, 0.0, 1000.0);
     sr.finish();
   }
   r.finish();

@@ -52,6 +52,8 @@ struct SimSenselConfig {
   double period_s = 2.0;                     // one press and release per period
   double clock_start_us = 4294967295.0 - 3e6;  // device clock at start: wraps 3 s in
   double drift_ppm = 30;
+  double usb_jitter_mean_ms = 0.5;  // arrival delay after the scan (exponential)...
+  double usb_jitter_max_ms = 4.0;   // ...with a tail up to this
 };
 
 struct StoreConfig {

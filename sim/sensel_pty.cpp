@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <random>
 
 #include <fmt/format.h>
 
@@ -17,8 +18,8 @@
 
 namespace pvcap::sim {
 
-Result<std::unique_ptr<SenselPty>> SenselPty::create(SenselEmulator& emulator) {
-  std::unique_ptr<SenselPty> p(new SenselPty(emulator));
+Result<std::unique_ptr<SenselPty>> SenselPty::create(SenselEmulator& emulator, SenselLink link) {
+  std::unique_ptr<SenselPty> p(new SenselPty(emulator, link));
   p->master_ = posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
   if (p->master_ < 0 || grantpt(p->master_) != 0 || unlockpt(p->master_) != 0)
     return Error{fmt::format("cannot create a pseudo-terminal: {}", std::strerror(errno))};
@@ -47,6 +48,8 @@ void SenselPty::unplug() {
 void SenselPty::serve() {
   std::uint8_t buf[256];
   auto next_frame = std::chrono::steady_clock::now();
+  std::mt19937_64 rng(link_.seed);
+  std::exponential_distribution<double> usb_delay(link_.jitter_mean_ms > 0 ? 1.0 / link_.jitter_mean_ms : 1.0);
   while (running_.load()) {
     pollfd p{master_, POLLIN, 0};
     if (::poll(&p, 1, 50) <= 0 || !(p.revents & POLLIN)) continue;
@@ -56,14 +59,20 @@ void SenselPty::serve() {
       std::this_thread::sleep_for(std::chrono::milliseconds(stall));
       continue;  // the request is lost, as on a hung device
     }
-    // Pace frame reads like the device: one scan per period of the current detail.
+    // Pace frame reads like the device: the scan takes its period, then the answer travels.
     const bool frame_read = n >= 3 && buf[0] == 0x81 && buf[1] == sensel::reg::kReadFrame && buf[2] == 0;
-    if (frame_read) {
-      const auto period = std::chrono::microseconds(emu_.grid() == sensel::kHighDetail ? 20000 : 8000);
-      std::this_thread::sleep_until(next_frame);
-      next_frame = std::max(next_frame + period, std::chrono::steady_clock::now());
-    }
+    if (frame_read) std::this_thread::sleep_until(next_frame);
     const auto out = emu_.on_host_bytes(std::span<const std::uint8_t>(buf, std::size_t(n)), host_now().ns);
+    if (frame_read) {
+      const bool high = emu_.grid() == sensel::kHighDetail;
+      const auto period = high ? std::chrono::microseconds(19600 + std::int64_t(12.5 * double(out.size())))
+                               : std::chrono::microseconds(8000);
+      next_frame = std::max(next_frame + period, std::chrono::steady_clock::now());
+      if (link_.jitter_mean_ms > 0) {
+        const double ms = std::min(usb_delay(rng), link_.jitter_max_ms);
+        std::this_thread::sleep_for(std::chrono::microseconds(std::int64_t(ms * 1000)));
+      }
+    }
     std::size_t done = 0;
     // Answers go out in 64-byte pieces, like USB full-speed bulk packets.
     while (done < out.size() && running_.load()) {

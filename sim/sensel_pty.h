@@ -1,8 +1,10 @@
 #pragma once
 // Puts a SenselEmulator behind a pseudo-terminal, like a Morph behind
 // /dev/ttyACM0: the driver opens slave_path() with its tty transport. Frames are
-// paced like the device (about 125 Hz at medium detail, 50 Hz at high), and a
-// test can make the device stall or vanish.
+// paced like the device: 8 ms per scan at medium detail; at high detail 19.6 ms
+// plus 12.5 us per payload byte (the spec's measured floor and slope, §9). Answers
+// reach the host after a random USB delay, and a test can make the device stall
+// or vanish.
 #include <atomic>
 #include <mutex>
 #include <string>
@@ -13,9 +15,15 @@
 
 namespace pvcap::sim {
 
+struct SenselLink {
+  double jitter_mean_ms = 0;  // USB arrival delay after the scan: exponential with this mean...
+  double jitter_max_ms = 0;   // ...capped here (a long tail, not an unbounded one)
+  std::uint64_t seed = 1;
+};
+
 class SenselPty {
  public:
-  static Result<std::unique_ptr<SenselPty>> create(SenselEmulator& emulator);
+  static Result<std::unique_ptr<SenselPty>> create(SenselEmulator& emulator, SenselLink link = {});
   ~SenselPty();
 
   const std::string& slave_path() const { return slave_path_; }
@@ -25,10 +33,11 @@ class SenselPty {
   void unplug();
 
  private:
-  SenselPty(SenselEmulator& emu) : emu_(emu) {}
+  SenselPty(SenselEmulator& emu, SenselLink link) : emu_(emu), link_(link) {}
   void serve();
 
   SenselEmulator& emu_;
+  SenselLink link_;
   int master_ = -1;
   std::string slave_path_;
   std::atomic<bool> running_{true};

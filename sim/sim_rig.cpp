@@ -63,7 +63,7 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
         fingertip_scene(ss.press_x_mm, ss.press_y_mm, ss.peak_grams, ss.period_s),
         SenselClock{self->t0_ns_, ss.clock_start_us, ss.drift_ppm});
     self->sensel_->set_truth_log(&self->sensel_truth_);
-    auto pty = SenselPty::create(*self->sensel_);
+    auto pty = SenselPty::create(*self->sensel_, SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, rig.sim->seed});
     if (!pty) return pty.error();
     self->sensel_pty_ = std::move(pty.value());
     std::error_code ec;
@@ -71,7 +71,8 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
     if (ec) return Error{fmt::format("cannot publish the Sensel emulator's tty: {}", ec.message())};
     truth["sensel"] = {{"tty", self->sensel_pty_->slave_path()}, {"press_x_mm", ss.press_x_mm},
                        {"press_y_mm", ss.press_y_mm}, {"peak_grams", ss.peak_grams}, {"period_s", ss.period_s},
-                       {"clock_start_us", ss.clock_start_us}, {"drift_ppm", ss.drift_ppm}};
+                       {"clock_start_us", ss.clock_start_us}, {"drift_ppm", ss.drift_ppm},
+                       {"usb_jitter_mean_ms", ss.usb_jitter_mean_ms}, {"usb_jitter_max_ms", ss.usb_jitter_max_ms}};
   }
   std::ofstream(truth_dir / "rig.json") << truth.dump(2) << '\n';
   spdlog::info("sim: {} cameras serving ({}), ground truth in {}", self->cameras_.size(),

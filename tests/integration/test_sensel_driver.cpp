@@ -138,3 +138,19 @@ TEST(SenselDriver, UnplugIsReportedAndNothingCapturedIsLost) {
   EXPECT_LT(std::chrono::steady_clock::now() - start, 2500ms) << "stop must not hang on a vanished device";
   EXPECT_EQ(rig.drain().size(), frames) << "every frame captured before the unplug is still delivered";
 }
+
+TEST(SenselDriver, HighDetailRunsAtTheDevicesSlowerRate) {
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.open());
+  ASSERT_TRUE(rig.device->configure({.scan_detail = 0}).ok());
+  EXPECT_EQ(rig.device->info().grid, sensel::kHighDetail);
+  ASSERT_TRUE(rig.device->start().ok());
+  std::this_thread::sleep_for(2000ms);
+  rig.device->stop();
+  const auto samples = rig.drain();
+  // At most ~51 Hz (19.6 ms per scan), slower while the fingertip makes frames bigger.
+  EXPECT_GT(samples.size(), 60u);
+  EXPECT_LT(samples.size(), 104u);
+  ASSERT_FALSE(samples.empty());
+  EXPECT_EQ(samples.back().frame.pressure->counts.size(), std::size_t(93 * 53));
+}
