@@ -70,6 +70,35 @@ cv::Mat render_scene_bgr(const PadGeometry& pad, const cv::Matx33d& mm_to_px, cv
   return image;
 }
 
+namespace {
+// Which BGR channel a Bayer sensor samples at (even row, even col), (even, odd), (odd, even), (odd, odd).
+bool bayer_layout(const std::string& pf, int layout[4]) {
+  if (pf == "BayerRG8") layout[0] = 2, layout[1] = 1, layout[2] = 1, layout[3] = 0;
+  else if (pf == "BayerBG8") layout[0] = 0, layout[1] = 1, layout[2] = 1, layout[3] = 2;
+  else if (pf == "BayerGR8") layout[0] = 1, layout[1] = 2, layout[2] = 0, layout[3] = 1;
+  else if (pf == "BayerGB8") layout[0] = 1, layout[1] = 0, layout[2] = 2, layout[3] = 1;
+  else return false;
+  return true;
+}
+}  // namespace
+
+void draw_fingertip(cv::Mat& img, const std::string& pf, cv::Point2d c, double r) {
+  const cv::Vec3b skin(110, 140, 205), rim(80, 100, 160);  // BGR
+  int layout[4];
+  const bool bayer = bayer_layout(pf, layout);
+  const int x0 = std::max(0, int(c.x - r - 1)), x1 = std::min(img.cols - 1, int(c.x + r + 1));
+  const int y0 = std::max(0, int(c.y - r - 1)), y1 = std::min(img.rows - 1, int(c.y + r + 1));
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      const double d = std::hypot(x - c.x, y - c.y);
+      if (d > r) continue;
+      const cv::Vec3b col = d > 0.8 * r ? rim : skin;
+      if (bayer) img.at<uchar>(y, x) = col[layout[(y & 1) * 2 + (x & 1)]];
+      else if (img.type() == CV_8UC1) img.at<uchar>(y, x) = uchar((col[0] + col[1] + col[2]) / 3);
+      else img.at<cv::Vec3b>(y, x) = cv::Vec3b(col[2], col[1], col[0]);  // RGB8
+    }
+}
+
 cv::Mat to_sensor_format(const cv::Mat& bgr, const std::string& pixel_format) {
   if (pixel_format == "Mono8") {
     cv::Mat grey;
@@ -81,13 +110,8 @@ cv::Mat to_sensor_format(const cv::Mat& bgr, const std::string& pixel_format) {
     cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
     return rgb;
   }
-  // Which colour sits at (even row, even col), (even, odd), (odd, even), (odd, odd). BGR channel indices.
   int layout[4];
-  if (pixel_format == "BayerRG8") layout[0] = 2, layout[1] = 1, layout[2] = 1, layout[3] = 0;
-  else if (pixel_format == "BayerBG8") layout[0] = 0, layout[1] = 1, layout[2] = 1, layout[3] = 2;
-  else if (pixel_format == "BayerGR8") layout[0] = 1, layout[1] = 2, layout[2] = 0, layout[3] = 1;
-  else if (pixel_format == "BayerGB8") layout[0] = 1, layout[1] = 0, layout[2] = 2, layout[3] = 1;
-  else CV_Error(cv::Error::StsBadArg, "unsupported pixel format " + pixel_format);
+  if (!bayer_layout(pixel_format, layout)) CV_Error(cv::Error::StsBadArg, "unsupported pixel format " + pixel_format);
   cv::Mat mosaic(bgr.size(), CV_8UC1);
   for (int y = 0; y < bgr.rows; ++y) {
     const auto* in = bgr.ptr<cv::Vec3b>(y);

@@ -38,4 +38,8 @@ cv::Mat render_scene_bgr(const PadGeometry& pad, const cv::Matx33d& mm_to_px, cv
 // BayerGB8, BayerGR8, Mono8, RGB8) would send. Bayer/Mono: CV_8UC1; RGB8: CV_8UC3 in R,G,B order.
 cv::Mat to_sensor_format(const cv::Mat& bgr, const std::string& pixel_format);
 
+// Draws the fingertip's contact disc (skin colour, darker rim) straight into a sensor-format
+// image (what to_sensor_format returns), centred at `centre_px` with `radius_px`.
+void draw_fingertip(cv::Mat& sensor_image, const std::string& pixel_format, cv::Point2d centre_px, double radius_px);
+
 }  // namespace pvcap::sim

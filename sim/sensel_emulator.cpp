@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "capture/sensel_protocol.h"
+#include "sim/fingertip.h"
 
 namespace pvcap::sim {
 
@@ -13,8 +14,7 @@ SenselScene fingertip_scene(double x_mm, double y_mm, double peak_grams, double 
   SenselScene s;
   s.pressure = [=](std::int64_t true_ns, const Grid& g) {
     std::vector<std::uint16_t> counts(std::size_t(g.cells()), 0);
-    const double phase = std::fmod(double(true_ns) / 1e9, period_s) / period_s;
-    const double force = phase < 0.5 ? std::sin(phase * 2 * M_PI) : 0.0;  // press, then rest
+    const double force = fingertip_force(true_ns, period_s);
     if (force <= 0) return counts;
     const double cell_mm_x = 1.25 * g.xscale, cell_mm_y = 1.25 * g.yscale;
     const double sigma_mm = 4.0;  // a fingertip's footprint

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <string>
 
@@ -34,9 +35,11 @@ class SimCamera {
  public:
   // Serves `camera` (address must be an IPv4 address on this host) with `clock`.
   // Ground truth goes to `truth_dir/<name>_frames.csv`.
+  // With `fingertip`, the camera also shows the Sensel emulator's fingertip at each frame's instant.
   static Result<std::unique_ptr<SimCamera>> create(int index, const CameraConfig& camera, const SimCameraClock& clock,
                                                    std::int64_t t0_ns, std::uint64_t seed,
-                                                   const std::filesystem::path& truth_dir);
+                                                   const std::filesystem::path& truth_dir,
+                                                   std::optional<SimSenselConfig> fingertip = std::nullopt);
   ~SimCamera();
   SimCamera(const SimCamera&) = delete;
   SimCamera& operator=(const SimCamera&) = delete;
@@ -62,6 +65,7 @@ class SimCamera {
   std::map<std::tuple<int, int, std::uint32_t>, cv::Mat> bases_;
   std::ofstream truth_;
   std::uint64_t emitted_ = 0;
+  std::optional<SimSenselConfig> fingertip_;
 };
 
 }  // namespace pvcap::sim

@@ -39,7 +39,9 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
   for (std::size_t i = 0; i < rig.cameras.size(); ++i) {
     const CameraConfig& cam = rig.cameras[i];
     const SimCameraClock& clk = rig.sim->cameras[i];
-    auto made = SimCamera::create(int(i), cam, clk, self->t0_ns_, rig.sim->seed, truth_dir);
+    const bool sensel_sim = rig.sensel && rig.sensel->tty == "sim";
+    auto made = SimCamera::create(int(i), cam, clk, self->t0_ns_, rig.sim->seed, truth_dir,
+                                  sensel_sim ? std::optional(rig.sim->sensel) : std::nullopt);
     if (!made) return made.error();
     const cv::Matx33d h = made.value()->homography({cam.width, cam.height});
     nlohmann::json jc = {{"name", cam.name},
@@ -97,7 +99,9 @@ void SimRig::run(const std::atomic<bool>& stop) {
       }
       if (!cameras_[i] && clk.return_after_s && !returned_[i] && elapsed_s >= *clk.return_after_s) {
         returned_[i] = true;
-        auto made = SimCamera::create(int(i), rig_.cameras[i], clk, t0_ns_, rig_.sim->seed + 1, truth_dir_);
+        const bool sensel_sim = rig_.sensel && rig_.sensel->tty == "sim";
+        auto made = SimCamera::create(int(i), rig_.cameras[i], clk, t0_ns_, rig_.sim->seed + 1, truth_dir_,
+                                      sensel_sim ? std::optional(rig_.sim->sensel) : std::nullopt);
         if (made) {
           cameras_[i] = std::move(made.value());
           spdlog::warn("sim: camera {} is back (return_after_s = {})", rig_.cameras[i].name, *clk.return_after_s);

@@ -14,6 +14,8 @@
 #include "storage/sqlite/database.h"
 #include "storage/video_reader.h"
 #include "capture/sensel_frame.h"
+#include <nlohmann/json.hpp>
+#include "sim/fingertip.h"
 #include "capture/sensel_units.h"
 
 using namespace pvcap::testing;
@@ -317,6 +319,38 @@ TEST(SimSession, SenselIsStoredAtFullRateWithItsDeviceAndArrivalTimes) {
   EXPECT_EQ(matched, n);
   EXPECT_NEAR(peak_g, 250.0, 25.0) << "the emulated press peaks at 250 g on its centre cell";
   EXPECT_GT(last_device, std::int64_t(4294967295LL) * 1000) << "the device clock wrapped and was unwrapped";
+
+  // The camera shows the same fingertip at the same instants: at each video frame's true capture time
+  // (its timecode), the press point is skin while the emulator presses and pad while it does not.
+  std::ifstream truth_json(s.dir / "sim-truth" / "rig.json");
+  const auto truth = nlohmann::json::parse(truth_json);
+  const auto hv = truth["cameras"][0]["homography_mm_to_px"].get<std::vector<double>>();
+  const cv::Matx33d h(hv.data());
+  const cv::Vec3d p = h * cv::Vec3d(100.0, 60.0, 1.0);  // the press point of sim_rig_yaml's Sensel
+  const cv::Point px(int(std::lround(p[0] / p[2])), int(std::lround(p[1] / p[2])));
+  auto reader = pvcap::VideoReader::open(s.dir / "cam0.mkv");
+  ASSERT_TRUE(reader);
+  cv::Mat img;
+  std::int64_t pts = 0;
+  int pressed = 0, lifted = 0;
+  while (true) {
+    auto more = reader.value()->next(img, pts);
+    if (!more || !more.value()) break;
+    const auto tc = pvcap::sim::read_timecode(img);
+    ASSERT_TRUE(tc);
+    const double force = pvcap::sim::fingertip_force(tc->true_ns, 1.0);
+    const cv::Vec3b c = img.at<cv::Vec3b>(px);  // BGR
+    const bool skin = c[2] > 150 && c[2] > c[0] + 40;
+    if (force > 0.3) {
+      ++pressed;
+      EXPECT_TRUE(skin) << "pressing (force " << force << ") but no fingertip at " << px << ": " << c;
+    } else if (force == 0.0) {
+      ++lifted;
+      EXPECT_FALSE(skin) << "lifted but a fingertip at " << px << ": " << c;
+    }
+  }
+  EXPECT_GT(pressed, 10);
+  EXPECT_GT(lifted, 10);
   fs::remove_all(s.dir.parent_path().parent_path());
 }
 
