@@ -75,6 +75,14 @@ Response parse_response(std::span<const std::uint8_t> b, Expect expect, std::uin
       return r;
     }
     case Expect::ReadVariable:
+      if (ack == kBufferedEnd && reg == reg::kReadFrame) {  // the end of a burst of buffered frames
+        Response r;
+        r.state = Response::State::Ok;
+        r.consumed = 1;
+        r.ack = ack;
+        r.reg = reg;
+        return r;
+      }
       if (ack == kRvsNack) return bad(1, fmt::format("the device refused to read register 0x{:02x} (NACK)", reg));
       if (ack != kRvsAck) return bad(1, fmt::format("ack 0x{:02x} where a variable-read ack (3) was expected", ack));
       return parse_sized(b, reg, 1);

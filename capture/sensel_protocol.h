@@ -58,7 +58,8 @@ struct Response {
 
 // Parses the response to a command of kind `expect` on `reg` (`size` bytes for a fixed read)
 // from the start of `bytes`. An async frame (ack 9) that arrives first is returned as such
-// (ack == kAsyncData) and the caller keeps reading for its own response.
+// (ack == kAsyncData) and the caller keeps reading for its own response. In buffered scanning a
+// frame read answers with several frames (ack 3 each) and then a single 0x0A (ack == kBufferedEnd).
 Response parse_response(std::span<const std::uint8_t> bytes, Expect expect, std::uint8_t reg, std::uint8_t size = 0);
 
 // What a device answers, for the emulator: the inverse of parse_response.

@@ -96,8 +96,45 @@ std::vector<std::uint8_t> SenselEmulator::frame_payload(std::int64_t now_ns) {
   return encode_frame(f);
 }
 
+std::int64_t SenselEmulator::scan_period_ns(std::size_t payload_bytes) const {
+  return grid() == kHighDetail ? 19'600'000 + std::int64_t(12'500 * payload_bytes) : 8'000'000;
+}
+
+std::vector<std::uint8_t> SenselEmulator::async_frames_due(std::int64_t now_ns) {
+  std::vector<std::uint8_t> out;
+  if (regs_[reg::kScanEnabled] != 2) return out;
+  if (next_scan_ns_ == 0) next_scan_ns_ = now_ns;
+  while (next_scan_ns_ <= now_ns) {
+    const auto payload = frame_payload(next_scan_ns_);
+    ++frames_sent_;
+    const auto item = response_read_variable(kAsyncData, reg::kReadFrame, payload);
+    out.insert(out.end(), item.begin(), item.end());
+    next_scan_ns_ += scan_period_ns(payload.size());
+  }
+  return out;
+}
+
 std::vector<std::uint8_t> SenselEmulator::read_variable(std::uint8_t r, std::int64_t now_ns) {
   std::vector<std::uint8_t> payload;
+  if (r == reg::kReadFrame && regs_[reg::kScanBufferControl] > 0) {
+    // Buffered: every scan completed since the last read (up to the buffer's size), oldest first,
+    // each as its own variable-read answer, then 0x0A.
+    std::vector<std::uint8_t> out;
+    if (next_scan_ns_ == 0) next_scan_ns_ = now_ns;
+    std::vector<std::vector<std::uint8_t>> scans;
+    while (next_scan_ns_ <= now_ns) {
+      scans.push_back(frame_payload(next_scan_ns_));
+      next_scan_ns_ += scan_period_ns(scans.back().size());
+    }
+    const std::size_t keep = std::min<std::size_t>(scans.size(), regs_[reg::kScanBufferControl]);
+    for (std::size_t i = scans.size() - keep; i < scans.size(); ++i) {  // a full buffer drops the oldest
+      const auto item = response_read_variable(kRvsAck, r, scans[i]);
+      out.insert(out.end(), item.begin(), item.end());
+      ++frames_sent_;
+    }
+    out.push_back(kBufferedEnd);
+    return out;
+  }
   if (r == reg::kReadFrame) {
     payload = frame_payload(now_ns);
     ++frames_sent_;
@@ -138,7 +175,10 @@ std::vector<std::uint8_t> SenselEmulator::on_host_bytes(std::span<const std::uin
         out.push_back(r);
       } else {
         if (r == reg::kSoftReset && size >= 1 && data[0] == 1) soft_reset();
-        else
+        else if (r == reg::kScanEnabled) {
+          regs_[r] = data[0];
+          next_scan_ns_ = 0;  // scanning (re)starts now
+        } else
           for (std::size_t i = 0; i < size && r + i < 256; ++i) regs_[r + i] = data[i];
         const auto ack = response_write(r);
         out.insert(out.end(), ack.begin(), ack.end());

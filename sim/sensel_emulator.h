@@ -43,6 +43,12 @@ class SenselEmulator {
   // Consumes host bytes; returns the device's answers (empty while a command is incomplete).
   std::vector<std::uint8_t> on_host_bytes(std::span<const std::uint8_t> bytes, std::int64_t now_ns);
 
+  // Async scanning (SCAN_ENABLED = 2): the frames due by `now_ns`, each `09 26 00 len payload chk`,
+  // to be pushed without a request. Empty in the other modes.
+  std::vector<std::uint8_t> async_frames_due(std::int64_t now_ns);
+  // Nanoseconds per scan at the current detail (the device's measured floor; payload slows high detail).
+  std::int64_t scan_period_ns(std::size_t payload_bytes) const;
+
   // Faults for tests: the next frame's checksum is wrong / the next frame is cut short.
   void corrupt_next_frame() { corrupt_next_ = true; }
   void truncate_next_frame() { truncate_next_ = true; }
@@ -65,6 +71,7 @@ class SenselEmulator {
   std::vector<std::uint8_t> pending_;  // host bytes not yet forming a whole command
   std::ostream* truth_ = nullptr;
   std::uint8_t counter_ = 0;
+  std::int64_t next_scan_ns_ = 0;  // buffered and async modes: when the next scan completes
   std::uint64_t frames_sent_ = 0;
   std::atomic<bool> corrupt_next_{false}, truncate_next_{false};  // set from test threads
 };

@@ -50,9 +50,20 @@ void SenselPty::serve() {
   auto next_frame = std::chrono::steady_clock::now();
   std::mt19937_64 rng(link_.seed);
   std::exponential_distribution<double> usb_delay(link_.jitter_mean_ms > 0 ? 1.0 / link_.jitter_mean_ms : 1.0);
+  auto send = [&](const std::vector<std::uint8_t>& out) {
+    std::size_t done = 0;
+    // Answers go out in 64-byte pieces, like USB full-speed bulk packets.
+    while (done < out.size() && running_.load()) {
+      const ssize_t w = ::write(master_, out.data() + done, std::min<std::size_t>(64, out.size() - done));
+      if (w > 0) done += std::size_t(w);
+      else if (errno != EAGAIN && errno != EINTR) break;
+    }
+  };
   while (running_.load()) {
     pollfd p{master_, POLLIN, 0};
-    if (::poll(&p, 1, 50) <= 0 || !(p.revents & POLLIN)) continue;
+    const int ready = ::poll(&p, 1, emu_.reg(sensel::reg::kScanEnabled) == 2 ? 2 : 50);
+    send(emu_.async_frames_due(host_now().ns));  // async scanning pushes frames unasked
+    if (ready <= 0 || !(p.revents & POLLIN)) continue;
     const ssize_t n = ::read(master_, buf, sizeof buf);
     if (n <= 0) continue;
     if (const int stall = stall_ms_.exchange(0); stall > 0) {
@@ -60,7 +71,8 @@ void SenselPty::serve() {
       continue;  // the request is lost, as on a hung device
     }
     // Pace frame reads like the device: the scan takes its period, then the answer travels.
-    const bool frame_read = n >= 3 && buf[0] == 0x81 && buf[1] == sensel::reg::kReadFrame && buf[2] == 0;
+    const bool frame_read = n >= 3 && buf[0] == 0x81 && buf[1] == sensel::reg::kReadFrame && buf[2] == 0 &&
+                            emu_.reg(sensel::reg::kScanBufferControl) == 0;  // buffered reads return what is due
     if (frame_read) std::this_thread::sleep_until(next_frame);
     const auto out = emu_.on_host_bytes(std::span<const std::uint8_t>(buf, std::size_t(n)), host_now().ns);
     if (frame_read) {
@@ -73,13 +85,7 @@ void SenselPty::serve() {
         std::this_thread::sleep_for(std::chrono::microseconds(std::int64_t(ms * 1000)));
       }
     }
-    std::size_t done = 0;
-    // Answers go out in 64-byte pieces, like USB full-speed bulk packets.
-    while (done < out.size() && running_.load()) {
-      const ssize_t w = ::write(master_, out.data() + done, std::min<std::size_t>(64, out.size() - done));
-      if (w > 0) done += std::size_t(w);
-      else if (errno != EAGAIN && errno != EINTR) break;
-    }
+    send(out);
   }
 }
 

@@ -97,3 +97,59 @@ TEST(SenselEmulator, TimestampsFollowItsOwnClockAndWrap) {
   EXPECT_LT(ts[2], ts[1]) << "the device clock wraps past 2^32 us";
   EXPECT_NEAR(double(ts[1] - ts[0]), 400'000.0 * 1.0001, 2.0);  // 100 ppm fast
 }
+
+TEST(SenselEmulator, BufferedScanningReturnsEveryScanSinceTheLastReadThenATerminator) {
+  SenselEmulator emu({}, {});
+  const std::uint8_t five[] = {5};
+  ask(emu, command_write(reg::kScanBufferControl, five), Expect::Write, reg::kScanBufferControl);
+  const std::uint8_t sync[] = {1};
+  ask(emu, command_write(reg::kScanEnabled, sync), Expect::Write, reg::kScanEnabled, 0, 1'000'000'000);
+  (void)emu.on_host_bytes(command_read_variable(reg::kReadFrame), 1'000'000'000);  // drains the first scan
+  // 30 ms later at medium detail (8 ms per scan): the scans of +8, +16 and +24 ms are due.
+  auto wire = emu.on_host_bytes(command_read_variable(reg::kReadFrame), 1'030'000'000);
+  std::vector<std::uint32_t> stamps;
+  std::span<const std::uint8_t> rest(wire);
+  for (;;) {
+    const Response r = parse_response(rest, Expect::ReadVariable, reg::kReadFrame);
+    ASSERT_EQ(r.state, Response::State::Ok) << r.error;
+    rest = rest.subspan(r.consumed);
+    if (r.ack == kBufferedEnd) break;
+    stamps.push_back(parse_frame(r.data, kMediumDetail).value().timestamp_us);
+  }
+  EXPECT_TRUE(rest.empty());
+  ASSERT_EQ(stamps.size(), 3u);
+  for (std::size_t i = 1; i < stamps.size(); ++i) EXPECT_EQ(stamps[i] - stamps[i - 1], 8000u);
+  // 100 ms later: 13 scans are due, the 5-frame buffer keeps the newest 5.
+  wire = emu.on_host_bytes(command_read_variable(reg::kReadFrame), 1'130'000'000);
+  std::size_t frames = 0;
+  rest = wire;
+  while (true) {
+    const Response r = parse_response(rest, Expect::ReadVariable, reg::kReadFrame);
+    ASSERT_EQ(r.state, Response::State::Ok);
+    rest = rest.subspan(r.consumed);
+    if (r.ack == kBufferedEnd) break;
+    ++frames;
+  }
+  EXPECT_EQ(frames, 5u);
+}
+
+TEST(SenselEmulator, AsyncScanningPushesFramesUnasked) {
+  SenselEmulator emu({}, {});
+  EXPECT_TRUE(emu.async_frames_due(0).empty()) << "nothing is pushed unless async scanning is on";
+  const std::uint8_t async[] = {2};
+  ask(emu, command_write(reg::kScanEnabled, async), Expect::Write, reg::kScanEnabled);
+  (void)emu.async_frames_due(2'000'000'000);
+  const auto wire = emu.async_frames_due(2'040'000'000);  // 40 ms at 8 ms per scan
+  std::span<const std::uint8_t> rest(wire);
+  int frames = 0;
+  while (!rest.empty()) {
+    // A driver waiting for a write ack must see these as async frames first.
+    const Response r = parse_response(rest, Expect::Write, reg::kScanEnabled);
+    ASSERT_EQ(r.state, Response::State::Ok) << r.error;
+    EXPECT_EQ(r.ack, kAsyncData);
+    EXPECT_TRUE(parse_frame(r.data, kMediumDetail));
+    rest = rest.subspan(r.consumed);
+    ++frames;
+  }
+  EXPECT_EQ(frames, 5);
+}
