@@ -31,8 +31,8 @@ using namespace std::chrono_literals;
 
 // Per-camera counts the operator sees, filled by that camera's worker thread.
 struct CameraTally {
-  std::atomic<std::uint64_t> received{0}, good{0}, incomplete{0}, not_received{0}, duplicates{0}, encoder_behind{0},
-      lost_events{0};
+  std::atomic<std::uint64_t> received{0}, good{0}, incomplete{0}, not_received{0}, encoder_behind{0}, lost_events{0};
+  std::atomic<std::uint64_t> unidentified{0};  // buffers without their own id/timestamp, or duplicate ids
 };
 
 // The simulator runs as a child process in our network namespace, like a separate box on the wire.
@@ -99,7 +99,7 @@ void camera_worker(AravisCamera& camera, std::int64_t device_id, SessionWriter& 
     if (frame->frame_id == 0) {
       // GigE Vision never sends id 0: this buffer got no leader packet, so it has no identity.
       // The frame it was is counted in a gap; record the buffer, sequence 0 = unknown.
-      tally.duplicates.fetch_add(1, std::memory_order_relaxed);
+      tally.unidentified.fetch_add(1, std::memory_order_relaxed);
       writer.record(FrameRecord{device_id, frame->connection, 0, 0, frame->device_ts.ns, frame->host_ts.ns,
                                 frame->aravis_system_ns, to_string(frame->status), false,
                                 "no_frame_id_" + frame->detail, {}, {}});
@@ -113,7 +113,7 @@ void camera_worker(AravisCamera& camera, std::int64_t device_id, SessionWriter& 
       // Not a frame we were missing. An incomplete buffer whose leader packet was lost still
       // carries the id and timestamp of the buffer's previous frame (seen with Aravis 0.8):
       // the frame it really was is already counted in a gap, so it is recorded, not counted.
-      tally.duplicates.fetch_add(1, std::memory_order_relaxed);
+      tally.unidentified.fetch_add(1, std::memory_order_relaxed);
       rec.reason = frame->status == FrameStatus::Good ? "duplicate_frame_id" : "stale_metadata_" + frame->detail;
     } else if (frame->status != FrameStatus::Good) {
       tally.incomplete.fetch_add(1, std::memory_order_relaxed);
@@ -437,6 +437,11 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
                t.encoder_behind.load(), t.lost_events.load());
     any_loss |= t.incomplete.load() + t.not_received.load() + t.encoder_behind.load() + t.lost_events.load() > 0;
   }
+  for (std::size_t i = 0; i < cameras.size(); ++i)
+    if (const auto n = tallies[i]->unidentified.load())
+      fmt::print("{}: {} buffers arrived without their own frame id (reasons no_frame_id_*, stale_metadata_*, "
+                 "duplicate_frame_id); the frames they were are counted as not received\n",
+                 rig.cameras[i].name, n);
   if (sensel) {
     fmt::print("{}\n", sensel->summary());
     any_loss |= sensel->lossy();

@@ -31,6 +31,15 @@ std::vector<std::uint8_t> response_read_variable(std::uint8_t ack, std::uint8_t 
 std::vector<std::uint8_t> response_write(std::uint8_t reg) { return {kWriteAck, reg}; }
 
 namespace {
+Response ok(std::size_t consumed, std::uint8_t ack, std::uint8_t reg) {
+  Response r;
+  r.state = Response::State::Ok;
+  r.consumed = consumed;
+  r.ack = ack;
+  r.reg = reg;
+  return r;
+}
+
 Response bad(std::size_t skip, std::string why) {
   Response r;
   r.state = Response::State::Bad;
@@ -51,11 +60,7 @@ Response parse_sized(std::span<const std::uint8_t> b, std::uint8_t reg, int head
   const std::uint8_t chk = b[head + len];
   if (checksum(payload) != chk)
     return bad(head + len + 1, fmt::format("checksum 0x{:02x}, the {} bytes sum to 0x{:02x}", chk, len, checksum(payload)));
-  Response r;
-  r.state = Response::State::Ok;
-  r.consumed = head + len + 1;
-  r.ack = b[0];
-  r.reg = b[1];
+  Response r = ok(head + len + 1, b[0], b[1]);
   r.data.assign(payload.begin(), payload.end());
   return r;
 }
@@ -75,14 +80,7 @@ Response parse_response(std::span<const std::uint8_t> b, Expect expect, std::uin
       return r;
     }
     case Expect::ReadVariable:
-      if (ack == kBufferedEnd && reg == reg::kReadFrame) {  // the end of a burst of buffered frames
-        Response r;
-        r.state = Response::State::Ok;
-        r.consumed = 1;
-        r.ack = ack;
-        r.reg = reg;
-        return r;
-      }
+      if (ack == kBufferedEnd && reg == reg::kReadFrame) return ok(1, ack, reg);  // end of a buffered burst
       if (ack == kRvsNack) return bad(1, fmt::format("the device refused to read register 0x{:02x} (NACK)", reg));
       if (ack != kRvsAck) return bad(1, fmt::format("ack 0x{:02x} where a variable-read ack (3) was expected", ack));
       return parse_sized(b, reg, 1);
@@ -91,12 +89,7 @@ Response parse_response(std::span<const std::uint8_t> b, Expect expect, std::uin
       if (ack != kWriteAck) return bad(1, fmt::format("ack 0x{:02x} where a write ack (5) was expected", ack));
       if (b.size() < 2) return {};
       if (b[1] != reg) return bad(1, fmt::format("write ack for register 0x{:02x}, expected 0x{:02x}", b[1], reg));
-      Response r;
-      r.state = Response::State::Ok;
-      r.consumed = 2;
-      r.ack = ack;
-      r.reg = reg;
-      return r;
+      return ok(2, ack, reg);
     }
   }
   return bad(1, "unknown expectation");

@@ -160,7 +160,7 @@ std::optional<std::string> SessionWriter::failure() const {
 
 CameraStoreStats SessionWriter::camera_stats(std::int64_t device_id) const {
   for (const auto& cam : cameras_)
-    if (cam->device_id == device_id) return {0, cam->in_video.load(), cam->encoder_drops.load()};
+    if (cam->device_id == device_id) return {cam->in_video.load(), cam->encoder_drops.load()};
   return {};
 }
 

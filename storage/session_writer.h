@@ -26,7 +26,6 @@
 namespace pvcap {
 
 struct CameraStoreStats {
-  std::uint64_t frames_indexed = 0;  // every frame the camera delivered
   std::uint64_t frames_in_video = 0;
   std::uint64_t encoder_drops = 0;   // kept frames the encoder could not take in time
 };
