@@ -84,7 +84,11 @@ void AravisStream::handle(ArvBuffer* buffer) {
     frame.width = arv_buffer_get_image_width(buffer);
     frame.height = arv_buffer_get_image_height(buffer);
     frame.data = static_cast<const std::uint8_t*>(arv_buffer_get_image_data(buffer, &frame.size));
-    frame.lease = BufferLease([keep = std::move(keep), buffer] { arv_stream_push_buffer(keep->stream_.get(), buffer); });
+    frame.lease = BufferLease(
+        [](void* pool, void* buf) {
+          arv_stream_push_buffer(static_cast<AravisStream*>(pool)->stream_.get(), static_cast<ArvBuffer*>(buf));
+        },
+        std::move(keep), buffer);
   } else {
     frame.status = FrameStatus::Incomplete;
     const char* name = nullptr;

@@ -3,7 +3,8 @@
 // device timestamp, status), when pvcap received it (host CLOCK_MONOTONIC), and
 // the pixels, borrowed from the driver's buffer pool until the lease is dropped.
 #include <cstdint>
-#include <functional>
+#include <memory>
+#include <utility>
 #include <string>
 
 #include "core/time.h"
@@ -17,17 +18,22 @@ enum class FrameStatus : std::uint8_t {
 };
 const char* to_string(FrameStatus status);
 
-// Returns a borrowed buffer to its pool when destroyed. Move-only.
+// Returns a borrowed buffer to its pool when destroyed. Move-only. Built on the capture thread
+// once per frame, so it allocates nothing: a plain function, the pool (kept alive) and the buffer.
 class BufferLease {
  public:
+  using Release = void (*)(void* pool, void* buffer);
   BufferLease() = default;
-  explicit BufferLease(std::function<void()> release) : release_(std::move(release)) {}
-  BufferLease(BufferLease&& o) noexcept : release_(std::move(o.release_)) { o.release_ = nullptr; }
+  BufferLease(Release release, std::shared_ptr<void> pool, void* buffer)
+      : release_(release), pool_(std::move(pool)), buffer_(buffer) {}
+  BufferLease(BufferLease&& o) noexcept
+      : release_(std::exchange(o.release_, nullptr)), pool_(std::move(o.pool_)), buffer_(o.buffer_) {}
   BufferLease& operator=(BufferLease&& o) noexcept {
     if (this != &o) {
       reset();
-      release_ = std::move(o.release_);
-      o.release_ = nullptr;
+      release_ = std::exchange(o.release_, nullptr);
+      pool_ = std::move(o.pool_);
+      buffer_ = o.buffer_;
     }
     return *this;
   }
@@ -35,13 +41,16 @@ class BufferLease {
   BufferLease& operator=(const BufferLease&) = delete;
   ~BufferLease() { reset(); }
   void reset() {
-    if (release_) release_();
+    if (release_) release_(pool_.get(), buffer_);
     release_ = nullptr;
+    pool_.reset();
   }
-  explicit operator bool() const { return bool(release_); }
+  explicit operator bool() const { return release_ != nullptr; }
 
  private:
-  std::function<void()> release_;
+  Release release_ = nullptr;
+  std::shared_ptr<void> pool_;
+  void* buffer_ = nullptr;
 };
 
 struct CameraFrame {
