@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <fstream>
 #include <thread>
 
 #include <fmt/format.h>
@@ -423,33 +424,38 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   }
   const Status closed = writer.close(end_reason);
 
-  // The report the operator reads.
-  fmt::print("\nsession: {}\n", writer.dir().string());
-  fmt::print("ended: {} after {:.1f} s\n", end_reason, recorded_s);
-  fmt::print("{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>10} {:>9}\n", "camera", "received", "good", "in video",
+  // The report the operator reads, also kept in the session folder as report.txt.
+  fmt::memory_buffer report;
+  auto out = std::back_inserter(report);
+  fmt::format_to(out, "session: {}\n", writer.dir().string());
+  fmt::format_to(out, "ended: {} after {:.1f} s\n", end_reason, recorded_s);
+  fmt::format_to(out, "{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>10} {:>9}\n", "camera", "received", "good", "in video",
              "incomplete", "not received", "enc. behind", "lost conn");
   bool any_loss = false;
   for (std::size_t i = 0; i < cameras.size(); ++i) {
     const auto& t = *tallies[i];
     const auto st = writer.camera_stats(device_ids[i]);
-    fmt::print("{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>10} {:>9}\n", rig.cameras[i].name, t.received.load(),
+    fmt::format_to(out, "{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>10} {:>9}\n", rig.cameras[i].name, t.received.load(),
                t.good.load(), st.frames_in_video, t.incomplete.load(), t.not_received.load(),
                t.encoder_behind.load(), t.lost_events.load());
     any_loss |= t.incomplete.load() + t.not_received.load() + t.encoder_behind.load() + t.lost_events.load() > 0;
   }
   for (std::size_t i = 0; i < cameras.size(); ++i)
     if (const auto n = tallies[i]->unidentified.load())
-      fmt::print("{}: {} buffers arrived without their own frame id (reasons no_frame_id_*, stale_metadata_*, "
+      fmt::format_to(out, "{}: {} buffers arrived without their own frame id (reasons no_frame_id_*, stale_metadata_*, "
                  "duplicate_frame_id); the frames they were are counted as not received\n",
                  rig.cameras[i].name, n);
   if (sensel) {
-    fmt::print("{}\n", sensel->summary());
+    fmt::format_to(out, "{}\n", sensel->summary());
     any_loss |= sensel->lossy();
   }
-  fmt::print("video keeps {} frames/s per camera ({}); every received frame is in session.db with its reason\n",
+  fmt::format_to(out, "video keeps {} frames/s per camera ({}); every received frame is in session.db with its reason\n",
              rig.store.video_fps > 0 ? fmt::format("{:g}", rig.store.video_fps) : "all", rig.store.video_codec);
-  if (any_loss) fmt::print("frames were lost: see the drops and frames tables (reason column) in session.db\n");
-  if (writer.index_records_lost() > 0) fmt::print("WARNING: {} index records were lost\n", writer.index_records_lost());
+  if (any_loss) fmt::format_to(out, "frames were lost: see the drops and frames tables (reason column) in session.db\n");
+  if (writer.index_records_lost() > 0) fmt::format_to(out, "WARNING: {} index records were lost\n", writer.index_records_lost());
+  const std::string report_text = fmt::to_string(report);
+  fmt::print("\n{}", report_text);
+  std::ofstream(writer.dir() / "report.txt") << report_text;
   if (start_failed) return 1;
   if (!closed.ok()) {
     spdlog::error("{}", closed.error().message);

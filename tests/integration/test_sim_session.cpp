@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <fstream>
+#include <sstream>
 #include <map>
 #include <set>
 
@@ -133,6 +134,13 @@ TEST(SimSession, FourCamerasTenSecondsEveryFrameAccountedAndTimecodesMatch) {
   ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
   ASSERT_FALSE(s.dir.empty()) << s.result.output;
   ASSERT_EQ(s.cameras.size(), 4u);
+  {  // the report printed at the end is also kept beside the data
+    std::ifstream in(s.dir / "report.txt");
+    std::stringstream report;
+    report << in.rdbuf();
+    EXPECT_NE(report.str().find("ended: duration reached"), std::string::npos) << report.str();
+    EXPECT_NE(s.result.output.find(report.str()), std::string::npos) << "report.txt differs from what was printed";
+  }
   for (const auto& c : s.cameras) {
     SCOPED_TRACE(c.name);
     ASSERT_FALSE(c.truth.empty());
