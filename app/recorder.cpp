@@ -228,7 +228,7 @@ class SenselRecording {
                                    s->host_ts.ns});
       writer.record(PressureRecord{device_id_, 0, s->sequence, s->lost_before, s->device_ts.ns, s->host_ts.ns,
                                      s->host_wait_ns, s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale,
-                                     sensel::encode_frame(s->frame)});
+                                     std::move(s->payload)});
       stored_.fetch_add(1, std::memory_order_relaxed);
     }
   }
@@ -287,11 +287,9 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
       }
       std::lock_guard lock(events_mu);
       if (writer_for_events)
-        writer_for_events->record(EventRecord{e.at.ns,
-                                              e.kind == CameraEvent::Kind::Lost          ? "camera_lost"
-                                              : e.kind == CameraEvent::Kind::Reconnected ? "camera_reconnected"
-                                                                                         : "camera_warning",
-                                              device_ids[i], e.message});
+        writer_for_events->record(EventRecord{
+            e.at.ns, e.kind == CameraEvent::Kind::Lost ? "camera_lost" : "camera_reconnected", device_ids[i],
+            e.message});
     }));
   }
   for (auto& cam : cameras) {

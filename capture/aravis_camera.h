@@ -41,9 +41,9 @@ struct CameraSettings {
 };
 
 struct CameraEvent {
-  enum class Kind { Lost, Reconnected, Warning };
+  enum class Kind { Lost, Reconnected };
   int camera = 0;
-  Kind kind = Kind::Warning;
+  Kind kind = Kind::Lost;
   HostNs at;
   std::string message;
 };

@@ -105,8 +105,7 @@ void AravisStream::handle(ArvBuffer* buffer) {
     frame.detail = name;
     arv_stream_push_buffer(stream_.get(), buffer);
   }
-  if (queue_.try_push(frame)) pushed_.fetch_add(1, std::memory_order_relaxed);
-  else overflows_.fetch_add(1, std::memory_order_relaxed);  // `frame` releases its buffer here
+  if (!queue_.try_push(frame)) overflows_.fetch_add(1, std::memory_order_relaxed);  // `frame` releases its buffer
 }
 
 StreamCounters AravisStream::counters() const {

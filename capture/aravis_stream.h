@@ -49,7 +49,6 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   void quiesce();
   StreamCounters counters() const;
   HostNs last_arrival() const { return HostNs{last_arrival_ns_.load(std::memory_order_relaxed)}; }
-  std::uint64_t frames_pushed() const { return pushed_.load(std::memory_order_relaxed); }
 
  private:
   AravisStream(BoundedQueue<CameraFrame>& queue, int camera_index, std::uint32_t connection)
@@ -64,7 +63,6 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   std::atomic<bool> accepting_{true};
   std::atomic<int> in_callback_{0};
   std::atomic<std::int64_t> last_arrival_ns_{0};
-  std::atomic<std::uint64_t> pushed_{0};
   std::atomic<std::uint64_t> overflows_{0};
   gulong signal_id_ = 0;
 };

@@ -227,6 +227,7 @@ void SenselDevice::stream_loop() {
     s.device_ts = DeviceNs{std::int64_t(clock_.next(frame.value().timestamp_us).sequence) * 1000};
     s.grid = info_.grid;
     s.frame = std::move(frame.value());
+    s.payload = std::move(r.value().data);
     frames_.fetch_add(1);
     if (!queue_.try_push(s)) overflows_.fetch_add(1);
   }

@@ -50,6 +50,7 @@ struct PressureSample {
   std::uint64_t lost_before = 0;  // frames the counter says were skipped before this one
   Grid grid;
   Frame frame;                    // contacts, accelerometer, pressure counts, labels
+  std::vector<std::uint8_t> payload;  // the frame exactly as the device sent it (checksum verified)
 };
 
 struct SenselEvent {

@@ -67,7 +67,6 @@ class BoundedQueue {
     std::lock_guard lock(mu_);
     return high_water_;
   }
-  std::size_t capacity() const { return capacity_; }
 
  private:
   const std::size_t capacity_;

@@ -56,11 +56,6 @@ SimCamera::~SimCamera() {
   truth_.flush();
 }
 
-std::uint64_t SimCamera::frames_emitted() const {
-  std::lock_guard lock(const_cast<std::mutex&>(mu_));
-  return emitted_;
-}
-
 cv::Matx33d SimCamera::homography(cv::Size size) const { return camera_homography(index_, size); }
 
 void SimCamera::fill(ArvBuffer* buffer, void* self, guint32, guint32, ArvPixelFormat format) {

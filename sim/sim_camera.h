@@ -45,7 +45,6 @@ class SimCamera {
   SimCamera& operator=(const SimCamera&) = delete;
 
   const SimClock& clock() const { return clock_; }
-  std::uint64_t frames_emitted() const;
   // The ground-truth homography for images of `size`.
   cv::Matx33d homography(cv::Size size) const;
 

@@ -68,7 +68,6 @@ void Statement::reset() {
   sqlite3_clear_bindings(stmt_);
 }
 std::int64_t Statement::column_int(int c) const { return sqlite3_column_int64(stmt_, c); }
-double Statement::column_double(int c) const { return sqlite3_column_double(stmt_, c); }
 std::string Statement::column_text(int c) const {
   const auto* t = sqlite3_column_text(stmt_, c);
   return t ? std::string(reinterpret_cast<const char*>(t)) : std::string();

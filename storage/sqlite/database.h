@@ -59,7 +59,6 @@ class Statement {
   void reset();
 
   std::int64_t column_int(int col) const;
-  double column_double(int col) const;
   std::string column_text(int col) const;
   bool column_null(int col) const;
   std::vector<std::uint8_t> column_blob(int col) const;
