@@ -67,14 +67,32 @@ std::vector<std::string> sensel_candidates(const std::vector<std::string>& extra
 int cmd_devices(bool json, const std::vector<std::string>& extra_ttys) {
   const auto cams = pvcap::discover_gige_cameras();
   struct FoundSensel {
-    std::string path;
+    std::string path;        // tty, if one answered
+    std::string usb_serial;  // USB serial string, if reachable over libusb
     pvcap::sensel::SenselInfo info;
   };
   std::vector<FoundSensel> sensels;
   for (const auto& path : sensel_candidates(extra_ttys)) {
     auto t = pvcap::sensel::open_tty(path);
     if (!t) continue;
-    if (auto info = pvcap::sensel::SenselDevice::probe(std::move(t.value()))) sensels.push_back({path, info.value()});
+    if (auto info = pvcap::sensel::SenselDevice::probe(std::move(t.value()))) sensels.push_back({path, "", info.value()});
+  }
+  // Morphs reachable over libusb: the same device as a /dev/ttyACM one is listed once, with both.
+  if (auto usb = pvcap::sensel::list_usb_sensels(); usb) {
+    for (const auto& serial : usb.value()) {
+      if (serial.find('/') != std::string::npos) {  // cannot be opened: says why
+        fmt::print(stderr, "Sensel Morph {}\n", serial);
+        continue;
+      }
+      auto t = pvcap::sensel::open_usb(serial);
+      if (!t) continue;  // e.g. held by a running session
+      auto info = pvcap::sensel::SenselDevice::probe(std::move(t.value()));
+      if (!info) continue;
+      auto same = std::find_if(sensels.begin(), sensels.end(),
+                               [&](const FoundSensel& s) { return s.info.serial == info.value().serial; });
+      if (same != sensels.end()) same->usb_serial = serial;
+      else sensels.push_back({"", serial, info.value()});
+    }
   }
   if (json) {
     for (const auto& c : cams)
@@ -82,8 +100,9 @@ int cmd_devices(bool json, const std::vector<std::string>& extra_ttys) {
                  "\"interface\":\"{}\",\"mac\":\"{}\",\"id\":\"{}\"}}\n",
                  c.vendor, c.model, c.serial, c.address, c.protocol, c.physical_id, c.device_id);
     for (const auto& s : sensels)
-      fmt::print("{{\"kind\":\"sensel\",\"serial\":\"{}\",\"firmware\":\"{}\",\"tty\":\"{}\",\"grid\":[{},{}]}}\n",
-                 s.info.serial, s.info.firmware, s.path, s.info.grid.cols, s.info.grid.rows);
+      fmt::print("{{\"kind\":\"sensel\",\"serial\":\"{}\",\"firmware\":\"{}\",\"tty\":\"{}\",\"usb_serial\":\"{}\","
+                 "\"grid\":[{},{}]}}\n",
+                 s.info.serial, s.info.firmware, s.path, s.usb_serial, s.info.grid.cols, s.info.grid.rows);
     return 0;
   }
   if (cams.empty())
@@ -96,12 +115,15 @@ int cmd_devices(bool json, const std::vector<std::string>& extra_ttys) {
                  c.physical_id);
   }
   if (sensels.empty())
-    fmt::print("no Sensel Morph answered on /dev/ttyACM* or /dev/morph* (check the cable; the user needs the "
-               "dialout group or a udev rule)\n");
+    fmt::print("no Sensel Morph answered on /dev/ttyACM*, /dev/morph* or USB 2c2f:0003 (check the cable; the "
+               "user needs the dialout group or a udev rule)\n");
   else
-    for (const auto& s : sensels)
+    for (const auto& s : sensels) {
+      std::string where = s.path;
+      if (!s.usb_serial.empty()) where += (where.empty() ? "" : ", ") + fmt::format("usb: {}", s.usb_serial);
       fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} firmware {}, grid {}x{}\n", "sensel", "Sensel", "Morph",
-                 s.info.serial, s.path, s.info.firmware, s.info.grid.cols, s.info.grid.rows);
+                 s.info.serial, where, s.info.firmware, s.info.grid.cols, s.info.grid.rows);
+    }
   return 0;
 }
 

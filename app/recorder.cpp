@@ -143,22 +143,27 @@ void camera_worker(AravisCamera& camera, std::int64_t device_id, SessionWriter& 
 // moves its samples into the store, one row per frame, at full rate.
 class SenselRecording {
  public:
-  // `tty` is the device path, or "sim" with `sim_dir` holding the simulator's sensel.tty link.
+  // Over USB by serial, or over a tty: a device path, or "sim" with `sim_dir` holding the
+  // simulator's sensel.tty link.
   static Result<std::unique_ptr<SenselRecording>> open(const SenselRigConfig& cfg, const std::filesystem::path& sim_dir,
                                                         double wait_s, const std::atomic<bool>& stop_requested) {
     std::unique_ptr<SenselRecording> r(new SenselRecording());
     r->config_ = cfg;
     const std::string path = cfg.tty == "sim" ? (sim_dir / "sensel.tty").string() : cfg.tty;
+    sensel::SenselDevice::TransportFactory factory;
+    if (cfg.usb_serial) factory = [serial = *cfg.usb_serial] { return sensel::open_usb(serial); };
+    else factory = [path] { return sensel::open_tty(path); };
+    const char* key = cfg.usb_serial ? "sensel.usb" : "sensel.tty";
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
     for (;;) {
-      auto d = sensel::SenselDevice::open([path] { return sensel::open_tty(path); },
+      auto d = sensel::SenselDevice::open(factory,
                                           [raw = r.get()](const sensel::SenselEvent& e) { raw->on_event(e); });
       if (d) {
         r->device_ = std::move(d.value());
         break;
       }
       if (stop_requested.load() || std::chrono::steady_clock::now() >= deadline)
-        return Error{fmt::format("Sensel (sensel.tty in the rig file, line {}): {}", cfg.line, d.error().message)};
+        return Error{fmt::format("Sensel ({} in the rig file, line {}): {}", key, cfg.line, d.error().message)};
       std::this_thread::sleep_for(200ms);
     }
     if (Status s = r->device_->configure({.scan_detail = cfg.scan_detail,
@@ -168,18 +173,26 @@ class SenselRecording {
       return Error{"Sensel: " + s.error().message};
     const auto& info = r->device_->info();
     spdlog::info("sensel: Sensel Morph serial {} firmware {} on {}, grid {}x{} (scan detail {}), dynamic baselining {}",
-                 info.serial, info.firmware, path, info.grid.cols, info.grid.rows,
+                 info.serial, info.firmware, r->connection(), info.grid.cols, info.grid.rows,
                  cfg.scan_detail == 0 ? "high" : "medium", cfg.dynamic_baseline ? "on" : "off");
     return r;
   }
 
   DeviceRecord device_record() const {
     const auto& info = device_->info();
-    nlohmann::json j = {{"tty", config_.tty}, {"scan_detail", config_.scan_detail == 0 ? "high" : "medium"},
+    nlohmann::json j = {{"scan_detail", config_.scan_detail == 0 ? "high" : "medium"},
                         {"grid", {info.grid.cols, info.grid.rows, info.grid.xscale, info.grid.yscale}},
                         {"dynamic_baseline", config_.dynamic_baseline}, {"frame_rate_cap", config_.frame_rate_cap},
                         {"latency_ns", config_.latency_ns}};
-    return DeviceRecord{"sensel", "sensel", "Sensel", "Morph", info.serial, config_.tty, info.firmware, j.dump()};
+    if (config_.usb_serial) j["usb"] = *config_.usb_serial;
+    else j["tty"] = config_.tty;
+    return DeviceRecord{"sensel", "sensel", "Sensel", "Morph", info.serial, connection(), info.firmware, j.dump()};
+  }
+
+  // How the Morph is reached, for the operator and the devices table.
+  std::string connection() const {
+    if (!config_.usb_serial) return config_.tty;
+    return config_.usb_serial->empty() ? "usb" : "usb:" + *config_.usb_serial;
   }
 
   Status start(SessionWriter& writer, std::int64_t device_id) {

@@ -1,12 +1,13 @@
 #pragma once
 // How bytes reach a Sensel Morph. Two transports behind one interface: a tty
-// (/dev/ttyACM*, or the emulator's pseudo-terminal) and, later, libusb bulk
-// endpoints. read() waits at most `timeout_ms`; 0 bytes means nothing arrived in
+// (/dev/ttyACM*, or the emulator's pseudo-terminal) and libusb on the Morph's
+// bulk endpoints. read() waits at most `timeout_ms`; 0 bytes means nothing arrived in
 // time; an Error means the device is gone (unplugged, hung up).
 #include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "core/result.h"
 
@@ -22,5 +23,11 @@ class Transport {
 
 // Opens a tty in raw mode at 115200 8N1 (nominal on USB CDC).
 Result<std::unique_ptr<Transport>> open_tty(const std::string& path);
+
+// Opens the Morph (USB 2c2f:0003) whose USB serial string is `usb_serial` ("" = the only
+// one on the bus): detaches cdc_acm from interfaces 0 and 1, claims interface 1.
+Result<std::unique_ptr<Transport>> open_usb(const std::string& usb_serial);
+// The USB serials of the Morphs on the bus (or, for one that cannot be opened, why).
+Result<std::vector<std::string>> list_usb_sensels();
 
 }  // namespace pvcap::sensel

@@ -143,7 +143,18 @@ SenselRigConfig parse_sensel(const YAML::Node& node, const std::filesystem::path
   SenselRigConfig c;
   MapReader r(node, file, "sensel");
   c.line = node.Mark().line + 1;
-  r.require("tty", c.tty);
+  r.get("tty", c.tty);
+  if (r.has("usb")) {
+    std::string serial;
+    r.get("usb", serial);
+    c.usb_serial = serial == "any" ? "" : serial;
+  }
+  if (r.has("tty") == r.has("usb"))
+    r.fail(node, "tty/usb",
+           "say where the Morph is with exactly one of tty: (/dev/ttyACM0, /dev/morph0, sim) or usb: (its USB "
+           "serial string, or any)");
+  if (c.usb_serial && c.usb_serial->empty() && r.node()["usb"].Scalar() != "any")
+    r.fail(node["usb"], "usb", "empty: give the Morph's USB serial string (pvcap devices lists it) or 'any'");
   std::string detail = "medium";
   r.get("scan_detail", detail);
   if (detail == "high") c.scan_detail = 0;

@@ -38,7 +38,9 @@ struct CameraConfig {
 };
 
 struct SenselRigConfig {
+  // Where the Morph is: exactly one of
   std::string tty;              // /dev/ttyACM0 (or a udev name such as /dev/morph0); "sim": the simulator's
+  std::optional<std::string> usb_serial;  // over libusb, by USB serial string; "" = the only Morph on the bus
   int scan_detail = 1;          // 0 high (93x53, ~50 Hz), 1 medium (47x27, ~125 Hz)
   bool dynamic_baseline = false;  // off: a resting hand must not fade away
   int frame_rate_cap = 0;       // Hz, 0 = the device's default

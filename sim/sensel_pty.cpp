@@ -9,7 +9,6 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
-#include <random>
 
 #include <fmt/format.h>
 
@@ -47,9 +46,7 @@ void SenselPty::unplug() {
 
 void SenselPty::serve() {
   std::uint8_t buf[256];
-  auto next_frame = std::chrono::steady_clock::now();
-  std::mt19937_64 rng(link_.seed);
-  std::exponential_distribution<double> usb_delay(link_.jitter_mean_ms > 0 ? 1.0 / link_.jitter_mean_ms : 1.0);
+  SenselPacer pacer(emu_, link_);
   auto send = [&](const std::vector<std::uint8_t>& out) {
     std::size_t done = 0;
     // Answers go out in 64-byte pieces, like USB full-speed bulk packets.
@@ -70,22 +67,10 @@ void SenselPty::serve() {
       std::this_thread::sleep_for(std::chrono::milliseconds(stall));
       continue;  // the request is lost, as on a hung device
     }
-    // Pace frame reads like the device: the scan takes its period, then the answer travels.
-    const bool frame_read = n >= 3 && buf[0] == 0x81 && buf[1] == sensel::reg::kReadFrame && buf[2] == 0 &&
-                            emu_.reg(sensel::reg::kScanBufferControl) == 0;  // buffered reads return what is due
-    if (frame_read) std::this_thread::sleep_until(next_frame);
-    const auto out = emu_.on_host_bytes(std::span<const std::uint8_t>(buf, std::size_t(n)), host_now().ns);
-    if (frame_read) {
-      const bool high = emu_.grid() == sensel::kHighDetail;
-      const auto period = high ? std::chrono::microseconds(19600 + std::int64_t(12.5 * double(out.size())))
-                               : std::chrono::microseconds(8000);
-      next_frame = std::max(next_frame + period, std::chrono::steady_clock::now());
-      if (link_.jitter_mean_ms > 0) {
-        const double ms = std::min(usb_delay(rng), link_.jitter_max_ms);
-        std::this_thread::sleep_for(std::chrono::microseconds(std::int64_t(ms * 1000)));
-      }
-    }
-    send(out);
+    const auto answer = pacer.answer(std::span<const std::uint8_t>(buf, std::size_t(n)), host_now().ns);
+    if (const std::int64_t wait_ns = answer.deliver_at_ns - host_now().ns; wait_ns > 0)
+      std::this_thread::sleep_for(std::chrono::nanoseconds(wait_ns));
+    send(answer.bytes);
   }
 }
 

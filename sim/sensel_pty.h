@@ -1,10 +1,8 @@
 #pragma once
 // Puts a SenselEmulator behind a pseudo-terminal, like a Morph behind
-// /dev/ttyACM0: the driver opens slave_path() with its tty transport. Frames are
-// paced like the device: 8 ms per scan at medium detail; at high detail 19.6 ms
-// plus 12.5 us per payload byte (the spec's measured floor and slope, §9). Answers
-// reach the host after a random USB delay, and a test can make the device stall
-// or vanish.
+// /dev/ttyACM0: the driver opens slave_path() with its tty transport. Answers are
+// paced like the device's (sensel_pacing.h) and go out in 64-byte pieces; a test
+// can make the device stall or vanish.
 #include <atomic>
 #include <mutex>
 #include <string>
@@ -12,14 +10,9 @@
 
 #include "core/result.h"
 #include "sim/sensel_emulator.h"
+#include "sim/sensel_pacing.h"
 
 namespace pvcap::sim {
-
-struct SenselLink {
-  double jitter_mean_ms = 0;  // USB arrival delay after the scan: exponential with this mean...
-  double jitter_max_ms = 0;   // ...capped here (a long tail, not an unbounded one)
-  std::uint64_t seed = 1;
-};
 
 class SenselPty {
  public:

@@ -1,5 +1,8 @@
-// The Sensel driver against the emulator behind a pseudo-terminal (the tty transport):
-// the whole open / configure / stream / close sequence, and the faults a lab sees.
+// The Sensel driver against the emulator: the whole open / configure / stream /
+// close sequence, and the faults a lab sees. Built twice: over the tty transport
+// (the emulator behind a pseudo-terminal) and, with PVCAP_SENSEL_OVER_USB, over
+// the libusb transport (the emulator on umockdev's emulated USB bus; that binary
+// runs under umockdev's preload library).
 #include <gtest/gtest.h>
 
 #include <mutex>
@@ -7,7 +10,13 @@
 
 #include "capture/sensel_device.h"
 #include "sim/sensel_emulator.h"
+#ifdef PVCAP_SENSEL_OVER_USB
+#include "sim/sensel_usb_device.h"
+#define SenselDriver SenselDriverOverUsb
+#else
 #include "sim/sensel_pty.h"
+#define SenselDriver SenselDriverOverTty
+#endif
 
 using namespace pvcap;
 using namespace std::chrono_literals;
@@ -18,17 +27,29 @@ struct Rig {
   // The device clock starts 0.7 s before its 32-bit wrap, counted from now.
   sim::SenselEmulator emu{sim::fingertip_scene(60.0, 60.0, 150.0, 0.5),
                           sim::SenselClock{host_now().ns, 4294967295.0 - 700'000.0, 50.0}};
-  std::unique_ptr<sim::SenselPty> pty;
+#ifdef PVCAP_SENSEL_OVER_USB
+  std::unique_ptr<sim::SenselUsbDevice> link;
+#else
+  std::unique_ptr<sim::SenselPty> link;
+#endif
   std::unique_ptr<sensel::SenselDevice> device;
   std::mutex mu;
   std::vector<sensel::SenselEvent> events;
 
   void open() {
-    auto p = sim::SenselPty::create(emu);
-    ASSERT_TRUE(p) << p.error().message;
-    pty = std::move(p.value());
-    const std::string path = pty->slave_path();
-    auto d = sensel::SenselDevice::open([path] { return sensel::open_tty(path); },
+#ifdef PVCAP_SENSEL_OVER_USB
+    auto l = sim::SenselUsbDevice::create(emu);
+    ASSERT_TRUE(l) << l.error().message;
+    link = std::move(l.value());
+    const std::string serial = link->identity().serial;
+    auto factory = [serial] { return sensel::open_usb(serial); };
+#else
+    auto l = sim::SenselPty::create(emu);
+    ASSERT_TRUE(l) << l.error().message;
+    link = std::move(l.value());
+    auto factory = [path = link->slave_path()] { return sensel::open_tty(path); };
+#endif
+    auto d = sensel::SenselDevice::open(factory,
                                         [this](const sensel::SenselEvent& e) {
                                           std::lock_guard lock(mu);
                                           events.push_back(e);
@@ -51,7 +72,7 @@ struct Rig {
 
 }  // namespace
 
-TEST(SenselDriver, OpensConfiguresAndStreamsOverATty) {
+TEST(SenselDriver, OpensConfiguresAndStreams) {
   Rig rig;
   ASSERT_NO_FATAL_FAILURE(rig.open());
   EXPECT_EQ(rig.device->info().serial, "SM01164910368");
@@ -105,7 +126,7 @@ TEST(SenselDriver, StallIsReportedAndSurvived) {
   ASSERT_TRUE(rig.device->configure({}).ok());
   ASSERT_TRUE(rig.device->start().ok());
   std::this_thread::sleep_for(200ms);
-  rig.pty->stall_for(800);
+  rig.link->stall_for(800);
   std::this_thread::sleep_for(1500ms);
   const auto before = rig.device->frames();
   std::this_thread::sleep_for(300ms);
@@ -122,7 +143,7 @@ TEST(SenselDriver, UnplugIsReportedAndNothingCapturedIsLost) {
   ASSERT_TRUE(rig.device->start().ok());
   std::this_thread::sleep_for(500ms);
   const auto t_unplug = host_now();
-  rig.pty->unplug();
+  rig.link->unplug();
   std::this_thread::sleep_for(600ms);
   EXPECT_TRUE(rig.saw(sensel::SenselEvent::Kind::Unplugged));
   {
@@ -154,3 +175,69 @@ TEST(SenselDriver, HighDetailRunsAtTheDevicesSlowerRate) {
   ASSERT_FALSE(samples.empty());
   EXPECT_EQ(samples.back().frame.pressure->counts.size(), std::size_t(93 * 53));
 }
+
+#ifdef PVCAP_SENSEL_OVER_USB
+// What only the USB transport does: find the Morph by its USB serial, take the CDC data
+// interface from the kernel's cdc_acm (and give it back), refuse a second program, and
+// follow the device through a replug to its new bus address.
+
+TEST(SenselDriverOverUsb, TakesTheInterfaceFromCdcAcmAndGivesItBack) {
+  Rig rig;
+  auto l = sim::SenselUsbDevice::create(rig.emu);
+  ASSERT_TRUE(l) << l.error().message;
+  auto& usb = *l.value();
+  EXPECT_TRUE(usb.cdc_acm_bound(0) && usb.cdc_acm_bound(1));
+  {
+    auto t = sensel::open_usb(usb.identity().serial);
+    ASSERT_TRUE(t) << t.error().message;
+    EXPECT_FALSE(usb.cdc_acm_bound(0));
+    EXPECT_FALSE(usb.cdc_acm_bound(1));
+    EXPECT_NE(t.value()->describe().find("2044B8374E33"), std::string::npos) << t.value()->describe();
+
+    // A second program (another pvcap, the Sensel app) cannot take the Morph away.
+    auto second = sensel::open_usb("");
+    ASSERT_FALSE(second);
+    EXPECT_NE(second.error().message.find("another program"), std::string::npos) << second.error().message;
+  }
+  EXPECT_TRUE(usb.cdc_acm_bound(0) && usb.cdc_acm_bound(1)) << "closing gives /dev/ttyACM back to the kernel";
+}
+
+TEST(SenselDriverOverUsb, NamesWhatItFoundWhenTheSerialIsWrongOrTheMorphIsMissing) {
+  Rig rig;
+  auto l = sim::SenselUsbDevice::create(rig.emu);
+  ASSERT_TRUE(l) << l.error().message;
+  auto listed = sensel::list_usb_sensels();
+  ASSERT_TRUE(listed) << listed.error().message;
+  EXPECT_EQ(listed.value(), std::vector<std::string>{"2044B8374E33"});
+
+  auto wrong = sensel::open_usb("SM01164910368");  // register 0x0F's serial, not the USB one
+  ASSERT_FALSE(wrong);
+  EXPECT_NE(wrong.error().message.find("'SM01164910368'"), std::string::npos) << wrong.error().message;
+  EXPECT_NE(wrong.error().message.find("found: 2044B8374E33"), std::string::npos) << wrong.error().message;
+
+  l.value()->unplug();
+  auto none = sensel::open_usb("");
+  ASSERT_FALSE(none);
+  EXPECT_NE(none.error().message.find("no Sensel Morph"), std::string::npos) << none.error().message;
+}
+
+TEST(SenselDriverOverUsb, ReplugIsFollowedToTheNewAddressAndStreamingResumes) {
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.open());
+  ASSERT_TRUE(rig.device->configure({}).ok());
+  ASSERT_TRUE(rig.device->start().ok());
+  std::this_thread::sleep_for(400ms);
+  const std::string first_node = rig.link->devnode();
+  rig.link->unplug();
+  std::this_thread::sleep_for(700ms);
+  EXPECT_TRUE(rig.saw(sensel::SenselEvent::Kind::Unplugged));
+  const auto frames_while_gone = rig.device->frames();
+  rig.link->plug_in();
+  EXPECT_NE(rig.link->devnode(), first_node);
+  std::this_thread::sleep_for(2500ms);  // the driver retries every second
+  EXPECT_TRUE(rig.saw(sensel::SenselEvent::Kind::Reconnected));
+  EXPECT_GT(rig.device->frames(), frames_while_gone + 50) << "streaming did not resume after the replug";
+  rig.device->stop();
+  EXPECT_EQ(rig.drain().size(), rig.device->frames());
+}
+#endif

@@ -101,3 +101,24 @@ TEST(RigConfig, ShippedRigFilesLoad) {
     EXPECT_EQ(rig.cameras.size(), 4u) << f;
   }
 }
+
+TEST(RigConfig, SenselIsReachedByExactlyOneOfTtyOrUsb) {
+  const std::string cams = "name: lab\ncameras:\n  - address: 192.168.10.11\n";
+  auto rig = parse_rig_config(cams + "sensel:\n  tty: /dev/morph0\n", "rig.yaml");
+  ASSERT_TRUE(rig.sensel);
+  EXPECT_EQ(rig.sensel->tty, "/dev/morph0");
+  EXPECT_FALSE(rig.sensel->usb_serial);
+
+  rig = parse_rig_config(cams + "sensel:\n  usb: 2044B8374E33\n", "rig.yaml");
+  ASSERT_TRUE(rig.sensel && rig.sensel->usb_serial);
+  EXPECT_EQ(*rig.sensel->usb_serial, "2044B8374E33");
+  rig = parse_rig_config(cams + "sensel:\n  usb: any\n", "rig.yaml");
+  ASSERT_TRUE(rig.sensel && rig.sensel->usb_serial);
+  EXPECT_EQ(*rig.sensel->usb_serial, "");
+
+  const auto both = error_of(cams + "sensel:\n  tty: /dev/ttyACM0\n  usb: any\n");
+  EXPECT_NE(both.find("rig.yaml:5"), std::string::npos) << both;
+  EXPECT_NE(both.find("exactly one of tty"), std::string::npos) << both;
+  EXPECT_NE(error_of(cams + "sensel:\n  scan_detail: high\n").find("exactly one of tty"), std::string::npos);
+  EXPECT_NE(error_of(cams + "sensel:\n  usb: ''\n").find("pvcap devices lists it"), std::string::npos);
+}
