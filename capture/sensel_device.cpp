@@ -84,6 +84,27 @@ Status SenselDevice::write_reg(std::uint8_t reg, std::span<const std::uint8_t> d
   return {};
 }
 
+Status SenselDevice::write_variable(std::uint8_t reg, std::span<const std::uint8_t> data) {
+  if (running_.load()) return Error{"a variable-size register cannot be written while the Sensel streams"};
+  auto step = [&](const std::vector<std::uint8_t>& command, Expect expect) -> Status {
+    auto r = transact(command, expect, reg);
+    if (!r) return r.error();
+    if (r.value().state != Response::State::Ok)
+      return Error{fmt::format("{}: writing register 0x{:02x} ({} bytes): {}", transport_->describe(), reg,
+                               data.size(), r.value().error)};
+    return {};
+  };
+  if (Status s = step(command_write_variable_header(reg, std::uint32_t(data.size())), Expect::WriteVariableHeader);
+      !s.ok())
+    return s;
+  for (std::size_t at = 0; at < data.size(); at += kWvsMaxChunk)
+    if (Status s = step(command_write_variable_chunk(data.subspan(at, std::min(kWvsMaxChunk, data.size() - at))),
+                        Expect::WriteVariableChunk);
+        !s.ok())
+      return s;
+  return {};
+}
+
 Result<SenselInfo> SenselDevice::probe(std::unique_ptr<Transport> transport) {
   SenselDevice d(nullptr, nullptr);
   d.transport_ = std::move(transport);

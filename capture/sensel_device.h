@@ -71,6 +71,9 @@ class SenselDevice {
   ~SenselDevice();
 
   Status configure(const SenselConfig& config);
+  // Writes a variable-size register (e.g. LED_BRIGHTNESS, 0x80) with WVS: header, then chunks of
+  // at most 512 bytes, each acknowledged. Not while streaming (the channel is the stream's).
+  Status write_variable(std::uint8_t reg, std::span<const std::uint8_t> data);
   Status start();
   void stop();  // stops scanning; closes the queue after the last frame
 

@@ -15,6 +15,18 @@ std::vector<std::uint8_t> command_write(std::uint8_t reg, std::span<const std::u
   return out;
 }
 
+std::vector<std::uint8_t> command_write_variable_header(std::uint8_t reg, std::uint32_t total) {
+  const std::uint8_t n[4] = {std::uint8_t(total), std::uint8_t(total >> 8), std::uint8_t(total >> 16),
+                             std::uint8_t(total >> 24)};
+  return {0x01, reg, 0x00, 0x04, n[0], n[1], n[2], n[3], checksum(n)};
+}
+std::vector<std::uint8_t> command_write_variable_chunk(std::span<const std::uint8_t> chunk) {
+  std::vector<std::uint8_t> out = {std::uint8_t(chunk.size()), std::uint8_t(chunk.size() >> 8)};
+  out.insert(out.end(), chunk.begin(), chunk.end());
+  out.push_back(checksum(chunk));
+  return out;
+}
+
 std::vector<std::uint8_t> response_read(std::uint8_t reg, std::span<const std::uint8_t> data) {
   std::vector<std::uint8_t> out = {kReadAck, reg, std::uint8_t(data.size()), std::uint8_t(data.size() >> 8)};
   out.insert(out.end(), data.begin(), data.end());
@@ -29,6 +41,8 @@ std::vector<std::uint8_t> response_read_variable(std::uint8_t ack, std::uint8_t 
   return out;
 }
 std::vector<std::uint8_t> response_write(std::uint8_t reg) { return {kWriteAck, reg}; }
+std::vector<std::uint8_t> response_write_variable_header(std::uint8_t reg) { return {kWvsAck, reg}; }
+std::vector<std::uint8_t> response_write_variable_chunk() { return {kWvsAck}; }
 
 namespace {
 Response ok(std::size_t consumed, std::uint8_t ack, std::uint8_t reg) {
@@ -89,6 +103,15 @@ Response parse_response(std::span<const std::uint8_t> b, Expect expect, std::uin
       if (ack != kWriteAck) return bad(1, fmt::format("ack 0x{:02x} where a write ack (5) was expected", ack));
       if (b.size() < 2) return {};
       if (b[1] != reg) return bad(1, fmt::format("write ack for register 0x{:02x}, expected 0x{:02x}", b[1], reg));
+      return ok(2, ack, reg);
+    }
+    case Expect::WriteVariableHeader:
+    case Expect::WriteVariableChunk: {
+      if (ack == kWvsNack) return bad(1, fmt::format("the device refused the variable write to register 0x{:02x} (NACK)", reg));
+      if (ack != kWvsAck) return bad(1, fmt::format("ack 0x{:02x} where a variable-write ack (7) was expected", ack));
+      if (expect == Expect::WriteVariableChunk) return ok(1, ack, reg);
+      if (b.size() < 2) return {};
+      if (b[1] != reg) return bad(1, fmt::format("variable-write ack for register 0x{:02x}, expected 0x{:02x}", b[1], reg));
       return ok(2, ack, reg);
     }
   }

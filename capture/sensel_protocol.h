@@ -45,7 +45,13 @@ std::vector<std::uint8_t> command_read(std::uint8_t reg, std::uint8_t size);    
 std::vector<std::uint8_t> command_read_variable(std::uint8_t reg);                     // 81 reg 00
 std::vector<std::uint8_t> command_write(std::uint8_t reg, std::span<const std::uint8_t> data);
 
-enum class Expect { Read, ReadVariable, Write };
+// Variable-size write (WVS, spec §3): a header announcing the total length, then chunks of at
+// most kWvsMaxChunk bytes. The device acks the header with `07 reg` and each chunk with `07`.
+inline constexpr std::size_t kWvsMaxChunk = 512;
+std::vector<std::uint8_t> command_write_variable_header(std::uint8_t reg, std::uint32_t total);  // 01 reg 00 04 n0..n3 chk
+std::vector<std::uint8_t> command_write_variable_chunk(std::span<const std::uint8_t> chunk);     // len_lo len_hi data chk
+
+enum class Expect { Read, ReadVariable, Write, WriteVariableHeader, WriteVariableChunk };
 
 struct Response {
   enum class State { NeedMore, Ok, Bad } state = State::NeedMore;
@@ -66,5 +72,7 @@ Response parse_response(std::span<const std::uint8_t> bytes, Expect expect, std:
 std::vector<std::uint8_t> response_read(std::uint8_t reg, std::span<const std::uint8_t> data);
 std::vector<std::uint8_t> response_read_variable(std::uint8_t ack, std::uint8_t reg, std::span<const std::uint8_t> payload);
 std::vector<std::uint8_t> response_write(std::uint8_t reg);
+std::vector<std::uint8_t> response_write_variable_header(std::uint8_t reg);  // 07 reg
+std::vector<std::uint8_t> response_write_variable_chunk();                   // 07
 
 }  // namespace pvcap::sensel

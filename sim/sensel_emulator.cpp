@@ -37,6 +37,8 @@ SenselEmulator::SenselEmulator(SenselScene scene, SenselClock clock, std::string
 
 void SenselEmulator::soft_reset() {
   regs_.fill(0);
+  wvs_ = {};
+  variable_regs_.clear();
   std::memcpy(&regs_[reg::kMagic], kMagicText, 6);
   const std::uint8_t fw[10] = {1, 0, 16, 78, 0, 1, 3, 0, 1, 0};  // protocol 1, v0.16.78 rel 1, device 3 rev 1
   std::memcpy(&regs_[reg::kFirmwareInfo], fw, 10);
@@ -155,12 +157,57 @@ std::vector<std::uint8_t> SenselEmulator::read_variable(std::uint8_t r, std::int
   return response_read_variable(kRvsAck, r, payload);
 }
 
+std::vector<std::uint8_t> SenselEmulator::variable_reg(std::uint8_t address) const {
+  const auto it = variable_regs_.find(address);
+  return it == variable_regs_.end() ? std::vector<std::uint8_t>{} : it->second;
+}
+
 std::vector<std::uint8_t> SenselEmulator::on_host_bytes(std::span<const std::uint8_t> bytes, std::int64_t now_ns) {
   pending_.insert(pending_.end(), bytes.begin(), bytes.end());
   std::vector<std::uint8_t> out;
   std::size_t pos = 0;
-  while (pending_.size() - pos >= 3) {
+  while (pending_.size() - pos >= 2) {
+    if (wvs_.left > 0) {  // a WVS chunk: len_lo len_hi data chk
+      const std::size_t len = std::size_t(pending_[pos]) | std::size_t(pending_[pos + 1]) << 8;
+      if (len == 0 || len > kWvsMaxChunk || len > wvs_.left) {
+        out.push_back(kWvsNack);
+        wvs_ = {};
+        pos += 2;
+        continue;
+      }
+      if (pending_.size() - pos < 2 + len + 1) break;
+      const std::span<const std::uint8_t> chunk(&pending_[pos + 2], len);
+      if (checksum(chunk) != pending_[pos + 2 + len]) {
+        out.push_back(kWvsNack);
+        wvs_ = {};
+      } else {
+        wvs_.data.insert(wvs_.data.end(), chunk.begin(), chunk.end());
+        wvs_.left -= std::uint32_t(len);
+        if (wvs_.left == 0) variable_regs_[wvs_.reg] = std::move(wvs_.data), wvs_ = {};
+        const auto ack = response_write_variable_chunk();
+        out.insert(out.end(), ack.begin(), ack.end());
+      }
+      pos += 2 + len + 1;
+      continue;
+    }
+    if (pending_.size() - pos < 3) break;
     const std::uint8_t board = pending_[pos], r = pending_[pos + 1], size = pending_[pos + 2];
+    if (board == 0x01 && size == 0) {  // WVS header: 01 reg 00 04 n0 n1 n2 n3 chk
+      if (pending_.size() - pos < 9) break;
+      const std::span<const std::uint8_t> n(&pending_[pos + 4], 4);
+      const std::uint32_t total = std::uint32_t(n[0]) | std::uint32_t(n[1]) << 8 | std::uint32_t(n[2]) << 16 |
+                                  std::uint32_t(n[3]) << 24;
+      if (pending_[pos + 3] != 4 || checksum(n) != pending_[pos + 8] || total == 0 || total > 65536) {
+        out.push_back(kWvsNack);
+        out.push_back(r);
+      } else {
+        wvs_ = {r, total, {}};
+        const auto ack = response_write_variable_header(r);
+        out.insert(out.end(), ack.begin(), ack.end());
+      }
+      pos += 9;
+      continue;
+    }
     if (board == 0x81) {  // read
       std::vector<std::uint8_t> answer =
           size == 0 ? read_variable(r, now_ns)

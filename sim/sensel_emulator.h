@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <ostream>
 #include <span>
 #include <string>
@@ -57,6 +58,8 @@ class SenselEmulator {
   // Ground truth: one line "counter,true_ns,device_us" per frame sent (flushed every 32).
   void set_truth_log(std::ostream* out) { truth_ = out; }
   std::uint8_t reg(std::uint8_t address) const { return regs_[address]; }
+  // The last complete variable-size write (WVS) to `address` (e.g. LED_BRIGHTNESS, 0x80).
+  std::vector<std::uint8_t> variable_reg(std::uint8_t address) const;
   std::uint64_t frames_sent() const { return frames_sent_; }
 
  private:
@@ -69,6 +72,12 @@ class SenselEmulator {
   std::string serial_;
   std::array<std::uint8_t, 256> regs_{};
   std::vector<std::uint8_t> pending_;  // host bytes not yet forming a whole command
+  struct VariableWrite {
+    std::uint8_t reg = 0;
+    std::uint32_t left = 0;  // bytes still to come in chunks; 0 = no WVS in progress
+    std::vector<std::uint8_t> data;
+  } wvs_;
+  std::map<std::uint8_t, std::vector<std::uint8_t>> variable_regs_;
   std::ostream* truth_ = nullptr;
   std::uint8_t counter_ = 0;
   std::int64_t next_scan_ns_ = 0;  // buffered and async modes: when the next scan completes

@@ -160,6 +160,20 @@ TEST(SenselDriver, UnplugIsReportedAndNothingCapturedIsLost) {
   EXPECT_EQ(rig.drain().size(), frames) << "every frame captured before the unplug is still delivered";
 }
 
+TEST(SenselDriver, VariableSizeRegisterIsWrittenInAcknowledgedChunks) {
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.open());
+  std::vector<std::uint8_t> brightness(1100);  // three chunks: 512 + 512 + 76
+  for (std::size_t i = 0; i < brightness.size(); ++i) brightness[i] = std::uint8_t(i % 251);
+  ASSERT_TRUE(rig.device->write_variable(0x80, brightness).ok());
+  EXPECT_EQ(rig.emu.variable_reg(0x80), brightness);
+  ASSERT_TRUE(rig.device->configure({}).ok());
+  ASSERT_TRUE(rig.device->start().ok());
+  const auto refused = rig.device->write_variable(0x80, brightness);
+  EXPECT_FALSE(refused.ok()) << "the channel belongs to the stream while it runs";
+  rig.device->stop();
+}
+
 TEST(SenselDriver, HighDetailRunsAtTheDevicesSlowerRate) {
   Rig rig;
   ASSERT_NO_FATAL_FAILURE(rig.open());

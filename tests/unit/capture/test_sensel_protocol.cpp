@@ -68,3 +68,25 @@ TEST(SenselProtocol, AsyncFrameBeforeAWriteAckIsReturnedFirst) {
   ASSERT_EQ(w.state, State::Ok);
   EXPECT_EQ(w.ack, kWriteAck);
 }
+
+TEST(SenselProtocol, VariableWriteHasTheDocumentedHeaderChunksAndAcks) {
+  // 600 bytes to LED_BRIGHTNESS: `01 80 00 04` + u32 LE total + checksum over the four length bytes.
+  EXPECT_EQ(command_write_variable_header(0x80, 600),
+            (std::vector<std::uint8_t>{0x01, 0x80, 0x00, 0x04, 0x58, 0x02, 0x00, 0x00, 0x5A}));
+  const std::uint8_t data[] = {0x10, 0x20, 0xF0};
+  EXPECT_EQ(command_write_variable_chunk(data), (std::vector<std::uint8_t>{0x03, 0x00, 0x10, 0x20, 0xF0, 0x20}));
+
+  const std::vector<std::uint8_t> header_ack = {0x07, 0x80}, chunk_ack = {0x07};
+  auto r = parse_response(header_ack, Expect::WriteVariableHeader, 0x80);
+  EXPECT_EQ(r.state, Response::State::Ok);
+  EXPECT_EQ(r.consumed, 2u);
+  EXPECT_EQ(parse_response(std::vector<std::uint8_t>{0x07}, Expect::WriteVariableHeader, 0x80).state,
+            Response::State::NeedMore);
+  EXPECT_EQ(parse_response(chunk_ack, Expect::WriteVariableChunk, 0x80).consumed, 1u);
+  const auto wrong = parse_response(std::vector<std::uint8_t>{0x07, 0x81}, Expect::WriteVariableHeader, 0x80);
+  EXPECT_EQ(wrong.state, Response::State::Bad);
+  EXPECT_NE(wrong.error.find("0x81"), std::string::npos) << wrong.error;
+  const auto nack = parse_response(std::vector<std::uint8_t>{0x08}, Expect::WriteVariableChunk, 0x80);
+  EXPECT_EQ(nack.state, Response::State::Bad);
+  EXPECT_NE(nack.error.find("NACK"), std::string::npos) << nack.error;
+}

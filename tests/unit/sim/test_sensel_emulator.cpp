@@ -153,3 +153,31 @@ TEST(SenselEmulator, AsyncScanningPushesFramesUnasked) {
   }
   EXPECT_EQ(frames, 5);
 }
+
+TEST(SenselEmulator, VariableWriteArrivesInChunksAndABadChunkIsRefused) {
+  SenselEmulator emu({}, {});
+  std::vector<std::uint8_t> leds(700);
+  for (std::size_t i = 0; i < leds.size(); ++i) leds[i] = std::uint8_t(i * 7);
+  EXPECT_EQ(ask(emu, command_write_variable_header(0x80, 700), Expect::WriteVariableHeader, 0x80).state,
+            Response::State::Ok);
+  const std::span<const std::uint8_t> all(leds);
+  EXPECT_EQ(ask(emu, command_write_variable_chunk(all.subspan(0, 512)), Expect::WriteVariableChunk, 0x80).state,
+            Response::State::Ok);
+  EXPECT_TRUE(emu.variable_reg(0x80).empty()) << "stored only when complete";
+  // The last chunk arrives cut in two pieces, as USB packets may.
+  const auto last = command_write_variable_chunk(all.subspan(512));
+  EXPECT_TRUE(emu.on_host_bytes(std::span(last).subspan(0, 50), 0).empty());
+  const auto ack = emu.on_host_bytes(std::span(last).subspan(50), 0);
+  EXPECT_EQ(parse_response(ack, Expect::WriteVariableChunk, 0x80).state, Response::State::Ok);
+  EXPECT_EQ(emu.variable_reg(0x80), leds);
+
+  EXPECT_EQ(ask(emu, command_write_variable_header(0x80, 4), Expect::WriteVariableHeader, 0x80).state,
+            Response::State::Ok);
+  auto bad = command_write_variable_chunk(std::vector<std::uint8_t>{1, 2, 3, 4});
+  bad.back() ^= 0xFF;
+  EXPECT_EQ(ask(emu, bad, Expect::WriteVariableChunk, 0x80).state, Response::State::Bad);
+  EXPECT_EQ(emu.variable_reg(0x80), leds) << "a refused write changes nothing";
+  // The channel is back to commands afterwards.
+  EXPECT_EQ(ask(emu, command_read(reg::kSensorCols, 2), Expect::Read, reg::kSensorCols, 2).state,
+            Response::State::Ok);
+}
