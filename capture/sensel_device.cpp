@@ -207,6 +207,7 @@ void SenselDevice::stream_loop() {
       const std::uint8_t sync[] = {1};
       if (open_sequence().ok() && apply_config().ok() && write_reg(reg::kScanEnabled, sync).ok()) {
         counter_ = SequenceUnwrapper(8, false);  // a power-cycled device restarts its counter
+        clock_ = SequenceUnwrapper(32, false);   // and its clock
         emit(SenselEvent::Kind::Reconnected, fmt::format("{}: Sensel reconnected, streaming again", transport_->describe()));
       } else {
         transport_.reset();
@@ -245,7 +246,12 @@ void SenselDevice::stream_loop() {
     s.sequence = step.sequence;
     s.lost_before = step.missing;
     lost_.fetch_add(step.missing);
-    s.device_ts = DeviceNs{std::int64_t(clock_.next(frame.value().timestamp_us).sequence) * 1000};
+    auto tick = clock_.next(frame.value().timestamp_us);
+    if (tick.out_of_order) {  // the device clock went back: it restarted. Unwrap afresh; the
+      clock_ = SequenceUnwrapper(32, false);  // timeline's clock model starts a new segment.
+      tick = clock_.next(frame.value().timestamp_us);
+    }
+    s.device_ts = DeviceNs{std::int64_t(tick.sequence) * 1000};
     s.grid = info_.grid;
     s.frame = std::move(frame.value());
     s.payload = std::move(r.value().data);

@@ -1,0 +1,86 @@
+#pragma once
+// Maps one stream's device clock onto pvcap's CLOCK_MONOTONIC.
+//
+// Every frame gives a pair (device time, host arrival time). Arrival is the true
+// instant plus a latency that is never negative and often large (a USB poll, a
+// busy core), so the pairs lie on or above the line `arrival = device + offset +
+// skew * device`. The model keeps the lower convex hull of the pairs and takes the
+// supporting line at the mean device time (the linear-programming skew estimate
+// of Moon, Skelly & Towsley: the line under every point that is closest to them on
+// average); least squares would fold the mean latency and its outliers into the
+// offset. The hull of points with random positive latency has few vertices, so
+// memory stays small and an update is amortised O(1).
+//
+// A device clock that restarts (power cycle, replug) or jumps shows as device time
+// going back by more than `reset_back_ns` (or back at all, many times in a row), or
+// as arrivals far below what the line allows, or as a run of arrivals far above it;
+// each starts a new segment with a fresh fit. A single pair a little back in device
+// time (reordered) is ignored.
+//
+// What no fit of arrival times can see is the constant part of the latency (exposure,
+// readout, transfer, USB polling): the line is the *earliest possible arrival*.
+// `latency_ns` (from the rig file or a device's datasheet) is subtracted to reach the
+// instant the device stamped.
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace pvcap::sync {
+
+struct ClockFit {
+  std::int64_t x0 = 0;   // device time the fit is expressed around
+  double offset_ns = 0;  // host - device at x0 (earliest arrival)
+  double skew = 0;       // d(host - device)/d(device): +1e-6 = device runs 1 ppm slow
+  std::int64_t map(std::int64_t device_ns) const {
+    const double dx = double(device_ns - x0);
+    return device_ns + std::int64_t(offset_ns + skew * dx);
+  }
+};
+
+struct ClockModelOptions {
+  std::int64_t latency_ns = 0;                 // constant latency known from the rig file / datasheet
+  std::int64_t reset_below_ns = 20'000'000;    // an arrival this far *before* the line: the clock jumped
+  std::int64_t reset_above_ns = 1'000'000'000; // this far after it, `reset_run` times in a row: it jumped too
+  std::int64_t reset_back_ns = 1'000'000'000;  // device time this far back: restarted (less: a reordered pair)
+  int reset_run = 16;                          // ...or back at all, this many times in a row
+};
+
+class ClockModel {
+ public:
+  explicit ClockModel(ClockModelOptions options = {}) : options_(options) {}
+
+  // Adds a pair; returns true when it began a new segment (the clock was reset).
+  bool add(std::int64_t device_ns, std::int64_t arrival_ns);
+
+  // The host instant the device stamped `device_ns` (earliest arrival minus the known latency).
+  std::int64_t map(std::int64_t device_ns) const { return fit_.map(device_ns) - options_.latency_ns; }
+  // How far an arrival lies above the line (>= 0 up to rounding): the latency beyond the minimum.
+  std::int64_t residual(std::int64_t device_ns, std::int64_t arrival_ns) const {
+    return arrival_ns - fit_.map(device_ns);
+  }
+
+  const ClockFit& fit() const { return fit_; }
+  int segment() const { return segment_; }
+  std::size_t pairs() const { return n_; }         // in this segment
+  std::size_t hull_size() const { return hull_.size(); }
+
+ private:
+  struct Point {
+    std::int64_t x;  // device - x0
+    std::int64_t y;  // arrival - device
+  };
+  void start_segment(std::int64_t device_ns, std::int64_t arrival_ns);
+  void refit();
+
+  ClockModelOptions options_;
+  std::vector<Point> hull_;  // lower hull, x increasing
+  ClockFit fit_;
+  long double sum_x_ = 0;
+  std::size_t n_ = 0;
+  std::int64_t last_x_ = 0;
+  int above_run_ = 0;
+  int behind_run_ = 0;
+  int segment_ = -1;
+};
+
+}  // namespace pvcap::sync

@@ -1,0 +1,127 @@
+#pragma once
+// From per-stream frames on one clock (mapped host time) to dataset samples:
+//
+//   Grouper         one frame per camera for the same instant -> groups
+//   Subsampler      the group nearest each tick of a fixed grid -> samples
+//   PressureAligner each sample's nearest pressure frame, with its two neighbours
+//
+// All three are streaming, deterministic and free of I/O: they take frames in
+// arrival order and emit results once nothing that may still arrive could change
+// them. Memory is bounded by their windows, never by the session length.
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace pvcap::sync {
+
+// A frame as the timeline sees it: which stream, which frame (the stream's own
+// sequence), and its mapped time.
+struct FrameRef {
+  int stream = 0;
+  std::uint64_t sequence = 0;
+  std::int64_t t_ns = 0;  // mapped host time
+};
+
+struct Group {
+  std::vector<std::optional<FrameRef>> members;  // one slot per camera; empty = no frame for this instant
+  std::int64_t t_ns = 0;                          // mean of the members' times
+  std::int64_t span_ns = 0;                       // latest minus earliest member
+  bool complete() const {
+    for (const auto& m : members)
+      if (!m) return false;
+    return true;
+  }
+};
+
+// Groups camera frames by instant. The earliest pending frame anchors a group; every
+// other camera contributes its earliest pending frame if that lies within `limit_ns`
+// (half a frame period) of the anchor and is nearer the anchor than that camera's next
+// frame is (so each frame goes to the instant it is closest to). Frames are used once,
+// groups come out in time order. A group is decided once every camera has shown a frame
+// past anchor + limit, or the `horizon` (latest mapped time minus `wait_ns`) has passed
+// it, so a silent camera delays nothing by more than `wait_ns`.
+class Grouper {
+ public:
+  Grouper(int cameras, std::int64_t limit_ns, std::int64_t wait_ns);
+  // Frames of one camera must come in time order; frames of different cameras interleave freely.
+  void add(const FrameRef& frame);
+  // Groups decided so far (each returned once). `flush` decides everything pending (at the end).
+  std::vector<Group> take(bool flush = false);
+
+  std::uint64_t complete_groups() const { return complete_; }
+  std::uint64_t incomplete_groups() const { return incomplete_; }
+  std::uint64_t late_frames() const { return late_; }  // came after their instant was decided
+
+ private:
+  bool decide(bool flush);
+  std::vector<std::deque<FrameRef>> pending_;
+  std::vector<std::int64_t> latest_;  // newest time seen per camera
+  std::int64_t decided_until_ = INT64_MIN;
+  std::int64_t limit_ns_, wait_ns_;
+  std::vector<Group> out_;
+  std::uint64_t complete_ = 0, incomplete_ = 0, late_ = 0;
+};
+
+// Picks, for each tick of a grid anchored at `anchor_ns` (tick k at anchor + k * period,
+// computed, never accumulated, so it cannot drift), the group whose time is nearest the
+// tick, among groups within half a grid period. A tick no group came near is reported as
+// missed.
+class Subsampler {
+ public:
+  Subsampler(std::int64_t anchor_ns, double grid_hz);
+  struct Sample {
+    std::int64_t tick = 0;
+    std::int64_t tick_ns = 0;
+    Group group;
+  };
+  // Groups in time order; returns samples whose tick can no longer get a nearer group.
+  std::vector<Sample> add(const Group& group);
+  std::vector<Sample> flush();
+  std::uint64_t missed_ticks() const { return missed_; }
+  std::int64_t tick_time(std::int64_t tick) const;
+
+ private:
+  std::int64_t anchor_ns_;
+  double period_ns_;
+  std::optional<Sample> best_;
+  std::int64_t last_emitted_ = -1;
+  std::uint64_t missed_ = 0;
+};
+
+// Pairs each sample time with the pressure frame nearest in mapped time, and the frames
+// just before and after it, so readers can interpolate. Pressure frames may arrive late
+// and out of order by up to `window_ns`; a sample is decided once pressure has been seen
+// `window_ns` past it (or at flush). Samples may lag the newest pressure by up to
+// `sample_lag_ns` (the grouper's wait and the grid's period); older frames are forgotten,
+// so memory is bounded by that span. What cannot be paired is counted by reason.
+class PressureAligner {
+ public:
+  struct Pairing {
+    std::int64_t sample_ns = 0;
+    std::optional<FrameRef> nearest, before, after;  // before <= sample_ns < after
+    std::int64_t offset_ns = 0;                      // nearest.t - sample_ns
+  };
+  PressureAligner(std::int64_t window_ns, std::int64_t max_offset_ns, std::int64_t sample_lag_ns = 1'500'000'000);
+  void add_pressure(const FrameRef& frame);
+  void add_sample(std::int64_t sample_ns, std::uint64_t key);
+  // Decided pairings with the key given to add_sample; unpaired ones have no `nearest`.
+  std::vector<std::pair<std::uint64_t, Pairing>> take(bool flush = false);
+
+  const std::map<std::string, std::uint64_t>& unpaired() const { return unpaired_; }
+  std::size_t buffered() const { return frames_.size(); }
+
+ private:
+  Pairing pair(std::int64_t t) const;
+  std::deque<FrameRef> frames_;  // sorted by time
+  std::deque<std::pair<std::int64_t, std::uint64_t>> samples_;
+  std::int64_t newest_ = INT64_MIN;
+  std::int64_t decided_until_ = INT64_MIN;  // the latest sample time already paired
+  std::int64_t window_ns_, max_offset_ns_, sample_lag_ns_;
+  std::map<std::string, std::uint64_t> unpaired_;
+};
+
+}  // namespace pvcap::sync

@@ -1,0 +1,135 @@
+// The clock model against seeded clocks: drift, offsets, jittered arrivals with a long
+// tail, drops, reordering, a 32-bit wrap and a reset. Errors are measured online, as
+// the recorder maps: each frame with the fit it had when the frame arrived.
+#include <gtest/gtest.h>
+
+#include "core/sequence_unwrap.h"
+#include "sync/clock_model.h"
+#include "tests/unit/sync/sync_test_util.h"
+
+using namespace pvcap::sync;
+using namespace pvcap::sync::testing;
+
+namespace {
+
+struct Errors {
+  std::vector<double> ms;  // mapped - true, per frame, after a warm-up
+  double bias() const { return percentile(ms, 50); }
+  double p99_after_bias() const {
+    std::vector<double> d;
+    for (double e : ms) d.push_back(std::fabs(e - bias()));
+    return percentile(d, 99);
+  }
+  double max_after_bias() const {
+    double m = 0;
+    for (double e : ms) m = std::max(m, std::fabs(e - bias()));
+    return m;
+  }
+};
+
+// Runs one stream for `seconds` at `hz` and returns the online mapping errors after `warmup_s`.
+Errors run(ClockModel& model, DeviceClock clock, Link link, double hz, double seconds, double warmup_s,
+           double drop = 0, std::uint64_t seed = 7) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  Errors e;
+  const auto period = std::int64_t(1e9 / hz);
+  for (std::int64_t t = 0; t < std::int64_t(seconds * 1e9); t += period) {
+    if (u(rng) < drop) continue;
+    const std::int64_t device = clock.device(t);
+    model.add(device, link.arrival(t));
+    if (t >= std::int64_t(warmup_s * 1e9)) e.ms.push_back(double(model.map(device) - t) / 1e6);
+  }
+  return e;
+}
+
+}  // namespace
+
+TEST(ClockModel, CameraWithDriftAndOffsetMapsWithinATenthOfAMillisecond) {
+  for (double drift : {-100.0, 0.0, 100.0}) {
+    ClockModel m;
+    // A GigE camera: its clock started 1234 s before ours; arrivals 2 ms after capture, +-0.3 ms jitter.
+    const auto e = run(m, {1'234'000'000'000, drift}, {2'000'000, 150'000, 1'000'000}, 60, 120, 2);
+    EXPECT_NEAR(e.bias(), 2.0, 0.05) << "the line is the earliest arrival: the constant latency remains";
+    EXPECT_LE(e.p99_after_bias(), 0.1) << "drift " << drift;
+    EXPECT_NEAR(m.fit().skew, -drift * 1e-6 / (1 + drift * 1e-6), 2e-6) << "drift " << drift;
+    EXPECT_EQ(m.segment(), 0);
+    EXPECT_LT(m.hull_size(), 64u) << "the hull stays small";
+  }
+}
+
+TEST(ClockModel, SenselWithALongUsbTailMapsWithinHalfAMillisecond) {
+  ClockModel m;
+  // USB arrival jitter: mean 1 ms, capped at 4 ms; 1 % of frames lost.
+  const auto e = run(m, {5'000'000'000, 60}, {300'000, 1'000'000, 4'000'000}, 125, 120, 2, 0.01);
+  EXPECT_LE(e.p99_after_bias(), 0.5);
+  EXPECT_LT(std::fabs(e.bias() - 0.3), 0.3);
+  // Least squares would be pulled ~1 ms late by the mean jitter; the envelope is not.
+}
+
+TEST(ClockModel, DeclaredLatencyRemovesTheConstantBias) {
+  ClockModel m({.latency_ns = 2'000'000});
+  const auto e = run(m, {0, 30}, {2'000'000, 100'000, 800'000}, 60, 30, 2);
+  EXPECT_LT(std::fabs(e.bias()), 0.05);
+}
+
+TEST(ClockModel, ReorderedPairsAreIgnoredAndDoNotReset) {
+  ClockModel m;
+  DeviceClock clock{0, 20};
+  Link link{1'000'000, 100'000, 500'000};
+  for (std::int64_t t = 0; t < 10'000'000'000; t += 16'666'667) {
+    m.add(clock.device(t), link.arrival(t));
+    if (t % 1'000'000'000 < 16'666'667) m.add(clock.device(t - 33'000'000), link.arrival(t));  // a late one
+  }
+  EXPECT_EQ(m.segment(), 0);
+  EXPECT_LT(std::llabs(m.map(clock.device(9'000'000'000)) - 9'001'000'000), 100'000);
+}
+
+TEST(ClockModel, ThirtyTwoBitMicrosecondWrapContinuesTheSegment) {
+  ClockModel m;
+  pvcap::SequenceUnwrapper unwrap(32, false);
+  const double start_us = 4294967295.0 - 2e6;  // 2 s before the wrap
+  for (std::int64_t t = 0; t < 5'000'000'000; t += 8'000'000) {
+    const auto raw = std::uint64_t(start_us + double(t) / 1e3) & 0xFFFFFFFFu;
+    const auto device_ns = std::int64_t(unwrap.next(raw).sequence) * 1000;
+    m.add(device_ns, t + 500'000);
+  }
+  EXPECT_EQ(m.segment(), 0) << "the wrap is not a reset";
+  EXPECT_GT(m.pairs(), 600u);
+}
+
+TEST(ClockModel, ClockResetStartsANewSegmentAndMappingRecovers) {
+  ClockModel m;
+  Link link{400'000, 500'000, 4'000'000};
+  int resets = 0;
+  std::vector<double> after;
+  for (std::int64_t t = 0; t < 20'000'000'000; t += 8'000'000) {
+    // The device restarts its clock at 0 at t = 10 s (power cycle, replug).
+    const std::int64_t device = t < 10'000'000'000 ? 7'000'000'000 + t : t - 10'000'000'000;
+    resets += m.add(device, link.arrival(t)) ? 1 : 0;
+    if (t > 12'000'000'000) after.push_back(double(m.map(device) - t) / 1e6);
+  }
+  EXPECT_EQ(resets, 1);
+  EXPECT_EQ(m.segment(), 1);
+  EXPECT_LT(percentile(after, 99), 0.4 + 0.5);
+}
+
+TEST(ClockModel, ForwardJumpOfTheDeviceClockIsAResetToo) {
+  ClockModel m;
+  int resets = 0;
+  for (std::int64_t t = 0; t < 4'000'000'000; t += 10'000'000) {
+    const std::int64_t device = t < 2'000'000'000 ? t : t + 3'600'000'000'000;  // +1 h
+    resets += m.add(device, t + 1'000'000) ? 1 : 0;
+  }
+  EXPECT_EQ(resets, 1);
+  EXPECT_LT(std::llabs(m.map(3'600'000'000'000 + 3'990'000'000) - 3'991'000'000), 10'000);
+}
+
+TEST(ClockModel, AFirstLateArrivalIsNotMistakenForAReset) {
+  ClockModel m;
+  m.add(0, 300'000'000);  // the first frame came 300 ms late
+  int resets = 0;
+  for (std::int64_t t = 8'000'000; t < 2'000'000'000; t += 8'000'000) resets += m.add(t, t + 1'000'000) ? 1 : 0;
+  EXPECT_EQ(resets, 0);
+  EXPECT_LT(std::llabs(m.map(1'000'000'000) - 1'001'000'000), 10'000);
+}
