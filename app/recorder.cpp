@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <fstream>
+#include <map>
 #include <thread>
 
 #include <fmt/format.h>
@@ -20,7 +21,7 @@
 #include "core/sequence_unwrap.h"
 #include "core/time.h"
 #include "storage/session_writer.h"
-#include "sync/grid_keeper.h"
+#include "sync/session_timeline.h"
 
 extern char** environ;
 
@@ -74,22 +75,61 @@ std::string settings_json(const CameraSettings& s, const CameraConfig& c) {
   return j.dump();
 }
 
-void camera_worker(AravisCamera& camera, std::int64_t device_id, SessionWriter& writer, CameraTally& tally,
-                   std::int64_t anchor_ns, double video_fps) {
+// What a camera's worker holds while the timeline decides whether a frame is in a sample:
+// its index row and a copy of its pixels (the camera gets its buffer back at once).
+struct HeldFrame {
+  FrameRecord rec;
+  std::vector<std::uint8_t> pixels;
+  std::uint32_t pixel_format = 0;
+  int width = 0, height = 0;
+};
+
+// Tells the camera workers when the timeline has decided everything (after the last frame).
+struct TimelineEnd {
+  std::atomic<int> feeding{0};
+  std::atomic<bool> flushed{false};
+};
+
+void camera_worker(AravisCamera& camera, int index, std::int64_t device_id, SessionWriter& writer, CameraTally& tally,
+                   sync::SessionTimeline& timeline, TimelineEnd& end) {
   SequenceUnwrapper unwrap(16, /*zero_is_skipped=*/true);
   std::uint32_t connection = UINT32_MAX;
-  GridKeeper keeper(anchor_ns, video_fps, camera.config().frame_rate);
+  std::map<std::pair<std::uint32_t, std::uint64_t>, HeldFrame> held;
   // A frame that times out incomplete is delivered after its successor: hold gaps open for a
   // second so such a frame is counted once, as what it is.
   auto report_gap = [&](const GapTracker::Gap& g) {
     tally.not_received.fetch_add(g.count, std::memory_order_relaxed);
     writer.record(DropRecord{device_id, connection, g.first, g.count, "not_received", g.noticed_ns});
   };
+  // The timeline's verdicts: the kept frame of a sample goes to the video, the others to the index.
+  auto apply_decisions = [&] {
+    for (const auto& d : timeline.take_decisions(index)) {
+      auto it = held.find({d.connection, d.sequence});
+      if (it == held.end()) continue;
+      HeldFrame h = std::move(it->second);
+      held.erase(it);
+      if (!d.kept) {
+        h.rec.reason = d.reason;
+        writer.record(std::move(h.rec));
+        continue;
+      }
+      cv::Mat bgr;
+      if (Status s = to_bgr(h.pixels.data(), h.pixels.size(), h.width, h.height, h.pixel_format, bgr); !s) {
+        h.rec.reason = "unsupported_pixels: " + s.error().message;
+      } else {
+        if (writer.submit_video(device_id, std::move(bgr), h.rec)) continue;  // the encoder records it
+        tally.encoder_behind.fetch_add(1, std::memory_order_relaxed);
+        h.rec.reason = "encoder_behind";
+      }
+      writer.record(std::move(h.rec));
+    }
+  };
   GapTracker gaps(1'000'000'000, report_gap);
   auto& queue = camera.frames();
   while (!queue.closed_and_empty()) {
     auto frame = queue.pop_for(100ms);
     gaps.settle(host_now().ns);
+    apply_decisions();
     if (!frame) continue;
     tally.received.fetch_add(1, std::memory_order_relaxed);
     if (frame->connection != connection) {  // frame ids restart with each connection
@@ -103,12 +143,12 @@ void camera_worker(AravisCamera& camera, std::int64_t device_id, SessionWriter& 
       tally.unidentified.fetch_add(1, std::memory_order_relaxed);
       writer.record(FrameRecord{device_id, frame->connection, 0, 0, frame->device_ts.ns, frame->host_ts.ns,
                                 frame->aravis_system_ns, to_string(frame->status), false,
-                                "no_frame_id_" + frame->detail, {}, {}});
+                                "no_frame_id_" + frame->detail, {}, {}, {}});
       continue;
     }
     const auto step = unwrap.next(frame->frame_id);
     FrameRecord rec{device_id, frame->connection, step.sequence, frame->frame_id, frame->device_ts.ns,
-                    frame->host_ts.ns, frame->aravis_system_ns, to_string(frame->status), false, "", {}, {}};
+                    frame->host_ts.ns, frame->aravis_system_ns, to_string(frame->status), false, "", {}, {}, {}};
     gaps.missing(step.sequence - step.missing, step.missing, frame->host_ts.ns);
     if (step.out_of_order && !gaps.arrived_late(step.sequence)) {
       // Not a frame we were missing. An incomplete buffer whose leader packet was lost still
@@ -119,24 +159,32 @@ void camera_worker(AravisCamera& camera, std::int64_t device_id, SessionWriter& 
     } else if (frame->status != FrameStatus::Good) {
       tally.incomplete.fetch_add(1, std::memory_order_relaxed);
       rec.reason = frame->detail;
-    } else if (!keeper.keep(frame->host_ts.ns)) {
-      tally.good.fetch_add(1, std::memory_order_relaxed);
-      rec.reason = "subsampled";
     } else {
       tally.good.fetch_add(1, std::memory_order_relaxed);
-      cv::Mat bgr;
-      if (Status s = to_bgr(frame->data, frame->size, frame->width, frame->height, frame->pixel_format, bgr); !s) {
-        rec.reason = "unsupported_pixels: " + s.error().message;
-      } else {
-        frame->lease.reset();  // the camera gets its buffer back before we encode
-        if (writer.submit_video(device_id, std::move(bgr), rec)) continue;  // the encoder records it
-        tally.encoder_behind.fetch_add(1, std::memory_order_relaxed);
-        rec.reason = "encoder_behind";
-      }
+      // Only complete frames with their own id and timestamp feed the clock model and the samples.
+      rec.mapped_ns = timeline.camera_frame(index, frame->connection, step.sequence, frame->device_ts.ns,
+                                            frame->host_ts.ns);
+      HeldFrame h{std::move(rec), std::vector<std::uint8_t>(frame->data, frame->data + frame->size),
+                  frame->pixel_format, frame->width, frame->height};
+      frame->lease.reset();  // the camera gets its buffer back before we encode
+      held.emplace(std::make_pair(h.rec.connection, h.rec.sequence), std::move(h));
+      apply_decisions();
+      continue;
     }
     writer.record(std::move(rec));
   }
   gaps.settle(0, /*flush_all=*/true);
+  // The last worker to finish feeding makes the timeline decide what is pending.
+  if (end.feeding.fetch_sub(1) == 1) {
+    timeline.flush();
+    end.flushed.store(true);
+  }
+  while (!end.flushed.load()) std::this_thread::sleep_for(5ms);
+  apply_decisions();
+  for (auto& [key, h] : held) {  // nothing should be left; if it is, it is still recorded
+    h.rec.reason = "undecided";
+    writer.record(std::move(h.rec));
+  }
 }
 
 // The Sensel's part of a session: open before anything is on disk, then a worker that
@@ -195,9 +243,10 @@ class SenselRecording {
     return config_.usb_serial->empty() ? "usb" : "usb:" + *config_.usb_serial;
   }
 
-  Status start(SessionWriter& writer, std::int64_t device_id) {
+  Status start(SessionWriter& writer, std::int64_t device_id, sync::SessionTimeline& timeline) {
     writer_ = &writer;
     device_id_ = device_id;
+    timeline_ = &timeline;
     if (Status s = device_->start(); !s.ok()) return s;
     worker_ = std::thread([this] { run(); });
     return {};
@@ -239,9 +288,13 @@ class SenselRecording {
       if (s->lost_before)
         writer.record(DropRecord{device_id_, 0, s->sequence - s->lost_before, s->lost_before, "not_received",
                                    s->host_ts.ns});
+      // The clock model fits the answer's arrival (the midpoint is the stamp's best single guess,
+      // but the arrival is what a latency floor bounds).
+      const std::int64_t arrival = s->host_ts.ns + s->host_wait_ns / 2;
+      const std::int64_t mapped = timeline_->pressure_frame(0, s->sequence, s->device_ts.ns, arrival);
       writer.record(PressureRecord{device_id_, 0, s->sequence, s->lost_before, s->device_ts.ns, s->host_ts.ns,
                                      s->host_wait_ns, s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale,
-                                     std::move(s->payload)});
+                                     std::move(s->payload), mapped});
       stored_.fetch_add(1, std::memory_order_relaxed);
     }
   }
@@ -250,6 +303,7 @@ class SenselRecording {
   std::unique_ptr<sensel::SenselDevice> device_;
   std::atomic<SessionWriter*> writer_{nullptr};
   std::int64_t device_id_ = 0;
+  sync::SessionTimeline* timeline_ = nullptr;
   std::thread worker_;
   std::atomic<std::uint64_t> stored_{0};
 };
@@ -366,10 +420,50 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   }
   writer.start();
 
+  // The timeline: every stream on this host's clock, camera frames grouped by instant, one group per
+  // tick of the sample grid, each paired with the pressure frames around it.
+  sync::TimelineConfig tc;
+  tc.cameras = int(cameras.size());
+  tc.camera_hz = 0;
+  for (const auto& c : rig.cameras) {
+    tc.camera_hz = std::max(tc.camera_hz, c.frame_rate);  // the grouping limit: half the fastest period
+    tc.camera_latency_ns.push_back(c.latency_ns);
+  }
+  if (tc.camera_hz <= 0) tc.camera_hz = 60;
+  tc.sample_hz = rig.store.video_fps > 0 ? rig.store.video_fps : tc.camera_hz;
+  tc.anchor_ns = host0;
+  tc.has_pressure = bool(sensel);
+  if (rig.sensel) tc.pressure_latency_ns = rig.sensel->latency_ns;
+  std::atomic<std::uint64_t> samples_stored{0};
+  auto on_sample = [&](sync::SampleOut s) {
+    SampleRecord r{s.index, s.tick, s.tick_ns, s.group.t_ns, s.group.span_ns, {}, {}, {}, {}};
+    for (const auto& m : s.group.members)
+      if (m) r.cameras.push_back({device_ids[std::size_t(m->stream)], m->connection, m->sequence, m->t_ns - s.group.t_ns});
+    auto ref = [&](const std::optional<sync::FrameRef>& f) -> std::optional<SampleFrameRef> {
+      if (!f) return std::nullopt;
+      return SampleFrameRef{sensel_id, f->connection, f->sequence, f->t_ns - s.group.t_ns};
+    };
+    r.pressure = ref(s.pressure.nearest);
+    r.pressure_before = ref(s.pressure.before);
+    r.pressure_after = ref(s.pressure.after);
+    writer.record(std::move(r));
+    samples_stored.fetch_add(1, std::memory_order_relaxed);
+  };
+  auto on_clock = [&](sync::ClockSnapshot c) {
+    const bool is_pressure = c.stream < 0;
+    writer.record(ClockModelRecord{is_pressure ? sensel_id : device_ids[std::size_t(c.stream)], c.host_ns, c.segment,
+                                   c.fit.x0, c.fit.offset_ns, c.fit.skew,
+                                   is_pressure ? tc.pressure_latency_ns : tc.camera_latency_ns[std::size_t(c.stream)],
+                                   c.pairs, c.hull_points, c.residual_p50_ns, c.residual_p99_ns});
+  };
+  sync::SessionTimeline timeline(tc, on_sample, on_clock);
+  TimelineEnd timeline_end;
+  timeline_end.feeding.store(int(cameras.size()));
+
   std::vector<std::thread> workers;
   for (std::size_t i = 0; i < cameras.size(); ++i)
-    workers.emplace_back(camera_worker, std::ref(*cameras[i]), device_ids[i], std::ref(writer), std::ref(*tallies[i]),
-                         host0, rig.store.video_fps);
+    workers.emplace_back(camera_worker, std::ref(*cameras[i]), int(i), device_ids[i], std::ref(writer),
+                         std::ref(*tallies[i]), std::ref(timeline), std::ref(timeline_end));
   std::string end_reason = "stopped by operator";
   bool start_failed = false;
   for (auto& cam : cameras) {
@@ -381,7 +475,7 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
     }
   }
   if (sensel && !start_failed) {
-    if (Status s = sensel->start(writer, sensel_id); !s.ok()) {
+    if (Status s = sensel->start(writer, sensel_id, timeline); !s.ok()) {
       spdlog::error("Sensel: {}; stopping", s.error().message);
       end_reason = "the Sensel failed to start: " + s.error().message;
       start_failed = true;
@@ -412,6 +506,7 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
                             t.not_received.load() + t.incomplete.load() + t.encoder_behind.load());
       }
       if (sensel) line += fmt::format(" | sensel {} frames", sensel->stored());
+      line += fmt::format(" | {} samples", samples_stored.load());
       spdlog::info("{}", line);
     }
   }
@@ -422,6 +517,18 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   if (sensel) sensel->stop();
   for (auto& cam : cameras) cam->stop();
   for (auto& w : workers) w.join();
+  const auto tl = timeline.counts();
+  writer.add_timeline_count("samples", tl.samples);
+  writer.add_timeline_count("groups_complete", tl.groups_complete);
+  writer.add_timeline_count("groups_incomplete", tl.groups_incomplete);
+  writer.add_timeline_count("camera_frames_late_for_their_instant", tl.late_camera_frames);
+  writer.add_timeline_count("ticks_without_a_group", tl.missed_ticks);
+  for (const auto& [why, n] : tl.unpaired) writer.add_timeline_count("unpaired: " + why, n);
+  for (std::size_t i = 0; i < tl.clock_resets.size(); ++i)
+    if (tl.clock_resets[i])
+      writer.add_timeline_count(
+          fmt::format("clock_resets: {}", i < cameras.size() ? rig.cameras[i].name : std::string("sensel")),
+          std::uint64_t(tl.clock_resets[i]));
   for (std::size_t i = 0; i < cameras.size(); ++i) {
     const StreamCounters c = cameras[i]->counters();
     writer.add_stream_stats({device_ids[i], c.completed, c.failures, c.underruns, c.resent_packets, c.missing_packets,
@@ -460,8 +567,17 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
     fmt::format_to(out, "{}\n", sensel->summary());
     any_loss |= sensel->lossy();
   }
-  fmt::format_to(out, "video keeps {} frames/s per camera ({}); every received frame is in session.db with its reason\n",
-             rig.store.video_fps > 0 ? fmt::format("{:g}", rig.store.video_fps) : "all", rig.store.video_codec);
+  fmt::format_to(out, "samples: {} at {:g} Hz ({} groups complete, {} with a camera missing, {} ticks without any group)\n",
+                 tl.samples, tc.sample_hz, tl.groups_complete, tl.groups_incomplete, tl.missed_ticks);
+  if (tl.late_camera_frames)
+    fmt::format_to(out, "{} camera frames came too late for their instant's group\n", tl.late_camera_frames);
+  for (const auto& [why, n] : tl.unpaired) fmt::format_to(out, "{} samples without pressure: {}\n", n, why);
+  for (std::size_t i = 0; i < tl.clock_resets.size(); ++i)
+    if (tl.clock_resets[i])
+      fmt::format_to(out, "{}: its clock was reset {} time(s); each started a new clock-model segment\n",
+                     i < cameras.size() ? rig.cameras[i].name : std::string("sensel"), tl.clock_resets[i]);
+  fmt::format_to(out, "video keeps one frame per camera per sample ({}); every received frame is in session.db with its reason\n",
+                 rig.store.video_codec);
   if (any_loss) fmt::format_to(out, "frames were lost: see the drops and frames tables (reason column) in session.db\n");
   if (writer.index_records_lost() > 0) fmt::format_to(out, "WARNING: {} index records were lost\n", writer.index_records_lost());
   const std::string report_text = fmt::to_string(report);

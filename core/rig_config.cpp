@@ -196,6 +196,7 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
       SimCameraClock c;
       MapReader cr(cams[i], file, fmt::format("sim.cameras[{}]", i));
       cr.get_in_range("clock_offset_ms", c.offset_ms, 0.0, 1e9);  // device time at power-on; >= 0
+      cr.get_in_range("exposure_latency_ms", c.exposure_latency_ms, 0.0, 1000.0);
       cr.get_in_range("drift_ppm", c.drift_ppm, -10000.0, 10000.0);
       cr.get_in_range("jitter_us", c.jitter_us, 0.0, 1e6);
       cr.get_in_range("packet_loss", c.packet_loss, 0.0, 1.0);
@@ -227,6 +228,12 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
     sr.get_in_range("drift_ppm", s.sensel.drift_ppm, -10000.0, 10000.0);
     sr.get_in_range("usb_jitter_mean_ms", s.sensel.usb_jitter_mean_ms, 0.0, 100.0);
     sr.get_in_range("usb_jitter_max_ms", s.sensel.usb_jitter_max_ms, 0.0, 1000.0);
+    sr.get_in_range("drop_fraction", s.sensel.drop_fraction, 0.0, 0.5);
+    if (sr.has("clock_reset_at_s")) {
+      double v = 0;
+      sr.get_in_range("clock_reset_at_s", v, 0.0, 1e7);
+      s.sensel.clock_reset_at_s = v;
+    }
     sr.finish();
   }
   r.finish();

@@ -56,6 +56,8 @@ struct SimSenselConfig {
   double drift_ppm = 30;
   double usb_jitter_mean_ms = 0.5;  // arrival delay after the scan (exponential)...
   double usb_jitter_max_ms = 4.0;   // ...with a tail up to this
+  double drop_fraction = 0;         // frames the device scans but loses (its counter skips them)
+  std::optional<double> clock_reset_at_s;  // the device clock restarts at 0 this long after start
 };
 
 struct StoreConfig {
@@ -73,6 +75,7 @@ struct SimCameraClock {
   double drift_ppm = 0;   // device clock rate error
   double jitter_us = 0;   // std-dev of device timestamp noise
   double packet_loss = 0;  // fraction of GVSP packets not sent
+  double exposure_latency_ms = 0;  // the instant a frame shows lies this long before it leaves (its "datasheet" latency)
   std::optional<double> stop_after_s;    // camera vanishes after this many seconds (from sim start)
   std::optional<double> return_after_s;  // and comes back (power-cycled: frame ids restart) after this many
 };

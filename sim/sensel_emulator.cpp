@@ -64,6 +64,8 @@ Grid SenselEmulator::grid() const { return regs_[reg::kScanDetail] == 0 ? kHighD
 std::vector<std::uint8_t> SenselEmulator::frame_payload(std::int64_t now_ns) {
   Frame f;
   f.content = regs_[reg::kFrameContent] & 0x0F;
+  if (drop_fraction_ > 0 && std::uniform_real_distribution<double>(0, 1)(drop_rng_) < drop_fraction_)
+    ++counter_;  // a scan the device lost: the host sees its counter skip
   f.counter = counter_++;
   f.timestamp_us = clock_.at(now_ns);
   const Grid g = grid();

@@ -7,10 +7,12 @@
 // returns (sensel_pty.h puts it behind a pseudo-terminal).
 #include <array>
 #include <atomic>
+#include <climits>
 #include <cstdint>
 #include <functional>
 #include <map>
 #include <ostream>
+#include <random>
 #include <span>
 #include <string>
 #include <vector>
@@ -32,8 +34,11 @@ struct SenselClock {
   std::int64_t t0_ns = 0;        // true time of the emulator's power-on
   double start_us = 0;           // device timestamp at power-on (set near 2^32 to test the wrap)
   double drift_ppm = 0;
+  std::int64_t reset_at_ns = INT64_MAX;  // true time the clock restarts from 0 (a brown-out, a firmware reset)
   std::uint32_t at(std::int64_t true_ns) const {
-    return std::uint32_t(std::uint64_t(start_us + double(true_ns - t0_ns) / 1e3 * (1.0 + drift_ppm * 1e-6)));
+    const double rate = 1.0 + drift_ppm * 1e-6;
+    if (true_ns >= reset_at_ns) return std::uint32_t(std::uint64_t(double(true_ns - reset_at_ns) / 1e3 * rate));
+    return std::uint32_t(std::uint64_t(start_us + double(true_ns - t0_ns) / 1e3 * rate));
   }
 };
 
@@ -53,6 +58,11 @@ class SenselEmulator {
   // Faults for tests: the next frame's checksum is wrong / the next frame is cut short.
   void corrupt_next_frame() { corrupt_next_ = true; }
   void truncate_next_frame() { truncate_next_ = true; }
+  // Loses this fraction of scans inside the device (its counter skips them), seeded.
+  void set_drop_fraction(double fraction, std::uint64_t seed) {
+    drop_fraction_ = fraction;
+    drop_rng_.seed(seed);
+  }
 
   sensel::Grid grid() const;  // of the current scan detail
   // Ground truth: one line "counter,true_ns,device_us" per frame sent (flushed every 32).
@@ -72,6 +82,8 @@ class SenselEmulator {
   std::string serial_;
   std::array<std::uint8_t, 256> regs_{};
   std::vector<std::uint8_t> pending_;  // host bytes not yet forming a whole command
+  double drop_fraction_ = 0;
+  std::mt19937_64 drop_rng_;
   struct VariableWrite {
     std::uint8_t reg = 0;
     std::uint32_t left = 0;  // bytes still to come in chunks; 0 = no WVS in progress

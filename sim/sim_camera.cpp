@@ -24,6 +24,7 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   self->name_ = camera.name;
   self->fingertip_ = fingertip;
   self->clock_ = SimClock{t0_ns, clock.offset_ms * 1e6, clock.drift_ppm * 1e-6, clock.jitter_us * 1e3};
+  self->exposure_latency_ns_ = std::int64_t(clock.exposure_latency_ms * 1e6);
   self->rng_.seed(seed * 1000 + std::uint64_t(index));
   const auto truth_path = truth_dir / (camera.name + "_frames.csv");
   const bool fresh = !std::filesystem::exists(truth_path);  // a camera that comes back appends
@@ -77,7 +78,9 @@ const cv::Mat& SimCamera::base_image(int width, int height, ArvPixelFormat forma
 
 // Runs on the fake camera's thread, once per frame, at the frame's capture instant.
 void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format) {
-  const std::int64_t true_ns = host_now().ns;
+  // The scene is shown as it was `exposure_latency` ago: the instant a real camera exposes
+  // comes before the instant its frame leaves, by a constant its datasheet states.
+  const std::int64_t true_ns = host_now().ns - exposure_latency_ns_;
   std::lock_guard lock(mu_);
   const int width = arv_buffer_get_image_width(buffer);
   const int height = arv_buffer_get_image_height(buffer);

@@ -57,6 +57,7 @@ class SimCamera {
   int index_ = 0;
   std::string name_;
   SimClock clock_;
+  std::int64_t exposure_latency_ns_ = 0;
   arv::GPtr<ArvGvFakeCamera> fake_;
   std::mutex mu_;  // fill runs on the fake camera's thread; truth is read from others
   std::mt19937_64 rng_;

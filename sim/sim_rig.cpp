@@ -63,7 +63,9 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
     self->sensel_truth_ << "counter,true_ns,device_us\n";
     self->sensel_ = std::make_unique<SenselEmulator>(
         fingertip_scene(ss.press_x_mm, ss.press_y_mm, ss.peak_grams, ss.period_s),
-        SenselClock{self->t0_ns_, ss.clock_start_us, ss.drift_ppm});
+        SenselClock{self->t0_ns_, ss.clock_start_us, ss.drift_ppm,
+                    ss.clock_reset_at_s ? self->t0_ns_ + std::int64_t(*ss.clock_reset_at_s * 1e9) : INT64_MAX});
+    if (ss.drop_fraction > 0) self->sensel_->set_drop_fraction(ss.drop_fraction, rig.sim->seed + 17);
     self->sensel_->set_truth_log(&self->sensel_truth_);
     auto pty = SenselPty::create(*self->sensel_, SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, rig.sim->seed});
     if (!pty) return pty.error();
@@ -74,7 +76,9 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
     truth["sensel"] = {{"tty", self->sensel_pty_->slave_path()}, {"press_x_mm", ss.press_x_mm},
                        {"press_y_mm", ss.press_y_mm}, {"peak_grams", ss.peak_grams}, {"period_s", ss.period_s},
                        {"clock_start_us", ss.clock_start_us}, {"drift_ppm", ss.drift_ppm},
-                       {"usb_jitter_mean_ms", ss.usb_jitter_mean_ms}, {"usb_jitter_max_ms", ss.usb_jitter_max_ms}};
+                       {"usb_jitter_mean_ms", ss.usb_jitter_mean_ms}, {"usb_jitter_max_ms", ss.usb_jitter_max_ms},
+                       {"drop_fraction", ss.drop_fraction}};
+    if (ss.clock_reset_at_s) truth["sensel"]["clock_reset_at_s"] = *ss.clock_reset_at_s;
   }
   std::ofstream(truth_dir / "rig.json") << truth.dump(2) << '\n';
   spdlog::info("sim: {} cameras serving ({}), ground truth in {}", self->cameras_.size(),

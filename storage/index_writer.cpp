@@ -43,6 +43,8 @@ void IndexWriter::write_batch(std::vector<Record>& batch) {
             if constexpr (std::is_same_v<T, FrameRecord>) index_.add_frame(rec);
             else if constexpr (std::is_same_v<T, PressureRecord>) index_.add_pressure(rec);
             else if constexpr (std::is_same_v<T, DropRecord>) index_.add_drop(rec);
+            else if constexpr (std::is_same_v<T, SampleRecord>) index_.add_sample(rec);
+            else if constexpr (std::is_same_v<T, ClockModelRecord>) index_.add_clock_model(rec);
             else index_.add_event(rec);
           },
           r);

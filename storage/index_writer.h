@@ -19,7 +19,7 @@ namespace pvcap {
 
 class IndexWriter {
  public:
-  using Record = std::variant<FrameRecord, PressureRecord, DropRecord, EventRecord>;
+  using Record = std::variant<FrameRecord, PressureRecord, DropRecord, EventRecord, SampleRecord, ClockModelRecord>;
 
   IndexWriter(SessionIndex& index, std::size_t capacity = 200'000,
               std::chrono::milliseconds batch_period = std::chrono::milliseconds(250));

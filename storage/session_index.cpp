@@ -46,7 +46,8 @@ CREATE TABLE frames (
   kept INTEGER NOT NULL,
   reason TEXT,
   video_file_id INTEGER REFERENCES video_files(id),
-  video_index INTEGER
+  video_index INTEGER,
+  mapped_ns INTEGER
 );
 CREATE INDEX frames_by_time ON frames(device_id, host_ns);
 CREATE INDEX frames_by_video ON frames(video_file_id, video_index);
@@ -59,7 +60,8 @@ CREATE TABLE pressure_frames (
   host_ns INTEGER NOT NULL,
   host_wait_ns INTEGER NOT NULL,
   grid_cols INTEGER NOT NULL, grid_rows INTEGER NOT NULL, grid_xscale INTEGER NOT NULL, grid_yscale INTEGER NOT NULL,
-  payload BLOB NOT NULL
+  payload BLOB NOT NULL,
+  mapped_ns INTEGER
 );
 CREATE INDEX pressure_by_time ON pressure_frames(device_id, host_ns);
 CREATE TABLE drops (
@@ -75,6 +77,49 @@ CREATE TABLE events (
   kind TEXT NOT NULL,
   device_id INTEGER REFERENCES devices(id),
   message TEXT NOT NULL
+);
+CREATE TABLE samples (
+  id INTEGER PRIMARY KEY,
+  tick INTEGER NOT NULL,
+  tick_ns INTEGER NOT NULL,
+  t_ns INTEGER NOT NULL,
+  span_ns INTEGER NOT NULL,
+  cameras INTEGER NOT NULL,
+  pressure_device_id INTEGER REFERENCES devices(id),
+  pressure_connection INTEGER,
+  pressure_sequence INTEGER,
+  pressure_offset_ns INTEGER,
+  before_sequence INTEGER,
+  before_offset_ns INTEGER,
+  after_sequence INTEGER,
+  after_offset_ns INTEGER
+);
+CREATE TABLE sample_frames (
+  sample_id INTEGER NOT NULL REFERENCES samples(id),
+  device_id INTEGER NOT NULL REFERENCES devices(id),
+  connection INTEGER NOT NULL,
+  sequence INTEGER NOT NULL,
+  offset_ns INTEGER NOT NULL
+);
+CREATE INDEX sample_frames_by_sample ON sample_frames(sample_id);
+CREATE INDEX frames_by_sequence ON frames(device_id, connection, sequence);
+CREATE INDEX pressure_by_sequence ON pressure_frames(device_id, connection, sequence);
+CREATE TABLE clock_models (
+  device_id INTEGER NOT NULL REFERENCES devices(id),
+  host_ns INTEGER NOT NULL,
+  segment INTEGER NOT NULL,
+  x0_device_ns INTEGER NOT NULL,
+  offset_ns REAL NOT NULL,
+  skew REAL NOT NULL,
+  latency_ns INTEGER NOT NULL,
+  pairs INTEGER NOT NULL,
+  hull_points INTEGER NOT NULL,
+  residual_p50_ns INTEGER NOT NULL,
+  residual_p99_ns INTEGER NOT NULL
+);
+CREATE TABLE timeline_counts (
+  what TEXT NOT NULL,
+  count INTEGER NOT NULL
 );
 CREATE TABLE stream_stats (
   device_id INTEGER NOT NULL REFERENCES devices(id),
@@ -100,12 +145,21 @@ SessionIndex SessionIndex::create(const std::filesystem::path& path) {
 SessionIndex::SessionIndex(std::unique_ptr<sqlite::Database> db) : db_(std::move(db)) {
   insert_frame_.emplace(db_->prepare(
       "INSERT INTO frames (device_id, connection, sequence, frame_id, device_ns, host_ns, aravis_system_ns, status, "
-      "kept, reason, video_file_id, video_index) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)"));
+      "kept, reason, video_file_id, video_index, mapped_ns) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)"));
   insert_drop_.emplace(db_->prepare(
       "INSERT INTO drops (device_id, connection, first_sequence, count, reason, host_ns) VALUES (?,?,?,?,?,?)"));
   insert_pressure_.emplace(db_->prepare(
       "INSERT INTO pressure_frames (device_id, connection, sequence, lost_before, device_ns, host_ns, host_wait_ns, "
-      "grid_cols, grid_rows, grid_xscale, grid_yscale, payload) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)"));
+      "grid_cols, grid_rows, grid_xscale, grid_yscale, payload, mapped_ns) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)"));
+  insert_sample_.emplace(db_->prepare(
+      "INSERT INTO samples (id, tick, tick_ns, t_ns, span_ns, cameras, pressure_device_id, pressure_connection, "
+      "pressure_sequence, pressure_offset_ns, before_sequence, before_offset_ns, after_sequence, after_offset_ns) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?)"));
+  insert_sample_frame_.emplace(db_->prepare(
+      "INSERT INTO sample_frames (sample_id, device_id, connection, sequence, offset_ns) VALUES (?,?,?,?,?)"));
+  insert_clock_.emplace(db_->prepare(
+      "INSERT INTO clock_models (device_id, host_ns, segment, x0_device_ns, offset_ns, skew, latency_ns, pairs, "
+      "hull_points, residual_p50_ns, residual_p99_ns) VALUES (?,?,?,?,?,?,?,?,?,?,?)"));
   insert_event_.emplace(db_->prepare("INSERT INTO events (host_ns, kind, device_id, message) VALUES (?,?,?,?)"));
 }
 
@@ -138,7 +192,7 @@ std::int64_t SessionIndex::add_video_file(const VideoFileRecord& v) {
 void SessionIndex::add_frame(const FrameRecord& f) {
   insert_frame_
       ->bind_all(f.device_id, std::int64_t(f.connection), f.sequence, f.frame_id, f.device_ns, f.host_ns,
-                 f.aravis_system_ns, f.status, int(f.kept), f.reason, f.video_file_id, f.video_index)
+                 f.aravis_system_ns, f.status, int(f.kept), f.reason, f.video_file_id, f.video_index, f.mapped_ns)
       .run();
 }
 
@@ -149,7 +203,7 @@ void SessionIndex::add_drop(const DropRecord& d) {
 void SessionIndex::add_pressure(const PressureRecord& p) {
   insert_pressure_
       ->bind_all(p.device_id, std::int64_t(p.connection), p.sequence, p.lost_before, p.device_ns, p.host_ns,
-                 p.host_wait_ns, p.grid_cols, p.grid_rows, p.grid_xscale, p.grid_yscale, p.payload)
+                 p.host_wait_ns, p.grid_cols, p.grid_rows, p.grid_xscale, p.grid_yscale, p.payload, p.mapped_ns)
       .run();
 }
 
@@ -164,6 +218,36 @@ void SessionIndex::add_stream_stats(const StreamStatsRecord& s) {
       .bind_all(s.device_id, s.completed, s.failures, s.underruns, s.resent_packets, s.missing_packets,
                 s.queue_overflows)
       .run();
+}
+
+void SessionIndex::add_sample(const SampleRecord& s) {
+  std::optional<std::int64_t> p_dev, p_conn, p_seq, p_off, b_seq, b_off, a_seq, a_off;
+  const auto* ref = s.pressure ? &*s.pressure : s.pressure_before ? &*s.pressure_before : s.pressure_after ? &*s.pressure_after : nullptr;
+  if (ref) {
+    p_dev = ref->device_id;
+    p_conn = std::int64_t(ref->connection);
+  }
+  if (s.pressure) p_seq = std::int64_t(s.pressure->sequence), p_off = s.pressure->offset_ns;
+  if (s.pressure_before) b_seq = std::int64_t(s.pressure_before->sequence), b_off = s.pressure_before->offset_ns;
+  if (s.pressure_after) a_seq = std::int64_t(s.pressure_after->sequence), a_off = s.pressure_after->offset_ns;
+  insert_sample_
+      ->bind_all(std::int64_t(s.index), s.tick, s.tick_ns, s.t_ns, s.span_ns, std::int64_t(s.cameras.size()), p_dev,
+                 p_conn, p_seq, p_off, b_seq, b_off, a_seq, a_off)
+      .run();
+  for (const auto& c : s.cameras)
+    insert_sample_frame_->bind_all(std::int64_t(s.index), c.device_id, std::int64_t(c.connection), c.sequence, c.offset_ns)
+        .run();
+}
+
+void SessionIndex::add_clock_model(const ClockModelRecord& c) {
+  insert_clock_
+      ->bind_all(c.device_id, c.host_ns, c.segment, c.x0_device_ns, c.offset_ns, c.skew, c.latency_ns, c.pairs,
+                 c.hull_points, c.residual_p50_ns, c.residual_p99_ns)
+      .run();
+}
+
+void SessionIndex::add_timeline_count(const std::string& what, std::uint64_t count) {
+  db_->prepare("INSERT INTO timeline_counts (what, count) VALUES (?,?)").bind_all(what, count).run();
 }
 
 void SessionIndex::finish_session(std::int64_t ended_host_ns, const std::string& end_reason) {

@@ -12,7 +12,7 @@
 
 namespace pvcap {
 
-inline constexpr int kSchemaVersion = 1;
+inline constexpr int kSchemaVersion = 2;  // 2: mapped times, samples, clock models
 
 struct SessionRecord {
   std::int64_t started_wall_ns = 0;
@@ -50,6 +50,7 @@ struct FrameRecord {
   std::string reason;   // why not kept (or why incomplete)
   std::optional<std::int64_t> video_file_id;
   std::optional<std::int64_t> video_index;  // 0-based frame number in that file
+  std::optional<std::int64_t> mapped_ns;    // on the session clock (the clock model's), when known
 };
 
 // One Sensel frame at full rate. `payload` is the frame exactly as the device sent it (the
@@ -65,6 +66,36 @@ struct PressureRecord {
   std::int64_t host_wait_ns = 0;  // request-to-answer time
   int grid_cols = 0, grid_rows = 0, grid_xscale = 0, grid_yscale = 0;
   std::vector<std::uint8_t> payload;
+  std::optional<std::int64_t> mapped_ns;  // on the session clock (the clock model's)
+};
+
+// One 15 Hz dataset sample: a camera frame per camera for one instant, and the pressure
+// frames around it. Frames are named by (device, connection, sequence), as in their tables.
+struct SampleFrameRef {
+  std::int64_t device_id = 0;
+  std::uint32_t connection = 0;
+  std::uint64_t sequence = 0;
+  std::int64_t offset_ns = 0;  // frame's mapped time minus the sample's
+};
+struct SampleRecord {
+  std::uint64_t index = 0;
+  std::int64_t tick = 0, tick_ns = 0;  // the grid tick it serves
+  std::int64_t t_ns = 0;               // the instant (mean of its camera frames' mapped times)
+  std::int64_t span_ns = 0;            // latest minus earliest camera frame
+  std::vector<SampleFrameRef> cameras;
+  std::optional<SampleFrameRef> pressure, pressure_before, pressure_after;  // nearest; neighbours
+};
+
+// A stream's clock model at one moment: host = device + offset + skew * (device - x0) - latency.
+struct ClockModelRecord {
+  std::int64_t device_id = 0;
+  std::int64_t host_ns = 0;
+  int segment = 0;
+  std::int64_t x0_device_ns = 0;
+  double offset_ns = 0, skew = 0;
+  std::int64_t latency_ns = 0;
+  std::uint64_t pairs = 0, hull_points = 0;
+  std::int64_t residual_p50_ns = 0, residual_p99_ns = 0;
 };
 
 struct DropRecord {
@@ -102,6 +133,9 @@ class SessionIndex {
   void add_pressure(const PressureRecord& p);
   void add_event(const EventRecord& e);
   void add_stream_stats(const StreamStatsRecord& s);
+  void add_sample(const SampleRecord& s);
+  void add_clock_model(const ClockModelRecord& c);
+  void add_timeline_count(const std::string& what, std::uint64_t count);
   void finish_session(std::int64_t ended_host_ns, const std::string& end_reason);
 
   sqlite::Database& db() { return *db_; }
@@ -109,7 +143,8 @@ class SessionIndex {
  private:
   explicit SessionIndex(std::unique_ptr<sqlite::Database> db);
   std::unique_ptr<sqlite::Database> db_;
-  std::optional<sqlite::Statement> insert_frame_, insert_drop_, insert_event_, insert_pressure_;
+  std::optional<sqlite::Statement> insert_frame_, insert_drop_, insert_event_, insert_pressure_, insert_sample_,
+      insert_sample_frame_, insert_clock_;
 };
 
 }  // namespace pvcap

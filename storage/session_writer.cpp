@@ -178,6 +178,7 @@ Status SessionWriter::close(const std::string& end_reason) {
   try {
     sqlite::Transaction tx(index_->db());
     for (const auto& s : stream_stats_) index_->add_stream_stats(s);
+    for (const auto& [what, count] : timeline_counts_) index_->add_timeline_count(what, count);
     index_->finish_session(host_now().ns, end_reason);
     tx.commit();
     index_->db().exec("PRAGMA wal_checkpoint(TRUNCATE)");

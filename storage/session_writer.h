@@ -48,6 +48,10 @@ class SessionWriter {
   // Registers a non-video device (the Sensel); returns its device id.
   Result<std::int64_t> add_device(const DeviceRecord& device);
   void record(EventRecord event) { index_writer_->push(std::move(event)); }
+  void record(SampleRecord sample) { index_writer_->push(std::move(sample)); }
+  void record(ClockModelRecord clock) { index_writer_->push(std::move(clock)); }
+  // Written at close (the timeline's tallies: groups, missed ticks, unpaired samples by reason).
+  void add_timeline_count(std::string what, std::uint64_t count) { timeline_counts_.emplace_back(std::move(what), count); }
   // Queues a kept frame for its camera's video. False (and nothing queued) when the
   // encoder is behind; the caller records the frame as not kept, reason "encoder_behind".
   bool submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecord frame);
@@ -75,6 +79,7 @@ class SessionWriter {
   std::unique_ptr<IndexWriter> index_writer_;
   std::vector<std::unique_ptr<Camera>> cameras_;
   std::vector<StreamStatsRecord> stream_stats_;
+  std::vector<std::pair<std::string, std::uint64_t>> timeline_counts_;
   bool closed_ = false;
 };
 

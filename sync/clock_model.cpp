@@ -1,6 +1,7 @@
 #include "sync/clock_model.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace pvcap::sync {
 
@@ -53,9 +54,15 @@ bool ClockModel::add(std::int64_t device_ns, std::int64_t arrival_ns) {
 
 // The supporting line of the hull at the mean device time.
 void ClockModel::refit() {
-  if (hull_.size() < 2) {
-    fit_.offset_ns = double(hull_.front().y);
-    fit_.skew = 0;
+  // The line of slope `slope` that touches the hull from below.
+  auto support = [&](long double slope) {
+    long double offset = (long double)(hull_.front().y) - slope * (long double)(hull_.front().x);
+    for (const Point& q : hull_) offset = std::min(offset, (long double)(q.y) - slope * (long double)(q.x));
+    fit_.skew = double(slope);
+    fit_.offset_ns = double(offset);
+  };
+  if (hull_.size() < 2 || hull_.back().x - hull_.front().x < options_.min_span_for_skew_ns) {
+    support(0);
     return;
   }
   const long double mean_x = sum_x_ / (long double)(n_);
@@ -66,6 +73,10 @@ void ClockModel::refit() {
   const Point& a = *(it - 1);
   const Point& b = *it;
   const long double slope = (long double)(b.y - a.y) / (long double)(b.x - a.x);
+  if (std::fabs(double(slope)) > options_.max_skew) {
+    support(slope > 0 ? options_.max_skew : -options_.max_skew);
+    return;
+  }
   fit_.skew = double(slope);
   fit_.offset_ns = double((long double)(a.y) - slope * (long double)(a.x));  // at x = 0, i.e. device = x0
 }

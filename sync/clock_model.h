@@ -9,7 +9,10 @@
 // of Moon, Skelly & Towsley: the line under every point that is closest to them on
 // average); least squares would fold the mean latency and its outliers into the
 // offset. The hull of points with random positive latency has few vertices, so
-// memory stays small and an update is amortised O(1).
+// memory stays small and an update is amortised O(1). While the pairs span only a
+// moment the slope is meaningless, so the model assumes no drift until they span
+// `min_span_for_skew_ns`, and never believes more than `max_skew`; a clamped slope
+// is lowered onto the hull so the line still lies under every pair.
 //
 // A device clock that restarts (power cycle, replug) or jumps shows as device time
 // going back by more than `reset_back_ns` (or back at all, many times in a row), or
@@ -43,6 +46,8 @@ struct ClockModelOptions {
   std::int64_t reset_above_ns = 1'000'000'000; // this far after it, `reset_run` times in a row: it jumped too
   std::int64_t reset_back_ns = 1'000'000'000;  // device time this far back: restarted (less: a reordered pair)
   int reset_run = 16;                          // ...or back at all, this many times in a row
+  double max_skew = 1e-3;                      // crystal clocks: a slope beyond +-1000 ppm is noise, not drift
+  std::int64_t min_span_for_skew_ns = 2'000'000'000;  // until the pairs span this, assume no drift
 };
 
 class ClockModel {

@@ -11,15 +11,16 @@ namespace pvcap::sync {
 Grouper::Grouper(int cameras, std::int64_t limit_ns, std::int64_t wait_ns)
     : pending_(std::size_t(cameras)), latest_(std::size_t(cameras), INT64_MIN), limit_ns_(limit_ns), wait_ns_(wait_ns) {}
 
-void Grouper::add(const FrameRef& frame) {
+bool Grouper::add(const FrameRef& frame) {
   const auto c = std::size_t(frame.stream);
-  if (c >= pending_.size()) return;
+  if (c >= pending_.size()) return false;
   if (frame.t_ns <= decided_until_ || (!pending_[c].empty() && frame.t_ns <= pending_[c].back().t_ns)) {
     ++late_;  // its instant is decided already (or it is out of order within its camera)
-    return;
+    return false;
   }
   pending_[c].push_back(frame);
   latest_[c] = std::max(latest_[c], frame.t_ns);
+  return true;
 }
 
 bool Grouper::decide(bool flush) {
@@ -82,17 +83,31 @@ std::int64_t Subsampler::tick_time(std::int64_t tick) const {
   return anchor_ns_ + std::int64_t(std::llround(double(tick) * period_ns_));
 }
 
-std::vector<Subsampler::Sample> Subsampler::add(const Group& group) {
+std::vector<Subsampler::Sample> Subsampler::add(const Group& group, std::vector<Group>* discarded) {
   std::vector<Sample> out;
+  auto discard = [&](const Group& g) {
+    if (discarded) discarded->push_back(g);
+  };
   const double rel = double(group.t_ns - anchor_ns_);
-  if (rel < -0.5 * period_ns_) return out;  // before the session's first tick
+  if (rel < -0.5 * period_ns_) {  // before the session's first tick
+    discard(group);
+    return out;
+  }
   const auto tick = std::int64_t(std::llround(rel / period_ns_));
   const std::int64_t tick_ns = tick_time(tick);
   if (best_ && tick == best_->tick) {
-    if (std::llabs(group.t_ns - tick_ns) < std::llabs(best_->group.t_ns - tick_ns)) best_->group = group;
+    if (std::llabs(group.t_ns - tick_ns) < std::llabs(best_->group.t_ns - tick_ns)) {
+      discard(best_->group);
+      best_->group = group;
+    } else {
+      discard(group);
+    }
     return out;
   }
-  if (best_ && tick < best_->tick) return out;  // groups come in order; an older one cannot win
+  if (best_ && tick < best_->tick) {  // groups come in order; an older one cannot win
+    discard(group);
+    return out;
+  }
   if (best_) {
     out.push_back(*best_);
     last_emitted_ = best_->tick;
@@ -154,9 +169,11 @@ PressureAligner::Pairing PressureAligner::pair(std::int64_t t) const {
   return p;
 }
 
-std::vector<std::pair<std::uint64_t, PressureAligner::Pairing>> PressureAligner::take(bool flush) {
+std::vector<std::pair<std::uint64_t, PressureAligner::Pairing>> PressureAligner::take(bool flush,
+                                                                                   std::int64_t give_up_before_ns) {
   std::vector<std::pair<std::uint64_t, Pairing>> out;
-  while (!samples_.empty() && (flush || newest_ >= samples_.front().first + window_ns_)) {
+  while (!samples_.empty() && (flush || newest_ >= samples_.front().first + window_ns_ ||
+                               samples_.front().first < give_up_before_ns)) {
     const auto [t, key] = samples_.front();
     samples_.pop_front();
     Pairing p = pair(t);

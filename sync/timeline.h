@@ -23,7 +23,8 @@ namespace pvcap::sync {
 struct FrameRef {
   int stream = 0;
   std::uint64_t sequence = 0;
-  std::int64_t t_ns = 0;  // mapped host time
+  std::int64_t t_ns = 0;          // mapped host time
+  std::uint32_t connection = 0;   // sequences restart with each connection of a device
 };
 
 struct Group {
@@ -48,7 +49,8 @@ class Grouper {
  public:
   Grouper(int cameras, std::int64_t limit_ns, std::int64_t wait_ns);
   // Frames of one camera must come in time order; frames of different cameras interleave freely.
-  void add(const FrameRef& frame);
+  // False (and counted as late) for a frame whose instant is already decided.
+  bool add(const FrameRef& frame);
   // Groups decided so far (each returned once). `flush` decides everything pending (at the end).
   std::vector<Group> take(bool flush = false);
 
@@ -79,7 +81,8 @@ class Subsampler {
     Group group;
   };
   // Groups in time order; returns samples whose tick can no longer get a nearer group.
-  std::vector<Sample> add(const Group& group);
+  // Groups that will never be a sample (a nearer one won their tick) go to `discarded`.
+  std::vector<Sample> add(const Group& group, std::vector<Group>* discarded = nullptr);
   std::vector<Sample> flush();
   std::uint64_t missed_ticks() const { return missed_; }
   std::int64_t tick_time(std::int64_t tick) const;
@@ -109,7 +112,9 @@ class PressureAligner {
   void add_pressure(const FrameRef& frame);
   void add_sample(std::int64_t sample_ns, std::uint64_t key);
   // Decided pairings with the key given to add_sample; unpaired ones have no `nearest`.
-  std::vector<std::pair<std::uint64_t, Pairing>> take(bool flush = false);
+  // Samples before `give_up_before_ns` are decided even if no pressure came after them
+  // (the Sensel went silent; the cameras' clock says time has moved on).
+  std::vector<std::pair<std::uint64_t, Pairing>> take(bool flush = false, std::int64_t give_up_before_ns = INT64_MIN);
 
   const std::map<std::string, std::uint64_t>& unpaired() const { return unpaired_; }
   std::size_t buffered() const { return frames_.size(); }

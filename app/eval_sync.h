@@ -1,0 +1,56 @@
+#pragma once
+// `pvcap eval-sync`: records a simulated session with a hard timing scenario and
+// measures, against the simulator's ground truth, how well the timeline put every
+// stream on one clock and paired the pressure frames; naive arrival-time pairing is
+// measured beside it. `evaluate_sync` does the measuring on any simulated session.
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace pvcap {
+
+struct StreamTiming {
+  std::string name;
+  std::size_t frames = 0;
+  double bias_ms = 0;                      // median of (mapped - true): the constant part
+  double p50_ms = 0, p99_ms = 0, max_ms = 0;  // |error - bias|
+  double arrival_bias_ms = 0, arrival_p99_ms = 0;  // the same for the raw arrival stamp
+  bool is_camera = true;
+};
+
+struct SyncEvaluation {
+  std::vector<StreamTiming> streams;
+  std::size_t samples = 0, samples_complete = 0;
+  std::size_t paired = 0, paired_nearest = 0;  // pvcap: samples with pressure; with the truly nearest frame
+  std::size_t naive_nearest = 0;               // arrival-time pairing: with the truly nearest frame
+  double warmup_s = 0;                         // excluded from the timing errors
+  std::vector<std::string> missed;             // targets not met, in words
+};
+
+struct SyncTargets {
+  double camera_p99_ms = 0.1, sensel_p99_ms = 0.5, bias_ms = 0.5, nearest_fraction = 0.995;
+};
+
+// Reads `session_dir`/session.db and `session_dir`/sim-truth. Throws UserError if either is unusable.
+SyncEvaluation evaluate_sync(const std::filesystem::path& session_dir, double warmup_s, const SyncTargets& targets = {});
+std::string format_evaluation(const SyncEvaluation& e);
+
+struct EvalSyncOptions {
+  double seconds = 30;
+  double drift_ppm = 100;  // cameras get +-this (alternating), the Sensel half of it
+  double jitter_ms = 4;    // Sensel USB arrival jitter cap (mean a quarter of it)
+  double loss = 0.01;      // pressure frames the device loses
+  std::uint64_t seed = 1;
+  double warmup_s = 3;
+  std::filesystem::path root;  // where the scenario and its session go
+  std::filesystem::path self_exe;
+};
+
+// Writes the scenario rig file into `options.root` (returns its path).
+std::filesystem::path write_eval_scenario(const EvalSyncOptions& options);
+// Records the scenario (already loaded; the caller has made its network) and evaluates it.
+int eval_sync(const std::filesystem::path& scenario, const EvalSyncOptions& options, const std::atomic<bool>& stop);
+
+}  // namespace pvcap
