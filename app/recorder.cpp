@@ -1,5 +1,7 @@
 #include "app/recorder.h"
 
+#include "app/realign.h"
+
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -517,6 +519,11 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   if (sensel) sensel->stop();
   for (auto& cam : cameras) cam->stop();
   for (auto& w : workers) w.join();
+  // At close: every frame re-mapped with its stream's final clock fit, every sample re-paired.
+  writer.set_finalizer([&, clocks = timeline.final_clocks()](SessionIndex& index) {
+    const auto r = realign(index, {clocks, device_ids, sensel_id, tc.pressure_max_offset_ns});
+    spdlog::info("timeline: {} samples re-paired with the final clock fits", r.samples);
+  });
   const auto tl = timeline.counts();
   writer.add_timeline_count("samples", tl.samples);
   writer.add_timeline_count("groups_complete", tl.groups_complete);

@@ -254,4 +254,60 @@ void SessionIndex::finish_session(std::int64_t ended_host_ns, const std::string&
   db_->prepare("UPDATE session SET ended_host_ns = ?, end_reason = ?").bind_all(ended_host_ns, end_reason).run();
 }
 
+void SessionIndex::remap(Stream stream, std::int64_t device_id, std::int64_t from_arrival_ns,
+                         std::int64_t to_arrival_ns, std::int64_t x0, double offset_ns, double skew,
+                         std::int64_t latency_ns) {
+  const char* sql = stream == Stream::Camera
+                        ? "UPDATE frames SET mapped_ns = device_ns + CAST(round(?1 + ?2 * (device_ns - ?3)) AS INTEGER) "
+                          "- ?4 WHERE device_id = ?5 AND mapped_ns IS NOT NULL AND host_ns >= ?6 AND host_ns < ?7"
+                        : "UPDATE pressure_frames SET mapped_ns = device_ns + CAST(round(?1 + ?2 * (device_ns - ?3)) AS "
+                          "INTEGER) - ?4 WHERE device_id = ?5 AND mapped_ns IS NOT NULL AND host_ns + host_wait_ns / 2 "
+                          ">= ?6 AND host_ns + host_wait_ns / 2 < ?7";
+  db_->prepare(sql).bind_all(offset_ns, skew, x0, latency_ns, device_id, from_arrival_ns, to_arrival_ns).run();
+}
+
+std::vector<SessionIndex::MappedRef> SessionIndex::mapped(Stream stream, std::int64_t device_id) {
+  auto q = db_->prepare(stream == Stream::Camera
+                            ? "SELECT connection, sequence, mapped_ns FROM frames WHERE device_id = ? AND mapped_ns IS "
+                              "NOT NULL ORDER BY mapped_ns"
+                            : "SELECT connection, sequence, mapped_ns FROM pressure_frames WHERE device_id = ? AND "
+                              "mapped_ns IS NOT NULL ORDER BY mapped_ns");
+  q.bind_all(device_id);
+  std::vector<MappedRef> out;
+  while (q.step()) out.push_back({std::uint32_t(q.column_int(0)), std::uint64_t(q.column_int(1)), q.column_int(2)});
+  return out;
+}
+
+std::vector<std::pair<std::uint64_t, std::vector<SampleFrameRef>>> SessionIndex::sample_members() {
+  auto q = db_->prepare("SELECT sample_id, device_id, connection, sequence, offset_ns FROM sample_frames ORDER BY sample_id");
+  std::vector<std::pair<std::uint64_t, std::vector<SampleFrameRef>>> out;
+  while (q.step()) {
+    const auto id = std::uint64_t(q.column_int(0));
+    if (out.empty() || out.back().first != id) out.push_back({id, {}});
+    out.back().second.push_back(
+        {q.column_int(1), std::uint32_t(q.column_int(2)), std::uint64_t(q.column_int(3)), q.column_int(4)});
+  }
+  return out;
+}
+
+void SessionIndex::update_sample(const SampleRecord& s) {
+  std::optional<std::int64_t> p_dev, p_conn, p_seq, p_off, b_seq, b_off, a_seq, a_off;
+  const auto* ref = s.pressure ? &*s.pressure : s.pressure_before ? &*s.pressure_before : s.pressure_after ? &*s.pressure_after : nullptr;
+  if (ref) p_dev = ref->device_id, p_conn = std::int64_t(ref->connection);
+  if (s.pressure) p_seq = std::int64_t(s.pressure->sequence), p_off = s.pressure->offset_ns;
+  if (s.pressure_before) b_seq = std::int64_t(s.pressure_before->sequence), b_off = s.pressure_before->offset_ns;
+  if (s.pressure_after) a_seq = std::int64_t(s.pressure_after->sequence), a_off = s.pressure_after->offset_ns;
+  db_->prepare(
+         "UPDATE samples SET t_ns = ?, span_ns = ?, pressure_device_id = ?, pressure_connection = ?, "
+         "pressure_sequence = ?, pressure_offset_ns = ?, before_sequence = ?, before_offset_ns = ?, after_sequence = ?, "
+         "after_offset_ns = ? WHERE id = ?")
+      .bind_all(s.t_ns, s.span_ns, p_dev, p_conn, p_seq, p_off, b_seq, b_off, a_seq, a_off, std::int64_t(s.index))
+      .run();
+  auto upd = db_->prepare(
+      "UPDATE sample_frames SET offset_ns = ? WHERE sample_id = ? AND device_id = ? AND connection = ? AND sequence = ?");
+  for (const auto& c : s.cameras) {
+    upd.bind_all(c.offset_ns, std::int64_t(s.index), c.device_id, std::int64_t(c.connection), c.sequence).run();
+  }
+}
+
 }  // namespace pvcap

@@ -138,6 +138,23 @@ class SessionIndex {
   void add_timeline_count(const std::string& what, std::uint64_t count);
   void finish_session(std::int64_t ended_host_ns, const std::string& end_reason);
 
+  // Re-mapping a finished recording with its final clock fits (see docs/store.md).
+  enum class Stream { Camera, Pressure };  // frames (arrival host_ns) / pressure_frames (answer arrival)
+  // Sets mapped_ns = device_ns + offset + skew * (device_ns - x0) - latency for the stream's rows
+  // that arrived in [from_arrival_ns, to_arrival_ns) and have a mapped time.
+  void remap(Stream stream, std::int64_t device_id, std::int64_t from_arrival_ns, std::int64_t to_arrival_ns,
+             std::int64_t x0, double offset_ns, double skew, std::int64_t latency_ns);
+  struct MappedRef {
+    std::uint32_t connection = 0;
+    std::uint64_t sequence = 0;
+    std::int64_t mapped_ns = 0;
+  };
+  std::vector<MappedRef> mapped(Stream stream, std::int64_t device_id);
+  // Every sample's camera frames: sample id -> (device, connection, sequence).
+  std::vector<std::pair<std::uint64_t, std::vector<SampleFrameRef>>> sample_members();
+  // Rewrites a sample's instant, its frames' offsets and its pressure pairing.
+  void update_sample(const SampleRecord& s);
+
   sqlite::Database& db() { return *db_; }
 
  private:

@@ -175,6 +175,15 @@ Status SessionWriter::close(const std::string& end_reason) {
   }
   index_writer_->stop();
   if (auto f = index_writer_->failure(); f && result.ok()) result = Error{*f};
+  if (finalizer_ && !index_writer_->failure()) {
+    try {
+      sqlite::Transaction tx(index_->db());
+      finalizer_(*index_);
+      tx.commit();
+    } catch (const std::exception& e) {
+      spdlog::error("{}: re-mapping the timeline at the end failed ({}); the online values stay", dir_.string(), e.what());
+    }
+  }
   try {
     sqlite::Transaction tx(index_->db());
     for (const auto& s : stream_stats_) index_->add_stream_stats(s);

@@ -8,6 +8,7 @@
 // A session directory is never reused: create() fails rather than overwrite.
 #include <atomic>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -60,6 +61,10 @@ class SessionWriter {
   // Set when storage failed (disk full, encoder error): capture should stop.
   std::optional<std::string> failure() const;
 
+  // Runs on the finished index at close, before the session is marked ended, in its own
+  // transaction (the timeline's final re-mapping). A failure is reported, and leaves the
+  // values recorded online in place.
+  void set_finalizer(std::function<void(SessionIndex&)> finalize) { finalizer_ = std::move(finalize); }
   // Drains every queue, finishes videos and index. Returns the first error, if any.
   Status close(const std::string& end_reason);
 
@@ -80,6 +85,7 @@ class SessionWriter {
   std::vector<std::unique_ptr<Camera>> cameras_;
   std::vector<StreamStatsRecord> stream_stats_;
   std::vector<std::pair<std::string, std::uint64_t>> timeline_counts_;
+  std::function<void(SessionIndex&)> finalizer_;
   bool closed_ = false;
 };
 

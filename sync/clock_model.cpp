@@ -15,6 +15,7 @@ void ClockModel::start_segment(std::int64_t device_ns, std::int64_t arrival_ns) 
   above_run_ = 0;
   behind_run_ = 0;
   fit_ = {device_ns, double(arrival_ns - device_ns), 0.0};
+  segments_.push_back({arrival_ns, fit_});
 }
 
 bool ClockModel::add(std::int64_t device_ns, std::int64_t arrival_ns) {
@@ -49,6 +50,7 @@ bool ClockModel::add(std::int64_t device_ns, std::int64_t arrival_ns) {
   while (hull_.size() >= 2 && cross(hull_[hull_.size() - 2], hull_.back(), p) <= 0) hull_.pop_back();
   hull_.push_back(p);
   refit();
+  segments_.back().fit = fit_;
   return false;
 }
 

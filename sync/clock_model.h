@@ -65,6 +65,14 @@ class ClockModel {
   }
 
   const ClockFit& fit() const { return fit_; }
+  // Every segment so far with its latest fit (the current one last), for re-mapping a
+  // recording once it is complete: a segment covers arrivals from `first_arrival_ns` on.
+  struct Segment {
+    std::int64_t first_arrival_ns = 0;
+    ClockFit fit;
+  };
+  const std::vector<Segment>& segments() const { return segments_; }
+  std::int64_t latency_ns() const { return options_.latency_ns; }
   int segment() const { return segment_; }
   std::size_t pairs() const { return n_; }         // in this segment
   std::size_t hull_size() const { return hull_.size(); }
@@ -80,6 +88,7 @@ class ClockModel {
   ClockModelOptions options_;
   std::vector<Point> hull_;  // lower hull, x increasing
   ClockFit fit_;
+  std::vector<Segment> segments_;
   long double sum_x_ = 0;
   std::size_t n_ = 0;
   std::int64_t last_x_ = 0;

@@ -138,4 +138,12 @@ SessionTimeline::Counts SessionTimeline::counts() const {
   return c;
 }
 
+std::vector<SessionTimeline::StreamClocks> SessionTimeline::final_clocks() const {
+  std::vector<StreamClocks> out;
+  for (std::size_t c = 0; c < cameras_.size(); ++c)
+    out.push_back({int(c), cameras_[c].model.segments(), cameras_[c].model.latency_ns()});
+  if (config_.has_pressure) out.push_back({-1, pressure_.model.segments(), pressure_.model.latency_ns()});
+  return out;
+}
+
 }  // namespace pvcap::sync

@@ -81,6 +81,15 @@ class SessionTimeline {
   };
   Counts counts() const;
 
+  // Each stream's clock segments as finally fitted (once the workers have stopped), to
+  // re-map the whole recording with the best fit rather than the one each frame met.
+  struct StreamClocks {
+    int stream = 0;  // camera index, or -1 for the pressure stream
+    std::vector<ClockModel::Segment> segments;
+    std::int64_t latency_ns = 0;
+  };
+  std::vector<StreamClocks> final_clocks() const;
+
  private:
   struct Stream {
     ClockModel model;

@@ -153,20 +153,7 @@ void PressureAligner::add_sample(std::int64_t sample_ns, std::uint64_t key) {
 }
 
 PressureAligner::Pairing PressureAligner::pair(std::int64_t t) const {
-  Pairing p;
-  p.sample_ns = t;
-  auto after = std::upper_bound(frames_.begin(), frames_.end(), t,
-                                [](std::int64_t v, const FrameRef& f) { return v < f.t_ns; });
-  if (after != frames_.end()) p.after = *after;
-  if (after != frames_.begin()) p.before = *(after - 1);
-  const FrameRef* best = nullptr;
-  if (p.before) best = &*p.before;
-  if (p.after && (!best || p.after->t_ns - t < t - best->t_ns)) best = &*p.after;
-  if (best && std::llabs(best->t_ns - t) <= max_offset_ns_) {
-    p.nearest = *best;
-    p.offset_ns = best->t_ns - t;
-  }
-  return p;
+  return pair_nearest(frames_.begin(), frames_.end(), t, max_offset_ns_);
 }
 
 std::vector<std::pair<std::uint64_t, PressureAligner::Pairing>> PressureAligner::take(bool flush,

@@ -101,13 +101,18 @@ class Subsampler {
 // `window_ns` past it (or at flush). Samples may lag the newest pressure by up to
 // `sample_lag_ns` (the grouper's wait and the grid's period); older frames are forgotten,
 // so memory is bounded by that span. What cannot be paired is counted by reason.
+struct Pairing {
+  std::int64_t sample_ns = 0;
+  std::optional<FrameRef> nearest, before, after;  // before <= sample_ns < after
+  std::int64_t offset_ns = 0;                      // nearest.t - sample_ns
+};
+// The frames of `sorted` (by time) around `t`, and the nearest of them if within `max_offset_ns`.
+template <class It>
+Pairing pair_nearest(It begin, It end, std::int64_t t, std::int64_t max_offset_ns);
+
 class PressureAligner {
  public:
-  struct Pairing {
-    std::int64_t sample_ns = 0;
-    std::optional<FrameRef> nearest, before, after;  // before <= sample_ns < after
-    std::int64_t offset_ns = 0;                      // nearest.t - sample_ns
-  };
+  using Pairing = sync::Pairing;
   PressureAligner(std::int64_t window_ns, std::int64_t max_offset_ns, std::int64_t sample_lag_ns = 1'500'000'000);
   void add_pressure(const FrameRef& frame);
   void add_sample(std::int64_t sample_ns, std::uint64_t key);
@@ -128,5 +133,27 @@ class PressureAligner {
   std::int64_t window_ns_, max_offset_ns_, sample_lag_ns_;
   std::map<std::string, std::uint64_t> unpaired_;
 };
+
+template <class It>
+Pairing pair_nearest(It begin, It end, std::int64_t t, std::int64_t max_offset_ns) {
+  Pairing p;
+  p.sample_ns = t;
+  It after = begin, lo = begin, hi = end;
+  while (lo < hi) {  // first frame later than t
+    It mid = lo + (hi - lo) / 2;
+    if (mid->t_ns <= t) lo = mid + 1;
+    else hi = mid;
+  }
+  after = lo;
+  if (after != end) p.after = *after;
+  if (after != begin) p.before = *(after - 1);
+  const FrameRef* best = p.before ? &*p.before : nullptr;
+  if (p.after && (!best || p.after->t_ns - t < t - best->t_ns)) best = &*p.after;
+  if (best && (best->t_ns > t ? best->t_ns - t : t - best->t_ns) <= max_offset_ns) {
+    p.nearest = *best;
+    p.offset_ns = best->t_ns - t;
+  }
+  return p;
+}
 
 }  // namespace pvcap::sync
