@@ -456,7 +456,7 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
     writer.record(ClockModelRecord{is_pressure ? sensel_id : device_ids[std::size_t(c.stream)], c.host_ns, c.segment,
                                    c.fit.x0, c.fit.offset_ns, c.fit.skew,
                                    is_pressure ? tc.pressure_latency_ns : tc.camera_latency_ns[std::size_t(c.stream)],
-                                   c.pairs, c.hull_points, c.residual_p50_ns, c.residual_p99_ns});
+                                   c.pairs, c.envelope_points, c.residual_p50_ns, c.residual_p99_ns});
   };
   sync::SessionTimeline timeline(tc, on_sample, on_clock);
   TimelineEnd timeline_end;

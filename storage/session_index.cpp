@@ -113,7 +113,7 @@ CREATE TABLE clock_models (
   skew REAL NOT NULL,
   latency_ns INTEGER NOT NULL,
   pairs INTEGER NOT NULL,
-  hull_points INTEGER NOT NULL,
+  envelope_points INTEGER NOT NULL,
   residual_p50_ns INTEGER NOT NULL,
   residual_p99_ns INTEGER NOT NULL
 );
@@ -159,7 +159,7 @@ SessionIndex::SessionIndex(std::unique_ptr<sqlite::Database> db) : db_(std::move
       "INSERT INTO sample_frames (sample_id, device_id, connection, sequence, offset_ns) VALUES (?,?,?,?,?)"));
   insert_clock_.emplace(db_->prepare(
       "INSERT INTO clock_models (device_id, host_ns, segment, x0_device_ns, offset_ns, skew, latency_ns, pairs, "
-      "hull_points, residual_p50_ns, residual_p99_ns) VALUES (?,?,?,?,?,?,?,?,?,?,?)"));
+      "envelope_points, residual_p50_ns, residual_p99_ns) VALUES (?,?,?,?,?,?,?,?,?,?,?)"));
   insert_event_.emplace(db_->prepare("INSERT INTO events (host_ns, kind, device_id, message) VALUES (?,?,?,?)"));
 }
 
@@ -242,7 +242,7 @@ void SessionIndex::add_sample(const SampleRecord& s) {
 void SessionIndex::add_clock_model(const ClockModelRecord& c) {
   insert_clock_
       ->bind_all(c.device_id, c.host_ns, c.segment, c.x0_device_ns, c.offset_ns, c.skew, c.latency_ns, c.pairs,
-                 c.hull_points, c.residual_p50_ns, c.residual_p99_ns)
+                 c.envelope_points, c.residual_p50_ns, c.residual_p99_ns)
       .run();
 }
 

@@ -7,9 +7,9 @@ namespace pvcap::sync {
 
 void ClockModel::start_segment(std::int64_t device_ns, std::int64_t arrival_ns) {
   ++segment_;
-  hull_.clear();
-  hull_.push_back({0, arrival_ns - device_ns});
-  sum_x_ = 0;
+  bins_.clear();
+  bins_.push_back({0, arrival_ns - device_ns});
+  bin_ns_ = options_.bin_ns;
   n_ = 1;
   last_x_ = 0;
   above_run_ = 0;
@@ -35,52 +35,50 @@ bool ClockModel::add(std::int64_t device_ns, std::int64_t arrival_ns) {
     return true;
   }
   if (x < last_x_) return false;  // back in device time once: a reordered pair; the line needs none
-  const Point p{x, arrival_ns - device_ns};
   last_x_ = x;
-  sum_x_ += x;
   ++n_;
-  if (p.x == hull_.back().x) {  // same device time twice: only the earlier arrival bounds the line
-    if (p.y >= hull_.back().y) return false;
-    hull_.pop_back();
+  const Point p{x, arrival_ns - device_ns};
+  Point& current = bins_.back();
+  if (x / bin_ns_ == current.x / bin_ns_) {
+    if (p.y >= current.y) return false;  // not the earliest arrival of its bin: the line is unchanged
+    current = p;
+  } else {
+    bins_.push_back(p);
+    if (bins_.size() > options_.max_bins) {  // a long recording: halve the resolution, keep the minima
+      bin_ns_ *= 2;
+      std::vector<Point> merged;
+      for (const Point& b : bins_)
+        if (merged.empty() || merged.back().x / bin_ns_ != b.x / bin_ns_) merged.push_back(b);
+        else if (b.y < merged.back().y) merged.back() = b;
+      bins_.swap(merged);
+    }
   }
-  // Monotone chain, lower hull: drop vertices that are no longer below the chord.
-  auto cross = [](const Point& o, const Point& a, const Point& b) {
-    return (long double)(a.x - o.x) * (long double)(b.y - o.y) - (long double)(a.y - o.y) * (long double)(b.x - o.x);
-  };
-  while (hull_.size() >= 2 && cross(hull_[hull_.size() - 2], hull_.back(), p) <= 0) hull_.pop_back();
-  hull_.push_back(p);
   refit();
   segments_.back().fit = fit_;
   return false;
 }
 
-// The supporting line of the hull at the mean device time.
+// Slope: the median of the slopes between bin minima half the recording apart (Theil-Sen
+// on long baselines: a few bins whose minimum came late move it little). Offset: the line of
+// that slope lowered onto the lowest bin minimum, so it lies under the envelope.
 void ClockModel::refit() {
-  // The line of slope `slope` that touches the hull from below.
-  auto support = [&](long double slope) {
-    long double offset = (long double)(hull_.front().y) - slope * (long double)(hull_.front().x);
-    for (const Point& q : hull_) offset = std::min(offset, (long double)(q.y) - slope * (long double)(q.x));
-    fit_.skew = double(slope);
-    fit_.offset_ns = double(offset);
+  auto support = [&](double slope) {
+    double offset = double(bins_.front().y);
+    for (const Point& b : bins_) offset = std::min(offset, double(b.y) - slope * double(b.x));
+    fit_.skew = slope;
+    fit_.offset_ns = offset;
   };
-  if (hull_.size() < 2 || hull_.back().x - hull_.front().x < options_.min_span_for_skew_ns) {
+  const std::size_t n = bins_.size();
+  if (n < 4 || bins_.back().x - bins_.front().x < options_.min_span_for_skew_ns) {
     support(0);
     return;
   }
-  const long double mean_x = sum_x_ / (long double)(n_);
-  auto it = std::upper_bound(hull_.begin(), hull_.end(), mean_x,
-                             [](long double v, const Point& q) { return v < (long double)(q.x); });
-  if (it == hull_.begin()) ++it;
-  if (it == hull_.end()) --it;
-  const Point& a = *(it - 1);
-  const Point& b = *it;
-  const long double slope = (long double)(b.y - a.y) / (long double)(b.x - a.x);
-  if (std::fabs(double(slope)) > options_.max_skew) {
-    support(slope > 0 ? options_.max_skew : -options_.max_skew);
-    return;
-  }
-  fit_.skew = double(slope);
-  fit_.offset_ns = double((long double)(a.y) - slope * (long double)(a.x));  // at x = 0, i.e. device = x0
+  const std::size_t h = n / 2;
+  slopes_.clear();
+  for (std::size_t i = 0; i + h < n; ++i)
+    slopes_.push_back(double(bins_[i + h].y - bins_[i].y) / double(bins_[i + h].x - bins_[i].x));
+  std::nth_element(slopes_.begin(), slopes_.begin() + std::ptrdiff_t(slopes_.size() / 2), slopes_.end());
+  support(std::clamp(slopes_[slopes_.size() / 2], -options_.max_skew, options_.max_skew));
 }
 
 }  // namespace pvcap::sync

@@ -4,15 +4,19 @@
 // Every frame gives a pair (device time, host arrival time). Arrival is the true
 // instant plus a latency that is never negative and often large (a USB poll, a
 // busy core), so the pairs lie on or above the line `arrival = device + offset +
-// skew * device`. The model keeps the lower convex hull of the pairs and takes the
-// supporting line at the mean device time (the linear-programming skew estimate
-// of Moon, Skelly & Towsley: the line under every point that is closest to them on
-// average); least squares would fold the mean latency and its outliers into the
-// offset. The hull of points with random positive latency has few vertices, so
-// memory stays small and an update is amortised O(1). While the pairs span only a
-// moment the slope is meaningless, so the model assumes no drift until they span
-// `min_span_for_skew_ns`, and never believes more than `max_skew`; a clamped slope
-// is lowered onto the hull so the line still lies under every pair.
+// skew * device`: the model fits that lower envelope, never the cloud (least
+// squares would fold the mean latency and its outliers into the offset).
+//
+// The envelope is kept as the earliest arrival in each bin of device time (0.5 s;
+// bins double when a recording grows long, so memory is bounded). The slope is the
+// median of slopes between bin minima half the segment apart: long baselines, and
+// a few bins whose minimum came late (a busy start-up) barely move it. The line is
+// then lowered onto the lowest bin minimum. (The convex-hull / LP estimate - the
+// hull edge at the mean device time - was tried first: when few arrivals reach the
+// minimum latency its edge can rest on two nearby vertices, and a simulated camera's
+// slope came out 45 ppm wrong; see docs/PERFORMANCE.md.) While the pairs span only a
+// moment the slope means nothing, so the model assumes no drift until they span
+// `min_span_for_skew_ns`, and never believes more than `max_skew`.
 //
 // A device clock that restarts (power cycle, replug) or jumps shows as device time
 // going back by more than `reset_back_ns` (or back at all, many times in a row), or
@@ -48,6 +52,8 @@ struct ClockModelOptions {
   int reset_run = 16;                          // ...or back at all, this many times in a row
   double max_skew = 1e-3;                      // crystal clocks: a slope beyond +-1000 ppm is noise, not drift
   std::int64_t min_span_for_skew_ns = 2'000'000'000;  // until the pairs span this, assume no drift
+  std::int64_t bin_ns = 500'000'000;           // the envelope's resolution in device time...
+  std::size_t max_bins = 4096;                 // ...doubled whenever it would need more bins than this
 };
 
 class ClockModel {
@@ -74,8 +80,8 @@ class ClockModel {
   const std::vector<Segment>& segments() const { return segments_; }
   std::int64_t latency_ns() const { return options_.latency_ns; }
   int segment() const { return segment_; }
-  std::size_t pairs() const { return n_; }         // in this segment
-  std::size_t hull_size() const { return hull_.size(); }
+  std::size_t pairs() const { return n_; }                 // in this segment
+  std::size_t envelope_points() const { return bins_.size(); }  // bin minima kept
 
  private:
   struct Point {
@@ -86,10 +92,11 @@ class ClockModel {
   void refit();
 
   ClockModelOptions options_;
-  std::vector<Point> hull_;  // lower hull, x increasing
+  std::vector<Point> bins_;  // the earliest arrival per bin of device time, x increasing
+  std::int64_t bin_ns_ = 0;
+  std::vector<double> slopes_;  // scratch for refit()
   ClockFit fit_;
   std::vector<Segment> segments_;
-  long double sum_x_ = 0;
   std::size_t n_ = 0;
   std::int64_t last_x_ = 0;
   int above_run_ = 0;

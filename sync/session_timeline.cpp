@@ -35,7 +35,7 @@ std::int64_t SessionTimeline::map(Stream& s, int id, std::int64_t device_ns, std
   s.residuals.push_back(s.model.residual(device_ns, arrival_ns));
   if (arrival_ns >= s.next_snapshot_ns) {
     s.next_snapshot_ns = arrival_ns + kSnapshotPeriodNs;
-    ClockSnapshot snap{id, arrival_ns, s.model.segment(), s.model.fit(), s.model.pairs(), s.model.hull_size(), 0, 0};
+    ClockSnapshot snap{id, arrival_ns, s.model.segment(), s.model.fit(), s.model.pairs(), s.model.envelope_points(), 0, 0};
     auto& r = s.residuals;
     if (!r.empty()) {
       std::nth_element(r.begin(), r.begin() + std::ptrdiff_t(r.size() / 2), r.end());

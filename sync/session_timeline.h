@@ -54,7 +54,7 @@ struct ClockSnapshot {
   std::int64_t host_ns = 0;
   int segment = 0;
   ClockFit fit;
-  std::size_t pairs = 0, hull_points = 0;
+  std::size_t pairs = 0, envelope_points = 0;
   std::int64_t residual_p50_ns = 0, residual_p99_ns = 0;  // arrivals above the line since the last snapshot
 };
 
