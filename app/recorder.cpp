@@ -164,8 +164,13 @@ void camera_worker(AravisCamera& camera, int index, std::int64_t device_id, Sess
     } else {
       tally.good.fetch_add(1, std::memory_order_relaxed);
       // Only complete frames with their own id and timestamp feed the clock model and the samples.
+      // The arrival it fits is the leader packet's, which Aravis stamps (CLOCK_REALTIME, us): the
+      // frame's first sign of life, without its payload's transfer time, which grows with load.
+      const std::int64_t leader_ns = frame->aravis_system_ns + (host_now().ns - wall_now_ns());
+      const bool leader_usable = frame->aravis_system_ns > 0 && leader_ns <= frame->host_ts.ns &&
+                                 frame->host_ts.ns - leader_ns < 1'000'000'000;
       rec.mapped_ns = timeline.camera_frame(index, frame->connection, step.sequence, frame->device_ts.ns,
-                                            frame->host_ts.ns);
+                                            leader_usable ? leader_ns : frame->host_ts.ns);
       HeldFrame h{std::move(rec), std::vector<std::uint8_t>(frame->data, frame->data + frame->size),
                   frame->pixel_format, frame->width, frame->height};
       frame->lease.reset();  // the camera gets its buffer back before we encode

@@ -1,5 +1,8 @@
 #include "sim/sim_camera.h"
 
+#include <chrono>
+#include <thread>
+
 #include <cstring>
 
 #include <fmt/format.h>
@@ -78,9 +81,15 @@ const cv::Mat& SimCamera::base_image(int width, int height, ArvPixelFormat forma
 
 // Runs on the fake camera's thread, once per frame, at the frame's capture instant.
 void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format) {
-  // The scene is shown as it was `exposure_latency` ago: the instant a real camera exposes
-  // comes before the instant its frame leaves, by a constant its datasheet states.
-  const std::int64_t true_ns = host_now().ns - exposure_latency_ns_;
+  const std::int64_t true_ns = host_now().ns;
+  fill_at(buffer, format, true_ns);
+  // A real camera's frame leaves a constant time after its exposure (exposure, readout: the
+  // latency its datasheet states), whatever our rendering took, if it fit in that time.
+  if (exposure_latency_ns_ > 0)
+    std::this_thread::sleep_until(std::chrono::steady_clock::time_point(std::chrono::nanoseconds(true_ns + exposure_latency_ns_)));
+}
+
+void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns) {
   std::lock_guard lock(mu_);
   const int width = arv_buffer_get_image_width(buffer);
   const int height = arv_buffer_get_image_height(buffer);

@@ -52,6 +52,7 @@ class SimCamera {
   SimCamera() = default;
   static void fill(ArvBuffer* buffer, void* self, guint32 exposure_us, guint32 gain, ArvPixelFormat format);
   void fill_buffer(ArvBuffer* buffer, ArvPixelFormat format);
+  void fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns);
   const cv::Mat& base_image(int width, int height, ArvPixelFormat format);
 
   int index_ = 0;
