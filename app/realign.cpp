@@ -19,7 +19,7 @@ RealignResult realign(SessionIndex& index, const RealignInput& in) {
       const std::int64_t from = k == 0 ? INT64_MIN : sc.segments[k].first_arrival_ns;
       const std::int64_t to = k + 1 < sc.segments.size() ? sc.segments[k + 1].first_arrival_ns : INT64_MAX;
       const auto& f = sc.segments[k].fit;
-      index.remap(kind, device, from, to, f.x0, f.offset_ns, f.skew, sc.latency_ns);
+      index.remap(kind, device, from, to, f.x0, f.offset_ns, f.skew, sc.segments[k].latency_ns);
     }
     for (const auto& m : index.mapped(kind, device)) {
       if (is_pressure) pressure.push_back({-1, m.sequence, m.mapped_ns, m.connection});

@@ -132,6 +132,10 @@ void camera_worker(AravisCamera& camera, int index, std::int64_t device_id, Sess
     auto frame = queue.pop_for(100ms);
     gaps.settle(host_now().ns);
     apply_decisions();
+    // Timestamp-latch probes of this camera's clock (cameras that have the latch).
+    while (auto probe = camera.clock_probes().pop_for(0ms))
+      if (probe->connection == connection)
+        timeline.camera_probe(index, probe->device.ns, probe->host_lo.ns, probe->host_hi.ns);
     if (!frame) continue;
     tally.received.fetch_add(1, std::memory_order_relaxed);
     if (frame->connection != connection) {  // frame ids restart with each connection
@@ -459,8 +463,7 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   auto on_clock = [&](sync::ClockSnapshot c) {
     const bool is_pressure = c.stream < 0;
     writer.record(ClockModelRecord{is_pressure ? sensel_id : device_ids[std::size_t(c.stream)], c.host_ns, c.segment,
-                                   c.fit.x0, c.fit.offset_ns, c.fit.skew,
-                                   is_pressure ? tc.pressure_latency_ns : tc.camera_latency_ns[std::size_t(c.stream)],
+                                   c.fit.x0, c.fit.offset_ns, c.fit.skew, c.latency_ns, c.probed ? "latch" : "arrivals",
                                    c.pairs, c.envelope_points, c.residual_p50_ns, c.residual_p99_ns});
   };
   sync::SessionTimeline timeline(tc, on_sample, on_clock);

@@ -199,6 +199,15 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
   }
   stream_ = std::move(stream.value());
   ArvDevice* dev = arv_camera_get_device(camera_.get());
+  latch_command_.clear();
+  latch_value_.clear();
+  for (const auto& [command, value] : {std::pair{"TimestampControlLatch", "TimestampLatchValue"},
+                                       std::pair{"GevTimestampControlLatch", "GevTimestampValue"}})
+    if (arv_device_get_feature(dev, command) && arv_device_get_feature(dev, value)) {
+      latch_command_ = command;
+      latch_value_ = value;
+      break;
+    }
   control_lost_.store(false);
   control_lost_id_ = g_signal_connect(dev, "control-lost", G_CALLBACK(&AravisCamera::on_control_lost), this);
   return {};
@@ -265,6 +274,7 @@ void AravisCamera::teardown_connection(bool camera_reachable) {
 void AravisCamera::control_loop() {
   bool connected = true;
   HostNs next_attempt{0};
+  HostNs next_probe{0};
   while (running_.load()) {
     {
       std::unique_lock lock(wake_mu_);
@@ -272,6 +282,10 @@ void AravisCamera::control_loop() {
     }
     if (!running_.load()) break;
     const HostNs now = host_now();
+    if (connected && now >= next_probe) {
+      next_probe = HostNs{now.ns + 250'000'000};
+      probe_clock();
+    }
     if (connected) {
       HostNs last;
       {
@@ -318,6 +332,38 @@ void AravisCamera::control_loop() {
   if (connected) teardown_connection(true);
 }
 
+bool AravisCamera::has_timestamp_latch() const {
+  std::lock_guard lock(mu_);
+  return !latch_command_.empty();
+}
+
+// Reads the camera's clock: the value latched lies between the host's time just before the
+// latch command and the time the new value was read back (a camera latches while it handles
+// the command; one that latches later is waited for, briefly).
+void AravisCamera::probe_clock() {
+  std::lock_guard lock(mu_);
+  if (!camera_ || latch_command_.empty()) return;
+  ArvDevice* dev = arv_camera_get_device(camera_.get());
+  arv::GErrorSlot err;
+  const gint64 before = arv_device_get_integer_feature_value(dev, latch_value_.c_str(), err.out());
+  if (err) return;
+  const HostNs lo = host_now();
+  arv_device_execute_command(dev, latch_command_.c_str(), err.out());
+  if (err) return;
+  for (int attempt = 0; attempt < 20; ++attempt) {
+    const gint64 ticks = arv_device_get_integer_feature_value(dev, latch_value_.c_str(), err.out());
+    if (err) return;
+    if (ticks != before) {
+      const HostNs hi = host_now();
+      const double tick_hz = settings_.timestamp_tick_hz ? double(settings_.timestamp_tick_hz) : 1e9;
+      ClockProbe probe{connection_, DeviceNs{std::int64_t(double(ticks) * (1e9 / tick_hz))}, lo, hi};
+      (void)probes_.try_push(probe);  // a full queue (nobody reading) loses a probe, nothing else
+      return;
+    }
+    std::this_thread::sleep_for(200us);
+  }
+}
+
 void AravisCamera::request_stop() {
   running_.store(false);
   wake_.notify_all();
@@ -329,6 +375,7 @@ void AravisCamera::stop() {
   if (control_thread_.joinable()) control_thread_.join();  // its loop tears the connection down
   else teardown_connection(true);                          // opened but never started
   queue_.close();
+  probes_.close();
 }
 
 }  // namespace pvcap

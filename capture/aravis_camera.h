@@ -63,6 +63,14 @@ long read_rmem_max();
 // Buffers to allocate: the config's, or about half a second of frames (at least 8).
 std::size_t buffer_count_for(const CameraConfig& config);
 
+// The camera's clock read through its timestamp latch: `device` was the clock's value at
+// some host instant in [host_lo, host_hi].
+struct ClockProbe {
+  std::uint32_t connection = 0;
+  DeviceNs device;
+  HostNs host_lo, host_hi;
+};
+
 class AravisCamera {
  public:
   using EventHandler = std::function<void(const CameraEvent&)>;
@@ -85,6 +93,10 @@ class AravisCamera {
   void stop();
 
   BoundedQueue<CameraFrame>& frames() { return queue_; }
+  // Timestamp-latch probes, four a second while streaming, from cameras that have the
+  // SFNC TimestampControlLatch/TimestampLatchValue or GevTimestampControlLatch/GevTimestampValue.
+  BoundedQueue<ClockProbe>& clock_probes() { return probes_; }
+  bool has_timestamp_latch() const;
   const CameraConfig& config() const { return config_; }
   CameraSettings settings() const;
   StreamCounters counters() const;  // summed over every connection
@@ -100,6 +112,7 @@ class AravisCamera {
   void teardown_connection(bool camera_reachable);
   void control_loop();
   void trigger_loop();  // TriggerMode::Software: one AcquisitionSoftwareTrigger per frame period
+  void probe_clock();   // on the control thread
   void emit(CameraEvent::Kind kind, std::string message);
   static void on_control_lost(ArvGvDevice* device, void* self);
 
@@ -114,6 +127,8 @@ class AravisCamera {
   CameraSettings settings_;
   StreamCounters past_counters_;
   gulong control_lost_id_ = 0;
+  std::string latch_command_, latch_value_;  // the latch's feature names, empty without one
+  BoundedQueue<ClockProbe> probes_{256};
 
   std::atomic<bool> control_lost_{false};
   std::atomic<bool> running_{false};

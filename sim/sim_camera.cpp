@@ -1,5 +1,7 @@
 #include "sim/sim_camera.h"
 
+#include <unistd.h>
+
 #include <chrono>
 #include <thread>
 
@@ -15,6 +17,38 @@
 #include "sim/timecode.h"
 
 namespace pvcap::sim {
+
+namespace {
+// Serves the fake camera's own GenICam XML with a timestamp latch added, once per process
+// (Aravis reads the file name when each fake camera is made).
+void install_latch_genicam() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    arv::GPtr<ArvFakeCamera> probe(arv_fake_camera_new("PVSIM-XML"));
+    size_t size = 0;
+    const char* xml = probe ? arv_fake_camera_get_genicam_xml(probe.get(), &size) : nullptr;
+    if (!xml) return;
+    std::string text(xml, size);
+    while (!text.empty() && text.back() == '\0') text.pop_back();
+    const std::string features = fmt::format(
+        R"(<Command Name="TimestampControlLatch" NameSpace="Standard">
+<ToolTip>Latches the device clock into TimestampLatchValue</ToolTip>
+<pValue>PvcapTimestampLatchCommand</pValue><CommandValue>1</CommandValue></Command>
+<IntReg Name="PvcapTimestampLatchCommand" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
+<AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+<IntReg Name="TimestampLatchValue" NameSpace="Standard"><Address>{:#x}</Address><Length>8</Length>
+<AccessMode>RO</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+)",
+        SimCamera::kLatchCommandRegister, SimCamera::kLatchValueRegister);
+    const auto end = text.rfind("</RegisterDescription>");
+    if (end == std::string::npos) return;
+    text.insert(end, features);
+    const auto path = std::filesystem::temp_directory_path() / fmt::format("pvcap-fake-camera-{}.xml", getpid());
+    std::ofstream(path) << text;
+    arv_set_fake_camera_genicam_filename(path.c_str());
+  });
+}
+}  // namespace
 
 Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConfig& camera,
                                                      const SimCameraClock& clock, std::int64_t t0_ns,
@@ -36,6 +70,7 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   if (fresh) self->truth_ << "frame_id,true_ns,device_ns,width,height\n";
 
   const std::string serial = camera.serial.empty() ? fmt::format("PVSIM{}", index) : camera.serial;
+  install_latch_genicam();
   self->fake_.reset(arv_gv_fake_camera_new(camera.address.c_str(), serial.c_str()));
   if (!self->fake_ || !arv_gv_fake_camera_is_running(self->fake_.get()))
     return Error{fmt::format("{}: the fake camera could not listen on {} (is the address on an interface? the "
@@ -51,10 +86,28 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
     (void)self->base_image(camera.width, camera.height, ArvPixelFormat(pf));
   arv_fake_camera_set_fill_pattern(arv_gv_fake_camera_get_fake_camera(self->fake_.get()), &SimCamera::fill,
                                    self.get());
+  self->latch_thread_ = std::thread([raw = self.get()] { raw->serve_latch(); });
   return self;
 }
 
+// The latch: when the host sets the command register, the device clock's value goes into the
+// value register and the command clears. Checked every 0.5 ms.
+void SimCamera::serve_latch() {
+  ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(fake_.get());
+  while (latch_running_.load()) {
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+    guint32 command = 0;
+    if (!arv_fake_camera_read_register(fake, kLatchCommandRegister, &command) || command == 0) continue;
+    const auto device = std::uint64_t(std::max<std::int64_t>(0, clock_.device_time(host_now().ns)));
+    arv_fake_camera_write_register(fake, kLatchValueRegister, guint32(device >> 32));
+    arv_fake_camera_write_register(fake, kLatchValueRegister + 4, guint32(device & 0xFFFFFFFFu));
+    arv_fake_camera_write_register(fake, kLatchCommandRegister, 0);
+  }
+}
+
 SimCamera::~SimCamera() {
+  latch_running_.store(false);
+  if (latch_thread_.joinable()) latch_thread_.join();
   fake_.reset();  // joins the fake camera's thread: no fill runs after this
   std::lock_guard lock(mu_);
   truth_.flush();

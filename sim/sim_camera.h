@@ -3,14 +3,22 @@
 // (ArvGvFakeCamera) serves real GVCP/GVSP on an address, while pvcap supplies
 // the pixels (scene + timecode) and the device clock (offset, drift, jitter).
 // Every emitted frame is logged to a ground-truth CSV as it happens.
+//
+// It also has the GenICam timestamp latch real GigE cameras offer (SFNC
+// `TimestampControlLatch` + `TimestampLatchValue`), which Aravis' fake camera
+// lacks: the simulator serves its GenICam XML with the two features added, and
+// a small thread latches the device clock when the command register is set,
+// within half a millisecond (the host polls the value until it changes).
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <mutex>
 #include <optional>
+#include <atomic>
 #include <random>
 #include <string>
+#include <thread>
 
 #include <opencv2/core.hpp>
 
@@ -45,6 +53,9 @@ class SimCamera {
   SimCamera& operator=(const SimCamera&) = delete;
 
   const SimClock& clock() const { return clock_; }
+  // Where the latch lives in the fake camera's register space (big-endian).
+  static constexpr std::uint32_t kLatchCommandRegister = 0xF000;
+  static constexpr std::uint32_t kLatchValueRegister = 0xF008;  // 64 bits: high word, then low
   // The ground-truth homography for images of `size`.
   cv::Matx33d homography(cv::Size size) const;
 
@@ -54,6 +65,7 @@ class SimCamera {
   void fill_buffer(ArvBuffer* buffer, ArvPixelFormat format);
   void fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns);
   const cv::Mat& base_image(int width, int height, ArvPixelFormat format);
+  void serve_latch();
 
   int index_ = 0;
   std::string name_;
@@ -67,6 +79,8 @@ class SimCamera {
   std::ofstream truth_;
   std::uint64_t emitted_ = 0;
   std::optional<SimSenselConfig> fingertip_;
+  std::atomic<bool> latch_running_{true};
+  std::thread latch_thread_;
 };
 
 }  // namespace pvcap::sim

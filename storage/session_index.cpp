@@ -112,6 +112,7 @@ CREATE TABLE clock_models (
   offset_ns REAL NOT NULL,
   skew REAL NOT NULL,
   latency_ns INTEGER NOT NULL,
+  source TEXT NOT NULL,
   pairs INTEGER NOT NULL,
   envelope_points INTEGER NOT NULL,
   residual_p50_ns INTEGER NOT NULL,
@@ -158,8 +159,8 @@ SessionIndex::SessionIndex(std::unique_ptr<sqlite::Database> db) : db_(std::move
   insert_sample_frame_.emplace(db_->prepare(
       "INSERT INTO sample_frames (sample_id, device_id, connection, sequence, offset_ns) VALUES (?,?,?,?,?)"));
   insert_clock_.emplace(db_->prepare(
-      "INSERT INTO clock_models (device_id, host_ns, segment, x0_device_ns, offset_ns, skew, latency_ns, pairs, "
-      "envelope_points, residual_p50_ns, residual_p99_ns) VALUES (?,?,?,?,?,?,?,?,?,?,?)"));
+      "INSERT INTO clock_models (device_id, host_ns, segment, x0_device_ns, offset_ns, skew, latency_ns, source, "
+      "pairs, envelope_points, residual_p50_ns, residual_p99_ns) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)"));
   insert_event_.emplace(db_->prepare("INSERT INTO events (host_ns, kind, device_id, message) VALUES (?,?,?,?)"));
 }
 
@@ -241,8 +242,8 @@ void SessionIndex::add_sample(const SampleRecord& s) {
 
 void SessionIndex::add_clock_model(const ClockModelRecord& c) {
   insert_clock_
-      ->bind_all(c.device_id, c.host_ns, c.segment, c.x0_device_ns, c.offset_ns, c.skew, c.latency_ns, c.pairs,
-                 c.envelope_points, c.residual_p50_ns, c.residual_p99_ns)
+      ->bind_all(c.device_id, c.host_ns, c.segment, c.x0_device_ns, c.offset_ns, c.skew, c.latency_ns, c.source,
+                 c.pairs, c.envelope_points, c.residual_p50_ns, c.residual_p99_ns)
       .run();
 }
 

@@ -94,6 +94,7 @@ struct ClockModelRecord {
   std::int64_t x0_device_ns = 0;
   double offset_ns = 0, skew = 0;
   std::int64_t latency_ns = 0;
+  std::string source;  // "arrivals" (the envelope of arrival times) or "latch" (clock probes)
   std::uint64_t pairs = 0, envelope_points = 0;
   std::int64_t residual_p50_ns = 0, residual_p99_ns = 0;
 };

@@ -15,7 +15,53 @@ void ClockModel::start_segment(std::int64_t device_ns, std::int64_t arrival_ns) 
   above_run_ = 0;
   behind_run_ = 0;
   fit_ = {device_ns, double(arrival_ns - device_ns), 0.0};
-  segments_.push_back({arrival_ns, fit_});
+  probes_.clear();
+  probed_ = false;
+  segments_.push_back({arrival_ns, fit_, options_.latency_ns});
+}
+
+void ClockModel::publish() {
+  segments_.back().fit = probed_ ? probe_fit_ : fit_;
+  segments_.back().latency_ns = probed_ ? 0 : options_.latency_ns;
+}
+
+void ClockModel::add_probe(std::int64_t device_ns, std::int64_t host_lo_ns, std::int64_t host_hi_ns) {
+  if (segment_ < 0 || host_hi_ns < host_lo_ns) return;
+  const std::int64_t x = device_ns - fit_.x0;
+  // A probe from before this segment's clock (x far back) belongs to no segment we fit.
+  if (x < -options_.reset_back_ns) return;
+  probes_.push_back({x, host_lo_ns - device_ns, host_hi_ns - device_ns});
+  if (probes_.size() > options_.max_bins) probes_.erase(probes_.begin(), probes_.begin() + std::ptrdiff_t(probes_.size() / 2));
+  refit_probes();
+  publish();
+}
+
+void ClockModel::refit_probes() {
+  const std::size_t n = probes_.size();
+  if (n < 4 || probes_.back().x - probes_.front().x < options_.min_span_for_skew_ns) return;
+  auto mid = [](const Probe& p) { return 0.5 * double(p.lo + p.hi); };
+  const std::size_t h = n / 2;
+  slopes_.clear();
+  for (std::size_t i = 0; i + h < n; ++i)
+    slopes_.push_back((mid(probes_[i + h]) - mid(probes_[i])) / double(probes_[i + h].x - probes_[i].x));
+  std::nth_element(slopes_.begin(), slopes_.begin() + std::ptrdiff_t(slopes_.size() / 2), slopes_.end());
+  const double slope = std::clamp(slopes_[slopes_.size() / 2], -options_.max_skew, options_.max_skew);
+  // Every probe says: offset in [lo - slope x, hi - slope x]. Take the centre of what all allow;
+  // if a wrong slope leaves nothing, the median of the midpoints.
+  double lo = -1e300, hi = 1e300;
+  std::vector<double> mids;
+  for (const Probe& p : probes_) {
+    lo = std::max(lo, double(p.lo) - slope * double(p.x));
+    hi = std::min(hi, double(p.hi) - slope * double(p.x));
+    mids.push_back(mid(p) - slope * double(p.x));
+  }
+  double offset = 0.5 * (lo + hi);
+  if (lo > hi) {
+    std::nth_element(mids.begin(), mids.begin() + std::ptrdiff_t(mids.size() / 2), mids.end());
+    offset = mids[mids.size() / 2];
+  }
+  probe_fit_ = {fit_.x0, offset, slope};
+  probed_ = true;
 }
 
 bool ClockModel::add(std::int64_t device_ns, std::int64_t arrival_ns) {
@@ -54,7 +100,7 @@ bool ClockModel::add(std::int64_t device_ns, std::int64_t arrival_ns) {
     }
   }
   refit();
-  segments_.back().fit = fit_;
+  publish();
   return false;
 }
 

@@ -27,7 +27,13 @@
 // What no fit of arrival times can see is the constant part of the latency (exposure,
 // readout, transfer, USB polling): the line is the *earliest possible arrival*.
 // `latency_ns` (from the rig file or a device's datasheet) is subtracted to reach the
-// instant the device stamped.
+// instant the device stamped. Nor can it tell a slowly wandering latency floor (a busy
+// machine) from drift. A device that can be asked for its clock (GigE Vision's timestamp
+// latch) gives probes instead: the device time read at an instant known to lie between
+// two host times. Once a segment has probes spanning `min_span_for_skew_ns`, they define
+// the mapping (Theil-Sen slope over probe midpoints half the segment apart; offset at the
+// centre of what every probe's bracket allows) and no latency is subtracted: the probe
+// reads the clock the frames are stamped with.
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -62,9 +68,14 @@ class ClockModel {
 
   // Adds a pair; returns true when it began a new segment (the clock was reset).
   bool add(std::int64_t device_ns, std::int64_t arrival_ns);
+  // Adds a probe: the device clock read `device_ns` at a host instant in [host_lo_ns, host_hi_ns].
+  void add_probe(std::int64_t device_ns, std::int64_t host_lo_ns, std::int64_t host_hi_ns);
 
-  // The host instant the device stamped `device_ns` (earliest arrival minus the known latency).
-  std::int64_t map(std::int64_t device_ns) const { return fit_.map(device_ns) - options_.latency_ns; }
+  // The host instant the device stamped `device_ns`.
+  std::int64_t map(std::int64_t device_ns) const {
+    return probed_ ? probe_fit_.map(device_ns) : fit_.map(device_ns) - options_.latency_ns;
+  }
+  bool probed() const { return probed_; }  // the current segment is mapped by probes
   // How far an arrival lies above the line (>= 0 up to rounding): the latency beyond the minimum.
   std::int64_t residual(std::int64_t device_ns, std::int64_t arrival_ns) const {
     return arrival_ns - fit_.map(device_ns);
@@ -75,7 +86,8 @@ class ClockModel {
   // recording once it is complete: a segment covers arrivals from `first_arrival_ns` on.
   struct Segment {
     std::int64_t first_arrival_ns = 0;
-    ClockFit fit;
+    ClockFit fit;                 // host = fit.map(device) - latency_ns
+    std::int64_t latency_ns = 0;  // 0 when the fit comes from probes
   };
   const std::vector<Segment>& segments() const { return segments_; }
   std::int64_t latency_ns() const { return options_.latency_ns; }
@@ -90,11 +102,20 @@ class ClockModel {
   };
   void start_segment(std::int64_t device_ns, std::int64_t arrival_ns);
   void refit();
+  void refit_probes();
+  void publish();  // the current segment's mapping into segments_
 
   ClockModelOptions options_;
   std::vector<Point> bins_;  // the earliest arrival per bin of device time, x increasing
   std::int64_t bin_ns_ = 0;
   std::vector<double> slopes_;  // scratch for refit()
+  struct Probe {
+    std::int64_t x;       // device - x0
+    std::int64_t lo, hi;  // host bracket - device
+  };
+  std::vector<Probe> probes_;  // this segment's
+  ClockFit probe_fit_;
+  bool probed_ = false;
   ClockFit fit_;
   std::vector<Segment> segments_;
   std::size_t n_ = 0;

@@ -35,7 +35,9 @@ std::int64_t SessionTimeline::map(Stream& s, int id, std::int64_t device_ns, std
   s.residuals.push_back(s.model.residual(device_ns, arrival_ns));
   if (arrival_ns >= s.next_snapshot_ns) {
     s.next_snapshot_ns = arrival_ns + kSnapshotPeriodNs;
-    ClockSnapshot snap{id, arrival_ns, s.model.segment(), s.model.fit(), s.model.pairs(), s.model.envelope_points(), 0, 0};
+    const auto& seg = s.model.segments().back();
+    ClockSnapshot snap{id,        arrival_ns,     s.model.segment(), seg.fit, seg.latency_ns, s.model.probed(),
+                       s.model.pairs(), s.model.envelope_points(), 0, 0};
     auto& r = s.residuals;
     if (!r.empty()) {
       std::nth_element(r.begin(), r.begin() + std::ptrdiff_t(r.size() / 2), r.end());
@@ -75,6 +77,10 @@ std::int64_t SessionTimeline::pressure_frame(std::uint32_t connection, std::uint
   }
   for (auto& s : done) on_sample_(std::move(s));
   return t;
+}
+
+void SessionTimeline::camera_probe(int c, std::int64_t device_ns, std::int64_t host_lo_ns, std::int64_t host_hi_ns) {
+  cameras_[std::size_t(c)].model.add_probe(device_ns, host_lo_ns, host_hi_ns);
 }
 
 std::vector<FrameDecision> SessionTimeline::take_decisions(int c) {
@@ -141,8 +147,8 @@ SessionTimeline::Counts SessionTimeline::counts() const {
 std::vector<SessionTimeline::StreamClocks> SessionTimeline::final_clocks() const {
   std::vector<StreamClocks> out;
   for (std::size_t c = 0; c < cameras_.size(); ++c)
-    out.push_back({int(c), cameras_[c].model.segments(), cameras_[c].model.latency_ns()});
-  if (config_.has_pressure) out.push_back({-1, pressure_.model.segments(), pressure_.model.latency_ns()});
+    out.push_back({int(c), cameras_[c].model.segments()});
+  if (config_.has_pressure) out.push_back({-1, pressure_.model.segments()});
   return out;
 }
 

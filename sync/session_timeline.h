@@ -53,7 +53,9 @@ struct ClockSnapshot {
   int stream = 0;  // camera index, or -1 for the pressure stream
   std::int64_t host_ns = 0;
   int segment = 0;
-  ClockFit fit;
+  ClockFit fit;                 // host = fit.map(device) - latency_ns
+  std::int64_t latency_ns = 0;  // 0 when probes define the mapping
+  bool probed = false;
   std::size_t pairs = 0, envelope_points = 0;
   std::int64_t residual_p50_ns = 0, residual_p99_ns = 0;  // arrivals above the line since the last snapshot
 };
@@ -66,6 +68,9 @@ class SessionTimeline {
   // From camera `c`'s worker: maps the frame, hands it to the grouper, returns its mapped time.
   std::int64_t camera_frame(int c, std::uint32_t connection, std::uint64_t sequence, std::int64_t device_ns,
                             std::int64_t arrival_ns);
+  // From camera `c`'s worker: its clock read at a host instant in [host_lo_ns, host_hi_ns]
+  // (a timestamp-latch probe).
+  void camera_probe(int c, std::int64_t device_ns, std::int64_t host_lo_ns, std::int64_t host_hi_ns);
   // Decisions for camera `c`'s frames made since the last call.
   std::vector<FrameDecision> take_decisions(int c);
   // From the Sensel's worker.
@@ -86,7 +91,6 @@ class SessionTimeline {
   struct StreamClocks {
     int stream = 0;  // camera index, or -1 for the pressure stream
     std::vector<ClockModel::Segment> segments;
-    std::int64_t latency_ns = 0;
   };
   std::vector<StreamClocks> final_clocks() const;
 

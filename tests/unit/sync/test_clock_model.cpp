@@ -163,3 +163,50 @@ TEST(ClockModel, AnHourLongRecordingKeepsItsMemoryBounded) {
   EXPECT_NEAR(m.fit().skew, -40e-6, 1e-6);
   EXPECT_LT(std::llabs(m.map(clock.device(3'599'000'000'000)) - 3'599'000'300'000), 60'000);
 }
+
+TEST(ClockModel, LatchProbesMapTheCameraDespiteAWanderingLatencyFloor) {
+  // Arrivals whose floor rises 1 ms over 30 s (a machine getting busier) tilt any fit of
+  // arrival times; probes of the device clock (read at an instant inside a 0.6 ms bracket,
+  // four a second) do not.
+  ClockModel m({.latency_ns = 2'000'000});
+  DeviceClock clock{1'000'000'000'000, 60};
+  Link link{2'000'000, 300'000, 2'000'000};
+  std::mt19937_64 rng(9);
+  std::uniform_int_distribution<std::int64_t> where(0, 500'000), rtt(50'000, 150'000);
+  std::vector<double> err;
+  for (std::int64_t t = 0; t < 30'000'000'000; t += 16'666'667) {
+    const std::int64_t floor_rise = t / 30;  // 1 ms over 30 s
+    m.add(clock.device(t), link.arrival(t) + floor_rise);
+    if (t % 250'000'000 < 16'666'667) {
+      const std::int64_t latch = t + 5'000'000;  // the instant the device read its clock
+      const std::int64_t lo = latch - rtt(rng) - where(rng), hi = latch + rtt(rng);
+      m.add_probe(clock.device(latch), lo, hi);
+    }
+  }
+  ASSERT_TRUE(m.probed());
+  for (std::int64_t t = 3'000'000'000; t < 30'000'000'000; t += 16'666'667)
+    err.push_back(double(m.map(clock.device(t)) - t) / 1e6);
+  EXPECT_LT(std::fabs(percentile(err, 50)), 0.1) << "no latency to subtract: the probe reads the stamping clock";
+  double worst = 0;
+  for (double e : err) worst = std::max(worst, std::fabs(e - percentile(err, 50)));
+  EXPECT_LT(worst, 0.1);
+  EXPECT_NEAR(m.fit().skew, -60e-6, 2e-5) << "the arrival envelope alone is tilted by the floor";
+  EXPECT_EQ(m.segments().back().latency_ns, 0);
+}
+
+TEST(ClockModel, ProbesFromBeforeAResetAreNotMixedIn) {
+  ClockModel m;
+  for (std::int64_t t = 0; t < 4'000'000'000; t += 10'000'000) {
+    m.add(t, t + 1'000'000);
+    if (t % 250'000'000 == 0) m.add_probe(t, t - 100'000, t + 100'000);
+  }
+  ASSERT_TRUE(m.probed());
+  // The device restarts its clock at 0; the first probes of the new segment do not yet define it.
+  for (std::int64_t t = 4'000'000'000; t < 5'000'000'000; t += 10'000'000) {
+    m.add(t - 4'000'000'000, t + 1'000'000);
+    if (t % 250'000'000 == 0) m.add_probe(t - 4'000'000'000, t - 100'000, t + 100'000);
+  }
+  EXPECT_EQ(m.segment(), 1);
+  EXPECT_FALSE(m.probed()) << "a new segment needs 2 s of its own probes";
+  EXPECT_LT(std::llabs(m.map(900'000'000) - 4'900'000'000), 2'000'000);
+}
