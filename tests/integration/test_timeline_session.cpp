@@ -1,9 +1,8 @@
 // The timeline end to end on the simulated rig: `pvcap eval-sync` records four 60 Hz
 // cameras with drifting, offset clocks and a Sensel whose USB delay has a long tail,
 // that loses frames and resets its clock; the store is then checked against the
-// simulator's truth. The accuracy bounds here are regression guards on what this
-// 2-core machine achieves; the issue's targets are printed by eval-sync itself
-// (docs/PERFORMANCE.md).
+// simulator's truth. The accuracy bounds here leave room for ctest's load on 2 cores;
+// the issue's targets are eval-sync's own (docs/PERFORMANCE.md).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -86,23 +85,32 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
                        "v.kind = 'sensel'"),
             1);
 
+  // The cameras' clocks are read through their timestamp latch; the Sensel has none.
+  EXPECT_EQ(scalar(db, "SELECT count(DISTINCT m.device_id) FROM clock_models m JOIN devices v ON v.id = m.device_id "
+                       "WHERE v.kind = 'camera' AND m.source = 'latch'"),
+            4);
+  EXPECT_EQ(scalar(db, "SELECT count(*) FROM clock_models m JOIN devices v ON v.id = m.device_id WHERE "
+                       "v.kind = 'sensel' AND m.source <> 'arrivals'"),
+            0);
+
   // Against the truth: every stream on one clock; pairing far better than arrival times.
   const auto e = evaluate_sync(dir, 3);
   ASSERT_EQ(e.streams.size(), 5u);
   for (const auto& s : e.streams) {
     EXPECT_GT(s.frames, 100u) << s.name;
     if (s.is_camera) {
-      EXPECT_LT(std::fabs(s.bias_ms), 1.5) << s.name << ": bias after the declared 2 ms latency";
-      EXPECT_LT(s.p99_ms, 2.0) << s.name << " (the issue asks 0.1 ms; arrival-only fits reach 0.1-1 ms here)";
-      EXPECT_LT(s.p99_ms, s.arrival_p99_ms) << s.name << ": mapping must beat the raw arrival stamp";
+      // Mapped by timestamp-latch probes (0.003-0.04 ms p99 when the machine is not shared with the
+      // fuzzers); bounds with room for ctest's load.
+      EXPECT_LT(std::fabs(s.bias_ms), 0.5) << s.name;
+      EXPECT_LT(s.p99_ms, 0.5) << s.name << " (the issue's target, 0.1 ms, is checked by eval-sync)";
+      EXPECT_LT(s.p99_ms, s.arrival_p99_ms / 4) << s.name << ": mapping must beat the raw arrival stamp";
     } else {
       EXPECT_LT(std::fabs(s.bias_ms), 0.5) << s.name;
       EXPECT_LT(s.p99_ms, 0.5) << s.name << " (the issue's target)";
     }
   }
-  // How many get the truly nearest frame depends on the cameras' residual bias against the Sensel's,
-  // which grows with the machine's load (ctest runs the fuzzers beside this): 84-99 % seen.
-  EXPECT_GE(e.paired_nearest * 100, e.samples * 70) << format_evaluation(e);
+  // The truly nearest frame for nearly all (99.5 % is eval-sync's target; ctest's load costs some).
+  EXPECT_GE(e.paired_nearest * 100, e.samples * 95) << format_evaluation(e);
   EXPECT_GT(e.paired_nearest, e.naive_nearest + e.samples / 4) << format_evaluation(e);
   std::filesystem::remove_all(root);
 }
