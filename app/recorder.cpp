@@ -299,9 +299,10 @@ class SenselRecording {
       if (s->lost_before)
         writer.record(DropRecord{device_id_, 0, s->sequence - s->lost_before, s->lost_before, "not_received",
                                    s->host_ts.ns});
-      // The clock model fits the answer's arrival (the midpoint is the stamp's best single guess,
-      // but the arrival is what a latency floor bounds).
-      const std::int64_t arrival = s->host_ts.ns + s->host_wait_ns / 2;
+      // The clock model fits when the answer began to arrive (the midpoint is the stamp's best
+      // single guess, but an arrival is what a latency floor bounds; its first bytes come before
+      // the rest of a frame's 64-byte packets).
+      const std::int64_t arrival = s->first_byte_ts.ns;
       const std::int64_t mapped = timeline_->pressure_frame(0, s->sequence, s->device_ts.ns, arrival);
       writer.record(PressureRecord{device_id_, 0, s->sequence, s->lost_before, s->device_ts.ns, s->host_ts.ns,
                                      s->host_wait_ns, s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale,

@@ -54,6 +54,7 @@ void SenselDevice::flush_input() {
 Result<Response> SenselDevice::transact(const std::vector<std::uint8_t>& command, Expect expect, std::uint8_t reg,
                                         std::uint8_t size) {
   timed_out_ = false;
+  first_byte_ = HostNs{0};
   if (Status s = transport_->write(command); !s.ok()) return s.error();
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kReadTimeoutMs);
   std::uint8_t buf[1024];
@@ -72,6 +73,7 @@ Result<Response> SenselDevice::transact(const std::vector<std::uint8_t>& command
     }
     auto n = transport_->read(buf, int(left.count()));
     if (!n) return n.error();
+    if (n.value() > 0 && first_byte_.ns == 0) first_byte_ = host_now();
     inbox_.insert(inbox_.end(), buf, buf + n.value());
   }
 }
@@ -242,6 +244,7 @@ void SenselDevice::stream_loop() {
     PressureSample s;
     s.host_ts = host;
     s.host_wait_ns = wait_ns;
+    s.first_byte_ts = first_byte_.ns ? first_byte_ : HostNs{host.ns + wait_ns / 2};
     const auto step = counter_.next(frame.value().counter);
     s.sequence = step.sequence;
     s.lost_before = step.missing;

@@ -45,6 +45,7 @@ struct SenselInfo {
 struct PressureSample {
   HostNs host_ts;                 // midpoint of request and answer
   std::int64_t host_wait_ns = 0;  // answer time minus request time (the stamp's uncertainty)
+  HostNs first_byte_ts;           // when the answer's first bytes arrived (its earliest sign, for clock models)
   DeviceNs device_ts;             // device µs timestamp, unwrapped past 2^32, in ns
   std::uint64_t sequence = 0;     // rolling counter, unwrapped
   std::uint64_t lost_before = 0;  // frames the counter says were skipped before this one
@@ -100,6 +101,7 @@ class SenselDevice {
   std::unique_ptr<Transport> transport_;
   std::vector<std::uint8_t> inbox_;  // bytes read but not yet parsed
   bool timed_out_ = false;           // the last transact() failed for lack of an answer, not of a device
+  HostNs first_byte_;                // when the last transact()'s answer began to arrive
   SenselInfo info_;
   SenselConfig config_;
   BoundedQueue<PressureSample> queue_{512};
