@@ -1,8 +1,12 @@
 #include "capture/sensel_device.h"
 
+#include <pthread.h>
+#include <sched.h>
+
 #include <chrono>
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 namespace pvcap::sensel {
 
@@ -195,6 +199,12 @@ void SenselDevice::stop() {
 }
 
 void SenselDevice::stream_loop() {
+  // The stamps are only as good as this thread's wake-ups: where allowed (root, or an rtprio
+  // limit), it runs at a real-time priority. It blocks on the device nearly all the time.
+  sched_param rt{};
+  rt.sched_priority = 20;
+  if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &rt) != 0)
+    spdlog::debug("sensel: streaming thread stays at normal priority (no permission for SCHED_FIFO)");
   auto reject = [&](const std::string& why) {
     std::lock_guard lock(rejected_mu_);
     ++rejected_[why];

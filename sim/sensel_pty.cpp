@@ -49,6 +49,7 @@ void SenselPty::serve() {
   // Answers leave when the pacer says, not up to 50 us later (the kernel's default timer slack):
   // the emulated device's latency floor is then the pseudo-terminal's alone.
   prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
+
   std::uint8_t buf[256];
   SenselPacer pacer(emu_, link_);
   auto send = [&](const std::vector<std::uint8_t>& out) {
