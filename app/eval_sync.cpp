@@ -82,6 +82,7 @@ const T* nearest(const std::vector<T>& v, std::int64_t t, Key key) {
 
 SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, const SyncTargets& targets) {
   const auto truth_dir = dir / "sim-truth";
+  const double tie_ms = targets.tie_ms;
   sqlite::Database db(dir / "session.db", sqlite::Database::Mode::ReadOnly);
   SyncEvaluation e;
   e.warmup_s = warmup_s;
@@ -170,13 +171,21 @@ SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, 
     ++e.samples;
     if (std::size_t(samples.column_int(1)) == cameras) ++e.samples_complete;
     if (by_true.empty()) continue;
-    const auto* truly = nearest(by_true, std::int64_t(true_sum / n), [](const PressureTruth& p) { return p.true_ns; });
+    const auto sample_true = std::int64_t(true_sum / n);
+    const auto* truly = nearest(by_true, sample_true, [](const PressureTruth& p) { return p.true_ns; });
     const auto* naive = nearest(by_host, std::int64_t(host_sum / n), [](const PressureTruth& p) { return p.host_ns; });
+    const auto tie = [&](std::int64_t sequence) {  // as near as the nearest, within the tolerance
+      const auto it = std::find_if(pressure.begin(), pressure.end(), [&](const PressureTruth& p) { return p.sequence == sequence; });
+      return it != pressure.end() &&
+             double(std::llabs(it->true_ns - sample_true) - std::llabs(truly->true_ns - sample_true)) / 1e6 < tie_ms;
+    };
     if (!samples.column_null(2)) {
       ++e.paired;
-      e.paired_nearest += samples.column_int(2) == truly->sequence;
+      if (samples.column_int(2) == truly->sequence) ++e.paired_nearest;
+      else e.paired_tie += tie(samples.column_int(2));
     }
-    e.naive_nearest += naive->sequence == truly->sequence;
+    if (naive->sequence == truly->sequence) ++e.naive_nearest;
+    else e.naive_tie += tie(naive->sequence);
   }
 
   for (const auto& s : e.streams) {
@@ -185,11 +194,13 @@ SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, 
     if (std::fabs(s.bias_ms) >= targets.bias_ms)
       e.missed.push_back(fmt::format("{}: bias {:.3f} ms, not < {:g} ms", s.name, s.bias_ms, targets.bias_ms));
   }
+  e.tie_ms = tie_ms;
   if (sensel_id >= 0) {
-    const double frac = e.samples ? double(e.paired_nearest) / double(e.samples) : 0;
+    const double frac = e.samples ? double(e.paired_nearest + e.paired_tie) / double(e.samples) : 0;
     if (frac < targets.nearest_fraction)
-      e.missed.push_back(fmt::format("paired with the truly nearest pressure frame: {:.2f} % < {:.1f} %", 100 * frac,
-                                     100 * targets.nearest_fraction));
+      e.missed.push_back(fmt::format("paired with the truly nearest pressure frame (ties within {:g} ms either way): "
+                                     "{:.2f} % < {:.1f} %",
+                                     tie_ms, 100 * frac, 100 * targets.nearest_fraction));
   }
   return e;
 }
@@ -210,6 +221,9 @@ std::string format_evaluation(const SyncEvaluation& e) {
   fmt::format_to(out, "paired with the truly nearest pressure frame: pvcap {:.2f} % ({} of {}), naive arrival-time "
                       "pairing {:.2f} % ({})\n",
                  pct(e.paired_nearest), e.paired_nearest, e.samples, pct(e.naive_nearest), e.naive_nearest);
+  fmt::format_to(out, "  counting ties (two frames equally near within {:g} ms) either way: pvcap {:.2f} % ({} ties), "
+                      "naive {:.2f} %\n",
+                 e.tie_ms, pct(e.paired_nearest + e.paired_tie), e.paired_tie, pct(e.naive_nearest + e.naive_tie));
   if (e.missed.empty()) fmt::format_to(out, "all targets met\n");
   for (const auto& m : e.missed) fmt::format_to(out, "TARGET MISSED: {}\n", m);
   return fmt::to_string(b);

@@ -24,13 +24,21 @@ struct SyncEvaluation {
   std::vector<StreamTiming> streams;
   std::size_t samples = 0, samples_complete = 0;
   std::size_t paired = 0, paired_nearest = 0;  // pvcap: samples with pressure; with the truly nearest frame
+  std::size_t paired_tie = 0;  // of the others: the chosen frame is as near, within the tie tolerance
   std::size_t naive_nearest = 0;               // arrival-time pairing: with the truly nearest frame
+  std::size_t naive_tie = 0;
   double warmup_s = 0;                         // excluded from the timing errors
+  double tie_ms = 0;
   std::vector<std::string> missed;             // targets not met, in words
 };
 
 struct SyncTargets {
   double camera_p99_ms = 0.1, sensel_p99_ms = 0.5, bias_ms = 0.5, nearest_fraction = 0.995;
+  // Two pressure frames whose true distances from a sample differ by less than this are equally
+  // near at the accuracy the timestamps are asked for (half the camera target): picking either
+  // is right. Streams at commensurate rates (60 Hz cameras, 125 Hz Sensel) put whole runs of
+  // samples on such ties.
+  double tie_ms = 0.05;
 };
 
 // Reads `session_dir`/session.db and `session_dir`/sim-truth. Throws UserError if either is unusable.

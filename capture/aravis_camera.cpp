@@ -236,6 +236,7 @@ Status AravisCamera::start() {
   running_.store(true);
   control_thread_ = std::thread([this] { control_loop(); });
   if (config_.trigger == TriggerMode::Software) trigger_thread_ = std::thread([this] { trigger_loop(); });
+  probe_thread_ = std::thread([this] { probe_loop(); });
   return {};
 }
 
@@ -274,7 +275,6 @@ void AravisCamera::teardown_connection(bool camera_reachable) {
 void AravisCamera::control_loop() {
   bool connected = true;
   HostNs next_attempt{0};
-  HostNs next_probe{0};
   while (running_.load()) {
     {
       std::unique_lock lock(wake_mu_);
@@ -282,10 +282,6 @@ void AravisCamera::control_loop() {
     }
     if (!running_.load()) break;
     const HostNs now = host_now();
-    if (connected && now >= next_probe) {
-      next_probe = HostNs{now.ns + 250'000'000};
-      probe_clock();
-    }
     if (connected) {
       HostNs last;
       {
@@ -340,27 +336,53 @@ bool AravisCamera::has_timestamp_latch() const {
 // Reads the camera's clock: the value latched lies between the host's time just before the
 // latch command and the time the new value was read back (a camera latches while it handles
 // the command; one that latches later is waited for, briefly).
-void AravisCamera::probe_clock() {
-  std::lock_guard lock(mu_);
-  if (!camera_ || latch_command_.empty()) return;
-  ArvDevice* dev = arv_camera_get_device(camera_.get());
+// Reads the camera's clock: the value latched lies between the host's time just before the
+// latch command and the time the new value was read back (a camera latches while it handles
+// the command; one that latches later is waited for, briefly). Runs on its own thread: GVCP
+// to a camera that just vanished blocks for its timeouts, and the watchdog must not wait.
+bool AravisCamera::probe_clock() {
+  arv::GPtr<ArvCamera> cam;
+  std::string command, value;
+  double tick_hz = 1e9;
+  std::uint32_t connection = 0;
+  {
+    std::lock_guard lock(mu_);
+    if (!camera_ || latch_command_.empty()) return true;
+    const HostNs last = stream_ ? stream_->last_arrival() : HostNs{0};
+    if (last.ns == 0 || host_now().ns - last.ns > 100'000'000) return true;  // probe only a streaming camera
+    cam.reset(ARV_CAMERA(g_object_ref(camera_.get())));
+    command = latch_command_;
+    value = latch_value_;
+    if (settings_.timestamp_tick_hz) tick_hz = double(settings_.timestamp_tick_hz);
+    connection = connection_.load();
+  }
+  ArvDevice* dev = arv_camera_get_device(cam.get());
   arv::GErrorSlot err;
-  const gint64 before = arv_device_get_integer_feature_value(dev, latch_value_.c_str(), err.out());
-  if (err) return;
+  const gint64 before = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
+  if (err) return false;
   const HostNs lo = host_now();
-  arv_device_execute_command(dev, latch_command_.c_str(), err.out());
-  if (err) return;
+  arv_device_execute_command(dev, command.c_str(), err.out());
+  if (err) return false;
   for (int attempt = 0; attempt < 20; ++attempt) {
-    const gint64 ticks = arv_device_get_integer_feature_value(dev, latch_value_.c_str(), err.out());
-    if (err) return;
+    const gint64 ticks = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
+    if (err) return false;
     if (ticks != before) {
       const HostNs hi = host_now();
-      const double tick_hz = settings_.timestamp_tick_hz ? double(settings_.timestamp_tick_hz) : 1e9;
-      ClockProbe probe{connection_, DeviceNs{std::int64_t(double(ticks) * (1e9 / tick_hz))}, lo, hi};
+      ClockProbe probe{connection, DeviceNs{std::int64_t(double(ticks) * (1e9 / tick_hz))}, lo, hi};
       (void)probes_.try_push(probe);  // a full queue (nobody reading) loses a probe, nothing else
-      return;
+      return true;
     }
     std::this_thread::sleep_for(200us);
+  }
+  return false;  // the value never changed: a latch that does not work; try again later
+}
+
+void AravisCamera::probe_loop() {
+  while (running_.load()) {
+    const bool ok = probe_clock();
+    // Four probes a second; after a failure (a vanishing camera, a busy link) a pause.
+    std::unique_lock lock(wake_mu_);
+    wake_.wait_for(lock, ok ? 250ms : 2000ms, [&] { return !running_.load(); });
   }
 }
 
@@ -372,6 +394,7 @@ void AravisCamera::request_stop() {
 void AravisCamera::stop() {
   request_stop();
   if (trigger_thread_.joinable()) trigger_thread_.join();
+  if (probe_thread_.joinable()) probe_thread_.join();
   if (control_thread_.joinable()) control_thread_.join();  // its loop tears the connection down
   else teardown_connection(true);                          // opened but never started
   queue_.close();

@@ -112,7 +112,8 @@ class AravisCamera {
   void teardown_connection(bool camera_reachable);
   void control_loop();
   void trigger_loop();  // TriggerMode::Software: one AcquisitionSoftwareTrigger per frame period
-  void probe_clock();   // on the control thread
+  bool probe_clock();   // false when the camera did not answer
+  void probe_loop();    // its own thread: four probes a second while streaming
   void emit(CameraEvent::Kind kind, std::string message);
   static void on_control_lost(ArvGvDevice* device, void* self);
 
@@ -132,10 +133,11 @@ class AravisCamera {
 
   std::atomic<bool> control_lost_{false};
   std::atomic<bool> running_{false};
-  std::uint32_t connection_ = 0;
+  std::atomic<std::uint32_t> connection_{0};
   HostNs started_at_;
   std::thread control_thread_;
   std::thread trigger_thread_;
+  std::thread probe_thread_;
   std::mutex wake_mu_;
   std::condition_variable wake_;
 };
