@@ -91,11 +91,11 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
 }
 
 // The latch: when the host sets the command register, the device clock's value goes into the
-// value register and the command clears. Checked every 0.5 ms.
+// value register and the command clears. Checked every 0.2 ms.
 void SimCamera::serve_latch() {
   ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(fake_.get());
   while (latch_running_.load()) {
-    std::this_thread::sleep_for(std::chrono::microseconds(500));
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
     guint32 command = 0;
     if (!arv_fake_camera_read_register(fake, kLatchCommandRegister, &command) || command == 0) continue;
     const auto device = std::uint64_t(std::max<std::int64_t>(0, clock_.device_time(host_now().ns)));

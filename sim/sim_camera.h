@@ -8,7 +8,7 @@
 // `TimestampControlLatch` + `TimestampLatchValue`), which Aravis' fake camera
 // lacks: the simulator serves its GenICam XML with the two features added, and
 // a small thread latches the device clock when the command register is set,
-// within half a millisecond (the host polls the value until it changes).
+// within 0.2 ms (the host polls the value until it changes).
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
