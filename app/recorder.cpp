@@ -132,6 +132,16 @@ void camera_worker(AravisCamera& camera, int index, std::int64_t device_id, Sess
     auto frame = queue.pop_for(100ms);
     gaps.settle(host_now().ns);
     apply_decisions();
+    // The timeline decides within a quarter second; a frame held far longer means it never will:
+    // record it rather than hold its pixels without bound.
+    for (auto it = held.begin(); it != held.end();)
+      if (host_now().ns - it->second.rec.host_ns > 5'000'000'000) {
+        it->second.rec.reason = "undecided";
+        writer.record(std::move(it->second.rec));
+        it = held.erase(it);
+      } else {
+        ++it;
+      }
     // Timestamp-latch probes of this camera's clock (cameras that have the latch).
     while (auto probe = camera.clock_probes().pop_for(0ms))
       if (probe->connection == connection)

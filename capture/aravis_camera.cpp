@@ -220,6 +220,11 @@ Status AravisCamera::open() {
     spdlog::info("{}: {} {} serial {} at {}, {} {}x{}+{}+{} @ {:.2f} fps, packet {} B, {} buffers of {} B",
                  label(), st.vendor, st.model, st.serial, st.address, st.pixel_format, st.width, st.height, st.x,
                  st.y, st.frame_rate, st.packet_size, st.buffer_count, st.payload);
+    if (has_timestamp_latch())
+      spdlog::info("{}: has a timestamp latch: its clock is read directly, four times a second", label());
+    else
+      spdlog::info("{}: no timestamp latch: its clock is mapped from frame arrivals (set latency_ns in the rig "
+                   "file to its exposure-to-leader latency)", label());
   }
   return s;
 }
@@ -333,9 +338,6 @@ bool AravisCamera::has_timestamp_latch() const {
   return !latch_command_.empty();
 }
 
-// Reads the camera's clock: the value latched lies between the host's time just before the
-// latch command and the time the new value was read back (a camera latches while it handles
-// the command; one that latches later is waited for, briefly).
 // Reads the camera's clock: the value latched lies between the host's time just before the
 // latch command and the time the new value was read back (a camera latches while it handles
 // the command; one that latches later is waited for, briefly). Runs on its own thread: GVCP
