@@ -1,10 +1,13 @@
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
 #include <opencv2/imgproc.hpp>
 
+#include "capture/pixel_format.h"
+#include "core/rig_config.h"
 #include "sim/scene.h"
 #include "sim/timecode.h"
 #include "storage/video_reader.h"
@@ -76,6 +79,50 @@ TEST(VideoRoundTrip, DefaultCodecKeepsRealTimestampsAndReadableTimecodes) {
     ++n;
   }
   EXPECT_EQ(n, 40);
+  fs::remove_all(dir);
+}
+
+// The default store settings keep the colour cues the dataset is for: each decoded frame is
+// within 45 dB PSNR of the debayered camera image it was made from.
+TEST(VideoRoundTrip, DefaultStoreSettingsAreNearLosslessAgainstTheDebayeredSource) {
+  const auto dir = temp_dir("psnr");
+  const cv::Size size(640, 480);
+  const cv::Mat scene = sim::render_scene_bgr(sim::default_pad(), sim::camera_homography(1, size), size);
+  const StoreConfig store;  // the defaults a rig file gets
+  VideoSettings s;
+  s.codec = store.video_codec;
+  s.crf = store.crf;
+  s.preset = store.preset;
+  s.pixel_format = store.video_pixel_format;
+  s.width = size.width;
+  s.height = size.height;
+  auto w = VideoWriter::open(dir / "v.mkv", s);
+  ASSERT_TRUE(w) << w.error().message;
+  std::vector<cv::Mat> sources;
+  for (int i = 0; i < 12; ++i) {
+    cv::Mat frame = scene.clone();
+    cv::circle(frame, {200 + 10 * i, 240}, 30, cv::Scalar(90, 140, 200), cv::FILLED);  // a moving skin tone
+    const cv::Mat bayer = sim::to_sensor_format(frame, "BayerRG8");
+    cv::Mat bgr;
+    ASSERT_TRUE(to_bgr(bayer.data, bayer.total(), size.width, size.height, pixel_format_code("BayerRG8"), bgr).ok());
+    sources.push_back(bgr.clone());
+    ASSERT_TRUE(w.value()->write(bgr, (i + 1) * 66'667));
+  }
+  ASSERT_TRUE(w.value()->close().ok());
+  auto r = VideoReader::open(dir / "v.mkv");
+  ASSERT_TRUE(r) << r.error().message;
+  cv::Mat img;
+  std::int64_t pts_ms = 0;
+  std::size_t n = 0;
+  double worst = 1e9;
+  while (r.value()->next(img, pts_ms).value()) {
+    ASSERT_LT(n, sources.size());
+    worst = std::min(worst, cv::PSNR(img, sources[n]));
+    ++n;
+  }
+  EXPECT_EQ(n, sources.size());
+  std::printf("default store settings: worst frame PSNR %.1f dB against the debayered source\n", worst);
+  EXPECT_GE(worst, 45.0) << "default codec " << s.codec << " crf " << s.crf << " " << s.pixel_format;
   fs::remove_all(dir);
 }
 
