@@ -117,7 +117,15 @@ VideoCheck check_video(const fs::path& session, const CameraRecord& c) {
                     << row->second->frame_id << ", connection " << row->second->connection << ", device_ns "
                     << row->second->device_ns << "; decoded "
                     << (tc ? fmt::format("id {} true {}", tc->frame_id, tc->true_ns) : std::string("nothing"))
-                    << ", truth has " << true_time.count({row->second->frame_id, row->second->device_ns}) << ")";
+                    << ", truth has " << true_time.count({row->second->frame_id, row->second->device_ns}) << ": "
+                    << [&] {
+                         std::string rows;
+                         for (const auto& t : c.truth)
+                           if (t.frame_id == row->second->frame_id)
+                             rows += fmt::format("[device {} true {}] ", t.device_ns, t.true_ns);
+                         return rows;
+                       }()
+                    << ")";
     if (pvcap::sim::frame_stripe_mismatches(img, std::uint16_t(row->second->frame_id)) == 0) ++v.stripe_ok;
     else ADD_FAILURE() << c.name << ": video frame " << n << " holds pixels of another frame (corrupted)";
   }
