@@ -14,6 +14,7 @@
 
 #include "app/eval_sync.h"
 #include "app/recorder.h"
+#include "app/verify_session.h"
 #include "app/sensel_decode.h"
 #include "capture/aravis_discovery.h"
 #include "capture/sensel_device.h"
@@ -204,6 +205,11 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(CLI::Range(0.0, 60.0));
   eval->add_option("--root", eval_root, "folder for the scenario and its session (default: a new temporary one)");
 
+  auto* verify = app.add_subcommand("verify", "check a session folder: index against videos, pressure frames, "
+                                               "samples; exit 0 clean, 3 lossy but readable, 1 failed");
+  std::string verify_dir;
+  verify->add_option("SESSION", verify_dir, "the session folder")->required()->check(CLI::ExistingDirectory);
+
   CLI11_PARSE(app, argc, argv);
   pvcap::log::init_console(log_level);
   install_stop_handlers();
@@ -239,6 +245,11 @@ int main(int argc, char** argv) {
       ensure_sim_network(pvcap::load_rig_config(scenario));
       spdlog::info("eval-sync: scenario {}, {:g} s", scenario.string(), eval_opts.seconds);
       return pvcap::eval_sync(scenario, eval_opts, g_stop);
+    }
+    if (*verify) {
+      const auto report = pvcap::verify_session(verify_dir, [](const std::string& step) { spdlog::info("{}", step); });
+      fmt::print("{}", pvcap::format_report(verify_dir, report));
+      return report.exit_code();
     }
     if (*sensel_decode) {
       int rc = 0;

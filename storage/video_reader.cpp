@@ -91,4 +91,22 @@ Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
   }
 }
 
+Result<bool> VideoReader::next_packet(std::int64_t& pts_ms, bool& key) {
+  Impl& im = *impl_;
+  for (;;) {
+    const int rr = av_read_frame(im.fmt, im.packet);
+    if (rr == AVERROR_EOF) return false;
+    if (rr < 0) return Error{fmt::format("{}: unreadable after the last good frame (truncated?)", path_.string())};
+    if (im.packet->stream_index != im.stream) {
+      av_packet_unref(im.packet);
+      continue;
+    }
+    const AVRational tb = im.fmt->streams[im.stream]->time_base;
+    pts_ms = av_rescale_q(im.packet->pts, tb, AVRational{1, 1000});
+    key = (im.packet->flags & AV_PKT_FLAG_KEY) != 0;
+    av_packet_unref(im.packet);
+    return true;
+  }
+}
+
 }  // namespace pvcap

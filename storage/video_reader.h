@@ -20,6 +20,9 @@ class VideoReader {
 
   // The next frame in file order; false at the end. `pts_ms` is its timestamp.
   Result<bool> next(cv::Mat& bgr, std::int64_t& pts_ms);
+  // Without decoding: the next packet of the video stream (one per frame here: no B-frames),
+  // its timestamp and whether it is a key frame; false at the end. Do not mix with next().
+  Result<bool> next_packet(std::int64_t& pts_ms, bool& key);
   int width() const;
   int height() const;
 

@@ -1,0 +1,163 @@
+#include "app/verify_session.h"
+
+#include <cstdlib>
+
+#include <fmt/format.h>
+
+#include "capture/sensel_frame.h"
+#include "storage/session_index.h"
+#include "storage/sqlite/database.h"
+#include "storage/video_reader.h"
+
+namespace pvcap {
+namespace {
+
+std::int64_t scalar(sqlite::Database& db, const std::string& sql) {
+  auto q = db.prepare(sql);
+  return q.step() && !q.column_null(0) ? q.column_int(0) : 0;
+}
+
+}  // namespace
+
+VerifyReport verify_session(const std::filesystem::path& dir, const std::function<void(const std::string&)>& progress) {
+  VerifyReport r;
+  const auto db_path = dir / "session.db";
+  if (!std::filesystem::exists(db_path)) {
+    r.errors.push_back(fmt::format("{}: not a session folder (no session.db)", dir.string()));
+    return r;
+  }
+  try {
+    sqlite::Database db(db_path, sqlite::Database::Mode::ReadOnly);
+    const int version = db.user_version();
+    if (version != kSchemaVersion) {
+      r.errors.push_back(fmt::format("{}: store format version {}; this pvcap reads version {}", db_path.string(),
+                                     version, kSchemaVersion));
+      return r;
+    }
+    {
+      auto q = db.prepare("PRAGMA quick_check");  // "ok", or what is damaged
+      if (q.step() && q.column_text(0) != "ok")
+        r.errors.push_back(fmt::format("{}: damaged: {}", db_path.string(), q.column_text(0)));
+    }
+    std::int64_t started = 0;
+    bool clean_end = true;
+    {
+      auto q = db.prepare("SELECT started_host_ns, ended_host_ns, end_reason FROM session");
+      if (!q.step()) {
+        r.errors.push_back(fmt::format("{}: no session row", db_path.string()));
+        return r;
+      }
+      started = q.column_int(0);
+      clean_end = !q.column_null(1);
+      if (!clean_end) r.losses.push_back("the recording did not end cleanly (crash, kill or power loss)");
+      else r.facts.push_back(fmt::format("ended: {}", q.column_text(2)));
+    }
+
+    // Videos against the index.
+    auto files = db.prepare(
+        "SELECT v.id, v.path, d.name FROM video_files v JOIN devices d ON d.id = v.device_id ORDER BY v.id");
+    std::vector<std::tuple<std::int64_t, std::string, std::string>> videos;
+    while (files.step()) videos.emplace_back(files.column_int(0), files.column_text(1), files.column_text(2));
+    for (const auto& [id, path, camera] : videos) {
+      if (progress) progress(fmt::format("checking {}", path));
+      auto rows = db.prepare("SELECT video_index, host_ns FROM frames WHERE video_file_id = ? AND kept = 1 "
+                             "ORDER BY video_index");
+      rows.bind_all(id);
+      std::vector<std::pair<std::int64_t, std::int64_t>> kept;
+      while (rows.step()) kept.emplace_back(rows.column_int(0), rows.column_int(1));
+      auto reader = VideoReader::open(dir / path);
+      if (!reader) {
+        r.errors.push_back(fmt::format("{}: {}", path, reader.error().message));
+        continue;
+      }
+      std::size_t n = 0, wrong_time = 0, key_frames = 0;
+      std::int64_t pts_ms = 0;
+      bool key = false;
+      std::string read_error;
+      for (;;) {
+        auto more = reader.value()->next_packet(pts_ms, key);
+        if (!more) {
+          read_error = more.error().message;
+          break;
+        }
+        if (!more.value()) break;
+        // Written as microseconds since the session start, stored in the container's milliseconds (rounded).
+        if (n < kept.size()) {
+          const std::int64_t us = (kept[n].second - started) / 1000;
+          const std::int64_t expected_ms = (us + (us >= 0 ? 500 : -500)) / 1000;
+          if (std::llabs(pts_ms - expected_ms) > 1) ++wrong_time;
+        }
+        key_frames += key;
+        ++n;
+      }
+      bool contiguous = true;
+      for (std::size_t i = 0; i < kept.size(); ++i) contiguous &= kept[i].first == std::int64_t(i);
+      r.facts.push_back(fmt::format("{}: {} frames in the video, {} kept in the index, {} key frames", path, n,
+                                    kept.size(), key_frames));
+      if (!read_error.empty()) r.errors.push_back(read_error);
+      if (!contiguous) r.errors.push_back(fmt::format("{}: the index's video positions are not 0, 1, 2, ...", path));
+      if (n < kept.size()) {
+        // A session that did not end cleanly may lose the open part of a video; one that did, may not.
+        (clean_end ? r.errors : r.losses)
+            .push_back(fmt::format("{}: {} indexed frames are missing from the video (it ends at frame {})", path,
+                                   kept.size() - n, n));
+      }
+      if (n > kept.size())
+        r.errors.push_back(fmt::format("{}: {} frames in the video have no index row", path, n - kept.size()));
+      if (wrong_time)
+        r.errors.push_back(fmt::format("{}: {} frames carry another timestamp than their index row", path, wrong_time));
+    }
+
+    // Pressure frames decode on their grid.
+    if (progress) progress("checking pressure frames");
+    {
+      auto q = db.prepare("SELECT payload, grid_cols, grid_rows, grid_xscale, grid_yscale, sequence FROM pressure_frames");
+      std::size_t total = 0, bad = 0;
+      std::string first_bad;
+      while (q.step()) {
+        ++total;
+        const auto payload = q.column_blob(0);
+        const sensel::Grid grid{int(q.column_int(1)), int(q.column_int(2)), int(q.column_int(3)), int(q.column_int(4))};
+        if (auto f = sensel::parse_frame(payload, grid); !f) {
+          if (!bad++) first_bad = fmt::format("sequence {}: {}", q.column_int(5), f.error().message);
+        }
+      }
+      r.facts.push_back(fmt::format("pressure frames: {} stored, {} decode", total, total - bad));
+      if (bad) r.errors.push_back(fmt::format("{} pressure frames do not decode (first: {})", bad, first_bad));
+    }
+
+    // Samples name frames that are in the videos.
+    const auto samples = scalar(db, "SELECT count(*) FROM samples");
+    const auto dangling = scalar(db, "SELECT count(*) FROM sample_frames sf LEFT JOIN frames f USING (device_id, "
+                                     "connection, sequence) WHERE f.kept IS NOT 1 OR f.video_index IS NULL");
+    const auto unpaired = scalar(db, "SELECT count(*) FROM samples WHERE pressure_sequence IS NULL");
+    const bool has_sensel = scalar(db, "SELECT count(*) FROM devices WHERE kind = 'sensel'") > 0;
+    r.facts.push_back(fmt::format("samples: {}", samples));
+    if (dangling) r.losses.push_back(fmt::format("{} sample frames are not in a video (the encoder was behind)", dangling));
+    if (has_sensel && unpaired) r.losses.push_back(fmt::format("{} samples have no pressure frame", unpaired));
+
+    // Losses recorded during capture.
+    if (const auto n = scalar(db, "SELECT sum(count) FROM drops"))
+      r.losses.push_back(fmt::format("{} frames never arrived (drops table)", n));
+    if (const auto n = scalar(db, "SELECT count(*) FROM frames WHERE status <> 'good'"))
+      r.losses.push_back(fmt::format("{} frames arrived incomplete (frames.status)", n));
+    if (const auto n = scalar(db, "SELECT count(*) FROM frames WHERE reason = 'encoder_behind'"))
+      r.losses.push_back(fmt::format("{} kept frames were not encoded in time (reason encoder_behind)", n));
+  } catch (const sqlite::SqliteError& e) {
+    r.errors.push_back(fmt::format("{}: {}", db_path.string(), e.what()));
+  }
+  return r;
+}
+
+std::string format_report(const std::filesystem::path& dir, const VerifyReport& r) {
+  std::string out = fmt::format("session {}\n", dir.string());
+  for (const auto& f : r.facts) out += "  " + f + "\n";
+  for (const auto& l : r.losses) out += "  LOSS: " + l + "\n";
+  for (const auto& e : r.errors) out += "  ERROR: " + e + "\n";
+  out += r.exit_code() == 0   ? "verdict: clean\n"
+         : r.exit_code() == 3 ? "verdict: lossy but readable (exit 3)\n"
+                              : "verdict: FAILED: parts cannot be read as indexed (exit 1)\n";
+  return out;
+}
+
+}  // namespace pvcap
