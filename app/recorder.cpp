@@ -97,6 +97,11 @@ void camera_worker(AravisCamera& camera, int index, std::int64_t device_id, Sess
   SequenceUnwrapper unwrap(16, /*zero_is_skipped=*/true);
   std::uint32_t connection = UINT32_MAX;
   std::map<std::pair<std::uint32_t, std::uint64_t>, HeldFrame> held;
+  // Pixel buffers are reused: a fresh 2 MB allocation per frame costs page faults by the thousand.
+  std::vector<std::vector<std::uint8_t>> spare;
+  auto recycle = [&](std::vector<std::uint8_t>&& pixels) {
+    if (spare.size() < 32) spare.push_back(std::move(pixels));
+  };
   // A frame that times out incomplete is delivered after its successor: hold gaps open for a
   // second so such a frame is counted once, as what it is.
   auto report_gap = [&](const GapTracker::Gap& g) {
@@ -113,11 +118,14 @@ void camera_worker(AravisCamera& camera, int index, std::int64_t device_id, Sess
       if (!d.kept) {
         h.rec.reason = d.reason;
         writer.record(std::move(h.rec));
+        recycle(std::move(h.pixels));
         continue;
       }
       cv::Mat bgr;
-      if (Status s = to_bgr(h.pixels.data(), h.pixels.size(), h.width, h.height, h.pixel_format, bgr); !s) {
-        h.rec.reason = "unsupported_pixels: " + s.error().message;
+      const Status converted = to_bgr(h.pixels.data(), h.pixels.size(), h.width, h.height, h.pixel_format, bgr);
+      recycle(std::move(h.pixels));
+      if (!converted) {
+        h.rec.reason = "unsupported_pixels: " + converted.error().message;
       } else {
         if (writer.submit_video(device_id, std::move(bgr), h.rec)) continue;  // the encoder records it
         tally.encoder_behind.fetch_add(1, std::memory_order_relaxed);
@@ -185,8 +193,13 @@ void camera_worker(AravisCamera& camera, int index, std::int64_t device_id, Sess
                                  frame->host_ts.ns - leader_ns < 1'000'000'000;
       rec.mapped_ns = timeline.camera_frame(index, frame->connection, step.sequence, frame->device_ts.ns,
                                             leader_usable ? leader_ns : frame->host_ts.ns);
-      HeldFrame h{std::move(rec), std::vector<std::uint8_t>(frame->data, frame->data + frame->size),
-                  frame->pixel_format, frame->width, frame->height};
+      std::vector<std::uint8_t> pixels;
+      if (!spare.empty()) {
+        pixels = std::move(spare.back());
+        spare.pop_back();
+      }
+      pixels.assign(frame->data, frame->data + frame->size);  // reuses the capacity
+      HeldFrame h{std::move(rec), std::move(pixels), frame->pixel_format, frame->width, frame->height};
       frame->lease.reset();  // the camera gets its buffer back before we encode
       held.emplace(std::make_pair(h.rec.connection, h.rec.sequence), std::move(h));
       apply_decisions();

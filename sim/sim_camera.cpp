@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <thread>
 
@@ -50,6 +51,45 @@ void install_latch_genicam() {
 }
 }  // namespace
 
+namespace {
+// One thread serves the latch of every simulated camera in the process (a thread per camera
+// polling this often would take a good part of a core from the simulators).
+class LatchService {
+ public:
+  static LatchService& get() {
+    static LatchService service;
+    return service;
+  }
+  void add(SimCamera* camera) {
+    std::lock_guard lock(mu_);
+    cameras_.push_back(camera);
+    if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
+  }
+  // After this returns the camera is not touched again.
+  void remove(SimCamera* camera) {
+    std::lock_guard lock(mu_);
+    cameras_.erase(std::remove(cameras_.begin(), cameras_.end(), camera), cameras_.end());
+  }
+  ~LatchService() {
+    running_.store(false);
+    if (thread_.joinable()) thread_.join();
+  }
+
+ private:
+  void run() {
+    while (running_.load()) {
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+      std::lock_guard lock(mu_);
+      for (SimCamera* c : cameras_) c->serve_latch();
+    }
+  }
+  std::mutex mu_;
+  std::vector<SimCamera*> cameras_;
+  std::atomic<bool> running_{true};
+  std::thread thread_;
+};
+}  // namespace
+
 Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConfig& camera,
                                                      const SimCameraClock& clock, std::int64_t t0_ns,
                                                      std::uint64_t seed, const std::filesystem::path& truth_dir,
@@ -86,28 +126,25 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
     (void)self->base_image(camera.width, camera.height, ArvPixelFormat(pf));
   arv_fake_camera_set_fill_pattern(arv_gv_fake_camera_get_fake_camera(self->fake_.get()), &SimCamera::fill,
                                    self.get());
-  self->latch_thread_ = std::thread([raw = self.get()] { raw->serve_latch(); });
+  LatchService::get().add(self.get());
   return self;
 }
 
-// The latch: when the host sets the command register, the device clock's value goes into the
-// value register and the command clears. Checked every 0.2 ms.
+
+// The latch: when the host has set the command register, the device clock's value goes into
+// the value register and the command clears. Checked every 0.2 ms.
 void SimCamera::serve_latch() {
   ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(fake_.get());
-  while (latch_running_.load()) {
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
-    guint32 command = 0;
-    if (!arv_fake_camera_read_register(fake, kLatchCommandRegister, &command) || command == 0) continue;
-    const auto device = std::uint64_t(std::max<std::int64_t>(0, clock_.device_time(host_now().ns)));
-    arv_fake_camera_write_register(fake, kLatchValueRegister, guint32(device >> 32));
-    arv_fake_camera_write_register(fake, kLatchValueRegister + 4, guint32(device & 0xFFFFFFFFu));
-    arv_fake_camera_write_register(fake, kLatchCommandRegister, 0);
-  }
+  guint32 command = 0;
+  if (!arv_fake_camera_read_register(fake, kLatchCommandRegister, &command) || command == 0) return;
+  const auto device = std::uint64_t(std::max<std::int64_t>(0, clock_.device_time(host_now().ns)));
+  arv_fake_camera_write_register(fake, kLatchValueRegister, guint32(device >> 32));
+  arv_fake_camera_write_register(fake, kLatchValueRegister + 4, guint32(device & 0xFFFFFFFFu));
+  arv_fake_camera_write_register(fake, kLatchCommandRegister, 0);
 }
 
 SimCamera::~SimCamera() {
-  latch_running_.store(false);
-  if (latch_thread_.joinable()) latch_thread_.join();
+  LatchService::get().remove(this);
   fake_.reset();  // joins the fake camera's thread: no fill runs after this
   std::lock_guard lock(mu_);
   truth_.flush();

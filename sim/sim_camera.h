@@ -7,8 +7,8 @@
 // It also has the GenICam timestamp latch real GigE cameras offer (SFNC
 // `TimestampControlLatch` + `TimestampLatchValue`), which Aravis' fake camera
 // lacks: the simulator serves its GenICam XML with the two features added, and
-// a small thread latches the device clock when the command register is set,
-// within 0.2 ms (the host polls the value until it changes).
+// one thread for all simulated cameras latches the device clock when the command
+// register is set, within 0.2 ms (the host polls the value until it changes).
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -53,6 +53,8 @@ class SimCamera {
   SimCamera& operator=(const SimCamera&) = delete;
 
   const SimClock& clock() const { return clock_; }
+  // Latches the device clock if the host asked (called by the process's one latch thread).
+  void serve_latch();
   // Where the latch lives in the fake camera's register space (big-endian).
   static constexpr std::uint32_t kLatchCommandRegister = 0xF000;
   static constexpr std::uint32_t kLatchValueRegister = 0xF008;  // 64 bits: high word, then low
@@ -65,7 +67,6 @@ class SimCamera {
   void fill_buffer(ArvBuffer* buffer, ArvPixelFormat format);
   void fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns);
   const cv::Mat& base_image(int width, int height, ArvPixelFormat format);
-  void serve_latch();
 
   int index_ = 0;
   std::string name_;
@@ -79,8 +80,6 @@ class SimCamera {
   std::ofstream truth_;
   std::uint64_t emitted_ = 0;
   std::optional<SimSenselConfig> fingertip_;
-  std::atomic<bool> latch_running_{true};
-  std::thread latch_thread_;
 };
 
 }  // namespace pvcap::sim
