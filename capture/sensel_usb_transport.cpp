@@ -49,7 +49,16 @@ struct Candidate {
   libusb_device* device;
   std::string serial;
   std::string problem;
+  const std::string& shown() const { return problem.empty() ? serial : problem; }  // for listings and messages
 };
+
+using DeviceList = std::unique_ptr<libusb_device*, ListDeleter>;
+Result<DeviceList> device_list(libusb_context* ctx) {
+  libusb_device** raw = nullptr;
+  if (const ssize_t n = libusb_get_device_list(ctx, &raw); n < 0)
+    return Error{fmt::format("cannot list USB devices: {}", libusb_strerror(int(n)))};
+  return DeviceList(raw);
+}
 
 std::vector<Candidate> morphs(libusb_device** list) {
   std::vector<Candidate> out;
@@ -132,28 +141,25 @@ class UsbTransport : public Transport {
 Result<std::vector<std::string>> list_usb_sensels() {
   auto ctx = make_context();
   if (!ctx) return ctx.error();
-  libusb_device** raw = nullptr;
-  if (const ssize_t n = libusb_get_device_list(ctx.value().get(), &raw); n < 0)
-    return Error{fmt::format("cannot list USB devices: {}", libusb_strerror(int(n)))};
-  std::unique_ptr<libusb_device*, ListDeleter> list(raw);
+  auto list = device_list(ctx.value().get());
+  if (!list) return list.error();
   std::vector<std::string> serials;
-  for (const auto& c : morphs(list.get())) serials.push_back(c.problem.empty() ? c.serial : c.problem);
+  for (const auto& c : morphs(list.value().get())) serials.push_back(c.shown());
   return serials;
 }
 
 Result<std::unique_ptr<Transport>> open_usb(const std::string& usb_serial) {
   auto ctx = make_context();
   if (!ctx) return ctx.error();
-  libusb_device** raw = nullptr;
-  if (const ssize_t n = libusb_get_device_list(ctx.value().get(), &raw); n < 0)
-    return Error{fmt::format("cannot list USB devices: {}", libusb_strerror(int(n)))};
-  std::unique_ptr<libusb_device*, ListDeleter> list(raw);
+  auto listed = device_list(ctx.value().get());
+  if (!listed) return listed.error();
+  DeviceList list = std::move(listed.value());
 
   const auto found = morphs(list.get());
   const auto wanted = [&](const Candidate& c) { return usb_serial.empty() || c.serial == usb_serial; };
   const auto n_wanted = std::count_if(found.begin(), found.end(), wanted);
   std::string seen;
-  for (const auto& c : found) seen += fmt::format("{}{}", seen.empty() ? "" : ", ", c.problem.empty() ? c.serial : c.problem);
+  for (const auto& c : found) seen += fmt::format("{}{}", seen.empty() ? "" : ", ", c.shown());
   if (n_wanted == 0) {
     if (found.empty())
       return Error{"no Sensel Morph (USB 2c2f:0003) on the USB bus: check the cable (lsusb lists it when it is there)"};
