@@ -152,6 +152,8 @@ SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, 
   std::vector<PressureTruth> by_true = pressure, by_host = pressure;
   std::sort(by_true.begin(), by_true.end(), [](auto& a, auto& b) { return a.true_ns < b.true_ns; });
   std::sort(by_host.begin(), by_host.end(), [](auto& a, auto& b) { return a.host_ns < b.host_ns; });
+  std::map<std::int64_t, std::int64_t> true_of_sequence;
+  for (const auto& p : pressure) true_of_sequence[p.sequence] = p.true_ns;
   const std::size_t cameras = e.streams.size() - (sensel_id >= 0 ? 1 : 0);
   auto samples = db.prepare("SELECT id, cameras, pressure_sequence FROM samples ORDER BY id");
   auto members = db.prepare("SELECT device_id, connection, sequence FROM sample_frames WHERE sample_id = ?");
@@ -175,9 +177,9 @@ SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, 
     const auto* truly = nearest(by_true, sample_true, [](const PressureTruth& p) { return p.true_ns; });
     const auto* naive = nearest(by_host, std::int64_t(host_sum / n), [](const PressureTruth& p) { return p.host_ns; });
     const auto tie = [&](std::int64_t sequence) {  // as near as the nearest, within the tolerance
-      const auto it = std::find_if(pressure.begin(), pressure.end(), [&](const PressureTruth& p) { return p.sequence == sequence; });
-      return it != pressure.end() &&
-             double(std::llabs(it->true_ns - sample_true) - std::llabs(truly->true_ns - sample_true)) / 1e6 < tie_ms;
+      const auto it = true_of_sequence.find(sequence);
+      return it != true_of_sequence.end() &&
+             double(std::llabs(it->second - sample_true) - std::llabs(truly->true_ns - sample_true)) / 1e6 < tie_ms;
     };
     if (!samples.column_null(2)) {
       ++e.paired;

@@ -221,19 +221,28 @@ void SessionIndex::add_stream_stats(const StreamStatsRecord& s) {
       .run();
 }
 
-void SessionIndex::add_sample(const SampleRecord& s) {
-  std::optional<std::int64_t> p_dev, p_conn, p_seq, p_off, b_seq, b_off, a_seq, a_off;
-  const auto* ref = s.pressure ? &*s.pressure : s.pressure_before ? &*s.pressure_before : s.pressure_after ? &*s.pressure_after : nullptr;
-  if (ref) {
-    p_dev = ref->device_id;
-    p_conn = std::int64_t(ref->connection);
+namespace {
+// The samples table's pressure columns, from a record: the Sensel's device and connection (from
+// whichever frame is present), then sequence and offset of the nearest, the one before, the one after.
+struct PressureColumns {
+  std::optional<std::int64_t> device, connection, seq, off, before_seq, before_off, after_seq, after_off;
+  explicit PressureColumns(const SampleRecord& s) {
+    const auto* any = s.pressure ? &*s.pressure : s.pressure_before ? &*s.pressure_before
+                                              : s.pressure_after    ? &*s.pressure_after
+                                                                    : nullptr;
+    if (any) device = any->device_id, connection = std::int64_t(any->connection);
+    if (s.pressure) seq = std::int64_t(s.pressure->sequence), off = s.pressure->offset_ns;
+    if (s.pressure_before) before_seq = std::int64_t(s.pressure_before->sequence), before_off = s.pressure_before->offset_ns;
+    if (s.pressure_after) after_seq = std::int64_t(s.pressure_after->sequence), after_off = s.pressure_after->offset_ns;
   }
-  if (s.pressure) p_seq = std::int64_t(s.pressure->sequence), p_off = s.pressure->offset_ns;
-  if (s.pressure_before) b_seq = std::int64_t(s.pressure_before->sequence), b_off = s.pressure_before->offset_ns;
-  if (s.pressure_after) a_seq = std::int64_t(s.pressure_after->sequence), a_off = s.pressure_after->offset_ns;
+};
+}  // namespace
+
+void SessionIndex::add_sample(const SampleRecord& s) {
+  const PressureColumns p(s);
   insert_sample_
-      ->bind_all(std::int64_t(s.index), s.tick, s.tick_ns, s.t_ns, s.span_ns, std::int64_t(s.cameras.size()), p_dev,
-                 p_conn, p_seq, p_off, b_seq, b_off, a_seq, a_off)
+      ->bind_all(std::int64_t(s.index), s.tick, s.tick_ns, s.t_ns, s.span_ns, std::int64_t(s.cameras.size()), p.device,
+                 p.connection, p.seq, p.off, p.before_seq, p.before_off, p.after_seq, p.after_off)
       .run();
   for (const auto& c : s.cameras)
     insert_sample_frame_->bind_all(std::int64_t(s.index), c.device_id, std::int64_t(c.connection), c.sequence, c.offset_ns)
@@ -292,23 +301,22 @@ std::vector<std::pair<std::uint64_t, std::vector<SampleFrameRef>>> SessionIndex:
 }
 
 void SessionIndex::update_sample(const SampleRecord& s) {
-  std::optional<std::int64_t> p_dev, p_conn, p_seq, p_off, b_seq, b_off, a_seq, a_off;
-  const auto* ref = s.pressure ? &*s.pressure : s.pressure_before ? &*s.pressure_before : s.pressure_after ? &*s.pressure_after : nullptr;
-  if (ref) p_dev = ref->device_id, p_conn = std::int64_t(ref->connection);
-  if (s.pressure) p_seq = std::int64_t(s.pressure->sequence), p_off = s.pressure->offset_ns;
-  if (s.pressure_before) b_seq = std::int64_t(s.pressure_before->sequence), b_off = s.pressure_before->offset_ns;
-  if (s.pressure_after) a_seq = std::int64_t(s.pressure_after->sequence), a_off = s.pressure_after->offset_ns;
-  db_->prepare(
-         "UPDATE samples SET t_ns = ?, span_ns = ?, pressure_device_id = ?, pressure_connection = ?, "
-         "pressure_sequence = ?, pressure_offset_ns = ?, before_sequence = ?, before_offset_ns = ?, after_sequence = ?, "
-         "after_offset_ns = ? WHERE id = ?")
-      .bind_all(s.t_ns, s.span_ns, p_dev, p_conn, p_seq, p_off, b_seq, b_off, a_seq, a_off, std::int64_t(s.index))
-      .run();
-  auto upd = db_->prepare(
-      "UPDATE sample_frames SET offset_ns = ? WHERE sample_id = ? AND device_id = ? AND connection = ? AND sequence = ?");
-  for (const auto& c : s.cameras) {
-    upd.bind_all(c.offset_ns, std::int64_t(s.index), c.device_id, std::int64_t(c.connection), c.sequence).run();
+  if (!update_sample_) {  // prepared once: a re-mapping rewrites every sample of the session
+    update_sample_.emplace(db_->prepare(
+        "UPDATE samples SET t_ns = ?, span_ns = ?, pressure_device_id = ?, pressure_connection = ?, "
+        "pressure_sequence = ?, pressure_offset_ns = ?, before_sequence = ?, before_offset_ns = ?, after_sequence = ?, "
+        "after_offset_ns = ? WHERE id = ?"));
+    update_sample_frame_.emplace(db_->prepare(
+        "UPDATE sample_frames SET offset_ns = ? WHERE sample_id = ? AND device_id = ? AND connection = ? AND sequence = ?"));
   }
+  const PressureColumns p(s);
+  update_sample_
+      ->bind_all(s.t_ns, s.span_ns, p.device, p.connection, p.seq, p.off, p.before_seq, p.before_off, p.after_seq,
+                 p.after_off, std::int64_t(s.index))
+      .run();
+  for (const auto& c : s.cameras)
+    update_sample_frame_->bind_all(c.offset_ns, std::int64_t(s.index), c.device_id, std::int64_t(c.connection), c.sequence)
+        .run();
 }
 
 }  // namespace pvcap

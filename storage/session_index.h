@@ -162,7 +162,7 @@ class SessionIndex {
   explicit SessionIndex(std::unique_ptr<sqlite::Database> db);
   std::unique_ptr<sqlite::Database> db_;
   std::optional<sqlite::Statement> insert_frame_, insert_drop_, insert_event_, insert_pressure_, insert_sample_,
-      insert_sample_frame_, insert_clock_;
+      insert_sample_frame_, insert_clock_, update_sample_, update_sample_frame_;
 };
 
 }  // namespace pvcap
