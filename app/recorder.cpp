@@ -142,8 +142,9 @@ void camera_worker(AravisCamera& camera, int index, std::int64_t device_id, Sess
     apply_decisions();
     // The timeline decides within a quarter second; a frame held far longer means it never will:
     // record it rather than hold its pixels without bound.
+    const std::int64_t give_up_before = host_now().ns - 5'000'000'000;
     for (auto it = held.begin(); it != held.end();)
-      if (host_now().ns - it->second.rec.host_ns > 5'000'000'000) {
+      if (it->second.rec.host_ns < give_up_before) {
         it->second.rec.reason = "undecided";
         writer.record(std::move(it->second.rec));
         it = held.erase(it);
