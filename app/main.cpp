@@ -15,6 +15,7 @@
 #include "app/eval_sync.h"
 #include "app/recorder.h"
 #include "app/verify_session.h"
+#include "storage/recover.h"
 #include "app/sensel_decode.h"
 #include "capture/aravis_discovery.h"
 #include "capture/sensel_device.h"
@@ -175,6 +176,16 @@ int main(int argc, char** argv) {
   session->add_option("--duration", duration, "stop after this many seconds (otherwise Ctrl-C stops)")
       ->check(CLI::PositiveNumber);
 
+  pvcap::ParticipantRecord participant;
+  pvcap::ConditionsRecord conditions;
+  session->add_option("--participant", participant.pseudonym, "the participant's pseudonymous code (never a name)");
+  session->add_option("--skin-tone", participant.skin_tone, "skin-tone category")
+      ->check(CLI::IsMember({"light", "medium", "dark", "unrecorded"}));
+  session->add_option("--hand-order", participant.hand_order, "which hand does the protocol first")
+      ->check(CLI::IsMember({"right_first", "left_first"}));
+  session->add_option("--lighting", conditions.lighting, "lighting condition (which lights are on, e.g. LCR)");
+  session->add_option("--overlay", conditions.sensor_overlay, "what covers the sensor (e.g. white_vinyl, wood)");
+
   auto* sim = app.add_subcommand("sim", "serve a simulated rig (GigE Vision cameras over loopback)");
   std::string sim_rig, truth = "sim-truth";
   std::optional<double> sim_duration;
@@ -210,6 +221,15 @@ int main(int argc, char** argv) {
   std::string verify_dir;
   verify->add_option("SESSION", verify_dir, "the session folder")->required()->check(CLI::ExistingDirectory);
 
+  auto* recover = app.add_subcommand("recover", "make a session interrupted by a crash or kill readable (closes its "
+                                                 "videos, marks what was lost; never deletes anything)");
+  std::string recover_dir;
+  recover->add_option("SESSION", recover_dir, "the session folder")->required()->check(CLI::ExistingDirectory);
+  auto* migrate = app.add_subcommand("migrate", "upgrade a session written by an older pvcap (keeps a copy of the "
+                                                "old index)");
+  std::string migrate_dir;
+  migrate->add_option("SESSION", migrate_dir, "the session folder")->required()->check(CLI::ExistingDirectory);
+
   CLI11_PARSE(app, argc, argv);
   pvcap::log::init_console(log_level);
   install_stop_handlers();
@@ -233,7 +253,19 @@ int main(int argc, char** argv) {
     if (*session) {
       const auto rig = pvcap::load_rig_config(rig_path);
       if (rig.sim) ensure_sim_network(rig);
-      pvcap::RecordOptions opts{root, duration, rig.sim ? 10.0 : 0.0, self_exe()};
+      pvcap::RecordOptions opts{root, duration, rig.sim ? 10.0 : 0.0, self_exe(), {}, {}};
+      if (!participant.pseudonym.empty()) {
+        if (participant.skin_tone.empty()) participant.skin_tone = "unrecorded";
+        if (participant.hand_order.empty()) participant.hand_order = "right_first";
+        opts.participant = participant;
+      } else if (!participant.skin_tone.empty() || !participant.hand_order.empty()) {
+        throw pvcap::UserError("--skin-tone and --hand-order describe a participant: give --participant too");
+      }
+      if (!conditions.lighting.empty() || !conditions.sensor_overlay.empty()) {
+        if (conditions.lighting.empty()) conditions.lighting = "unrecorded";
+        if (conditions.sensor_overlay.empty()) conditions.sensor_overlay = "unrecorded";
+        opts.conditions = conditions;
+      }
       return pvcap::record_session(rig, opts, g_stop);
     }
     if (*eval) {
@@ -250,6 +282,27 @@ int main(int argc, char** argv) {
       const auto report = pvcap::verify_session(verify_dir, [](const std::string& step) { spdlog::info("{}", step); });
       fmt::print("{}", pvcap::format_report(verify_dir, report));
       return report.exit_code();
+    }
+    if (*recover) {
+      auto r = pvcap::recover_session(recover_dir, [](const std::string& step) { spdlog::info("{}", step); });
+      if (!r) {
+        spdlog::error("{}", r.error().message);
+        return 1;
+      }
+      fmt::print("session {}\n", recover_dir);
+      for (const auto& d : r.value().done) fmt::print("  {}\n", d);
+      if (r.value().done.empty()) fmt::print("nothing to recover: the session ended cleanly\n");
+      else fmt::print("recovered: 'pvcap verify {}' says what is there\n", recover_dir);
+      return 0;
+    }
+    if (*migrate) {
+      auto r = pvcap::migrate_session(migrate_dir);
+      if (!r) {
+        spdlog::error("{}", r.error().message);
+        return 1;
+      }
+      for (const auto& d : r.value()) fmt::print("{}: {}\n", migrate_dir, d);
+      return 0;
     }
     if (*sensel_decode) {
       int rc = 0;

@@ -18,6 +18,7 @@
 #include "capture/aravis_camera.h"
 #include "capture/pixel_format.h"
 #include "capture/sensel_device.h"
+#include "capture/sensel_frame.h"
 #include "core/log.h"
 #include "core/gap_tracker.h"
 #include "core/sequence_unwrap.h"
@@ -328,9 +329,16 @@ class SenselRecording {
       // the rest of a frame's 64-byte packets).
       const std::int64_t arrival = s->first_byte_ts.ns;
       const std::int64_t mapped = timeline_->pressure_frame(0, s->sequence, s->device_ts.ns, arrival);
-      writer.record(PressureRecord{device_id_, 0, s->sequence, s->lost_before, s->device_ts.ns, s->host_ts.ns,
-                                     s->host_wait_ns, s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale,
-                                     std::move(s->payload), mapped});
+      PressureRecord rec{device_id_, 0, s->sequence, s->lost_before, s->device_ts.ns, s->host_ts.ns, s->host_wait_ns,
+                         s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale, {}, mapped};
+      // The counts again in the store's portable form (zlib on the index's thread), for readers
+      // without the Sensel codec; the device's payload is kept as it came.
+      if (auto frame = sensel::parse_frame(s->payload, s->grid); frame && frame.value().pressure) {
+        rec.base = frame.value().pressure->base;
+        rec.counts = std::move(frame.value().pressure->counts);
+      }
+      rec.payload = std::move(s->payload);
+      writer.record(std::move(rec));
       stored_.fetch_add(1, std::memory_order_relaxed);
     }
   }
@@ -440,6 +448,13 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
     }
     device_ids[i] = id.value();
   }
+  for (Status s : {options.participant ? writer.set_participant(*options.participant) : Status{},
+                   options.conditions ? writer.set_conditions(*options.conditions) : Status{}})
+    if (!s.ok()) {
+      spdlog::error("{}", s.error().message);
+      (void)writer.close("failed to start");
+      return 1;
+    }
   std::int64_t sensel_id = 0;
   if (sensel) {
     auto id = writer.add_device(sensel->device_record());

@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "core/rig_config.h"
+#include "storage/session_index.h"
 
 namespace pvcap {
 
@@ -16,6 +17,8 @@ struct RecordOptions {
   std::optional<double> duration_s;    // stop after this long; otherwise on stop request
   double device_wait_s = 0;            // keep trying to open cameras this long (the sim needs a moment)
   std::filesystem::path self_exe;      // to start the simulator as a child process
+  std::optional<ParticipantRecord> participant;  // who sits in the chair (stored in the session)
+  std::optional<ConditionsRecord> conditions;    // lighting, sensor overlay
 };
 
 // Returns the process exit code: 0 recorded, 1 failed (the message was logged).

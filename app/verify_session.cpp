@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "capture/sensel_frame.h"
+#include "storage/pressure_blob.h"
 #include "storage/session_index.h"
 #include "storage/sqlite/database.h"
 #include "storage/video_reader.h"
@@ -30,8 +31,13 @@ VerifyReport verify_session(const std::filesystem::path& dir, const std::functio
     sqlite::Database db(db_path, sqlite::Database::Mode::ReadOnly);
     const int version = db.user_version();
     if (version != kSchemaVersion) {
-      r.errors.push_back(fmt::format("{}: store format version {}; this pvcap reads version {}", db_path.string(),
-                                     version, kSchemaVersion));
+      r.errors.push_back(
+          version < kSchemaVersion && version >= 1
+              ? fmt::format("{}: written by an older pvcap (store version {}); 'pvcap migrate {}' upgrades it to "
+                            "version {} (keeping a copy of the old index)",
+                            db_path.string(), version, dir.string(), kSchemaVersion)
+              : fmt::format("{}: store format version {}; this pvcap reads version {}", db_path.string(), version,
+                            kSchemaVersion));
       return r;
     }
     {
@@ -49,16 +55,28 @@ VerifyReport verify_session(const std::filesystem::path& dir, const std::functio
       }
       started = q.column_int(0);
       clean_end = !q.column_null(1);
-      if (!clean_end) r.losses.push_back("the recording did not end cleanly (crash, kill or power loss)");
-      else r.facts.push_back(fmt::format("ended: {}", q.column_text(2)));
+      const std::string reason = q.column_null(2) ? "" : q.column_text(2);
+      if (!clean_end)
+        r.losses.push_back("the recording did not end cleanly (crash, kill or power loss): 'pvcap recover' makes it "
+                           "readable");
+      else if (reason.rfind("interrupted", 0) == 0)
+        r.losses.push_back(fmt::format("the recording was interrupted ({}): its last moments are lost", reason));
+      else r.facts.push_back(fmt::format("ended: {}", reason));
     }
 
     // Videos against the index.
     auto files = db.prepare(
-        "SELECT v.id, v.path, d.name FROM video_files v JOIN devices d ON d.id = v.device_id ORDER BY v.id");
-    std::vector<std::tuple<std::int64_t, std::string, std::string>> videos;
-    while (files.step()) videos.emplace_back(files.column_int(0), files.column_text(1), files.column_text(2));
-    for (const auto& [id, path, camera] : videos) {
+        "SELECT v.id, v.path, d.name, v.state FROM video_files v JOIN devices d ON d.id = v.device_id ORDER BY v.id");
+    std::vector<std::tuple<std::int64_t, std::string, std::string, std::string>> videos;
+    while (files.step())
+      videos.emplace_back(files.column_int(0), files.column_text(1), files.column_text(2), files.column_text(3));
+    for (const auto& [id, path, camera, state] : videos) {
+      // A segment left open by a crash, or cut by a failed write, may hold frames whose rows were
+      // never committed, or miss frames whose rows were: losses, not damage. A closed one may not.
+      const bool finished = state == "closed" || state == "recovered";
+      if (state == "open" && !clean_end)
+        r.losses.push_back(fmt::format("{}: was being written when the recording stopped; 'pvcap recover' closes it",
+                                       path));
       if (progress) progress(fmt::format("checking {}", path));
       auto rows = db.prepare("SELECT video_index, host_ns FROM frames WHERE video_file_id = ? AND kept = 1 "
                              "ORDER BY video_index");
@@ -98,12 +116,13 @@ VerifyReport verify_session(const std::filesystem::path& dir, const std::functio
       if (!contiguous) r.errors.push_back(fmt::format("{}: the index's video positions are not 0, 1, 2, ...", path));
       if (n < kept.size()) {
         // A session that did not end cleanly may lose the open part of a video; one that did, may not.
-        (clean_end ? r.errors : r.losses)
+        (clean_end && finished ? r.errors : r.losses)
             .push_back(fmt::format("{}: {} indexed frames are missing from the video (it ends at frame {})", path,
                                    kept.size() - n, n));
       }
       if (n > kept.size())
-        r.errors.push_back(fmt::format("{}: {} frames in the video have no index row", path, n - kept.size()));
+        (clean_end && finished ? r.errors : r.losses)
+            .push_back(fmt::format("{}: {} frames in the video have no index row", path, n - kept.size()));
       if (wrong_time)
         r.errors.push_back(fmt::format("{}: {} frames carry another timestamp than their index row", path, wrong_time));
     }
@@ -111,16 +130,33 @@ VerifyReport verify_session(const std::filesystem::path& dir, const std::functio
     // Pressure frames decode on their grid.
     if (progress) progress("checking pressure frames");
     {
-      auto q = db.prepare("SELECT payload, grid_cols, grid_rows, grid_xscale, grid_yscale, sequence FROM pressure_frames");
+      // The device payload parses on its grid, and the portable counts beside it hold the same image.
+      auto q = db.prepare(
+          "SELECT payload, grid_cols, grid_rows, grid_xscale, grid_yscale, sequence, base, counts FROM pressure_frames");
       std::size_t total = 0, bad = 0;
       std::string first_bad;
+      auto fail = [&](std::int64_t seq, const std::string& why) {
+        if (!bad++) first_bad = fmt::format("sequence {}: {}", seq, why);
+      };
       while (q.step()) {
         ++total;
         const auto payload = q.column_blob(0);
         const sensel::Grid grid{int(q.column_int(1)), int(q.column_int(2)), int(q.column_int(3)), int(q.column_int(4))};
-        if (auto f = sensel::parse_frame(payload, grid); !f) {
-          if (!bad++) first_bad = fmt::format("sequence {}: {}", q.column_int(5), f.error().message);
+        auto f = sensel::parse_frame(payload, grid);
+        if (!f) {
+          fail(q.column_int(5), f.error().message);
+          continue;
         }
+        const auto& image = f.value().pressure;
+        if (image.has_value() != !q.column_null(7)) {
+          fail(q.column_int(5), image ? "its counts are missing" : "counts stored for a frame without pressure");
+          continue;
+        }
+        if (!image) continue;
+        auto counts = decompress_counts(q.column_blob(7), std::size_t(grid.cells()));
+        if (!counts) fail(q.column_int(5), counts.error().message);
+        else if (counts.value() != image->counts || q.column_int(6) != image->base)
+          fail(q.column_int(5), "its counts differ from its device payload");
       }
       r.facts.push_back(fmt::format("pressure frames: {} stored, {} decode", total, total - bad));
       if (bad) r.errors.push_back(fmt::format("{} pressure frames do not decode (first: {})", bad, first_bad));
@@ -133,7 +169,8 @@ VerifyReport verify_session(const std::filesystem::path& dir, const std::functio
     const auto unpaired = scalar(db, "SELECT count(*) FROM samples WHERE pressure_sequence IS NULL");
     const bool has_sensel = scalar(db, "SELECT count(*) FROM devices WHERE kind = 'sensel'") > 0;
     r.facts.push_back(fmt::format("samples: {}", samples));
-    if (dangling) r.losses.push_back(fmt::format("{} sample frames are not in a video (the encoder was behind)", dangling));
+    if (dangling)
+      r.losses.push_back(fmt::format("{} sample frames are not in a video (frames.reason says why)", dangling));
     if (has_sensel && unpaired) r.losses.push_back(fmt::format("{} samples have no pressure frame", unpaired));
 
     // Losses recorded during capture.
@@ -143,6 +180,9 @@ VerifyReport verify_session(const std::filesystem::path& dir, const std::functio
       r.losses.push_back(fmt::format("{} frames arrived incomplete (frames.status)", n));
     if (const auto n = scalar(db, "SELECT count(*) FROM frames WHERE reason = 'encoder_behind'"))
       r.losses.push_back(fmt::format("{} kept frames were not encoded in time (reason encoder_behind)", n));
+    for (const char* why : {"lost_at_interruption", "video_write_failed"})
+      if (const auto n = scalar(db, fmt::format("SELECT count(*) FROM frames WHERE reason = '{}'", why)))
+        r.losses.push_back(fmt::format("{} frames meant for a video are not in it (reason {})", n, why));
   } catch (const sqlite::SqliteError& e) {
     r.errors.push_back(fmt::format("{}: {}", db_path.string(), e.what()));
   }

@@ -179,6 +179,11 @@ StoreConfig parse_store(const YAML::Node& node, const std::filesystem::path& fil
   r.get_in_range("gop_seconds", gop_s, 0.1, 1.0);
   s.gop_seconds_x10 = int(std::lround(gop_s * 10));
   r.get_in_range("queue_frames", s.queue_frames, 2, 10000);
+  r.get_in_range("segment_seconds", s.segment_seconds, 0.0, 86400.0);
+  if (s.segment_seconds > 0 && s.segment_seconds < 1)  // a segment holds at least one GOP
+    r.fail(r.node()["segment_seconds"], "segment_seconds", "must be 0 (one file per camera) or at least 1");
+  r.get_in_range("min_free_mb", s.min_free_mb, 0, 1'000'000);
+  r.get_in_range("reserve_mb", s.reserve_mb, 0, 100'000);
   r.finish();
   return s;
 }

@@ -68,6 +68,9 @@ struct StoreConfig {
   double video_fps = 15.0;  // frames kept in video per second per camera; 0 = every frame
   int gop_seconds_x10 = 10;  // key frame interval in tenths of a second (<= 1 s)
   int queue_frames = 24;     // per-camera frames waiting for the encoder before drops
+  double segment_seconds = 60;  // a camera's video is cut into files this long; 0 = one file
+  int min_free_mb = 512;     // stop the session cleanly when the disk's free space drops below this
+  int reserve_mb = 32;       // space set aside at start, freed to finish the store if the disk fills anyway
 };
 
 struct SimCameraClock {

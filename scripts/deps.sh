@@ -8,7 +8,7 @@ packages=(
   libusb-1.0-0-dev                      # Sensel Morph over USB
   libopencv-dev libopencv-contrib-dev   # debayer, scene rendering, ArUco, homographies
   libavcodec-dev libavformat-dev libavutil-dev libswscale-dev ffmpeg
-  libsqlite3-dev sqlite3
+  libsqlite3-dev sqlite3 zlib1g-dev     # the session index; pressure counts compressed with zlib
   libspdlog-dev libfmt-dev libcli11-dev libyaml-cpp-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libumockdev-dev umockdev              # emulated USB device for the Sensel tests

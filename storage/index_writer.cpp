@@ -8,14 +8,15 @@
 namespace pvcap {
 
 IndexWriter::IndexWriter(SessionIndex& index, std::size_t capacity, std::chrono::milliseconds batch_period)
-    : index_(index), queue_(capacity), batch_period_(batch_period) {}
+    : index_(index), queue_(capacity), queue_capacity_(capacity), batch_period_(batch_period) {}
 
 IndexWriter::~IndexWriter() { stop(); }
 
 void IndexWriter::start() { thread_ = std::thread([this] { run(); }); }
 
 bool IndexWriter::push(Record record) {
-  if (failed_.load(std::memory_order_relaxed) || !queue_.try_push(record)) {
+  if ((failed_.load(std::memory_order_relaxed) && !disk_full_.load(std::memory_order_relaxed)) ||
+      !queue_.try_push(record)) {
     lost_.fetch_add(1, std::memory_order_relaxed);
     return false;
   }
@@ -25,6 +26,16 @@ bool IndexWriter::push(Record record) {
 void IndexWriter::stop() {
   queue_.close();
   if (thread_.joinable()) thread_.join();
+  if (held_.empty()) return;
+  try {  // the batch that met the full disk, once more (its space was freed meanwhile)
+    write_records(held_);
+    spdlog::info("session index: the {} records held since the disk filled are written", held_.size());
+    written_.fetch_add(held_.size());
+  } catch (const sqlite::SqliteError& e) {
+    lost_.fetch_add(held_.size());
+    spdlog::error("session index: {} records are lost: {}", held_.size(), e.what());
+  }
+  held_.clear();
 }
 
 std::optional<std::string> IndexWriter::failure() const {
@@ -32,30 +43,48 @@ std::optional<std::string> IndexWriter::failure() const {
   return failure_;
 }
 
+void IndexWriter::write_records(const std::vector<Record>& batch) {
+  sqlite::Transaction tx(index_.db());
+  for (const Record& r : batch) {
+    std::visit(
+        [&](const auto& rec) {
+          using T = std::decay_t<decltype(rec)>;
+          if constexpr (std::is_same_v<T, FrameRecord>) index_.add_frame(rec);
+          else if constexpr (std::is_same_v<T, PressureRecord>) index_.add_pressure(rec);
+          else if constexpr (std::is_same_v<T, DropRecord>) index_.add_drop(rec);
+          else if constexpr (std::is_same_v<T, SampleRecord>) index_.add_sample(rec);
+          else if constexpr (std::is_same_v<T, ClockModelRecord>) index_.add_clock_model(rec);
+          else if constexpr (std::is_same_v<T, VideoFileRecord>) index_.add_video_file(rec);
+          else if constexpr (std::is_same_v<T, VideoFileClosed>) index_.close_video_file(rec);
+          else if constexpr (std::is_same_v<T, ProtocolEventRecord>) index_.add_protocol_event(rec);
+          else if constexpr (std::is_same_v<T, OperatorNoteRecord>) index_.add_operator_note(rec);
+          else index_.add_event(rec);
+        },
+        r);
+  }
+  tx.commit();
+}
+
 void IndexWriter::write_batch(std::vector<Record>& batch) {
-  if (batch.empty() || failed_.load()) return;
+  if (batch.empty()) return;
+  if (failed_.load()) {
+    // After a full disk, records are held (bounded by the queue's size) for stop(); after any
+    // other failure nothing more is written and what arrives is counted lost.
+    const bool hold = disk_full_.load() && held_.size() + batch.size() <= queue_capacity_;
+    if (hold) std::move(batch.begin(), batch.end(), std::back_inserter(held_));
+    else lost_.fetch_add(batch.size());
+    batch.clear();
+    return;
+  }
   try {
-    sqlite::Transaction tx(index_.db());
-    for (const Record& r : batch) {
-      std::visit(
-          [&](const auto& rec) {
-            using T = std::decay_t<decltype(rec)>;
-            if constexpr (std::is_same_v<T, FrameRecord>) index_.add_frame(rec);
-            else if constexpr (std::is_same_v<T, PressureRecord>) index_.add_pressure(rec);
-            else if constexpr (std::is_same_v<T, DropRecord>) index_.add_drop(rec);
-            else if constexpr (std::is_same_v<T, SampleRecord>) index_.add_sample(rec);
-            else if constexpr (std::is_same_v<T, ClockModelRecord>) index_.add_clock_model(rec);
-            else index_.add_event(rec);
-          },
-          r);
-    }
-    tx.commit();
+    write_records(batch);
     written_.fetch_add(batch.size());
   } catch (const sqlite::SqliteError& e) {
     std::lock_guard lock(failure_mu_);
     failure_ = e.disk_full() ? fmt::format("the disk is full or failing: {}", e.what()) : std::string(e.what());
+    if (e.disk_full()) held_ = std::move(batch), disk_full_.store(true);
+    else lost_.fetch_add(batch.size());
     failed_.store(true);
-    lost_.fetch_add(batch.size());
     spdlog::error("session index: {}", *failure_);
   }
   batch.clear();

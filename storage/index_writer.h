@@ -3,7 +3,10 @@
 // `batch_period` (default 250 ms): producers push without waiting; a crash loses
 // at most the open batch. Records are held in a bounded queue sized for many
 // seconds of every stream; if it ever fills, the overflow is counted and
-// written as a drop record when there is room again.
+// written as a drop record when there is room again. A batch that fails because
+// the disk is full is held, and written once more at stop(): the session writer
+// frees its space reserve first, so what was captured before the disk filled is
+// not lost with it.
 #include <atomic>
 #include <chrono>
 #include <mutex>
@@ -19,7 +22,8 @@ namespace pvcap {
 
 class IndexWriter {
  public:
-  using Record = std::variant<FrameRecord, PressureRecord, DropRecord, EventRecord, SampleRecord, ClockModelRecord>;
+  using Record = std::variant<FrameRecord, PressureRecord, DropRecord, EventRecord, SampleRecord, ClockModelRecord,
+                              VideoFileRecord, VideoFileClosed, ProtocolEventRecord, OperatorNoteRecord>;
 
   IndexWriter(SessionIndex& index, std::size_t capacity = 200'000,
               std::chrono::milliseconds batch_period = std::chrono::milliseconds(250));
@@ -38,15 +42,18 @@ class IndexWriter {
  private:
   void run();
   void write_batch(std::vector<Record>& batch);
+  void write_records(const std::vector<Record>& batch);
 
   SessionIndex& index_;
   BoundedQueue<Record> queue_;
+  const std::size_t queue_capacity_;
   const std::chrono::milliseconds batch_period_;
   std::thread thread_;
   std::atomic<std::uint64_t> written_{0}, lost_{0};
-  std::atomic<bool> failed_{false};
+  std::atomic<bool> failed_{false}, disk_full_{false};
   mutable std::mutex failure_mu_;
   std::optional<std::string> failure_;
+  std::vector<Record> held_;  // the batch that met a full disk
 };
 
 }  // namespace pvcap

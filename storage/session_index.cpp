@@ -2,144 +2,27 @@
 
 #include <fmt/format.h>
 
+#include "storage/pressure_blob.h"
+
 namespace pvcap {
 
-namespace {
-constexpr const char* kSchema = R"sql(
-CREATE TABLE session (
-  id INTEGER PRIMARY KEY,
-  started_wall_ns INTEGER NOT NULL,
-  started_host_ns INTEGER NOT NULL,
-  ended_host_ns INTEGER,
-  end_reason TEXT,
-  pvcap_version TEXT NOT NULL,
-  rig_name TEXT NOT NULL,
-  rig_path TEXT NOT NULL,
-  rig_config TEXT NOT NULL,
-  simulated INTEGER NOT NULL
-);
-CREATE TABLE devices (
-  id INTEGER PRIMARY KEY,
-  kind TEXT NOT NULL,
-  name TEXT NOT NULL UNIQUE,
-  vendor TEXT, model TEXT, serial TEXT, address TEXT, firmware TEXT,
-  settings_json TEXT NOT NULL
-);
-CREATE TABLE video_files (
-  id INTEGER PRIMARY KEY,
-  device_id INTEGER NOT NULL REFERENCES devices(id),
-  path TEXT NOT NULL UNIQUE,
-  codec TEXT NOT NULL,
-  pixel_format TEXT NOT NULL,
-  width INTEGER NOT NULL,
-  height INTEGER NOT NULL
-);
-CREATE TABLE frames (
-  device_id INTEGER NOT NULL REFERENCES devices(id),
-  connection INTEGER NOT NULL,
-  sequence INTEGER NOT NULL,
-  frame_id INTEGER NOT NULL,
-  device_ns INTEGER NOT NULL,
-  host_ns INTEGER NOT NULL,
-  aravis_system_ns INTEGER NOT NULL,
-  status TEXT NOT NULL,
-  kept INTEGER NOT NULL,
-  reason TEXT,
-  video_file_id INTEGER REFERENCES video_files(id),
-  video_index INTEGER,
-  mapped_ns INTEGER
-);
-CREATE INDEX frames_by_time ON frames(device_id, host_ns);
-CREATE INDEX frames_by_video ON frames(video_file_id, video_index);
-CREATE TABLE pressure_frames (
-  device_id INTEGER NOT NULL REFERENCES devices(id),
-  connection INTEGER NOT NULL,
-  sequence INTEGER NOT NULL,
-  lost_before INTEGER NOT NULL,
-  device_ns INTEGER NOT NULL,
-  host_ns INTEGER NOT NULL,
-  host_wait_ns INTEGER NOT NULL,
-  grid_cols INTEGER NOT NULL, grid_rows INTEGER NOT NULL, grid_xscale INTEGER NOT NULL, grid_yscale INTEGER NOT NULL,
-  payload BLOB NOT NULL,
-  mapped_ns INTEGER
-);
-CREATE INDEX pressure_by_time ON pressure_frames(device_id, host_ns);
-CREATE TABLE drops (
-  device_id INTEGER NOT NULL REFERENCES devices(id),
-  connection INTEGER NOT NULL,
-  first_sequence INTEGER NOT NULL,
-  count INTEGER NOT NULL,
-  reason TEXT NOT NULL,
-  host_ns INTEGER NOT NULL
-);
-CREATE TABLE events (
-  host_ns INTEGER NOT NULL,
-  kind TEXT NOT NULL,
-  device_id INTEGER REFERENCES devices(id),
-  message TEXT NOT NULL
-);
-CREATE TABLE samples (
-  id INTEGER PRIMARY KEY,
-  tick INTEGER NOT NULL,
-  tick_ns INTEGER NOT NULL,
-  t_ns INTEGER NOT NULL,
-  span_ns INTEGER NOT NULL,
-  cameras INTEGER NOT NULL,
-  pressure_device_id INTEGER REFERENCES devices(id),
-  pressure_connection INTEGER,
-  pressure_sequence INTEGER,
-  pressure_offset_ns INTEGER,
-  before_sequence INTEGER,
-  before_offset_ns INTEGER,
-  after_sequence INTEGER,
-  after_offset_ns INTEGER
-);
-CREATE TABLE sample_frames (
-  sample_id INTEGER NOT NULL REFERENCES samples(id),
-  device_id INTEGER NOT NULL REFERENCES devices(id),
-  connection INTEGER NOT NULL,
-  sequence INTEGER NOT NULL,
-  offset_ns INTEGER NOT NULL
-);
-CREATE INDEX sample_frames_by_sample ON sample_frames(sample_id);
-CREATE INDEX frames_by_sequence ON frames(device_id, connection, sequence);
-CREATE INDEX pressure_by_sequence ON pressure_frames(device_id, connection, sequence);
-CREATE TABLE clock_models (
-  device_id INTEGER NOT NULL REFERENCES devices(id),
-  host_ns INTEGER NOT NULL,
-  segment INTEGER NOT NULL,
-  x0_device_ns INTEGER NOT NULL,
-  offset_ns REAL NOT NULL,
-  skew REAL NOT NULL,
-  latency_ns INTEGER NOT NULL,
-  source TEXT NOT NULL,
-  pairs INTEGER NOT NULL,
-  envelope_points INTEGER NOT NULL,
-  residual_p50_ns INTEGER NOT NULL,
-  residual_p99_ns INTEGER NOT NULL
-);
-CREATE TABLE timeline_counts (
-  what TEXT NOT NULL,
-  count INTEGER NOT NULL
-);
-CREATE TABLE stream_stats (
-  device_id INTEGER NOT NULL REFERENCES devices(id),
-  completed INTEGER NOT NULL, failures INTEGER NOT NULL, underruns INTEGER NOT NULL,
-  resent_packets INTEGER NOT NULL, missing_packets INTEGER NOT NULL, queue_overflows INTEGER NOT NULL
-);
-)sql";
-}  // namespace
 
 SessionIndex SessionIndex::create(const std::filesystem::path& path) {
   if (std::filesystem::exists(path)) throw sqlite::SqliteError(0, fmt::format("{}: already exists", path.string()));
   auto db = std::make_unique<sqlite::Database>(path, sqlite::Database::Mode::Create);
   db->apply_resilient_pragmas();
-  {
-    sqlite::Transaction tx(*db);
-    db->exec(kSchema);
-    db->set_user_version(kSchemaVersion);
-    tx.commit();
-  }
+  create_schema(*db);
+  return SessionIndex(std::move(db));
+}
+
+SessionIndex SessionIndex::open_for_update(const std::filesystem::path& path, std::vector<int>* migrated) {
+  if (!std::filesystem::exists(path)) throw sqlite::SqliteError(0, fmt::format("{}: no such file", path.string()));
+  auto db = std::make_unique<sqlite::Database>(path, sqlite::Database::Mode::ReadWrite);
+  db->apply_resilient_pragmas();
+  const int version = db->user_version();
+  if (version < kSchemaVersion && version >= 1) back_up_before_migration(path, version);
+  auto passed = migrate_schema(*db);
+  if (migrated) *migrated = std::move(passed);
   return SessionIndex(std::move(db));
 }
 
@@ -151,7 +34,8 @@ SessionIndex::SessionIndex(std::unique_ptr<sqlite::Database> db) : db_(std::move
       "INSERT INTO drops (device_id, connection, first_sequence, count, reason, host_ns) VALUES (?,?,?,?,?,?)"));
   insert_pressure_.emplace(db_->prepare(
       "INSERT INTO pressure_frames (device_id, connection, sequence, lost_before, device_ns, host_ns, host_wait_ns, "
-      "grid_cols, grid_rows, grid_xscale, grid_yscale, payload, mapped_ns) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)"));
+      "grid_cols, grid_rows, grid_xscale, grid_yscale, payload, mapped_ns, base, counts) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)"));
   insert_sample_.emplace(db_->prepare(
       "INSERT INTO samples (id, tick, tick_ns, t_ns, span_ns, cameras, pressure_device_id, pressure_connection, "
       "pressure_sequence, pressure_offset_ns, before_sequence, before_offset_ns, after_sequence, after_offset_ns) "
@@ -183,11 +67,49 @@ std::int64_t SessionIndex::add_device(const DeviceRecord& d) {
   return db_->last_insert_rowid();
 }
 
-std::int64_t SessionIndex::add_video_file(const VideoFileRecord& v) {
-  db_->prepare("INSERT INTO video_files (device_id, path, codec, pixel_format, width, height) VALUES (?,?,?,?,?,?)")
-      .bind_all(v.device_id, v.path, v.codec, v.pixel_format, v.width, v.height)
+void SessionIndex::add_video_file(const VideoFileRecord& v) {
+  db_->prepare(
+         "INSERT INTO video_files (id, device_id, path, codec, pixel_format, width, height, segment, state) "
+         "VALUES (?,?,?,?,?,?,?,?,'open')")
+      .bind_all(v.id, v.device_id, v.path, v.codec, v.pixel_format, v.width, v.height, v.segment)
+      .run();
+}
+
+void SessionIndex::close_video_file(const VideoFileClosed& v) {
+  db_->prepare("UPDATE video_files SET state = 'closed', frames = ? WHERE id = ?").bind_all(v.frames, v.id).run();
+}
+
+void SessionIndex::set_participant(const ParticipantRecord& p) {
+  db_->exec("DELETE FROM participant");
+  db_->prepare("INSERT INTO participant (pseudonym, skin_tone, hand_order) VALUES (?,?,?)")
+      .bind_all(p.pseudonym, p.skin_tone, p.hand_order)
+      .run();
+}
+
+void SessionIndex::set_conditions(const ConditionsRecord& c) {
+  db_->exec("DELETE FROM conditions");
+  db_->prepare("INSERT INTO conditions (lighting, sensor_overlay) VALUES (?,?)").bind_all(c.lighting, c.sensor_overlay).run();
+}
+
+std::int64_t SessionIndex::add_calibration(const CalibrationRecord& c) {
+  db_->prepare(
+         "INSERT INTO calibrations (device_id, created_wall_ns, method, homography, rms_px, rms_mm, details_json) "
+         "VALUES (?,?,?,?,?,?,?)")
+      .bind_all(c.device_id, c.created_wall_ns, c.method, c.homography_json, c.rms_px, c.rms_mm, c.details_json)
       .run();
   return db_->last_insert_rowid();
+}
+
+void SessionIndex::add_protocol_event(const ProtocolEventRecord& e) {
+  db_->prepare(
+         "INSERT INTO protocol_events (host_ns, kind, step, action, hand, force, repetition, detail) "
+         "VALUES (?,?,?,?,?,?,?,?)")
+      .bind_all(e.host_ns, e.kind, e.step, e.action, e.hand, e.force, e.repetition, e.detail)
+      .run();
+}
+
+void SessionIndex::add_operator_note(const OperatorNoteRecord& n) {
+  db_->prepare("INSERT INTO operator_notes (host_ns, text) VALUES (?,?)").bind_all(n.host_ns, n.text).run();
 }
 
 void SessionIndex::add_frame(const FrameRecord& f) {
@@ -202,9 +124,13 @@ void SessionIndex::add_drop(const DropRecord& d) {
 }
 
 void SessionIndex::add_pressure(const PressureRecord& p) {
+  std::optional<std::int64_t> base;
+  std::optional<std::vector<std::uint8_t>> counts;
+  if (!p.counts.empty()) base = p.base, counts = compress_counts(p.counts);
   insert_pressure_
       ->bind_all(p.device_id, std::int64_t(p.connection), p.sequence, p.lost_before, p.device_ns, p.host_ns,
-                 p.host_wait_ns, p.grid_cols, p.grid_rows, p.grid_xscale, p.grid_yscale, p.payload, p.mapped_ns)
+                 p.host_wait_ns, p.grid_cols, p.grid_rows, p.grid_xscale, p.grid_yscale, p.payload, p.mapped_ns, base,
+                 counts)
       .run();
 }
 

@@ -8,11 +8,10 @@
 #include <string>
 #include <vector>
 
+#include "storage/schema.h"
 #include "storage/sqlite/database.h"
 
 namespace pvcap {
-
-inline constexpr int kSchemaVersion = 2;  // 2: mapped times, samples, clock models
 
 struct SessionRecord {
   std::int64_t started_wall_ns = 0;
@@ -30,11 +29,20 @@ struct DeviceRecord {
   std::string settings_json;  // what the device reported after configuration
 };
 
+// One video segment of one camera. Its id is chosen by the writer (segments open on the
+// encoder's thread, their rows are written on the index's); frames name it in video_file_id.
 struct VideoFileRecord {
+  std::int64_t id = 0;
   std::int64_t device_id = 0;
   std::string path;  // relative to the session directory
   std::string codec, pixel_format;
   int width = 0, height = 0;
+  int segment = 0;
+};
+// A segment finished cleanly (trailer written): how many frames it holds.
+struct VideoFileClosed {
+  std::int64_t id = 0;
+  std::int64_t frames = 0;
 };
 
 struct FrameRecord {
@@ -55,7 +63,9 @@ struct FrameRecord {
 
 // One Sensel frame at full rate. `payload` is the frame exactly as the device sent it (the
 // device's own lossless compression: raw counts on the native grid, contacts, accelerometer,
-// labels); decode it with capture/sensel_frame.h on the grid stored beside it.
+// labels; decode it with capture/sensel_frame.h on the grid stored beside it). `counts` are
+// its raw counts again, stored zlib-compressed (storage/pressure_blob.h) for readers without
+// the Sensel codec; empty when the frame carried no pressure image.
 struct PressureRecord {
   std::int64_t device_id = 0;
   std::uint32_t connection = 0;
@@ -67,6 +77,8 @@ struct PressureRecord {
   int grid_cols = 0, grid_rows = 0, grid_xscale = 0, grid_yscale = 0;
   std::vector<std::uint8_t> payload;
   std::optional<std::int64_t> mapped_ns;  // on the session clock (the clock model's)
+  std::uint16_t base = 0;
+  std::vector<std::uint16_t> counts;
 };
 
 // One 15 Hz dataset sample: a camera frame per camera for one instant, and the pressure
@@ -115,6 +127,43 @@ struct EventRecord {
   std::string message;
 };
 
+// Who sat in the chair and under what conditions (one row each per session).
+struct ParticipantRecord {
+  std::string pseudonym;   // never a name: the lab's participant code
+  std::string skin_tone;   // light | medium | dark | unrecorded (the paper's three categories)
+  std::string hand_order;  // right_first | left_first
+};
+struct ConditionsRecord {
+  std::string lighting;        // which lights were on, e.g. "LCR", "L-R"
+  std::string sensor_overlay;  // e.g. white_vinyl, wood
+};
+
+// A sensor-to-camera homography (sensor mm -> image px), row-major 3x3 in JSON.
+struct CalibrationRecord {
+  std::int64_t device_id = 0;
+  std::int64_t created_wall_ns = 0;
+  std::string method;
+  std::string homography_json;
+  std::optional<double> rms_px, rms_mm;
+  std::string details_json = "{}";
+};
+
+// What the protocol runner did, on the capture clock (kind: prompt, action_start, action_end,
+// redo, skip, pause, resume, mark_bad, hand_switch, ...).
+struct ProtocolEventRecord {
+  std::int64_t host_ns = 0;
+  std::string kind;
+  std::optional<std::int64_t> step;
+  std::string action, hand, force;
+  std::optional<std::int64_t> repetition;
+  std::string detail;
+};
+
+struct OperatorNoteRecord {
+  std::int64_t host_ns = 0;
+  std::string text;
+};
+
 struct StreamStatsRecord {
   std::int64_t device_id = 0;
   std::uint64_t completed = 0, failures = 0, underruns = 0, resent_packets = 0, missing_packets = 0,
@@ -125,10 +174,19 @@ class SessionIndex {
  public:
   // Creates a new index at `path` (which must not exist) with the current schema.
   static SessionIndex create(const std::filesystem::path& path);
+  // Opens an existing index for writing (recover, migrate), upgrading its schema first (after
+  // a backup copy) when it is older. `migrated` receives the versions passed through.
+  static SessionIndex open_for_update(const std::filesystem::path& path, std::vector<int>* migrated = nullptr);
 
   std::int64_t add_session(const SessionRecord& s);
   std::int64_t add_device(const DeviceRecord& d);
-  std::int64_t add_video_file(const VideoFileRecord& v);
+  void add_video_file(const VideoFileRecord& v);
+  void close_video_file(const VideoFileClosed& v);
+  void set_participant(const ParticipantRecord& p);
+  void set_conditions(const ConditionsRecord& c);
+  std::int64_t add_calibration(const CalibrationRecord& c);
+  void add_protocol_event(const ProtocolEventRecord& e);
+  void add_operator_note(const OperatorNoteRecord& n);
   void add_frame(const FrameRecord& f);
   void add_drop(const DropRecord& d);
   void add_pressure(const PressureRecord& p);

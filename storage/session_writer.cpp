@@ -1,6 +1,9 @@
 #include "storage/session_writer.h"
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
@@ -10,19 +13,24 @@
 
 #include "core/time.h"
 #include "core/version.h"
+#include "storage/video_repair.h"
 
 namespace pvcap {
 
 struct SessionWriter::Camera {
   std::int64_t device_id = 0;
-  std::int64_t video_file_id = 0;
   std::string name;
+  VideoSettings settings;
+  // The open segment (encoder thread only, after start()).
   std::unique_ptr<VideoWriter> video;
+  std::int64_t video_file_id = 0;
+  int segment = -1;
+  std::int64_t segment_start_us = 0;
+  std::vector<std::int64_t> failed_files;  // segments a write failed in: reconciled at close
   BoundedQueue<std::pair<cv::Mat, FrameRecord>> queue;
   std::thread thread;
-  std::atomic<std::uint64_t> indexed{0}, in_video{0}, encoder_drops{0};
-  mutable std::mutex failure_mu;
-  std::optional<std::string> failure;
+  std::atomic<std::uint64_t> in_video{0}, encoder_drops{0}, segments{0};
+  std::atomic<bool> failed{false};
   explicit Camera(std::size_t capacity) : queue(capacity) {}
 };
 
@@ -32,6 +40,14 @@ std::string safe_name(std::string s) {
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') c = '-';
   return s;
 }
+
+std::int64_t free_bytes(const std::filesystem::path& dir) {
+  struct statvfs st {};
+  if (statvfs(dir.c_str(), &st) != 0) return -1;
+  return std::int64_t(st.f_bavail) * std::int64_t(st.f_frsize);
+}
+
+constexpr std::int64_t kMiB = 1024 * 1024;
 }  // namespace
 
 Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesystem::path& root, const RigConfig& rig,
@@ -40,6 +56,11 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
   std::error_code ec;
   std::filesystem::create_directories(root, ec);
   if (ec) return Error{fmt::format("{}: cannot create the sessions folder: {}", root.string(), ec.message())};
+  const std::int64_t needed = std::int64_t(rig.store.min_free_mb + rig.store.reserve_mb) * kMiB;
+  if (const std::int64_t free = free_bytes(root); free >= 0 && free < needed)
+    return Error{fmt::format("{}: only {} MB free; a session needs at least {} MB to start (store.min_free_mb {} + "
+                             "store.reserve_mb {})",
+                             root.string(), free / kMiB, needed / kMiB, rig.store.min_free_mb, rig.store.reserve_mb)};
   std::unique_ptr<SessionWriter> w(new SessionWriter());
   const std::string base = format_utc_compact(started_wall_ns) + "_" + safe_name(rig.name);
   for (int n = 1;; ++n) {
@@ -53,6 +74,19 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
   }
   w->started_host_ns_ = started_host_ns;
   w->store_ = rig.store;
+  if (rig.store.reserve_mb > 0) {
+    // Real blocks, not a sparse file: this is the room close() needs when the disk fills.
+    w->reserve_path_ = w->dir_ / "space-reserve";
+    const int fd = ::open(w->reserve_path_.c_str(), O_CREAT | O_WRONLY | O_EXCL | O_CLOEXEC, 0644);
+    const int rc = fd < 0 ? errno : posix_fallocate(fd, 0, off_t(rig.store.reserve_mb) * kMiB);
+    if (fd >= 0) ::close(fd);
+    if (rc != 0) {
+      std::filesystem::remove(w->reserve_path_, ec);
+      return Error{fmt::format("{}: cannot set aside the {} MB space reserve: {}", w->reserve_path_.string(),
+                               rig.store.reserve_mb, std::strerror(rc))};
+    }
+    w->reserve_held_.store(true);
+  }
   try {
     w->index_.emplace(SessionIndex::create(w->dir_ / "session.db"));
     SessionRecord s{started_wall_ns, started_host_ns, kVersion, rig.name, rig.source.string(), rig.text,
@@ -69,11 +103,36 @@ SessionWriter::~SessionWriter() {
   if (!closed_) (void)close("aborted");
 }
 
+// Opens the camera's next segment. Before start() (`direct`) its row is written at once; after,
+// through the index writer, ahead of the segment's frames.
+Status SessionWriter::open_segment(Camera& cam, std::int64_t first_pts_us, bool direct) {
+  const int segment = cam.segment + 1;
+  const std::string file = fmt::format("{}-{:03}.mkv", safe_name(cam.name), segment);
+  auto video = VideoWriter::open(dir_ / file, cam.settings);
+  if (!video) return video.error();
+  const VideoFileRecord rec{next_video_file_id_.fetch_add(1), cam.device_id, file, cam.settings.codec,
+                            cam.settings.pixel_format, cam.settings.width, cam.settings.height, segment};
+  if (direct) {
+    try {
+      index_->add_video_file(rec);
+    } catch (const sqlite::SqliteError& e) {
+      return Error{e.what()};
+    }
+  } else {
+    index_writer_->push(rec);
+  }
+  cam.video = std::move(video.value());
+  cam.video_file_id = rec.id;
+  cam.segment = segment;
+  cam.segment_start_us = first_pts_us;
+  cam.segments.fetch_add(1);
+  return {};
+}
+
 Result<std::int64_t> SessionWriter::add_camera(const DeviceRecord& device, int width, int height) {
   auto cam = std::make_unique<Camera>(std::size_t(store_.queue_frames));
   cam->name = device.name;
-  const std::string file = safe_name(device.name) + ".mkv";
-  VideoSettings vs;
+  VideoSettings& vs = cam->settings;
   vs.codec = store_.video_codec;
   vs.crf = store_.crf;
   vs.preset = store_.preset;
@@ -82,16 +141,12 @@ Result<std::int64_t> SessionWriter::add_camera(const DeviceRecord& device, int w
   vs.height = height;
   vs.nominal_fps = store_.video_fps > 0 ? store_.video_fps : 30;
   vs.gop_frames = std::max(1, int(vs.nominal_fps * store_.gop_seconds_x10 / 10.0));
-  auto video = VideoWriter::open(dir_ / file, vs);
-  if (!video) return video.error();
-  cam->video = std::move(video.value());
   try {
     cam->device_id = index_->add_device(device);
-    cam->video_file_id =
-        index_->add_video_file({cam->device_id, file, vs.codec, vs.pixel_format, width, height});
   } catch (const sqlite::SqliteError& e) {
     return Error{e.what()};
   }
+  if (Status s = open_segment(*cam, 0, true); !s.ok()) return s.error();  // checks the codec settings now
   const std::int64_t id = cam->device_id;
   cameras_.push_back(std::move(cam));
   return id;
@@ -105,9 +160,36 @@ Result<std::int64_t> SessionWriter::add_device(const DeviceRecord& device) {
   }
 }
 
+Status SessionWriter::set_participant(const ParticipantRecord& p) {
+  try {
+    index_->set_participant(p);
+    return {};
+  } catch (const sqlite::SqliteError& e) {
+    return Error{e.what()};
+  }
+}
+
+Status SessionWriter::set_conditions(const ConditionsRecord& c) {
+  try {
+    index_->set_conditions(c);
+    return {};
+  } catch (const sqlite::SqliteError& e) {
+    return Error{e.what()};
+  }
+}
+
+Result<std::int64_t> SessionWriter::add_calibration(const CalibrationRecord& c) {
+  try {
+    return index_->add_calibration(c);
+  } catch (const sqlite::SqliteError& e) {
+    return Error{e.what()};
+  }
+}
+
 void SessionWriter::start() {
   index_writer_->start();
   for (auto& cam : cameras_) cam->thread = std::thread([this, c = cam.get()] { encode_loop(*c); });
+  watcher_ = std::thread([this] { watch_free_space(); });
 }
 
 bool SessionWriter::submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecord frame) {
@@ -122,26 +204,39 @@ bool SessionWriter::submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecor
 }
 
 void SessionWriter::encode_loop(Camera& cam) {
+  const std::int64_t segment_us = std::int64_t(store_.segment_seconds * 1e6);
   while (!cam.queue.closed_and_empty()) {
     auto item = cam.queue.pop_for(std::chrono::milliseconds(100));
     if (!item) continue;
     auto& [bgr, rec] = *item;
-    bool failed;
-    {
-      std::lock_guard lock(cam.failure_mu);
-      failed = cam.failure.has_value();
+    const std::int64_t pts_us = (rec.host_ns - started_host_ns_) / 1000;
+    if (!cam.failed.load() && segment_us > 0 && cam.video->frames_written() > 0 &&
+        pts_us - cam.segment_start_us >= segment_us) {
+      // Next segment: the finished one gets its trailer (cues, duration) and is final on disk.
+      const std::int64_t id = cam.video_file_id, frames = cam.video->frames_written();
+      if (Status s = cam.video->close(); !s.ok()) {
+        cam.failed_files.push_back(id);
+        cam.failed.store(true);
+        set_failure(s.error().message);
+      } else {
+        index_writer_->push(VideoFileClosed{id, frames});
+        if (Status o = open_segment(cam, pts_us, false); !o.ok()) {
+          cam.failed.store(true);
+          set_failure(o.error().message);
+        }
+      }
     }
-    if (!failed) {
-      auto index = cam.video->write(bgr, (rec.host_ns - started_host_ns_) / 1000);
+    if (!cam.failed.load()) {
+      auto index = cam.video->write(bgr, pts_us);
       if (index) {
         rec.kept = true;
         rec.video_file_id = cam.video_file_id;
         rec.video_index = index.value();
         cam.in_video.fetch_add(1);
       } else {
-        std::lock_guard lock(cam.failure_mu);
-        cam.failure = index.error().message;
-        spdlog::error("{}", index.error().message);
+        cam.failed_files.push_back(cam.video_file_id);
+        cam.failed.store(true);
+        set_failure(index.error().message);
       }
     }
     if (!rec.kept) rec.reason = "video_write_failed";
@@ -149,18 +244,45 @@ void SessionWriter::encode_loop(Camera& cam) {
   }
 }
 
-std::optional<std::string> SessionWriter::failure() const {
-  if (auto f = index_writer_->failure()) return f;
-  for (const auto& cam : cameras_) {
-    std::lock_guard lock(cam->failure_mu);
-    if (cam->failure) return cam->failure;
+void SessionWriter::set_failure(std::string message) {
+  spdlog::error("{}", message);
+  release_reserve();  // whatever failed, close() must be able to finish what is captured
+  std::lock_guard lock(failure_mu_);
+  if (!failure_) failure_ = std::move(message);
+}
+
+void SessionWriter::release_reserve() {
+  if (!reserve_held_.exchange(false)) return;
+  std::error_code ec;
+  std::filesystem::remove(reserve_path_, ec);
+}
+
+void SessionWriter::watch_free_space() {
+  const std::int64_t min_free = std::int64_t(store_.min_free_mb) * kMiB;
+  std::unique_lock lock(watch_mu_);
+  while (!watch_cv_.wait_for(lock, std::chrono::milliseconds(250), [this] { return watch_stop_; })) {
+    const std::int64_t free = free_bytes(dir_);
+    if (free >= 0 && free < min_free) {
+      set_failure(fmt::format("{}: the disk is nearly full ({} MB free, store.min_free_mb is {}): stopping so that "
+                              "everything captured so far is kept",
+                              dir_.string(), free / kMiB, store_.min_free_mb));
+      return;
+    }
   }
-  return std::nullopt;
+}
+
+std::optional<std::string> SessionWriter::failure() const {
+  if (auto f = index_writer_->failure()) {
+    const_cast<SessionWriter*>(this)->release_reserve();
+    return f;
+  }
+  std::lock_guard lock(failure_mu_);
+  return failure_;
 }
 
 CameraStoreStats SessionWriter::camera_stats(std::int64_t device_id) const {
   for (const auto& cam : cameras_)
-    if (cam->device_id == device_id) return {cam->in_video.load(), cam->encoder_drops.load()};
+    if (cam->device_id == device_id) return {cam->in_video.load(), cam->encoder_drops.load(), cam->segments.load()};
   return {};
 }
 
@@ -168,14 +290,46 @@ Status SessionWriter::close(const std::string& end_reason) {
   if (closed_) return {};
   closed_ = true;
   Status result;
+  {
+    std::lock_guard lock(watch_mu_);
+    watch_stop_ = true;
+  }
+  watch_cv_.notify_all();
+  if (watcher_.joinable()) watcher_.join();
+  const bool storage_failed = failure().has_value();
+  if (storage_failed) release_reserve();
   for (auto& cam : cameras_) cam->queue.close();
   for (auto& cam : cameras_) {
     if (cam->thread.joinable()) cam->thread.join();
-    if (Status s = cam->video->close(); !s.ok() && result.ok()) result = s;
+    if (!cam->failed.load()) {
+      const std::int64_t frames = cam->video->frames_written();
+      if (Status s = cam->video->close(); !s.ok()) {
+        cam->failed_files.push_back(cam->video_file_id);
+        if (result.ok()) result = s;
+      } else {
+        index_writer_->push(VideoFileClosed{cam->video_file_id, frames});
+      }
+    } else {
+      (void)cam->video->close();  // best effort: its tail may be cut; reconciled below
+    }
   }
   index_writer_->stop();
   if (auto f = index_writer_->failure(); f && result.ok()) result = Error{*f};
-  if (finalizer_ && !index_writer_->failure()) {
+  std::lock_guard lock(failure_mu_);
+  if (failure_ && result.ok()) result = Error{*failure_};
+  // A segment whose writing failed holds fewer frames than were handed to it: the index is made
+  // to say so, frame by frame, from what the file really holds.
+  for (auto& cam : cameras_)
+    for (const std::int64_t id : cam->failed_files) {
+      try {
+        const auto r = reconcile_video_file(*index_, dir_, id, "video_write_failed", "failed");
+        spdlog::warn("{}: {} frames readable; {} indexed frames after them were not written", r.path, r.frames_in_file,
+                     r.rows_marked_lost);
+      } catch (const std::exception& e) {
+        spdlog::error("{}: {}", dir_.string(), e.what());
+      }
+    }
+  if (finalizer_ && !storage_failed) {
     try {
       sqlite::Transaction tx(index_->db());
       finalizer_(*index_);
@@ -194,6 +348,7 @@ Status SessionWriter::close(const std::string& end_reason) {
   } catch (const sqlite::SqliteError& e) {
     if (result.ok()) result = Error{e.what()};
   }
+  release_reserve();
   return result;
 }
 

@@ -1,15 +1,23 @@
 #pragma once
 // The writing side of a session store: one new directory per session holding
-// session.db (the index) and one video per camera. Facade over the index,
-// its writer thread and one encoder thread per camera.
+// session.db (the index) and each camera's video in segments. Facade over the
+// index, its writer thread and one encoder thread per camera.
 //
-// Life cycle: create() -> add_camera() for each camera -> start() -> record_*()
-// and submit_video() from the capture pipeline (never waits) -> close().
-// A session directory is never reused: create() fails rather than overwrite.
+// Life cycle: create() -> add_camera() for each camera, set_participant() etc.
+// -> start() -> record_*() and submit_video() from the capture pipeline (never
+// waits) -> close(). A session directory is never reused: create() fails rather
+// than overwrite.
+//
+// Running out of disk: a watcher stops the session (failure()) when free space
+// drops below store.min_free_mb; if the disk fills anyway, the space reserve
+// (store.reserve_mb, a file made at create()) is freed so that close() can still
+// finish every video and the index, and what made it to disk stays readable.
 #include <atomic>
+#include <condition_variable>
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -29,6 +37,7 @@ namespace pvcap {
 struct CameraStoreStats {
   std::uint64_t frames_in_video = 0;
   std::uint64_t encoder_drops = 0;   // kept frames the encoder could not take in time
+  std::uint64_t segments = 0;
 };
 
 class SessionWriter {
@@ -38,19 +47,25 @@ class SessionWriter {
                                                        std::int64_t started_wall_ns, std::int64_t started_host_ns);
   ~SessionWriter();
 
-  // Registers a camera and its video; returns its device id in the index.
+  // Registers a camera and opens its first video segment; returns its device id in the index.
   Result<std::int64_t> add_camera(const DeviceRecord& device, int width, int height);
+  // Registers a non-video device (the Sensel); returns its device id.
+  Result<std::int64_t> add_device(const DeviceRecord& device);
+  // Session conditions and calibrations, written before start().
+  Status set_participant(const ParticipantRecord& p);
+  Status set_conditions(const ConditionsRecord& c);
+  Result<std::int64_t> add_calibration(const CalibrationRecord& c);
   void start();
 
   // Index records (any thread, never waits).
   void record(FrameRecord frame) { index_writer_->push(std::move(frame)); }
   void record(DropRecord drop) { index_writer_->push(std::move(drop)); }
   void record(PressureRecord pressure) { index_writer_->push(std::move(pressure)); }
-  // Registers a non-video device (the Sensel); returns its device id.
-  Result<std::int64_t> add_device(const DeviceRecord& device);
   void record(EventRecord event) { index_writer_->push(std::move(event)); }
   void record(SampleRecord sample) { index_writer_->push(std::move(sample)); }
   void record(ClockModelRecord clock) { index_writer_->push(std::move(clock)); }
+  void record(ProtocolEventRecord event) { index_writer_->push(std::move(event)); }
+  void record(OperatorNoteRecord note) { index_writer_->push(std::move(note)); }
   // Written at close (the timeline's tallies: groups, missed ticks, unpaired samples by reason).
   void add_timeline_count(std::string what, std::uint64_t count) { timeline_counts_.emplace_back(std::move(what), count); }
   // Queues a kept frame for its camera's video. False (and nothing queued) when the
@@ -58,7 +73,7 @@ class SessionWriter {
   bool submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecord frame);
 
   void add_stream_stats(const StreamStatsRecord& stats) { stream_stats_.push_back(stats); }
-  // Set when storage failed (disk full, encoder error): capture should stop.
+  // Set when storage failed or the disk is nearly full: capture should stop.
   std::optional<std::string> failure() const;
 
   // Runs on the finished index at close, before the session is marked ended, in its own
@@ -76,6 +91,10 @@ class SessionWriter {
   SessionWriter() = default;
   struct Camera;
   void encode_loop(Camera& cam);
+  Status open_segment(Camera& cam, std::int64_t first_pts_us, bool direct);
+  void set_failure(std::string message);
+  void watch_free_space();
+  void release_reserve();
 
   std::filesystem::path dir_;
   std::int64_t started_host_ns_ = 0;
@@ -83,10 +102,20 @@ class SessionWriter {
   std::optional<SessionIndex> index_;
   std::unique_ptr<IndexWriter> index_writer_;
   std::vector<std::unique_ptr<Camera>> cameras_;
+  std::atomic<std::int64_t> next_video_file_id_{1};
   std::vector<StreamStatsRecord> stream_stats_;
   std::vector<std::pair<std::string, std::uint64_t>> timeline_counts_;
   std::function<void(SessionIndex&)> finalizer_;
   bool closed_ = false;
+
+  std::filesystem::path reserve_path_;
+  std::atomic<bool> reserve_held_{false};
+  mutable std::mutex failure_mu_;
+  std::optional<std::string> failure_;  // the writer's own (video, free space); the index's is its own
+  std::thread watcher_;
+  std::mutex watch_mu_;
+  std::condition_variable watch_cv_;
+  bool watch_stop_ = false;
 };
 
 }  // namespace pvcap

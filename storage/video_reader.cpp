@@ -60,6 +60,8 @@ Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
     if (rc == 0) {
       const AVRational tb = im.fmt->streams[im.stream]->time_base;
       pts_ms = av_rescale_q(im.frame->best_effort_timestamp, tb, AVRational{1, 1000});
+      last_pts_ms_ = pts_ms;
+      if (im.frame->key_frame) last_key_pts_ms_ = pts_ms;
       im.sws = sws_getCachedContext(im.sws, im.frame->width, im.frame->height, AVPixelFormat(im.frame->format),
                                     im.frame->width, im.frame->height, AV_PIX_FMT_BGR24, SWS_POINT, nullptr, nullptr,
                                     nullptr);
@@ -89,6 +91,39 @@ Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
       av_packet_unref(im.packet);
     }
   }
+}
+
+Result<bool> VideoReader::read_at(std::int64_t pts_ms, cv::Mat& bgr, std::int64_t tolerance_ms) {
+  Impl& im = *impl_;
+  const AVRational tb = im.fmt->streams[im.stream]->time_base;
+  auto seek = [&](std::int64_t ts, int flags) {
+    if (av_seek_frame(im.fmt, im.stream, ts, flags) < 0) return false;
+    avcodec_flush_buffers(im.dec);
+    im.draining = false;
+    last_pts_ms_ = INT64_MIN;
+    return true;
+  };
+  auto decode_up_to = [&]() -> Result<bool> {
+    std::int64_t at = 0;
+    for (;;) {
+      auto more = next(bgr, at);
+      if (!more) return more.error();
+      if (!more.value()) return false;
+      if (at >= pts_ms - tolerance_ms) return at <= pts_ms + tolerance_ms;
+    }
+  };
+  // Ahead within about a GOP of where decoding stands: read on. Anything else: seek.
+  const bool ahead = last_pts_ms_ != INT64_MIN && pts_ms > last_pts_ms_ + tolerance_ms &&
+                     pts_ms - last_pts_ms_ <= 1000 && !im.draining;
+  if (ahead) return decode_up_to();
+  if (seek(av_rescale_q(pts_ms - tolerance_ms, AVRational{1, 1000}, tb), AVSEEK_FLAG_BACKWARD)) {
+    auto found = decode_up_to();
+    if (!found || found.value()) return found;
+  }
+  // A file without an index (cut by a crash) may seek past the frame: read it from the start.
+  if (!seek(INT64_MIN, AVSEEK_FLAG_BACKWARD | AVSEEK_FLAG_ANY))
+    return Error{fmt::format("{}: cannot seek to {} ms", path_.string(), pts_ms)};
+  return decode_up_to();
 }
 
 Result<bool> VideoReader::next_packet(std::int64_t& pts_ms, bool& key) {

@@ -68,6 +68,7 @@ void Statement::reset() {
   sqlite3_clear_bindings(stmt_);
 }
 std::int64_t Statement::column_int(int c) const { return sqlite3_column_int64(stmt_, c); }
+double Statement::column_double(int c) const { return sqlite3_column_double(stmt_, c); }
 std::string Statement::column_text(int c) const {
   const auto* t = sqlite3_column_text(stmt_, c);
   return t ? std::string(reinterpret_cast<const char*>(t)) : std::string();
@@ -112,5 +113,6 @@ int Database::user_version() {
 }
 void Database::set_user_version(int v) { exec(fmt::format("PRAGMA user_version={}", v)); }
 std::int64_t Database::last_insert_rowid() const { return sqlite3_last_insert_rowid(db_); }
+std::int64_t Database::changes() const { return sqlite3_changes64(db_); }
 
 }  // namespace pvcap::sqlite

@@ -59,6 +59,7 @@ class Statement {
   void reset();
 
   std::int64_t column_int(int col) const;
+  double column_double(int col) const;
   std::string column_text(int col) const;
   bool column_null(int col) const;
   std::vector<std::uint8_t> column_blob(int col) const;
@@ -84,6 +85,7 @@ class Database {
   int user_version();
   void set_user_version(int v);
   std::int64_t last_insert_rowid() const;
+  std::int64_t changes() const;  // rows changed by the last statement
   const std::filesystem::path& path() const { return path_; }
 
  private:

@@ -90,13 +90,16 @@ RecordedSession record(const std::string& test_name, const std::string& rig_yaml
     c.truth = read_truth(s.dir / "sim-truth" / (c.name + "_frames.csv"));
     auto f = db.prepare(
         "SELECT connection, sequence, frame_id, device_ns, host_ns, status, coalesce(reason, ''), kept, "
-        "coalesce(video_index, -1) "
+        "coalesce(video_index, -1), coalesce(video_file_id, -1) "
         "FROM frames WHERE device_id = ? ORDER BY host_ns");
     f.bind(1, c.device_id);
     while (f.step())
       c.frames.push_back({std::uint32_t(f.column_int(0)), std::uint64_t(f.column_int(1)), std::uint64_t(f.column_int(2)),
                           f.column_int(3), f.column_int(4), f.column_text(5), f.column_text(6), f.column_int(7) != 0,
-                          f.column_int(8)});
+                          f.column_int(8), f.column_int(9)});
+    auto v = db.prepare("SELECT id, path FROM video_files WHERE device_id = ? ORDER BY segment");
+    v.bind(1, c.device_id);
+    while (v.step()) c.videos.emplace_back(v.column_int(0), s.dir / v.column_text(1));
     auto d = db.prepare("SELECT first_sequence, count, reason FROM drops WHERE device_id = ?");
     d.bind(1, c.device_id);
     while (d.step()) c.drops.push_back({std::uint64_t(d.column_int(0)), std::uint64_t(d.column_int(1)), d.column_text(2)});

@@ -38,6 +38,7 @@ struct IndexFrame {
   std::string status, reason;
   bool kept;
   std::int64_t video_index;  // -1 when not in the video
+  std::int64_t video_file_id = -1;
 };
 struct DropRange {
   std::uint64_t first_sequence, count;
@@ -49,6 +50,7 @@ struct CameraRecord {
   std::vector<TruthFrame> truth;
   std::vector<IndexFrame> frames;  // in arrival order
   std::vector<DropRange> drops;
+  std::vector<std::pair<std::int64_t, std::filesystem::path>> videos;  // (video file id, path) by segment
 };
 
 struct RecordedSession {

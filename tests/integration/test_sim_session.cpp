@@ -89,45 +89,48 @@ struct VideoCheck {
 // Decodes the camera's video and checks each frame against its index row and the truth.
 VideoCheck check_video(const fs::path& session, const CameraRecord& c) {
   VideoCheck v;
-  std::map<std::int64_t, const IndexFrame*> by_video_index;
+  std::map<std::pair<std::int64_t, std::int64_t>, const IndexFrame*> by_video_index;  // (file, position)
   for (const auto& f : c.frames)
-    if (f.kept) by_video_index[f.video_index] = &f;
+    if (f.kept) by_video_index[{f.video_file_id, f.video_index}] = &f;
   std::map<Key, std::int64_t> true_time;
   for (const auto& t : c.truth) true_time[{t.frame_id, t.device_ns}] = t.true_ns;
-  auto reader = pvcap::VideoReader::open(session / (c.name + ".mkv"));
-  EXPECT_TRUE(reader) << (reader ? "" : reader.error().message);
-  if (!reader) return v;
-  cv::Mat img;
-  std::int64_t pts_ms = 0;
-  for (std::int64_t n = 0;; ++n) {
-    auto more = reader.value()->next(img, pts_ms);
-    if (!more || !more.value()) break;
-    ++v.decoded;
-    auto row = by_video_index.find(n);
-    if (row == by_video_index.end()) {
-      ADD_FAILURE() << c.name << ": video frame " << n << " has no index row";
-      continue;
+  EXPECT_FALSE(c.videos.empty()) << c.name << " has no video file in " << session;
+  for (const auto& [file_id, path] : c.videos) {
+    auto reader = pvcap::VideoReader::open(path);
+    EXPECT_TRUE(reader) << (reader ? "" : reader.error().message);
+    if (!reader) return v;
+    cv::Mat img;
+    std::int64_t pts_ms = 0;
+    for (std::int64_t n = 0;; ++n) {
+      auto more = reader.value()->next(img, pts_ms);
+      if (!more || !more.value()) break;
+      ++v.decoded;
+      auto row = by_video_index.find({file_id, n});
+      if (row == by_video_index.end()) {
+        ADD_FAILURE() << c.name << ": video frame " << n << " has no index row";
+        continue;
+      }
+      const auto tc = pvcap::sim::read_timecode(img);
+      if (tc && tc->frame_id == row->second->frame_id &&
+          tc->true_ns == true_time[{row->second->frame_id, row->second->device_ns}])
+        ++v.timecode_ok;
+      else
+        ADD_FAILURE() << c.name << ": video frame " << n << " timecode does not match its index row (frame id "
+                      << row->second->frame_id << ", connection " << row->second->connection << ", device_ns "
+                      << row->second->device_ns << "; decoded "
+                      << (tc ? fmt::format("id {} true {}", tc->frame_id, tc->true_ns) : std::string("nothing"))
+                      << ", truth has " << true_time.count({row->second->frame_id, row->second->device_ns}) << ": "
+                      << [&] {
+                           std::string rows;
+                           for (const auto& t : c.truth)
+                             if (t.frame_id == row->second->frame_id)
+                               rows += fmt::format("[device {} true {}] ", t.device_ns, t.true_ns);
+                           return rows;
+                         }()
+                      << ")";
+      if (pvcap::sim::frame_stripe_mismatches(img, std::uint16_t(row->second->frame_id)) == 0) ++v.stripe_ok;
+      else ADD_FAILURE() << c.name << ": video frame " << n << " holds pixels of another frame (corrupted)";
     }
-    const auto tc = pvcap::sim::read_timecode(img);
-    if (tc && tc->frame_id == row->second->frame_id &&
-        tc->true_ns == true_time[{row->second->frame_id, row->second->device_ns}])
-      ++v.timecode_ok;
-    else
-      ADD_FAILURE() << c.name << ": video frame " << n << " timecode does not match its index row (frame id "
-                    << row->second->frame_id << ", connection " << row->second->connection << ", device_ns "
-                    << row->second->device_ns << "; decoded "
-                    << (tc ? fmt::format("id {} true {}", tc->frame_id, tc->true_ns) : std::string("nothing"))
-                    << ", truth has " << true_time.count({row->second->frame_id, row->second->device_ns}) << ": "
-                    << [&] {
-                         std::string rows;
-                         for (const auto& t : c.truth)
-                           if (t.frame_id == row->second->frame_id)
-                             rows += fmt::format("[device {} true {}] ", t.device_ns, t.true_ns);
-                         return rows;
-                       }()
-                    << ")";
-    if (pvcap::sim::frame_stripe_mismatches(img, std::uint16_t(row->second->frame_id)) == 0) ++v.stripe_ok;
-    else ADD_FAILURE() << c.name << ": video frame " << n << " holds pixels of another frame (corrupted)";
   }
   return v;
 }
@@ -344,7 +347,7 @@ TEST(SimSession, SenselIsStoredAtFullRateWithItsDeviceAndArrivalTimes) {
   const cv::Matx33d h(hv.data());
   const cv::Vec3d p = h * cv::Vec3d(100.0, 60.0, 1.0);  // the press point of sim_rig_yaml's Sensel
   const cv::Point px(int(std::lround(p[0] / p[2])), int(std::lround(p[1] / p[2])));
-  auto reader = pvcap::VideoReader::open(s.dir / "cam0.mkv");
+  auto reader = pvcap::VideoReader::open(s.dir / "cam0-000.mkv");
   ASSERT_TRUE(reader);
   cv::Mat img;
   std::int64_t pts = 0;

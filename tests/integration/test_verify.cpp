@@ -19,18 +19,18 @@ TEST(Verify, ARecordingVerifiesAndDamageIsNamed) {
 
   auto ok = run_pvcap(fmt::format("--log-level warn verify {}", s.dir.string()));
   EXPECT_TRUE(ok.exit_code == 0 || ok.exit_code == 3) << ok.output;  // 3: a frame lost on a busy machine
-  EXPECT_NE(ok.output.find("cam0.mkv:"), std::string::npos) << ok.output;
+  EXPECT_NE(ok.output.find("cam0-000.mkv:"), std::string::npos) << ok.output;
   EXPECT_NE(ok.output.find("pressure frames:"), std::string::npos) << ok.output;
   EXPECT_EQ(ok.output.find("ERROR"), std::string::npos) << ok.output;
 
   // A video cut short after a clean end: indexed frames are missing, named with the file.
   const auto copy = s.dir.parent_path() / "damaged";
   fs::copy(s.dir, copy, fs::copy_options::recursive | fs::copy_options::copy_symlinks);
-  const auto video = copy / "cam1.mkv";
+  const auto video = copy / "cam1-000.mkv";
   fs::resize_file(video, fs::file_size(video) / 2);
   auto cut = run_pvcap(fmt::format("--log-level warn verify {}", copy.string()));
   EXPECT_EQ(cut.exit_code, 1) << cut.output;
-  EXPECT_NE(cut.output.find("ERROR: cam1.mkv"), std::string::npos) << cut.output;
+  EXPECT_NE(cut.output.find("ERROR: cam1-000.mkv"), std::string::npos) << cut.output;
 
   // A foreign file where the index should be.
   std::ofstream(copy / "session.db", std::ios::trunc) << "this is not a database, it is a shopping list\n";

@@ -1,0 +1,31 @@
+#pragma once
+// The session index's schema and its migrations. PRAGMA user_version is the schema
+// version; docs/store.md documents every table of the current one. A store written
+// by an older pvcap is upgraded step by step (1 -> 2 -> 3), each step in its own
+// transaction, so an interrupted upgrade leaves a consistent older version behind.
+#include <filesystem>
+#include <vector>
+
+#include "storage/sqlite/database.h"
+
+namespace pvcap {
+
+// 1: frames, pressure frames, drops, events (pvcap 0.1)
+// 2: mapped times, 15 Hz samples, clock models, timeline counts
+// 3: participant, conditions, calibrations, protocol events, operator notes, pressure counts
+//    (zlib), video segments with their state
+inline constexpr int kSchemaVersion = 3;
+
+// Creates the current schema in an empty database.
+void create_schema(sqlite::Database& db);
+
+// Upgrades an older index to kSchemaVersion; returns the versions it passed through
+// (empty when already current). Throws SqliteError naming the database on failure,
+// and for an index newer than this pvcap or one that is not a session index.
+std::vector<int> migrate_schema(sqlite::Database& db);
+
+// Copies session.db (with its -wal, if any) to `<db>.v<N>.bak` before an upgrade, so
+// an upgrade never costs the original. Returns the copy's path.
+std::filesystem::path back_up_before_migration(const std::filesystem::path& db_path, int version);
+
+}  // namespace pvcap

@@ -1,0 +1,345 @@
+#include "storage/session_reader.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "storage/pressure_blob.h"
+#include "storage/sqlite/database.h"
+#include "storage/video_reader.h"
+
+namespace pvcap {
+
+namespace {
+constexpr int kMaxGridSide = 1024;       // the Morph's grids are at most 185 x 105: anything bigger is damage
+constexpr std::size_t kMaxOpenVideos = 16;
+
+// Everything below turns SQLite's exceptions into an Error naming the store.
+template <typename F>
+auto guarded(const std::filesystem::path& dir, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const sqlite::SqliteError& e) {
+    return Error{fmt::format("{}: {}", dir.string(), e.what())};
+  } catch (const std::exception& e) {
+    return Error{fmt::format("{}: {}", dir.string(), e.what())};
+  }
+}
+
+std::string text_or_empty(const sqlite::Statement& q, int col) { return q.column_null(col) ? "" : q.column_text(col); }
+std::optional<std::int64_t> opt_int(const sqlite::Statement& q, int col) {
+  return q.column_null(col) ? std::nullopt : std::optional<std::int64_t>(q.column_int(col));
+}
+}  // namespace
+
+cv::Mat PressureFrame::image() const {
+  cv::Mat m(grid_rows, grid_cols, CV_32F);
+  for (int i = 0; i < grid_rows * grid_cols && std::size_t(i) < counts.size(); ++i) m.at<float>(i) = float(counts[i]);
+  return m;
+}
+
+SessionReader::~SessionReader() = default;
+
+Result<std::unique_ptr<SessionReader>> SessionReader::open(const std::filesystem::path& dir) {
+  const auto db_path = dir / "session.db";
+  if (!std::filesystem::is_regular_file(db_path))
+    return Error{fmt::format("{}: not a session folder (no session.db)", dir.string())};
+  std::unique_ptr<SessionReader> r(new SessionReader());
+  r->dir_ = dir;
+  auto loaded = guarded(dir, [&]() -> Status {
+    r->db_ = std::make_unique<sqlite::Database>(db_path, sqlite::Database::Mode::ReadOnly);
+    auto& db = *r->db_;
+    const int version = db.user_version();
+    if (version != kSchemaVersion)
+      return Error{version >= 1 && version < kSchemaVersion
+                       ? fmt::format("{}: store version {} was written by an older pvcap: 'pvcap migrate {}' "
+                                     "upgrades it",
+                                     db_path.string(), version, dir.string())
+                       : fmt::format("{}: store version {} is not one this pvcap reads ({})", db_path.string(),
+                                     version, kSchemaVersion)};
+    SessionInfo& in = r->info_;
+    in.schema_version = version;
+    auto s = db.prepare("SELECT started_wall_ns, started_host_ns, ended_host_ns, end_reason, pvcap_version, rig_name, "
+                        "rig_config, simulated FROM session");
+    if (!s.step()) return Error{fmt::format("{}: holds no session", db_path.string())};
+    in.started_wall_ns = s.column_int(0);
+    in.started_host_ns = s.column_int(1);
+    in.ended_host_ns = opt_int(s, 2);
+    in.end_reason = text_or_empty(s, 3);
+    in.pvcap_version = text_or_empty(s, 4);
+    in.rig_name = text_or_empty(s, 5);
+    in.rig_config = text_or_empty(s, 6);
+    in.simulated = s.column_int(7) != 0;
+    if (auto p = db.prepare("SELECT pseudonym, skin_tone, hand_order FROM participant"); p.step())
+      in.participant = ParticipantRecord{p.column_text(0), p.column_text(1), p.column_text(2)};
+    if (auto c = db.prepare("SELECT lighting, sensor_overlay FROM conditions"); c.step())
+      in.conditions = ConditionsRecord{c.column_text(0), c.column_text(1)};
+    auto cams = db.prepare(
+        "SELECT d.id, d.name, d.serial, v.width, v.height FROM devices d JOIN video_files v ON v.device_id = d.id "
+        "WHERE d.kind = 'camera' GROUP BY d.id ORDER BY d.id");
+    while (cams.step()) {
+      CameraInfo c{cams.column_int(0), cams.column_text(1), text_or_empty(cams, 2), int(cams.column_int(3)),
+                   int(cams.column_int(4))};
+      if (c.width <= 0 || c.height <= 0 || c.width > 16384 || c.height > 16384)
+        return Error{fmt::format("{}: camera {} has an impossible size {}x{}", db_path.string(), c.name, c.width,
+                                 c.height)};
+      r->cameras_.push_back(std::move(c));
+    }
+    if (auto p = db.prepare("SELECT id, name, serial FROM devices WHERE kind = 'sensel' ORDER BY id"); p.step())
+      r->pressure_device_ = PressureDeviceInfo{p.column_int(0), p.column_text(1), text_or_empty(p, 2)};
+    auto samples = db.prepare("SELECT id, t_ns FROM samples ORDER BY id");
+    while (samples.step()) {
+      r->sample_ids_.push_back(std::uint64_t(samples.column_int(0)));
+      r->sample_times_.push_back(samples.column_int(1));
+    }
+    return {};
+  });
+  if (!loaded.ok()) return loaded.error();
+  return r;
+}
+
+Result<SampleInfo> SessionReader::sample_info(std::size_t i) {
+  if (i >= sample_ids_.size())
+    return Error{fmt::format("{}: no sample {} (the session has {})", dir_.string(), i, sample_ids_.size())};
+  return guarded(dir_, [&]() -> Result<SampleInfo> {
+    SampleInfo s;
+    auto q = db_->prepare(
+        "SELECT id, tick, tick_ns, t_ns, span_ns, pressure_sequence, pressure_offset_ns, before_sequence, "
+        "before_offset_ns, after_sequence, after_offset_ns FROM samples WHERE id = ?");
+    q.bind_all(std::int64_t(sample_ids_[i]));
+    if (!q.step()) return Error{fmt::format("{}: sample {} vanished from the index", dir_.string(), i)};
+    s.index = std::uint64_t(q.column_int(0));
+    s.tick = q.column_int(1);
+    s.tick_ns = q.column_int(2);
+    s.t_ns = q.column_int(3);
+    s.span_ns = q.column_int(4);
+    auto ref = [&](int col) -> std::optional<SampleInfo::PressureRef> {
+      if (q.column_null(col)) return std::nullopt;
+      return SampleInfo::PressureRef{std::uint64_t(q.column_int(col)), q.column_int(col + 1)};
+    };
+    s.pressure = ref(5);
+    s.before = ref(7);
+    s.after = ref(9);
+    auto f = db_->prepare(
+        "SELECT sf.device_id, sf.connection, sf.sequence, sf.offset_ns, f.kept, f.reason FROM sample_frames sf "
+        "LEFT JOIN frames f USING (device_id, connection, sequence) WHERE sf.sample_id = ? ORDER BY sf.device_id");
+    f.bind_all(std::int64_t(s.index));
+    while (f.step())
+      s.cameras.push_back({f.column_int(0), std::uint32_t(f.column_int(1)), std::uint64_t(f.column_int(2)),
+                           f.column_int(3), !f.column_null(4) && f.column_int(4) == 1,
+                           f.column_null(4) ? "no frame row" : text_or_empty(f, 5)});
+    return s;
+  });
+}
+
+Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c) {
+  return guarded(dir_, [&]() -> Result<cv::Mat> {
+    auto q = db_->prepare(
+        "SELECT f.video_file_id, f.host_ns, v.path FROM frames f JOIN video_files v ON v.id = f.video_file_id "
+        "WHERE f.device_id = ? AND f.connection = ? AND f.sequence = ? AND f.kept = 1");
+    q.bind_all(c.device_id, std::int64_t(c.connection), c.sequence);
+    if (!q.step()) return Error{fmt::format("{}: frame {} of device {} is not in a video", dir_.string(), c.sequence,
+                                            c.device_id)};
+    const std::int64_t file_id = q.column_int(0);
+    const std::int64_t us = (q.column_int(1) - info_.started_host_ns) / 1000;
+    const std::int64_t pts_ms = (us + (us >= 0 ? 500 : -500)) / 1000;  // as the writer stored it
+    const std::string rel = q.column_text(2);
+    if (rel.empty() || rel.find("..") != std::string::npos || rel.front() == '/')
+      return Error{fmt::format("{}: video path '{}' leaves the session folder", dir_.string(), rel)};
+    auto it = videos_.find(file_id);
+    if (it == videos_.end()) {
+      if (videos_.size() >= kMaxOpenVideos) videos_.erase(videos_.begin());
+      auto opened = VideoReader::open(dir_ / rel);
+      if (!opened) return opened.error();
+      it = videos_.emplace(file_id, std::move(opened.value())).first;
+    }
+    cv::Mat bgr;
+    auto found = it->second->read_at(pts_ms, bgr);
+    if (!found) return found.error();
+    if (!found.value())
+      return Error{fmt::format("{}: no frame at {} ms in {}", dir_.string(), pts_ms, (dir_ / rel).string())};
+    return bgr;
+  });
+}
+
+Result<PressureFrame> SessionReader::pressure_frame(std::uint64_t sequence, std::uint32_t connection) {
+  if (!pressure_device_) return Error{fmt::format("{}: the session has no pressure sensor", dir_.string())};
+  return guarded(dir_, [&]() -> Result<PressureFrame> {
+    auto q = db_->prepare(
+        "SELECT sequence, device_ns, host_ns, mapped_ns, grid_cols, grid_rows, grid_xscale, grid_yscale, base, counts "
+        "FROM pressure_frames WHERE device_id = ? AND connection = ? AND sequence = ?");
+    q.bind_all(pressure_device_->device_id, std::int64_t(connection), sequence);
+    if (!q.step()) return Error{fmt::format("{}: no pressure frame {}", dir_.string(), sequence)};
+    PressureFrame p;
+    p.sequence = std::uint64_t(q.column_int(0));
+    p.device_ns = q.column_int(1);
+    p.host_ns = q.column_int(2);
+    p.mapped_ns = opt_int(q, 3);
+    p.grid_cols = int(q.column_int(4));
+    p.grid_rows = int(q.column_int(5));
+    p.grid_xscale = int(q.column_int(6));
+    p.grid_yscale = int(q.column_int(7));
+    if (p.grid_cols <= 0 || p.grid_rows <= 0 || p.grid_cols > kMaxGridSide || p.grid_rows > kMaxGridSide)
+      return Error{fmt::format("{}: pressure frame {} has an impossible grid {}x{}", dir_.string(), sequence,
+                               p.grid_cols, p.grid_rows)};
+    if (q.column_null(9)) return Error{fmt::format("{}: pressure frame {} carries no pressure image", dir_.string(), sequence)};
+    p.base = std::uint16_t(q.column_int(8));
+    auto counts = decompress_counts(q.column_blob(9), std::size_t(p.grid_cols) * std::size_t(p.grid_rows));
+    if (!counts) return Error{fmt::format("{}: pressure frame {}: {}", dir_.string(), sequence, counts.error().message)};
+    p.counts = std::move(counts.value());
+    return p;
+  });
+}
+
+Result<Sample> SessionReader::sample(std::size_t i, PressureMode mode) {
+  auto info = sample_info(i);
+  if (!info) return info.error();
+  Sample s;
+  s.info = std::move(info.value());
+  s.images.resize(cameras_.size());
+  for (const auto& c : s.info.cameras) {
+    const auto cam = std::find_if(cameras_.begin(), cameras_.end(), [&](const auto& k) { return k.device_id == c.device_id; });
+    if (cam == cameras_.end() || !c.in_video) continue;  // not stored: the caller sees an empty image and c.reason
+    auto image = camera_image(c);
+    if (!image) return image.error();
+    s.images[std::size_t(cam - cameras_.begin())] = std::move(image.value());
+  }
+  if (s.info.pressure) {
+    auto p = pressure_frame(s.info.pressure->sequence);
+    if (!p) return p.error();
+    s.pressure = std::move(p.value());
+    s.pressure_image = s.pressure->image();
+    if (mode == PressureMode::Interpolated && s.info.before && s.info.after &&
+        s.info.after->offset_ns > s.info.before->offset_ns) {
+      auto a = pressure_frame(s.info.before->sequence);
+      auto b = pressure_frame(s.info.after->sequence);
+      if (a && b && a.value().counts.size() == b.value().counts.size() && a.value().grid_cols == b.value().grid_cols) {
+        // Weight of the later frame: where the sample's instant (offset 0) lies between the two.
+        const double w = double(-s.info.before->offset_ns) / double(s.info.after->offset_ns - s.info.before->offset_ns);
+        cv::addWeighted(a.value().image(), 1.0 - std::clamp(w, 0.0, 1.0), b.value().image(), std::clamp(w, 0.0, 1.0),
+                        0.0, s.pressure_image);
+      }
+    }
+  }
+  return s;
+}
+
+Result<std::size_t> SessionReader::sample_at(std::int64_t t_ns) const {
+  if (sample_times_.empty()) return Error{fmt::format("{}: the session has no samples", dir_.string())};
+  // Sample times increase with their index (one per tick); nearest by binary search.
+  const auto it = std::lower_bound(sample_times_.begin(), sample_times_.end(), t_ns);
+  std::size_t i = std::size_t(it - sample_times_.begin());
+  if (i == sample_times_.size()) return i - 1;
+  if (i > 0 && std::llabs(sample_times_[i - 1] - t_ns) <= std::llabs(sample_times_[i] - t_ns)) --i;
+  return i;
+}
+
+Result<std::vector<ProtocolEventRecord>> SessionReader::protocol_events() {
+  return guarded(dir_, [&]() -> Result<std::vector<ProtocolEventRecord>> {
+    std::vector<ProtocolEventRecord> out;
+    auto q = db_->prepare(
+        "SELECT host_ns, kind, step, action, hand, force, repetition, detail FROM protocol_events ORDER BY host_ns, id");
+    while (q.step())
+      out.push_back({q.column_int(0), q.column_text(1), opt_int(q, 2), text_or_empty(q, 3), text_or_empty(q, 4),
+                     text_or_empty(q, 5), opt_int(q, 6), text_or_empty(q, 7)});
+    return out;
+  });
+}
+
+Result<std::vector<ActionSpan>> SessionReader::actions() {
+  auto events = protocol_events();
+  if (!events) return events.error();
+  std::vector<ActionSpan> out;
+  std::optional<ActionSpan> open;
+  const std::int64_t session_end = info_.ended_host_ns.value_or(sample_times_.empty() ? 0 : sample_times_.back() + 1);
+  auto close = [&](std::int64_t end) {
+    if (!open) return;
+    open->end_ns = end;
+    open->first_sample = std::size_t(std::lower_bound(sample_times_.begin(), sample_times_.end(), open->start_ns) -
+                                     sample_times_.begin());
+    open->end_sample =
+        std::size_t(std::lower_bound(sample_times_.begin(), sample_times_.end(), end) - sample_times_.begin());
+    out.push_back(*open);
+    open.reset();
+  };
+  for (const auto& e : events.value()) {
+    if (e.kind == "action_start") {
+      close(e.host_ns);  // a start without an end closes the one before
+      open = ActionSpan{e.step, e.action, e.hand, e.force, e.repetition, e.host_ns, 0, 0, 0};
+    } else if (e.kind == "action_end") {
+      close(e.host_ns);
+    }
+  }
+  close(std::max(session_end, open ? open->start_ns : 0));
+  return out;
+}
+
+Result<std::vector<EventRecord>> SessionReader::events() {
+  return guarded(dir_, [&]() -> Result<std::vector<EventRecord>> {
+    std::vector<EventRecord> out;
+    auto q = db_->prepare("SELECT host_ns, kind, device_id, message FROM events ORDER BY host_ns");
+    while (q.step()) out.push_back({q.column_int(0), q.column_text(1), opt_int(q, 2), text_or_empty(q, 3)});
+    return out;
+  });
+}
+
+Result<std::vector<OperatorNoteRecord>> SessionReader::operator_notes() {
+  return guarded(dir_, [&]() -> Result<std::vector<OperatorNoteRecord>> {
+    std::vector<OperatorNoteRecord> out;
+    auto q = db_->prepare("SELECT host_ns, text FROM operator_notes ORDER BY host_ns");
+    while (q.step()) out.push_back({q.column_int(0), q.column_text(1)});
+    return out;
+  });
+}
+
+Result<std::vector<CalibrationRecord>> SessionReader::calibrations() {
+  return guarded(dir_, [&]() -> Result<std::vector<CalibrationRecord>> {
+    std::vector<CalibrationRecord> out;
+    auto q = db_->prepare(
+        "SELECT device_id, created_wall_ns, method, homography, rms_px, rms_mm, details_json FROM calibrations ORDER "
+        "BY id");
+    while (q.step()) {
+      CalibrationRecord c{q.column_int(0), q.column_int(1), q.column_text(2), q.column_text(3), {}, {},
+                          text_or_empty(q, 6)};
+      if (!q.column_null(4)) c.rms_px = q.column_double(4);
+      if (!q.column_null(5)) c.rms_mm = q.column_double(5);
+      out.push_back(std::move(c));
+    }
+    return out;
+  });
+}
+
+Result<std::vector<StreamStatistics>> SessionReader::stream_statistics() {
+  return guarded(dir_, [&]() -> Result<std::vector<StreamStatistics>> {
+    std::vector<StreamStatistics> out;
+    auto d = db_->prepare("SELECT id, name, kind FROM devices ORDER BY id");
+    while (d.step()) out.push_back({d.column_int(0), d.column_text(1), d.column_text(2), 0, 0, 0, {}, 0});
+    for (auto& s : out) {
+      const bool camera = s.kind == "camera";
+      auto n = db_->prepare(camera ? "SELECT count(*), coalesce(sum(kept), 0), min(host_ns), max(host_ns) FROM frames "
+                                     "WHERE device_id = ?"
+                                   : "SELECT count(*), 0, min(host_ns), max(host_ns) FROM pressure_frames WHERE "
+                                     "device_id = ?");
+      n.bind_all(s.device_id);
+      if (n.step()) {
+        s.frames = std::uint64_t(n.column_int(0));
+        s.in_video = std::uint64_t(n.column_int(1));
+        const double span_s = double(n.column_int(3) - n.column_int(2)) / 1e9;
+        if (s.frames > 1 && span_s > 0) s.mean_rate_hz = double(s.frames - 1) / span_s;
+      }
+      auto dr = db_->prepare("SELECT coalesce(sum(count), 0) FROM drops WHERE device_id = ?");
+      dr.bind_all(s.device_id);
+      if (dr.step()) s.dropped = std::uint64_t(dr.column_int(0));
+      if (camera) {
+        auto r = db_->prepare("SELECT coalesce(reason, ''), count(*) FROM frames WHERE device_id = ? AND kept = 0 GROUP "
+                              "BY reason");
+        r.bind_all(s.device_id);
+        while (r.step()) s.not_kept[r.column_text(0)] = std::uint64_t(r.column_int(1));
+      }
+    }
+    return out;
+  });
+}
+
+}  // namespace pvcap

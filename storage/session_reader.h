@@ -1,0 +1,155 @@
+#pragma once
+// Reading a session store (C++): the API the replay, calibration and export tools use.
+//
+//   auto r = SessionReader::open(dir);            // Error for a missing, foreign, damaged or
+//   for (std::size_t i = 0; i < r->sample_count(); ++i) {   // newer/older store; never a crash
+//     auto s = r->sample(i, PressureMode::Interpolated);
+//     s->images[c] ...  s->pressure->counts ...
+//   }
+//
+// Samples are the 15 Hz dataset samples: one camera frame per camera for one instant on the
+// session clock (CLOCK_MONOTONIC ns of the recording host, as every *_ns column), and the
+// pressure frames around it. Read-only: a reader never changes a store.
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "core/result.h"
+#include "storage/session_index.h"
+
+namespace pvcap {
+
+namespace sqlite {
+class Database;
+}
+class VideoReader;
+
+struct SessionInfo {
+  int schema_version = 0;
+  std::int64_t started_wall_ns = 0, started_host_ns = 0;
+  std::optional<std::int64_t> ended_host_ns;  // empty: the recording did not end cleanly
+  std::string end_reason, pvcap_version, rig_name, rig_config;
+  bool simulated = false;
+  std::optional<ParticipantRecord> participant;
+  std::optional<ConditionsRecord> conditions;
+};
+
+struct CameraInfo {
+  std::int64_t device_id = 0;
+  std::string name, serial;
+  int width = 0, height = 0;
+};
+
+struct PressureDeviceInfo {
+  std::int64_t device_id = 0;
+  std::string name, serial;
+};
+
+// One pressure frame at full rate: raw counts on the device's native grid (row-major).
+struct PressureFrame {
+  std::uint64_t sequence = 0;
+  std::int64_t device_ns = 0, host_ns = 0;
+  std::optional<std::int64_t> mapped_ns;
+  int grid_cols = 0, grid_rows = 0, grid_xscale = 0, grid_yscale = 0;
+  std::uint16_t base = 0;
+  std::vector<std::uint16_t> counts;
+  cv::Mat image() const;  // CV_32F grid_rows x grid_cols view of the counts (a copy)
+};
+
+struct SampleCamera {
+  std::int64_t device_id = 0;
+  std::uint32_t connection = 0;
+  std::uint64_t sequence = 0;
+  std::int64_t offset_ns = 0;  // the frame's mapped time minus the sample's
+  bool in_video = false;       // false: its pixels were not stored (reason says why)
+  std::string reason;
+};
+
+struct SampleInfo {
+  std::uint64_t index = 0;
+  std::int64_t tick = 0, tick_ns = 0, t_ns = 0, span_ns = 0;
+  std::vector<SampleCamera> cameras;  // in the order of cameras() (absent cameras missing)
+  struct PressureRef {
+    std::uint64_t sequence = 0;
+    std::int64_t offset_ns = 0;
+  };
+  std::optional<PressureRef> pressure, before, after;  // nearest; the neighbours around t_ns
+};
+
+enum class PressureMode {
+  Nearest,       // the frame nearest the sample's instant
+  Interpolated,  // linear between the frames before and after it (nearest when one is missing)
+};
+
+struct Sample {
+  SampleInfo info;
+  std::vector<cv::Mat> images;  // BGR per cameras() entry; empty where the sample has no stored frame
+  std::optional<PressureFrame> pressure;  // the nearest frame, as recorded
+  cv::Mat pressure_image;  // CV_32F native grid: the nearest frame's counts, or interpolated ones
+};
+
+struct ActionSpan {
+  std::optional<std::int64_t> step;
+  std::string action, hand, force;
+  std::optional<std::int64_t> repetition;
+  std::int64_t start_ns = 0, end_ns = 0;  // end: the action's end event, or the session's end
+  std::size_t first_sample = 0, end_sample = 0;  // samples in [start_ns, end_ns): [first, end)
+};
+
+struct StreamStatistics {
+  std::int64_t device_id = 0;
+  std::string name, kind;
+  std::uint64_t frames = 0;  // rows stored (camera: every received frame; sensel: every frame)
+  std::uint64_t in_video = 0;
+  std::uint64_t dropped = 0;  // never arrived (drops table)
+  std::map<std::string, std::uint64_t> not_kept;  // camera frames not in a video, by reason
+  double mean_rate_hz = 0;
+};
+
+class SessionReader {
+ public:
+  static Result<std::unique_ptr<SessionReader>> open(const std::filesystem::path& session_dir);
+  ~SessionReader();
+  SessionReader(const SessionReader&) = delete;
+  SessionReader& operator=(const SessionReader&) = delete;
+
+  const SessionInfo& info() const { return info_; }
+  const std::vector<CameraInfo>& cameras() const { return cameras_; }
+  const std::optional<PressureDeviceInfo>& pressure_device() const { return pressure_device_; }
+
+  std::size_t sample_count() const { return sample_times_.size(); }
+  Result<SampleInfo> sample_info(std::size_t i);
+  // Decoded frames of every camera and the pressure, as `mode` asks.
+  Result<Sample> sample(std::size_t i, PressureMode mode = PressureMode::Nearest);
+  // The sample nearest `t_ns` on the session clock (info().started_host_ns + seconds * 1e9).
+  Result<std::size_t> sample_at(std::int64_t t_ns) const;
+  Result<PressureFrame> pressure_frame(std::uint64_t sequence, std::uint32_t connection = 0);
+
+  // Protocol actions (action_start .. action_end events) with the samples they span.
+  Result<std::vector<ActionSpan>> actions();
+  Result<std::vector<ProtocolEventRecord>> protocol_events();
+  Result<std::vector<EventRecord>> events();
+  Result<std::vector<OperatorNoteRecord>> operator_notes();
+  Result<std::vector<CalibrationRecord>> calibrations();
+  Result<std::vector<StreamStatistics>> stream_statistics();
+
+ private:
+  SessionReader() = default;
+  Result<cv::Mat> camera_image(const SampleCamera& c);
+  std::filesystem::path dir_;
+  std::unique_ptr<sqlite::Database> db_;
+  SessionInfo info_;
+  std::vector<CameraInfo> cameras_;
+  std::optional<PressureDeviceInfo> pressure_device_;
+  std::vector<std::int64_t> sample_times_;  // t_ns by position (samples ordered by id)
+  std::vector<std::uint64_t> sample_ids_;
+  std::map<std::int64_t, std::unique_ptr<VideoReader>> videos_;  // by video file id, opened on use
+};
+
+}  // namespace pvcap

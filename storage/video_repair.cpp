@@ -1,0 +1,104 @@
+#include "storage/video_repair.h"
+
+extern "C" {
+#include <libavcodec/avcodec.h>
+#include <libavformat/avformat.h>
+}
+
+#include <fmt/format.h>
+
+#include "storage/video_reader.h"
+
+namespace pvcap {
+
+Result<std::int64_t> count_video_frames(const std::filesystem::path& path) {
+  auto reader = VideoReader::open(path);
+  if (!reader) return reader.error();
+  std::int64_t n = 0, pts = 0;
+  bool key = false;
+  for (;;) {
+    auto more = reader.value()->next_packet(pts, key);
+    if (!more || !more.value()) break;  // a cut tail ends the count
+    ++n;
+  }
+  return n;
+}
+
+ReconcileResult reconcile_video_file(SessionIndex& index, const std::filesystem::path& session_dir, std::int64_t id,
+                                     std::string_view reason, std::string_view state) {
+  auto& db = index.db();
+  auto q = db.prepare("SELECT path FROM video_files WHERE id = ?");
+  q.bind_all(id);
+  if (!q.step()) throw sqlite::SqliteError(0, fmt::format("{}: no video file {} in the index", db.path().string(), id));
+  ReconcileResult r;
+  r.path = q.column_text(0);
+  auto counted = count_video_frames(session_dir / r.path);
+  r.frames_in_file = counted ? counted.value() : 0;
+  sqlite::Transaction tx(db);
+  db.prepare("UPDATE frames SET kept = 0, reason = ?, video_index = NULL WHERE video_file_id = ? AND kept = 1 AND "
+             "video_index >= ?")
+      .bind_all(reason, id, r.frames_in_file)
+      .run();
+  r.rows_marked_lost = db.changes();
+  auto rows = db.prepare("SELECT count(*) FROM frames WHERE video_file_id = ? AND kept = 1");
+  rows.bind_all(id);
+  rows.step();
+  r.frames_without_row = r.frames_in_file - rows.column_int(0);
+  db.prepare("UPDATE video_files SET state = ?, frames = ? WHERE id = ?").bind_all(state, r.frames_in_file, id).run();
+  tx.commit();
+  return r;
+}
+
+namespace {
+struct Demuxer {
+  AVFormatContext* ctx = nullptr;
+  ~Demuxer() { avformat_close_input(&ctx); }
+};
+struct Muxer {
+  AVFormatContext* ctx = nullptr;
+  ~Muxer() {
+    if (!ctx) return;
+    if (ctx->pb) avio_closep(&ctx->pb);
+    avformat_free_context(ctx);
+  }
+};
+struct Packet {
+  AVPacket* p = av_packet_alloc();
+  ~Packet() { av_packet_free(&p); }
+};
+}  // namespace
+
+Status remux_prefix(const std::filesystem::path& from, const std::filesystem::path& to, std::int64_t frames) {
+  const std::string where = from.string();
+  Demuxer in;
+  if (avformat_open_input(&in.ctx, from.c_str(), nullptr, nullptr) < 0 || avformat_find_stream_info(in.ctx, nullptr) < 0)
+    return Error{fmt::format("{}: not a readable video file", where)};
+  const int stream = av_find_best_stream(in.ctx, AVMEDIA_TYPE_VIDEO, -1, -1, nullptr, 0);
+  if (stream < 0) return Error{fmt::format("{}: no video stream", where)};
+  Muxer out;
+  if (avformat_alloc_output_context2(&out.ctx, nullptr, "matroska", to.c_str()) < 0)
+    return Error{fmt::format("{}: cannot create a Matroska file", to.string())};
+  AVStream* os = avformat_new_stream(out.ctx, nullptr);
+  avcodec_parameters_copy(os->codecpar, in.ctx->streams[stream]->codecpar);
+  os->time_base = in.ctx->streams[stream]->time_base;
+  if (avio_open(&out.ctx->pb, to.c_str(), AVIO_FLAG_WRITE) < 0)
+    return Error{fmt::format("{}: cannot create the file", to.string())};
+  if (avformat_write_header(out.ctx, nullptr) < 0) return Error{fmt::format("{}: cannot write a header", to.string())};
+  Packet pkt;
+  for (std::int64_t n = 0; n < frames;) {
+    if (av_read_frame(in.ctx, pkt.p) < 0) break;
+    if (pkt.p->stream_index == stream) {
+      av_packet_rescale_ts(pkt.p, in.ctx->streams[stream]->time_base, os->time_base);
+      pkt.p->stream_index = os->index;
+      pkt.p->pos = -1;
+      if (av_interleaved_write_frame(out.ctx, pkt.p) < 0) return Error{fmt::format("{}: cannot write", to.string())};
+      ++n;
+    }
+    av_packet_unref(pkt.p);
+  }
+  if (av_write_trailer(out.ctx) < 0) return Error{fmt::format("{}: cannot finish the file", to.string())};
+  if (avio_closep(&out.ctx->pb) < 0) return Error{fmt::format("{}: cannot close the file", to.string())};
+  return {};
+}
+
+}  // namespace pvcap
