@@ -1,6 +1,7 @@
 // pvcap: capture and synchronization for visual hand-pressure datasets.
 // Thin: parses the command line, wires modules, runs. See docs/ for the user guide.
 #include <signal.h>
+#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -131,6 +132,12 @@ int cmd_devices(bool json, const std::vector<std::string>& extra_ttys) {
 }
 
 int cmd_sim(const pvcap::RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration) {
+  // Started by a recording: end with it, even when it is killed (no orphaned simulator holding the rig).
+  if (getppid() != 1) {
+    const pid_t parent = getppid();
+    prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (getppid() != parent) return 0;  // the parent died before the request took
+  }
   auto made = pvcap::sim::SimRig::create(rig, truth);
   if (!made) throw pvcap::UserError(made.error().message);
   fmt::print(stderr, "pvcap sim: serving {} cameras; pid {} (inspect with: nsenter --net=/proc/{}/ns/net "

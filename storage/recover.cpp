@@ -47,25 +47,31 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
     if (!passed.empty()) report.done.push_back(describe_migration(passed, db_path));
     auto& db = index.db();
 
-    auto s = db.prepare("SELECT ended_host_ns IS NULL FROM session");
-    if (!s.step()) return Error{fmt::format("{}: holds no session", db_path.string())};
-    report.was_interrupted = s.column_int(0) != 0;
+    {
+      auto s = db.prepare("SELECT ended_host_ns IS NULL FROM session");
+      if (!s.step()) return Error{fmt::format("{}: holds no session", db_path.string())};
+      report.was_interrupted = s.column_int(0) != 0;
+    }  // statements end before the checkpoint below, which needs no reader open
 
     struct Open {
       std::int64_t id;
       std::string path;
     };
     std::vector<Open> open;
-    auto q = db.prepare("SELECT id, path FROM video_files WHERE state = 'open' ORDER BY id");
-    while (q.step()) open.push_back({q.column_int(0), q.column_text(1)});
+    {
+      auto q = db.prepare("SELECT id, path FROM video_files WHERE state = 'open' ORDER BY id");
+      while (q.step()) open.push_back({q.column_int(0), q.column_text(1)});
+    }
 
     for (const auto& v : open) {
       if (progress) progress(fmt::format("closing {}", v.path));
       const fs::path file = dir / v.path;
-      auto rows = db.prepare("SELECT count(*) FROM frames WHERE video_file_id = ? AND kept = 1");
-      rows.bind_all(v.id);
-      rows.step();
-      const std::int64_t indexed = rows.column_int(0);
+      std::int64_t indexed = 0;
+      {
+        auto rows = db.prepare("SELECT count(*) FROM frames WHERE video_file_id = ? AND kept = 1");
+        rows.bind_all(v.id);
+        if (rows.step()) indexed = rows.column_int(0);
+      }
       auto on_disk = count_video_frames(file);
       if (!on_disk) {  // nothing readable (cut before its first cluster): rows say so, the file stays
         const auto r = reconcile_video_file(index, dir, v.id, "lost_at_interruption", "unreadable");
@@ -104,8 +110,8 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
       auto last = db.prepare(
           "SELECT max(t) FROM (SELECT max(host_ns) AS t FROM frames UNION ALL SELECT max(host_ns) FROM pressure_frames "
           "UNION ALL SELECT started_host_ns FROM session)");
-      last.step();
-      const std::int64_t end = last.column_int(0);
+      const std::int64_t end = last.step() ? last.column_int(0) : 0;
+      last.reset();
       sqlite::Transaction tx(db);
       db.prepare("UPDATE session SET ended_host_ns = ?, end_reason = ?")
           .bind_all(end, fmt::format("interrupted; recovered by pvcap {}", kVersion))

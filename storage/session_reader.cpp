@@ -271,7 +271,8 @@ Result<std::vector<ActionSpan>> SessionReader::actions() {
       close(e.host_ns);
     }
   }
-  close(std::max(session_end, open ? open->start_ns : 0));
+  // An action still open runs to the end of the data (the session's end, or its last sample).
+  close(std::max({session_end, open ? open->start_ns : 0, sample_times_.empty() ? 0 : sample_times_.back() + 1}));
   return out;
 }
 

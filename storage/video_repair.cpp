@@ -27,11 +27,13 @@ Result<std::int64_t> count_video_frames(const std::filesystem::path& path) {
 ReconcileResult reconcile_video_file(SessionIndex& index, const std::filesystem::path& session_dir, std::int64_t id,
                                      std::string_view reason, std::string_view state) {
   auto& db = index.db();
-  auto q = db.prepare("SELECT path FROM video_files WHERE id = ?");
-  q.bind_all(id);
-  if (!q.step()) throw sqlite::SqliteError(0, fmt::format("{}: no video file {} in the index", db.path().string(), id));
   ReconcileResult r;
-  r.path = q.column_text(0);
+  {
+    auto q = db.prepare("SELECT path FROM video_files WHERE id = ?");
+    q.bind_all(id);
+    if (!q.step()) throw sqlite::SqliteError(0, fmt::format("{}: no video file {} in the index", db.path().string(), id));
+    r.path = q.column_text(0);
+  }
   auto counted = count_video_frames(session_dir / r.path);
   r.frames_in_file = counted ? counted.value() : 0;
   sqlite::Transaction tx(db);
@@ -40,10 +42,11 @@ ReconcileResult reconcile_video_file(SessionIndex& index, const std::filesystem:
       .bind_all(reason, id, r.frames_in_file)
       .run();
   r.rows_marked_lost = db.changes();
-  auto rows = db.prepare("SELECT count(*) FROM frames WHERE video_file_id = ? AND kept = 1");
-  rows.bind_all(id);
-  rows.step();
-  r.frames_without_row = r.frames_in_file - rows.column_int(0);
+  {
+    auto rows = db.prepare("SELECT count(*) FROM frames WHERE video_file_id = ? AND kept = 1");
+    rows.bind_all(id);
+    if (rows.step()) r.frames_without_row = r.frames_in_file - rows.column_int(0);
+  }
   db.prepare("UPDATE video_files SET state = ?, frames = ? WHERE id = ?").bind_all(state, r.frames_in_file, id).run();
   tx.commit();
   return r;

@@ -112,7 +112,9 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   rc = avio_open(&im.fmt->pb, path.c_str(), AVIO_FLAG_WRITE);
   if (rc < 0) return Error{fmt::format("{}: cannot create the video file: {}", where, av_error(rc))};
   AVDictionary* mux = nullptr;
-  av_dict_set(&mux, "cluster_time_limit", "1000", 0);  // close a cluster every second: crash loses <= 1 s
+  // A cluster reaches the file when the next one begins: closing one every half second keeps what a
+  // crash can take (the open cluster plus the frames still queued) under a second.
+  av_dict_set(&mux, "cluster_time_limit", "500", 0);
   im.fmt->flags |= AVFMT_FLAG_FLUSH_PACKETS;
   rc = avformat_write_header(im.fmt, &mux);
   av_dict_free(&mux);

@@ -2,7 +2,7 @@
 // One camera's video file, written with FFmpeg's libraries (the libav* edge).
 // Each frame carries its real timestamp (never a configured rate); no B-frames,
 // parameter sets on every key frame and a GOP of at most a second, so any frame
-// is one seek away; Matroska clusters are flushed every second, so a crash
+// is one seek away; Matroska clusters are written every half second, so a crash
 // loses at most the last second of video.
 #include <cstdint>
 #include <filesystem>

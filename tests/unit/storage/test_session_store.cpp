@@ -1,0 +1,331 @@
+// The session store end to end without devices: written by SessionWriter (segments, FFV1 so
+// pixels compare exactly), read back by SessionReader, checked by verify, damaged and recovered,
+// and older schemas upgraded.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "app/verify_session.h"
+#include "capture/sensel_frame.h"
+#include "core/rig_config.h"
+#include "core/time.h"
+#include "storage/pressure_blob.h"
+#include "storage/recover.h"
+#include "storage/session_reader.h"
+#include "storage/session_writer.h"
+#include "storage/sqlite/database.h"
+
+namespace fs = std::filesystem;
+using namespace pvcap;
+
+namespace {
+
+fs::path temp_root(const std::string& name) {
+  const auto d = fs::temp_directory_path() / ("pvcap-test-store-" + name + "-" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  return d;
+}
+
+cv::Mat noise_frame(int camera, int i) {
+  cv::Mat m(48, 64, CV_8UC3);
+  cv::RNG rng(std::uint64_t(camera * 100000 + i + 1));
+  rng.fill(m, cv::RNG::UNIFORM, 0, 256);
+  return m;
+}
+
+std::vector<std::uint16_t> pressure_counts(int i) {
+  std::vector<std::uint16_t> c(std::size_t(sensel::kMediumDetail.cells()), 0);
+  for (int k = 0; k < 40; ++k) c[std::size_t((i * 7 + k * 13) % c.size())] = std::uint16_t(10 + i + k);
+  return c;
+}
+
+std::vector<std::uint8_t> pressure_payload(int i, const std::vector<std::uint16_t>& counts) {
+  sensel::Frame f;
+  f.content = sensel::kPressure;
+  f.counter = std::uint8_t(i);
+  f.timestamp_us = std::uint32_t(i * 8000);
+  f.pressure = sensel::PressureImage{3, counts};
+  return sensel::encode_frame(f);
+}
+
+// A store of `seconds` at 15 Hz: two cameras (segments of 1 s), pressure at 125 Hz, one sample per
+// camera frame pair, protocol events around two actions, notes, a calibration.
+struct WrittenStore {
+  fs::path dir;
+  std::int64_t t0 = 0;
+  std::vector<std::int64_t> cams;
+  int samples = 0;
+};
+
+WrittenStore write_store(const fs::path& root, double seconds) {
+  WrittenStore out;
+  const auto rig = parse_rig_config(
+      "name: store-test\ncameras:\n  - {name: camA, address: 10.0.0.1}\n  - {name: camB, address: 10.0.0.2}\n"
+      "store: {video_codec: ffv1, video_pixel_format: bgr0, segment_seconds: 1, min_free_mb: 0, reserve_mb: 1}\n",
+      "store-test.yaml");
+  out.t0 = host_now().ns;
+  auto w = SessionWriter::create(root, rig, wall_now_ns(), out.t0);
+  EXPECT_TRUE(w) << w.error().message;
+  auto& writer = *w.value();
+  for (const char* name : {"camA", "camB"}) {
+    auto id = writer.add_camera(DeviceRecord{"camera", name, "v", "m", std::string("S-") + name, "a", "f", "{}"}, 64, 48);
+    EXPECT_TRUE(id) << id.error().message;
+    out.cams.push_back(id.value());
+  }
+  const std::int64_t sensel = writer.add_device(DeviceRecord{"sensel", "sensel", "Sensel", "Morph", "SM1", "tty", "1", "{}"}).value();
+  EXPECT_TRUE(writer.set_participant({"P017", "medium", "left_first"}).ok());
+  EXPECT_TRUE(writer.set_conditions({"L-R", "white_vinyl"}).ok());
+  EXPECT_TRUE(writer.add_calibration({out.cams[0], 123, "fiducials", "[[1,0,0],[0,1,0],[0,0,1]]", 0.4, 0.3, "{}"}));
+  writer.start();
+
+  const std::int64_t frame_ns = 66'666'667, pressure_ns = 8'000'000;
+  const int frames = int(seconds * 15);
+  for (int p = 0; p * pressure_ns < std::int64_t(seconds * 1e9) + 100'000'000; ++p) {
+    const auto counts = pressure_counts(p);
+    PressureRecord r{sensel, 0, std::uint64_t(p), 0, p * pressure_ns, out.t0 + p * pressure_ns, 1000, 47, 27, 4, 4,
+                     pressure_payload(p, counts), out.t0 + p * pressure_ns};
+    r.base = 3;
+    r.counts = counts;
+    writer.record(std::move(r));
+  }
+  for (int i = 0; i < frames; ++i) {
+    const std::int64_t t = out.t0 + 10'000'000 + i * frame_ns;
+    SampleRecord s{std::uint64_t(i), i, t, t, 0, {}, {}, {}, {}};
+    for (std::size_t c = 0; c < out.cams.size(); ++c) {
+      FrameRecord f{out.cams[c], 0, std::uint64_t(i), std::uint64_t(i), i * 1000, t, 0, "good", false, "", {}, {}, t};
+      EXPECT_TRUE(writer.submit_video(out.cams[c], noise_frame(int(c), i), f));
+      s.cameras.push_back({out.cams[c], 0, std::uint64_t(i), 0});
+    }
+    // Pressure frames at k * 8 ms; the sample at 10 ms + i * 66.67 ms lies between two of them.
+    const std::int64_t rel = t - out.t0;
+    const std::uint64_t before = std::uint64_t(rel / pressure_ns);
+    s.pressure_before = SampleFrameRef{sensel, 0, before, std::int64_t(before) * pressure_ns - rel};
+    s.pressure_after = SampleFrameRef{sensel, 0, before + 1, std::int64_t(before + 1) * pressure_ns - rel};
+    s.pressure = std::llabs(s.pressure_before->offset_ns) <= s.pressure_after->offset_ns ? s.pressure_before
+                                                                                        : s.pressure_after;
+    writer.record(std::move(s));
+    ++out.samples;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));  // keep the encoder queues short
+  }
+  writer.record(ProtocolEventRecord{out.t0 + 200'000'000, "action_start", 1, "press_index", "right", "high", 3, ""});
+  writer.record(ProtocolEventRecord{out.t0 + 900'000'000, "action_end", 1, "press_index", "right", "high", 3, ""});
+  writer.record(ProtocolEventRecord{out.t0 + 1'000'000'000, "action_start", 2, "flat_palm", "right", "low", 3, ""});
+  writer.record(OperatorNoteRecord{out.t0 + 500'000'000, "participant sneezed"});
+  out.dir = writer.dir();
+  EXPECT_TRUE(writer.close("test").ok());
+  return out;
+}
+
+}  // namespace
+
+TEST(PressureBlob, RoundTripsAndRejectsDamage) {
+  const auto counts = pressure_counts(5);
+  const auto blob = compress_counts(counts);
+  EXPECT_LT(blob.size(), counts.size() * 2 / 4) << "mostly-zero images compress";
+  auto back = decompress_counts(blob, counts.size());
+  ASSERT_TRUE(back) << back.error().message;
+  EXPECT_EQ(back.value(), counts);
+  EXPECT_FALSE(decompress_counts(blob, counts.size() + 1)) << "a grid of another size is refused";
+  EXPECT_FALSE(decompress_counts(std::vector<std::uint8_t>(blob.begin(), blob.begin() + long(blob.size() / 2)), counts.size()));
+  std::vector<std::uint8_t> junk = {1, 2, 3, 4, 5};
+  EXPECT_FALSE(decompress_counts(junk, counts.size()));
+}
+
+TEST(SessionStore, WrittenInSegmentsAndReadBackExactly) {
+  const auto root = temp_root("rw");
+  const auto st = write_store(root, 2.5);
+
+  // Segments of one second, each finished with its frame count.
+  sqlite::Database db(st.dir / "session.db", sqlite::Database::Mode::ReadOnly);
+  auto v = db.prepare("SELECT count(*), sum(state = 'closed'), sum(frames) FROM video_files");
+  ASSERT_TRUE(v.step());
+  EXPECT_GE(v.column_int(0), 6) << "2.5 s in 1 s segments: 3 per camera";
+  EXPECT_EQ(v.column_int(1), v.column_int(0));
+  EXPECT_EQ(v.column_int(2), 2 * st.samples);
+
+  auto r = SessionReader::open(st.dir);
+  ASSERT_TRUE(r) << r.error().message;
+  auto& reader = *r.value();
+  EXPECT_EQ(reader.info().participant->pseudonym, "P017");
+  EXPECT_EQ(reader.info().participant->hand_order, "left_first");
+  EXPECT_EQ(reader.info().conditions->sensor_overlay, "white_vinyl");
+  ASSERT_EQ(reader.cameras().size(), 2u);
+  EXPECT_EQ(reader.cameras()[1].name, "camB");
+  ASSERT_EQ(reader.sample_count(), std::size_t(st.samples));
+
+  // Every sample: both cameras' pixels exactly as written, the pressure nearest and interpolated.
+  for (std::size_t i = 0; i < reader.sample_count(); ++i) {
+    auto s = reader.sample(i, PressureMode::Interpolated);
+    ASSERT_TRUE(s) << s.error().message;
+    for (int c = 0; c < 2; ++c) {
+      ASSERT_FALSE(s.value().images[std::size_t(c)].empty()) << "sample " << i << " camera " << c;
+      EXPECT_EQ(cv::norm(s.value().images[std::size_t(c)], noise_frame(c, int(i)), cv::NORM_INF), 0)
+          << "sample " << i << " camera " << c;
+    }
+    ASSERT_TRUE(s.value().pressure);
+    EXPECT_EQ(s.value().pressure->counts, pressure_counts(int(s.value().info.pressure->sequence)));
+    const auto& b = *s.value().info.before;
+    const auto& a = *s.value().info.after;
+    const double w = double(-b.offset_ns) / double(a.offset_ns - b.offset_ns);
+    const auto cb = pressure_counts(int(b.sequence)), ca = pressure_counts(int(a.sequence));
+    for (std::size_t k = 0; k < cb.size(); k += 97)
+      EXPECT_NEAR(s.value().pressure_image.at<float>(int(k)), (1 - w) * cb[k] + w * ca[k], 1e-3);
+  }
+  // Random access backwards after sequential reading still lands on the right frame.
+  for (std::size_t i : {std::size_t(30), std::size_t(3), std::size_t(17), std::size_t(0)}) {
+    auto s = reader.sample(i);
+    ASSERT_TRUE(s);
+    EXPECT_EQ(cv::norm(s.value().images[0], noise_frame(0, int(i)), cv::NORM_INF), 0) << i;
+  }
+
+  // By time and by action.
+  const std::int64_t t20 = st.t0 + 10'000'000 + 20 * 66'666'667;
+  EXPECT_EQ(reader.sample_at(t20 + 20'000'000).value(), 20u);
+  EXPECT_EQ(reader.sample_at(st.t0 - 5'000'000'000).value(), 0u);
+  auto actions = reader.actions();
+  ASSERT_TRUE(actions);
+  ASSERT_EQ(actions.value().size(), 2u);
+  EXPECT_EQ(actions.value()[0].action, "press_index");
+  EXPECT_EQ(actions.value()[0].first_sample, 3u);   // first sample at or after 200 ms: 10 + 3 * 66.7 ms
+  EXPECT_EQ(actions.value()[0].end_sample, 14u);    // first at or after 900 ms
+  EXPECT_EQ(actions.value()[1].action, "flat_palm");
+  EXPECT_EQ(actions.value()[1].end_sample, reader.sample_count()) << "an open action runs to the session's end";
+  EXPECT_EQ(reader.operator_notes().value().at(0).text, "participant sneezed");
+  EXPECT_EQ(reader.calibrations().value().at(0).method, "fiducials");
+  auto stats = reader.stream_statistics();
+  ASSERT_TRUE(stats);
+  EXPECT_EQ(stats.value()[0].frames, std::uint64_t(st.samples));
+  EXPECT_EQ(stats.value()[0].in_video, std::uint64_t(st.samples));
+  EXPECT_NEAR(stats.value()[2].mean_rate_hz, 125.0, 0.5);
+
+  const auto report = verify_session(st.dir);
+  EXPECT_EQ(report.exit_code(), 0) << format_report(st.dir, report);
+  EXPECT_FALSE(reader.sample(reader.sample_count()));
+  fs::remove_all(root);
+}
+
+TEST(SessionStore, RecoverClosesACutSegmentAndMarksWhatWasLost) {
+  const auto root = temp_root("recover");
+  const auto st = write_store(root, 2.5);
+  // As a kill leaves it: the last segment of camB still open and cut, the session without an end.
+  std::string last;
+  {
+    sqlite::Database db(st.dir / "session.db", sqlite::Database::Mode::ReadWrite);
+    auto q = db.prepare("SELECT id, path FROM video_files WHERE device_id = ? ORDER BY segment DESC LIMIT 1");
+    q.bind_all(st.cams[1]);
+    ASSERT_TRUE(q.step());
+    last = q.column_text(1);
+    db.prepare("UPDATE video_files SET state = 'open', frames = NULL WHERE id = ?").bind_all(q.column_int(0)).run();
+    db.exec("UPDATE session SET ended_host_ns = NULL, end_reason = NULL");
+  }
+  fs::resize_file(st.dir / last, fs::file_size(st.dir / last) * 6 / 10);
+  const auto before = verify_session(st.dir);
+  EXPECT_EQ(before.exit_code(), 3) << format_report(st.dir, before);
+
+  auto rec = recover_session(st.dir);
+  ASSERT_TRUE(rec) << rec.error().message;
+  EXPECT_TRUE(rec.value().was_interrupted);
+  EXPECT_TRUE(fs::exists(st.dir / (last.substr(0, last.size() - 4) + ".interrupted.mkv"))) << "the original is kept";
+  const auto after = verify_session(st.dir);
+  EXPECT_EQ(after.exit_code(), 3) << format_report(st.dir, after);
+  for (const auto& e : after.errors) ADD_FAILURE() << e;
+
+  // Every sample is readable: camB's lost frames show as missing images with their reason.
+  auto r = SessionReader::open(st.dir);
+  ASSERT_TRUE(r) << r.error().message;
+  int lost = 0;
+  for (std::size_t i = 0; i < r.value()->sample_count(); ++i) {
+    auto s = r.value()->sample(i);
+    ASSERT_TRUE(s) << s.error().message;
+    EXPECT_EQ(cv::norm(s.value().images[0], noise_frame(0, int(i)), cv::NORM_INF), 0);
+    if (s.value().images[1].empty()) {
+      ++lost;
+      EXPECT_EQ(s.value().info.cameras[1].reason, "lost_at_interruption");
+    } else {
+      EXPECT_EQ(cv::norm(s.value().images[1], noise_frame(1, int(i)), cv::NORM_INF), 0);
+      EXPECT_EQ(lost, 0) << "frames are lost from the end only";
+    }
+  }
+  EXPECT_GT(lost, 0);
+  EXPECT_LT(lost, 8) << "a cut of 40 % of a 15-frame segment";
+  EXPECT_NE(r.value()->info().end_reason.find("interrupted"), std::string::npos);
+
+  // A second run finds nothing to do.
+  auto again = recover_session(st.dir);
+  ASSERT_TRUE(again);
+  EXPECT_TRUE(again.value().done.empty());
+  fs::remove_all(root);
+}
+
+TEST(SessionStore, ReaderRefusesForeignAndDamagedStoresWithAMessage) {
+  const auto root = temp_root("foreign");
+  fs::create_directories(root / "s");
+  EXPECT_NE(SessionReader::open(root / "s").error().message.find("no session.db"), std::string::npos);
+  std::ofstream(root / "s" / "session.db") << "a shopping list, not a database";
+  auto foreign = SessionReader::open(root / "s");
+  ASSERT_FALSE(foreign);
+  EXPECT_NE(foreign.error().message.find("session.db"), std::string::npos) << foreign.error().message;
+
+  // A real store whose videos are gone and whose pressure blobs are damaged: errors per sample, no crash.
+  const auto st = write_store(root / "real", 1.0);
+  for (const auto& e : fs::directory_iterator(st.dir))
+    if (e.path().extension() == ".mkv") fs::remove(e.path());
+  {
+    sqlite::Database db(st.dir / "session.db", sqlite::Database::Mode::ReadWrite);
+    db.exec("UPDATE pressure_frames SET counts = x'00112233'");
+  }
+  auto r = SessionReader::open(st.dir);
+  ASSERT_TRUE(r) << r.error().message;
+  auto s = r.value()->sample(0);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.error().message.find(".mkv"), std::string::npos) << s.error().message;
+  auto p = r.value()->pressure_frame(0);
+  ASSERT_FALSE(p);
+  EXPECT_NE(p.error().message.find("zlib"), std::string::npos) << p.error().message;
+  fs::remove_all(root);
+}
+
+TEST(SessionStore, OlderSchemasAreMigratedAfterABackup) {
+  const auto root = temp_root("migrate");
+  fs::create_directories(root);
+  const auto path = root / "session.db";
+  {
+    // A store as pvcap 0.1 wrote it (schema 1), with one Sensel frame.
+    sqlite::Database db(path, sqlite::Database::Mode::Create);
+    std::ifstream in(fs::path(PVCAP_SOURCE_DIR) / "tests/unit/storage/schema-v1.sql");
+    std::stringstream sql;
+    sql << in.rdbuf();
+    db.exec(sql.str());
+    db.set_user_version(1);
+    db.exec("INSERT INTO session VALUES (1, 0, 0, 1, 'done', '0.1', 'r', 'r.yaml', 'name: r', 0)");
+    db.exec("INSERT INTO devices VALUES (1, 'sensel', 'sensel', '', '', '', '', '', '{}')");
+    db.prepare("INSERT INTO pressure_frames VALUES (1, 0, 7, 0, 0, 0, 0, 47, 27, 4, 4, ?)")
+        .bind_all(pressure_payload(7, pressure_counts(7)))
+        .run();
+  }
+  std::vector<int> passed;
+  { auto index = SessionIndex::open_for_update(path, &passed); }
+  EXPECT_EQ(passed, (std::vector<int>{2, 3}));
+  EXPECT_TRUE(fs::exists(root / "session.db.v1.bak"));
+  {
+    sqlite::Database backup(root / "session.db.v1.bak", sqlite::Database::Mode::ReadOnly);
+    EXPECT_EQ(backup.user_version(), 1) << "the backup is the store as it was";
+  }
+  auto r = SessionReader::open(root);
+  ASSERT_TRUE(r) << r.error().message;
+  EXPECT_EQ(r.value()->info().schema_version, kSchemaVersion);
+  auto p = r.value()->pressure_frame(7);
+  ASSERT_TRUE(p) << p.error().message;
+  EXPECT_EQ(p.value().counts, pressure_counts(7)) << "counts filled from the device payload";
+
+  // A store from a newer pvcap is refused, not guessed at.
+  {
+    sqlite::Database db(path, sqlite::Database::Mode::ReadWrite);
+    db.set_user_version(kSchemaVersion + 1);
+  }
+  EXPECT_THROW(SessionIndex::open_for_update(path), sqlite::SqliteError);
+  EXPECT_FALSE(SessionReader::open(root));
+  fs::remove_all(root);
+}
