@@ -85,7 +85,15 @@ VerifyReport verify_session(const std::filesystem::path& dir, const std::functio
       while (rows.step()) kept.emplace_back(rows.column_int(0), rows.column_int(1));
       auto reader = VideoReader::open(dir / path);
       if (!reader) {
-        r.errors.push_back(fmt::format("{}: {}", path, reader.error().message));
+        // Cut before its first frame reached the disk: a loss when the recording was interrupted
+        // (recover marks its rows lost), damage otherwise.
+        const bool cut_early = (state == "open" && !clean_end) || state == "unreadable";
+        if (cut_early && kept.empty())
+          r.losses.push_back(fmt::format("{}: holds no readable frame (cut before its first frame was written)", path));
+        else
+          ((cut_early ? r.losses : r.errors))
+              .push_back(fmt::format("{}: {}; {} indexed frames cannot be read", path, reader.error().message,
+                                     kept.size()));
         continue;
       }
       std::size_t n = 0, wrong_time = 0, key_frames = 0;

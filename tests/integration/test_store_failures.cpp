@@ -1,0 +1,190 @@
+// The store under the failures a lab meets: the recording process killed (kill -9 at random
+// moments), and the disk filling up mid-session (a small tmpfs this test mounts).
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <sys/mount.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "core/time.h"
+#include "storage/session_reader.h"
+#include "tests/integration/session_under_test.h"
+
+namespace fs = std::filesystem;
+using pvcap::testing::run_pvcap;
+using pvcap::testing::sim_rig_yaml;
+using namespace std::chrono_literals;
+
+namespace {
+
+std::string with_store(std::string yaml, const std::string& extra) {
+  const std::string at = "  preset: ultrafast\n";
+  yaml.replace(yaml.find(at), at.size(), at + extra);
+  return yaml;
+}
+
+// Starts `pvcap ARGS` with its output going to `log`; returns its pid.
+pid_t spawn_pvcap(const std::string& args, const fs::path& log) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const std::string cmd = fmt::format("exec {} {} > {} 2>&1", PVCAP_BIN, args, log.string());
+    execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  return pid;
+}
+
+std::string read_all(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+bool wait_for_text(const fs::path& log, const std::string& needle, std::chrono::seconds timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < end) {
+    if (read_all(log).find(needle) != std::string::npos) return true;
+    std::this_thread::sleep_for(50ms);
+  }
+  return false;
+}
+
+fs::path only_session(const fs::path& root) {
+  for (const auto& e : fs::directory_iterator(root))
+    if (e.is_directory() && e.path().filename().string()[0] != '.') return e.path();  // not .sim-truth-*
+  return {};
+}
+
+}  // namespace
+
+TEST(StoreCrash, KillNineAtRandomMomentsLosesAtMostTheLastSecond) {
+  std::mt19937 rng(20261122);
+  std::uniform_real_distribution<double> moment(2.0, 6.5);
+  for (int run = 0; run < 3; ++run) {
+    SCOPED_TRACE(fmt::format("run {}", run));
+    const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-kill-{}-{}", getpid(), run);
+    fs::remove_all(work);
+    fs::create_directories(work);
+    // Two-second segments, so kills land in the first, a middle or a fresh segment.
+    std::ofstream(work / "rig.yaml") << with_store(
+        sim_rig_yaml({{}, {}, {}, {}}, 640, 480, 30, 15, "free-run", /*sensel=*/true), "  segment_seconds: 2\n");
+    const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 60", (work / "rig.yaml").string(),
+                                              (work / "sessions").string()),
+                                  work / "log.txt");
+    ASSERT_TRUE(wait_for_text(work / "log.txt", "recording session", 40s)) << read_all(work / "log.txt");
+    const double after_s = moment(rng);
+    std::this_thread::sleep_for(std::chrono::duration<double>(after_s));
+    const std::int64_t killed_ns = pvcap::host_now().ns;
+    ASSERT_EQ(kill(pid, SIGKILL), 0);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFSIGNALED(status));
+    const fs::path dir = only_session(work / "sessions");
+    ASSERT_FALSE(dir.empty());
+
+    // As the kill left it: readable, with losses (an unclean end, open segments), nothing damaged.
+    auto before = run_pvcap(fmt::format("--log-level off verify {}", dir.string()));
+    EXPECT_EQ(before.exit_code, 3) << "killed " << after_s << " s in\n" << before.output;
+    EXPECT_EQ(before.output.find("ERROR"), std::string::npos) << before.output;
+    auto recovered = run_pvcap(fmt::format("--log-level warn recover {}", dir.string()));
+    EXPECT_EQ(recovered.exit_code, 0) << recovered.output;
+    EXPECT_NE(recovered.output.find("the session's end set"), std::string::npos) << recovered.output;
+    auto after = run_pvcap(fmt::format("--log-level off verify {}", dir.string()));
+    EXPECT_EQ(after.exit_code, 3) << after.output;  // lossy: the last moments are gone
+    EXPECT_EQ(after.output.find("ERROR"), std::string::npos) << after.output;
+    EXPECT_NE(after.output.find("interrupted"), std::string::npos) << after.output;
+
+    // Every sample up to a second before the kill is there, with every camera's pixels and pressure.
+    auto reader = pvcap::SessionReader::open(dir);
+    ASSERT_TRUE(reader) << reader.error().message;
+    auto& r = *reader.value();
+    const std::int64_t horizon = killed_ns - 1'000'000'000;
+    std::size_t checked = 0;
+    std::int64_t first_t = 0;
+    for (std::size_t i = 0; i < r.sample_count(); ++i) {
+      auto info = r.sample_info(i);
+      ASSERT_TRUE(info) << info.error().message;
+      if (info.value().t_ns > horizon) break;
+      if (!checked) first_t = info.value().t_ns;
+      auto s = r.sample(i);
+      ASSERT_TRUE(s) << "sample " << i << ": " << s.error().message;
+      for (const auto& c : s.value().info.cameras)
+        EXPECT_NE(c.reason, "lost_at_interruption")
+            << "sample " << i << " at " << (horizon - info.value().t_ns) / 1e6 << " ms before the horizon";
+      EXPECT_TRUE(s.value().pressure) << "sample " << i;
+      ++checked;
+    }
+    const double expected = double(horizon - first_t) / 1e9 * 15;
+    EXPECT_GE(double(checked), 0.9 * expected) << "samples up to a second before the kill";
+    auto stats = r.stream_statistics();
+    ASSERT_TRUE(stats);
+    std::printf("kill after %.2f s: %zu samples before the horizon readable (%.0f expected); recover said:\n%s", after_s,
+                checked, expected, recovered.output.c_str());
+    fs::remove_all(work);
+  }
+}
+
+TEST(StoreDiskFull, AFullDiskStopsTheSessionAndWhatWasWrittenVerifies) {
+  if (geteuid() != 0) GTEST_SKIP() << "mounting the small filesystem this test fills needs root";
+  const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-diskfull-{}", getpid());
+  fs::remove_all(work);
+  const fs::path small = work / "small";
+  fs::create_directories(small);
+  ASSERT_EQ(mount("tmpfs", small.c_str(), "tmpfs", MS_NOSUID | MS_NODEV, "size=24m"), 0) << std::strerror(errno);
+  struct Unmount {
+    fs::path p;
+    ~Unmount() { umount2(p.c_str(), MNT_DETACH); }
+  } unmount{small};
+
+  // 1: no free-space margin: the disk really fills, writes fail with ENOSPC, the space reserve
+  //    lets the store finish. 2: the free-space watch stops the session before anything fails.
+  for (const bool watch : {false, true}) {
+    SCOPED_TRACE(watch ? "free-space watch" : "writes fail");
+    const std::string store = watch ? "  min_free_mb: 8\n  reserve_mb: 2\n" : "  min_free_mb: 0\n  reserve_mb: 3\n";
+    std::ofstream(work / "rig.yaml") << with_store(
+        sim_rig_yaml({{}, {}, {}, {}}, 640, 480, 30, 15, "free-run", /*sensel=*/true), store);
+    const auto t0 = std::chrono::steady_clock::now();
+    auto rec = run_pvcap(fmt::format("session --rig {} --root {} --duration 90", (work / "rig.yaml").string(),
+                                     (small / "sessions").string()));
+    const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    EXPECT_EQ(rec.exit_code, 1) << rec.output;
+    EXPECT_LT(took_s, 80) << "the session stopped when the disk filled, not at its duration";
+    EXPECT_NE(rec.output.find(watch ? "the disk is nearly full" : "No space left on device"), std::string::npos)
+        << rec.output;
+    EXPECT_NE(rec.output.find("storage failed, stopping capture"), std::string::npos) << rec.output;
+    const fs::path dir = only_session(small / "sessions");
+    ASSERT_FALSE(dir.empty());
+
+    auto verify = run_pvcap(fmt::format("--log-level off verify {}", dir.string()));
+    EXPECT_TRUE(verify.exit_code == 0 || verify.exit_code == 3) << verify.output;
+    EXPECT_EQ(verify.output.find("ERROR"), std::string::npos) << verify.output;
+    EXPECT_NE(verify.output.find("ended: storage failure"), std::string::npos) << verify.output;
+
+    auto reader = pvcap::SessionReader::open(dir);
+    ASSERT_TRUE(reader) << reader.error().message;
+    auto& r = *reader.value();
+    EXPECT_GT(r.sample_count(), 15u) << "seconds were recorded before the disk filled";
+    std::size_t images = 0;
+    for (std::size_t i = 0; i < r.sample_count(); ++i) {
+      auto s = r.sample(i);
+      ASSERT_TRUE(s) << "sample " << i << ": " << s.error().message;
+      for (const auto& m : s.value().images) images += !m.empty();
+    }
+    EXPECT_GT(images, 3 * r.sample_count()) << "nearly every sample has its pixels";
+    std::printf("%s: stopped after %.1f s, %zu samples, %zu images readable\n", watch ? "watch" : "ENOSPC", took_s,
+                r.sample_count(), images);
+    fs::remove_all(small / "sessions");
+  }
+  fs::remove_all(work / "rig.yaml");
+}
