@@ -1,0 +1,75 @@
+// libFuzzer target: the store's readers on damaged input. The first byte picks what the rest is:
+// 'D' a session.db (read through SessionReader: every sample, pressure frame, action, event and
+// statistic), 'V' a video file (VideoReader: open, random access, sequential decoding). Any
+// bytes give data or an Error with a message; never a crash, a hang or an exception.
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "storage/session_reader.h"
+#include "storage/video_reader.h"
+
+namespace {
+const std::filesystem::path& scratch() {
+  static const auto dir = [] {
+    auto d = std::filesystem::temp_directory_path() / ("pvcap-fuzz-store-" + std::to_string(getpid()));
+    std::filesystem::create_directories(d);
+    return d;
+  }();
+  return dir;
+}
+
+void write_file(const std::filesystem::path& p, const std::uint8_t* data, std::size_t size) {
+  for (const char* suffix : {"", "-wal", "-shm", "-journal"}) std::filesystem::remove(p.string() + suffix);
+  std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(data), std::streamsize(size));
+}
+
+void read_store(const std::filesystem::path& dir) {
+  auto r = pvcap::SessionReader::open(dir);
+  if (!r) {
+    if (r.error().message.empty()) __builtin_trap();
+    return;
+  }
+  auto& reader = *r.value();
+  for (std::size_t i = 0; i < reader.sample_count() && i < 64; ++i) {
+    auto s = reader.sample(i, i % 2 ? pvcap::PressureMode::Interpolated : pvcap::PressureMode::Nearest);
+    if (!s && s.error().message.empty()) __builtin_trap();
+    (void)reader.sample_at(std::int64_t(i) * 66'000'000);
+  }
+  (void)reader.pressure_frame(0);
+  (void)reader.actions();
+  (void)reader.events();
+  (void)reader.operator_notes();
+  (void)reader.calibrations();
+  (void)reader.stream_statistics();
+}
+
+void read_video(const std::filesystem::path& path) {
+  auto v = pvcap::VideoReader::open(path);
+  if (!v) return;
+  cv::Mat bgr;
+  (void)v.value()->read_at(200, bgr);
+  (void)v.value()->read_at(0, bgr);
+  std::int64_t pts = 0;
+  for (int n = 0; n < 32; ++n) {
+    auto more = v.value()->next(bgr, pts);
+    if (!more || !more.value()) break;
+  }
+}
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (size < 1) return 0;
+  if (data[0] == 'D') {
+    write_file(scratch() / "session.db", data + 1, size - 1);
+    read_store(scratch());
+  } else if (data[0] == 'V') {
+    write_file(scratch() / "video.mkv", data + 1, size - 1);
+    read_video(scratch() / "video.mkv");
+  }
+  return 0;
+}
