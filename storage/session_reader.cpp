@@ -225,6 +225,16 @@ Result<Sample> SessionReader::sample(std::size_t i, PressureMode mode) {
   return s;
 }
 
+Result<cv::Mat> SessionReader::image(std::size_t i, std::size_t camera) {
+  if (camera >= cameras_.size())
+    return Error{fmt::format("{}: no camera {} (the session has {})", dir_.string(), camera, cameras_.size())};
+  auto info = sample_info(i);
+  if (!info) return info.error();
+  for (const auto& c : info.value().cameras)
+    if (c.device_id == cameras_[camera].device_id) return c.in_video ? camera_image(c) : Result<cv::Mat>(cv::Mat());
+  return cv::Mat();
+}
+
 Result<std::size_t> SessionReader::sample_at(std::int64_t t_ns) const {
   if (sample_times_.empty()) return Error{fmt::format("{}: the session has no samples", dir_.string())};
   // Sample times increase with their index (one per tick); nearest by binary search.

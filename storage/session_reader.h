@@ -127,6 +127,8 @@ class SessionReader {
   Result<SampleInfo> sample_info(std::size_t i);
   // Decoded frames of every camera and the pressure, as `mode` asks.
   Result<Sample> sample(std::size_t i, PressureMode mode = PressureMode::Nearest);
+  // One camera's image of sample i (`camera` indexes cameras()); empty when that frame was not stored.
+  Result<cv::Mat> image(std::size_t i, std::size_t camera);
   // The sample nearest `t_ns` on the session clock (info().started_host_ns + seconds * 1e9).
   Result<std::size_t> sample_at(std::int64_t t_ns) const;
   Result<PressureFrame> pressure_frame(std::uint64_t sequence, std::uint32_t connection = 0);

@@ -42,7 +42,10 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
   if (im.stream < 0 || !codec) return Error{fmt::format("{}: no decodable video stream", path.string())};
   im.dec = avcodec_alloc_context3(codec);
   avcodec_parameters_to_context(im.dec, im.fmt->streams[im.stream]->codecpar);
-  im.dec->thread_count = 1;
+  // Slice threads: the store writes several slices per frame, so one frame decodes on two cores
+  // (frame threads would add a frame of delay to every random access).
+  im.dec->thread_count = 2;
+  im.dec->thread_type = FF_THREAD_SLICE;
   if (avcodec_open2(im.dec, codec, nullptr) < 0) return Error{fmt::format("{}: cannot open decoder", path.string())};
   im.frame = av_frame_alloc();
   im.packet = av_packet_alloc();
@@ -54,6 +57,24 @@ int VideoReader::width() const { return impl_->dec->width; }
 int VideoReader::height() const { return impl_->dec->height; }
 
 Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
+  auto more = decode_next(pts_ms);
+  if (more && more.value()) to_bgr(bgr);
+  return more;
+}
+
+void VideoReader::to_bgr(cv::Mat& bgr) {
+  Impl& im = *impl_;
+  im.sws = sws_getCachedContext(im.sws, im.frame->width, im.frame->height, AVPixelFormat(im.frame->format),
+                                im.frame->width, im.frame->height, AV_PIX_FMT_BGR24, SWS_POINT, nullptr, nullptr,
+                                nullptr);
+  bgr.create(im.frame->height, im.frame->width, CV_8UC3);
+  std::uint8_t* dst[1] = {bgr.data};
+  const int dst_stride[1] = {int(bgr.step[0])};
+  sws_scale(im.sws, im.frame->data, im.frame->linesize, 0, im.frame->height, dst, dst_stride);
+}
+
+// Decodes the next frame into the decoder's own frame, without converting it.
+Result<bool> VideoReader::decode_next(std::int64_t& pts_ms) {
   Impl& im = *impl_;
   for (;;) {
     const int rc = avcodec_receive_frame(im.dec, im.frame);
@@ -62,13 +83,6 @@ Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
       pts_ms = av_rescale_q(im.frame->best_effort_timestamp, tb, AVRational{1, 1000});
       last_pts_ms_ = pts_ms;
       if (im.frame->key_frame) last_key_pts_ms_ = pts_ms;
-      im.sws = sws_getCachedContext(im.sws, im.frame->width, im.frame->height, AVPixelFormat(im.frame->format),
-                                    im.frame->width, im.frame->height, AV_PIX_FMT_BGR24, SWS_POINT, nullptr, nullptr,
-                                    nullptr);
-      bgr.create(im.frame->height, im.frame->width, CV_8UC3);
-      std::uint8_t* dst[1] = {bgr.data};
-      const int dst_stride[1] = {int(bgr.step[0])};
-      sws_scale(im.sws, im.frame->data, im.frame->linesize, 0, im.frame->height, dst, dst_stride);
       return true;
     }
     if (rc == AVERROR_EOF) return false;
@@ -105,11 +119,15 @@ Result<bool> VideoReader::read_at(std::int64_t pts_ms, cv::Mat& bgr, std::int64_
   };
   auto decode_up_to = [&]() -> Result<bool> {
     std::int64_t at = 0;
-    for (;;) {
-      auto more = next(bgr, at);
+    for (;;) {  // frames before the one asked for are decoded (they are its references), not converted
+      auto more = decode_next(at);
       if (!more) return more.error();
       if (!more.value()) return false;
-      if (at >= pts_ms - tolerance_ms) return at <= pts_ms + tolerance_ms;
+      if (at >= pts_ms - tolerance_ms) {
+        if (at > pts_ms + tolerance_ms) return false;
+        to_bgr(bgr);
+        return true;
+      }
     }
   };
   // Ahead within about a GOP of where decoding stands: read on. Anything else: seek.

@@ -34,6 +34,8 @@ class VideoReader {
 
  private:
   VideoReader() = default;
+  Result<bool> decode_next(std::int64_t& pts_ms);
+  void to_bgr(cv::Mat& bgr);
   struct Impl;
   std::unique_ptr<Impl> impl_;
   std::filesystem::path path_;

@@ -96,7 +96,7 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
     av_dict_set(&opts, "preset", s.preset.c_str(), 0);
     av_dict_set(&opts, "crf", std::to_string(s.crf).c_str(), 0);
     // In-band SPS/PPS on every key frame: any GOP decodes on its own.
-    av_dict_set(&opts, "x264-params", "repeat-headers=1:bframes=0", 0);
+    av_dict_set(&opts, "x264-params", "repeat-headers=1:bframes=0:slices=4", 0);
   } else if (s.codec == "ffv1") {
     av_dict_set(&opts, "level", "3", 0);
     av_dict_set(&opts, "slicecrc", "1", 0);

@@ -1,0 +1,182 @@
+// Store benchmark, printed in one run (figures in docs/PERFORMANCE.md):
+//  1. pipeline fps, one 1080p camera: debayer + encode + index through SessionWriter, against the
+//     ffmpeg command line encoding the same raw Bayer frames with the same settings (ratio; goal >= 1);
+//  2. real-time factor for four 1080p cameras at 15 Hz with the default codec (goal >= 1.5);
+//  3. random access: one camera image of a random sample (goal < 30 ms);
+//  4. sequential reading: samples (all cameras decoded) per second.
+// Frames are the simulator's scene with a moving fingertip and sensor noise, prepared beforehand.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <thread>
+
+#include <fmt/format.h>
+#include <opencv2/core.hpp>
+
+#include "capture/pixel_format.h"
+#include "core/rig_config.h"
+#include "core/time.h"
+#include "sim/scene.h"
+#include "storage/session_reader.h"
+#include "storage/session_writer.h"
+
+namespace fs = std::filesystem;
+using namespace pvcap;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+constexpr int kW = 1920, kH = 1080;
+const std::uint32_t kBayer = pixel_format_code("BayerRG8");
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// `n` Bayer frames of camera `cam`: the scene, a fingertip moving across it, and sensor noise of
+// `noise` DN (standard deviation; 0: the simulator's clean image).
+std::vector<cv::Mat> make_frames(int cam, int n, double noise) {
+  const cv::Size size(kW, kH);
+  const cv::Mat bgr = sim::render_scene_bgr(sim::default_pad(), sim::camera_homography(cam, size), size);
+  const cv::Mat bayer = sim::to_sensor_format(bgr, "BayerRG8");
+  std::vector<cv::Mat> out;
+  cv::RNG rng(std::uint64_t(cam + 1));
+  for (int i = 0; i < n; ++i) {
+    cv::Mat f = bayer.clone();
+    sim::draw_fingertip(f, "BayerRG8", {700.0 + 12 * i, 500.0 + 4 * i}, 40);
+    if (noise > 0) {
+      cv::Mat dn(f.size(), CV_8SC1);
+      rng.fill(dn, cv::RNG::NORMAL, 0, noise);
+      cv::add(f, dn, f, cv::noArray(), CV_8U);
+    }
+    out.push_back(f);
+  }
+  return out;
+}
+
+RigConfig bench_rig(int cameras) {
+  std::string y = "name: store-bench\ncameras:\n";
+  for (int c = 0; c < cameras; ++c) y += fmt::format("  - {{name: cam{}, address: 10.0.0.{}}}\n", c, c + 1);
+  y += "store: {min_free_mb: 0, reserve_mb: 0}\n";  // the rest: pvcap's defaults
+  return parse_rig_config(y, "store-bench.yaml");
+}
+
+// Feeds every camera's frames at full speed (each camera on its own thread, as the recorder's
+// camera workers do: debayer, then hand to the encoder, waiting when its queue is full).
+double run_pipeline(const fs::path& root, const std::vector<std::vector<cv::Mat>>& frames, fs::path* session) {
+  const RigConfig rig = bench_rig(int(frames.size()));
+  const std::int64_t t0 = host_now().ns;
+  auto w = SessionWriter::create(root, rig, wall_now_ns(), t0);
+  if (!w) throw std::runtime_error(w.error().message);
+  SessionWriter& writer = *w.value();
+  std::vector<std::int64_t> ids;
+  for (const auto& c : rig.cameras)
+    ids.push_back(writer.add_camera({"camera", c.name, "", "", "", "", "", "{}"}, kW, kH).value());
+  writer.start();
+  const auto start = Clock::now();
+  std::vector<std::thread> feeders;
+  for (std::size_t c = 0; c < frames.size(); ++c)
+    feeders.emplace_back([&, c] {
+      for (std::size_t i = 0; i < frames[c].size(); ++i) {
+        cv::Mat bgr;
+        (void)to_bgr(frames[c][i].data, frames[c][i].total(), kW, kH, kBayer, bgr);
+        const std::int64_t t = t0 + std::int64_t(i) * 66'666'667;
+        FrameRecord f{ids[c], 0, i, i, std::int64_t(i), t, 0, "good", false, "", {}, {}, t};
+        while (!writer.submit_video(ids[c], bgr, f)) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        if (c != 0) continue;  // one sample per instant, naming every camera's frame of it
+        SampleRecord sample{i, std::int64_t(i), t, t, 0, {}, {}, {}, {}};
+        for (const std::int64_t id : ids) sample.cameras.push_back({id, 0, i, 0});
+        writer.record(std::move(sample));
+      }
+    });
+  for (auto& t : feeders) t.join();
+  const Status closed = writer.close("bench");
+  const double s = seconds_since(start);
+  if (!closed.ok()) throw std::runtime_error(closed.error().message);
+  if (session) *session = writer.dir();
+  return s;
+}
+
+double percentile(std::vector<double> v, double p) {
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, std::size_t(p * double(v.size())))];
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int n = argc > 1 ? std::max(15, std::atoi(argv[1])) : 90;  // frames per camera (90 = 6 s at 15 Hz)
+  const double noise = argc > 2 ? std::atof(argv[2]) : 2.0;           // sensor noise, DN
+  const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-store-bench-{}", getpid());
+  fs::remove_all(work);
+  fs::create_directories(work);
+  const StoreConfig defaults;
+  std::printf("store bench: %d frames per camera, 1920x1080 BayerRG8 with sensor noise %.1f DN, %s crf %d %s %s, "
+              "GOP %.1f s, %u cores\n",
+              n, noise,
+              defaults.video_codec.c_str(), defaults.crf, defaults.preset.c_str(), defaults.video_pixel_format.c_str(),
+              defaults.gop_seconds_x10 / 10.0, std::thread::hardware_concurrency());
+  std::vector<std::vector<cv::Mat>> frames;
+  for (int c = 0; c < 4; ++c) frames.push_back(make_frames(c, n, noise));
+
+  // 1. One camera: pvcap's pipeline against the ffmpeg command line on the same raw frames.
+  const double one = run_pipeline(work / "one", {frames[0]}, nullptr);
+  const double pipeline_fps = n / one;
+  {
+    std::ofstream raw(work / "cam0.bayer", std::ios::binary);
+    for (const auto& f : frames[0]) raw.write(reinterpret_cast<const char*>(f.data), std::streamsize(f.total()));
+  }
+  const std::string cmd = fmt::format(
+      "ffmpeg -hide_banner -loglevel error -y -f rawvideo -pix_fmt bayer_rggb8 -s {}x{} -framerate 15 -i {} "
+      "-c:v libx264 -preset {} -crf {} -pix_fmt {} -g {} -bf 0 -threads 1 -x264-params repeat-headers=1:slices=4 {}",
+      kW, kH, (work / "cam0.bayer").string(), defaults.preset, defaults.crf, defaults.video_pixel_format,
+      int(15 * defaults.gop_seconds_x10 / 10), (work / "ffmpeg.mkv").string());
+  const auto t_ff = Clock::now();
+  const int rc = std::system(cmd.c_str());
+  const double ffmpeg_s = seconds_since(t_ff);
+  if (rc != 0) std::printf("ffmpeg command line failed (%d): %s\n", rc, cmd.c_str());
+  const double ffmpeg_fps = n / ffmpeg_s;
+  std::printf("pipeline, 1 camera (debayer + encode + index): %.1f fps; ffmpeg command line, same frames and "
+              "settings: %.1f fps; ratio %.2f (goal >= 1.0)\n",
+              pipeline_fps, ffmpeg_fps, pipeline_fps / ffmpeg_fps);
+
+  // 2. Four cameras at once: how many times faster than 4 x 15 Hz.
+  fs::path session;
+  const double four = run_pipeline(work / "four", frames, &session);
+  const double four_fps = 4.0 * n / four;
+  std::printf("pipeline, 4 cameras: %.1f frames/s in all = real-time factor %.2f for 4 x 1080p at 15 Hz (goal >= "
+              "1.5)\n",
+              four_fps, four_fps / 60.0);
+
+  // 3. Random access and 4. sequential reading, on the four-camera store.
+  auto reader = SessionReader::open(session);
+  if (!reader) {
+    std::printf("cannot read the store back: %s\n", reader.error().message.c_str());
+    return 1;
+  }
+  auto& r = *reader.value();
+  std::mt19937 rng(7);
+  std::vector<double> ms;
+  for (int k = 0; k < 60; ++k) {
+    const std::size_t i = rng() % r.sample_count(), c = rng() % r.cameras().size();
+    const auto t = Clock::now();
+    auto img = r.image(i, c);
+    ms.push_back(seconds_since(t) * 1e3);
+    if (!img || img.value().empty()) std::printf("sample %zu camera %zu did not read\n", i, c);
+  }
+  std::printf("random access, one camera image of a random sample: p50 %.1f ms, p95 %.1f ms, max %.1f ms (goal < 30 "
+              "ms)\n",
+              percentile(ms, 0.5), percentile(ms, 0.95), percentile(ms, 1.0));
+  const auto t_seq = Clock::now();
+  for (std::size_t i = 0; i < r.sample_count(); ++i)
+    if (!r.sample(i)) std::printf("sample %zu did not read\n", i);
+  const double seq_s = seconds_since(t_seq);
+  std::printf("sequential reading: %.1f samples/s (%.1f decoded 1080p frames/s)\n", double(r.sample_count()) / seq_s,
+              double(r.sample_count() * r.cameras().size()) / seq_s);
+  std::uintmax_t bytes = 0;
+  for (const auto& e : fs::directory_iterator(session)) bytes += e.is_regular_file() ? e.file_size() : 0;
+  std::printf("store size: %.1f MB for %d samples of 4 cameras (%.2f MB per 1080p frame)\n", double(bytes) / 1e6, n,
+              double(bytes) / 1e6 / (4.0 * n));
+  if (!std::getenv("PVCAP_BENCH_KEEP")) fs::remove_all(work);
+  else std::printf("kept %s\n", work.c_str());
+  return 0;
+}
