@@ -13,6 +13,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libumockdev-dev umockdev              # emulated USB device for the Sensel tests
   iproute2 util-linux                   # network namespaces for the simulated rig
+  python3-opencv python3-numpy          # the store's Python example (docs/store.md) is run by a test
   clang libclang-rt-14-dev              # libFuzzer targets
 )
 missing=()

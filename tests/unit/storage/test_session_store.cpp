@@ -6,6 +6,9 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
+
+#include <fmt/format.h>
 
 #include "app/verify_session.h"
 #include "capture/sensel_frame.h"
@@ -327,5 +330,47 @@ TEST(SessionStore, OlderSchemasAreMigratedAfterABackup) {
   }
   EXPECT_THROW(SessionIndex::open_for_update(path), sqlite::SqliteError);
   EXPECT_FALSE(SessionReader::open(root));
+  fs::remove_all(root);
+}
+
+// docs/store.md's Python example, run as written (extracted from the page) against a store: what it
+// prints must be what the C++ reader reads.
+TEST(SessionStore, ThePythonExampleInTheDocsReadsWhatTheReaderReads) {
+  std::ifstream doc(fs::path(PVCAP_SOURCE_DIR) / "docs/store.md");
+  std::stringstream text;
+  text << doc.rdbuf();
+  const std::string page = text.str();
+  const auto section = page.find("## Reading a sample with Python alone");
+  ASSERT_NE(section, std::string::npos);
+  const auto begin = page.find("```python\n", section);
+  const auto end = page.find("```", begin + 10);
+  ASSERT_NE(begin, std::string::npos);
+  const auto root = temp_root("python");
+  const auto st = write_store(root, 2.5);
+  std::ofstream(root / "example.py") << page.substr(begin + 10, end - begin - 10);
+
+  const std::size_t sample = 20;  // in the third segment: the script must find its file and position
+  const std::string cmd =
+      fmt::format("/usr/bin/python3 {} {} {} 2>&1", (root / "example.py").string(), st.dir.string(), sample);
+  FILE* p = popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  std::string out;
+  char buf[512];
+  while (std::size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
+  ASSERT_EQ(pclose(p), 0) << "the example failed (is python3-opencv installed? scripts/deps.sh installs it):\n" << out;
+
+  auto r = SessionReader::open(st.dir);
+  ASSERT_TRUE(r);
+  auto s = r.value()->sample(sample);
+  ASSERT_TRUE(s);
+  std::string expected;
+  for (std::size_t c = 0; c < r.value()->cameras().size(); ++c) {
+    const cv::Scalar m = cv::mean(s.value().images[c]);
+    expected += fmt::format("{} {:.3f}\n", r.value()->cameras()[c].name, (m[0] + m[1] + m[2]) / 3);
+  }
+  std::uint64_t total = 0;
+  for (auto v : s.value().pressure->counts) total += v;
+  expected += fmt::format("pressure {}\n", total);
+  EXPECT_EQ(out, expected);
   fs::remove_all(root);
 }
