@@ -78,11 +78,14 @@ VerifyReport verify_session(const std::filesystem::path& dir, const std::functio
         r.losses.push_back(fmt::format("{}: was being written when the recording stopped; 'pvcap recover' closes it",
                                        path));
       if (progress) progress(fmt::format("checking {}", path));
-      auto rows = db.prepare("SELECT video_index, host_ns FROM frames WHERE video_file_id = ? AND kept = 1 "
-                             "ORDER BY video_index");
+      auto rows = db.prepare("SELECT video_index, host_ns, video_pts_ms FROM frames WHERE video_file_id = ? AND "
+                             "kept = 1 ORDER BY video_index");
       rows.bind_all(id);
-      std::vector<std::pair<std::int64_t, std::int64_t>> kept;
-      while (rows.step()) kept.emplace_back(rows.column_int(0), rows.column_int(1));
+      std::vector<std::pair<std::int64_t, VideoTimestamp>> kept;
+      while (rows.step())
+        kept.emplace_back(rows.column_int(0),
+                          video_timestamp(rows.column_null(2) ? std::nullopt : std::optional(rows.column_int(2)),
+                                          rows.column_int(1), started));
       auto reader = VideoReader::open(dir / path);
       if (!reader) {
         // Cut before its first frame reached the disk: a loss when the recording was interrupted
@@ -107,12 +110,7 @@ VerifyReport verify_session(const std::filesystem::path& dir, const std::functio
           break;
         }
         if (!more.value()) break;
-        // Written as microseconds since the session start, stored in the container's milliseconds (rounded).
-        if (n < kept.size()) {
-          const std::int64_t us = (kept[n].second - started) / 1000;
-          const std::int64_t expected_ms = (us + (us >= 0 ? 500 : -500)) / 1000;
-          if (std::llabs(pts_ms - expected_ms) > 1) ++wrong_time;
-        }
+        if (n < kept.size() && std::llabs(pts_ms - kept[n].second.ms) > kept[n].second.tolerance_ms) ++wrong_time;
         key_frames += key;
         ++n;
       }

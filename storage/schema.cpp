@@ -54,7 +54,8 @@ CREATE TABLE frames (
   reason TEXT,
   video_file_id INTEGER REFERENCES video_files(id),
   video_index INTEGER,
-  mapped_ns INTEGER
+  mapped_ns INTEGER,
+  video_pts_ms INTEGER
 );
 CREATE INDEX frames_by_time ON frames(device_id, host_ns);
 CREATE INDEX frames_by_video ON frames(video_file_id, video_index);
@@ -227,6 +228,7 @@ CREATE TABLE timeline_counts (
 // 2 -> 3: session conditions, calibrations, protocol, notes, segments, portable pressure counts
 // (filled below from the device payloads).
 constexpr const char* kTo3 = R"sql(
+ALTER TABLE frames ADD COLUMN video_pts_ms INTEGER;
 ALTER TABLE video_files ADD COLUMN segment INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE video_files ADD COLUMN state TEXT NOT NULL DEFAULT 'closed';
 ALTER TABLE video_files ADD COLUMN frames INTEGER;

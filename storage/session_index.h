@@ -59,7 +59,21 @@ struct FrameRecord {
   std::optional<std::int64_t> video_file_id;
   std::optional<std::int64_t> video_index;  // 0-based frame number in that file
   std::optional<std::int64_t> mapped_ns;    // on the session clock (the clock model's), when known
+  std::optional<std::int64_t> video_pts_ms; // its timestamp in the video file, exactly
 };
+
+// A kept frame's timestamp in its video, in ms: `video_pts_ms` (exact) when the row has it; a
+// store before it (version < 3) wrote round((host_ns - started_host_ns) / 1e6), within 1 ms.
+struct VideoTimestamp {
+  std::int64_t ms = 0;
+  std::int64_t tolerance_ms = 0;
+};
+inline VideoTimestamp video_timestamp(std::optional<std::int64_t> video_pts_ms, std::int64_t host_ns,
+                                      std::int64_t started_host_ns) {
+  if (video_pts_ms) return {*video_pts_ms, 0};
+  const std::int64_t us = (host_ns - started_host_ns) / 1000;
+  return {(us + (us >= 0 ? 500 : -500)) / 1000, 1};
+}
 
 // One Sensel frame at full rate. `payload` is the frame exactly as the device sent it (the
 // device's own lossless compression: raw counts on the native grid, contacts, accelerometer,

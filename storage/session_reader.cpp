@@ -136,14 +136,14 @@ Result<SampleInfo> SessionReader::sample_info(std::size_t i) {
 Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c) {
   return guarded(dir_, [&]() -> Result<cv::Mat> {
     auto q = db_->prepare(
-        "SELECT f.video_file_id, f.host_ns, v.path FROM frames f JOIN video_files v ON v.id = f.video_file_id "
+        "SELECT f.video_file_id, f.host_ns, v.path, f.video_pts_ms FROM frames f JOIN video_files v ON v.id = "
+        "f.video_file_id "
         "WHERE f.device_id = ? AND f.connection = ? AND f.sequence = ? AND f.kept = 1");
     q.bind_all(c.device_id, std::int64_t(c.connection), c.sequence);
     if (!q.step()) return Error{fmt::format("{}: frame {} of device {} is not in a video", dir_.string(), c.sequence,
                                             c.device_id)};
     const std::int64_t file_id = q.column_int(0);
-    const std::int64_t us = (q.column_int(1) - info_.started_host_ns) / 1000;
-    const std::int64_t pts_ms = (us + (us >= 0 ? 500 : -500)) / 1000;  // as the writer stored it
+    const VideoTimestamp ts = video_timestamp(opt_int(q, 3), q.column_int(1), info_.started_host_ns);
     const std::string rel = q.column_text(2);
     if (rel.empty() || rel.find("..") != std::string::npos || rel.front() == '/')
       return Error{fmt::format("{}: video path '{}' leaves the session folder", dir_.string(), rel)};
@@ -155,10 +155,10 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c) {
       it = videos_.emplace(file_id, std::move(opened.value())).first;
     }
     cv::Mat bgr;
-    auto found = it->second->read_at(pts_ms, bgr);
+    auto found = it->second->read_at(ts.ms, bgr, ts.tolerance_ms);
     if (!found) return found.error();
     if (!found.value())
-      return Error{fmt::format("{}: no frame at {} ms in {}", dir_.string(), pts_ms, (dir_ / rel).string())};
+      return Error{fmt::format("{}: no frame at {} ms in {}", dir_.string(), ts.ms, (dir_ / rel).string())};
     return bgr;
   });
 }

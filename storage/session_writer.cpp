@@ -209,7 +209,9 @@ void SessionWriter::encode_loop(Camera& cam) {
     auto item = cam.queue.pop_for(std::chrono::milliseconds(100));
     if (!item) continue;
     auto& [bgr, rec] = *item;
-    const std::int64_t pts_us = (rec.host_ns - started_host_ns_) / 1000;
+    // The frame's instant on the session clock when the timeline mapped it (evenly spaced, as the
+    // camera exposed them), else its arrival; the file's exact timestamp goes into its row.
+    const std::int64_t pts_us = (rec.mapped_ns.value_or(rec.host_ns) - started_host_ns_) / 1000;
     if (!cam.failed.load() && segment_us > 0 && cam.video->frames_written() > 0 &&
         pts_us - cam.segment_start_us >= segment_us) {
       // Next segment: the finished one gets its trailer (cues, duration) and is final on disk.
@@ -232,6 +234,7 @@ void SessionWriter::encode_loop(Camera& cam) {
         rec.kept = true;
         rec.video_file_id = cam.video_file_id;
         rec.video_index = index.value();
+        rec.video_pts_ms = cam.video->last_pts_ms();
         cam.in_video.fetch_add(1);
       } else {
         cam.failed_files.push_back(cam.video_file_id);
@@ -251,7 +254,7 @@ void SessionWriter::set_failure(std::string message) {
   if (!failure_) failure_ = std::move(message);
 }
 
-void SessionWriter::release_reserve() {
+void SessionWriter::release_reserve() const {
   if (!reserve_held_.exchange(false)) return;
   std::error_code ec;
   std::filesystem::remove(reserve_path_, ec);
@@ -273,7 +276,7 @@ void SessionWriter::watch_free_space() {
 
 std::optional<std::string> SessionWriter::failure() const {
   if (auto f = index_writer_->failure()) {
-    const_cast<SessionWriter*>(this)->release_reserve();
+    release_reserve();  // the index's own failure: close() will need the room
     return f;
   }
   std::lock_guard lock(failure_mu_);

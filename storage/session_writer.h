@@ -94,7 +94,7 @@ class SessionWriter {
   Status open_segment(Camera& cam, std::int64_t first_pts_us, bool direct);
   void set_failure(std::string message);
   void watch_free_space();
-  void release_reserve();
+  void release_reserve() const;  // idempotent; any thread
 
   std::filesystem::path dir_;
   std::int64_t started_host_ns_ = 0;
@@ -109,7 +109,7 @@ class SessionWriter {
   bool closed_ = false;
 
   std::filesystem::path reserve_path_;
-  std::atomic<bool> reserve_held_{false};
+  mutable std::atomic<bool> reserve_held_{false};
   mutable std::mutex failure_mu_;
   std::optional<std::string> failure_;  // the writer's own (video, free space); the index's is its own
   std::thread watcher_;

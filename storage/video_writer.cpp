@@ -156,8 +156,12 @@ Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us)
     return Error{fmt::format("{}: frame is {}x{}, the video is {}x{}", path_.string(), bgr.cols, bgr.rows,
                              im.enc->width, im.enc->height)};
   // Matroska keeps milliseconds: keep timestamps strictly increasing at that resolution.
-  if (pts_us / 1000 <= last_pts_us_ / 1000 && last_pts_us_ >= 0) pts_us = (last_pts_us_ / 1000 + 1) * 1000;
-  last_pts_us_ = pts_us;
+  // The container keeps milliseconds: round to them here (so the stored timestamp is exactly
+  // last_pts_ms()), and keep them strictly increasing (frames that arrived in a burst).
+  std::int64_t pts_ms = (pts_us + (pts_us >= 0 ? 500 : -500)) / 1000;
+  if (frames_ > 0 && pts_ms <= last_pts_ms_) pts_ms = last_pts_ms_ + 1;
+  last_pts_ms_ = pts_ms;
+  pts_us = pts_ms * 1000;
   int rc = av_frame_make_writable(im.frame);
   if (rc < 0) return Error{fmt::format("{}: {}", path_.string(), av_error(rc))};
   const std::uint8_t* src[1] = {bgr.data};

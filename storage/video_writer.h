@@ -34,11 +34,14 @@ class VideoWriter {
   VideoWriter& operator=(const VideoWriter&) = delete;
 
   // Encodes one BGR frame (CV_8UC3, the configured size) at `pts_us` (µs from the
-  // session start; must increase). Returns the frame's 0-based index in the file.
+  // session start). Returns the frame's 0-based index in the file.
   Result<std::int64_t> write(const cv::Mat& bgr, std::int64_t pts_us);
   // Flushes the encoder and writes the trailer. Safe to call twice.
   Status close();
   std::int64_t frames_written() const { return frames_; }
+  // The timestamp (ms) the last written frame carries in the file: its pts rounded to the
+  // container's milliseconds, moved 1 ms on when it would not be after the one before.
+  std::int64_t last_pts_ms() const { return last_pts_ms_; }
   const std::filesystem::path& path() const { return path_; }
 
  private:
@@ -48,7 +51,7 @@ class VideoWriter {
   std::unique_ptr<Impl> impl_;
   std::filesystem::path path_;
   std::int64_t frames_ = 0;
-  std::int64_t last_pts_us_ = -1;
+  std::int64_t last_pts_ms_ = 0;
   bool closed_ = false;
 };
 
