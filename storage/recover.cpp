@@ -1,5 +1,9 @@
 #include "storage/recover.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <fmt/format.h>
 
 #include "core/time.h"
@@ -41,6 +45,12 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
   const fs::path db_path = dir / "session.db";
   if (!fs::is_regular_file(db_path)) return Error{fmt::format("{}: not a session folder (no session.db)", dir.string())};
   RecoverReport report;
+  // A session still being recorded is not ours to touch (its recorder holds this lock while alive).
+  if (const int fd = ::open((dir / kRecordingLock).c_str(), O_WRONLY | O_CLOEXEC); fd >= 0) {
+    const bool live = flock(fd, LOCK_EX | LOCK_NB) != 0;
+    ::close(fd);
+    if (live) return Error{fmt::format("{}: is being recorded right now; recover it after the recording ends", dir.string())};
+  }
   try {
     std::vector<int> passed;
     auto index = SessionIndex::open_for_update(db_path, &passed);  // opening replays the write-ahead log
@@ -66,6 +76,16 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
     for (const auto& v : open) {
       if (progress) progress(fmt::format("closing {}", v.path));
       const fs::path file = dir / v.path;
+      const fs::path tmp = file.string() + ".recovering";
+      const std::string aside = interrupted_name(v.path);
+      if (!fs::exists(file) && fs::exists(tmp) && fs::exists(dir / aside)) {
+        // An earlier recover stopped between its two renames: finish it.
+        fs::rename(tmp, file);
+        const auto r = reconcile_video_file(index, dir, v.id, "lost_at_interruption", "recovered");
+        report.done.push_back(fmt::format("{}: closed with {} frames (finishing an earlier recover)", v.path,
+                                          r.frames_in_file));
+        continue;
+      }
       std::int64_t indexed = 0;
       {
         auto rows = db.prepare("SELECT count(*) FROM frames WHERE video_file_id = ? AND kept = 1");
@@ -81,8 +101,6 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
       }
       const std::int64_t keep = std::min(indexed, on_disk.value());
       // Finish a copy first; only then move the cut original aside: a failure leaves the original as it was.
-      const fs::path tmp = file.string() + ".recovering";
-      const std::string aside = interrupted_name(v.path);
       std::error_code ec;
       fs::remove(tmp, ec);
       if (Status m = remux_prefix(file, tmp, keep); !m.ok()) {
@@ -130,9 +148,10 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
   } catch (const fs::filesystem_error& e) {
     return Error{e.what()};
   }
-  // The space reserve of an interrupted recording holds no data.
+  // The space reserve and the lock of an interrupted recording hold no data.
   std::error_code ec;
   if (fs::remove(dir / "space-reserve", ec)) report.done.push_back("removed the unused space reserve");
+  fs::remove(dir / kRecordingLock, ec);
   return report;
 }
 

@@ -62,6 +62,9 @@ struct FrameRecord {
   std::optional<std::int64_t> video_pts_ms; // its timestamp in the video file, exactly
 };
 
+// In a session folder while it is being recorded; flock()ed by the recording process.
+inline constexpr const char* kRecordingLock = "recording.lock";
+
 // A kept frame's timestamp in its video, in ms: `video_pts_ms` (exact) when the row has it; a
 // store before it (version < 3) wrote round((host_ns - started_host_ns) / 1e6), within 1 ms.
 struct VideoTimestamp {

@@ -1,6 +1,7 @@
 #include "storage/session_writer.h"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
@@ -74,6 +75,10 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
   }
   w->started_host_ns_ = started_host_ns;
   w->store_ = rig.store;
+  // Held until close(); the kernel drops it if the process dies, so a lock nobody holds means the
+  // recording is over (pvcap recover checks it before touching anything).
+  w->lock_fd_ = ::open((w->dir_ / kRecordingLock).c_str(), O_CREAT | O_WRONLY | O_CLOEXEC, 0644);
+  if (w->lock_fd_ >= 0) flock(w->lock_fd_, LOCK_EX | LOCK_NB);
   if (rig.store.reserve_mb > 0) {
     // Real blocks, not a sparse file: this is the room close() needs when the disk fills.
     w->reserve_path_ = w->dir_ / "space-reserve";
@@ -352,6 +357,12 @@ Status SessionWriter::close(const std::string& end_reason) {
     if (result.ok()) result = Error{e.what()};
   }
   release_reserve();
+  if (lock_fd_ >= 0) {
+    std::error_code ec;
+    std::filesystem::remove(dir_ / kRecordingLock, ec);
+    ::close(lock_fd_);
+    lock_fd_ = -1;
+  }
   return result;
 }
 

@@ -108,6 +108,7 @@ class SessionWriter {
   std::function<void(SessionIndex&)> finalizer_;
   bool closed_ = false;
 
+  int lock_fd_ = -1;  // flock on <dir>/recording.lock while recording: recover refuses a live session
   std::filesystem::path reserve_path_;
   mutable std::atomic<bool> reserve_held_{false};
   mutable std::mutex failure_mu_;

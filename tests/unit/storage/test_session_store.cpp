@@ -255,6 +255,19 @@ TEST(SessionStore, RecoverClosesACutSegmentAndMarksWhatWasLost) {
   EXPECT_LT(lost, 8) << "a cut of 40 % of a 15-frame segment";
   EXPECT_NE(r.value()->info().end_reason.find("interrupted"), std::string::npos);
 
+  // A recover killed between its two renames (the finished copy still under its temporary name):
+  // the next one completes it.
+  fs::rename(st.dir / last, st.dir / (last + ".recovering"));
+  {
+    sqlite::Database db(st.dir / "session.db", sqlite::Database::Mode::ReadWrite);
+    db.prepare("UPDATE video_files SET state = 'open' WHERE path = ?").bind_all(last).run();
+  }
+  auto finish = recover_session(st.dir);
+  ASSERT_TRUE(finish) << finish.error().message;
+  ASSERT_EQ(finish.value().done.size(), 1u);
+  EXPECT_NE(finish.value().done[0].find("finishing an earlier recover"), std::string::npos) << finish.value().done[0];
+  EXPECT_EQ(verify_session(st.dir).exit_code(), 3);
+
   // A second run finds nothing to do.
   auto again = recover_session(st.dir);
   ASSERT_TRUE(again);
@@ -406,5 +419,24 @@ TEST(SessionStore, FramesArrivingInABurstAreStillFoundExactly) {
     ASSERT_TRUE(img) << img.error().message;
     EXPECT_EQ(cv::norm(img.value(), noise_frame(0, int(k)), cv::NORM_INF), 0) << "sample " << k;
   }
+  fs::remove_all(root);
+}
+
+// recover never touches a session that is still being recorded.
+TEST(SessionStore, RecoverRefusesASessionBeingRecorded) {
+  const auto root = temp_root("live");
+  const auto rig = parse_rig_config("name: live\ncameras:\n  - {name: c, address: 10.0.0.1}\n"
+                                    "store: {min_free_mb: 0, reserve_mb: 0}\n", "live.yaml");
+  auto w = SessionWriter::create(root, rig, wall_now_ns(), host_now().ns);
+  ASSERT_TRUE(w);
+  ASSERT_TRUE(w.value()->add_camera({"camera", "c", "", "", "", "", "", "{}"}, 64, 48));
+  w.value()->start();
+  auto live = recover_session(w.value()->dir());
+  ASSERT_FALSE(live);
+  EXPECT_NE(live.error().message.find("being recorded"), std::string::npos) << live.error().message;
+  ASSERT_TRUE(w.value()->close("test").ok());
+  auto after = recover_session(w.value()->dir());
+  ASSERT_TRUE(after) << after.error().message;
+  EXPECT_TRUE(after.value().done.empty());
   fs::remove_all(root);
 }
