@@ -1,5 +1,7 @@
 #include "storage/schema.h"
 
+#include <limits>
+
 #include <fmt/format.h>
 
 #include "capture/sensel_frame.h"
@@ -272,17 +274,36 @@ CREATE TABLE operator_notes (
 CREATE INDEX samples_by_time ON samples(t_ns);
 )sql";
 
-// Decodes every stored device payload once and stores its counts in the portable form.
+// Decodes every stored device payload once and stores its counts in the portable form. Read in
+// pages by rowid, each page before its updates: rows are never changed under a running SELECT.
 void fill_pressure_counts(sqlite::Database& db) {
-  auto q = db.prepare("SELECT rowid, grid_cols, grid_rows, grid_xscale, grid_yscale, payload FROM pressure_frames");
-  auto u = db.prepare("UPDATE pressure_frames SET base = ?, counts = ? WHERE rowid = ?");
-  while (q.step()) {
-    const sensel::Grid grid{int(q.column_int(1)), int(q.column_int(2)), int(q.column_int(3)), int(q.column_int(4))};
-    const auto payload = q.column_blob(5);
-    auto frame = sensel::parse_frame(payload, grid);
-    if (!frame || !frame.value().pressure) continue;  // stays NULL: verify reports it
-    const auto& p = *frame.value().pressure;
-    u.bind_all(std::int64_t(p.base), compress_counts(p.counts), q.column_int(0)).run();
+  auto update = db.prepare("UPDATE pressure_frames SET base = ?, counts = ? WHERE rowid = ?");
+  std::int64_t after = std::numeric_limits<std::int64_t>::min();
+  for (;;) {
+    struct Row {
+      std::int64_t rowid;
+      sensel::Grid grid;
+      std::vector<std::uint8_t> payload;
+    };
+    std::vector<Row> page;
+    {
+      auto q = db.prepare(
+          "SELECT rowid, grid_cols, grid_rows, grid_xscale, grid_yscale, payload FROM pressure_frames WHERE rowid > ? "
+          "ORDER BY rowid LIMIT 4096");
+      q.bind_all(after);
+      while (q.step())
+        page.push_back({q.column_int(0),
+                        {int(q.column_int(1)), int(q.column_int(2)), int(q.column_int(3)), int(q.column_int(4))},
+                        q.column_blob(5)});
+    }
+    if (page.empty()) return;
+    for (const auto& row : page) {
+      auto frame = sensel::parse_frame(row.payload, row.grid);
+      if (!frame || !frame.value().pressure) continue;  // stays NULL: verify reports it
+      const auto& p = *frame.value().pressure;
+      update.bind_all(std::int64_t(p.base), compress_counts(p.counts), row.rowid).run();
+    }
+    after = page.back().rowid;
   }
 }
 
