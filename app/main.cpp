@@ -263,7 +263,7 @@ int main(int argc, char** argv) {
       pvcap::RecordOptions opts{root, duration, rig.sim ? 10.0 : 0.0, self_exe(), {}, {}};
       if (!participant.pseudonym.empty()) {
         if (participant.skin_tone.empty()) participant.skin_tone = "unrecorded";
-        if (participant.hand_order.empty()) participant.hand_order = "right_first";
+        if (participant.hand_order.empty()) participant.hand_order = "unrecorded";
         opts.participant = participant;
       } else if (!participant.skin_tone.empty() || !participant.hand_order.empty()) {
         throw pvcap::UserError("--skin-tone and --hand-order describe a participant: give --participant too");

@@ -148,7 +148,7 @@ struct EventRecord {
 struct ParticipantRecord {
   std::string pseudonym;   // never a name: the lab's participant code
   std::string skin_tone;   // light | medium | dark | unrecorded (the paper's three categories)
-  std::string hand_order;  // right_first | left_first
+  std::string hand_order;  // right_first | left_first | unrecorded
 };
 struct ConditionsRecord {
   std::string lighting;        // which lights were on, e.g. "LCR", "L-R"
