@@ -17,6 +17,7 @@ struct VideoReader::Impl {
   AVFrame* frame = nullptr;
   AVPacket* packet = nullptr;
   SwsContext* sws = nullptr;
+  cv::Mat ycbcr;  // yuv444p: the frame's planes merged, before conversion
   int stream = -1;
   bool draining = false;
   ~Impl() {
@@ -64,6 +65,21 @@ Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
 
 void VideoReader::to_bgr(cv::Mat& bgr) {
   Impl& im = *impl_;
+  if (im.frame->format == AV_PIX_FMT_YUV444P && im.frame->color_range != AVCOL_RANGE_JPEG &&
+      im.frame->colorspace != AVCOL_SPC_BT709) {
+    // The store's default format, converted here (faster than swscale for this pair): the inverse of
+    // the writer's BT.601 limited-range conversion.
+    static const cv::Matx34f kYCbCrToBgr(1.164383f, 2.017232f, 0.f, -276.836f,          //
+                                         1.164383f, -0.391762f, -0.812968f, 135.576f,    //
+                                         1.164383f, 0.f, 1.596027f, -222.921f);
+    std::vector<cv::Mat> planes;
+    for (int p = 0; p < 3; ++p)
+      planes.emplace_back(im.frame->height, im.frame->width, CV_8UC1, im.frame->data[p],
+                          std::size_t(im.frame->linesize[p]));
+    cv::merge(planes, im.ycbcr);
+    cv::transform(im.ycbcr, bgr, kYCbCrToBgr);
+    return;
+  }
   im.sws = sws_getCachedContext(im.sws, im.frame->width, im.frame->height, AVPixelFormat(im.frame->format),
                                 im.frame->width, im.frame->height, AV_PIX_FMT_BGR24, SWS_POINT, nullptr, nullptr,
                                 nullptr);
