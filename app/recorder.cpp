@@ -18,7 +18,6 @@
 #include "capture/aravis_camera.h"
 #include "capture/pixel_format.h"
 #include "capture/sensel_device.h"
-#include "capture/sensel_frame.h"
 #include "core/log.h"
 #include "core/gap_tracker.h"
 #include "core/sequence_unwrap.h"
@@ -333,9 +332,9 @@ class SenselRecording {
                          s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale, {}, mapped};
       // The counts again in the store's portable form (zlib on the index's thread), for readers
       // without the Sensel codec; the device's payload is kept as it came.
-      if (auto frame = sensel::parse_frame(s->payload, s->grid); frame && frame.value().pressure) {
-        rec.base = frame.value().pressure->base;
-        rec.counts = std::move(frame.value().pressure->counts);
+      if (s->frame.pressure) {
+        rec.base = s->frame.pressure->base;
+        rec.counts = std::move(s->frame.pressure->counts);
       }
       rec.payload = std::move(s->payload);
       writer.record(std::move(rec));

@@ -98,7 +98,6 @@ Result<bool> VideoReader::decode_next(std::int64_t& pts_ms) {
       const AVRational tb = im.fmt->streams[im.stream]->time_base;
       pts_ms = av_rescale_q(im.frame->best_effort_timestamp, tb, AVRational{1, 1000});
       last_pts_ms_ = pts_ms;
-      if (im.frame->key_frame) last_key_pts_ms_ = pts_ms;
       return true;
     }
     if (rc == AVERROR_EOF) return false;

@@ -40,7 +40,6 @@ class VideoReader {
   std::unique_ptr<Impl> impl_;
   std::filesystem::path path_;
   std::int64_t last_pts_ms_ = INT64_MIN;  // of the frame next() returned last
-  std::int64_t last_key_pts_ms_ = INT64_MIN;
 };
 
 }  // namespace pvcap

@@ -42,11 +42,6 @@ ReconcileResult reconcile_video_file(SessionIndex& index, const std::filesystem:
       .bind_all(reason, id, r.frames_in_file)
       .run();
   r.rows_marked_lost = db.changes();
-  {
-    auto rows = db.prepare("SELECT count(*) FROM frames WHERE video_file_id = ? AND kept = 1");
-    rows.bind_all(id);
-    if (rows.step()) r.frames_without_row = r.frames_in_file - rows.column_int(0);
-  }
   db.prepare("UPDATE video_files SET state = ?, frames = ? WHERE id = ?").bind_all(state, r.frames_in_file, id).run();
   tx.commit();
   return r;

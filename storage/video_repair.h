@@ -20,8 +20,7 @@ Result<std::int64_t> count_video_frames(const std::filesystem::path& path);
 struct ReconcileResult {
   std::string path;
   std::int64_t frames_in_file = 0;
-  std::int64_t rows_marked_lost = 0;   // rows that named a position past the file's end
-  std::int64_t frames_without_row = 0; // frames in the file that no row names (its rows were not committed)
+  std::int64_t rows_marked_lost = 0;  // rows that named a position past the file's end
 };
 // For video file `id` of the index: rows whose position is past what the file holds get
 // kept = 0 and `reason`; the file's row gets `state` and its frame count. Throws SqliteError.
