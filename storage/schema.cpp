@@ -10,8 +10,9 @@
 namespace pvcap {
 
 namespace {
-// The current schema, whole (docs/store.md explains every column).
-constexpr const char* kCurrent = R"sql(
+// Version 1, as pvcap 0.1 created it. A new index is this plus every step below, so a fresh
+// store and an upgraded one are the same tables, column for column (docs/store.md explains them).
+constexpr const char* kV1 = R"sql(
 CREATE TABLE session (
   id INTEGER PRIMARY KEY,
   started_wall_ns INTEGER NOT NULL,
@@ -38,10 +39,7 @@ CREATE TABLE video_files (
   codec TEXT NOT NULL,
   pixel_format TEXT NOT NULL,
   width INTEGER NOT NULL,
-  height INTEGER NOT NULL,
-  segment INTEGER NOT NULL DEFAULT 0,
-  state TEXT NOT NULL DEFAULT 'closed',
-  frames INTEGER
+  height INTEGER NOT NULL
 );
 CREATE TABLE frames (
   device_id INTEGER NOT NULL REFERENCES devices(id),
@@ -55,9 +53,7 @@ CREATE TABLE frames (
   kept INTEGER NOT NULL,
   reason TEXT,
   video_file_id INTEGER REFERENCES video_files(id),
-  video_index INTEGER,
-  mapped_ns INTEGER,
-  video_pts_ms INTEGER
+  video_index INTEGER
 );
 CREATE INDEX frames_by_time ON frames(device_id, host_ns);
 CREATE INDEX frames_by_video ON frames(video_file_id, video_index);
@@ -70,10 +66,7 @@ CREATE TABLE pressure_frames (
   host_ns INTEGER NOT NULL,
   host_wait_ns INTEGER NOT NULL,
   grid_cols INTEGER NOT NULL, grid_rows INTEGER NOT NULL, grid_xscale INTEGER NOT NULL, grid_yscale INTEGER NOT NULL,
-  payload BLOB NOT NULL,
-  mapped_ns INTEGER,
-  base INTEGER,
-  counts BLOB
+  payload BLOB NOT NULL
 );
 CREATE INDEX pressure_by_time ON pressure_frames(device_id, host_ns);
 CREATE TABLE drops (
@@ -90,91 +83,11 @@ CREATE TABLE events (
   device_id INTEGER REFERENCES devices(id),
   message TEXT NOT NULL
 );
-CREATE TABLE samples (
-  id INTEGER PRIMARY KEY,
-  tick INTEGER NOT NULL,
-  tick_ns INTEGER NOT NULL,
-  t_ns INTEGER NOT NULL,
-  span_ns INTEGER NOT NULL,
-  cameras INTEGER NOT NULL,
-  pressure_device_id INTEGER REFERENCES devices(id),
-  pressure_connection INTEGER,
-  pressure_sequence INTEGER,
-  pressure_offset_ns INTEGER,
-  before_sequence INTEGER,
-  before_offset_ns INTEGER,
-  after_sequence INTEGER,
-  after_offset_ns INTEGER
-);
-CREATE TABLE sample_frames (
-  sample_id INTEGER NOT NULL REFERENCES samples(id),
-  device_id INTEGER NOT NULL REFERENCES devices(id),
-  connection INTEGER NOT NULL,
-  sequence INTEGER NOT NULL,
-  offset_ns INTEGER NOT NULL
-);
-CREATE INDEX sample_frames_by_sample ON sample_frames(sample_id);
-CREATE INDEX frames_by_sequence ON frames(device_id, connection, sequence);
-CREATE INDEX pressure_by_sequence ON pressure_frames(device_id, connection, sequence);
-CREATE TABLE clock_models (
-  device_id INTEGER NOT NULL REFERENCES devices(id),
-  host_ns INTEGER NOT NULL,
-  segment INTEGER NOT NULL,
-  x0_device_ns INTEGER NOT NULL,
-  offset_ns REAL NOT NULL,
-  skew REAL NOT NULL,
-  latency_ns INTEGER NOT NULL,
-  source TEXT NOT NULL,
-  pairs INTEGER NOT NULL,
-  envelope_points INTEGER NOT NULL,
-  residual_p50_ns INTEGER NOT NULL,
-  residual_p99_ns INTEGER NOT NULL
-);
-CREATE TABLE timeline_counts (
-  what TEXT NOT NULL,
-  count INTEGER NOT NULL
-);
 CREATE TABLE stream_stats (
   device_id INTEGER NOT NULL REFERENCES devices(id),
   completed INTEGER NOT NULL, failures INTEGER NOT NULL, underruns INTEGER NOT NULL,
   resent_packets INTEGER NOT NULL, missing_packets INTEGER NOT NULL, queue_overflows INTEGER NOT NULL
 );
-CREATE TABLE participant (
-  pseudonym TEXT NOT NULL,
-  skin_tone TEXT NOT NULL,
-  hand_order TEXT NOT NULL
-);
-CREATE TABLE conditions (
-  lighting TEXT NOT NULL,
-  sensor_overlay TEXT NOT NULL
-);
-CREATE TABLE calibrations (
-  id INTEGER PRIMARY KEY,
-  device_id INTEGER NOT NULL REFERENCES devices(id),
-  created_wall_ns INTEGER NOT NULL,
-  method TEXT NOT NULL,
-  homography TEXT NOT NULL,
-  rms_px REAL,
-  rms_mm REAL,
-  details_json TEXT NOT NULL DEFAULT '{}'
-);
-CREATE TABLE protocol_events (
-  id INTEGER PRIMARY KEY,
-  host_ns INTEGER NOT NULL,
-  kind TEXT NOT NULL,
-  step INTEGER,
-  action TEXT,
-  hand TEXT,
-  force TEXT,
-  repetition INTEGER,
-  detail TEXT
-);
-CREATE INDEX protocol_events_by_time ON protocol_events(host_ns);
-CREATE TABLE operator_notes (
-  host_ns INTEGER NOT NULL,
-  text TEXT NOT NULL
-);
-CREATE INDEX samples_by_time ON samples(t_ns);
 )sql";
 
 // 1 -> 2: the timeline's mapped times and tables.
@@ -311,12 +224,23 @@ bool is_session_index(sqlite::Database& db) {
   auto q = db.prepare("SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name IN ('session', 'frames', 'devices')");
   return q.step() && q.column_int(0) == 3;
 }
+
+// Upgrades from `version` to version + 1; the caller holds the transaction.
+void apply_step(sqlite::Database& db, int version) {
+  if (version == 1) db.exec(kTo2);
+  if (version == 2) {
+    db.exec(kTo3);
+    fill_pressure_counts(db);
+  }
+  db.set_user_version(version + 1);
+}
 }  // namespace
 
-void create_schema(sqlite::Database& db) {
+void create_schema(sqlite::Database& db, int version) {
   sqlite::Transaction tx(db);
-  db.exec(kCurrent);
-  db.set_user_version(kSchemaVersion);
+  db.exec(kV1);
+  db.set_user_version(1);
+  for (int v = 1; v < version; ++v) apply_step(db, v);
   tx.commit();
 }
 
@@ -331,12 +255,7 @@ std::vector<int> migrate_schema(sqlite::Database& db) {
   std::vector<int> passed;
   for (int v = from; v < kSchemaVersion; ++v) {
     sqlite::Transaction tx(db);
-    if (v == 1) db.exec(kTo2);
-    if (v == 2) {
-      db.exec(kTo3);
-      fill_pressure_counts(db);
-    }
-    db.set_user_version(v + 1);
+    apply_step(db, v);
     tx.commit();
     passed.push_back(v + 1);
   }

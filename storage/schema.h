@@ -16,8 +16,9 @@ namespace pvcap {
 //    (zlib), video segments with their state
 inline constexpr int kSchemaVersion = 3;
 
-// Creates the current schema in an empty database.
-void create_schema(sqlite::Database& db);
+// Creates the schema of `version` (the current one unless a test asks for an older store) in an
+// empty database: version 1, then each upgrade step, in one transaction.
+void create_schema(sqlite::Database& db, int version = kSchemaVersion);
 
 // Upgrades an older index to kSchemaVersion; returns the versions it passed through
 // (empty when already current). Throws SqliteError naming the database on failure,

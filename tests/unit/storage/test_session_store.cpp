@@ -310,11 +310,7 @@ TEST(SessionStore, OlderSchemasAreMigratedAfterABackup) {
   {
     // A store as pvcap 0.1 wrote it (schema 1), with one Sensel frame.
     sqlite::Database db(path, sqlite::Database::Mode::Create);
-    std::ifstream in(fs::path(PVCAP_SOURCE_DIR) / "tests/unit/storage/schema-v1.sql");
-    std::stringstream sql;
-    sql << in.rdbuf();
-    db.exec(sql.str());
-    db.set_user_version(1);
+    create_schema(db, 1);
     db.exec("INSERT INTO session VALUES (1, 0, 0, 1, 'done', '0.1', 'r', 'r.yaml', 'name: r', 0)");
     db.exec("INSERT INTO devices VALUES (1, 'sensel', 'sensel', '', '', '', '', '', '{}')");
     db.prepare("INSERT INTO pressure_frames VALUES (1, 0, 7, 0, 0, 0, 0, 47, 27, 4, 4, ?)")
