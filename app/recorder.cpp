@@ -18,8 +18,9 @@
 #include "capture/aravis_camera.h"
 #include "capture/pixel_format.h"
 #include "capture/sensel_device.h"
-#include "core/log.h"
+#include "core/frame_pool.h"
 #include "core/gap_tracker.h"
+#include "core/log.h"
 #include "core/sequence_unwrap.h"
 #include "core/time.h"
 #include "storage/session_writer.h"
@@ -93,7 +94,7 @@ struct TimelineEnd {
 };
 
 void camera_worker(AravisCamera& camera, int index, std::int64_t device_id, SessionWriter& writer, CameraTally& tally,
-                   sync::SessionTimeline& timeline, TimelineEnd& end) {
+                   sync::SessionTimeline& timeline, TimelineEnd& end, std::size_t encoder_queue) {
   SequenceUnwrapper unwrap(16, /*zero_is_skipped=*/true);
   std::uint32_t connection = UINT32_MAX;
   std::map<std::pair<std::uint32_t, std::uint64_t>, HeldFrame> held;
@@ -102,6 +103,8 @@ void camera_worker(AravisCamera& camera, int index, std::int64_t device_id, Sess
   auto recycle = [&](std::vector<std::uint8_t>&& pixels) {
     if (spare.size() < 32) spare.push_back(std::move(pixels));
   };
+  // So are the debayered images: one for each the encoder can hold, and the one being filled.
+  FramePool images(encoder_queue + 2);
   // A frame that times out incomplete is delivered after its successor: hold gaps open for a
   // second so such a frame is counted once, as what it is.
   auto report_gap = [&](const GapTracker::Gap& g) {
@@ -121,7 +124,7 @@ void camera_worker(AravisCamera& camera, int index, std::int64_t device_id, Sess
         recycle(std::move(h.pixels));
         continue;
       }
-      cv::Mat bgr;
+      cv::Mat bgr = images.acquire(h.height, h.width, CV_8UC3);
       const Status converted = to_bgr(h.pixels.data(), h.pixels.size(), h.width, h.height, h.pixel_format, bgr);
       recycle(std::move(h.pixels));
       if (!converted) {
@@ -512,7 +515,8 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   std::vector<std::thread> workers;
   for (std::size_t i = 0; i < cameras.size(); ++i)
     workers.emplace_back(camera_worker, std::ref(*cameras[i]), int(i), device_ids[i], std::ref(writer),
-                         std::ref(*tallies[i]), std::ref(timeline), std::ref(timeline_end));
+                         std::ref(*tallies[i]), std::ref(timeline), std::ref(timeline_end),
+                         std::size_t(rig.store.queue_frames));
   std::string end_reason = "stopped by operator";
   bool start_failed = false;
   for (auto& cam : cameras) {

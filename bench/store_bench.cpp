@@ -17,6 +17,7 @@
 #include <opencv2/core.hpp>
 
 #include "capture/pixel_format.h"
+#include "core/frame_pool.h"
 #include "core/rig_config.h"
 #include "core/time.h"
 #include "sim/scene.h"
@@ -54,17 +55,19 @@ std::vector<cv::Mat> make_frames(int cam, int n, double noise) {
   return out;
 }
 
-RigConfig bench_rig(int cameras) {
+// `store_fields`: rig-file store settings to try instead of pvcap's defaults ("gop_seconds: 0.5, crf: 14").
+RigConfig bench_rig(int cameras, const std::string& store_fields) {
   std::string y = "name: store-bench\ncameras:\n";
   for (int c = 0; c < cameras; ++c) y += fmt::format("  - {{name: cam{}, address: 10.0.0.{}}}\n", c, c + 1);
-  y += "store: {min_free_mb: 0, reserve_mb: 0}\n";  // the rest: pvcap's defaults
+  y += fmt::format("store: {{min_free_mb: 0, reserve_mb: 0{}{}}}\n", store_fields.empty() ? "" : ", ", store_fields);
   return parse_rig_config(y, "store-bench.yaml");
 }
 
 // Feeds every camera's frames at full speed (each camera on its own thread, as the recorder's
 // camera workers do: debayer, then hand to the encoder, waiting when its queue is full).
-double run_pipeline(const fs::path& root, const std::vector<std::vector<cv::Mat>>& frames, fs::path* session) {
-  const RigConfig rig = bench_rig(int(frames.size()));
+double run_pipeline(const fs::path& root, const std::vector<std::vector<cv::Mat>>& frames, const std::string& fields,
+                    fs::path* session) {
+  const RigConfig rig = bench_rig(int(frames.size()), fields);
   const std::int64_t t0 = host_now().ns;
   auto w = SessionWriter::create(root, rig, wall_now_ns(), t0);
   if (!w) throw std::runtime_error(w.error().message);
@@ -77,8 +80,9 @@ double run_pipeline(const fs::path& root, const std::vector<std::vector<cv::Mat>
   std::vector<std::thread> feeders;
   for (std::size_t c = 0; c < frames.size(); ++c)
     feeders.emplace_back([&, c] {
+      FramePool images(std::size_t(rig.store.queue_frames) + 2);  // as the recorder's camera workers do
       for (std::size_t i = 0; i < frames[c].size(); ++i) {
-        cv::Mat bgr;
+        cv::Mat bgr = images.acquire(kH, kW, CV_8UC3);
         (void)to_bgr(frames[c][i].data, frames[c][i].total(), kW, kH, kBayer, bgr);
         const std::int64_t t = t0 + std::int64_t(i) * 66'666'667;
         FrameRecord f{ids[c], 0, i, i, std::int64_t(i), t, 0, "good", false, "", {}, {}, t};
@@ -109,17 +113,24 @@ int main(int argc, char** argv) {
   const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-store-bench-{}", getpid());
   fs::remove_all(work);
   fs::create_directories(work);
-  const StoreConfig defaults;
+  const std::string fields = argc > 3 ? argv[3] : "";                  // store settings other than the defaults
+  StoreConfig store;
+  try {
+    store = bench_rig(1, fields).store;
+  } catch (const std::exception& e) {
+    std::printf("%s\n", e.what());
+    return 2;
+  }
   std::printf("store bench: %d frames per camera, 1920x1080 BayerRG8 with sensor noise %.1f DN, %s crf %d %s %s, "
               "GOP %.1f s, %u cores\n",
               n, noise,
-              defaults.video_codec.c_str(), defaults.crf, defaults.preset.c_str(), defaults.video_pixel_format.c_str(),
-              defaults.gop_seconds_x10 / 10.0, std::thread::hardware_concurrency());
+              store.video_codec.c_str(), store.crf, store.preset.c_str(), store.video_pixel_format.c_str(),
+              store.gop_seconds_x10 / 10.0, std::thread::hardware_concurrency());
   std::vector<std::vector<cv::Mat>> frames;
   for (int c = 0; c < 4; ++c) frames.push_back(make_frames(c, n, noise));
 
   // 1. One camera: pvcap's pipeline against the ffmpeg command line on the same raw frames.
-  const double one = run_pipeline(work / "one", {frames[0]}, nullptr);
+  const double one = run_pipeline(work / "one", {frames[0]}, fields, nullptr);
   const double pipeline_fps = n / one;
   {
     std::ofstream raw(work / "cam0.bayer", std::ios::binary);
@@ -128,8 +139,8 @@ int main(int argc, char** argv) {
   const std::string cmd = fmt::format(
       "ffmpeg -hide_banner -loglevel error -y -f rawvideo -pix_fmt bayer_rggb8 -s {}x{} -framerate 15 -i {} "
       "-c:v libx264 -preset {} -crf {} -pix_fmt {} -g {} -bf 0 -threads 1 -x264-params repeat-headers=1:slices=4 {}",
-      kW, kH, (work / "cam0.bayer").string(), defaults.preset, defaults.crf, defaults.video_pixel_format,
-      int(15 * defaults.gop_seconds_x10 / 10), (work / "ffmpeg.mkv").string());
+      kW, kH, (work / "cam0.bayer").string(), store.preset, store.crf, store.video_pixel_format,
+      int(15 * store.gop_seconds_x10 / 10), (work / "ffmpeg.mkv").string());
   const auto t_ff = Clock::now();
   const int rc = std::system(cmd.c_str());
   const double ffmpeg_s = seconds_since(t_ff);
@@ -141,7 +152,7 @@ int main(int argc, char** argv) {
 
   // 2. Four cameras at once: how many times faster than 4 x 15 Hz.
   fs::path session;
-  const double four = run_pipeline(work / "four", frames, &session);
+  const double four = run_pipeline(work / "four", frames, fields, &session);
   const double four_fps = 4.0 * n / four;
   std::printf("pipeline, 4 cameras: %.1f frames/s in all = real-time factor %.2f for 4 x 1080p at 15 Hz (goal >= "
               "1.5)\n",

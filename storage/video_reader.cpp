@@ -9,6 +9,8 @@ extern "C" {
 
 #include <fmt/format.h>
 
+#include "core/frame_pool.h"
+
 namespace pvcap {
 
 struct VideoReader::Impl {
@@ -18,6 +20,7 @@ struct VideoReader::Impl {
   AVPacket* packet = nullptr;
   SwsContext* sws = nullptr;
   cv::Mat ycbcr;  // yuv444p: the frame's planes merged, before conversion
+  FramePool images{4};  // the BGR images handed out: reused once the caller has dropped them
   int stream = -1;
   bool draining = false;
   ~Impl() {
@@ -65,6 +68,7 @@ Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
 
 void VideoReader::to_bgr(cv::Mat& bgr) {
   Impl& im = *impl_;
+  bgr = im.images.acquire(im.frame->height, im.frame->width, CV_8UC3);
   if (im.frame->format == AV_PIX_FMT_YUV444P && im.frame->color_range != AVCOL_RANGE_JPEG &&
       im.frame->colorspace != AVCOL_SPC_BT709) {
     // The store's default format, converted here (faster than swscale for this pair): the inverse of
@@ -83,7 +87,6 @@ void VideoReader::to_bgr(cv::Mat& bgr) {
   im.sws = sws_getCachedContext(im.sws, im.frame->width, im.frame->height, AVPixelFormat(im.frame->format),
                                 im.frame->width, im.frame->height, AV_PIX_FMT_BGR24, SWS_POINT, nullptr, nullptr,
                                 nullptr);
-  bgr.create(im.frame->height, im.frame->width, CV_8UC3);
   std::uint8_t* dst[1] = {bgr.data};
   const int dst_stride[1] = {int(bgr.step[0])};
   sws_scale(im.sws, im.frame->data, im.frame->linesize, 0, im.frame->height, dst, dst_stride);

@@ -156,7 +156,6 @@ Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us)
   if (bgr.type() != CV_8UC3 || bgr.cols != im.enc->width || bgr.rows != im.enc->height)
     return Error{fmt::format("{}: frame is {}x{}, the video is {}x{}", path_.string(), bgr.cols, bgr.rows,
                              im.enc->width, im.enc->height)};
-  // Matroska keeps milliseconds: keep timestamps strictly increasing at that resolution.
   // The container keeps milliseconds: round to them here (so the stored timestamp is exactly
   // last_pts_ms()), and keep them strictly increasing (frames that arrived in a burst).
   std::int64_t pts_ms = (pts_us + (pts_us >= 0 ? 500 : -500)) / 1000;
