@@ -39,7 +39,17 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
   Impl& im = *r->impl_;
   if (avformat_open_input(&im.fmt, path.c_str(), nullptr, nullptr) < 0)
     return Error{fmt::format("{}: not a readable video file", path.string())};
-  if (avformat_find_stream_info(im.fmt, nullptr) < 0)
+  // Matroska's header names the codec, the size and the parameter sets: probing (decoding the first
+  // frames to learn what the header already says) would cost every first access a GOP. Only a file
+  // whose header leaves the picture size open is probed.
+  const auto header_complete = [&] {
+    for (unsigned i = 0; i < im.fmt->nb_streams; ++i) {
+      const AVCodecParameters* p = im.fmt->streams[i]->codecpar;
+      if (p->codec_type == AVMEDIA_TYPE_VIDEO && p->width > 0 && p->height > 0) return true;
+    }
+    return false;
+  };
+  if (!header_complete() && avformat_find_stream_info(im.fmt, nullptr) < 0)
     return Error{fmt::format("{}: no stream information", path.string())};
   const AVCodec* codec = nullptr;
   im.stream = av_find_best_stream(im.fmt, AVMEDIA_TYPE_VIDEO, -1, -1, &codec, 0);
