@@ -536,6 +536,7 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   }
   const std::int64_t rec_start = host_now().ns;
   auto last_progress = std::chrono::steady_clock::now();
+  std::vector<bool> warned_encoder(cameras.size(), false);
   while (!start_failed) {
     std::this_thread::sleep_for(100ms);
     const double elapsed = double(host_now().ns - rec_start) / 1e9;
@@ -549,6 +550,19 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
       end_reason = "storage failure: " + *failure;
       break;
     }
+    // A camera whose encoder falls behind loses frames for the rest of the session unless the
+    // operator acts: say so once, with what to change, rather than only count it.
+    for (std::size_t i = 0; i < cameras.size(); ++i)
+      if (!warned_encoder[i] && tallies[i]->encoder_behind.load() > 0) {
+        warned_encoder[i] = true;
+        spdlog::warn("{}: the video encoder cannot keep up, frames are being dropped (counted as encoder_behind). "
+                     "This PC has {} cores for {} camera{} at crf {} preset {}: raise store.crf or lower "
+                     "store.video_fps in the rig file, or record on a PC with more cores "
+                     "(docs/PERFORMANCE.md, Store)",
+                     rig.cameras[i].name, std::thread::hardware_concurrency(), cameras.size(),
+                     cameras.size() == 1 ? "" : "s", rig.store.crf,
+                     rig.store.preset);
+      }
     if (std::chrono::steady_clock::now() - last_progress >= 2s) {
       last_progress = std::chrono::steady_clock::now();
       std::string line = fmt::format("{:6.1f} s", elapsed);

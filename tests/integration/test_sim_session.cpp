@@ -286,6 +286,33 @@ TEST(SimSession, SoftwareTriggeredCameraDeliversAtTheConfiguredRate) {
   fs::remove_all(s.dir.parent_path().parent_path());
 }
 
+// An encoder that cannot keep up is told to the operator with what to change, once, and every
+// frame it could not take is still indexed with the reason.
+TEST(SimSession, AnEncoderFallingBehindIsWarnedOnceAndItsFramesAreIndexed) {
+  std::string rig = sim_rig_yaml({{}}, 1280, 720, 30, 0);
+  // x264's slowest preset, lossless, with a two-frame queue: far slower than 30 frames/s.
+  const auto at = rig.find("  preset: ultrafast\n");
+  ASSERT_NE(at, std::string::npos) << rig;
+  rig.replace(at, std::string("  preset: ultrafast\n").size(), "  preset: placebo\n  crf: 0\n  queue_frames: 2\n");
+  const auto s = record("encoder_behind", rig, 3);
+  ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
+  EXPECT_NE(s.result.output.find("frames were lost"), std::string::npos) << s.result.output;
+  const std::string warning = "the video encoder cannot keep up";
+  const auto first = s.result.output.find(warning);
+  ASSERT_NE(first, std::string::npos) << s.result.output;
+  EXPECT_EQ(s.result.output.find(warning, first + 1), std::string::npos) << "warned more than once";
+  EXPECT_NE(s.result.output.find("raise store.crf"), std::string::npos);
+  ASSERT_EQ(s.cameras.size(), 1u);
+  std::size_t behind = 0, in_video = 0;
+  for (const auto& f : s.cameras[0].frames) {
+    behind += f.reason == "encoder_behind";
+    in_video += f.video_index >= 0;
+  }
+  EXPECT_GT(behind, 0u);
+  EXPECT_GT(in_video, 0u);
+  fs::remove_all(s.dir.parent_path().parent_path());
+}
+
 TEST(SimSession, SenselIsStoredAtFullRateWithItsDeviceAndArrivalTimes) {
   const double duration = 5;
   const auto s = record("sensel", sim_rig_yaml({{}}, kWidth, kHeight, 30, 15, "free-run", /*sensel=*/true), duration);
