@@ -10,6 +10,7 @@ extern "C" {
 #include <fmt/format.h>
 
 #include "core/frame_pool.h"
+#include "storage/av_log.h"
 
 namespace pvcap {
 
@@ -33,6 +34,8 @@ struct VideoReader::Impl {
 };
 
 Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::path& path) {
+  route_ffmpeg_log();
+  const FfmpegLogQuiet quiet;
   std::unique_ptr<VideoReader> r(new VideoReader());
   r->path_ = path;
   r->impl_ = std::make_unique<Impl>();
@@ -71,6 +74,7 @@ int VideoReader::width() const { return impl_->dec->width; }
 int VideoReader::height() const { return impl_->dec->height; }
 
 Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
+  const FfmpegLogQuiet quiet;
   auto more = decode_next(pts_ms);
   if (more && more.value()) to_bgr(bgr);
   return more;
@@ -136,6 +140,7 @@ Result<bool> VideoReader::decode_next(std::int64_t& pts_ms) {
 }
 
 Result<bool> VideoReader::read_at(std::int64_t pts_ms, cv::Mat& bgr, std::int64_t tolerance_ms) {
+  const FfmpegLogQuiet quiet;
   Impl& im = *impl_;
   const AVRational tb = im.fmt->streams[im.stream]->time_base;
   auto seek = [&](std::int64_t ts, int flags) {
@@ -173,6 +178,7 @@ Result<bool> VideoReader::read_at(std::int64_t pts_ms, cv::Mat& bgr, std::int64_
 }
 
 Result<bool> VideoReader::next_packet(std::int64_t& pts_ms, bool& key) {
+  const FfmpegLogQuiet quiet;
   Impl& im = *impl_;
   for (;;) {
     const int rr = av_read_frame(im.fmt, im.packet);

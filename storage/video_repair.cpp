@@ -7,6 +7,7 @@ extern "C" {
 
 #include <fmt/format.h>
 
+#include "storage/av_log.h"
 #include "storage/video_reader.h"
 
 namespace pvcap {
@@ -68,6 +69,8 @@ struct Packet {
 
 Status remux_prefix(const std::filesystem::path& from, const std::filesystem::path& to, std::int64_t frames) {
   const std::string where = from.string();
+  route_ffmpeg_log();
+  const FfmpegLogQuiet quiet;  // `from` was cut by a crash: it ends early; failures are returned, named
   Demuxer in;
   if (avformat_open_input(&in.ctx, from.c_str(), nullptr, nullptr) < 0 || avformat_find_stream_info(in.ctx, nullptr) < 0)
     return Error{fmt::format("{}: not a readable video file", where)};

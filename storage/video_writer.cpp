@@ -9,11 +9,8 @@ extern "C" {
 #include <libswscale/swscale.h>
 }
 
-#include <cstdarg>
-#include <mutex>
-
 #include <fmt/format.h>
-#include <spdlog/spdlog.h>
+#include "storage/av_log.h"
 
 namespace pvcap {
 
@@ -24,25 +21,6 @@ std::string av_error(int rc) {
   return buf;
 }
 constexpr AVRational kMicros{1, 1'000'000};
-
-// FFmpeg's own log goes to the session log, not the operator's console; its warnings stay visible.
-void route_av_log_once() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    av_log_set_callback([](void* avcl, int level, const char* fmt, va_list args) {
-      if (level > AV_LOG_VERBOSE) return;
-      char line[1024];
-      int print_prefix = 1;
-      av_log_format_line2(avcl, level, fmt, args, line, sizeof line, &print_prefix);
-      std::string text(line);
-      while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
-      if (text.empty()) return;
-      if (level <= AV_LOG_ERROR) spdlog::error("ffmpeg: {}", text);
-      else if (level <= AV_LOG_WARNING) spdlog::warn("ffmpeg: {}", text);
-      else spdlog::debug("ffmpeg: {}", text);
-    });
-  });
-}
 }  // namespace
 
 struct VideoWriter::Impl {
@@ -67,7 +45,7 @@ struct VideoWriter::Impl {
 };
 
 Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::path& path, const VideoSettings& s) {
-  route_av_log_once();
+  route_ffmpeg_log();
   std::unique_ptr<VideoWriter> w(new VideoWriter());
   w->path_ = path;
   w->impl_ = std::make_unique<Impl>();

@@ -3,12 +3,15 @@
 // and older schemas upgraded.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
 
 #include <fmt/format.h>
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
 
 #include "app/verify_session.h"
 #include "capture/sensel_frame.h"
@@ -24,6 +27,24 @@ namespace fs = std::filesystem;
 using namespace pvcap;
 
 namespace {
+
+// What pvcap logs at warning level or above while one of these is alive.
+class LoggedProblems {
+ public:
+  LoggedProblems() {
+    sink_->set_level(spdlog::level::warn);
+    spdlog::default_logger()->sinks().push_back(sink_);
+  }
+  ~LoggedProblems() {
+    auto& sinks = spdlog::default_logger()->sinks();
+    sinks.erase(std::remove(sinks.begin(), sinks.end(), sink_), sinks.end());
+  }
+  std::string text() const { return out_.str(); }
+
+ private:
+  std::ostringstream out_;
+  std::shared_ptr<spdlog::sinks::ostream_sink_mt> sink_ = std::make_shared<spdlog::sinks::ostream_sink_mt>(out_);
+};
 
 fs::path temp_root(const std::string& name) {
   const auto d = fs::temp_directory_path() / ("pvcap-test-store-" + name + "-" + std::to_string(::getpid()));
@@ -224,12 +245,17 @@ TEST(SessionStore, RecoverClosesACutSegmentAndMarksWhatWasLost) {
     db.exec("UPDATE session SET ended_host_ns = NULL, end_reason = NULL");
   }
   fs::resize_file(st.dir / last, fs::file_size(st.dir / last) * 6 / 10);
-  const auto before = verify_session(st.dir);
-  EXPECT_EQ(before.exit_code(), 3) << format_report(st.dir, before);
-
-  auto rec = recover_session(st.dir);
-  ASSERT_TRUE(rec) << rec.error().message;
-  EXPECT_TRUE(rec.value().was_interrupted);
+  {
+    // A cut file is what verify and recover expect: their reports say it, FFmpeg's complaints
+    // about it ("File ended prematurely") are not errors on the operator's console.
+    const LoggedProblems logged;
+    const auto before = verify_session(st.dir);
+    EXPECT_EQ(before.exit_code(), 3) << format_report(st.dir, before);
+    auto rec = recover_session(st.dir);
+    ASSERT_TRUE(rec) << rec.error().message;
+    EXPECT_TRUE(rec.value().was_interrupted);
+    EXPECT_EQ(logged.text(), "");
+  }
   EXPECT_TRUE(fs::exists(st.dir / (last.substr(0, last.size() - 4) + ".interrupted.mkv"))) << "the original is kept";
   const auto after = verify_session(st.dir);
   EXPECT_EQ(after.exit_code(), 3) << format_report(st.dir, after);
