@@ -303,7 +303,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*migrate) {
-      auto r = pvcap::migrate_session(migrate_dir);
+      auto r = pvcap::migrate_session(migrate_dir, [](const std::string& step) { spdlog::info("{}", step); });
       if (!r) {
         spdlog::error("{}", r.error().message);
         return 1;

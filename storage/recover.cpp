@@ -27,10 +27,11 @@ std::string describe_migration(const std::vector<int>& passed, const std::filesy
 }
 }  // namespace
 
-Result<std::vector<std::string>> migrate_session(const std::filesystem::path& dir) {
+Result<std::vector<std::string>> migrate_session(const std::filesystem::path& dir,
+                                                 const std::function<void(const std::string&)>& progress) {
   try {
     std::vector<int> passed;
-    auto index = SessionIndex::open_for_update(dir / "session.db", &passed);
+    auto index = SessionIndex::open_for_update(dir / "session.db", &passed, progress);
     index.db().exec("PRAGMA wal_checkpoint(TRUNCATE)");
     if (passed.empty()) return std::vector<std::string>{fmt::format("already at store version {}", kSchemaVersion)};
     return std::vector<std::string>{describe_migration(passed, dir / "session.db")};
@@ -53,7 +54,7 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
   }
   try {
     std::vector<int> passed;
-    auto index = SessionIndex::open_for_update(db_path, &passed);  // opening replays the write-ahead log
+    auto index = SessionIndex::open_for_update(db_path, &passed, progress);  // opening replays the write-ahead log
     if (!passed.empty()) report.done.push_back(describe_migration(passed, db_path));
     auto& db = index.db();
 

@@ -24,6 +24,7 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
                                       const std::function<void(const std::string&)>& progress = nullptr);
 
 // `pvcap migrate SESSION`: upgrades an older store's index in place (after a backup copy).
-Result<std::vector<std::string>> migrate_session(const std::filesystem::path& dir);
+Result<std::vector<std::string>> migrate_session(const std::filesystem::path& dir,
+                                                 const std::function<void(const std::string&)>& progress = nullptr);
 
 }  // namespace pvcap

@@ -1,5 +1,6 @@
 #include "storage/schema.h"
 
+#include <chrono>
 #include <limits>
 
 #include <fmt/format.h>
@@ -189,9 +190,21 @@ CREATE INDEX samples_by_time ON samples(t_ns);
 
 // Decodes every stored device payload once and stores its counts in the portable form. Read in
 // pages by rowid, each page before its updates: rows are never changed under a running SELECT.
-void fill_pressure_counts(sqlite::Database& db) {
+void fill_pressure_counts(sqlite::Database& db, const std::function<void(const std::string&)>& progress) {
   auto update = db.prepare("UPDATE pressure_frames SET base = ?, counts = ? WHERE rowid = ?");
   std::int64_t after = std::numeric_limits<std::int64_t>::min();
+  std::int64_t total = 0, done = 0;
+  {
+    auto q = db.prepare("SELECT count(*) FROM pressure_frames");
+    if (q.step()) total = q.column_int(0);
+  }
+  auto last_report = std::chrono::steady_clock::now();
+  auto report = [&](bool finished) {
+    const auto now = std::chrono::steady_clock::now();
+    if (!progress || total == 0 || (!finished && now - last_report < std::chrono::seconds(1))) return;
+    last_report = now;
+    progress(fmt::format("raw pressure counts: {} of {} frames", done, total));
+  };
   for (;;) {
     struct Row {
       std::int64_t rowid;
@@ -209,14 +222,16 @@ void fill_pressure_counts(sqlite::Database& db) {
                         {int(q.column_int(1)), int(q.column_int(2)), int(q.column_int(3)), int(q.column_int(4))},
                         q.column_blob(5)});
     }
-    if (page.empty()) return;
+    if (page.empty()) return report(true);
     for (const auto& row : page) {
+      ++done;
       auto frame = sensel::parse_frame(row.payload, row.grid);
       if (!frame || !frame.value().pressure) continue;  // stays NULL: verify reports it
       const auto& p = *frame.value().pressure;
       update.bind_all(std::int64_t(p.base), compress_counts(p.counts), row.rowid).run();
     }
     after = page.back().rowid;
+    report(false);
   }
 }
 
@@ -226,11 +241,11 @@ bool is_session_index(sqlite::Database& db) {
 }
 
 // Upgrades from `version` to version + 1; the caller holds the transaction.
-void apply_step(sqlite::Database& db, int version) {
+void apply_step(sqlite::Database& db, int version, const std::function<void(const std::string&)>& progress) {
   if (version == 1) db.exec(kTo2);
   if (version == 2) {
     db.exec(kTo3);
-    fill_pressure_counts(db);
+    fill_pressure_counts(db, progress);
   }
   db.set_user_version(version + 1);
 }
@@ -240,11 +255,11 @@ void create_schema(sqlite::Database& db, int version) {
   sqlite::Transaction tx(db);
   db.exec(kV1);
   db.set_user_version(1);
-  for (int v = 1; v < version; ++v) apply_step(db, v);
+  for (int v = 1; v < version; ++v) apply_step(db, v, nullptr);
   tx.commit();
 }
 
-std::vector<int> migrate_schema(sqlite::Database& db) {
+std::vector<int> migrate_schema(sqlite::Database& db, const std::function<void(const std::string&)>& progress) {
   const int from = db.user_version();
   if (from == kSchemaVersion) return {};
   if (from > kSchemaVersion)
@@ -255,7 +270,8 @@ std::vector<int> migrate_schema(sqlite::Database& db) {
   std::vector<int> passed;
   for (int v = from; v < kSchemaVersion; ++v) {
     sqlite::Transaction tx(db);
-    apply_step(db, v);
+    if (progress) progress(fmt::format("upgrading the index from version {} to {}", v, v + 1));
+    apply_step(db, v, progress);
     tx.commit();
     passed.push_back(v + 1);
   }

@@ -4,6 +4,8 @@
 // by an older pvcap is upgraded step by step (1 -> 2 -> 3), each step in its own
 // transaction, so an interrupted upgrade leaves a consistent older version behind.
 #include <filesystem>
+#include <functional>
+#include <string>
 #include <vector>
 
 #include "storage/sqlite/database.h"
@@ -23,7 +25,10 @@ void create_schema(sqlite::Database& db, int version = kSchemaVersion);
 // Upgrades an older index to kSchemaVersion; returns the versions it passed through
 // (empty when already current). Throws SqliteError naming the database on failure,
 // and for an index newer than this pvcap or one that is not a session index.
-std::vector<int> migrate_schema(sqlite::Database& db);
+// `progress` hears of long steps (filling the raw counts of every pressure frame: about a second
+// per hundred thousand frames), at most once a second and when a step is done.
+std::vector<int> migrate_schema(sqlite::Database& db,
+                                const std::function<void(const std::string&)>& progress = nullptr);
 
 // Copies session.db (with its -wal, if any) to `<db>.v<N>.bak` before an upgrade, so
 // an upgrade never costs the original. Returns the copy's path.

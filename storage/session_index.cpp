@@ -15,13 +15,14 @@ SessionIndex SessionIndex::create(const std::filesystem::path& path) {
   return SessionIndex(std::move(db));
 }
 
-SessionIndex SessionIndex::open_for_update(const std::filesystem::path& path, std::vector<int>* migrated) {
+SessionIndex SessionIndex::open_for_update(const std::filesystem::path& path, std::vector<int>* migrated,
+                                           const std::function<void(const std::string&)>& progress) {
   if (!std::filesystem::exists(path)) throw sqlite::SqliteError(0, fmt::format("{}: no such file", path.string()));
   auto db = std::make_unique<sqlite::Database>(path, sqlite::Database::Mode::ReadWrite);
   db->apply_resilient_pragmas();
   const int version = db->user_version();
   if (version < kSchemaVersion && version >= 1) back_up_before_migration(path, version);
-  auto passed = migrate_schema(*db);
+  auto passed = migrate_schema(*db, progress);
   if (migrated) *migrated = std::move(passed);
   return SessionIndex(std::move(db));
 }

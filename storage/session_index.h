@@ -4,6 +4,7 @@
 // The schema is documented in docs/store.md; kSchemaVersion is PRAGMA user_version.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -193,7 +194,8 @@ class SessionIndex {
   static SessionIndex create(const std::filesystem::path& path);
   // Opens an existing index for writing (recover, migrate), upgrading its schema first (after
   // a backup copy) when it is older. `migrated` receives the versions passed through.
-  static SessionIndex open_for_update(const std::filesystem::path& path, std::vector<int>* migrated = nullptr);
+  static SessionIndex open_for_update(const std::filesystem::path& path, std::vector<int>* migrated = nullptr,
+                                      const std::function<void(const std::string&)>& progress = nullptr);
 
   std::int64_t add_session(const SessionRecord& s);
   std::int64_t add_device(const DeviceRecord& d);

@@ -344,8 +344,13 @@ TEST(SessionStore, OlderSchemasAreMigratedAfterABackup) {
         .run();
   }
   std::vector<int> passed;
-  { auto index = SessionIndex::open_for_update(path, &passed); }
+  std::vector<std::string> said;
+  { auto index = SessionIndex::open_for_update(path, &passed, [&](const std::string& s) { said.push_back(s); }); }
   EXPECT_EQ(passed, (std::vector<int>{2, 3}));
+  // The operator sees each step, and how far the long one (every pressure frame decoded) has come.
+  EXPECT_EQ(said, (std::vector<std::string>{"upgrading the index from version 1 to 2",
+                                            "upgrading the index from version 2 to 3",
+                                            "raw pressure counts: 1 of 1 frames"}));
   EXPECT_TRUE(fs::exists(root / "session.db.v1.bak"));
   {
     sqlite::Database backup(root / "session.db.v1.bak", sqlite::Database::Mode::ReadOnly);
