@@ -25,8 +25,8 @@ void create_schema(sqlite::Database& db, int version = kSchemaVersion);
 // Upgrades an older index to kSchemaVersion; returns the versions it passed through
 // (empty when already current). Throws SqliteError naming the database on failure,
 // and for an index newer than this pvcap or one that is not a session index.
-// `progress` hears of long steps (filling the raw counts of every pressure frame: about a second
-// per hundred thousand frames), at most once a second and when a step is done.
+// `progress` hears of each step and of how far the long one (decoding every pressure frame for its
+// raw counts) has come: at most once a second, and when it is done.
 std::vector<int> migrate_schema(sqlite::Database& db,
                                 const std::function<void(const std::string&)>& progress = nullptr);
 
