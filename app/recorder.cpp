@@ -429,6 +429,7 @@ int record_session(const RigConfig& rig, const RecordOptions& options, const std
   auto created = SessionWriter::create(options.root, rig, wall0, host0);
   if (!created) {
     spdlog::error("{}", created.error().message);
+    if (!truth_tmp.empty()) std::filesystem::remove_all(truth_tmp);
     return 1;
   }
   SessionWriter& writer = *created.value();

@@ -75,6 +75,17 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
   }
   w->started_host_ns_ = started_host_ns;
   w->store_ = rig.store;
+  // A start that fails from here on leaves nothing behind: the folder is the one just made, and
+  // holds only what this function put in it.
+  auto abandon = [&w](Error e) -> Error {
+    w->closed_ = true;  // nothing to finish
+    if (w->lock_fd_ >= 0) ::close(w->lock_fd_);
+    w->lock_fd_ = -1;
+    w->index_.reset();
+    std::error_code ignored;
+    std::filesystem::remove_all(w->dir_, ignored);
+    return e;
+  };
   // Held until close(); the kernel drops it if the process dies, so a lock nobody holds means the
   // recording is over (pvcap recover checks it before touching anything).
   w->lock_fd_ = ::open((w->dir_ / kRecordingLock).c_str(), O_CREAT | O_WRONLY | O_CLOEXEC, 0644);
@@ -85,11 +96,9 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
     const int fd = ::open(w->reserve_path_.c_str(), O_CREAT | O_WRONLY | O_EXCL | O_CLOEXEC, 0644);
     const int rc = fd < 0 ? errno : posix_fallocate(fd, 0, off_t(rig.store.reserve_mb) * kMiB);
     if (fd >= 0) ::close(fd);
-    if (rc != 0) {
-      std::filesystem::remove(w->reserve_path_, ec);
-      return Error{fmt::format("{}: cannot set aside the {} MB space reserve: {}", w->reserve_path_.string(),
-                               rig.store.reserve_mb, std::strerror(rc))};
-    }
+    if (rc != 0)
+      return abandon(Error{fmt::format("{}: cannot set aside the {} MB space reserve: {}", w->reserve_path_.string(),
+                                       rig.store.reserve_mb, std::strerror(rc))});
     w->reserve_held_.store(true);
   }
   try {
@@ -98,7 +107,7 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
                     rig.sim.has_value()};
     w->index_->add_session(s);
   } catch (const sqlite::SqliteError& e) {
-    return Error{e.what()};
+    return abandon(Error{e.what()});
   }
   w->index_writer_ = std::make_unique<IndexWriter>(*w->index_);
   return w;

@@ -1,5 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+
+#include <csignal>
 #include <filesystem>
 
 #include "core/rig_config.h"
@@ -61,5 +64,27 @@ TEST(SessionWriter, IndexRecordsEveryFrameWithItsReasonAndVersion) {
   ASSERT_TRUE(s.step());
   EXPECT_EQ(s.column_text(0), "test");
   EXPECT_EQ(s.column_int(1), 1);
+  fs::remove_all(root);
+}
+
+// A start that fails after the session folder was made (here: the space reserve cannot be set
+// aside, as when the file-size limit forbids it) says why and leaves no half-made session behind.
+TEST(SessionWriter, AFailedStartSaysWhyAndLeavesNoSessionFolder) {
+  const auto root = fs::temp_directory_path() / ("pvcap-test-sw3-" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  fs::create_directories(root);
+  const auto rig = parse_rig_config(
+      "name: r\ncameras:\n  - address: 10.0.0.1\nstore: {min_free_mb: 0, reserve_mb: 8}\n", "r.yaml");
+  rlimit old{};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
+  const rlimit one_mb{1 << 20, old.rlim_max};
+  auto* previous = std::signal(SIGXFSZ, SIG_IGN);  // the limit's signal would end the test process
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &one_mb), 0);
+  auto w = SessionWriter::create(root, rig, wall_now_ns(), host_now().ns);
+  setrlimit(RLIMIT_FSIZE, &old);
+  std::signal(SIGXFSZ, previous);
+  ASSERT_FALSE(w);
+  EXPECT_NE(w.error().message.find("space reserve"), std::string::npos) << w.error().message;
+  EXPECT_TRUE(fs::is_empty(root)) << "a failed start left " << fs::directory_iterator(root)->path();
   fs::remove_all(root);
 }
