@@ -8,6 +8,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <type_traits>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -49,6 +50,24 @@ std::int64_t free_bytes(const std::filesystem::path& dir) {
 }
 
 constexpr std::int64_t kMiB = 1024 * 1024;
+
+// A direct write to the index (before start(), on the caller's thread), with SQLite's exception
+// turned into the Error this class returns: Status for writes, Result<T> for writes that give an id.
+template <typename F>
+auto index_write(F&& write) {
+  using T = decltype(write());
+  using Out = std::conditional_t<std::is_void_v<T>, Status, Result<T>>;
+  try {
+    if constexpr (std::is_void_v<T>) {
+      write();
+      return Out{};
+    } else {
+      return Out(write());
+    }
+  } catch (const sqlite::SqliteError& e) {
+    return Out(Error{e.what()});
+  }
+}
 }  // namespace
 
 Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesystem::path& root, const RigConfig& rig,
@@ -127,11 +146,7 @@ Status SessionWriter::open_segment(Camera& cam, std::int64_t first_pts_us, bool 
   const VideoFileRecord rec{next_video_file_id_.fetch_add(1), cam.device_id, file, cam.settings.codec,
                             cam.settings.pixel_format, cam.settings.width, cam.settings.height, segment};
   if (direct) {
-    try {
-      index_->add_video_file(rec);
-    } catch (const sqlite::SqliteError& e) {
-      return Error{e.what()};
-    }
+    if (Status s = index_write([&] { index_->add_video_file(rec); }); !s.ok()) return s;
   } else {
     index_writer_->push(rec);
   }
@@ -155,49 +170,28 @@ Result<std::int64_t> SessionWriter::add_camera(const DeviceRecord& device, int w
   vs.height = height;
   vs.nominal_fps = store_.video_fps > 0 ? store_.video_fps : 30;
   vs.gop_frames = std::max(1, int(vs.nominal_fps * store_.gop_seconds_x10 / 10.0));
-  try {
-    cam->device_id = index_->add_device(device);
-  } catch (const sqlite::SqliteError& e) {
-    return Error{e.what()};
-  }
+  auto id = index_write([&] { return index_->add_device(device); });
+  if (!id) return id.error();
+  cam->device_id = id.value();
   if (Status s = open_segment(*cam, 0, true); !s.ok()) return s.error();  // checks the codec settings now
-  const std::int64_t id = cam->device_id;
   cameras_.push_back(std::move(cam));
   return id;
 }
 
 Result<std::int64_t> SessionWriter::add_device(const DeviceRecord& device) {
-  try {
-    return index_->add_device(device);
-  } catch (const sqlite::SqliteError& e) {
-    return Error{e.what()};
-  }
+  return index_write([&] { return index_->add_device(device); });
 }
 
 Status SessionWriter::set_participant(const ParticipantRecord& p) {
-  try {
-    index_->set_participant(p);
-    return {};
-  } catch (const sqlite::SqliteError& e) {
-    return Error{e.what()};
-  }
+  return index_write([&] { index_->set_participant(p); });
 }
 
 Status SessionWriter::set_conditions(const ConditionsRecord& c) {
-  try {
-    index_->set_conditions(c);
-    return {};
-  } catch (const sqlite::SqliteError& e) {
-    return Error{e.what()};
-  }
+  return index_write([&] { index_->set_conditions(c); });
 }
 
 Result<std::int64_t> SessionWriter::add_calibration(const CalibrationRecord& c) {
-  try {
-    return index_->add_calibration(c);
-  } catch (const sqlite::SqliteError& e) {
-    return Error{e.what()};
-  }
+  return index_write([&] { return index_->add_calibration(c); });
 }
 
 void SessionWriter::start() {
