@@ -9,7 +9,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "app/recorder.h"
+#include "app/cmd_session.h"
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "storage/sqlite/database.h"
@@ -267,8 +267,12 @@ std::filesystem::path write_eval_scenario(const EvalSyncOptions& o) {
 int eval_sync(const std::filesystem::path& scenario, const EvalSyncOptions& o, const std::atomic<bool>& stop) {
   const RigConfig rig = load_rig_config(scenario);
   const auto sessions = o.root / "sessions";
-  RecordOptions ro{sessions, o.seconds, 15.0, o.self_exe};
-  if (const int rc = record_session(rig, ro, stop); rc != 0) {
+  SessionCommand command;
+  command.recording.root = sessions;
+  command.recording.device_wait_s = 15.0;
+  command.recording.self_exe = o.self_exe;
+  command.duration_s = o.seconds;
+  if (const int rc = run_session(rig, command, stop); rc != 0) {
     spdlog::error("the evaluation session failed; nothing to evaluate");
     return 1;
   }

@@ -14,7 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "app/eval_sync.h"
-#include "app/recorder.h"
+#include "app/cmd_session.h"
 #include "app/verify_session.h"
 #include "storage/recover.h"
 #include "app/sensel_decode.h"
@@ -40,6 +40,8 @@ void install_stop_handlers() {
   sa.sa_handler = on_signal;
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+  sigaction(SIGHUP, &sa, nullptr);  // an ssh connection that drops stops the session cleanly
+  signal(SIGPIPE, SIG_IGN);         // a closed pipe or socket is an error return, not death
 }
 
 std::filesystem::path self_exe() {
@@ -131,7 +133,8 @@ int cmd_devices(bool json, const std::vector<std::string>& extra_ttys) {
   return 0;
 }
 
-int cmd_sim(const pvcap::RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration) {
+int cmd_sim(const pvcap::RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration,
+            bool hand_commands) {
   // Started by a recording: end with it, even when it is killed (no orphaned simulator holding the rig).
   if (getppid() != 1) {
     const pid_t parent = getppid();
@@ -152,6 +155,16 @@ int cmd_sim(const pvcap::RigConfig& rig, const std::filesystem::path& truth, std
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
       g_stop.store(true);
     });
+  // Steered by a recording (protocol --auto): one hand command per line on stdin. Detached: it
+  // may sit in a read until the process exits.
+  if (hand_commands)
+    std::thread([rig = made.value().get()] {
+      std::string line;
+      while (std::getline(std::cin, line)) {
+        if (auto c = pvcap::sim::HandCommand::parse(line)) rig->steer(*c);
+        else spdlog::warn("sim: not a hand command: {}", line);
+      }
+    }).detach();
   made.value()->run(g_stop);
   if (timer.joinable()) timer.join();
   return 0;
@@ -199,6 +212,8 @@ int main(int argc, char** argv) {
   sim->add_option("--rig", sim_rig, "rig file with a sim: section")->required()->check(CLI::ExistingFile);
   sim->add_option("--truth", truth, "folder for the ground truth of the run")->capture_default_str();
   sim->add_option("--duration", sim_duration, "stop after this many seconds")->check(CLI::PositiveNumber);
+  bool sim_hand_commands = false;
+  sim->add_flag("--hand-commands", sim_hand_commands, "steer the simulated hand by commands on stdin (one a line)");
 
   auto* sensel = app.add_subcommand("sensel", "Sensel Morph tools");
   sensel->require_subcommand(1);
@@ -260,7 +275,12 @@ int main(int argc, char** argv) {
     if (*session) {
       const auto rig = pvcap::load_rig_config(rig_path);
       if (rig.sim) ensure_sim_network(rig);
-      pvcap::RecordOptions opts{root, duration, rig.sim ? 10.0 : 0.0, self_exe(), {}, {}};
+      pvcap::SessionCommand command;
+      auto& opts = command.recording;
+      opts.root = root;
+      opts.device_wait_s = rig.sim ? 10.0 : 0.0;
+      opts.self_exe = self_exe();
+      command.duration_s = duration;
       if (!participant.pseudonym.empty()) {
         if (participant.skin_tone.empty()) participant.skin_tone = "unrecorded";
         if (participant.hand_order.empty()) participant.hand_order = "unrecorded";
@@ -273,7 +293,7 @@ int main(int argc, char** argv) {
         if (conditions.sensor_overlay.empty()) conditions.sensor_overlay = "unrecorded";
         opts.conditions = conditions;
       }
-      return pvcap::record_session(rig, opts, g_stop);
+      return pvcap::run_session(rig, command, g_stop);
     }
     if (*eval) {
       eval_opts.root = eval_root.empty()
@@ -324,7 +344,7 @@ int main(int argc, char** argv) {
       const auto rig = pvcap::load_rig_config(sim_rig);
       if (!rig.sim) throw pvcap::UserError(fmt::format("{}: has no sim: section", sim_rig));
       ensure_sim_network(rig);
-      return cmd_sim(rig, truth, sim_duration);
+      return cmd_sim(rig, truth, sim_duration, sim_hand_commands);
     }
   } catch (const pvcap::UserError& e) {
     spdlog::error("{}", e.what());

@@ -81,4 +81,28 @@ std::vector<float> upsample(const std::vector<std::uint16_t>& counts, const Grid
   return out;
 }
 
+PressureSummary summarize_pressure(const std::vector<std::uint16_t>& counts, const Grid& g, double contact_kpa,
+                                   int unit_shift) {
+  PressureSummary s;
+  if (g.cells() <= 0 || counts.size() != std::size_t(g.cells())) return s;
+  const double cell_w = kSenselPitchMm * g.xscale, cell_h = kSenselPitchMm * g.yscale;
+  double sum = 0, sx = 0, sy = 0;
+  for (int r = 0; r < g.rows; ++r)
+    for (int c = 0; c < g.cols; ++c) {
+      const double v = counts[std::size_t(r * g.cols + c)];
+      if (v <= 0) continue;
+      sum += v;
+      sx += v * c * cell_w;
+      sy += v * r * cell_h;
+      if (native_cell_kpa(v, g, unit_shift) > contact_kpa) ++s.contact_cells;
+    }
+  s.total_newtons = grams_to_newtons(counts_to_grams(sum, unit_shift));
+  s.contact_area_mm2 = s.contact_cells * cell_w * cell_h;
+  if (sum > 0) {
+    s.centroid_x_mm = sx / sum;
+    s.centroid_y_mm = sy / sum;
+  }
+  return s;
+}
+
 }  // namespace pvcap::sensel

@@ -38,6 +38,18 @@ constexpr double upsampled_sensel_kpa(double counts, const Grid& g, int unit_shi
          ((kSenselPitchMm * 1e-3) * (kSenselPitchMm * 1e-3)) / double(g.xscale * g.yscale) / 1000.0;
 }
 
+// What a pressure frame amounts to: total force, contact (cells above `contact_kpa`, the
+// paper's contact threshold being 1 kPa) and the force-weighted centre, in sensor mm from the
+// centre of sensel (0, 0). Computed on the native grid the device sends.
+struct PressureSummary {
+  double total_newtons = 0;
+  double contact_area_mm2 = 0;
+  int contact_cells = 0;
+  double centroid_x_mm = 0, centroid_y_mm = 0;  // meaningful when total_newtons > 0
+};
+PressureSummary summarize_pressure(const std::vector<std::uint16_t>& counts, const Grid& g, double contact_kpa = 1.0,
+                                   int unit_shift = kMorphForceUnitShift);
+
 // The 4-tap weights for fractional position t = step/scale (taps at seg-1, seg, seg+1, seg+2):
 // tent-weighted integral of the window (1-(t-s)^2)^2 over s in [-1, 2], normalised,
 // evaluated as a Riemann sum with step 0.001, as the device library does.

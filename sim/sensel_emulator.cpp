@@ -4,24 +4,33 @@
 #include <cstring>
 
 #include "capture/sensel_protocol.h"
-#include "sim/fingertip.h"
+#include "sim/hand.h"
 
 namespace pvcap::sim {
 
 using namespace sensel;
 
 SenselScene fingertip_scene(double x_mm, double y_mm, double peak_grams, double period_s) {
+  SimSenselConfig c;
+  c.press_x_mm = x_mm;
+  c.press_y_mm = y_mm;
+  c.peak_grams = peak_grams;
+  c.period_s = period_s;
+  return hand_scene(std::make_shared<Hand>(c));
+}
+
+SenselScene hand_scene(std::shared_ptr<const Hand> hand) {
   SenselScene s;
-  s.pressure = [=](std::int64_t true_ns, const Grid& g) {
+  s.pressure = [hand](std::int64_t true_ns, const Grid& g) {
     std::vector<std::uint16_t> counts(std::size_t(g.cells()), 0);
-    const double force = fingertip_force(true_ns, period_s);
-    if (force <= 0) return counts;
+    const HandPose p = hand->pose_at(true_ns);
+    if (p.force <= 0) return counts;
     const double cell_mm_x = 1.25 * g.xscale, cell_mm_y = 1.25 * g.yscale;
     const double sigma_mm = 4.0;  // a fingertip's footprint
     for (int r = 0; r < g.rows; ++r)
       for (int c = 0; c < g.cols; ++c) {
-        const double dx = c * cell_mm_x - x_mm, dy = r * cell_mm_y - y_mm;
-        const double grams = peak_grams * force * std::exp(-(dx * dx + dy * dy) / (2 * sigma_mm * sigma_mm));
+        const double dx = c * cell_mm_x - p.x_mm, dy = r * cell_mm_y - p.y_mm;
+        const double grams = p.peak_grams * p.force * std::exp(-(dx * dx + dy * dy) / (2 * sigma_mm * sigma_mm));
         const double raw = grams * 8.0;  // counts = g * 2^UNIT_SHIFT_FORCE
         if (raw > 3.5) counts[std::size_t(r * g.cols + c)] = std::uint16_t(std::min(raw, 32000.0));
       }

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <ostream>
 #include <random>
 #include <span>
@@ -29,6 +30,9 @@ struct SenselScene {
 // A fingertip pressing at (x_mm, y_mm) once every `period_s`, peaking at `peak_grams` on its
 // centre cell: a smooth press and release, nothing in between.
 SenselScene fingertip_scene(double x_mm, double y_mm, double peak_grams, double period_s);
+class Hand;
+// The pressure of a simulated hand (sim/hand.h), wherever it is steered.
+SenselScene hand_scene(std::shared_ptr<const Hand> hand);
 
 struct SenselClock {
   std::int64_t t0_ns = 0;        // true time of the emulator's power-on

@@ -14,6 +14,7 @@
 #include "capture/pixel_format.h"
 #include "core/time.h"
 #include "sim/fingertip.h"
+#include "sim/hand.h"
 #include "sim/scene.h"
 #include "sim/timecode.h"
 
@@ -93,13 +94,13 @@ class LatchService {
 Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConfig& camera,
                                                      const SimCameraClock& clock, std::int64_t t0_ns,
                                                      std::uint64_t seed, const std::filesystem::path& truth_dir,
-                                                     std::optional<SimSenselConfig> fingertip) {
+                                                     std::shared_ptr<const Hand> hand) {
   if (camera.address.empty())
     return Error{fmt::format("{}: a simulated camera needs an 'address' (127.0.0.x)", camera.name)};
   std::unique_ptr<SimCamera> self(new SimCamera());
   self->index_ = index;
   self->name_ = camera.name;
-  self->fingertip_ = fingertip;
+  self->hand_ = std::move(hand);
   self->clock_ = SimClock{t0_ns, clock.offset_ms * 1e6, clock.drift_ppm * 1e-6, clock.jitter_us * 1e3};
   self->exposure_latency_ns_ = std::int64_t(clock.exposure_latency_ms * 1e6);
   self->rng_.seed(seed * 1000 + std::uint64_t(index));
@@ -190,17 +191,17 @@ void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t t
   if (!data) return;
   std::memcpy(data, base.data, base.total() * base.elemSize());
   const auto frame_id = std::uint16_t(arv_buffer_get_frame_id(buffer));
-  if (fingertip_) {
-    const double force = fingertip_force(true_ns, fingertip_->period_s);
-    if (force > 0) {
+  if (hand_) {
+    const HandPose pose = hand_->pose_at(true_ns);
+    if (pose.visible) {
       const cv::Matx33d h = homography({width, height});
       auto project = [&](double x, double y) {
         const cv::Vec3d p = h * cv::Vec3d(x, y, 1.0);
         return cv::Point2d(p[0] / p[2], p[1] / p[2]);
       };
-      const cv::Point2d c = project(fingertip_->press_x_mm, fingertip_->press_y_mm);
-      const double r_mm = fingertip_radius_mm(force);
-      const cv::Point2d e = project(fingertip_->press_x_mm + r_mm, fingertip_->press_y_mm);
+      const cv::Point2d c = project(pose.x_mm, pose.y_mm);
+      const double r_mm = fingertip_radius_mm(pose.force);
+      const cv::Point2d e = project(pose.x_mm + r_mm, pose.y_mm);
       cv::Mat view(height, width, base.type(), data);
       draw_fingertip(view, pixel_format_name(format), c, std::hypot(e.x - c.x, e.y - c.y));
     }

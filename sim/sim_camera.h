@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <atomic>
@@ -27,6 +28,8 @@
 #include "core/rig_config.h"
 
 namespace pvcap::sim {
+
+class Hand;
 
 struct SimClock {
   std::int64_t t0_ns = 0;  // true time (host CLOCK_MONOTONIC) taken as the device's power-on
@@ -43,11 +46,11 @@ class SimCamera {
  public:
   // Serves `camera` (address must be an IPv4 address on this host) with `clock`.
   // Ground truth goes to `truth_dir/<name>_frames.csv`.
-  // With `fingertip`, the camera also shows the Sensel emulator's fingertip at each frame's instant.
+  // With `hand`, the camera also shows the simulated hand at each frame's instant.
   static Result<std::unique_ptr<SimCamera>> create(int index, const CameraConfig& camera, const SimCameraClock& clock,
                                                    std::int64_t t0_ns, std::uint64_t seed,
                                                    const std::filesystem::path& truth_dir,
-                                                   std::optional<SimSenselConfig> fingertip = std::nullopt);
+                                                   std::shared_ptr<const Hand> hand = nullptr);
   ~SimCamera();
   SimCamera(const SimCamera&) = delete;
   SimCamera& operator=(const SimCamera&) = delete;
@@ -79,7 +82,7 @@ class SimCamera {
   std::map<std::tuple<int, int, std::uint32_t>, cv::Mat> bases_;
   std::ofstream truth_;
   std::uint64_t emitted_ = 0;
-  std::optional<SimSenselConfig> fingertip_;
+  std::shared_ptr<const Hand> hand_;
 };
 
 }  // namespace pvcap::sim

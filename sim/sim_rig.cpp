@@ -28,6 +28,7 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
   self->rig_ = rig;
   self->truth_dir_ = truth_dir;
   self->t0_ns_ = host_now().ns;
+  self->hand_ = std::make_shared<Hand>(rig.sim->sensel);
   self->returned_.assign(rig.cameras.size(), false);
 
   nlohmann::json truth;
@@ -41,7 +42,7 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
     const SimCameraClock& clk = rig.sim->cameras[i];
     const bool sensel_sim = rig.sensel && rig.sensel->tty == "sim";
     auto made = SimCamera::create(int(i), cam, clk, self->t0_ns_, rig.sim->seed, truth_dir,
-                                  sensel_sim ? std::optional(rig.sim->sensel) : std::nullopt);
+                                  sensel_sim ? self->hand_ : nullptr);
     if (!made) return made.error();
     const cv::Matx33d h = made.value()->homography({cam.width, cam.height});
     nlohmann::json jc = {{"name", cam.name},
@@ -62,7 +63,7 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
     self->sensel_truth_.open(truth_dir / "sensel_frames.csv");
     self->sensel_truth_ << "counter,true_ns,device_us\n";
     self->sensel_ = std::make_unique<SenselEmulator>(
-        fingertip_scene(ss.press_x_mm, ss.press_y_mm, ss.peak_grams, ss.period_s),
+        hand_scene(self->hand_),
         SenselClock{self->t0_ns_, ss.clock_start_us, ss.drift_ppm,
                     ss.clock_reset_at_s ? self->t0_ns_ + std::int64_t(*ss.clock_reset_at_s * 1e9) : INT64_MAX});
     if (ss.drop_fraction > 0) self->sensel_->set_drop_fraction(ss.drop_fraction, rig.sim->seed + 17);
@@ -86,6 +87,16 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
   return self;
 }
 
+void SimRig::steer(const HandCommand& c) {
+  hand_->set(c);
+  std::lock_guard lock(hand_truth_mu_);
+  if (!hand_truth_.is_open()) {
+    hand_truth_.open(truth_dir_ / "hand.csv");
+    hand_truth_ << "from_ns,command\n";
+  }
+  hand_truth_ << c.from_ns << ',' << c.format() << '\n' << std::flush;
+}
+
 SimRig::~SimRig() {
   sensel_pty_.reset();  // stops serving before the emulator goes
   sensel_.reset();
@@ -105,7 +116,7 @@ void SimRig::run(const std::atomic<bool>& stop) {
         returned_[i] = true;
         const bool sensel_sim = rig_.sensel && rig_.sensel->tty == "sim";
         auto made = SimCamera::create(int(i), rig_.cameras[i], clk, t0_ns_, rig_.sim->seed + 1, truth_dir_,
-                                      sensel_sim ? std::optional(rig_.sim->sensel) : std::nullopt);
+                                      sensel_sim ? hand_ : nullptr);
         if (made) {
           cameras_[i] = std::move(made.value());
           spdlog::warn("sim: camera {} is back (return_after_s = {})", rig_.cameras[i].name, *clk.return_after_s);

@@ -9,10 +9,12 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include "core/result.h"
 #include "core/rig_config.h"
+#include "sim/hand.h"
 #include "sim/sensel_emulator.h"
 #include "sim/sensel_pty.h"
 #include "sim/sim_camera.h"
@@ -28,6 +30,8 @@ class SimRig {
   // bringing them back (power-cycled) at return_after_s.
   void run(const std::atomic<bool>& stop);
   std::size_t camera_count() const { return cameras_.size(); }
+  // Steers the simulated hand (protocol --auto); logged to truth_dir/hand.csv.
+  void steer(const HandCommand& c);
 
  private:
   SimRig() = default;
@@ -35,6 +39,9 @@ class SimRig {
   std::filesystem::path truth_dir_;
   std::int64_t t0_ns_ = 0;
   std::vector<bool> returned_;
+  std::shared_ptr<Hand> hand_;
+  std::mutex hand_truth_mu_;
+  std::ofstream hand_truth_;
   std::ofstream sensel_truth_;
   std::unique_ptr<SenselEmulator> sensel_;
   std::unique_ptr<SenselPty> sensel_pty_;

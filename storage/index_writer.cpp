@@ -23,6 +23,19 @@ bool IndexWriter::push(Record record) {
   return true;
 }
 
+bool IndexWriter::push_committed(Record record, std::chrono::milliseconds timeout) {
+  auto promise = std::make_shared<std::promise<bool>>();
+  auto committed = promise->get_future();
+  if (!push(std::move(record))) return false;
+  if (!push(CommitBarrier{std::move(promise)})) return false;
+  if (committed.wait_for(timeout) != std::future_status::ready) return false;
+  try {
+    return committed.get();
+  } catch (const std::future_error&) {  // the writer stopped before reaching it
+    return false;
+  }
+}
+
 void IndexWriter::stop() {
   queue_.close();
   if (thread_.joinable()) thread_.join();
@@ -58,7 +71,7 @@ void IndexWriter::write_records(const std::vector<Record>& batch) {
           else if constexpr (std::is_same_v<T, VideoFileClosed>) index_.close_video_file(rec);
           else if constexpr (std::is_same_v<T, ProtocolEventRecord>) index_.add_protocol_event(rec);
           else if constexpr (std::is_same_v<T, OperatorNoteRecord>) index_.add_operator_note(rec);
-          else index_.add_event(rec);
+          else if constexpr (std::is_same_v<T, EventRecord>) index_.add_event(rec);
         },
         r);
   }
@@ -96,6 +109,11 @@ void IndexWriter::run() {
   std::uint64_t lost_reported = 0;
   while (!queue_.closed_and_empty()) {
     if (auto r = queue_.pop_for(std::chrono::milliseconds(50))) {
+      if (auto* barrier = std::get_if<CommitBarrier>(&*r)) {
+        write_batch(batch);
+        barrier->committed->set_value(!failed_.load());
+        continue;
+      }
       if (batch.empty()) batch_started = std::chrono::steady_clock::now();
       batch.push_back(std::move(*r));
     }

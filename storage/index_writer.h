@@ -9,6 +9,8 @@
 // not lost with it.
 #include <atomic>
 #include <chrono>
+#include <future>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -20,10 +22,15 @@
 
 namespace pvcap {
 
+// In the queue: "commit everything before me now, then tell". Never written itself.
+struct CommitBarrier {
+  std::shared_ptr<std::promise<bool>> committed;  // true once committed; false if writing failed
+};
+
 class IndexWriter {
  public:
   using Record = std::variant<FrameRecord, PressureRecord, DropRecord, EventRecord, SampleRecord, ClockModelRecord,
-                              VideoFileRecord, VideoFileClosed, ProtocolEventRecord, OperatorNoteRecord>;
+                              VideoFileRecord, VideoFileClosed, ProtocolEventRecord, OperatorNoteRecord, CommitBarrier>;
 
   IndexWriter(SessionIndex& index, std::size_t capacity = 200'000,
               std::chrono::milliseconds batch_period = std::chrono::milliseconds(250));
@@ -32,6 +39,9 @@ class IndexWriter {
   void start();
   // False when the queue is full (the record is counted as lost) or after a failure.
   bool push(Record record);
+  // Pushes `record` and waits until it is committed to the index (at most `timeout`): for what
+  // must be on disk before it is acknowledged (protocol transitions). Not for capture threads.
+  bool push_committed(Record record, std::chrono::milliseconds timeout);
   // Writes what is queued and stops the thread.
   void stop();
   // Set when writing failed (e.g. disk full): the message names the file and the cause.

@@ -325,7 +325,13 @@ Result<std::vector<StreamStatistics>> SessionReader::stream_statistics() {
   return guarded(dir_, [&]() -> Result<std::vector<StreamStatistics>> {
     std::vector<StreamStatistics> out;
     auto d = db_->prepare("SELECT id, name, kind FROM devices ORDER BY id");
-    while (d.step()) out.push_back({d.column_int(0), d.column_text(1), d.column_text(2), 0, 0, 0, {}, 0});
+    while (d.step()) {
+      StreamStatistics s;
+      s.device_id = d.column_int(0);
+      s.name = d.column_text(1);
+      s.kind = d.column_text(2);
+      out.push_back(std::move(s));
+    }
     for (auto& s : out) {
       const bool camera = s.kind == "camera";
       auto n = db_->prepare(camera ? "SELECT count(*), coalesce(sum(kept), 0), min(host_ns), max(host_ns) FROM frames "
@@ -347,8 +353,24 @@ Result<std::vector<StreamStatistics>> SessionReader::stream_statistics() {
                               "BY reason");
         r.bind_all(s.device_id);
         while (r.step()) s.not_kept[r.column_text(0)] = std::uint64_t(r.column_int(1));
+        auto st = db_->prepare("SELECT status, count(*) FROM frames WHERE device_id = ? GROUP BY status");
+        st.bind_all(s.device_id);
+        while (st.step()) s.by_status[st.column_text(0)] = std::uint64_t(st.column_int(1));
       }
+      auto ev = db_->prepare("SELECT count(*) FROM events WHERE device_id = ? AND kind IN ('camera_lost', "
+                             "'sensel_unplugged')");
+      ev.bind_all(s.device_id);
+      if (ev.step()) s.connection_losses = std::uint64_t(ev.column_int(0));
     }
+    return out;
+  });
+}
+
+Result<std::vector<std::pair<std::string, std::uint64_t>>> SessionReader::timeline_counts() {
+  return guarded(dir_, [&]() -> Result<std::vector<std::pair<std::string, std::uint64_t>>> {
+    std::vector<std::pair<std::string, std::uint64_t>> out;
+    auto q = db_->prepare("SELECT what, count FROM timeline_counts ORDER BY rowid");
+    while (q.step()) out.emplace_back(q.column_text(0), std::uint64_t(q.column_int(1)));
     return out;
   });
 }

@@ -109,6 +109,8 @@ struct StreamStatistics {
   std::uint64_t in_video = 0;
   std::uint64_t dropped = 0;  // never arrived (drops table)
   std::map<std::string, std::uint64_t> not_kept;  // camera frames not in a video, by reason
+  std::map<std::string, std::uint64_t> by_status;  // camera frames by status (good, incomplete, ...)
+  std::uint64_t connection_losses = 0;             // camera_lost / sensel_unplugged events
   double mean_rate_hz = 0;
 };
 
@@ -140,6 +142,8 @@ class SessionReader {
   Result<std::vector<OperatorNoteRecord>> operator_notes();
   Result<std::vector<CalibrationRecord>> calibrations();
   Result<std::vector<StreamStatistics>> stream_statistics();
+  // The timeline's tallies written at the end (what -> count), in the order written.
+  Result<std::vector<std::pair<std::string, std::uint64_t>>> timeline_counts();
 
  private:
   SessionReader() = default;

@@ -293,7 +293,8 @@ std::optional<std::string> SessionWriter::failure() const {
 
 CameraStoreStats SessionWriter::camera_stats(std::int64_t device_id) const {
   for (const auto& cam : cameras_)
-    if (cam->device_id == device_id) return {cam->in_video.load(), cam->encoder_drops.load(), cam->segments.load()};
+    if (cam->device_id == device_id)
+      return {cam->in_video.load(), cam->encoder_drops.load(), cam->segments.load(), cam->queue.size()};
   return {};
 }
 

@@ -38,6 +38,7 @@ struct CameraStoreStats {
   std::uint64_t frames_in_video = 0;
   std::uint64_t encoder_drops = 0;   // kept frames the encoder could not take in time
   std::uint64_t segments = 0;
+  std::size_t encoder_backlog = 0;  // kept frames waiting for the encoder now
 };
 
 class SessionWriter {
@@ -66,6 +67,14 @@ class SessionWriter {
   void record(ClockModelRecord clock) { index_writer_->push(std::move(clock)); }
   void record(ProtocolEventRecord event) { index_writer_->push(std::move(event)); }
   void record(OperatorNoteRecord note) { index_writer_->push(std::move(note)); }
+  // Records and waits until committed (at most `timeout`): protocol transitions are on disk before
+  // they are acknowledged. False when not committed in time or the index failed.
+  bool record_committed(ProtocolEventRecord event, std::chrono::milliseconds timeout) {
+    return index_writer_->push_committed(std::move(event), timeout);
+  }
+  bool record_committed(OperatorNoteRecord note, std::chrono::milliseconds timeout) {
+    return index_writer_->push_committed(std::move(note), timeout);
+  }
   // Written at close (the timeline's tallies: groups, missed ticks, unpaired samples by reason).
   void add_timeline_count(std::string what, std::uint64_t count) { timeline_counts_.emplace_back(std::move(what), count); }
   // Queues a kept frame for its camera's video. False (and nothing queued) when the

@@ -1,4 +1,4 @@
-#include "app/realign.h"
+#include "session/realign.h"
 
 #include <algorithm>
 #include <climits>

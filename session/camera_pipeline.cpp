@@ -1,0 +1,193 @@
+#include "session/camera_pipeline.h"
+
+#include <map>
+#include <thread>
+
+#include <opencv2/imgproc.hpp>
+
+#include "capture/pixel_format.h"
+#include "core/frame_pool.h"
+#include "core/gap_tracker.h"
+#include "core/sequence_unwrap.h"
+#include "core/time.h"
+
+namespace pvcap::session {
+
+namespace {
+
+using namespace std::chrono_literals;
+
+// What a camera's worker holds while the timeline decides whether a frame is in a sample:
+// its index row and a copy of its pixels (the camera gets its buffer back at once).
+struct HeldFrame {
+  FrameRecord rec;
+  std::vector<std::uint8_t> pixels;
+  std::uint32_t pixel_format = 0;
+  int width = 0, height = 0;
+};
+
+}  // namespace
+
+void Preview::set(cv::Mat bgr, std::int64_t host_ns) {
+  std::lock_guard lock(mu_);
+  bgr_ = std::move(bgr);
+  host_ns_ = host_ns;
+}
+
+std::pair<cv::Mat, std::int64_t> Preview::get() const {
+  std::lock_guard lock(mu_);
+  return {bgr_.clone(), host_ns_};
+}
+
+void run_camera_pipeline(const CameraPipeline& p) {
+  AravisCamera& camera = p.camera;
+  const int index = p.index;
+  const std::int64_t device_id = p.device_id;
+  SessionWriter& writer = p.writer;
+  CameraTally& tally = p.tally;
+  sync::SessionTimeline& timeline = p.timeline;
+  TimelineEnd& end = p.end;
+  const std::size_t encoder_queue = p.encoder_queue;
+  std::int64_t next_preview_ns = 0;
+  SequenceUnwrapper unwrap(16, /*zero_is_skipped=*/true);
+  std::uint32_t connection = UINT32_MAX;
+  std::map<std::pair<std::uint32_t, std::uint64_t>, HeldFrame> held;
+  // Pixel buffers are reused: a fresh 2 MB allocation per frame costs page faults by the thousand.
+  std::vector<std::vector<std::uint8_t>> spare;
+  auto recycle = [&](std::vector<std::uint8_t>&& pixels) {
+    if (spare.size() < 32) spare.push_back(std::move(pixels));
+  };
+  // So are the debayered images: one for each the encoder can hold, and the one being filled.
+  FramePool images(encoder_queue + 2);
+  // A frame that times out incomplete is delivered after its successor: hold gaps open for a
+  // second so such a frame is counted once, as what it is.
+  auto report_gap = [&](const GapTracker::Gap& g) {
+    tally.not_received.fetch_add(g.count, std::memory_order_relaxed);
+    writer.record(DropRecord{device_id, connection, g.first, g.count, "not_received", g.noticed_ns});
+  };
+  // The timeline's verdicts: the kept frame of a sample goes to the video, the others to the index.
+  auto apply_decisions = [&] {
+    for (const auto& d : timeline.take_decisions(index)) {
+      auto it = held.find({d.connection, d.sequence});
+      if (it == held.end()) continue;
+      HeldFrame h = std::move(it->second);
+      held.erase(it);
+      if (!d.kept) {
+        h.rec.reason = d.reason;
+        writer.record(std::move(h.rec));
+        recycle(std::move(h.pixels));
+        continue;
+      }
+      cv::Mat bgr = images.acquire(h.height, h.width, CV_8UC3);
+      const Status converted = to_bgr(h.pixels.data(), h.pixels.size(), h.width, h.height, h.pixel_format, bgr);
+      recycle(std::move(h.pixels));
+      if (!converted) {
+        h.rec.reason = "unsupported_pixels: " + converted.error().message;
+      } else {
+        if (writer.submit_video(device_id, std::move(bgr), h.rec)) continue;  // the encoder records it
+        tally.encoder_behind.fetch_add(1, std::memory_order_relaxed);
+        h.rec.reason = "encoder_behind";
+      }
+      writer.record(std::move(h.rec));
+    }
+  };
+  GapTracker gaps(1'000'000'000, report_gap);
+  auto& queue = camera.frames();
+  while (!queue.closed_and_empty()) {
+    auto frame = queue.pop_for(100ms);
+    gaps.settle(host_now().ns);
+    apply_decisions();
+    // The timeline decides within a quarter second; a frame held far longer means it never will:
+    // record it rather than hold its pixels without bound.
+    const std::int64_t give_up_before = host_now().ns - 5'000'000'000;
+    for (auto it = held.begin(); it != held.end();)
+      if (it->second.rec.host_ns < give_up_before) {
+        it->second.rec.reason = "undecided";
+        writer.record(std::move(it->second.rec));
+        it = held.erase(it);
+      } else {
+        ++it;
+      }
+    // Timestamp-latch probes of this camera's clock (cameras that have the latch).
+    while (auto probe = camera.clock_probes().pop_for(0ms))
+      if (probe->connection == connection)
+        timeline.camera_probe(index, probe->device.ns, probe->host_lo.ns, probe->host_hi.ns);
+    if (!frame) continue;
+    tally.received.fetch_add(1, std::memory_order_relaxed);
+    if (frame->connection != connection) {  // frame ids restart with each connection
+      gaps.settle(0, /*flush_all=*/true);
+      unwrap = SequenceUnwrapper(16, true);
+      connection = frame->connection;
+    }
+    if (frame->frame_id == 0) {
+      // GigE Vision never sends id 0: this buffer got no leader packet, so it has no identity.
+      // The frame it was is counted in a gap; record the buffer, sequence 0 = unknown.
+      tally.unidentified.fetch_add(1, std::memory_order_relaxed);
+      writer.record(FrameRecord{device_id, frame->connection, 0, 0, frame->device_ts.ns, frame->host_ts.ns,
+                                frame->aravis_system_ns, to_string(frame->status), false,
+                                "no_frame_id_" + frame->detail, {}, {}, {}});
+      continue;
+    }
+    const auto step = unwrap.next(frame->frame_id);
+    FrameRecord rec{device_id, frame->connection, step.sequence, frame->frame_id, frame->device_ts.ns,
+                    frame->host_ts.ns, frame->aravis_system_ns, to_string(frame->status), false, "", {}, {}, {}};
+    gaps.missing(step.sequence - step.missing, step.missing, frame->host_ts.ns);
+    if (step.out_of_order && !gaps.arrived_late(step.sequence)) {
+      // Not a frame we were missing. An incomplete buffer whose leader packet was lost still
+      // carries the id and timestamp of the buffer's previous frame (seen with Aravis 0.8):
+      // the frame it really was is already counted in a gap, so it is recorded, not counted.
+      tally.unidentified.fetch_add(1, std::memory_order_relaxed);
+      rec.reason = frame->status == FrameStatus::Good ? "duplicate_frame_id" : "stale_metadata_" + frame->detail;
+    } else if (frame->status != FrameStatus::Good) {
+      tally.incomplete.fetch_add(1, std::memory_order_relaxed);
+      rec.reason = frame->detail;
+    } else {
+      tally.good.fetch_add(1, std::memory_order_relaxed);
+      // Only complete frames with their own id and timestamp feed the clock model and the samples.
+      // The arrival it fits is the leader packet's, which Aravis stamps (CLOCK_REALTIME, us): the
+      // frame's first sign of life, without its payload's transfer time, which grows with load.
+      const std::int64_t leader_ns = frame->aravis_system_ns + (host_now().ns - wall_now_ns());
+      const bool leader_usable = frame->aravis_system_ns > 0 && leader_ns <= frame->host_ts.ns &&
+                                 frame->host_ts.ns - leader_ns < 1'000'000'000;
+      rec.mapped_ns = timeline.camera_frame(index, frame->connection, step.sequence, frame->device_ts.ns,
+                                            leader_usable ? leader_ns : frame->host_ts.ns);
+      std::vector<std::uint8_t> pixels;
+      if (!spare.empty()) {
+        pixels = std::move(spare.back());
+        spare.pop_back();
+      }
+      pixels.assign(frame->data, frame->data + frame->size);  // reuses the capacity
+      tally.last_good_host_ns.store(frame->host_ts.ns, std::memory_order_relaxed);
+      if (frame->host_ts.ns >= next_preview_ns) {  // about once a second: a 1080p conversion costs ~10 ms
+        next_preview_ns = frame->host_ts.ns + 1'000'000'000;
+        cv::Mat full;
+        if (to_bgr(pixels.data(), pixels.size(), frame->width, frame->height, frame->pixel_format, full).ok()) {
+          cv::Mat small;
+          const double scale = 320.0 / std::max(1, frame->width);
+          cv::resize(full, small, {}, scale, scale, cv::INTER_AREA);
+          p.preview.set(std::move(small), frame->host_ts.ns);
+        }
+      }
+      HeldFrame h{std::move(rec), std::move(pixels), frame->pixel_format, frame->width, frame->height};
+      frame->lease.reset();  // the camera gets its buffer back before we encode
+      held.emplace(std::make_pair(h.rec.connection, h.rec.sequence), std::move(h));
+      apply_decisions();
+      continue;
+    }
+    writer.record(std::move(rec));
+  }
+  gaps.settle(0, /*flush_all=*/true);
+  // The last worker to finish feeding makes the timeline decide what is pending.
+  if (end.feeding.fetch_sub(1) == 1) {
+    timeline.flush();
+    end.flushed.store(true);
+  }
+  while (!end.flushed.load()) std::this_thread::sleep_for(5ms);
+  apply_decisions();
+  for (auto& [key, h] : held) {  // nothing should be left; if it is, it is still recorded
+    h.rec.reason = "undecided";
+    writer.record(std::move(h.rec));
+  }
+}
+
+}  // namespace pvcap::session

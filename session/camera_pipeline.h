@@ -1,0 +1,60 @@
+#pragma once
+// One camera's part of a recording: a worker thread that takes the driver's
+// frames, numbers them (frame ids unwrapped per connection, gaps counted as
+// drops), feeds the good ones to the timeline, and sends each to the store as
+// the timeline decides: the kept frame of a sample to its video, every other
+// frame to the index with its reason. Never waits on the store.
+#include <atomic>
+#include <cstdint>
+#include <mutex>
+
+#include <opencv2/core.hpp>
+
+#include "capture/aravis_camera.h"
+#include "storage/session_writer.h"
+#include "sync/session_timeline.h"
+
+namespace pvcap::session {
+
+// Per-camera counts the operator sees, filled by that camera's worker thread.
+struct CameraTally {
+  std::atomic<std::uint64_t> received{0}, good{0}, incomplete{0}, not_received{0}, encoder_behind{0}, lost_events{0};
+  std::atomic<std::uint64_t> unidentified{0};  // buffers without their own id/timestamp, or duplicate ids
+  std::atomic<std::int64_t> last_good_host_ns{0};
+};
+
+// A small colour view of the latest frame, about once a second, for the operator's page.
+class Preview {
+ public:
+  void set(cv::Mat bgr, std::int64_t host_ns);
+  // A copy of the latest view (empty before the first) and when it was taken.
+  std::pair<cv::Mat, std::int64_t> get() const;
+
+ private:
+  mutable std::mutex mu_;
+  cv::Mat bgr_;
+  std::int64_t host_ns_ = 0;
+};
+
+// Tells the camera workers when the timeline has decided everything (after the last frame).
+struct TimelineEnd {
+  std::atomic<int> feeding{0};
+  std::atomic<bool> flushed{false};
+};
+
+struct CameraPipeline {
+  AravisCamera& camera;
+  int index;
+  std::int64_t device_id;
+  SessionWriter& writer;
+  CameraTally& tally;
+  sync::SessionTimeline& timeline;
+  TimelineEnd& end;
+  std::size_t encoder_queue;  // the store's queue_frames: how many images the encoder can hold
+  Preview& preview;
+};
+
+// Runs until the camera's frame queue is closed and drained (after the camera stopped).
+void run_camera_pipeline(const CameraPipeline& p);
+
+}  // namespace pvcap::session

@@ -1,0 +1,447 @@
+#include "session/recording.h"
+
+#include <unistd.h>
+
+#include <fstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "capture/aravis_camera.h"
+#include "core/log.h"
+#include "core/time.h"
+#include "session/camera_pipeline.h"
+#include "session/realign.h"
+#include "session/session_report.h"
+#include "sim/sim_process.h"
+#include "storage/session_writer.h"
+#include "sync/session_timeline.h"
+
+namespace pvcap::session {
+
+using namespace std::chrono_literals;
+
+namespace {
+
+const char* const kStates[] = {"opened", "recording", "stopping", "ended"};
+enum State { kOpened, kRecording, kStopping, kEnded };
+
+std::string settings_json(const CameraSettings& s, const CameraConfig& c) {
+  nlohmann::json j = {{"pixel_format", s.pixel_format}, {"x", s.x}, {"y", s.y}, {"width", s.width},
+                      {"height", s.height}, {"frame_rate", s.frame_rate}, {"exposure_us", s.exposure_us},
+                      {"gain", s.gain}, {"trigger", s.trigger}, {"packet_size", s.packet_size},
+                      {"payload", s.payload}, {"buffer_count", s.buffer_count},
+                      {"timestamp_tick_hz", s.timestamp_tick_hz}, {"device_id", s.device_id},
+                      {"packet_resend", c.packet_resend}, {"socket_buffer_bytes", c.socket_buffer_bytes},
+                      {"latency_ns", c.latency_ns}};
+  return j.dump();
+}
+
+Status open_with_wait(AravisCamera& camera, double wait_s, const std::atomic<bool>& cancel) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
+  for (;;) {
+    Status s = camera.open();
+    if (s.ok() || cancel.load() || std::chrono::steady_clock::now() >= deadline) return s;
+    std::this_thread::sleep_for(200ms);
+  }
+}
+
+}  // namespace
+
+bool RecordingStatus::all_live(double window_ms) const {
+  if (streams.empty()) return false;
+  for (const auto& s : streams)
+    if (s.since_last_frame_ms < 0 || s.since_last_frame_ms > window_ms) return false;
+  return true;
+}
+
+Recording::Recording() = default;
+
+Recording::~Recording() {
+  // A recording dropped without finish() (an exception in its owner) still stops its devices.
+  if (state_.load() == kRecording || state_.load() == kStopping) (void)finish("ended abnormally");
+  if (!truth_tmp_.empty() && std::filesystem::exists(truth_tmp_) && !writer_) {
+    std::error_code ec;
+    std::filesystem::remove_all(truth_tmp_, ec);
+  }
+}
+
+Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const RecordingOptions& options,
+                                                   const std::atomic<bool>& cancel) {
+  std::unique_ptr<Recording> r(new Recording());
+  r->rig_ = rig;
+  r->options_ = options;
+  r->wall0_ = wall_now_ns();
+  r->host0_ = host_now().ns;
+
+  // The simulator writes its ground truth beside the sessions while it runs; once it has stopped,
+  // the truth is moved into the session folder.
+  if (rig.sim) {
+    r->truth_tmp_ = options.root / fmt::format(".sim-truth-{}", getpid());
+    std::error_code ec;
+    std::filesystem::create_directories(r->truth_tmp_, ec);
+    if (ec) return Error{fmt::format("cannot create {}: {}", r->truth_tmp_.string(), ec.message())};
+    auto sim = sim::SimProcess::start(options.self_exe, rig.source, r->truth_tmp_, options.steer_sim_hand);
+    if (!sim) return sim.error();
+    r->sim_ = std::move(sim.value());
+  }
+
+  // Every camera opened before anything is on disk: a rig that is not ready leaves no empty session.
+  const std::size_t n = rig.cameras.size();
+  r->device_ids_.assign(n, 0);
+  r->warned_encoder_.assign(n, false);
+  Recording* self = r.get();
+  for (std::size_t i = 0; i < n; ++i) {
+    r->tallies_.push_back(std::make_unique<CameraTally>());
+    r->previews_.push_back(std::make_unique<Preview>());
+    r->cameras_.push_back(std::make_unique<AravisCamera>(int(i), rig.cameras[i], [self, i](const CameraEvent& e) {
+      const bool lost = e.kind == CameraEvent::Kind::Lost;
+      if (lost) {
+        spdlog::error("{}", e.message);
+        self->tallies_[i]->lost_events.fetch_add(1);
+      } else {
+        spdlog::warn("{}", e.message);
+      }
+      if (SessionWriter* w = self->events_writer_.load())
+        w->record(EventRecord{e.at.ns, lost ? "camera_lost" : "camera_reconnected", self->device_ids_[i], e.message});
+    }));
+  }
+  for (auto& cam : r->cameras_)
+    if (Status s = open_with_wait(*cam, options.device_wait_s, cancel); !s.ok())
+      return Error{fmt::format("{}\nno session was recorded: every camera of {} must be ready", s.error().message,
+                               rig.source.string())};
+  if (rig.sensel) {
+    auto opened = SenselPipeline::open(*rig.sensel, r->truth_tmp_, rig.sim ? 10.0 : 2.0, cancel);
+    if (!opened)
+      return Error{fmt::format("{}\nno session was recorded: the Sensel of {} must be ready", opened.error().message,
+                               rig.source.string())};
+    r->sensel_ = std::move(opened.value());
+  }
+  return r;
+}
+
+Status Recording::start() {
+  auto created = SessionWriter::create(options_.root, rig_, wall0_, host0_);
+  if (!created) return created.error();
+  writer_ = std::move(created.value());
+  SessionWriter& writer = *writer_;
+  log::add_session_file(writer.dir());
+  spdlog::info("recording session {}", writer.dir().string());
+  auto fail = [&](const Error& e) -> Status {
+    (void)writer.close("failed to start");
+    log::remove_session_file();
+    return e;
+  };
+  for (std::size_t i = 0; i < cameras_.size(); ++i) {
+    const CameraSettings s = cameras_[i]->settings();
+    DeviceRecord d{"camera", rig_.cameras[i].name, s.vendor, s.model, s.serial, s.address, s.firmware,
+                   settings_json(s, rig_.cameras[i])};
+    auto id = writer.add_camera(d, s.width, s.height);
+    if (!id) return fail(id.error());
+    device_ids_[i] = id.value();
+  }
+  for (Status s : {options_.participant ? writer.set_participant(*options_.participant) : Status{},
+                   options_.conditions ? writer.set_conditions(*options_.conditions) : Status{}})
+    if (!s.ok()) return fail(s.error());
+  if (sensel_) {
+    auto id = writer.add_device(sensel_->device_record());
+    if (!id) return fail(id.error());
+    sensel_id_ = id.value();
+  }
+  events_writer_.store(&writer);
+  writer.start();
+
+  // The timeline: every stream on this host's clock, camera frames grouped by instant, one group per
+  // tick of the sample grid, each paired with the pressure frames around it.
+  sync::TimelineConfig tc;
+  tc.cameras = int(cameras_.size());
+  tc.camera_hz = 0;
+  for (const auto& c : rig_.cameras) {
+    tc.camera_hz = std::max(tc.camera_hz, c.frame_rate);  // the grouping limit: half the fastest period
+    tc.camera_latency_ns.push_back(c.latency_ns);
+  }
+  if (tc.camera_hz <= 0) tc.camera_hz = 60;
+  tc.sample_hz = rig_.store.video_fps > 0 ? rig_.store.video_fps : tc.camera_hz;
+  tc.anchor_ns = host0_;
+  tc.has_pressure = bool(sensel_);
+  if (rig_.sensel) tc.pressure_latency_ns = rig_.sensel->latency_ns;
+  sample_hz_ = tc.sample_hz;
+  pressure_max_offset_ns_ = tc.pressure_max_offset_ns;
+  auto on_sample = [this](sync::SampleOut s) {
+    SampleRecord r{s.index, s.tick, s.tick_ns, s.group.t_ns, s.group.span_ns, {}, {}, {}, {}};
+    for (const auto& m : s.group.members)
+      if (m)
+        r.cameras.push_back({device_ids_[std::size_t(m->stream)], m->connection, m->sequence, m->t_ns - s.group.t_ns});
+    auto ref = [&](const std::optional<sync::FrameRef>& f) -> std::optional<SampleFrameRef> {
+      if (!f) return std::nullopt;
+      return SampleFrameRef{sensel_id_, f->connection, f->sequence, f->t_ns - s.group.t_ns};
+    };
+    r.pressure = ref(s.pressure.nearest);
+    r.pressure_before = ref(s.pressure.before);
+    r.pressure_after = ref(s.pressure.after);
+    if (r.pressure) {
+      std::lock_guard lock(mu_);
+      recent_offsets_ms_.push_back(std::abs(double(r.pressure->offset_ns)) / 1e6);
+      if (recent_offsets_ms_.size() > 60) recent_offsets_ms_.pop_front();
+    }
+    writer_->record(std::move(r));
+    samples_.fetch_add(1, std::memory_order_relaxed);
+  };
+  auto on_clock = [this](sync::ClockSnapshot c) {
+    const bool is_pressure = c.stream < 0;
+    writer_->record(ClockModelRecord{is_pressure ? sensel_id_ : device_ids_[std::size_t(c.stream)], c.host_ns,
+                                     c.segment, c.fit.x0, c.fit.offset_ns, c.fit.skew, c.latency_ns,
+                                     c.probed ? "latch" : "arrivals", c.pairs, c.envelope_points, c.residual_p50_ns,
+                                     c.residual_p99_ns});
+  };
+  timeline_ = std::make_unique<sync::SessionTimeline>(tc, on_sample, on_clock);
+  timeline_end_ = std::make_unique<TimelineEnd>();
+  timeline_end_->feeding.store(int(cameras_.size()));
+
+  for (std::size_t i = 0; i < cameras_.size(); ++i)
+    workers_.emplace_back(run_camera_pipeline,
+                          CameraPipeline{*cameras_[i], int(i), device_ids_[i], writer, *tallies_[i], *timeline_,
+                                         *timeline_end_, std::size_t(rig_.store.queue_frames), *previews_[i]});
+  state_.store(kRecording);
+  rec_start_ = host_now().ns;
+  for (auto& cam : cameras_)
+    if (Status s = cam->start(); !s.ok()) {
+      spdlog::error("{}; stopping: every camera of the rig must record", s.error().message);
+      start_failure_ = "a camera failed to start: " + s.error().message;
+      request_stop(*start_failure_);
+      return {};
+    }
+  if (sensel_)
+    if (Status s = sensel_->start(writer, sensel_id_, *timeline_); !s.ok()) {
+      spdlog::error("Sensel: {}; stopping", s.error().message);
+      start_failure_ = "the Sensel failed to start: " + s.error().message;
+      request_stop(*start_failure_);
+    }
+  return {};
+}
+
+void Recording::request_stop(std::string reason) {
+  std::lock_guard lock(mu_);
+  if (stop_requested_.load()) return;
+  stop_reason_ = std::move(reason);
+  stop_requested_.store(true);
+}
+
+std::string Recording::wait(const std::atomic<bool>& interrupt, std::optional<double> duration_s) {
+  auto last_progress = std::chrono::steady_clock::now();
+  for (;;) {
+    if (stop_requested_.load()) {
+      std::lock_guard lock(mu_);
+      return stop_reason_;
+    }
+    const double elapsed = double(host_now().ns - rec_start_) / 1e9;
+    if (interrupt.load()) return "stopped by operator";
+    if (duration_s && elapsed >= *duration_s) return "duration reached";
+    if (auto failure = writer_->failure()) {
+      spdlog::error("storage failed, stopping capture (everything written so far is kept): {}", *failure);
+      return "storage failure: " + *failure;
+    }
+    // A camera whose encoder falls behind loses frames for the rest of the session unless the
+    // operator acts: say so once, with what to change, rather than only count it.
+    for (std::size_t i = 0; i < cameras_.size(); ++i)
+      if (!warned_encoder_[i] && tallies_[i]->encoder_behind.load() > 0) {
+        warned_encoder_[i] = true;
+        warn(fmt::format("{}: the video encoder cannot keep up, frames are being dropped (counted as "
+                         "encoder_behind). This PC has {} cores for {} camera{} at crf {} preset {}: raise store.crf "
+                         "or lower store.video_fps in the rig file, or record on a PC with more cores "
+                         "(docs/PERFORMANCE.md, Store)",
+                         rig_.cameras[i].name, std::thread::hardware_concurrency(), cameras_.size(),
+                         cameras_.size() == 1 ? "" : "s", rig_.store.crf, rig_.store.preset));
+      }
+    if (std::chrono::steady_clock::now() - last_progress >= 2s) {
+      last_progress = std::chrono::steady_clock::now();
+      log_progress(elapsed);
+    }
+    std::this_thread::sleep_for(100ms);
+  }
+}
+
+void Recording::log_progress(double elapsed_s) {
+  std::string line = fmt::format("{:6.1f} s", elapsed_s);
+  for (std::size_t i = 0; i < cameras_.size(); ++i) {
+    const auto& t = *tallies_[i];
+    line += fmt::format(" | {} {} rx, {} video, {} lost", rig_.cameras[i].name, t.received.load(),
+                        writer_->camera_stats(device_ids_[i]).frames_in_video,
+                        t.not_received.load() + t.incomplete.load() + t.encoder_behind.load());
+  }
+  if (sensel_) line += fmt::format(" | sensel {} frames", sensel_->stored());
+  line += fmt::format(" | {} samples", samples_.load());
+  spdlog::info("{}", line);
+}
+
+void Recording::warn(std::string message) {
+  spdlog::warn("{}", message);
+  std::lock_guard lock(mu_);
+  warnings_.push_back(std::move(message));
+  if (warnings_.size() > 8) warnings_.pop_front();
+}
+
+bool Recording::post(ProtocolEventRecord event) {
+  if (state_.load() != kRecording || !writer_) return false;
+  if (event.host_ns == 0) event.host_ns = host_now().ns;
+  return writer_->record_committed(std::move(event), 2s);
+}
+
+bool Recording::note(std::string text) {
+  if (state_.load() != kRecording || !writer_) return false;
+  return writer_->record_committed(OperatorNoteRecord{host_now().ns, std::move(text)}, 2s);
+}
+
+std::filesystem::path Recording::dir() const { return writer_ ? writer_->dir() : std::filesystem::path(); }
+
+RecordingStatus Recording::status() const {
+  RecordingStatus st;
+  st.state = kStates[state_.load()];
+  const std::int64_t now = host_now().ns;
+  if (writer_) st.session_dir = writer_->dir().string();
+  if (rec_start_) st.elapsed_s = double(now - rec_start_) / 1e9;
+  auto since = [&](std::int64_t t) { return t > 0 ? double(now - t) / 1e6 : -1.0; };
+  std::lock_guard lock(mu_);
+  rate_marks_.resize(cameras_.size() + (sensel_ ? 1 : 0));
+  rates_.resize(rate_marks_.size(), 0.0);
+  // Rates over at least half a second since the last status() that measured them.
+  auto rate = [&](std::size_t k, std::uint64_t count) {
+    auto& [t, c] = rate_marks_[k];
+    if (t == 0) t = now, c = count;
+    if (now - t >= 500'000'000) {
+      rates_[k] = double(count - c) / (double(now - t) / 1e9);
+      t = now;
+      c = count;
+    }
+    return rates_[k];
+  };
+  for (std::size_t i = 0; i < cameras_.size(); ++i) {
+    const auto& t = *tallies_[i];
+    StreamStatus s;
+    s.name = rig_.cameras[i].name;
+    s.kind = "camera";
+    s.received = t.received.load();
+    s.good = t.good.load();
+    s.incomplete = t.incomplete.load();
+    s.not_received = t.not_received.load();
+    s.encoder_behind = t.encoder_behind.load();
+    s.connection_losses = t.lost_events.load();
+    if (writer_) {
+      const auto cs = writer_->camera_stats(device_ids_[i]);
+      s.in_video = cs.frames_in_video;
+      s.encoder_backlog = cs.encoder_backlog;
+    }
+    s.rate_hz = rate(i, s.good);
+    s.since_last_frame_ms = since(t.last_good_host_ns.load());
+    st.streams.push_back(std::move(s));
+  }
+  if (sensel_) {
+    StreamStatus s;
+    s.name = "sensel";
+    s.kind = "sensel";
+    s.received = s.good = sensel_->stored();
+    s.not_received = sensel_->lost_frames();
+    s.rate_hz = rate(cameras_.size(), s.good);
+    s.since_last_frame_ms = since(sensel_->last_frame_host_ns());
+    st.streams.push_back(std::move(s));
+  }
+  st.samples = samples_.load();
+  if (!recent_offsets_ms_.empty()) {
+    double sum = 0, mx = 0;
+    for (double o : recent_offsets_ms_) sum += o, mx = std::max(mx, o);
+    st.pressure_offset_mean_ms = sum / double(recent_offsets_ms_.size());
+    st.pressure_offset_max_ms = mx;
+  }
+  if (writer_) {
+    std::error_code ec;
+    const auto space = std::filesystem::space(writer_->dir(), ec);
+    if (!ec) st.free_disk_bytes = std::int64_t(space.available);
+  }
+  st.warnings.assign(warnings_.begin(), warnings_.end());
+  return st;
+}
+
+std::pair<cv::Mat, std::int64_t> Recording::preview(std::size_t camera) const {
+  if (camera >= previews_.size()) return {};
+  return previews_[camera]->get();
+}
+
+std::optional<PressureSnapshot> Recording::pressure_now() const {
+  if (!sensel_) return std::nullopt;
+  return sensel_->latest();
+}
+
+std::vector<PressurePoint> Recording::pressure_history(std::int64_t from_ns, std::int64_t to_ns) const {
+  if (!sensel_) return {};
+  return sensel_->history(from_ns, to_ns);
+}
+
+bool Recording::steer_sim_hand(const sim::HandCommand& c) { return sim_ && sim_->steer(c); }
+
+RecordingResult Recording::finish(const std::string& end_reason) {
+  RecordingResult result;
+  if (state_.load() != kRecording) {
+    result.exit_code = 1;
+    return result;
+  }
+  state_.store(kStopping);
+  SessionWriter& writer = *writer_;
+  const double recorded_s = double(host_now().ns - rec_start_) / 1e9;
+  // All cameras stop at once; one blocked on a reconnect attempt must not keep the others recording.
+  for (auto& cam : cameras_) cam->request_stop();
+  if (sensel_) sensel_->stop();
+  for (auto& cam : cameras_) cam->stop();
+  for (auto& w : workers_) w.join();
+  workers_.clear();
+  // At close: every frame re-mapped with its stream's final clock fit, every sample re-paired.
+  writer.set_finalizer([this, clocks = timeline_->final_clocks()](SessionIndex& index) {
+    const auto r = realign(index, {clocks, device_ids_, sensel_id_, pressure_max_offset_ns_});
+    spdlog::info("timeline: {} samples re-paired with the final clock fits", r.samples);
+  });
+  const auto tl = timeline_->counts();
+  writer.add_timeline_count("samples", tl.samples);
+  writer.add_timeline_count("groups_complete", tl.groups_complete);
+  writer.add_timeline_count("groups_incomplete", tl.groups_incomplete);
+  writer.add_timeline_count("camera_frames_late_for_their_instant", tl.late_camera_frames);
+  writer.add_timeline_count("ticks_without_a_group", tl.missed_ticks);
+  for (const auto& [why, n] : tl.unpaired) writer.add_timeline_count("unpaired: " + why, n);
+  for (std::size_t i = 0; i < tl.clock_resets.size(); ++i)
+    if (tl.clock_resets[i])
+      writer.add_timeline_count(
+          fmt::format("clock_resets: {}", i < cameras_.size() ? rig_.cameras[i].name : std::string("sensel")),
+          std::uint64_t(tl.clock_resets[i]));
+  for (std::size_t i = 0; i < cameras_.size(); ++i) {
+    const StreamCounters c = cameras_[i]->counters();
+    writer.add_stream_stats({device_ids_[i], c.completed, c.failures, c.underruns, c.resent_packets,
+                             c.missing_packets, c.queue_overflows});
+  }
+  sim_.reset();
+  if (!truth_tmp_.empty()) {
+    std::error_code ec;
+    std::filesystem::rename(truth_tmp_, writer.dir() / "sim-truth", ec);
+    if (ec) spdlog::warn("simulator ground truth stays in {}: {}", truth_tmp_.string(), ec.message());
+    else truth_tmp_.clear();
+  }
+  events_writer_.store(nullptr);
+  const Status closed = writer.close(end_reason);
+  state_.store(kEnded);
+  result.dir = writer.dir();
+
+  // The report the operator reads, from what the store holds (also kept as report.txt).
+  auto report = session_report(writer.dir(), recorded_s);
+  result.report = report ? report.value() : fmt::format("session: {}\nthe report could not be made: {}\n",
+                                                        writer.dir().string(), report.error().message);
+  if (writer.index_records_lost() > 0)
+    result.report += fmt::format("WARNING: {} index records were lost\n", writer.index_records_lost());
+  std::ofstream(writer.dir() / "report.txt") << result.report;
+  log::remove_session_file();
+  if (start_failure_) result.exit_code = 1;
+  if (!closed.ok()) {
+    spdlog::error("{}", closed.error().message);
+    result.exit_code = 1;
+  }
+  return result;
+}
+
+}  // namespace pvcap::session

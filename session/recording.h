@@ -1,0 +1,159 @@
+#pragma once
+// The running recording as a library object: what `pvcap session` runs, and what
+// the protocol runner, the operator console and the pages attach to.
+//
+//   auto rec = Recording::open(rig, options, cancel);  // devices opened and checked; nothing on disk yet
+//   rec->start();                                      // the session folder, then every device streaming
+//   ... rec->status(), rec->post(event), rec->note(text) from any thread ...
+//   rec->request_stop("protocol complete");            // or Ctrl-C, the duration, a failure
+//   auto reason = rec->wait(interrupt, duration);      // returns once a stop is due
+//   auto result = rec->finish(reason);                 // drain, re-map, close, report
+//
+// One error channel: a failure that ends the session (storage, a device that
+// cannot start) becomes the stop reason returned by wait(); warnings for the
+// operator are logged and kept in status().warnings.
+#include <atomic>
+#include <chrono>
+#include <deque>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "core/result.h"
+#include "core/rig_config.h"
+#include "session/sensel_pipeline.h"
+#include "sim/hand.h"
+#include "storage/session_index.h"
+
+namespace pvcap {
+class AravisCamera;
+class SessionWriter;
+namespace sim {
+class SimProcess;
+}
+namespace sync {
+class SessionTimeline;
+}
+}  // namespace pvcap
+
+namespace pvcap::session {
+
+struct CameraTally;
+class Preview;
+struct TimelineEnd;
+
+struct RecordingOptions {
+  std::filesystem::path root;    // the session folder is made under it
+  double device_wait_s = 0;      // keep trying to open cameras this long (the simulator needs a moment)
+  std::filesystem::path self_exe;  // to start the simulator as a child process
+  std::optional<ParticipantRecord> participant;
+  std::optional<ConditionsRecord> conditions;
+  bool steer_sim_hand = false;   // a simulated rig's hand follows steer_sim_hand() (protocol --auto)
+};
+
+struct StreamStatus {
+  std::string name, kind;  // kind: camera | sensel
+  std::uint64_t received = 0, good = 0, in_video = 0, incomplete = 0, not_received = 0, encoder_behind = 0,
+                connection_losses = 0;
+  std::size_t encoder_backlog = 0;
+  double rate_hz = 0;                 // over the last status interval
+  double since_last_frame_ms = -1;    // since its last good frame arrived; -1: none yet
+};
+
+struct RecordingStatus {
+  std::string state;  // opened | recording | stopping | ended
+  std::string session_dir;
+  double elapsed_s = 0;
+  std::vector<StreamStatus> streams;  // the cameras in rig order, then the Sensel
+  std::uint64_t samples = 0;
+  double pressure_offset_mean_ms = 0, pressure_offset_max_ms = 0;  // |sample - nearest pressure frame|, recent
+  std::int64_t free_disk_bytes = -1;
+  std::vector<std::string> warnings;  // the latest operator warnings, oldest first
+  // True while every stream delivered a good frame within `window_ms`.
+  bool all_live(double window_ms) const;
+};
+
+struct RecordingResult {
+  int exit_code = 0;  // 0 recorded, 1 failed (the message was logged)
+  std::filesystem::path dir;
+  std::string report;  // the end-of-session report (also in dir/report.txt)
+};
+
+class Recording {
+ public:
+  static Result<std::unique_ptr<Recording>> open(const RigConfig& rig, const RecordingOptions& options,
+                                                 const std::atomic<bool>& cancel);
+  ~Recording();
+  Recording(const Recording&) = delete;
+  Recording& operator=(const Recording&) = delete;
+
+  Status start();
+  // Returns once a stop is due: `interrupt` set, `duration_s` reached, request_stop(), or a
+  // failure. Logs progress every 2 s. The reason it returns is what finish() records.
+  std::string wait(const std::atomic<bool>& interrupt, std::optional<double> duration_s);
+  void request_stop(std::string reason);
+  bool stop_requested() const { return stop_requested_.load(); }
+  RecordingResult finish(const std::string& end_reason);
+
+  // Any thread. Stamped on the capture clock (when 0) and committed to the store before it returns;
+  // false when the store could not commit it within 2 s (the caller must not acknowledge it).
+  bool post(ProtocolEventRecord event);
+  bool note(std::string text);
+  RecordingStatus status() const;
+
+  const RigConfig& rig() const { return rig_; }
+  std::filesystem::path dir() const;
+  std::int64_t started_host_ns() const { return host0_; }
+  // The operator's live views: a camera's latest small image, the latest pressure frame, and what
+  // the pressure frames of a time span amounted to (for the take check).
+  std::pair<cv::Mat, std::int64_t> preview(std::size_t camera) const;
+  std::optional<PressureSnapshot> pressure_now() const;
+  std::vector<PressurePoint> pressure_history(std::int64_t from_ns, std::int64_t to_ns) const;
+  bool has_sensel() const { return bool(sensel_); }
+  // Simulated rig opened with steer_sim_hand: where the simulated hand goes next. False otherwise.
+  bool steer_sim_hand(const sim::HandCommand& c);
+
+ private:
+  Recording();
+  void warn(std::string message);
+  void log_progress(double elapsed_s);
+
+  RigConfig rig_;
+  RecordingOptions options_;
+  std::int64_t wall0_ = 0, host0_ = 0, rec_start_ = 0;
+  std::unique_ptr<sim::SimProcess> sim_;
+  std::filesystem::path truth_tmp_;
+  std::vector<std::unique_ptr<AravisCamera>> cameras_;
+  std::vector<std::unique_ptr<CameraTally>> tallies_;
+  std::vector<std::unique_ptr<Preview>> previews_;
+  std::unique_ptr<SenselPipeline> sensel_;
+  std::unique_ptr<SessionWriter> writer_;
+  std::atomic<SessionWriter*> events_writer_{nullptr};  // camera events reach the store once it exists
+  std::vector<std::int64_t> device_ids_;
+  std::int64_t sensel_id_ = 0;
+  std::unique_ptr<sync::SessionTimeline> timeline_;
+  std::unique_ptr<TimelineEnd> timeline_end_;
+  std::int64_t pressure_max_offset_ns_ = 0;
+  double sample_hz_ = 0;
+  std::vector<std::thread> workers_;
+  std::atomic<std::uint64_t> samples_{0};
+  std::atomic<bool> stop_requested_{false};
+  std::atomic<int> state_{0};  // index into kStates
+  std::string stop_reason_;
+  std::optional<std::string> start_failure_;
+  std::vector<bool> warned_encoder_;
+
+  mutable std::mutex mu_;  // what follows
+  std::deque<std::string> warnings_;
+  std::deque<double> recent_offsets_ms_;
+  mutable std::vector<std::pair<std::int64_t, std::uint64_t>> rate_marks_;  // (host ns, received) per stream
+  mutable std::vector<double> rates_;
+};
+
+}  // namespace pvcap::session

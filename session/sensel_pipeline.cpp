@@ -1,0 +1,144 @@
+#include "session/sensel_pipeline.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+namespace pvcap::session {
+
+using namespace std::chrono_literals;
+
+namespace {
+constexpr std::size_t kHistoryFrames = 16'000;  // ~2 minutes at medium detail's ~125 Hz
+}
+
+Result<std::unique_ptr<SenselPipeline>> SenselPipeline::open(const SenselRigConfig& cfg,
+                                                             const std::filesystem::path& sim_dir, double wait_s,
+                                                             const std::atomic<bool>& cancel) {
+  std::unique_ptr<SenselPipeline> r(new SenselPipeline());
+  r->config_ = cfg;
+  const std::string path = cfg.tty == "sim" ? (sim_dir / "sensel.tty").string() : cfg.tty;
+  sensel::SenselDevice::TransportFactory factory;
+  if (cfg.usb_serial) factory = [serial = *cfg.usb_serial] { return sensel::open_usb(serial); };
+  else factory = [path] { return sensel::open_tty(path); };
+  const char* key = cfg.usb_serial ? "sensel.usb" : "sensel.tty";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
+  for (;;) {
+    auto d = sensel::SenselDevice::open(factory, [raw = r.get()](const sensel::SenselEvent& e) { raw->on_event(e); });
+    if (d) {
+      r->device_ = std::move(d.value());
+      break;
+    }
+    if (cancel.load() || std::chrono::steady_clock::now() >= deadline)
+      return Error{fmt::format("Sensel ({} in the rig file, line {}): {}", key, cfg.line, d.error().message)};
+    std::this_thread::sleep_for(200ms);
+  }
+  if (Status s = r->device_->configure({.scan_detail = cfg.scan_detail,
+                                        .dynamic_baseline = cfg.dynamic_baseline,
+                                        .frame_rate_cap = cfg.frame_rate_cap});
+      !s.ok())
+    return Error{"Sensel: " + s.error().message};
+  const auto& info = r->device_->info();
+  spdlog::info("sensel: Sensel Morph serial {} firmware {} on {}, grid {}x{} (scan detail {}), dynamic baselining {}",
+               info.serial, info.firmware, r->connection(), info.grid.cols, info.grid.rows,
+               cfg.scan_detail == 0 ? "high" : "medium", cfg.dynamic_baseline ? "on" : "off");
+  return r;
+}
+
+SenselPipeline::~SenselPipeline() { stop(); }
+
+DeviceRecord SenselPipeline::device_record() const {
+  const auto& info = device_->info();
+  nlohmann::json j = {{"scan_detail", config_.scan_detail == 0 ? "high" : "medium"},
+                      {"grid", {info.grid.cols, info.grid.rows, info.grid.xscale, info.grid.yscale}},
+                      {"dynamic_baseline", config_.dynamic_baseline}, {"frame_rate_cap", config_.frame_rate_cap},
+                      {"latency_ns", config_.latency_ns}};
+  if (config_.usb_serial) j["usb"] = *config_.usb_serial;
+  else j["tty"] = config_.tty;
+  return DeviceRecord{"sensel", "sensel", "Sensel", "Morph", info.serial, connection(), info.firmware, j.dump()};
+}
+
+std::string SenselPipeline::connection() const {
+  if (!config_.usb_serial) return config_.tty;
+  return config_.usb_serial->empty() ? "usb" : "usb:" + *config_.usb_serial;
+}
+
+Status SenselPipeline::start(SessionWriter& writer, std::int64_t device_id, sync::SessionTimeline& timeline) {
+  writer_ = &writer;
+  device_id_ = device_id;
+  timeline_ = &timeline;
+  if (Status s = device_->start(); !s.ok()) return s;
+  worker_ = std::thread([this] { run(); });
+  return {};
+}
+
+void SenselPipeline::stop() {
+  if (device_) device_->stop();
+  if (worker_.joinable()) worker_.join();
+  writer_ = nullptr;
+}
+
+std::uint64_t SenselPipeline::rejected_frames() const {
+  std::uint64_t n = 0;
+  for (const auto& [why, count] : device_->rejected()) n += count;
+  return n;
+}
+
+std::vector<PressurePoint> SenselPipeline::history(std::int64_t from_ns, std::int64_t to_ns) const {
+  std::lock_guard lock(history_mu_);
+  std::vector<PressurePoint> out;
+  for (const auto& p : history_)
+    if (p.mapped_ns >= from_ns && p.mapped_ns < to_ns) out.push_back(p);
+  return out;
+}
+
+PressureSnapshot SenselPipeline::latest() const {
+  std::lock_guard lock(history_mu_);
+  return latest_;
+}
+
+void SenselPipeline::on_event(const sensel::SenselEvent& e) {
+  using K = sensel::SenselEvent::Kind;
+  if (e.kind == K::Reconnected) spdlog::warn("{}", e.message);
+  else spdlog::error("{}", e.message);
+  static const char* kinds[] = {"sensel_stall", "sensel_garbage", "sensel_unplugged", "sensel_reconnected"};
+  if (SessionWriter* w = writer_) w->record(EventRecord{e.at.ns, kinds[int(e.kind)], device_id_, e.message});
+}
+
+void SenselPipeline::run() {
+  auto& q = device_->samples();
+  SessionWriter& writer = *writer_.load();
+  while (!q.closed_and_empty()) {
+    auto s = q.pop_for(100ms);
+    if (!s) continue;
+    if (s->lost_before)
+      writer.record(DropRecord{device_id_, 0, s->sequence - s->lost_before, s->lost_before, "not_received",
+                               s->host_ts.ns});
+    // The clock model fits when the answer began to arrive (the midpoint is the stamp's best
+    // single guess, but an arrival is what a latency floor bounds; its first bytes come before
+    // the rest of a frame's 64-byte packets).
+    const std::int64_t arrival = s->first_byte_ts.ns;
+    const std::int64_t mapped = timeline_->pressure_frame(0, s->sequence, s->device_ts.ns, arrival);
+    PressureRecord rec{device_id_, 0, s->sequence, s->lost_before, s->device_ts.ns, s->host_ts.ns, s->host_wait_ns,
+                       s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale, {}, mapped};
+    // The counts again in the store's portable form (zlib on the index's thread), for readers
+    // without the Sensel codec; the device's payload is kept as it came.
+    if (s->frame.pressure) {
+      rec.base = s->frame.pressure->base;
+      const auto summary = sensel::summarize_pressure(s->frame.pressure->counts, s->grid);
+      std::lock_guard lock(history_mu_);
+      history_.push_back({mapped, s->sequence, summary});
+      if (history_.size() > kHistoryFrames) history_.pop_front();
+      latest_.grid = s->grid;
+      latest_.counts = s->frame.pressure->counts;
+      latest_.mapped_ns = mapped;
+      rec.counts = std::move(s->frame.pressure->counts);
+    }
+    rec.payload = std::move(s->payload);
+    writer.record(std::move(rec));
+    stored_.fetch_add(1, std::memory_order_relaxed);
+    last_host_ns_.store(s->host_ts.ns, std::memory_order_relaxed);
+  }
+}
+
+}  // namespace pvcap::session

@@ -1,0 +1,92 @@
+#include "session/session_report.h"
+
+#include <fmt/format.h>
+
+#include "storage/session_reader.h"
+
+namespace pvcap::session {
+
+namespace {
+bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
+}  // namespace
+
+Result<std::string> session_report(const std::filesystem::path& dir, std::optional<double> recorded_s) {
+  auto opened = SessionReader::open(dir);
+  if (!opened) return opened.error();
+  SessionReader& r = *opened.value();
+  auto streams = r.stream_statistics();
+  if (!streams) return streams.error();
+  auto counts = r.timeline_counts();
+  if (!counts) return counts.error();
+  auto count_of = [&](const std::string& what) -> std::uint64_t {
+    for (const auto& [w, n] : counts.value())
+      if (w == what) return n;
+    return 0;
+  };
+  const SessionInfo& info = r.info();
+  if (!recorded_s && info.ended_host_ns) recorded_s = double(*info.ended_host_ns - info.started_host_ns) / 1e9;
+
+  fmt::memory_buffer buf;
+  auto out = std::back_inserter(buf);
+  fmt::format_to(out, "session: {}\n", dir.string());
+  fmt::format_to(out, "ended: {} after {:.1f} s\n", info.end_reason.empty() ? "(did not end cleanly)" : info.end_reason,
+                 recorded_s.value_or(0.0));
+  fmt::format_to(out, "{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>10} {:>9}\n", "camera", "received", "good",
+                 "in video", "incomplete", "not received", "enc. behind", "lost conn");
+  bool any_loss = false;
+  std::string notes;
+  for (const auto& s : streams.value()) {
+    if (s.kind == "camera") {
+      // Buffers without their own identity are recorded, not counted: the frames they were are
+      // in the drops (not received).
+      std::uint64_t unidentified = 0, duplicates = 0;
+      for (const auto& [why, n] : s.not_kept) {
+        if (starts_with(why, "no_frame_id_") || starts_with(why, "stale_metadata_")) unidentified += n;
+        if (why == "duplicate_frame_id") duplicates += n;
+      }
+      std::uint64_t not_good = 0;
+      for (const auto& [status, n] : s.by_status)
+        if (status != "good") not_good += n;
+      const std::uint64_t good = s.by_status.count("good") ? s.by_status.at("good") - duplicates : 0;
+      const std::uint64_t incomplete = not_good - std::min(not_good, unidentified);
+      const std::uint64_t behind = s.not_kept.count("encoder_behind") ? s.not_kept.at("encoder_behind") : 0;
+      fmt::format_to(out, "{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>10} {:>9}\n", s.name, s.frames, good, s.in_video,
+                     incomplete, s.dropped, behind, s.connection_losses);
+      any_loss |= incomplete + s.dropped + behind + s.connection_losses > 0;
+      if (unidentified + duplicates)
+        notes += fmt::format("{}: {} buffers arrived without their own frame id (reasons no_frame_id_*, "
+                             "stale_metadata_*, duplicate_frame_id); the frames they were are counted as not received\n",
+                             s.name, unidentified + duplicates);
+    } else {
+      notes += fmt::format("{:<8} {:>9} frames stored, {} missing by its counter, {} connection losses\n", s.name,
+                           s.frames, s.dropped, s.connection_losses);
+      any_loss |= s.dropped + s.connection_losses > 0;
+    }
+  }
+  fmt::format_to(out, "{}", notes);
+  const double sample_hz = [&] {
+    const auto n = r.sample_count();
+    if (n < 2) return 0.0;
+    auto first = r.sample_info(0), last = r.sample_info(n - 1);
+    if (!first || !last || last.value().tick == first.value().tick) return 0.0;
+    return double(last.value().tick - first.value().tick) / (double(last.value().tick_ns - first.value().tick_ns) / 1e9);
+  }();
+  fmt::format_to(out, "samples: {} at {:.3g} Hz ({} groups complete, {} with a camera missing, {} ticks without any "
+                      "group)\n",
+                 r.sample_count(), sample_hz, count_of("groups_complete"), count_of("groups_incomplete"),
+                 count_of("ticks_without_a_group"));
+  if (const auto late = count_of("camera_frames_late_for_their_instant"))
+    fmt::format_to(out, "{} camera frames came too late for their instant's group\n", late);
+  for (const auto& [what, n] : counts.value()) {
+    if (starts_with(what, "unpaired: ")) fmt::format_to(out, "{} samples without pressure: {}\n", n, what.substr(10));
+    if (starts_with(what, "clock_resets: "))
+      fmt::format_to(out, "{}: its clock was reset {} time(s); each started a new clock-model segment\n",
+                     what.substr(14), n);
+  }
+  fmt::format_to(out, "video keeps one frame per camera per sample; every received frame is in session.db with its "
+                      "reason\n");
+  if (any_loss) fmt::format_to(out, "frames were lost: see the drops and frames tables (reason column) in session.db\n");
+  return fmt::to_string(buf);
+}
+
+}  // namespace pvcap::session

@@ -1,0 +1,71 @@
+#include "sim/hand.h"
+
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "sim/fingertip.h"
+
+namespace pvcap::sim {
+
+namespace {
+const char* mode_name(HandCommand::Mode m) {
+  switch (m) {
+    case HandCommand::Mode::Away: return "away";
+    case HandCommand::Mode::Hover: return "hover";
+    case HandCommand::Mode::Press: return "press";
+  }
+  return "away";
+}
+}  // namespace
+
+std::string HandCommand::format() const {
+  return fmt::format("hand {} {} {:.3f} {:.3f} {:.1f} {:.3f}", from_ns, mode_name(mode), x_mm, y_mm, peak_grams,
+                     period_s);
+}
+
+std::optional<HandCommand> HandCommand::parse(const std::string& line) {
+  std::istringstream in(line);
+  std::string word, mode;
+  HandCommand c;
+  if (!(in >> word) || word != "hand") return std::nullopt;
+  if (!(in >> c.from_ns >> mode >> c.x_mm >> c.y_mm >> c.peak_grams >> c.period_s)) return std::nullopt;
+  if (mode == "away") c.mode = Mode::Away;
+  else if (mode == "hover") c.mode = Mode::Hover;
+  else if (mode == "press") c.mode = Mode::Press;
+  else return std::nullopt;
+  if (!(c.period_s > 0.05 && c.period_s < 600) || !(c.peak_grams >= 0 && c.peak_grams < 1e5)) return std::nullopt;
+  return c;
+}
+
+Hand::Hand(const SimSenselConfig& d) {
+  current_ = HandCommand{0, HandCommand::Mode::Press, d.press_x_mm, d.press_y_mm, d.peak_grams, d.period_s};
+  previous_ = current_;
+}
+
+void Hand::set(const HandCommand& c) {
+  std::lock_guard lock(mu_);
+  previous_ = current_;
+  current_ = c;
+}
+
+HandPose Hand::pose_at(std::int64_t true_ns) const {
+  HandCommand c;
+  {
+    std::lock_guard lock(mu_);
+    c = true_ns >= current_.from_ns ? current_ : previous_;
+  }
+  HandPose p;
+  if (c.mode == HandCommand::Mode::Away) return p;
+  p.x_mm = c.x_mm;
+  p.y_mm = c.y_mm;
+  p.peak_grams = c.peak_grams;
+  // The default hand presses on an absolute phase (from_ns 0); a commanded one starts its first
+  // press at its command's instant.
+  if (c.mode == HandCommand::Mode::Press) p.force = fingertip_force(true_ns - c.from_ns, c.period_s);
+  // Between presses the fingertip is lifted out of the cameras' way; hovering, it stays in view.
+  p.visible = c.mode == HandCommand::Mode::Hover || p.force > 0;
+  return p;
+}
+
+}  // namespace pvcap::sim

@@ -1,0 +1,70 @@
+#include "sim/sim_process.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <fmt/format.h>
+
+extern char** environ;
+
+namespace pvcap::sim {
+
+Result<std::unique_ptr<SimProcess>> SimProcess::start(const std::filesystem::path& exe,
+                                                      const std::filesystem::path& rig,
+                                                      const std::filesystem::path& truth_dir, bool steerable) {
+  std::unique_ptr<SimProcess> self(new SimProcess());
+  std::vector<std::string> args = {exe.string(), "--log-level", "warn", "sim", "--rig", rig.string(),
+                                   "--truth", truth_dir.string()};
+  if (steerable) args.push_back("--hand-commands");
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  int fds[2] = {-1, -1};
+  if (steerable && pipe2(fds, O_CLOEXEC) != 0)
+    return Error{fmt::format("cannot start the simulator: pipe: {}", std::strerror(errno))};
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  if (steerable) posix_spawn_file_actions_adddup2(&actions, fds[0], STDIN_FILENO);  // dup2 clears CLOEXEC
+  const int rc = posix_spawn(&self->pid_, exe.c_str(), &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (steerable) close(fds[0]);
+  if (rc != 0) {
+    if (steerable) close(fds[1]);
+    self->pid_ = -1;
+    return Error{fmt::format("cannot start the camera simulator ({}): {}", exe.string(), std::strerror(rc))};
+  }
+  self->commands_fd_ = steerable ? fds[1] : -1;
+  return self;
+}
+
+SimProcess::~SimProcess() {
+  if (commands_fd_ >= 0) close(commands_fd_);
+  if (pid_ <= 0) return;
+  kill(pid_, SIGTERM);
+  int status = 0;
+  using namespace std::chrono_literals;
+  for (int i = 0; i < 50 && waitpid(pid_, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(100ms);
+  if (waitpid(pid_, &status, WNOHANG) == 0) {
+    kill(pid_, SIGKILL);
+    waitpid(pid_, &status, 0);
+  }
+}
+
+bool SimProcess::steer(const HandCommand& c) {
+  std::lock_guard lock(mu_);
+  if (commands_fd_ < 0) return false;
+  const std::string line = c.format() + "\n";
+  // A line is far below PIPE_BUF, so the write is atomic; SIGPIPE is ignored by the pvcap command.
+  return write(commands_fd_, line.data(), line.size()) == ssize_t(line.size());
+}
+
+}  // namespace pvcap::sim
