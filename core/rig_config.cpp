@@ -9,6 +9,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "core/result.h"
+#include "core/yaml_map_reader.h"
 
 namespace pvcap {
 
@@ -22,82 +23,6 @@ const char* to_string(TriggerMode mode) {
 }
 
 namespace {
-
-// Reads one YAML map, remembering which keys were used so leftovers are errors.
-class MapReader {
- public:
-  MapReader(const YAML::Node& node, const std::filesystem::path& file, std::string where)
-      : node_(node), file_(file), where_(std::move(where)) {
-    if (!node_.IsMap()) fail(node_, "", "expected a mapping of key: value");
-  }
-
-  [[noreturn]] void fail(const YAML::Node& at, const std::string& key, const std::string& what) const {
-    const std::string path = key.empty() ? where_ : (where_.empty() ? key : where_ + "." + key);
-    throw UserError(fmt::format("{}:{}: {}{}{}", file_.string(), at.Mark().line + 1, path,
-                                path.empty() ? "" : ": ", what));
-  }
-
-  bool has(const char* key) const { return bool(node_[key]); }
-
-  YAML::Node child(const char* key) {
-    used_.insert(key);
-    return node_[key];
-  }
-
-  template <typename T>
-  void get(const char* key, T& out) {
-    used_.insert(key);
-    const YAML::Node v = node_[key];
-    if (!v) return;
-    if (!v.IsScalar()) fail(v, key, "expected a single value");
-    try {
-      out = v.as<T>();
-    } catch (const YAML::Exception&) {
-      fail(v, key, fmt::format("'{}' is not a valid {}", v.Scalar(), type_name<T>()));
-    }
-  }
-
-  template <typename T>
-  void require(const char* key, T& out) {
-    if (!has(key)) fail(node_, key, "missing (required)");
-    get(key, out);
-  }
-
-  template <typename T>
-  void get_in_range(const char* key, T& out, T lo, T hi) {
-    get(key, out);
-    if (has(key) && (out < lo || out > hi || (std::is_floating_point_v<T> && std::isnan(double(out)))))
-      fail(node_[key], key, fmt::format("{} is out of range [{}, {}]", out, lo, hi));
-  }
-
-  // Unknown keys are errors: a misspelt "frame_rat" must not silently become the default.
-  void finish() const {
-    for (const auto& kv : node_) {
-      const std::string k = kv.first.Scalar();
-      if (!used_.count(k)) {
-        std::string known;
-        for (const auto& u : used_) known += (known.empty() ? "" : ", ") + u;
-        fail(kv.first, k, fmt::format("unknown key (known here: {})", known));
-      }
-    }
-  }
-
-  const YAML::Node& node() const { return node_; }
-
- private:
-  template <typename T>
-  static const char* type_name() {
-    if constexpr (std::is_same_v<T, bool>) return "boolean (true/false)";
-    else if constexpr (std::is_integral_v<T>) return "integer";
-    else if constexpr (std::is_floating_point_v<T>) return "number";
-    else return "string";
-  }
-
-  YAML::Node node_;
-  const std::filesystem::path& file_;
-  std::string where_;
-  std::set<std::string> used_;
-};
 
 CameraConfig parse_camera(const YAML::Node& node, const std::filesystem::path& file, std::size_t index) {
   CameraConfig c;

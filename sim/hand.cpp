@@ -39,21 +39,24 @@ std::optional<HandCommand> HandCommand::parse(const std::string& line) {
 }
 
 Hand::Hand(const SimSenselConfig& d) {
-  current_ = HandCommand{0, HandCommand::Mode::Press, d.press_x_mm, d.press_y_mm, d.peak_grams, d.period_s};
-  previous_ = current_;
+  commands_.push_back(HandCommand{0, HandCommand::Mode::Press, d.press_x_mm, d.press_y_mm, d.peak_grams, d.period_s});
 }
 
 void Hand::set(const HandCommand& c) {
   std::lock_guard lock(mu_);
-  previous_ = current_;
-  current_ = c;
+  // A command replaces those it comes before (a take cancelled before it began).
+  while (commands_.size() > 1 && commands_.back().from_ns >= c.from_ns) commands_.pop_back();
+  commands_.push_back(c);
+  if (commands_.size() > 64) commands_.erase(commands_.begin());  // the past is not looked at again
 }
 
 HandPose Hand::pose_at(std::int64_t true_ns) const {
   HandCommand c;
   {
     std::lock_guard lock(mu_);
-    c = true_ns >= current_.from_ns ? current_ : previous_;
+    c = commands_.front();
+    for (const auto& k : commands_)
+      if (k.from_ns <= true_ns) c = k;
   }
   HandPose p;
   if (c.mode == HandCommand::Mode::Away) return p;

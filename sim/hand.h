@@ -11,6 +11,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/rig_config.h"
 
@@ -45,7 +46,8 @@ class Hand {
 
  private:
   mutable std::mutex mu_;
-  HandCommand previous_, current_;  // a command is in force from its from_ns; before it, the previous one
+  // By from_ns: each in force from its instant until the next one's (the first always applies).
+  std::vector<HandCommand> commands_;
 };
 
 }  // namespace pvcap::sim
