@@ -1,12 +1,78 @@
 #include "app/cmd_session.h"
 
+#include <unistd.h>
+
+#include <fstream>
+#include <thread>
+
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+
+#include "protocol/recording_env.h"
+#include "protocol/runner.h"
+#include "protocol/takes.h"
+#include "storage/session_reader.h"
 
 namespace pvcap {
 
+namespace {
+
+// What a resumed session takes over from the folder it continues.
+struct Continuation {
+  std::filesystem::path previous;
+  int first_step = 0;
+  std::string protocol_text, protocol_file, hand_order;
+};
+std::optional<Continuation> g_continuation;  // set by prepare_session, used by run_session
+
+}  // namespace
+
+void prepare_session(const RigConfig& rig, SessionCommand& c) {
+  if (c.auto_participant && !rig.sim)
+    throw UserError(fmt::format("--auto needs a simulated rig ({} has no sim: section): on a real rig a participant "
+                                "performs the takes",
+                                rig.source.string()));
+  if (c.auto_participant && !c.protocol && !c.resume) throw UserError("--auto performs a protocol: give --protocol FILE");
+  if (!c.resume) return;
+  // The resumed session's protocol, participant and conditions carry over, unless given again.
+  auto takes = protocol::read_takes(*c.resume);
+  if (!takes) throw UserError(fmt::format("--resume {}: {}", c.resume->string(), takes.error().message));
+  auto reader = SessionReader::open(*c.resume);
+  if (!reader) throw UserError(fmt::format("--resume {}: {}", c.resume->string(), reader.error().message));
+  const auto& start = takes.value().protocol_start;
+  Continuation k;
+  k.previous = std::filesystem::absolute(*c.resume);
+  k.first_step = protocol::first_incomplete_step(takes.value());
+  k.protocol_text = start.value("text", "");
+  k.protocol_file = start.value("file", "");
+  k.hand_order = start.value("hand_order", "right_first");
+  if (k.first_step >= takes.value().plan_steps)
+    throw UserError(fmt::format("--resume {}: every take of its protocol is done; nothing to resume",
+                                c.resume->string()));
+  if (!c.recording.participant && reader.value()->info().participant)
+    c.recording.participant = reader.value()->info().participant;
+  if (!c.recording.conditions && reader.value()->info().conditions)
+    c.recording.conditions = reader.value()->info().conditions;
+  if (c.recording.root.empty()) c.recording.root = k.previous.parent_path();
+  c.fast = c.fast || start.value("fast", false);
+  c.auto_participant = c.auto_participant || (start.value("auto", false) && rig.sim);
+  g_continuation = k;
+}
+
 int run_session(const RigConfig& rig, const SessionCommand& command, const std::atomic<bool>& interrupt) {
-  auto opened = session::Recording::open(rig, command.recording, interrupt);
+  // The protocol loads before any device is touched: a bad file costs no session.
+  std::optional<protocol::Protocol> proto;
+  if (g_continuation) proto = protocol::parse_protocol(g_continuation->protocol_text, g_continuation->protocol_file);
+  else if (command.protocol) proto = protocol::load_protocol(*command.protocol);
+  std::string hand_order = "right_first";
+  if (g_continuation) hand_order = g_continuation->hand_order;
+  else if (command.recording.participant && command.recording.participant->hand_order == "left_first")
+    hand_order = "left_first";
+
+  session::RecordingOptions options = command.recording;
+  options.steer_sim_hand = command.auto_participant;
+  auto opened = session::Recording::open(rig, options, interrupt);
   if (!opened) {
     spdlog::error("{}", opened.error().message);
     return 1;
@@ -16,9 +82,65 @@ int run_session(const RigConfig& rig, const SessionCommand& command, const std::
     spdlog::error("{}", s.error().message);
     return 1;
   }
+
+  std::unique_ptr<protocol::RecordingEnv> env;
+  std::unique_ptr<protocol::Runner> runner;
+  std::thread ticker;
+  std::atomic<bool> ticking{true};
+  if (proto) {
+    nlohmann::json detail = {{"protocol", proto->name}, {"file", proto->source.string()}, {"hand_order", hand_order},
+                             {"fast", command.fast}, {"auto", command.auto_participant},
+                             {"takes", 2 * proto->actions.size()}, {"text", proto->text}};
+    protocol::RunnerOptions ro;
+    ro.auto_start = command.auto_participant;
+    ro.auto_advance = command.auto_participant;
+    ro.fast = command.fast;
+    if (g_continuation) {
+      ro.first_step = g_continuation->first_step;
+      detail["continues"] = g_continuation->previous.string();
+      detail["first_step"] = g_continuation->first_step;
+      spdlog::info("resuming {} at take {} of {}", g_continuation->previous.string(), g_continuation->first_step + 1,
+                   2 * proto->actions.size());
+    }
+    ro.protocol_detail = detail.dump();
+    env = std::make_unique<protocol::RecordingEnv>(recording, command.auto_participant);
+    runner = std::make_unique<protocol::Runner>(*proto, hand_order, *env, ro);
+    ticker = std::thread([&] {
+      std::string last_message;
+      while (ticking.load()) {
+        runner->tick();
+        const auto v = runner->view();
+        if (v.message != last_message && !v.message.empty()) {
+          spdlog::info("protocol: {}", v.message);
+          last_message = v.message;
+        }
+        if (runner->finished()) {
+          recording.request_stop(v.phase == protocol::Phase::Done ? "protocol complete" : "protocol aborted");
+          break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      }
+    });
+  }
+
   const std::string reason = recording.wait(interrupt, command.duration_s);
+  ticking.store(false);
+  if (ticker.joinable()) ticker.join();
+  if (runner && !runner->finished()) {
+    // Stopped before the protocol's end: the take being recorded is closed as interrupted.
+    (void)runner->command(protocol::Command::Abort, reason);
+  }
   const auto result = recording.finish(reason);
   fmt::print("\n{}", result.report);
+  if (runner && !result.dir.empty()) {
+    if (auto takes = protocol::read_takes(result.dir)) {
+      const std::string table = protocol::format_takes(takes.value());
+      fmt::print("\n{}", table);
+      std::ofstream(result.dir / "report.txt", std::ios::app) << "\n" << table;
+    } else {
+      spdlog::error("the takes could not be read back: {}", takes.error().message);
+    }
+  }
   return result.exit_code;
 }
 

@@ -15,6 +15,7 @@
 
 #include "app/eval_sync.h"
 #include "app/cmd_session.h"
+#include "protocol/takes.h"
 #include "app/verify_session.h"
 #include "storage/recover.h"
 #include "app/sensel_decode.h"
@@ -205,6 +206,20 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"right_first", "left_first"}));
   session->add_option("--lighting", conditions.lighting, "lighting condition (which lights are on, e.g. LCR)");
   session->add_option("--overlay", conditions.sensor_overlay, "what covers the sensor (e.g. white_vinyl, wood)");
+  std::string protocol_path, resume_dir;
+  bool auto_participant = false, fast = false;
+  session->add_option("--protocol", protocol_path, "run this action protocol (rig-configs/protocols/*.yaml)")
+      ->check(CLI::ExistingFile);
+  session->add_flag("--auto", auto_participant, "simulated rig: the simulated hand performs every prompted take");
+  session->add_flag("--fast", fast, "the protocol's short timings (a few seconds a take), for demos and tests");
+  session->add_option("--resume", resume_dir, "continue the protocol of this interrupted session in a new folder")
+      ->check(CLI::ExistingDirectory);
+
+  auto* takes = app.add_subcommand("takes", "list the takes of a protocol session (and of the sessions it continues)");
+  std::string takes_dir;
+  bool takes_as_json = false;
+  takes->add_option("SESSION", takes_dir, "the session folder")->required()->check(CLI::ExistingDirectory);
+  takes->add_flag("--json", takes_as_json, "as JSON");
 
   auto* sim = app.add_subcommand("sim", "serve a simulated rig (GigE Vision cameras over loopback)");
   std::string sim_rig, truth = "sim-truth";
@@ -252,7 +267,12 @@ int main(int argc, char** argv) {
   std::string migrate_dir;
   migrate->add_option("SESSION", migrate_dir, "the session folder")->required()->check(CLI::ExistingDirectory);
 
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help and --version exit 0; any mistake on the command line (a missing rig file too) exits 2.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
   pvcap::log::init_console(log_level);
   install_stop_handlers();
   try {
@@ -281,7 +301,18 @@ int main(int argc, char** argv) {
       opts.device_wait_s = rig.sim ? 10.0 : 0.0;
       opts.self_exe = self_exe();
       command.duration_s = duration;
+      if (!protocol_path.empty()) command.protocol = protocol_path;
+      if (!resume_dir.empty()) {
+        command.resume = resume_dir;
+        if (session->count("--root") == 0) opts.root.clear();  // beside the session it continues
+      }
+      command.auto_participant = auto_participant;
+      command.fast = fast;
       if (!participant.pseudonym.empty()) {
+        if (!pvcap::is_pseudonymous_code(participant.pseudonym))
+          throw pvcap::UserError(fmt::format("--participant '{}' does not look like a pseudonymous code: use 1 to 32 "
+                                             "letters, digits, '-' or '_' (e.g. P017), never a name",
+                                             participant.pseudonym));
         if (participant.skin_tone.empty()) participant.skin_tone = "unrecorded";
         if (participant.hand_order.empty()) participant.hand_order = "unrecorded";
         opts.participant = participant;
@@ -293,6 +324,7 @@ int main(int argc, char** argv) {
         if (conditions.sensor_overlay.empty()) conditions.sensor_overlay = "unrecorded";
         opts.conditions = conditions;
       }
+      pvcap::prepare_session(rig, command);
       return pvcap::run_session(rig, command, g_stop);
     }
     if (*eval) {
@@ -304,6 +336,16 @@ int main(int argc, char** argv) {
       ensure_sim_network(pvcap::load_rig_config(scenario));
       spdlog::info("eval-sync: scenario {}, {:g} s", scenario.string(), eval_opts.seconds);
       return pvcap::eval_sync(scenario, eval_opts, g_stop);
+    }
+    if (*takes) {
+      auto t = pvcap::protocol::read_takes(takes_dir);
+      if (!t) {
+        spdlog::error("{}", t.error().message);
+        return 1;
+      }
+      if (takes_as_json) fmt::print("{}\n", pvcap::protocol::takes_json(t.value()).dump(2));
+      else fmt::print("{}", pvcap::protocol::format_takes(t.value()));
+      return 0;
     }
     if (*verify) {
       const auto report = pvcap::verify_session(verify_dir, [](const std::string& step) { spdlog::info("{}", step); });

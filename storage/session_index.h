@@ -2,6 +2,7 @@
 // The session index (session.db): schema and the statements that fill it.
 // Single-threaded: the IndexWriter's thread is its only user while recording.
 // The schema is documented in docs/store.md; kSchemaVersion is PRAGMA user_version.
+#include <cctype>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -151,6 +152,15 @@ struct ParticipantRecord {
   std::string skin_tone;   // light | medium | dark | unrecorded (the paper's three categories)
   std::string hand_order;  // right_first | left_first | unrecorded
 };
+// A participant code as pvcap accepts it: 1 to 32 letters, digits, '-' or '_', starting with a
+// letter or digit (e.g. P017, SIM01). A name with a space is refused before anything is recorded.
+inline bool is_pseudonymous_code(const std::string& s) {
+  if (s.empty() || s.size() > 32 || !std::isalnum(static_cast<unsigned char>(s[0]))) return false;
+  for (char c : s)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') return false;
+  return true;
+}
+
 struct ConditionsRecord {
   std::string lighting;        // which lights were on, e.g. "LCR", "L-R"
   std::string sensor_overlay;  // e.g. white_vinyl, wood

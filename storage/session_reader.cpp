@@ -163,32 +163,59 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c) {
   });
 }
 
+namespace {
+constexpr const char* kPressureColumns =
+    "SELECT sequence, device_ns, host_ns, mapped_ns, grid_cols, grid_rows, grid_xscale, grid_yscale, base, counts "
+    "FROM pressure_frames ";
+
+Result<PressureFrame> pressure_row(sqlite::Statement& q, const std::filesystem::path& dir) {
+  PressureFrame p;
+  p.sequence = std::uint64_t(q.column_int(0));
+  p.device_ns = q.column_int(1);
+  p.host_ns = q.column_int(2);
+  p.mapped_ns = opt_int(q, 3);
+  p.grid_cols = int(q.column_int(4));
+  p.grid_rows = int(q.column_int(5));
+  p.grid_xscale = int(q.column_int(6));
+  p.grid_yscale = int(q.column_int(7));
+  if (p.grid_cols <= 0 || p.grid_rows <= 0 || p.grid_cols > kMaxGridSide || p.grid_rows > kMaxGridSide)
+    return Error{fmt::format("{}: pressure frame {} has an impossible grid {}x{}", dir.string(), p.sequence,
+                             p.grid_cols, p.grid_rows)};
+  if (q.column_null(9))
+    return Error{fmt::format("{}: pressure frame {} carries no pressure image", dir.string(), p.sequence)};
+  p.base = std::uint16_t(q.column_int(8));
+  auto counts = decompress_counts(q.column_blob(9), std::size_t(p.grid_cols) * std::size_t(p.grid_rows));
+  if (!counts) return Error{fmt::format("{}: pressure frame {}: {}", dir.string(), p.sequence, counts.error().message)};
+  p.counts = std::move(counts.value());
+  return p;
+}
+}  // namespace
+
 Result<PressureFrame> SessionReader::pressure_frame(std::uint64_t sequence, std::uint32_t connection) {
   if (!pressure_device_) return Error{fmt::format("{}: the session has no pressure sensor", dir_.string())};
   return guarded(dir_, [&]() -> Result<PressureFrame> {
-    auto q = db_->prepare(
-        "SELECT sequence, device_ns, host_ns, mapped_ns, grid_cols, grid_rows, grid_xscale, grid_yscale, base, counts "
-        "FROM pressure_frames WHERE device_id = ? AND connection = ? AND sequence = ?");
+    auto q = db_->prepare(std::string(kPressureColumns) + "WHERE device_id = ? AND connection = ? AND sequence = ?");
     q.bind_all(pressure_device_->device_id, std::int64_t(connection), sequence);
     if (!q.step()) return Error{fmt::format("{}: no pressure frame {}", dir_.string(), sequence)};
-    PressureFrame p;
-    p.sequence = std::uint64_t(q.column_int(0));
-    p.device_ns = q.column_int(1);
-    p.host_ns = q.column_int(2);
-    p.mapped_ns = opt_int(q, 3);
-    p.grid_cols = int(q.column_int(4));
-    p.grid_rows = int(q.column_int(5));
-    p.grid_xscale = int(q.column_int(6));
-    p.grid_yscale = int(q.column_int(7));
-    if (p.grid_cols <= 0 || p.grid_rows <= 0 || p.grid_cols > kMaxGridSide || p.grid_rows > kMaxGridSide)
-      return Error{fmt::format("{}: pressure frame {} has an impossible grid {}x{}", dir_.string(), sequence,
-                               p.grid_cols, p.grid_rows)};
-    if (q.column_null(9)) return Error{fmt::format("{}: pressure frame {} carries no pressure image", dir_.string(), sequence)};
-    p.base = std::uint16_t(q.column_int(8));
-    auto counts = decompress_counts(q.column_blob(9), std::size_t(p.grid_cols) * std::size_t(p.grid_rows));
-    if (!counts) return Error{fmt::format("{}: pressure frame {}: {}", dir_.string(), sequence, counts.error().message)};
-    p.counts = std::move(counts.value());
-    return p;
+    return pressure_row(q, dir_);
+  });
+}
+
+Result<std::vector<PressureFrame>> SessionReader::pressure_frames_between(std::int64_t from_ns, std::int64_t to_ns) {
+  if (!pressure_device_) return Error{fmt::format("{}: the session has no pressure sensor", dir_.string())};
+  return guarded(dir_, [&]() -> Result<std::vector<PressureFrame>> {
+    // By arrival (indexed), a second wider than asked, then by the session clock.
+    auto q = db_->prepare(std::string(kPressureColumns) +
+                          "WHERE device_id = ? AND host_ns BETWEEN ? AND ? ORDER BY host_ns");
+    q.bind_all(pressure_device_->device_id, from_ns - 1'000'000'000, to_ns + 1'000'000'000);
+    std::vector<PressureFrame> out;
+    while (q.step()) {
+      auto p = pressure_row(q, dir_);
+      if (!p) return p.error();
+      const std::int64_t t = p.value().mapped_ns.value_or(p.value().host_ns);
+      if (t >= from_ns && t < to_ns) out.push_back(std::move(p.value()));
+    }
+    return out;
   });
 }
 

@@ -134,6 +134,8 @@ class SessionReader {
   // The sample nearest `t_ns` on the session clock (info().started_host_ns + seconds * 1e9).
   Result<std::size_t> sample_at(std::int64_t t_ns) const;
   Result<PressureFrame> pressure_frame(std::uint64_t sequence, std::uint32_t connection = 0);
+  // Every pressure frame whose time on the session clock is in [from_ns, to_ns), in order.
+  Result<std::vector<PressureFrame>> pressure_frames_between(std::int64_t from_ns, std::int64_t to_ns);
 
   // Protocol actions (action_start .. action_end events) with the samples they span.
   Result<std::vector<ActionSpan>> actions();
