@@ -27,7 +27,7 @@ struct TakeCheckConfig {
   double contact_newtons = 0.5;      // Low/High/Any: the take's peak total force above this
   double no_contact_newtons = 0.3;   // No contact: the take's peak total force below this
   double high_over_low = 1.3;        // High's mean force at least this times Low's (same action, hand)
-  double max_gap_ms = 100;           // no gap in the pressure stream longer than this
+  double max_gap_ms = 250;           // no stream silent longer than this (the recording indicator's window)
 };
 
 // One row of the plan's action list (an action at one force level).

@@ -1,6 +1,9 @@
 #pragma once
 // Runs the real `pvcap` command on a simulated rig and reads back what it
 // stored and what the simulator says really happened (sim-truth/).
+#include <sys/types.h>
+
+#include <chrono>
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -26,6 +29,11 @@ struct CommandResult {
   std::string output;  // stdout and stderr
 };
 CommandResult run_pvcap(const std::string& args);
+// Starts `pvcap ARGS` in the background with its output going to `log`; returns its pid.
+pid_t spawn_pvcap(const std::string& args, const std::filesystem::path& log);
+std::string read_all(const std::filesystem::path& p);
+// Waits until `log` contains `needle`; false after `timeout`.
+bool wait_for_text(const std::filesystem::path& log, const std::string& needle, std::chrono::seconds timeout);
 
 struct TruthFrame {
   std::uint16_t frame_id;

@@ -23,6 +23,9 @@
 namespace fs = std::filesystem;
 using pvcap::testing::run_pvcap;
 using pvcap::testing::sim_rig_yaml;
+using pvcap::testing::read_all;
+using pvcap::testing::spawn_pvcap;
+using pvcap::testing::wait_for_text;
 using namespace std::chrono_literals;
 
 namespace {
@@ -33,32 +36,6 @@ std::string with_store(std::string yaml, const std::string& extra) {
   return yaml;
 }
 
-// Starts `pvcap ARGS` with its output going to `log`; returns its pid.
-pid_t spawn_pvcap(const std::string& args, const fs::path& log) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const std::string cmd = fmt::format("exec {} {} > {} 2>&1", PVCAP_BIN, args, log.string());
-    execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  return pid;
-}
-
-std::string read_all(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-bool wait_for_text(const fs::path& log, const std::string& needle, std::chrono::seconds timeout) {
-  const auto end = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < end) {
-    if (read_all(log).find(needle) != std::string::npos) return true;
-    std::this_thread::sleep_for(50ms);
-  }
-  return false;
-}
 
 fs::path only_session(const fs::path& root) {
   for (const auto& e : fs::directory_iterator(root))

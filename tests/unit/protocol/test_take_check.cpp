@@ -92,6 +92,6 @@ TEST(TakeCheck, TheWrongHalfOfThePadFailsUnlessTheActionSaysOtherwise) {
 
 TEST(TakeCheck, ADeviceGapFails) {
   const Action low = action(Force::Low);
-  EXPECT_FALSE(check(low, Hand::Right, take(10, 5, 2.0, 160, 3'000'000'000, 3'300'000'000)).ok);
+  EXPECT_FALSE(check(low, Hand::Right, take(10, 5, 2.0, 160, 3'000'000'000, 3'400'000'000)).ok);
   EXPECT_FALSE(check(low, Hand::Right, take(10, 5, 2.0, 160), {}, 400).ok);
 }

@@ -1,0 +1,164 @@
+// The participant session end to end on the simulated rig: the real `pvcap session`
+// with a protocol, the automatic participant performing each take, the takes read
+// back from the store; a session killed mid-protocol and resumed.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "session_under_test.h"
+#include "storage/session_reader.h"
+
+namespace fs = std::filesystem;
+using namespace pvcap::testing;
+
+namespace {
+
+fs::path work_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / fmt::format("pvcap-it-{}-{}", name, getpid());
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+// Three force levels of one press, with each hand: six takes of ~3 s.
+fs::path write_protocol(const fs::path& dir) {
+  const fs::path pictograms = fs::path(PVCAP_SOURCE_DIR) / "rig-configs/protocols/pictograms";
+  std::ofstream(dir / "protocol.yaml") << fmt::format(
+      "name: test\n"
+      "fast_timings: {{prompt_s: 0.5, countdown_s: 0.4, record_s: 2.0, rest_s: 0.3}}\n"
+      "actions:\n"
+      "  - {{name: press_index_finger, text: Press with your index finger, pictogram: {}/press_index_finger.svg,\n"
+      "      forces: [low, high, no_contact], repetitions: 2}}\n",
+      pictograms.string());
+  return dir / "protocol.yaml";
+}
+
+fs::path write_rig(const fs::path& dir) {
+  std::ofstream(dir / "rig.yaml") << sim_rig_yaml({{}, {}, {}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  return dir / "rig.yaml";
+}
+
+fs::path only_session(const fs::path& root, const std::set<fs::path>& except = {}) {
+  for (const auto& e : fs::directory_iterator(root))
+    if (e.is_directory() && e.path().filename().string()[0] != '.' && !except.count(e.path())) return e.path();
+  return {};
+}
+
+nlohmann::json takes_of(const fs::path& session) {
+  const auto r = run_pvcap(fmt::format("--log-level warn takes {} --json", session.string()));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  return nlohmann::json::parse(r.output, nullptr, false);
+}
+
+}  // namespace
+
+TEST(ProtocolSession, TheAutomaticParticipantPerformsEveryTakeAndTheDataAgreeWithTheLabels) {
+  const fs::path work = work_dir("protocol");
+  const auto r = run_pvcap(fmt::format(
+      "session --rig {} --root {} --protocol {} --auto --fast --participant T01 --skin-tone dark --hand-order left_first",
+      write_rig(work).string(), (work / "sessions").string(), write_protocol(work).string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("ended: protocol complete"), std::string::npos) << r.output;
+  const fs::path session = only_session(work / "sessions");
+  const auto t = takes_of(session);
+  ASSERT_TRUE(t.is_object());
+  EXPECT_EQ(t["plan_steps"], 6);
+  const auto& takes = t["takes"];
+  ASSERT_EQ(takes.size(), 6u) << t.dump(1);
+  const std::vector<std::string> forces = {"low", "high", "no_contact"};
+  for (std::size_t i = 0; i < 6; ++i) {
+    EXPECT_EQ(takes[i]["status"], "done") << takes[i].dump();
+    EXPECT_EQ(takes[i]["step"], int(i));
+    EXPECT_EQ(takes[i]["hand"], i < 3 ? "left" : "right") << "left first, as the participant's hand order says";
+    EXPECT_EQ(takes[i]["force"], forces[i % 3]);
+    EXPECT_EQ(takes[i]["sequence"],
+              fmt::format("press_index_finger_{}_2x_{}", forces[i % 3], i < 3 ? "left" : "right"));
+    EXPECT_EQ(takes[i]["check_ok"], true) << takes[i].dump();
+    // The take spans its samples (2 s at 15 Hz) and its pressure frames (~125 Hz).
+    EXPECT_NEAR(takes[i]["end_sample"].get<double>() - takes[i]["first_sample"].get<double>(), 30, 3);
+    EXPECT_GT(takes[i]["pressure_frames"].get<int>(), 150);
+  }
+  // The data agree with the labels: High above Low above No contact (nothing).
+  const auto& f = t["by_force"];
+  const double high = f["high"]["mean_newtons"], low = f["low"]["mean_newtons"], none = f["no_contact"]["mean_newtons"];
+  EXPECT_GT(high, 1.5 * low);
+  EXPECT_GT(low, 0.3);
+  EXPECT_LT(none, 0.01);
+  // Where the simulated hand really pressed: each hand's takes on its own half (the truth's commands).
+  std::ifstream hand(session / "sim-truth" / "hand.csv");
+  std::string line;
+  int presses = 0, hovers = 0;
+  while (std::getline(hand, line)) {
+    presses += line.find(" press ") != std::string::npos;
+    hovers += line.find(" hover ") != std::string::npos;
+  }
+  EXPECT_EQ(presses, 4);
+  EXPECT_EQ(hovers, 2);
+  // The store holds the whole protocol, and reads back clean or lossy, never broken.
+  const auto v = run_pvcap("verify " + session.string());
+  EXPECT_TRUE(v.exit_code == 0 || v.exit_code == 3) << v.output;
+  fs::remove_all(work);
+}
+
+TEST(ProtocolSession, AKilledSessionResumesAndTogetherTheFoldersCoverTheProtocol) {
+  const fs::path work = work_dir("resume");
+  const fs::path rig = write_rig(work), protocol = write_protocol(work), log = work / "first.log";
+  const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --protocol {} --auto --fast --participant "
+                                            "T02 --hand-order right_first",
+                                            rig.string(), (work / "sessions").string(), protocol.string()),
+                                log);
+  // Killed while the fourth take records: three were acknowledged (their end committed).
+  ASSERT_TRUE(wait_for_text(log, "protocol: recording press_index_finger_low_2x_left", std::chrono::seconds(90)))
+      << read_all(log);
+  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  ASSERT_EQ(kill(pid, SIGKILL), 0);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  const std::string first_log = read_all(log);
+  std::set<std::string> acknowledged;
+  const std::regex done_line("protocol: (press_index_finger_\\w+) done");
+  for (auto it = std::sregex_iterator(first_log.begin(), first_log.end(), done_line); it != std::sregex_iterator(); ++it)
+    acknowledged.insert((*it)[1]);
+  ASSERT_EQ(acknowledged.size(), 3u) << first_log;
+
+  const fs::path first = only_session(work / "sessions");
+  const auto rec = run_pvcap("recover " + first.string());
+  ASSERT_EQ(rec.exit_code, 0) << rec.output;
+  const auto resumed = run_pvcap(fmt::format("session --rig {} --resume {}", rig.string(), first.string()));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_NE(resumed.output.find("resuming"), std::string::npos);
+  const fs::path second = only_session(work / "sessions", {first});
+  ASSERT_FALSE(second.empty());
+
+  const auto t = takes_of(second);
+  ASSERT_TRUE(t.is_object());
+  ASSERT_EQ(t["folders"].size(), 2u);
+  std::map<int, std::string> done_in;  // step -> folder of its done take
+  for (const auto& row : t["takes"])
+    if (row["status"] == "done") done_in[row["step"]] = row["session"];
+  for (int step = 0; step < 6; ++step) EXPECT_TRUE(done_in.count(step)) << "step " << step << "\n" << t.dump(1);
+  for (const auto& row : t["takes"]) {
+    if (acknowledged.count(row["sequence"])) {
+      EXPECT_EQ(row["status"], "done") << row.dump();
+      EXPECT_EQ(row["session"], first.string()) << "acknowledged in the first folder, kept there";
+    }
+    if (row["session"] == first.string() && row["step"] == 3)
+      EXPECT_EQ(row["status"], "interrupted") << "the take the kill cut short";
+  }
+  // The continuation took over the participant.
+  auto reader = pvcap::SessionReader::open(second);
+  ASSERT_TRUE(reader) << reader.error().message;
+  ASSERT_TRUE(reader.value()->info().participant);
+  EXPECT_EQ(reader.value()->info().participant->pseudonym, "T02");
+  fs::remove_all(work);
+}
