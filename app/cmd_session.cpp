@@ -12,6 +12,7 @@
 #include "protocol/recording_env.h"
 #include "protocol/runner.h"
 #include "protocol/takes.h"
+#include "protocol/terminal_console.h"
 #include "storage/session_reader.h"
 
 namespace pvcap {
@@ -123,9 +124,24 @@ int run_session(const RigConfig& rig, const SessionCommand& command, const std::
     });
   }
 
+  // The operator's keyboard, when pvcap runs in a terminal.
+  std::unique_ptr<protocol::TerminalConsole> console;
+  std::thread console_thread;
+  std::atomic<bool> console_stop{false};
+  if (runner && protocol::TerminalConsole::available()) {
+    console = std::make_unique<protocol::TerminalConsole>(*runner);
+    console_thread = std::thread([&] { console->run(console_stop); });
+  } else if (runner && !command.auto_participant) {
+    spdlog::warn("no terminal to read the operator's keys from: the protocol waits for a start that cannot come "
+                 "(run pvcap in a terminal, or with --auto on a simulated rig)");
+  }
+
   const std::string reason = recording.wait(interrupt, command.duration_s);
   ticking.store(false);
   if (ticker.joinable()) ticker.join();
+  console_stop.store(true);
+  if (console_thread.joinable()) console_thread.join();
+  console.reset();
   if (runner && !runner->finished()) {
     // Stopped before the protocol's end: the take being recorded is closed as interrupted.
     (void)runner->command(protocol::Command::Abort, reason);
