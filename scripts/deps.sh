@@ -15,6 +15,7 @@ packages=(
   iproute2 util-linux                   # network namespaces for the simulated rig
   python3-opencv python3-numpy          # the store's Python example (docs/store.md) is run by a test
   clang libclang-rt-14-dev              # libFuzzer targets
+  tmux                                  # the operator's terminal console is tested in it
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -162,3 +162,69 @@ TEST(ProtocolSession, AKilledSessionResumesAndTogetherTheFoldersCoverTheProtocol
   EXPECT_EQ(reader.value()->info().participant->pseudonym, "T02");
   fs::remove_all(work);
 }
+
+namespace {
+std::string tmux(const std::string& args) {
+  const auto r = std::system(("tmux -L pvcap-test " + args + " > /tmp/pvcap-tmux-out 2>&1").c_str());
+  (void)r;
+  return read_all("/tmp/pvcap-tmux-out");
+}
+
+// Waits until the console pane shows `needle` (`times` times).
+bool pane_shows(const std::string& needle, std::chrono::seconds timeout, int times = 1) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < end) {
+    const std::string pane = tmux("capture-pane -p -S -500 -t console");
+    int n = 0;
+    for (auto at = pane.find(needle); at != std::string::npos; at = pane.find(needle, at + 1)) ++n;
+    if (n >= times) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return false;
+}
+}  // namespace
+
+// The operator's keyboard in a real terminal (tmux): start, pause and resume, skip, redo, abort.
+TEST(ProtocolSession, TheOperatorSteersFromTheTerminal) {
+  if (std::system("command -v tmux > /dev/null") != 0) GTEST_SKIP() << "tmux is not installed (scripts/deps.sh installs it)";
+  const fs::path work = work_dir("console");
+  const fs::path rig = write_rig(work), protocol = write_protocol(work);
+  tmux("kill-server");
+  tmux(fmt::format("new-session -d -s console -x 220 -y 60 '{} session --rig {} --root {} --protocol {} --fast "
+                   "--participant T03 2>&1 | tee {}'",
+                   PVCAP_BIN, rig.string(), (work / "sessions").string(), protocol.string(),
+                   (work / "console.log").string()));
+  ASSERT_TRUE(pane_shows("operator: keys:", std::chrono::seconds(60))) << tmux("capture-pane -p -t console");
+  tmux("send-keys -t console s");
+  ASSERT_TRUE(pane_shows("protocol: recording press_index_finger_low_2x_right", std::chrono::seconds(20)));
+  tmux("send-keys -t console p");
+  ASSERT_TRUE(pane_shows("operator: paused", std::chrono::seconds(5)));
+  tmux("send-keys -t console p");
+  ASSERT_TRUE(pane_shows("operator: resumed", std::chrono::seconds(5)));
+  ASSERT_TRUE(pane_shows("recording press_index_finger_low_2x_right(2)", std::chrono::seconds(20)));
+  tmux("send-keys -t console k");
+  ASSERT_TRUE(pane_shows("operator: skipped", std::chrono::seconds(5)));
+  // Wait for its end (done, or held by a failed check: the default simulated hand is not steered).
+  ASSERT_TRUE(pane_shows("protocol: press_index_finger_high_2x_right d", std::chrono::seconds(20)));
+  tmux("send-keys -t console r");
+  ASSERT_TRUE(pane_shows("operator: redo press_index_finger_high_2x_right(2)", std::chrono::seconds(5)));
+  ASSERT_TRUE(pane_shows("protocol: recording press_index_finger_high_2x_right(2)", std::chrono::seconds(20)));
+  tmux("send-keys -t console k");
+  ASSERT_TRUE(pane_shows("operator: skipped", std::chrono::seconds(5), 2));
+  tmux("send-keys -t console q");
+  // pvcap ends, and its pane with it: the end is read from its log.
+  ASSERT_TRUE(wait_for_text(work / "console.log", "ended: protocol aborted", std::chrono::seconds(30)))
+      << read_all(work / "console.log");
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // the takes table follows the report
+  tmux("kill-server");
+
+  const auto t = takes_of(only_session(work / "sessions"));
+  ASSERT_TRUE(t.is_object());
+  std::map<std::string, std::string> status;
+  for (const auto& row : t["takes"]) status[row["sequence"]] = row["status"];
+  EXPECT_EQ(status["press_index_finger_low_2x_right"], "interrupted") << t.dump(1);
+  EXPECT_EQ(status["press_index_finger_low_2x_right(2)"], "skipped");
+  EXPECT_EQ(status["press_index_finger_high_2x_right"], "superseded");
+  EXPECT_EQ(status["press_index_finger_high_2x_right(2)"], "skipped");
+  fs::remove_all(work);
+}
