@@ -38,18 +38,22 @@ Status read_one(const std::filesystem::path& dir, SessionTakes& out, int depth) 
   const std::int64_t session_end = r.info().ended_host_ns.value_or(INT64_MAX);
   std::map<std::string, std::size_t> by_sequence;  // the latest row of each sequence name in this folder
   std::vector<TakeRow> rows;
+  auto row_of = [&](const ProtocolEventRecord& e, const std::string& sequence) {
+    TakeRow t;
+    t.session = dir.string();
+    t.step = int(e.step.value_or(-1));
+    t.sequence = sequence;
+    t.action = e.action;
+    t.hand = e.hand;
+    t.force = e.force;
+    t.repetitions = int(e.repetition.value_or(0));
+    return t;
+  };
   for (const auto& e : events.value()) {
     const auto d = parse_detail(e.detail);
     const std::string sequence = d.value("take", "");
     if (e.kind == "action_start") {
-      TakeRow t;
-      t.session = dir.string();
-      t.step = int(e.step.value_or(-1));
-      t.sequence = sequence;
-      t.action = e.action;
-      t.hand = e.hand;
-      t.force = e.force;
-      t.repetitions = int(e.repetition.value_or(0));
+      TakeRow t = row_of(e, sequence);
       t.status = "interrupted";  // until its end says otherwise (a killed session's last take stays so)
       t.start_ns = e.host_ns;
       by_sequence[sequence] = rows.size();
@@ -60,14 +64,7 @@ Status read_one(const std::filesystem::path& dir, SessionTakes& out, int depth) 
       t.end_ns = e.host_ns;
       if (d.contains("check")) t.check_ok = d["check"].value("ok", true);
     } else if (e.kind == "skip") {
-      TakeRow t;
-      t.session = dir.string();
-      t.step = int(e.step.value_or(-1));
-      t.sequence = sequence;
-      t.action = e.action;
-      t.hand = e.hand;
-      t.force = e.force;
-      t.repetitions = int(e.repetition.value_or(0));
+      TakeRow t = row_of(e, sequence);
       t.status = "skipped";
       rows.push_back(std::move(t));
     } else if ((e.kind == "superseded" || e.kind == "mark_bad") && by_sequence.count(sequence)) {
