@@ -17,17 +17,6 @@
 
 namespace pvcap {
 
-namespace {
-
-// What a resumed session takes over from the folder it continues.
-struct Continuation {
-  std::filesystem::path previous;
-  int first_step = 0;
-  std::string protocol_text, protocol_file, hand_order;
-};
-std::optional<Continuation> g_continuation;  // set by prepare_session, used by run_session
-
-}  // namespace
 
 void prepare_session(const RigConfig& rig, SessionCommand& c) {
   if (c.auto_participant && !rig.sim)
@@ -58,16 +47,16 @@ void prepare_session(const RigConfig& rig, SessionCommand& c) {
   if (c.recording.root.empty()) c.recording.root = k.previous.parent_path();
   c.fast = c.fast || start.value("fast", false);
   c.auto_participant = c.auto_participant || (start.value("auto", false) && rig.sim);
-  g_continuation = k;
+  c.continuation = k;
 }
 
 int run_session(const RigConfig& rig, const SessionCommand& command, const std::atomic<bool>& interrupt) {
   // The protocol loads before any device is touched: a bad file costs no session.
   std::optional<protocol::Protocol> proto;
-  if (g_continuation) proto = protocol::parse_protocol(g_continuation->protocol_text, g_continuation->protocol_file);
+  if (command.continuation) proto = protocol::parse_protocol(command.continuation->protocol_text, command.continuation->protocol_file);
   else if (command.protocol) proto = protocol::load_protocol(*command.protocol);
   std::string hand_order = "right_first";
-  if (g_continuation) hand_order = g_continuation->hand_order;
+  if (command.continuation) hand_order = command.continuation->hand_order;
   else if (command.recording.participant && command.recording.participant->hand_order == "left_first")
     hand_order = "left_first";
 
@@ -96,11 +85,11 @@ int run_session(const RigConfig& rig, const SessionCommand& command, const std::
     ro.auto_start = command.auto_participant;
     ro.auto_advance = command.auto_participant;
     ro.fast = command.fast;
-    if (g_continuation) {
-      ro.first_step = g_continuation->first_step;
-      detail["continues"] = g_continuation->previous.string();
-      detail["first_step"] = g_continuation->first_step;
-      spdlog::info("resuming {} at take {} of {}", g_continuation->previous.string(), g_continuation->first_step + 1,
+    if (command.continuation) {
+      ro.first_step = command.continuation->first_step;
+      detail["continues"] = command.continuation->previous.string();
+      detail["first_step"] = command.continuation->first_step;
+      spdlog::info("resuming {} at take {} of {}", command.continuation->previous.string(), command.continuation->first_step + 1,
                    2 * proto->actions.size());
     }
     ro.protocol_detail = detail.dump();

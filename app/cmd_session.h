@@ -6,11 +6,19 @@
 #include <atomic>
 #include <filesystem>
 #include <optional>
+#include <string>
 
 #include "core/rig_config.h"
 #include "session/recording.h"
 
 namespace pvcap {
+
+// What a resumed session takes over from the folder it continues (filled by prepare_session).
+struct Continuation {
+  std::filesystem::path previous;
+  int first_step = 0;
+  std::string protocol_text, protocol_file, hand_order;
+};
 
 struct SessionCommand {
   session::RecordingOptions recording;
@@ -19,6 +27,7 @@ struct SessionCommand {
   bool auto_participant = false;               // the simulated hand performs each take (simulated rigs)
   bool fast = false;                           // the protocol's fast timings
   std::optional<std::filesystem::path> resume;  // continue this interrupted session's protocol
+  std::optional<Continuation> continuation;     // set by prepare_session from `resume`
 };
 
 // Checks and completes the command before any device is opened (throws UserError): the protocol
