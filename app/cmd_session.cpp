@@ -2,10 +2,14 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <fstream>
+#include <istream>
+#include <ostream>
 #include <thread>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
@@ -48,6 +52,51 @@ void prepare_session(const RigConfig& rig, SessionCommand& c) {
   c.fast = c.fast || start.value("fast", false);
   c.auto_participant = c.auto_participant || (start.value("auto", false) && rig.sim);
   c.continuation = k;
+}
+
+namespace {
+
+// Asks until the answer is accepted: one of `choices`, or (without choices) what `valid` accepts.
+// Enter gives `fallback` when there is one. Throws when the input ends.
+std::string ask(std::istream& in, std::ostream& out, const std::string& question, const std::vector<std::string>& choices,
+                const std::string& fallback, bool (*valid)(const std::string&) = nullptr) {
+  for (;;) {
+    out << question;
+    if (!choices.empty()) out << " [" << fmt::format("{}", fmt::join(choices, ", ")) << "]";
+    if (!fallback.empty()) out << " (Enter: " << fallback << ")";
+    out << ": " << std::flush;
+    std::string answer;
+    if (!std::getline(in, answer)) throw UserError("the participant's details were not given (the input ended)");
+    answer.erase(0, answer.find_first_not_of(" \t"));
+    answer.erase(answer.find_last_not_of(" \t\r") + 1);
+    if (answer.empty() && !fallback.empty()) return fallback;
+    if (std::find(choices.begin(), choices.end(), answer) != choices.end()) return answer;
+    if (choices.empty() && valid && valid(answer)) return answer;
+    out << "  not accepted: "
+        << (choices.empty() ? "use 1 to 32 letters, digits, '-' or '_', no spaces (a participant: a code, never a name)"
+                            : "answer one of the words in brackets")
+        << "\n";
+  }
+}
+
+}  // namespace
+
+void ask_for_participant(SessionCommand& c, std::istream& in, std::ostream& out) {
+  if (c.recording.participant && c.recording.conditions) return;
+  out << "Before the protocol starts: the participant and the conditions of this session.\n";
+  if (!c.recording.participant) {
+    ParticipantRecord p;
+    p.pseudonym = ask(in, out, "Participant code (pseudonymous, e.g. P017)", {}, "", is_pseudonymous_code);
+    p.skin_tone = ask(in, out, "Skin tone", {"light", "medium", "dark", "unrecorded"}, "unrecorded");
+    p.hand_order = ask(in, out, "Hand order", {"right_first", "left_first"}, "right_first");
+    c.recording.participant = p;
+  }
+  if (!c.recording.conditions) {
+    ConditionsRecord k;
+    k.lighting = ask(in, out, "Lighting (which lights are on, e.g. LCR)", {}, "unrecorded", is_pseudonymous_code);
+    k.sensor_overlay = ask(in, out, "Sensor overlay (e.g. white_vinyl)", {}, "unrecorded", is_pseudonymous_code);
+    c.recording.conditions = k;
+  }
 }
 
 int run_session(const RigConfig& rig, const SessionCommand& command, const std::atomic<bool>& interrupt) {
@@ -113,6 +162,12 @@ int run_session(const RigConfig& rig, const SessionCommand& command, const std::
     });
   }
 
+  if (command.web) {
+    command.web->serve(recording, runner.get());
+    spdlog::info("participant display: {}", command.web->url("participant"));
+    spdlog::info("operator console:    {}", command.web->url("operator"));
+  }
+
   // The operator's keyboard, when pvcap runs in a terminal.
   std::unique_ptr<protocol::TerminalConsole> console;
   std::thread console_thread;
@@ -131,6 +186,7 @@ int run_session(const RigConfig& rig, const SessionCommand& command, const std::
   console_stop.store(true);
   if (console_thread.joinable()) console_thread.join();
   console.reset();
+  if (command.web) command.web->stop();  // the pages end before what they show
   if (runner && !runner->finished()) {
     // Stopped before the protocol's end: the take being recorded is closed as interrupted.
     (void)runner->command(protocol::Command::Abort, reason);

@@ -215,6 +215,15 @@ int main(int argc, char** argv) {
   session->add_option("--resume", resume_dir, "continue the protocol of this interrupted session in a new folder")
       ->check(CLI::ExistingDirectory);
 
+  pvcap::protocol::WebOptions web;
+  bool no_web = false;
+  session->add_option("--web-bind", web.bind, "address the session's pages listen on (another than loopback needs a "
+                                              "token)")->capture_default_str();
+  session->add_option("--web-port", web.port, "port of the session's pages (busy: another is taken and printed; 0: "
+                                              "any)")->capture_default_str()->check(CLI::Range(0, 65535));
+  session->add_option("--web-token", web.token, "token the pages require (generated when binding off loopback)");
+  session->add_flag("--no-web", no_web, "serve no pages (the terminal console still works)");
+
   auto* takes = app.add_subcommand("takes", "list the takes of a protocol session (and of the sessions it continues)");
   std::string takes_dir;
   bool takes_as_json = false;
@@ -294,8 +303,17 @@ int main(int argc, char** argv) {
     }
     if (*session) {
       const auto rig = pvcap::load_rig_config(rig_path);
-      if (rig.sim) ensure_sim_network(rig);
       pvcap::SessionCommand command;
+      if (!no_web) {
+        // Bound here, before a simulated rig's private network namespace: the pages stay reachable
+        // from this machine's own browser.
+        if (!web.token.empty() && web.token.size() < 8)
+          throw pvcap::UserError("--web-token must be at least 8 characters");
+        auto bound = pvcap::protocol::WebConsole::bind(web);
+        if (!bound) throw pvcap::UserError(bound.error().message);
+        command.web = std::move(bound.value());
+      }
+      if (rig.sim) ensure_sim_network(rig);
       auto& opts = command.recording;
       opts.root = root;
       opts.device_wait_s = rig.sim ? 10.0 : 0.0;
@@ -325,6 +343,8 @@ int main(int argc, char** argv) {
         opts.conditions = conditions;
       }
       pvcap::prepare_session(rig, command);
+      if ((command.protocol || command.continuation) && !command.auto_participant && isatty(STDIN_FILENO) == 1)
+        pvcap::ask_for_participant(command, std::cin, std::cout);
       return pvcap::run_session(rig, command, g_stop);
     }
     if (*eval) {

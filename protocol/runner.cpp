@@ -355,7 +355,10 @@ RunnerView Runner::view() const {
   v.step_status = step_status_;
   if (current_ < int(plan_.size()) && phase_ != Phase::Done && phase_ != Phase::Aborted) {
     const PlannedTake& t = plan_[std::size_t(current_)];
-    v.sequence = t.sequence_name(attempts_of(current_) + (phase_ == Phase::Recording ? 0 : 1));
+    // Recording or resting after it: the take just made; before it: the one about to be made.
+    const bool after_take = phase_ == Phase::Recording || phase_ == Phase::Rest ||
+                            (phase_ == Phase::Paused && paused_in_ == Phase::Rest);
+    v.sequence = t.sequence_name(attempts_of(current_) + (after_take ? 0 : 1));
     v.action_name = t.action->name;
     v.action_text = t.action->text;
     v.pictogram = t.action->pictogram;

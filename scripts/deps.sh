@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages pvcap builds and runs against, only when some are
 # missing (so a machine that has them needs no network). Run as root.
+#   deps.sh          what building and running pvcap needs
+#   deps.sh --tests  and what the tests need besides (a browser for the pages, tmux for the console)
 set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config git
@@ -10,13 +12,19 @@ packages=(
   libavcodec-dev libavformat-dev libavutil-dev libswscale-dev ffmpeg
   libsqlite3-dev sqlite3 zlib1g-dev     # the session index; pressure counts compressed with zlib
   libspdlog-dev libfmt-dev libcli11-dev libyaml-cpp-dev nlohmann-json3-dev
+  libcpp-httplib-dev                    # the session's pages (participant display, operator console)
   libgtest-dev libgmock-dev libbenchmark-dev
   libumockdev-dev umockdev              # emulated USB device for the Sensel tests
   iproute2 util-linux                   # network namespaces for the simulated rig
   python3-opencv python3-numpy          # the store's Python example (docs/store.md) is run by a test
   clang libclang-rt-14-dev              # libFuzzer targets
-  tmux                                  # the operator's terminal console is tested in it
 )
+if [ "${1:-}" = "--tests" ]; then
+  packages+=(
+    tmux                                # the operator's terminal console is tested in it
+    chromium                            # the session's pages are tested in headless Chromium
+  )
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

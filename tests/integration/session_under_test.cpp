@@ -52,10 +52,10 @@ CommandResult run_pvcap(const std::string& args) {
 }
 
 
-pid_t spawn_pvcap(const std::string& args, const fs::path& log) {
+pid_t spawn_pvcap(const std::string& args, const fs::path& log, const std::string& prefix) {
   const pid_t pid = fork();
   if (pid == 0) {
-    const std::string cmd = fmt::format("exec {} {} > {} 2>&1", PVCAP_BIN, args, log.string());
+    const std::string cmd = fmt::format("exec {} {} {} > {} 2>&1", prefix, PVCAP_BIN, args, log.string());
     execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
     _exit(127);
   }

@@ -30,7 +30,8 @@ struct CommandResult {
 };
 CommandResult run_pvcap(const std::string& args);
 // Starts `pvcap ARGS` in the background with its output going to `log`; returns its pid.
-pid_t spawn_pvcap(const std::string& args, const std::filesystem::path& log);
+// `prefix` runs it through another command that execs it (e.g. "ip netns exec NAME").
+pid_t spawn_pvcap(const std::string& args, const std::filesystem::path& log, const std::string& prefix = "");
 std::string read_all(const std::filesystem::path& p);
 // Waits until `log` contains `needle`; false after `timeout`.
 bool wait_for_text(const std::filesystem::path& log, const std::string& needle, std::chrono::seconds timeout);

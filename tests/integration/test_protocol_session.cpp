@@ -184,16 +184,29 @@ bool pane_shows(const std::string& needle, std::chrono::seconds timeout, int tim
 }
 }  // namespace
 
-// The operator's keyboard in a real terminal (tmux): start, pause and resume, skip, redo, abort.
+// The operator's keyboard in a real terminal (tmux): the participant's details asked first (none
+// were given on the command line), then start, pause and resume, skip, redo, abort.
 TEST(ProtocolSession, TheOperatorSteersFromTheTerminal) {
   if (std::system("command -v tmux > /dev/null") != 0) GTEST_SKIP() << "tmux is not installed (scripts/deps.sh installs it)";
   const fs::path work = work_dir("console");
   const fs::path rig = write_rig(work), protocol = write_protocol(work);
   tmux("kill-server");
   tmux(fmt::format("new-session -d -s console -x 220 -y 60 '{} session --rig {} --root {} --protocol {} --fast "
-                   "--participant T03 2>&1 | tee {}'",
+                   "--no-web 2>&1 | tee {}'",
                    PVCAP_BIN, rig.string(), (work / "sessions").string(), protocol.string(),
                    (work / "console.log").string()));
+  ASSERT_TRUE(pane_shows("Participant code", std::chrono::seconds(20))) << tmux("capture-pane -p -t console");
+  tmux("send-keys -t console 'Jane Doe' Enter");  // a name is refused
+  ASSERT_TRUE(pane_shows("not accepted", std::chrono::seconds(5))) << tmux("capture-pane -p -t console");
+  tmux("send-keys -t console T03 Enter");
+  ASSERT_TRUE(pane_shows("Skin tone", std::chrono::seconds(5)));
+  tmux("send-keys -t console medium Enter");
+  ASSERT_TRUE(pane_shows("Hand order", std::chrono::seconds(5)));
+  tmux("send-keys -t console Enter");  // right first
+  ASSERT_TRUE(pane_shows("Lighting", std::chrono::seconds(5)));
+  tmux("send-keys -t console LCR Enter");
+  ASSERT_TRUE(pane_shows("Sensor overlay", std::chrono::seconds(5)));
+  tmux("send-keys -t console Enter");
   ASSERT_TRUE(pane_shows("operator: keys:", std::chrono::seconds(60))) << tmux("capture-pane -p -t console");
   tmux("send-keys -t console s");
   ASSERT_TRUE(pane_shows("protocol: recording press_index_finger_low_2x_right", std::chrono::seconds(20)));
@@ -226,5 +239,16 @@ TEST(ProtocolSession, TheOperatorSteersFromTheTerminal) {
   EXPECT_EQ(status["press_index_finger_low_2x_right(2)"], "skipped");
   EXPECT_EQ(status["press_index_finger_high_2x_right"], "superseded");
   EXPECT_EQ(status["press_index_finger_high_2x_right(2)"], "skipped");
+  // What the operator answered is the session's participant and conditions.
+  auto reader = pvcap::SessionReader::open(only_session(work / "sessions"));
+  ASSERT_TRUE(reader) << reader.error().message;
+  const auto& info = reader.value()->info();
+  ASSERT_TRUE(info.participant);
+  EXPECT_EQ(info.participant->pseudonym, "T03");
+  EXPECT_EQ(info.participant->skin_tone, "medium");
+  EXPECT_EQ(info.participant->hand_order, "right_first");
+  ASSERT_TRUE(info.conditions);
+  EXPECT_EQ(info.conditions->lighting, "LCR");
+  EXPECT_EQ(info.conditions->sensor_overlay, "unrecorded");
   fs::remove_all(work);
 }

@@ -116,6 +116,7 @@ TEST(Runner, WalksThePlanThroughEveryPhaseAndCommitsEachTransition) {
   EXPECT_EQ(r.view().repetition, 2);
   run_for(r, env, 2.0);
   EXPECT_EQ(r.view().phase, Phase::Rest);
+  EXPECT_EQ(r.view().sequence, "press_palm_low_2x_right") << "resting after the take just made";
   run_for(r, env, 60);
   EXPECT_EQ(r.view().phase, Phase::Done);
   EXPECT_TRUE(r.finished());

@@ -1,0 +1,78 @@
+#pragma once
+// The session's pages, served by pvcap over HTTP (cpp-httplib):
+//   /participant  what the participant sees: the action, its pictogram, force level, hand,
+//                 repetition k of n, the countdown and the recording indicator, in large type;
+//   /operator     protocol progress, live camera thumbnails, the live pressure heat map, drop
+//                 counters and pairing offsets, and the operator's commands.
+// Both follow the session through server-sent events (/events): no reloads.
+//
+// Bound on 127.0.0.1 by default. Any other address needs a token (given, or generated and
+// printed): every request must then carry it (?token=, or the cookie the pages set).
+//
+// The socket is bound before the simulated rig moves pvcap into its private network
+// namespace, so the pages open in the machine's own browser on the simulated rig too.
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/result.h"
+
+namespace httplib {
+class Server;
+}
+
+namespace pvcap::session {
+class Recording;
+}
+
+namespace pvcap::protocol {
+
+class Runner;
+
+struct WebOptions {
+  std::string bind = "127.0.0.1";
+  int port = 8090;       // busy: another free port is taken (and printed); 0: any free port
+  std::string token;     // required of every request when set; generated when binding off loopback
+};
+
+bool is_loopback_address(const std::string& address);
+
+class WebConsole {
+ public:
+  // Binds the listening socket (nothing is served yet). A UserError-worthy failure (a bad address)
+  // comes back as an error.
+  static Result<std::unique_ptr<WebConsole>> bind(WebOptions options);
+  ~WebConsole();
+  WebConsole(const WebConsole&) = delete;
+  WebConsole& operator=(const WebConsole&) = delete;
+
+  // Starts serving the running recording, and its protocol when `runner` is set. Both must outlive stop().
+  void serve(session::Recording& recording, Runner* runner);
+  // Ends the event streams and the server (idempotent).
+  void stop();
+
+  int port() const { return port_; }
+  const std::string& token() const { return options_.token; }
+  std::string url(const std::string& page) const;  // e.g. http://127.0.0.1:8090/participant[?token=...]
+
+ private:
+  explicit WebConsole(WebOptions options);
+  void routes();
+  std::string state_json() const;
+  bool authorized(const std::string& query_token, const std::string& cookie) const;
+
+  WebOptions options_;
+  int port_ = 0;
+  std::unique_ptr<httplib::Server> server_;
+  std::thread thread_;
+  std::atomic<bool> stopping_{false};
+  std::atomic<int> streams_{0};  // event streams open
+  std::atomic<int> participant_pages_{0}, operator_pages_{0};
+  session::Recording* recording_ = nullptr;
+  Runner* runner_ = nullptr;
+};
+
+}  // namespace pvcap::protocol

@@ -1,0 +1,299 @@
+// The session's pages in a real browser: Debian's headless Chromium loads the
+// participant display and the operator console of a running `pvcap session`
+// (the simulated rig's cameras in their private network namespace, the pages in
+// the machine's own) and the DOM follows the runner through the takes; the
+// operator's commands over HTTP; and off loopback, nothing without the token.
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <sched.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <regex>
+#include <set>
+#include <thread>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+
+#include "headless_browser.h"
+#include "session_under_test.h"
+#include "storage/session_reader.h"
+
+namespace fs = std::filesystem;
+using namespace pvcap::testing;
+
+namespace {
+
+fs::path work_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / fmt::format("pvcap-it-{}-{}", name, getpid());
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+// Two force levels of one press with each hand: four takes of ~4 s.
+fs::path write_protocol(const fs::path& dir) {
+  const fs::path pictograms = fs::path(PVCAP_SOURCE_DIR) / "rig-configs/protocols/pictograms";
+  std::ofstream(dir / "protocol.yaml") << fmt::format(
+      "name: pages\n"
+      "fast_timings: {{prompt_s: 1.0, countdown_s: 1.0, record_s: 2.0, rest_s: 0.5}}\n"
+      "actions:\n"
+      "  - {{name: press_index_finger, text: Press with your index finger, pictogram: {}/press_index_finger.svg,\n"
+      "      forces: [low, high], repetitions: 2}}\n",
+      pictograms.string());
+  return dir / "protocol.yaml";
+}
+
+fs::path write_rig(const fs::path& dir) {
+  std::ofstream(dir / "rig.yaml") << sim_rig_yaml({{}, {}, {}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  return dir / "rig.yaml";
+}
+
+// The address pvcap printed for a page, e.g. "operator console:    http://127.0.0.1:41234/operator".
+std::string printed_url(const fs::path& log, const std::string& label) {
+  const std::regex re(label + R"(:\s+(http://\S+))");
+  std::smatch m;
+  const std::string text = read_all(log);
+  return std::regex_search(text, m, re) ? m[1].str() : std::string();
+}
+
+std::vector<std::string> all(const std::string& text, const std::string& pattern) {
+  std::vector<std::string> out;
+  const std::regex re(pattern);
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), re); it != std::sregex_iterator(); ++it)
+    out.push_back((*it)[1].str());
+  return out;
+}
+
+struct Url {
+  std::string host;
+  int port = 0;
+  std::string token;
+};
+Url parse(const std::string& url) {
+  std::smatch m;
+  const std::regex re(R"(http://([^:/]+):(\d+)/\w*(?:\?token=(\w+))?)");
+  if (!std::regex_match(url, m, re)) return {};
+  return {m[1], std::stoi(m[2]), m[3]};
+}
+
+const fs::path kScreenshots = fs::path(PVCAP_BINARY_DIR) / "tests" / "screenshots";
+
+
+}  // namespace
+
+TEST(SessionPages, TheParticipantAndOperatorPagesFollowTheRunnerThroughTheTakes) {
+  HeadlessBrowser browser(1920, 1080);
+  if (!browser.ok()) GTEST_SKIP() << "chromium is not installed (scripts/deps.sh installs it)";
+  const fs::path work = work_dir("pages");
+  const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --protocol {} --auto --fast --participant T05 "
+                                            "--web-port 0",
+                                            write_rig(work).string(), (work / "sessions").string(),
+                                            write_protocol(work).string()),
+                                work / "pvcap.log");
+  ASSERT_TRUE(wait_for_text(work / "pvcap.log", "operator console:", std::chrono::seconds(60)))
+      << read_all(work / "pvcap.log");
+  const std::string participant_url = printed_url(work / "pvcap.log", "participant display");
+  const std::string operator_url = printed_url(work / "pvcap.log", "operator console");
+  ASSERT_EQ(parse(participant_url).host, "127.0.0.1") << "loopback by default: " << participant_url;
+  EXPECT_TRUE(parse(participant_url).token.empty()) << "no token on loopback";
+  const std::string participant = browser.open(participant_url);
+  const std::string operator_page = browser.open(operator_url);
+  ASSERT_FALSE(participant.empty());
+  ASSERT_FALSE(operator_page.empty());
+
+  const Url u = parse(operator_url);
+  httplib::Client client(u.host, u.port);
+  auto state = [&] {
+    auto st = client.Get("/state");
+    return st ? nlohmann::json::parse(st->body) : nlohmann::json::object();
+  };
+  auto text = [&](const std::string& tab, const std::string& id) {
+    const auto v = browser.eval(tab, "document.getElementById('" + id + "').textContent");
+    return v.is_string() ? v.get<std::string>() : std::string();
+  };
+  // Once both pages listen, pause the take being recorded.
+  for (int i = 0; i < 400; ++i) {
+    const auto st = state();
+    if (st.contains("pages") && st["pages"]["participant"] == 1 && st["pages"]["operator"] == 1 &&
+        st["phase"] == "recording")
+      break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  const std::string paused_take = state().value("sequence", "");
+  auto r = client.Post("/command", "command=pause", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(state()["phase"], "paused");
+  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  EXPECT_EQ(text(participant, "status"), "Paused");
+  EXPECT_EQ(text(operator_page, "phase").rfind("paused (", 0), 0u) << text(operator_page, "phase");
+  r = client.Post("/command", "command=resume", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));  // the operator's log shows it
+  r = client.Post("/command", "command=fly", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400);
+  EXPECT_NE(r->body.find("unknown command 'fly'"), std::string::npos);
+  r = client.Post("/command", "command=note&argument=participant+asked+for+water", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+
+  // Until the session ends: what the participant's page shows, sampled; a screenshot of each phase.
+  std::set<std::string> phases_seen;
+  bool indicator_seen = false, countdown_digit_seen = false;
+  int exit_status = 0;
+  while (waitpid(pid, &exit_status, WNOHANG) == 0) {
+    const auto look = browser.eval(participant,
+                                   "({phase: document.body.dataset.phase, "
+                                   "indicator: document.getElementById('indicator').classList.contains('on'), "
+                                   "big: document.getElementById('big').hidden ? '' : "
+                                   "document.getElementById('big').textContent})");
+    if (look.is_object()) {
+      const std::string phase = look.value("phase", "");
+      if (!phases_seen.count(phase) && (phase == "recording" || phase == "countdown" || phase == "prompt"))
+        browser.screenshot(participant, kScreenshots / ("participant-" + phase + ".png"));
+      phases_seen.insert(phase);
+      indicator_seen = indicator_seen || look.value("indicator", false);
+      const std::string big = look.value("big", "");
+      countdown_digit_seen = countdown_digit_seen || (big.size() == 1 && std::isdigit(big[0]));
+    }
+    if (!fs::exists(kScreenshots / "operator.png") && phases_seen.count("rest"))
+      browser.screenshot(operator_page, kScreenshots / "operator.png");
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_TRUE(WIFEXITED(exit_status) && WEXITSTATUS(exit_status) == 0) << read_all(work / "pvcap.log");
+  const auto page_errors = browser.errors();  // before the server went away
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const std::string participant_dom = browser.dom(participant);
+  const std::string operator_dom = browser.dom(operator_page);
+  browser.screenshot(participant, kScreenshots / "participant-done.png");
+  EXPECT_TRUE(page_errors.empty()) << fmt::format("{}", fmt::join(page_errors, "\n"));
+  for (const char* phase : {"prompt", "countdown", "recording", "rest", "done"})
+    EXPECT_TRUE(phases_seen.count(phase)) << phase << " never shown";
+  EXPECT_TRUE(indicator_seen) << "the recording indicator never showed";
+  EXPECT_TRUE(countdown_digit_seen) << "no countdown digit";
+  for (const char* png : {"participant-prompt.png", "participant-countdown.png", "participant-recording.png",
+                          "operator.png"})
+    EXPECT_TRUE(fs::exists(kScreenshots / png)) << png;
+
+  // The participant page put up each prompt as the runner reached it, in plan order, pushed (one
+  // load, no reloads), and ended on the thanks. The take paused while recording was retaken: (2).
+  const auto shown = all(participant_dom, R"(<li data-phase="\w+">([^<]+)</li>)");
+  std::vector<std::string> expected;
+  for (const std::string take : {"press_index_finger_low_2x_right", "press_index_finger_high_2x_right",
+                                 "press_index_finger_low_2x_left", "press_index_finger_high_2x_left"}) {
+    expected.push_back(take);
+    if (take == paused_take) expected.push_back(take + "(2)");
+  }
+  ASSERT_GE(shown.size(), 3u) << participant_dom;
+  const auto from = std::find(expected.begin(), expected.end(), shown[0]);
+  EXPECT_EQ(shown, std::vector<std::string>(from, expected.end())) << "paused: " << paused_take;
+  EXPECT_NE(std::find(shown.begin(), shown.end(), paused_take + "(2)"), shown.end()) << paused_take;
+  EXPECT_NE(participant_dom.find("Thank you! The session is complete."), std::string::npos) << participant_dom;
+  EXPECT_NE(participant_dom.find("Press with your index finger"), std::string::npos) << participant_dom;
+  EXPECT_NE(participant_dom.find("src=\"/pictogram/"), std::string::npos) << "the pictogram was shown";
+
+  // The operator page: every take done, what happened in order, the live views loaded.
+  const auto marks = all(operator_dom, R"(<span class="(\w+)(?: current)?" title="take)");
+  EXPECT_EQ(marks, std::vector<std::string>(4, "done")) << operator_dom;
+  const auto log = all(operator_dom, R"(<li>[^<]*?  ([^<]+)</li>)");
+  const auto at = [&](const std::string& m) { return std::find(log.begin(), log.end(), m) - log.begin(); };
+  const std::string log_text = fmt::format("{}", fmt::join(log, " / "));
+  EXPECT_LT(at("the protocol is complete"), at("resumed")) << "newest first: " << log_text;
+  EXPECT_LT(at("resumed"), at("paused")) << log_text;
+  EXPECT_LT(at("press_index_finger_high_2x_left done"), at("press_index_finger_low_2x_left done")) << log_text;
+  EXPECT_LT(at("paused"), std::ptrdiff_t(log.size())) << log_text;
+  int thumbnails = 0, heat_maps = 0;
+  for (const auto& tag : all(operator_dom, R"((<img[^>]*>))")) {
+    if (tag.find("data-loaded=\"1\"") == std::string::npos) continue;
+    thumbnails += tag.find("alt=\"camera ") != std::string::npos;
+    heat_maps += tag.find("id=\"heat\"") != std::string::npos;
+  }
+  EXPECT_EQ(thumbnails, 4) << "every camera's thumbnail loaded: " << operator_dom;
+  EXPECT_EQ(heat_maps, 1) << "the pressure heat map loaded";
+  EXPECT_NE(operator_dom.find("<td>cam0</td>"), std::string::npos) << "drop counters per stream";
+  EXPECT_NE(operator_dom.find("camera to pressure offset"), std::string::npos);
+  EXPECT_NE(operator_dom.find("participant screen on"), std::string::npos);
+
+  // In the store: each prompt the page displayed, on the capture clock, and the operator's pause and note.
+  fs::path session;
+  for (const auto& e : fs::directory_iterator(work / "sessions"))
+    if (e.is_directory()) session = e.path();
+  auto reader = pvcap::SessionReader::open(session);
+  ASSERT_TRUE(reader) << reader.error().message;
+  std::set<std::string> logged;
+  bool paused = false;
+  const auto events = reader.value()->protocol_events();
+  ASSERT_TRUE(events);
+  for (const auto& e : events.value()) {
+    if (e.kind == "prompt_shown") {
+      logged.insert(nlohmann::json::parse(e.detail)["sequence"].get<std::string>());
+      EXPECT_GT(e.host_ns, 0);
+    }
+    paused = paused || e.kind == "pause";
+  }
+  for (const auto& s : shown) EXPECT_TRUE(logged.count(s)) << s << " was displayed but its display is not logged: "
+                                       << fmt::format("{}", fmt::join(logged, " / "));
+  EXPECT_TRUE(paused);
+  bool noted = false;
+  const auto notes = reader.value()->operator_notes();
+  ASSERT_TRUE(notes);
+  for (const auto& n : notes.value()) noted = noted || n.text == "participant asked for water";
+  EXPECT_TRUE(noted);
+  fs::remove_all(work);
+}
+
+// Off loopback the pages need the session's token: generated and printed when not given. The
+// non-loopback address lives in a network namespace the test makes (no traffic leaves the machine).
+TEST(SessionPages, OffLoopbackEveryRequestNeedsTheToken) {
+  const fs::path work = work_dir("pages-token");
+  const std::string ns = fmt::format("pvcap-test-{}", getpid());
+  ASSERT_EQ(std::system(fmt::format("ip netns add {0} && ip -n {0} link set lo up && "
+                                    "ip -n {0} addr add 10.231.0.1/32 dev lo",
+                                    ns)
+                            .c_str()),
+            0);
+  const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 30 --web-bind 10.231.0.1 "
+                                            "--web-port 0",
+                                            write_rig(work).string(), (work / "sessions").string()),
+                                work / "pvcap.log", "ip netns exec " + ns);
+  const bool started = wait_for_text(work / "pvcap.log", "operator console:", std::chrono::seconds(60));
+  const Url u = parse(printed_url(work / "pvcap.log", "operator console"));
+  std::vector<int> codes;
+  std::string refusal;
+  std::thread client_thread([&] {
+    // This thread only joins the test's namespace: it reaches 10.231.0.1 as a lab machine would.
+    const int fd = open(fmt::format("/run/netns/{}", ns).c_str(), O_RDONLY);
+    if (fd < 0 || setns(fd, CLONE_NEWNET) != 0) return;
+    close(fd);
+    httplib::Client c(u.host, u.port);
+    for (const std::string& path : std::vector<std::string>{"/operator", "/participant", "/state", "/camera/0.jpg",
+                                   "/operator?token=0000000000000000", "/operator?token=" + u.token,
+                                   "/state?token=" + u.token}) {
+      auto r = c.Get(path);
+      codes.push_back(r ? r->status : -1);
+      if (r && r->status == 401 && refusal.empty()) refusal = r->body;
+    }
+    auto r = c.Post("/command", "command=abort", "application/x-www-form-urlencoded");
+    codes.push_back(r ? r->status : -1);
+  });
+  client_thread.join();
+  kill(pid, SIGINT);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  std::system(fmt::format("ip netns delete {}", ns).c_str());
+  ASSERT_TRUE(started) << read_all(work / "pvcap.log");
+  EXPECT_EQ(u.host, "10.231.0.1");
+  EXPECT_EQ(u.token.size(), 32u) << "a generated token, printed with the address";
+  EXPECT_EQ(codes, (std::vector<int>{401, 401, 401, 401, 401, 200, 200, 401})) << read_all(work / "pvcap.log");
+  EXPECT_NE(refusal.find("token"), std::string::npos) << refusal;
+  fs::remove_all(work);
+}
