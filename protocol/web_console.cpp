@@ -222,6 +222,14 @@ void WebConsole::routes() {
   // Every request passes the token check first; the pages keep the token in a cookie so that
   // their images and event stream need not repeat it.
   s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    // A command must come from the pages themselves: another site open in the operator's browser
+    // could otherwise post "abort" to 127.0.0.1 (browsers name a cross-site sender in Origin).
+    if (req.method == "POST" && req.has_header("Origin") &&
+        req.get_header_value("Origin") != "http://" + req.get_header_value("Host")) {
+      res.status = 403;
+      res.set_content("commands are taken from this session's own pages only\n", "text/plain; charset=utf-8");
+      return httplib::Server::HandlerResponse::Handled;
+    }
     if (authorized(req.get_param_value("token"), cookie_value(req.get_header_value("Cookie"), "pvcap_token")))
       return httplib::Server::HandlerResponse::Unhandled;
     res.status = 401;

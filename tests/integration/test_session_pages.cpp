@@ -138,6 +138,11 @@ TEST(SessionPages, TheParticipantAndOperatorPagesFollowTheRunnerThroughTheTakes)
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200) << r->body;
   std::this_thread::sleep_for(std::chrono::milliseconds(600));  // the operator's log shows it
+  // Another site open in the operator's browser cannot steer the session.
+  r = client.Post("/command", httplib::Headers{{"Origin", "http://example.org"}}, "command=abort",
+                  "application/x-www-form-urlencoded");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 403);
   r = client.Post("/command", "command=fly", "application/x-www-form-urlencoded");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 400);
