@@ -1,7 +1,6 @@
 // pvcap: capture and synchronization for visual hand-pressure datasets.
 // Thin: parses the command line, wires modules, runs. See docs/ for the user guide.
 #include <signal.h>
-#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -13,20 +12,20 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "app/eval_sync.h"
+#include "app/cmd_devices.h"
+#include "app/cmd_eval_sync.h"
+#include "app/cmd_sensel_decode.h"
 #include "app/cmd_session.h"
-#include "protocol/takes.h"
-#include "app/verify_session.h"
-#include "storage/recover.h"
-#include "app/sensel_decode.h"
-#include "capture/aravis_discovery.h"
-#include "capture/sensel_device.h"
+#include "app/cmd_sim.h"
 #include "core/log.h"
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "core/version.h"
+#include "protocol/takes.h"
 #include "sim/netns.h"
 #include "sim/sim_rig.h"
+#include "storage/recover.h"
+#include "storage/verify.h"
 
 namespace {
 
@@ -58,117 +57,6 @@ void ensure_sim_network(const pvcap::RigConfig& rig) {
   const auto addresses = pvcap::sim::sim_addresses(rig);
   if (pvcap::sim::addresses_present(addresses)) return;
   if (pvcap::Status s = pvcap::sim::enter_private_network(addresses); !s.ok()) throw pvcap::UserError(s.error().message);
-}
-
-// Serial ports a Sensel Morph may be behind: cdc_acm devices, udev's /dev/morph* names, and extra paths.
-std::vector<std::string> sensel_candidates(const std::vector<std::string>& extra) {
-  std::vector<std::string> out = extra;
-  std::error_code ec;
-  for (const auto& e : std::filesystem::directory_iterator("/dev", ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("ttyACM", 0) == 0 || name.rfind("morph", 0) == 0) out.push_back(e.path().string());
-  }
-  return out;
-}
-
-int cmd_devices(bool json, const std::vector<std::string>& extra_ttys) {
-  const auto cams = pvcap::discover_gige_cameras();
-  struct FoundSensel {
-    std::string path;        // tty, if one answered
-    std::string usb_serial;  // USB serial string, if reachable over libusb
-    pvcap::sensel::SenselInfo info;
-  };
-  std::vector<FoundSensel> sensels;
-  for (const auto& path : sensel_candidates(extra_ttys)) {
-    auto t = pvcap::sensel::open_tty(path);
-    if (!t) continue;
-    if (auto info = pvcap::sensel::SenselDevice::probe(std::move(t.value()))) sensels.push_back({path, "", info.value()});
-  }
-  // Morphs reachable over libusb: the same device as a /dev/ttyACM one is listed once, with both.
-  if (auto usb = pvcap::sensel::list_usb_sensels(); usb) {
-    for (const auto& serial : usb.value()) {
-      if (serial.find('/') != std::string::npos) {  // cannot be opened: says why
-        fmt::print(stderr, "Sensel Morph {}\n", serial);
-        continue;
-      }
-      auto t = pvcap::sensel::open_usb(serial);
-      if (!t) continue;  // e.g. held by a running session
-      auto info = pvcap::sensel::SenselDevice::probe(std::move(t.value()));
-      if (!info) continue;
-      auto same = std::find_if(sensels.begin(), sensels.end(),
-                               [&](const FoundSensel& s) { return s.info.serial == info.value().serial; });
-      if (same != sensels.end()) same->usb_serial = serial;
-      else sensels.push_back({"", serial, info.value()});
-    }
-  }
-  if (json) {
-    for (const auto& c : cams)
-      fmt::print("{{\"kind\":\"camera\",\"vendor\":\"{}\",\"model\":\"{}\",\"serial\":\"{}\",\"address\":\"{}\","
-                 "\"interface\":\"{}\",\"mac\":\"{}\",\"id\":\"{}\"}}\n",
-                 c.vendor, c.model, c.serial, c.address, c.protocol, c.physical_id, c.device_id);
-    for (const auto& s : sensels)
-      fmt::print("{{\"kind\":\"sensel\",\"serial\":\"{}\",\"firmware\":\"{}\",\"tty\":\"{}\",\"usb_serial\":\"{}\","
-                 "\"grid\":[{},{}]}}\n",
-                 s.info.serial, s.info.firmware, s.path, s.usb_serial, s.info.grid.cols, s.info.grid.rows);
-    return 0;
-  }
-  if (cams.empty())
-    fmt::print("no GigE Vision camera answered discovery (check power, cabling, and that the cameras are on a "
-               "subnet of one of this machine's interfaces)\n");
-  else {
-    fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} {}\n", "interface", "vendor", "model", "serial", "address", "mac");
-    for (const auto& c : cams)
-      fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} {}\n", c.protocol, c.vendor, c.model, c.serial, c.address,
-                 c.physical_id);
-  }
-  if (sensels.empty())
-    fmt::print("no Sensel Morph answered on /dev/ttyACM*, /dev/morph* or USB 2c2f:0003 (check the cable; the "
-               "user needs the dialout group or a udev rule)\n");
-  else
-    for (const auto& s : sensels) {
-      std::string where = s.path;
-      if (!s.usb_serial.empty()) where += (where.empty() ? "" : ", ") + fmt::format("usb: {}", s.usb_serial);
-      fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} firmware {}, grid {}x{}\n", "sensel", "Sensel", "Morph",
-                 s.info.serial, where, s.info.firmware, s.info.grid.cols, s.info.grid.rows);
-    }
-  return 0;
-}
-
-int cmd_sim(const pvcap::RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration,
-            bool hand_commands) {
-  // Started by a recording: end with it, even when it is killed (no orphaned simulator holding the rig).
-  if (getppid() != 1) {
-    const pid_t parent = getppid();
-    prctl(PR_SET_PDEATHSIG, SIGTERM);
-    if (getppid() != parent) return 0;  // the parent died before the request took
-  }
-  auto made = pvcap::sim::SimRig::create(rig, truth);
-  if (!made) throw pvcap::UserError(made.error().message);
-  fmt::print(stderr, "pvcap sim: serving {} cameras; pid {} (inspect with: nsenter --net=/proc/{}/ns/net "
-                     "arv-tool-0.8)\n",
-             made.value()->camera_count(), getpid(), getpid());
-  std::atomic<bool> stop{false};
-  std::thread timer;
-  if (duration)
-    timer = std::thread([&] {
-      const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(*duration);
-      while (!g_stop.load() && std::chrono::steady_clock::now() < end)
-        std::this_thread::sleep_for(std::chrono::milliseconds(50));
-      g_stop.store(true);
-    });
-  // Steered by a recording (protocol --auto): one hand command per line on stdin. Detached: it
-  // may sit in a read until the process exits.
-  if (hand_commands)
-    std::thread([rig = made.value().get()] {
-      std::string line;
-      while (std::getline(std::cin, line)) {
-        if (auto c = pvcap::sim::HandCommand::parse(line)) rig->steer(*c);
-        else spdlog::warn("sim: not a hand command: {}", line);
-      }
-    }).detach();
-  made.value()->run(g_stop);
-  if (timer.joinable()) timer.join();
-  return 0;
 }
 
 }  // namespace
@@ -294,12 +182,12 @@ int main(int argc, char** argv) {
         if (!made) throw pvcap::UserError(made.error().message);
         std::vector<std::string> extra;
         if (std::filesystem::exists(tmp / "sensel.tty")) extra.push_back((tmp / "sensel.tty").string());
-        const int rc = cmd_devices(devices_json, extra);
+        const int rc = pvcap::cmd_devices(devices_json, extra);
         made.value().reset();
         std::filesystem::remove_all(tmp);
         return rc;
       }
-      return cmd_devices(devices_json, {});
+      return pvcap::cmd_devices(devices_json, {});
     }
     if (*session) {
       const auto rig = pvcap::load_rig_config(rig_path);
@@ -406,7 +294,7 @@ int main(int argc, char** argv) {
       const auto rig = pvcap::load_rig_config(sim_rig);
       if (!rig.sim) throw pvcap::UserError(fmt::format("{}: has no sim: section", sim_rig));
       ensure_sim_network(rig);
-      return cmd_sim(rig, truth, sim_duration, sim_hand_commands);
+      return pvcap::cmd_sim(rig, truth, sim_duration, sim_hand_commands, g_stop);
     }
   } catch (const pvcap::UserError& e) {
     spdlog::error("{}", e.what());

@@ -1,4 +1,6 @@
 #include <fcntl.h>
+#include <sys/file.h>
+#include <sys/ioctl.h>
 #include <poll.h>
 #include <termios.h>
 #include <unistd.h>
@@ -66,12 +68,19 @@ Result<std::unique_ptr<Transport>> open_tty(const std::string& path) {
   if (fd < 0)
     return Error{fmt::format("tty {}: cannot open: {}{}", path, std::strerror(errno),
                              errno == EACCES ? " (add the user to the dialout group or install a udev rule)" : "")};
+  // One reader per Morph: a second pvcap (or `pvcap devices`) must not reconfigure or flush the
+  // port of a session streaming from it. Taken before anything is written to the port.
+  if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd);
+    return Error{fmt::format("tty {}: in use by another pvcap (a running session reads this Morph)", path)};
+  }
   termios t{};
   if (tcgetattr(fd, &t) != 0) {
     const int e = errno;
     ::close(fd);
     return Error{fmt::format("tty {}: not a terminal: {}", path, std::strerror(e))};
   }
+  ioctl(fd, TIOCEXCL);  // and no other program's open (a terminal program, ModemManager) succeeds
   cfmakeraw(&t);
   cfsetispeed(&t, B115200);
   cfsetospeed(&t, B115200);

@@ -2,6 +2,8 @@
 
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 
 #include <fmt/format.h>
@@ -13,6 +15,7 @@
 #include "core/time.h"
 #include "session/camera_pipeline.h"
 #include "session/realign.h"
+#include "session/rig_lock.h"
 #include "session/session_report.h"
 #include "sim/sim_process.h"
 #include "storage/session_writer.h"
@@ -74,6 +77,18 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
   r->options_ = options;
   r->wall0_ = wall_now_ns();
   r->host0_ = host_now().ns;
+  // One rig, one recorder: before any device (or the simulator) is touched.
+  auto lock = RigLock::acquire(rig.source);
+  if (!lock) return lock.error();
+  r->rig_lock_ = std::move(lock.value());
+  // The sessions folder can take a session: said before any device is opened.
+  {
+    std::error_code ec;
+    std::filesystem::create_directories(options.root, ec);
+    if (ec) return Error{fmt::format("the sessions folder {} cannot be made: {}", options.root.string(), ec.message())};
+    if (access(options.root.c_str(), W_OK) != 0)
+      return Error{fmt::format("the sessions folder {} cannot be written: {}", options.root.string(), std::strerror(errno))};
+  }
 
   // The simulator writes its ground truth beside the sessions while it runs; once it has stopped,
   // the truth is moved into the session folder.
@@ -127,6 +142,7 @@ Status Recording::start() {
   writer_ = std::move(created.value());
   SessionWriter& writer = *writer_;
   log::add_session_file(writer.dir());
+  rig_lock_->set_session(writer.dir());
   spdlog::info("recording session {}", writer.dir().string());
   auto fail = [&](const Error& e) -> Status {
     (void)writer.close("failed to start");

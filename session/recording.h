@@ -46,6 +46,7 @@ namespace pvcap::session {
 
 struct CameraTally;
 class Preview;
+class RigLock;
 struct TimelineEnd;
 
 struct RecordingOptions {
@@ -126,6 +127,7 @@ class Recording {
 
   RigConfig rig_;
   RecordingOptions options_;
+  std::unique_ptr<RigLock> rig_lock_;
   std::int64_t wall0_ = 0, host0_ = 0, rec_start_ = 0;
   std::unique_ptr<sim::SimProcess> sim_;
   std::filesystem::path truth_tmp_;

@@ -255,3 +255,23 @@ TEST(SenselDriverOverUsb, ReplugIsFollowedToTheNewAddressAndStreamingResumes) {
   EXPECT_EQ(rig.drain().size(), rig.device->frames());
 }
 #endif
+
+#ifndef PVCAP_SENSEL_OVER_USB
+// One reader per Morph: while a session streams from a tty, a second open (another recorder,
+// `pvcap devices`) is refused before it writes a byte, and the stream goes on untouched.
+TEST(SenselDriver, ASecondOpenOfAStreamingTtyIsRefusedAndTheStreamGoesOn) {
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.open());
+  ASSERT_TRUE(rig.device->configure({.scan_detail = 1}).ok());
+  ASSERT_TRUE(rig.device->start().ok());
+  std::this_thread::sleep_for(300ms);
+  const auto before = rig.drain().size();
+  auto second = sensel::open_tty(rig.link->slave_path());
+  ASSERT_FALSE(second);
+  EXPECT_NE(second.error().message.find("in use by another pvcap"), std::string::npos) << second.error().message;
+  std::this_thread::sleep_for(300ms);
+  EXPECT_GT(before, 10u);
+  EXPECT_GT(rig.drain().size(), 10u) << "the first reader still streams";
+  EXPECT_FALSE(rig.saw(sensel::SenselEvent::Kind::Unplugged));
+}
+#endif

@@ -13,7 +13,7 @@
 #include <set>
 #include <sstream>
 
-#include "app/eval_sync.h"
+#include "app/cmd_eval_sync.h"
 #include "storage/sqlite/database.h"
 #include "tests/integration/session_under_test.h"
 

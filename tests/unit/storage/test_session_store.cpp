@@ -13,7 +13,7 @@
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
 
-#include "app/verify_session.h"
+#include "storage/verify.h"
 #include "capture/sensel_frame.h"
 #include "core/rig_config.h"
 #include "core/time.h"

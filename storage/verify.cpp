@@ -1,4 +1,4 @@
-#include "app/verify_session.h"
+#include "storage/verify.h"
 
 #include <cstdlib>
 

@@ -1,4 +1,4 @@
-#include "app/eval_sync.h"
+#include "app/cmd_eval_sync.h"
 
 #include <algorithm>
 #include <cmath>

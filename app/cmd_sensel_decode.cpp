@@ -1,4 +1,4 @@
-#include "app/sensel_decode.h"
+#include "app/cmd_sensel_decode.h"
 
 #include <fmt/format.h>
 

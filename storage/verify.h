@@ -1,5 +1,5 @@
 #pragma once
-// `pvcap verify SESSION`: checks a session folder the way a reader will use it.
+// Verifying a session folder (`pvcap verify`) the way a reader will use it.
 // The index against the videos (every kept frame is in its video at its index, with
 // its timestamp; no frame more, none less), every pressure frame decodes, every
 // sample names frames that are in the videos, the schema is one this pvcap reads.

@@ -1,0 +1,54 @@
+#include "app/cmd_sim.h"
+
+#include <sys/prctl.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <iostream>
+#include <thread>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "sim/hand.h"
+#include "sim/sim_rig.h"
+
+namespace pvcap {
+
+int cmd_sim(const RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration, bool hand_commands,
+            std::atomic<bool>& stop) {
+  // Started by a recording: end with it, even when it is killed (no orphaned simulator holding the rig).
+  if (getppid() != 1) {
+    const pid_t parent = getppid();
+    prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (getppid() != parent) return 0;  // the parent died before the request took
+  }
+  auto made = sim::SimRig::create(rig, truth);
+  if (!made) throw UserError(made.error().message);
+  fmt::print(stderr, "pvcap sim: serving {} cameras; pid {} (inspect with: nsenter --net=/proc/{}/ns/net "
+                     "arv-tool-0.8)\n",
+             made.value()->camera_count(), getpid(), getpid());
+  std::thread timer;
+  if (duration)
+    timer = std::thread([&] {
+      const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(*duration);
+      while (!stop.load() && std::chrono::steady_clock::now() < end)
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      stop.store(true);
+    });
+  // Steered by a recording (protocol --auto): one hand command per line on stdin. Detached: it
+  // may sit in a read until the process exits.
+  if (hand_commands)
+    std::thread([rig = made.value().get()] {
+      std::string line;
+      while (std::getline(std::cin, line)) {
+        if (auto c = sim::HandCommand::parse(line)) rig->steer(*c);
+        else spdlog::warn("sim: not a hand command: {}", line);
+      }
+    }).detach();
+  made.value()->run(stop);
+  if (timer.joinable()) timer.join();
+  return 0;
+}
+
+}  // namespace pvcap
