@@ -125,12 +125,12 @@ void run_camera_pipeline(const CameraPipeline& p) {
       tally.unidentified.fetch_add(1, std::memory_order_relaxed);
       writer.record(FrameRecord{device_id, frame->connection, 0, 0, frame->device_ts.ns, frame->host_ts.ns,
                                 frame->aravis_system_ns, to_string(frame->status), false,
-                                "no_frame_id_" + frame->detail, {}, {}, {}});
+                                "no_frame_id_" + frame->detail, {}, {}, {}, {}});
       continue;
     }
     const auto step = unwrap.next(frame->frame_id);
     FrameRecord rec{device_id, frame->connection, step.sequence, frame->frame_id, frame->device_ts.ns,
-                    frame->host_ts.ns, frame->aravis_system_ns, to_string(frame->status), false, "", {}, {}, {}};
+                    frame->host_ts.ns, frame->aravis_system_ns, to_string(frame->status), false, "", {}, {}, {}, {}};
     gaps.missing(step.sequence - step.missing, step.missing, frame->host_ts.ns);
     if (step.out_of_order && !gaps.arrived_late(step.sequence)) {
       // Not a frame we were missing. An incomplete buffer whose leader packet was lost still

@@ -120,7 +120,7 @@ void SenselPipeline::run() {
     const std::int64_t arrival = s->first_byte_ts.ns;
     const std::int64_t mapped = timeline_->pressure_frame(0, s->sequence, s->device_ts.ns, arrival);
     PressureRecord rec{device_id_, 0, s->sequence, s->lost_before, s->device_ts.ns, s->host_ts.ns, s->host_wait_ns,
-                       s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale, {}, mapped};
+                       s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale, {}, mapped, 0, {}};
     // The counts again in the store's portable form (zlib on the index's thread), for readers
     // without the Sensel codec; the device's payload is kept as it came.
     if (s->frame.pressure) {

@@ -152,8 +152,9 @@ TEST(ProtocolSession, AKilledSessionResumesAndTogetherTheFoldersCoverTheProtocol
       EXPECT_EQ(row["status"], "done") << row.dump();
       EXPECT_EQ(row["session"], first.string()) << "acknowledged in the first folder, kept there";
     }
-    if (row["session"] == first.string() && row["step"] == 3)
+    if (row["session"] == first.string() && row["step"] == 3) {
       EXPECT_EQ(row["status"], "interrupted") << "the take the kill cut short";
+    }
   }
   // The continuation took over the participant.
   auto reader = pvcap::SessionReader::open(second);

@@ -180,9 +180,15 @@ TEST(Runner, EveryCommandInEveryStateIsAcceptedOrRefusedAsDocumented) {
       EXPECT_EQ(reply.ok, expect.ok) << "in " << to_string(state) << ", command " << int(command) << ": "
                                      << reply.message;
       EXPECT_EQ(r.view().phase, expect.after) << "in " << to_string(state) << ", command " << int(command);
-      if (!reply.ok) EXPECT_FALSE(reply.message.empty());
-      if (reply.ok && command != Command::Note) EXPECT_GT(env.events.size(), events_before);
-      if (!reply.ok) EXPECT_EQ(env.events.size(), events_before) << "a refused command leaves no event";
+      if (!reply.ok) {
+        EXPECT_FALSE(reply.message.empty());
+      }
+      if (reply.ok && command != Command::Note) {
+        EXPECT_GT(env.events.size(), events_before);
+      }
+      if (!reply.ok) {
+        EXPECT_EQ(env.events.size(), events_before) << "a refused command leaves no event";
+      }
     }
 }
 

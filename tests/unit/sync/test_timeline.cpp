@@ -49,7 +49,9 @@ TEST(Grouper, FourCamerasMakeCompleteGroupsOfTheSameFrameIndex) {
       EXPECT_TRUE(used.insert({m->stream, m->sequence}).second) << "each frame is used once";
     }
     EXPECT_LE(groups[i].span_ns, kPeriod60 / 2);
-    if (i) EXPECT_GT(groups[i].t_ns, groups[i - 1].t_ns) << "in order";
+    if (i) {
+      EXPECT_GT(groups[i].t_ns, groups[i - 1].t_ns) << "in order";
+    }
   }
   EXPECT_EQ(g.complete_groups(), 600u);
   EXPECT_EQ(g.incomplete_groups(), 0u);
@@ -70,7 +72,9 @@ TEST(Grouper, AMissingFrameMakesACountedIncompleteGroupAndShiftsNothing) {
   EXPECT_FALSE(groups[77].members[0]);
   for (std::size_t i = 0; i < groups.size(); ++i)
     for (const auto& m : groups[i].members)
-      if (m) EXPECT_EQ(m->sequence, i);
+      if (m) {
+        EXPECT_EQ(m->sequence, i);
+      }
 }
 
 TEST(Grouper, ASilentCameraDelaysGroupsByAtMostTheWait) {
