@@ -62,6 +62,13 @@ pid_t spawn_pvcap(const std::string& args, const fs::path& log, const std::strin
   return pid;
 }
 
+fs::path work_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / fmt::format("pvcap-it-{}-{}", name, getpid());
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
 std::string read_all(const fs::path& p) {
   std::ifstream in(p);
   std::stringstream s;

@@ -33,6 +33,8 @@ CommandResult run_pvcap(const std::string& args);
 // `prefix` runs it through another command that execs it (e.g. "ip netns exec NAME").
 pid_t spawn_pvcap(const std::string& args, const std::filesystem::path& log, const std::string& prefix = "");
 std::string read_all(const std::filesystem::path& p);
+// A fresh, empty folder for one test's files: <tmp>/pvcap-it-<name>-<pid>.
+std::filesystem::path work_dir(const std::string& name);
 // Waits until `log` contains `needle`; false after `timeout`.
 bool wait_for_text(const std::filesystem::path& log, const std::string& needle, std::chrono::seconds timeout);
 

@@ -23,13 +23,6 @@ using namespace pvcap::testing;
 
 namespace {
 
-fs::path work_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / fmt::format("pvcap-it-{}-{}", name, getpid());
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
 // Three force levels of one press, with each hand: six takes of ~3 s.
 fs::path write_protocol(const fs::path& dir) {
   const fs::path pictograms = fs::path(PVCAP_SOURCE_DIR) / "rig-configs/protocols/pictograms";

@@ -9,16 +9,11 @@
 
 namespace fs = std::filesystem;
 using pvcap::testing::run_pvcap;
+using pvcap::testing::work_dir;
 
 namespace {
 const fs::path kCaptures = fs::path(PVCAP_SOURCE_DIR) / ".." / "shared" / "data" / "sensel-captures";
 
-fs::path work_dir(const std::string& name) {
-  const auto d = fs::temp_directory_path() / ("pvcap-it-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 }  // namespace
 
 TEST(SenselDecode, RealCapturesDecodeAndTheSummaryIsPrinted) {

@@ -20,13 +20,6 @@ using namespace pvcap::testing;
 
 namespace {
 
-fs::path work_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / fmt::format("pvcap-it-{}-{}", name, getpid());
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
 fs::path write_rig(const fs::path& dir) {
   std::ofstream(dir / "rig.yaml") << sim_rig_yaml({{}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
   return dir / "rig.yaml";
