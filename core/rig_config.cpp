@@ -176,12 +176,7 @@ RigConfig parse_rig_config(const std::string& text, const std::filesystem::path&
   RigConfig rig;
   rig.source = source;
   rig.text = text;
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::ParserException& e) {
-    throw UserError(fmt::format("{}:{}: YAML syntax error: {}", source.string(), e.mark.line + 1, e.msg));
-  }
+  const YAML::Node root = load_yaml(text, source);
   if (!root || root.IsNull()) throw UserError(fmt::format("{}:1: the rig file is empty", source.string()));
   try {
     MapReader r(root, source, "");

@@ -15,6 +15,15 @@
 
 namespace pvcap {
 
+// Parses a configuration file's text; a syntax error is a UserError naming file:line.
+inline YAML::Node load_yaml(const std::string& text, const std::filesystem::path& source) {
+  try {
+    return YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw UserError(fmt::format("{}:{}: YAML syntax error: {}", source.string(), e.mark.line + 1, e.msg));
+  }
+}
+
 // Reads one YAML map, remembering which keys were used so leftovers are errors.
 class MapReader {
  public:

@@ -58,12 +58,7 @@ Protocol parse_protocol(const std::string& text, const std::filesystem::path& so
   Protocol p;
   p.source = source;
   p.text = text;
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw UserError(fmt::format("{}:{}: not valid YAML: {}", source.string(), e.mark.line + 1, e.msg));
-  }
+  const YAML::Node root = load_yaml(text, source);
   MapReader r(root, source, "");
   r.require("name", p.name);
   if (auto t = r.child("timings")) {

@@ -62,6 +62,24 @@ pid_t spawn_pvcap(const std::string& args, const fs::path& log, const std::strin
   return pid;
 }
 
+fs::path write_press_protocol(const fs::path& dir, const std::string& forces, double prompt_s, double countdown_s,
+                              double record_s, double rest_s) {
+  const fs::path pictograms = fs::path(PVCAP_SOURCE_DIR) / "rig-configs/protocols/pictograms";
+  std::ofstream(dir / "protocol.yaml") << fmt::format(
+      "name: test\n"
+      "fast_timings: {{prompt_s: {}, countdown_s: {}, record_s: {}, rest_s: {}}}\n"
+      "actions:\n"
+      "  - {{name: press_index_finger, text: Press with your index finger, pictogram: {}/press_index_finger.svg,\n"
+      "      forces: {}, repetitions: 2}}\n",
+      prompt_s, countdown_s, record_s, rest_s, pictograms.string(), forces);
+  return dir / "protocol.yaml";
+}
+
+fs::path write_protocol_rig(const fs::path& dir) {
+  std::ofstream(dir / "rig.yaml") << sim_rig_yaml({{}, {}, {}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  return dir / "rig.yaml";
+}
+
 fs::path work_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / fmt::format("pvcap-it-{}-{}", name, getpid());
   fs::remove_all(d);

@@ -24,6 +24,13 @@ struct SimCameraSpec {
 std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, int height, double fps,
                          double video_fps, const std::string& trigger = "free-run", bool sensel = false);
 
+// A protocol of one press (index finger) at the given force levels ("[low, high]"), 2 repetitions,
+// with the given fast timings; written as dir/protocol.yaml.
+std::filesystem::path write_press_protocol(const std::filesystem::path& dir, const std::string& forces,
+                                           double prompt_s, double countdown_s, double record_s, double rest_s);
+// Four 320x240 cameras at 30 Hz and a Sensel: the protocol tests' rig, written as dir/rig.yaml.
+std::filesystem::path write_protocol_rig(const std::filesystem::path& dir);
+
 struct CommandResult {
   int exit_code = -1;
   std::string output;  // stdout and stderr

@@ -25,21 +25,9 @@ namespace {
 
 // Three force levels of one press, with each hand: six takes of ~3 s.
 fs::path write_protocol(const fs::path& dir) {
-  const fs::path pictograms = fs::path(PVCAP_SOURCE_DIR) / "rig-configs/protocols/pictograms";
-  std::ofstream(dir / "protocol.yaml") << fmt::format(
-      "name: test\n"
-      "fast_timings: {{prompt_s: 0.5, countdown_s: 0.4, record_s: 2.0, rest_s: 0.3}}\n"
-      "actions:\n"
-      "  - {{name: press_index_finger, text: Press with your index finger, pictogram: {}/press_index_finger.svg,\n"
-      "      forces: [low, high, no_contact], repetitions: 2}}\n",
-      pictograms.string());
-  return dir / "protocol.yaml";
+  return write_press_protocol(dir, "[low, high, no_contact]", 0.5, 0.4, 2.0, 0.3);
 }
-
-fs::path write_rig(const fs::path& dir) {
-  std::ofstream(dir / "rig.yaml") << sim_rig_yaml({{}, {}, {}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
-  return dir / "rig.yaml";
-}
+fs::path write_rig(const fs::path& dir) { return write_protocol_rig(dir); }
 
 fs::path only_session(const fs::path& root, const std::set<fs::path>& except = {}) {
   for (const auto& e : fs::directory_iterator(root))

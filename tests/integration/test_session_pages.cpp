@@ -31,22 +31,8 @@ using namespace pvcap::testing;
 namespace {
 
 // Two force levels of one press with each hand: four takes of ~4 s.
-fs::path write_protocol(const fs::path& dir) {
-  const fs::path pictograms = fs::path(PVCAP_SOURCE_DIR) / "rig-configs/protocols/pictograms";
-  std::ofstream(dir / "protocol.yaml") << fmt::format(
-      "name: pages\n"
-      "fast_timings: {{prompt_s: 1.0, countdown_s: 1.0, record_s: 2.0, rest_s: 0.5}}\n"
-      "actions:\n"
-      "  - {{name: press_index_finger, text: Press with your index finger, pictogram: {}/press_index_finger.svg,\n"
-      "      forces: [low, high], repetitions: 2}}\n",
-      pictograms.string());
-  return dir / "protocol.yaml";
-}
-
-fs::path write_rig(const fs::path& dir) {
-  std::ofstream(dir / "rig.yaml") << sim_rig_yaml({{}, {}, {}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
-  return dir / "rig.yaml";
-}
+fs::path write_protocol(const fs::path& dir) { return write_press_protocol(dir, "[low, high]", 1.0, 1.0, 2.0, 0.5); }
+fs::path write_rig(const fs::path& dir) { return write_protocol_rig(dir); }
 
 // The address pvcap printed for a page, e.g. "operator console:    http://127.0.0.1:41234/operator".
 std::string printed_url(const fs::path& log, const std::string& label) {
