@@ -142,6 +142,16 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
           cr.fail(cams[i]["return_after_s"], "return_after_s", "needs a stop_after_s before it");
         c.return_after_s = v;
       }
+      cr.get_numbers("position_mm", c.position_mm);
+      cr.get_numbers("look_at_mm", c.look_at_mm);
+      if (cr.has("focal_px")) {
+        double v = 0;
+        cr.get_in_range("focal_px", v, 50.0, 100000.0);
+        c.focal_px = v;
+      }
+      cr.get_numbers("distortion", c.distortion);
+      if (c.position_mm && (*c.position_mm)[2] <= 0)
+        cr.fail(cams[i]["position_mm"], "position_mm", "the camera must stand above the pad (z > 0 mm)");
       cr.finish();
       s.cameras.push_back(c);
     }

@@ -2,6 +2,7 @@
 // The rig description (rig-configs/*.yaml): which cameras, how to set them up,
 // how to store, and, for the simulated rig, how the simulated devices behave.
 // Parsing rejects unknown keys and names file:line and key in every error.
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -83,6 +84,11 @@ struct SimCameraClock {
   double exposure_latency_ms = 0;  // the instant a frame shows lies this long before it leaves (its "datasheet" latency)
   std::optional<double> stop_after_s;    // camera vanishes after this many seconds (from sim start)
   std::optional<double> return_after_s;  // and comes back (power-cycled: frame ids restart) after this many
+  // Its lens and where it stands (pad coordinates in mm, z = height above the pad); any left out
+  // take the default of the camera's position in the rig (see sim/camera_views.cpp).
+  std::optional<std::array<double, 3>> position_mm, look_at_mm;
+  std::optional<double> focal_px;                      // at the configured image width
+  std::optional<std::array<double, 5>> distortion;     // k1, k2, p1, p2, k3 (OpenCV's order)
 };
 
 struct SimConfig {

@@ -2,7 +2,9 @@
 // Strict reading of one YAML mapping for configuration files (rig files,
 // protocols): typed values with ranges, required keys, and unknown keys as
 // errors, each failure a UserError naming file:line and the key's path.
+#include <array>
 #include <cmath>
+#include <optional>
 #include <filesystem>
 #include <set>
 #include <string>
@@ -69,6 +71,25 @@ class MapReader {
     get(key, out);
     if (has(key) && (out < lo || out > hi || (std::is_floating_point_v<T> && std::isnan(double(out)))))
       fail(node_[key], key, fmt::format("{} is out of range [{}, {}]", out, lo, hi));
+  }
+
+  // A list of exactly `n` numbers, e.g. position_mm: [115, 65, 480].
+  template <std::size_t N>
+  void get_numbers(const char* key, std::optional<std::array<double, N>>& out) {
+    used_.insert(key);
+    const YAML::Node v = node_[key];
+    if (!v) return;
+    if (!v.IsSequence() || v.size() != N) fail(v, key, fmt::format("expected a list of {} numbers", N));
+    std::array<double, N> a{};
+    for (std::size_t i = 0; i < N; ++i) {
+      try {
+        a[i] = v[i].as<double>();
+      } catch (const YAML::Exception&) {
+        fail(v[i], key, fmt::format("'{}' is not a number", v[i].IsScalar() ? v[i].Scalar() : "?"));
+      }
+      if (!std::isfinite(a[i])) fail(v[i], key, "must be a finite number");
+    }
+    out = a;
   }
 
   // Unknown keys are errors: a misspelt "frame_rat" must not silently become the default.

@@ -1,38 +1,63 @@
 #include "sim/scene.h"
 
+#include "sim/camera_views.h"
+
 #include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace pvcap::sim {
 
-PadGeometry default_pad() {
-  PadGeometry pad;
-  const double s = 28.0;
-  pad.fiducials = {{0, {-22.0, -22.0}, s}, {1, {252.0, -22.0}, s}, {2, {252.0, 152.0}, s}, {3, {-22.0, 152.0}, s}};
-  return pad;
+PlaneTexture pad_texture(const calib::PadLayout& pad, double px_per_mm) {
+  const cv::Rect2d m = pad.mat_mm;
+  cv::Mat mat(int(std::lround(m.height * px_per_mm)), int(std::lround(m.width * px_per_mm)), CV_8UC3,
+              cv::Scalar(235, 235, 235));
+  // Texture pixel i covers [i, i+1) / px_per_mm from the mat's edge; OpenCV puts its centre at i.
+  const cv::Matx33d mm_to_tex(px_per_mm, 0, -m.x * px_per_mm - 0.5, 0, px_per_mm, -m.y * px_per_mm - 0.5, 0, 0, 1);
+  auto edge = [&](cv::Point2d mm) {
+    return cv::Point(int(std::lround((mm.x - m.x) * px_per_mm)), int(std::lround((mm.y - m.y) * px_per_mm)));
+  };
+  const auto grid = pad.grid_corners_mm();
+  const cv::Point2d body(pad.body_margin_mm, pad.body_margin_mm);
+  cv::rectangle(mat, cv::Rect(edge(grid[0] - body), edge(grid[2] + body)), cv::Scalar(38, 38, 40), cv::FILLED);
+  cv::rectangle(mat, cv::Rect(edge(grid[0]), edge(grid[2])), cv::Scalar(70, 70, 74), 2);
+  const auto dict = cv::aruco::getPredefinedDictionary(cv::aruco::PREDEFINED_DICTIONARY_NAME(pad.dictionary));
+  for (const calib::PadMarker& marker : pad.markers) {
+    const auto corners = pad.marker_corners_mm(marker);  // the marker image's TL, TR, BR, BL
+    const cv::Point tl = edge(corners[0]), br = edge(corners[2]);
+    cv::Mat drawn, drawn_bgr;
+    cv::aruco::drawMarker(dict, marker.id, br.x - tl.x, drawn, 1);
+    cv::cvtColor(drawn, drawn_bgr, cv::COLOR_GRAY2BGR);
+    drawn_bgr.copyTo(mat(cv::Rect(tl, br)));
+  }
+  return {mat, mm_to_tex};
 }
 
-cv::Matx33d camera_homography(int index, cv::Size size) {
-  // Where the mat's corners land, as fractions of the image: top-down, from the
-  // left, from the right, from the participant's side.
-  static const std::array<std::array<cv::Point2f, 4>, 4> quads = {{
-      {{{0.22f, 0.16f}, {0.78f, 0.16f}, {0.78f, 0.86f}, {0.22f, 0.86f}}},
-      {{{0.18f, 0.22f}, {0.74f, 0.14f}, {0.80f, 0.90f}, {0.14f, 0.80f}}},
-      {{{0.26f, 0.14f}, {0.82f, 0.22f}, {0.86f, 0.80f}, {0.20f, 0.90f}}},
-      {{{0.28f, 0.18f}, {0.72f, 0.18f}, {0.88f, 0.88f}, {0.12f, 0.88f}}},
-  }};
-  const auto& q = quads[std::size_t(index) % quads.size()];
-  const cv::Rect2d m = default_pad().mat_mm;
-  const cv::Point2f src[4] = {{float(m.x), float(m.y)},
-                              {float(m.x + m.width), float(m.y)},
-                              {float(m.x + m.width), float(m.y + m.height)},
-                              {float(m.x), float(m.y + m.height)}};
-  cv::Point2f dst[4];
-  for (int i = 0; i < 4; ++i) dst[i] = {q[i].x * float(size.width), q[i].y * float(size.height)};
-  return cv::Matx33d(cv::getPerspectiveTransform(src, dst));
+void draw_plane(cv::Mat& bgr, const cv::Mat& rays, const cv::Matx33d& R, const cv::Vec3d& t,
+                const PlaneTexture& texture) {
+  CV_Assert(rays.type() == CV_32FC2 && rays.size() == bgr.size());
+  // A ray d meets the plane at X = [r1 r2 t] (u, v, 1) * s, so (u, v, 1) ~ [r1 r2 t]^-1 d, with a
+  // positive last coordinate when the point lies in front of the camera.
+  const cv::Matx33d plane(R(0, 0), R(0, 1), t[0], R(1, 0), R(1, 1), t[1], R(2, 0), R(2, 1), t[2]);
+  const cv::Matx33d h = texture.mm_to_tex * plane.inv();
+  cv::Mat map(bgr.size(), CV_32FC2);
+  for (int y = 0; y < bgr.rows; ++y) {
+    const auto* d = rays.ptr<cv::Vec2f>(y);
+    auto* out = map.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < bgr.cols; ++x) {
+      const double w = h(2, 0) * d[x][0] + h(2, 1) * d[x][1] + h(2, 2);
+      if (w <= 1e-12) {
+        out[x] = cv::Vec2f(-1e6f, -1e6f);
+        continue;
+      }
+      out[x] = cv::Vec2f(float((h(0, 0) * d[x][0] + h(0, 1) * d[x][1] + h(0, 2)) / w),
+                         float((h(1, 0) * d[x][0] + h(1, 1) * d[x][1] + h(1, 2)) / w));
+    }
+  }
+  cv::remap(texture.bgr, bgr, map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_TRANSPARENT);
 }
 
-cv::Mat render_scene_bgr(const PadGeometry& pad, const cv::Matx33d& mm_to_px, cv::Size size) {
+cv::Mat render_scene_bgr(const calib::PadLayout& pad, const calib::CameraModel& camera, const cv::Mat& rays_in) {
+  const cv::Size size = camera.image_size;
   // The table: a warm wood-like gradient with fixed-seed grain.
   cv::Mat image(size, CV_8UC3);
   for (int y = 0; y < size.height; ++y) {
@@ -46,28 +71,19 @@ cv::Mat render_scene_bgr(const PadGeometry& pad, const cv::Matx33d& mm_to_px, cv
   rng.fill(grain, cv::RNG::NORMAL, 0, 6);
   image += grain;
 
-  // The mat at 4 px/mm, drawn flat, then warped into the camera.
-  constexpr double kPxPerMm = 4.0;
-  const cv::Rect2d m = pad.mat_mm;
-  cv::Mat mat(int(m.height * kPxPerMm), int(m.width * kPxPerMm), CV_8UC3, cv::Scalar(235, 235, 235));
-  auto to_tex = [&](cv::Point2d mm) { return cv::Point2d((mm.x - m.x) * kPxPerMm, (mm.y - m.y) * kPxPerMm); };
-  const cv::Point2d body_tl = to_tex({-pad.body_margin_mm, -pad.body_margin_mm});
-  const cv::Point2d body_br = to_tex({pad.active_w_mm + pad.body_margin_mm, pad.active_h_mm + pad.body_margin_mm});
-  cv::rectangle(mat, cv::Rect(body_tl, body_br), cv::Scalar(38, 38, 40), cv::FILLED);
-  cv::rectangle(mat, cv::Rect(to_tex({0, 0}), to_tex({pad.active_w_mm, pad.active_h_mm})), cv::Scalar(70, 70, 74), 2);
-  const auto dict = cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50);
-  for (const Fiducial& f : pad.fiducials) {
-    const int px = int(f.size_mm * kPxPerMm);
-    cv::Mat marker;
-    cv::aruco::drawMarker(dict, f.id, px, marker, 1);
-    cv::Mat marker_bgr;
-    cv::cvtColor(marker, marker_bgr, cv::COLOR_GRAY2BGR);
-    const cv::Point2d tl = to_tex({f.centre_mm.x - f.size_mm / 2, f.centre_mm.y - f.size_mm / 2});
-    marker_bgr.copyTo(mat(cv::Rect(int(std::lround(tl.x)), int(std::lround(tl.y)), px, px)));
-  }
-  const cv::Matx33d tex_to_mm(1.0 / kPxPerMm, 0, m.x, 0, 1.0 / kPxPerMm, m.y, 0, 0, 1);
-  cv::warpPerspective(mat, image, mm_to_px * tex_to_mm, size, cv::INTER_AREA, cv::BORDER_TRANSPARENT);
-  return image;
+  const cv::Mat rays = rays_in.empty() ? camera.normalised_rays() : rays_in;
+  draw_plane(image, rays, camera.R, camera.t, pad_texture(pad));
+
+  // A sensor's read noise (about 2 DN), fixed per camera so frames stay cheap to make.
+  cv::Mat noise(size, CV_16SC3);
+  rng.fill(noise, cv::RNG::NORMAL, 0, 2);
+  cv::Mat noisy;
+  cv::add(image, noise, noisy, cv::noArray(), CV_8UC3);
+  return noisy;
+}
+
+cv::Mat render_default_scene_bgr(int index, cv::Size size) {
+  return render_scene_bgr(calib::default_pad_layout(), sim_camera_model(index, SimCameraClock{}, size, size));
 }
 
 namespace {

@@ -1,38 +1,36 @@
 #pragma once
-// The simulated scene: a Sensel Morph on a white calibration mat with four
-// ArUco fiducials at known positions, on a table, seen by each camera through
-// a known ground-truth homography from the sensor plane (mm) to image pixels.
-//
-// Sensor-plane coordinates: millimetres, origin at the centre of sensel (0,0),
-// x along the 185 columns (0..230 mm), y along the 105 rows (0..130 mm).
-#include <array>
+// The simulated scene: a Sensel Morph on a white mat with ArUco fiducials at known
+// positions (calib/pad_layout.h), on a table, seen by each camera through its pinhole model
+// with lens distortion (calib/camera_model.h). Planes (the pad, a calibration board) are
+// drawn by casting every pixel's ray onto them, so distortion is exact, not approximated.
 #include <string>
-#include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "calib/camera_model.h"
+#include "calib/pad_layout.h"
+
 namespace pvcap::sim {
 
-struct Fiducial {
-  int id;               // ArUco DICT_4X4_50 id
-  cv::Point2d centre_mm;
-  double size_mm;
+// A flat texture and where it lies: texture pixel coordinates from plane mm (x, y).
+struct PlaneTexture {
+  cv::Mat bgr;
+  cv::Matx33d mm_to_tex;
 };
+// The mat with the sensor body and the markers, at `px_per_mm`.
+PlaneTexture pad_texture(const calib::PadLayout& pad, double px_per_mm = 6.0);
 
-struct PadGeometry {
-  double active_w_mm = 230.0, active_h_mm = 130.0;  // 185 x 105 sensels at 1.25 mm
-  double body_margin_mm = 6.0;                      // black sensor body around the active area
-  cv::Rect2d mat_mm{-45.0, -45.0, 320.0, 220.0};    // the white mat carrying the fiducials
-  std::vector<Fiducial> fiducials;
-};
-PadGeometry default_pad();
+// Draws `texture`, lying on a plane whose frame is (R, t) in camera coordinates (its x, y axes
+// R's first two columns, its origin t, mm), into `bgr` through the camera's per-pixel rays
+// (CameraModel::normalised_rays()). Pixels whose ray misses the texture are left alone.
+void draw_plane(cv::Mat& bgr, const cv::Mat& rays, const cv::Matx33d& R, const cv::Vec3d& t,
+                const PlaneTexture& texture);
 
-// Ground-truth homography (sensor mm -> image px) of simulated camera `index`
-// for an image of `size`: four distinct, plausible viewpoints looking down.
-cv::Matx33d camera_homography(int index, cv::Size size);
-
-// Renders the scene as BGR for one camera. Deterministic.
-cv::Mat render_scene_bgr(const PadGeometry& pad, const cv::Matx33d& mm_to_px, cv::Size size);
+// Renders the static scene as BGR for one camera (with a fixed pattern of 2 DN sensor noise).
+// Deterministic. `rays` may be passed when the caller has them already.
+cv::Mat render_scene_bgr(const calib::PadLayout& pad, const calib::CameraModel& camera, const cv::Mat& rays = {});
+// The scene of default camera `index` (sim/camera_views.h) at `size`: for tests and benches.
+cv::Mat render_default_scene_bgr(int index, cv::Size size);
 
 // Converts BGR to what a camera of `pixel_format` (PFNC name: BayerRG8, BayerBG8,
 // BayerGB8, BayerGR8, Mono8, RGB8) would send. Bayer/Mono: CV_8UC1; RGB8: CV_8UC3 in R,G,B order.

@@ -14,6 +14,7 @@
 #include "capture/pixel_format.h"
 #include "core/time.h"
 #include "sim/fingertip.h"
+#include "sim/camera_views.h"
 #include "sim/hand.h"
 #include "sim/scene.h"
 #include "sim/timecode.h"
@@ -100,6 +101,8 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   std::unique_ptr<SimCamera> self(new SimCamera());
   self->index_ = index;
   self->name_ = camera.name;
+  self->config_ = clock;
+  self->configured_size_ = cv::Size(camera.width, camera.height);
   self->hand_ = std::move(hand);
   self->clock_ = SimClock{t0_ns, clock.offset_ms * 1e6, clock.drift_ppm * 1e-6, clock.jitter_us * 1e3};
   self->exposure_latency_ns_ = std::int64_t(clock.exposure_latency_ms * 1e6);
@@ -151,7 +154,9 @@ SimCamera::~SimCamera() {
   truth_.flush();
 }
 
-cv::Matx33d SimCamera::homography(cv::Size size) const { return camera_homography(index_, size); }
+calib::CameraModel SimCamera::model(cv::Size size) const {
+  return sim_camera_model(index_, config_, configured_size_, size);
+}
 
 void SimCamera::fill(ArvBuffer* buffer, void* self, guint32, guint32, ArvPixelFormat format) {
   static_cast<SimCamera*>(self)->fill_buffer(buffer, format);
@@ -163,7 +168,7 @@ const cv::Mat& SimCamera::base_image(int width, int height, ArvPixelFormat forma
   if (it == bases_.end()) {
     const std::string pfnc = pixel_format_name(format);
     const cv::Size size(width, height);
-    const cv::Mat bgr = render_scene_bgr(default_pad(), homography(size), size);
+    const cv::Mat bgr = render_scene_bgr(calib::default_pad_layout(), model(size));
     it = bases_.emplace(key, to_sensor_format(bgr, pfnc)).first;
     spdlog::debug("sim {}: rendered the scene at {}x{} {}", name_, width, height, pfnc);
   }
@@ -194,14 +199,10 @@ void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t t
   if (hand_) {
     const HandPose pose = hand_->pose_at(true_ns);
     if (pose.visible) {
-      const cv::Matx33d h = homography({width, height});
-      auto project = [&](double x, double y) {
-        const cv::Vec3d p = h * cv::Vec3d(x, y, 1.0);
-        return cv::Point2d(p[0] / p[2], p[1] / p[2]);
-      };
-      const cv::Point2d c = project(pose.x_mm, pose.y_mm);
+      const calib::CameraModel m = model({width, height});
+      const cv::Point2d c = m.project({pose.x_mm, pose.y_mm, 0.0});
       const double r_mm = fingertip_radius_mm(pose.force);
-      const cv::Point2d e = project(pose.x_mm + r_mm, pose.y_mm);
+      const cv::Point2d e = m.project({pose.x_mm + r_mm, pose.y_mm, 0.0});
       cv::Mat view(height, width, base.type(), data);
       draw_fingertip(view, pixel_format_name(format), c, std::hypot(e.x - c.x, e.y - c.y));
     }

@@ -23,6 +23,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "calib/camera_model.h"
 #include "capture/aravis_handles.h"
 #include "core/result.h"
 #include "core/rig_config.h"
@@ -61,8 +62,8 @@ class SimCamera {
   // Where the latch lives in the fake camera's register space (big-endian).
   static constexpr std::uint32_t kLatchCommandRegister = 0xF000;
   static constexpr std::uint32_t kLatchValueRegister = 0xF008;  // 64 bits: high word, then low
-  // The ground-truth homography for images of `size`.
-  cv::Matx33d homography(cv::Size size) const;
+  // The ground-truth camera model for images of `size`.
+  calib::CameraModel model(cv::Size size) const;
 
  private:
   SimCamera() = default;
@@ -73,6 +74,8 @@ class SimCamera {
 
   int index_ = 0;
   std::string name_;
+  SimCameraClock config_;
+  cv::Size configured_size_;
   SimClock clock_;
   std::int64_t exposure_latency_ns_ = 0;
   arv::GPtr<ArvGvFakeCamera> fake_;

@@ -34,9 +34,8 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
   nlohmann::json truth;
   truth["t0_ns"] = self->t0_ns_;
   truth["clock"] = "CLOCK_MONOTONIC";
-  const PadGeometry pad = default_pad();
-  for (const auto& f : pad.fiducials)
-    truth["fiducials"].push_back({{"id", f.id}, {"centre_mm", {f.centre_mm.x, f.centre_mm.y}}, {"size_mm", f.size_mm}});
+  const calib::PadLayout pad = calib::default_pad_layout();
+  truth["pad"] = pad;
   for (std::size_t i = 0; i < rig.cameras.size(); ++i) {
     const CameraConfig& cam = rig.cameras[i];
     const SimCameraClock& clk = rig.sim->cameras[i];
@@ -44,7 +43,10 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
     auto made = SimCamera::create(int(i), cam, clk, self->t0_ns_, rig.sim->seed, truth_dir,
                                   sensel_sim ? self->hand_ : nullptr);
     if (!made) return made.error();
-    const cv::Matx33d h = made.value()->homography({cam.width, cam.height});
+    const calib::CameraModel model = made.value()->model({cam.width, cam.height});
+    const cv::Matx33d h = calib::cells_to_ideal(model, pad);
+    nlohmann::json corners;
+    for (const cv::Point2d& p : calib::pad_corners_px(model, pad)) corners.push_back({p.x, p.y});
     nlohmann::json jc = {{"name", cam.name},
                          {"address", cam.address},
                          {"offset_ms", clk.offset_ms},
@@ -52,7 +54,11 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
                          {"jitter_us", clk.jitter_us},
                          {"packet_loss", clk.packet_loss},
                          {"image_size", {cam.width, cam.height}},
-                         {"homography_mm_to_px", std::vector<double>(h.val, h.val + 9)}};
+                         {"model", model},
+                         // pressure-image pixels (cell centres at integers) -> ideal (undistorted) pixels
+                         {"cells_to_ideal_px", std::vector<double>(h.val, h.val + 9)},
+                         // the grid's outer edges (0,0), (185,0), (185,105), (0,105) in the image as sent
+                         {"pad_corners_px", corners}};
     if (clk.stop_after_s) jc["stop_after_s"] = *clk.stop_after_s;
     if (clk.return_after_s) jc["return_after_s"] = *clk.return_after_s;
     truth["cameras"].push_back(jc);

@@ -16,6 +16,8 @@
 #include "storage/video_reader.h"
 #include "capture/sensel_frame.h"
 #include <nlohmann/json.hpp>
+
+#include "calib/camera_model.h"
 #include "sim/fingertip.h"
 #include "capture/sensel_units.h"
 
@@ -370,10 +372,9 @@ TEST(SimSession, SenselIsStoredAtFullRateWithItsDeviceAndArrivalTimes) {
   // (its timecode), the press point is skin while the emulator presses and pad while it does not.
   std::ifstream truth_json(s.dir / "sim-truth" / "rig.json");
   const auto truth = nlohmann::json::parse(truth_json);
-  const auto hv = truth["cameras"][0]["homography_mm_to_px"].get<std::vector<double>>();
-  const cv::Matx33d h(hv.data());
-  const cv::Vec3d p = h * cv::Vec3d(100.0, 60.0, 1.0);  // the press point of sim_rig_yaml's Sensel
-  const cv::Point px(int(std::lround(p[0] / p[2])), int(std::lround(p[1] / p[2])));
+  const auto model = truth["cameras"][0]["model"].get<pvcap::calib::CameraModel>();
+  const cv::Point2d p = model.project({100.0, 60.0, 0.0});  // the press point of sim_rig_yaml's Sensel
+  const cv::Point px(int(std::lround(p.x)), int(std::lround(p.y)));
   auto reader = pvcap::VideoReader::open(s.dir / "cam0-000.mkv");
   ASSERT_TRUE(reader);
   cv::Mat img;

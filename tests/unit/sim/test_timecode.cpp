@@ -12,7 +12,7 @@ using namespace pvcap::sim;
 
 TEST(Timecode, RoundTripsThroughAMosaicAndDebayering) {
   const cv::Size size(640, 360);
-  const cv::Mat bgr = render_scene_bgr(default_pad(), camera_homography(0, size), size);
+  const cv::Mat bgr = render_default_scene_bgr(0, size);
   cv::Mat mosaic = to_sensor_format(bgr, "BayerRG8");
   const Timecode tc{1234567890123456789LL, 65535};
   draw_timecode(mosaic, tc);

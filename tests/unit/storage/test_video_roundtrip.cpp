@@ -26,7 +26,7 @@ fs::path temp_dir(const std::string& name) {
 
 cv::Mat frame_with_timecode(int i) {
   const cv::Size size(320, 180);
-  static const cv::Mat base = sim::render_scene_bgr(sim::default_pad(), sim::camera_homography(0, size), size);
+  static const cv::Mat base = sim::render_default_scene_bgr(0, size);
   cv::Mat grey(size, CV_8UC1, cv::Scalar(0));
   cv::Mat bgr = base.clone();
   cv::Mat mask(size, CV_8UC1, cv::Scalar(0));
@@ -87,7 +87,7 @@ TEST(VideoRoundTrip, DefaultCodecKeepsRealTimestampsAndReadableTimecodes) {
 TEST(VideoRoundTrip, DefaultStoreSettingsAreNearLosslessAgainstTheDebayeredSource) {
   const auto dir = temp_dir("psnr");
   const cv::Size size(640, 480);
-  const cv::Mat scene = sim::render_scene_bgr(sim::default_pad(), sim::camera_homography(1, size), size);
+  const cv::Mat scene = sim::render_default_scene_bgr(1, size);
   const StoreConfig store;  // the defaults a rig file gets
   VideoSettings s;
   s.codec = store.video_codec;
