@@ -16,14 +16,14 @@
 namespace pvcap {
 
 int cmd_sim(const RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration, bool hand_commands,
-            std::atomic<bool>& stop) {
+            bool board, std::atomic<bool>& stop) {
   // Started by a recording: end with it, even when it is killed (no orphaned simulator holding the rig).
   if (getppid() != 1) {
     const pid_t parent = getppid();
     prctl(PR_SET_PDEATHSIG, SIGTERM);
     if (getppid() != parent) return 0;  // the parent died before the request took
   }
-  auto made = sim::SimRig::create(rig, truth);
+  auto made = sim::SimRig::create(rig, truth, board);
   if (!made) throw UserError(made.error().message);
   fmt::print(stderr, "pvcap sim: serving {} cameras; pid {} (inspect with: nsenter --net=/proc/{}/ns/net "
                      "arv-tool-0.8)\n",

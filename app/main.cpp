@@ -16,12 +16,14 @@
 #include "app/cmd_eval_sync.h"
 #include "app/cmd_sensel_decode.h"
 #include "app/cmd_session.h"
+#include "app/cmd_calibrate.h"
 #include "app/cmd_sim.h"
 #include "core/log.h"
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "core/version.h"
 #include "protocol/takes.h"
+#include "calib/rig_calibration.h"
 #include "sim/netns.h"
 #include "sim/sim_rig.h"
 #include "storage/recover.h"
@@ -100,6 +102,9 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   session->add_flag("--auto", auto_participant, "simulated rig: the simulated hand performs every prompted take");
   session->add_flag("--fast", fast, "the protocol's short timings (a few seconds a take), for demos and tests");
+  bool board_session = false;
+  session->add_flag("--board", board_session, "record a calibration board session (for `pvcap calibrate intrinsics`; a "
+                                              "simulated rig moves its own board)");
   session->add_option("--resume", resume_dir, "continue the protocol of this interrupted session in a new folder")
       ->check(CLI::ExistingDirectory);
 
@@ -126,6 +131,34 @@ int main(int argc, char** argv) {
   sim->add_option("--duration", sim_duration, "stop after this many seconds")->check(CLI::PositiveNumber);
   bool sim_hand_commands = false;
   sim->add_flag("--hand-commands", sim_hand_commands, "steer the simulated hand by commands on stdin (one a line)");
+  bool sim_board = false;
+  sim->add_flag("--board", sim_board, "the cameras see the calibration board moving through its poses");
+
+  auto* calibrate = app.add_subcommand("calibrate", "camera intrinsics from a board session, the pad's pose and "
+                                                     "homography from any session showing the mat");
+  calibrate->require_subcommand(1);
+  auto* cal_board = calibrate->add_subcommand("board", "write the ChArUco board to print (.pdf or .png)");
+  std::string board_out;
+  cal_board->add_option("--out", board_out, "board.pdf or board.png")->required();
+  auto* cal_intrinsics = calibrate->add_subcommand("intrinsics", "each camera's lens from a board session "
+                                                                 "(pvcap session --board)");
+  auto* cal_pad = calibrate->add_subcommand("pad", "the pad's pose and homography in each camera from the mat's "
+                                                   "markers, with the intrinsics of a calibration file");
+  pvcap::CalibrateOptions cal_opts;
+  std::string cal_rig;
+  for (auto* c : {cal_intrinsics, cal_pad}) {
+    c->add_option("SESSION", cal_opts.session, "the session folder")->required()->check(CLI::ExistingDirectory);
+    c->add_option("--rig", cal_rig, "the rig file: the calibration file defaults to <rig>.calibration.yaml beside "
+                                    "it (otherwise SESSION/calibration.yaml)")->check(CLI::ExistingFile);
+    c->add_option("--ground-truth", cal_opts.ground_truth, "a simulated run's sim-truth folder: print the errors "
+                                                           "against it and exit 1 above target")
+        ->check(CLI::ExistingDirectory);
+    c->add_option("--frames", cal_opts.frames, "frames per camera to look at, spread over the session")
+        ->check(CLI::Range(1, 100000));
+  }
+  cal_intrinsics->add_option("--out", cal_opts.calibration, "the calibration file to write (updated if it exists)");
+  cal_pad->add_option("--calibration", cal_opts.calibration, "the calibration file with the intrinsics (updated "
+                                                             "with the pose)");
 
   auto* sensel = app.add_subcommand("sensel", "Sensel Morph tools");
   sensel->require_subcommand(1);
@@ -213,6 +246,10 @@ int main(int argc, char** argv) {
         if (session->count("--root") == 0) opts.root.clear();  // beside the session it continues
       }
       command.auto_participant = auto_participant;
+      if (board_session && (!protocol_path.empty() || !resume_dir.empty()))
+        throw pvcap::UserError("--board records a calibration board session: it runs no protocol (leave out "
+                               "--protocol/--resume)");
+      opts.board_session = board_session;
       command.fast = fast;
       if (!participant.pseudonym.empty()) {
         if (!pvcap::is_pseudonymous_code(participant.pseudonym))
@@ -281,6 +318,12 @@ int main(int argc, char** argv) {
       for (const auto& d : r.value()) fmt::print("{}: {}\n", migrate_dir, d);
       return 0;
     }
+    if (*cal_board) return pvcap::cmd_calibrate_board(board_out);
+    if (*cal_intrinsics || *cal_pad) {
+      if (cal_opts.calibration.empty() && !cal_rig.empty())
+        cal_opts.calibration = pvcap::calib::default_calibration_path(cal_rig);
+      return *cal_pad ? pvcap::cmd_calibrate_pad(cal_opts) : pvcap::cmd_calibrate_intrinsics(cal_opts);
+    }
     if (*sensel_decode) {
       int rc = 0;
       for (const auto& f : decode_files) {
@@ -294,7 +337,7 @@ int main(int argc, char** argv) {
       const auto rig = pvcap::load_rig_config(sim_rig);
       if (!rig.sim) throw pvcap::UserError(fmt::format("{}: has no sim: section", sim_rig));
       ensure_sim_network(rig);
-      return pvcap::cmd_sim(rig, truth, sim_duration, sim_hand_commands, g_stop);
+      return pvcap::cmd_sim(rig, truth, sim_duration, sim_hand_commands, sim_board, g_stop);
     }
   } catch (const pvcap::UserError& e) {
     spdlog::error("{}", e.what());

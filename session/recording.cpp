@@ -97,7 +97,8 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
     std::error_code ec;
     std::filesystem::create_directories(r->truth_tmp_, ec);
     if (ec) return Error{fmt::format("cannot create {}: {}", r->truth_tmp_.string(), ec.message())};
-    auto sim = sim::SimProcess::start(options.self_exe, rig.source, r->truth_tmp_, options.steer_sim_hand);
+    auto sim = sim::SimProcess::start(options.self_exe, rig.source, r->truth_tmp_, options.steer_sim_hand,
+                                         options.board_session);
     if (!sim) return sim.error();
     r->sim_ = std::move(sim.value());
   }
@@ -167,6 +168,9 @@ Status Recording::start() {
   }
   events_writer_.store(&writer);
   writer.start();
+  if (options_.board_session)
+    writer.record(EventRecord{host_now().ns, "board_session", std::nullopt,
+                              "a calibration board session (for pvcap calibrate intrinsics)"});
 
   // The timeline: every stream on this host's clock, camera frames grouped by instant, one group per
   // tick of the sample grid, each paired with the pressure frames around it.

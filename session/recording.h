@@ -56,6 +56,7 @@ struct RecordingOptions {
   std::optional<ParticipantRecord> participant;
   std::optional<ConditionsRecord> conditions;
   bool steer_sim_hand = false;   // a simulated rig's hand follows steer_sim_hand() (protocol --auto)
+  bool board_session = false;    // recording a calibration board (a simulated rig moves its board)
 };
 
 struct StreamStatus {

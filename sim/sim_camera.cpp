@@ -9,11 +9,14 @@
 #include <cstring>
 
 #include <fmt/format.h>
+#include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 
 #include "capture/pixel_format.h"
 #include "core/time.h"
 #include "sim/fingertip.h"
+#include "calib/charuco.h"
+#include "sim/board_motion.h"
 #include "sim/camera_views.h"
 #include "sim/hand.h"
 #include "sim/scene.h"
@@ -95,7 +98,7 @@ class LatchService {
 Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConfig& camera,
                                                      const SimCameraClock& clock, std::int64_t t0_ns,
                                                      std::uint64_t seed, const std::filesystem::path& truth_dir,
-                                                     std::shared_ptr<const Hand> hand) {
+                                                     std::shared_ptr<const Hand> hand, bool board) {
   if (camera.address.empty())
     return Error{fmt::format("{}: a simulated camera needs an 'address' (127.0.0.x)", camera.name)};
   std::unique_ptr<SimCamera> self(new SimCamera());
@@ -104,6 +107,7 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   self->config_ = clock;
   self->configured_size_ = cv::Size(camera.width, camera.height);
   self->hand_ = std::move(hand);
+  self->board_ = board;
   self->clock_ = SimClock{t0_ns, clock.offset_ms * 1e6, clock.drift_ppm * 1e-6, clock.jitter_us * 1e3};
   self->exposure_latency_ns_ = std::int64_t(clock.exposure_latency_ms * 1e6);
   self->rng_.seed(seed * 1000 + std::uint64_t(index));
@@ -175,6 +179,31 @@ const cv::Mat& SimCamera::base_image(int width, int height, ArvPixelFormat forma
   return it->second;
 }
 
+const cv::Mat& SimCamera::board_image(int width, int height, ArvPixelFormat format, std::int64_t true_ns) {
+  BoardView& v = board_views_[std::make_tuple(width, height, std::uint32_t(format))];
+  const calib::CameraModel m = model({width, height});
+  if (v.rays.empty()) {
+    v.rays = m.normalised_rays();
+    v.scene_bgr = render_scene_bgr(calib::default_pad_layout(), m, v.rays);
+  }
+  const int pose = board_pose_index(double(true_ns - clock_.t0_ns) * 1e-9);
+  if (pose != v.pose) {
+    static const calib::BoardSpec spec;
+    static const PlaneTexture board = [] {
+      constexpr double kPxPerMm = 6.0;
+      cv::Mat bgr;
+      cv::cvtColor(calib::board_image(spec, kPxPerMm), bgr, cv::COLOR_GRAY2BGR);
+      return PlaneTexture{bgr, cv::Matx33d(kPxPerMm, 0, -0.5, 0, kPxPerMm, -0.5, 0, 0, 1)};
+    }();
+    const BoardPose p = board_pose(pose, spec.width_mm(), spec.height_mm());
+    cv::Mat bgr = v.scene_bgr.clone();
+    draw_plane(bgr, v.rays, m.R * p.R, m.R * p.t + m.t, board);
+    v.frame = to_sensor_format(bgr, pixel_format_name(format));
+    v.pose = pose;
+  }
+  return v.frame;
+}
+
 // Runs on the fake camera's thread, once per frame, at the frame's capture instant.
 void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format) {
   const std::int64_t true_ns = host_now().ns;
@@ -192,11 +221,11 @@ void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t t
   // arv_buffer_get_data reports the received size, which is 0 while filling; the fake camera
   // has already checked that the allocation holds the payload (width x height x pixel size).
   auto* data = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, nullptr)));
-  const cv::Mat& base = base_image(width, height, format);
+  const cv::Mat& base = board_ ? board_image(width, height, format, true_ns) : base_image(width, height, format);
   if (!data) return;
   std::memcpy(data, base.data, base.total() * base.elemSize());
   const auto frame_id = std::uint16_t(arv_buffer_get_frame_id(buffer));
-  if (hand_) {
+  if (hand_ && !board_) {
     const HandPose pose = hand_->pose_at(true_ns);
     if (pose.visible) {
       const calib::CameraModel m = model({width, height});

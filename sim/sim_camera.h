@@ -47,11 +47,12 @@ class SimCamera {
  public:
   // Serves `camera` (address must be an IPv4 address on this host) with `clock`.
   // Ground truth goes to `truth_dir/<name>_frames.csv`.
-  // With `hand`, the camera also shows the simulated hand at each frame's instant.
+  // With `hand`, the camera also shows the simulated hand at each frame's instant; with `board`,
+  // the ChArUco board of a board session (sim/board_motion.h) instead.
   static Result<std::unique_ptr<SimCamera>> create(int index, const CameraConfig& camera, const SimCameraClock& clock,
                                                    std::int64_t t0_ns, std::uint64_t seed,
                                                    const std::filesystem::path& truth_dir,
-                                                   std::shared_ptr<const Hand> hand = nullptr);
+                                                   std::shared_ptr<const Hand> hand = nullptr, bool board = false);
   ~SimCamera();
   SimCamera(const SimCamera&) = delete;
   SimCamera& operator=(const SimCamera&) = delete;
@@ -86,6 +87,15 @@ class SimCamera {
   std::ofstream truth_;
   std::uint64_t emitted_ = 0;
   std::shared_ptr<const Hand> hand_;
+  bool board_ = false;
+  // Board sessions: per image size, the rays, the scene without the board, and the frame of the
+  // board pose shown last (a pose is held for a second: rendered once, copied after).
+  struct BoardView {
+    cv::Mat rays, scene_bgr, frame;
+    int pose = -1;
+  };
+  std::map<std::tuple<int, int, std::uint32_t>, BoardView> board_views_;
+  const cv::Mat& board_image(int width, int height, ArvPixelFormat format, std::int64_t true_ns);
 };
 
 }  // namespace pvcap::sim

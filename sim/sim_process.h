@@ -17,7 +17,8 @@ namespace pvcap::sim {
 class SimProcess {
  public:
   static Result<std::unique_ptr<SimProcess>> start(const std::filesystem::path& exe, const std::filesystem::path& rig,
-                                                   const std::filesystem::path& truth_dir, bool steerable);
+                                                   const std::filesystem::path& truth_dir, bool steerable,
+                                                   bool board = false);
   ~SimProcess();  // SIGTERM, then SIGKILL after 5 s
   SimProcess(const SimProcess&) = delete;
   SimProcess& operator=(const SimProcess&) = delete;

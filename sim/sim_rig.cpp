@@ -8,6 +8,8 @@
 #include <spdlog/spdlog.h>
 
 #include "core/time.h"
+#include "calib/charuco.h"
+#include "sim/board_motion.h"
 #include "sim/scene.h"
 
 namespace pvcap::sim {
@@ -19,7 +21,8 @@ std::vector<std::string> sim_addresses(const RigConfig& rig) {
   return out;
 }
 
-Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::filesystem::path& truth_dir) {
+Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::filesystem::path& truth_dir,
+                                               bool board) {
   if (!rig.sim) return Error{fmt::format("{}: no 'sim:' section: this is not a simulated rig", rig.source.string())};
   std::error_code ec;
   std::filesystem::create_directories(truth_dir, ec);
@@ -36,12 +39,20 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
   truth["clock"] = "CLOCK_MONOTONIC";
   const calib::PadLayout pad = calib::default_pad_layout();
   truth["pad"] = pad;
+  if (board) {
+    const calib::BoardSpec spec;
+    truth["board"] = {{"squares", {spec.squares_x, spec.squares_y}},
+                      {"square_mm", spec.square_mm},
+                      {"marker_mm", spec.marker_mm},
+                      {"poses", kBoardPoses},
+                      {"hold_s", kBoardHoldSeconds}};
+  }
   for (std::size_t i = 0; i < rig.cameras.size(); ++i) {
     const CameraConfig& cam = rig.cameras[i];
     const SimCameraClock& clk = rig.sim->cameras[i];
     const bool sensel_sim = rig.sensel && rig.sensel->tty == "sim";
     auto made = SimCamera::create(int(i), cam, clk, self->t0_ns_, rig.sim->seed, truth_dir,
-                                  sensel_sim ? self->hand_ : nullptr);
+                                  sensel_sim ? self->hand_ : nullptr, board);
     if (!made) return made.error();
     const calib::CameraModel model = made.value()->model({cam.width, cam.height});
     const cv::Matx33d h = calib::cells_to_ideal(model, pad);

@@ -23,7 +23,9 @@ namespace pvcap::sim {
 
 class SimRig {
  public:
-  static Result<std::unique_ptr<SimRig>> create(const RigConfig& rig, const std::filesystem::path& truth_dir);
+  // `board`: a calibration board session (the board moves through its poses; no hand).
+  static Result<std::unique_ptr<SimRig>> create(const RigConfig& rig, const std::filesystem::path& truth_dir,
+                                                bool board = false);
   ~SimRig();
 
   // Serves until `stop` becomes true, removing cameras whose stop_after_s has passed and

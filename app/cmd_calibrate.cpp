@@ -1,0 +1,295 @@
+#include "app/cmd_calibrate.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "calib/charuco.h"
+#include "calib/pad_calibration.h"
+#include "calib/rig_calibration.h"
+#include "core/result.h"
+#include "storage/session_index.h"
+#include "storage/session_reader.h"
+
+namespace pvcap {
+namespace {
+
+// Targets the ground-truth check holds a simulated run's calibration to (issue: calibration).
+constexpr double kFocalTolerance = 0.005, kPrincipalTolerancePx = 2.0;
+constexpr double kCornerMedianPx = 0.3, kCornerMaxPx = 1.0;
+
+std::int64_t wall_now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// One line, rewritten in place on a terminal; nothing in a log.
+void progress(const std::string& what, std::size_t done, std::size_t total) {
+  if (isatty(STDERR_FILENO) != 1) return;
+  fmt::print(stderr, "\r{}: {}/{} frames {}", what, done, total, done == total ? "\n" : "");
+  std::fflush(stderr);
+}
+
+std::unique_ptr<SessionReader> open_session(const std::filesystem::path& dir) {
+  auto r = SessionReader::open(dir);
+  if (!r) throw UserError(r.error().message);
+  return std::move(r.value());
+}
+
+// Up to `wanted` sample indices spread evenly over the session.
+std::vector<std::size_t> spread(std::size_t count, std::size_t wanted) {
+  std::vector<std::size_t> out;
+  if (count == 0) return out;
+  wanted = std::min(wanted, count);
+  for (std::size_t k = 0; k < wanted; ++k) out.push_back(k * count / wanted);
+  return out;
+}
+
+nlohmann::json read_truth(const std::filesystem::path& dir) {
+  std::ifstream in(dir / "rig.json");
+  if (!in) throw UserError(fmt::format("{}: no rig.json (is this a simulated run's sim-truth folder?)", dir.string()));
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw UserError(fmt::format("{}/rig.json: {}", dir.string(), e.what()));
+  }
+}
+
+const nlohmann::json* truth_camera(const nlohmann::json& truth, const std::string& name) {
+  for (const auto& c : truth.at("cameras"))
+    if (c.value("name", "") == name) return &c;
+  return nullptr;
+}
+
+// Records `c`'s latest measurement in the session's calibrations table.
+void add_to_session(const std::filesystem::path& session, const CameraInfo& camera, const calib::CameraCalibration& c,
+                    const calib::MeasuredBy& m, const std::filesystem::path& file) {
+  CalibrationRecord r;
+  r.device_id = camera.device_id;
+  r.created_wall_ns = m.created_wall_ns;
+  r.method = m.method;
+  const cv::Matx33d h = c.cells_to_ideal.value_or(cv::Matx33d::zeros());
+  r.homography_json = nlohmann::json(std::vector<double>(h.val, h.val + 9)).dump();
+  r.rms_px = m.rms_px;
+  r.rms_mm = m.rms_mm;
+  nlohmann::json details = nlohmann::json(c);
+  details["calibration_file"] = std::filesystem::absolute(file).string();
+  r.details_json = details.dump();
+  try {
+    auto index = SessionIndex::open_for_update(session / "session.db");
+    index.add_calibration(r);
+  } catch (const std::exception& e) {
+    throw UserError(fmt::format("{}: could not add the calibration to the session: {} (the calibration file {} has "
+                                "it)",
+                                session.string(), e.what(), file.string()));
+  }
+}
+
+calib::RigCalibration load_or_new(const std::filesystem::path& file, const SessionReader& session) {
+  calib::RigCalibration cal;
+  if (std::filesystem::exists(file)) {
+    auto loaded = calib::load_rig_calibration(file);
+    if (!loaded) throw UserError(loaded.error().message);
+    cal = std::move(loaded.value());
+  }
+  if (cal.rig.empty()) cal.rig = session.info().rig_name;
+  return cal;
+}
+
+std::filesystem::path calibration_file(const CalibrateOptions& o) {
+  return o.calibration.empty() ? o.session / "calibration.yaml" : o.calibration;
+}
+
+std::string fmt_point(cv::Point2d p) { return fmt::format("({:.1f}, {:.1f})", p.x, p.y); }
+
+}  // namespace
+
+int cmd_calibrate_board(const std::filesystem::path& out) {
+  const calib::BoardSpec spec;
+  const std::string ext = out.extension().string();
+  if (ext == ".pdf") {
+    std::ofstream f(out, std::ios::binary | std::ios::trunc);
+    f << calib::board_pdf(spec);
+    if (!f.flush()) throw UserError(fmt::format("cannot write {}", out.string()));
+  } else if (ext == ".png") {
+    if (!cv::imwrite(out.string(), calib::board_image(spec, 12.0)))
+      throw UserError(fmt::format("cannot write {}", out.string()));
+  } else {
+    throw UserError(fmt::format("{}: the board is written as .pdf or .png", out.string()));
+  }
+  fmt::print("wrote {}: ChArUco board {} x {} squares of {} mm, markers {} mm ({}). Print at 100 % (\"actual "
+             "size\"), check one square measures {} mm, and mount it flat and rigid.\n",
+             out.string(), spec.squares_x, spec.squares_y, spec.square_mm, spec.marker_mm, "DICT_5X5_100",
+             spec.square_mm);
+  return 0;
+}
+
+int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
+  auto session = open_session(o.session);
+  const calib::BoardSpec spec;
+  const std::filesystem::path file = calibration_file(o);
+  calib::RigCalibration cal = load_or_new(file, *session);
+  const auto samples = spread(session->sample_count(), std::size_t(o.frames > 0 ? o.frames : 150));
+  if (samples.empty()) throw UserError(fmt::format("{}: the session has no samples", o.session.string()));
+  std::optional<nlohmann::json> truth;
+  if (!o.ground_truth.empty()) truth = read_truth(o.ground_truth);
+  bool within_targets = true;
+  for (std::size_t c = 0; c < session->cameras().size(); ++c) {
+    const CameraInfo& camera = session->cameras()[c];
+    std::vector<calib::BoardView> views;
+    std::size_t done = 0;
+    for (std::size_t i : samples) {
+      auto image = session->image(i, c);
+      if (!image) throw UserError(image.error().message);
+      if (!image.value().empty()) views.push_back(calib::detect_board(image.value(), spec));
+      progress(camera.name + ": finding the board", ++done, samples.size());
+    }
+    auto got = calib::calibrate_intrinsics(views, {camera.width, camera.height}, spec);
+    if (!got) throw UserError(fmt::format("{}: {}", camera.name, got.error().message));
+    const calib::Intrinsics& in = got.value();
+    calib::CameraCalibration* entry = cal.camera(camera.name);
+    if (!entry) entry = &cal.cameras.emplace_back();
+    entry->name = camera.name;
+    entry->serial = camera.serial;
+    entry->model = in.model;
+    entry->pad.reset();  // a pose belongs to the intrinsics it was solved with
+    entry->cells_to_ideal.reset();
+    entry->pad_corners_px.reset();
+    calib::MeasuredBy m{"charuco_intrinsics", std::filesystem::absolute(o.session).string(), wall_now_ns(), in.rms_px,
+                        std::nullopt,
+                        {{"views", in.views},
+                         {"rejected_views", in.rejected_views},
+                         {"corners", in.corners},
+                         {"coverage", in.coverage},
+                         {"coverage_grid", {calib::Intrinsics::coverage_cols, calib::Intrinsics::coverage_rows}},
+                         {"empty_regions", in.empty_regions}}};
+    entry->intrinsics = m;
+    fmt::print("{}: {} views ({} left out), {} corners, RMS {:.3f} px; fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f}\n",
+               camera.name, in.views, in.rejected_views, in.corners, in.rms_px, in.model.K(0, 0), in.model.K(1, 1),
+               in.model.K(0, 2), in.model.K(1, 2));
+    std::string grid;
+    for (int r = 0; r < calib::Intrinsics::coverage_rows; ++r) {
+      grid += "    ";
+      for (int k = 0; k < calib::Intrinsics::coverage_cols; ++k)
+        grid += fmt::format("{:>6}", in.coverage[std::size_t(r * calib::Intrinsics::coverage_cols + k)]);
+      grid += '\n';
+    }
+    fmt::print("  corners per image region:\n{}", grid);
+    if (!in.empty_regions.empty())
+      fmt::print("  no corners yet in: {}. Record more board views there: the lens is not known where the board "
+                 "has not been\n",
+                 fmt::join(in.empty_regions, ", "));
+    if (truth) {
+      const nlohmann::json* t = truth_camera(*truth, camera.name);
+      if (!t) throw UserError(fmt::format("{}: camera {} is not in the ground truth", o.ground_truth.string(),
+                                          camera.name));
+      const auto tm = t->at("model").get<calib::CameraModel>();
+      const double efx = in.model.K(0, 0) / tm.K(0, 0) - 1, efy = in.model.K(1, 1) / tm.K(1, 1) - 1;
+      const double ecx = in.model.K(0, 2) - tm.K(0, 2), ecy = in.model.K(1, 2) - tm.K(1, 2);
+      const bool ok = std::abs(efx) <= kFocalTolerance && std::abs(efy) <= kFocalTolerance &&
+                      std::abs(ecx) <= kPrincipalTolerancePx && std::abs(ecy) <= kPrincipalTolerancePx;
+      within_targets = within_targets && ok;
+      fmt::print("  against the truth: focal {:+.3f} % / {:+.3f} %, principal point {:+.2f} / {:+.2f} px ({})\n",
+                 100 * efx, 100 * efy, ecx, ecy,
+                 ok ? "within targets" : fmt::format("OUTSIDE the targets {} % and {} px", 100 * kFocalTolerance,
+                                                     kPrincipalTolerancePx));
+    }
+    add_to_session(o.session, camera, *entry, m, file);
+  }
+  if (Status s = calib::save_rig_calibration(file, cal); !s.ok()) throw UserError(s.error().message);
+  fmt::print("wrote {}; next: pvcap calibrate pad SESSION --calibration {}\n", file.string(), file.string());
+  return within_targets ? 0 : 1;
+}
+
+int cmd_calibrate_pad(const CalibrateOptions& o) {
+  auto session = open_session(o.session);
+  const std::filesystem::path file = calibration_file(o);
+  if (!std::filesystem::exists(file))
+    throw UserError(fmt::format("{}: no calibration file with the cameras' intrinsics; make one first with `pvcap "
+                                "calibrate intrinsics BOARD_SESSION --out {}` (or give --calibration)",
+                                file.string(), file.string()));
+  calib::RigCalibration cal = load_or_new(file, *session);
+  const auto samples = spread(session->sample_count(), std::size_t(o.frames > 0 ? o.frames : 15));
+  if (samples.empty()) throw UserError(fmt::format("{}: the session has no samples", o.session.string()));
+  std::optional<nlohmann::json> truth;
+  if (!o.ground_truth.empty()) truth = read_truth(o.ground_truth);
+  bool within_targets = true;
+  std::vector<std::string> failed;
+  for (std::size_t c = 0; c < session->cameras().size(); ++c) {
+    const CameraInfo& camera = session->cameras()[c];
+    calib::CameraCalibration* entry = cal.camera(camera.name);
+    if (!entry || !entry->intrinsics) {
+      failed.push_back(fmt::format("{}: {} has no intrinsics for this camera; run `pvcap calibrate intrinsics` on a "
+                                   "board session first",
+                                   camera.name, file.string()));
+      continue;
+    }
+    if (entry->model.image_size != cv::Size(camera.width, camera.height)) {
+      failed.push_back(fmt::format("{}: its intrinsics are for {}x{} images but this session recorded {}x{}; "
+                                   "calibrate the intrinsics at this size",
+                                   camera.name, entry->model.image_size.width, entry->model.image_size.height,
+                                   camera.width, camera.height));
+      continue;
+    }
+    calib::MarkerAccumulator markers(cal.pad);
+    std::size_t done = 0;
+    for (std::size_t i : samples) {
+      auto image = session->image(i, c);
+      if (!image) throw UserError(image.error().message);
+      if (!image.value().empty()) markers.add(image.value());
+      progress(camera.name + ": finding the mat's markers", ++done, samples.size());
+    }
+    auto got = calib::calibrate_pad(markers.median(), entry->model, cal.pad);
+    if (!got) {
+      failed.push_back(fmt::format("{}: {}", camera.name, got.error().message));
+      continue;
+    }
+    const calib::PadCalibration& p = got.value();
+    entry->model = p.model;
+    entry->cells_to_ideal = p.cells_to_ideal;
+    entry->pad_corners_px = p.pad_corners_px;
+    calib::MeasuredBy m{"pad_markers", std::filesystem::absolute(o.session).string(), wall_now_ns(), p.rms_px, p.rms_mm,
+                        {{"markers", p.marker_ids}, {"frames", markers.frames()}}};
+    entry->pad = m;
+    const cv::Point3d centre = p.model.centre_mm();
+    fmt::print("{}: {} markers over {} frames, RMS {:.3f} px / {:.3f} mm on the pad; camera at ({:.0f}, {:.0f}) mm, "
+               "{:.0f} mm above the pad; grid corners {} {} {} {}\n",
+               camera.name, p.marker_ids.size(), markers.frames(), p.rms_px, p.rms_mm, centre.x, centre.y, -centre.z,
+               fmt_point(p.pad_corners_px[0]), fmt_point(p.pad_corners_px[1]), fmt_point(p.pad_corners_px[2]),
+               fmt_point(p.pad_corners_px[3]));
+    if (truth) {
+      const nlohmann::json* t = truth_camera(*truth, camera.name);
+      if (!t) throw UserError(fmt::format("{}: camera {} is not in the ground truth", o.ground_truth.string(),
+                                          camera.name));
+      std::vector<double> errors;
+      for (std::size_t k = 0; k < 4; ++k) {
+        const cv::Point2d want(t->at("pad_corners_px").at(k).at(0).get<double>(),
+                               t->at("pad_corners_px").at(k).at(1).get<double>());
+        errors.push_back(cv::norm(p.pad_corners_px[k] - want));
+      }
+      std::sort(errors.begin(), errors.end());
+      const double median = (errors[1] + errors[2]) / 2, max = errors[3];
+      const bool ok = median <= kCornerMedianPx && max <= kCornerMaxPx;
+      within_targets = within_targets && ok;
+      fmt::print("  against the truth: pad corners median {:.3f} px, max {:.3f} px ({})\n", median, max,
+                 ok ? "within targets" : fmt::format("OUTSIDE the targets {} / {} px", kCornerMedianPx, kCornerMaxPx));
+    }
+    add_to_session(o.session, camera, *entry, m, file);
+  }
+  if (Status s = calib::save_rig_calibration(file, cal); !s.ok()) throw UserError(s.error().message);
+  fmt::print("wrote {}\n", file.string());
+  if (!failed.empty()) {
+    for (const auto& f : failed) fmt::print(stderr, "pvcap: {}\n", f);
+    return 1;
+  }
+  return within_targets ? 0 : 1;
+}
+
+}  // namespace pvcap

@@ -1,0 +1,172 @@
+#include "calib/charuco.h"
+
+#include <zlib.h>
+
+#include <cstdio>
+#include <set>
+
+#include <fmt/format.h>
+#include <opencv2/aruco.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace pvcap::calib {
+
+cv::Ptr<cv::aruco::CharucoBoard> make_board(const BoardSpec& s) {
+  return cv::aruco::CharucoBoard::create(
+      s.squares_x, s.squares_y, float(s.square_mm), float(s.marker_mm),
+      cv::aruco::getPredefinedDictionary(cv::aruco::PREDEFINED_DICTIONARY_NAME(s.dictionary)));
+}
+
+cv::Mat board_image(const BoardSpec& s, double px_per_mm) {
+  const int w = int(std::lround(s.squares_x * s.square_mm * px_per_mm));
+  const int h = int(std::lround(s.squares_y * s.square_mm * px_per_mm));
+  const int m = int(std::lround(s.margin_mm * px_per_mm));
+  cv::Mat squares;
+  make_board(s)->draw(cv::Size(w, h), squares, 0, 1);
+  cv::Mat out(h + 2 * m, w + 2 * m, CV_8UC1, cv::Scalar(255));
+  squares.copyTo(out(cv::Rect(m, m, w, h)));
+  return out;
+}
+
+// A minimal PDF 1.4: one page of the board's size plus a little, the image drawn at its true size
+// (72 points per inch), Flate-compressed grey pixels.
+std::string board_pdf(const BoardSpec& s) {
+  constexpr double kPxPerMm = 12.0;  // ~300 dpi
+  const cv::Mat img = board_image(s, kPxPerMm);
+  const double pt_per_mm = 72.0 / 25.4;
+  const double page_w = (s.width_mm() + 20) * pt_per_mm, page_h = (s.height_mm() + 30) * pt_per_mm;
+  const double img_w = s.width_mm() * pt_per_mm, img_h = s.height_mm() * pt_per_mm;
+  uLongf packed_size = compressBound(uLong(img.total()));
+  std::string packed(packed_size, '\0');
+  compress2(reinterpret_cast<Bytef*>(packed.data()), &packed_size, img.data, uLong(img.total()), 9);
+  packed.resize(packed_size);
+  const std::string caption = fmt::format("pvcap ChArUco board {}x{}, squares {} mm, markers {} mm: print at 100 %",
+                                          s.squares_x, s.squares_y, s.square_mm, s.marker_mm);
+  const std::string content =
+      fmt::format("q {:.3f} 0 0 {:.3f} {:.3f} {:.3f} cm /Im0 Do Q\nBT /F1 9 Tf {:.3f} {:.3f} Td ({}) Tj ET\n", img_w,
+                  img_h, 10 * pt_per_mm, 20 * pt_per_mm, 10 * pt_per_mm, 8 * pt_per_mm, caption);
+  std::vector<std::string> objects = {
+      "<< /Type /Catalog /Pages 2 0 R >>",
+      "<< /Type /Pages /Kids [3 0 R] /Count 1 >>",
+      fmt::format("<< /Type /Page /Parent 2 0 R /MediaBox [0 0 {:.3f} {:.3f}] /Resources << /XObject << /Im0 4 0 R "
+                  ">> /Font << /F1 6 0 R >> >> /Contents 5 0 R >>",
+                  page_w, page_h),
+      fmt::format("<< /Type /XObject /Subtype /Image /Width {} /Height {} /ColorSpace /DeviceGray /BitsPerComponent 8 "
+                  "/Filter /FlateDecode /Length {} >>\nstream\n{}\nendstream",
+                  img.cols, img.rows, packed.size(), packed),
+      fmt::format("<< /Length {} >>\nstream\n{}endstream", content.size(), content),
+      "<< /Type /Font /Subtype /Type1 /BaseFont /Helvetica >>",
+  };
+  std::string pdf = "%PDF-1.4\n";
+  std::vector<std::size_t> offsets;
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    offsets.push_back(pdf.size());
+    pdf += fmt::format("{} 0 obj\n{}\nendobj\n", i + 1, objects[i]);
+  }
+  const std::size_t xref = pdf.size();
+  pdf += fmt::format("xref\n0 {}\n0000000000 65535 f \n", objects.size() + 1);
+  for (std::size_t o : offsets) pdf += fmt::format("{:010d} 00000 n \n", o);
+  pdf += fmt::format("trailer\n<< /Size {} /Root 1 0 R >>\nstartxref\n{}\n%%EOF\n", objects.size() + 1, xref);
+  return pdf;
+}
+
+BoardView detect_board(const cv::Mat& image, const BoardSpec& spec) {
+  cv::Mat grey = image;
+  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  const auto board = make_board(spec);
+  std::vector<std::vector<cv::Point2f>> marker_corners;
+  std::vector<int> marker_ids;
+  cv::aruco::detectMarkers(grey, board->dictionary, marker_corners, marker_ids);
+  BoardView view;
+  if (marker_ids.empty()) return view;
+  cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, grey, board, view.corners, view.ids);
+  if (!view.corners.empty())
+    cv::cornerSubPix(grey, view.corners, cv::Size(4, 4), cv::Size(-1, -1),
+                     cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 40, 0.005));
+  return view;
+}
+
+Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::Size size, const BoardSpec& spec) {
+  std::vector<std::vector<cv::Point2f>> corners;
+  std::vector<std::vector<int>> ids;
+  Intrinsics out;
+  out.coverage.assign(Intrinsics::coverage_cols * Intrinsics::coverage_rows, 0);
+  for (const BoardView& v : all) {
+    if (v.corners.size() < kMinBoardCorners) continue;
+    // Corners along one row or column of the board say nothing about its plane (and OpenCV's fit
+    // asserts on them): a view needs two of each.
+    std::set<int> board_rows, board_cols;
+    for (int id : v.ids) board_rows.insert(id / (spec.squares_x - 1)), board_cols.insert(id % (spec.squares_x - 1));
+    if (board_rows.size() < 2 || board_cols.size() < 2) continue;
+    corners.push_back(v.corners);
+    ids.push_back(v.ids);
+    out.corners += int(v.corners.size());
+    for (const cv::Point2f& p : v.corners) {
+      const int cx = std::clamp(int(p.x * Intrinsics::coverage_cols / size.width), 0, Intrinsics::coverage_cols - 1);
+      const int cy = std::clamp(int(p.y * Intrinsics::coverage_rows / size.height), 0, Intrinsics::coverage_rows - 1);
+      ++out.coverage[std::size_t(cy * Intrinsics::coverage_cols + cx)];
+    }
+  }
+  static const char* rows[] = {"top", "middle", "bottom"};
+  static const char* cols[] = {"far left", "left", "right", "far right"};
+  for (int r = 0; r < Intrinsics::coverage_rows; ++r)
+    for (int c = 0; c < Intrinsics::coverage_cols; ++c)
+      if (out.coverage[std::size_t(r * Intrinsics::coverage_cols + c)] == 0)
+        out.empty_regions.push_back(fmt::format("{} {}", rows[r], cols[c]));
+  out.views = int(corners.size());
+  if (corners.size() < kMinBoardViews)
+    return Error{fmt::format("the board was seen well (at least {} corners) in only {} frames; at least {} are needed. "
+                             "Hold the board still in more places and angles, filling the view",
+                             kMinBoardCorners, corners.size(), kMinBoardViews)};
+  // Square pixels (every machine-vision sensor pvcap drives): fx = fy, one unknown less. OpenCV
+  // keeps the ratio of the initial K's focal lengths, which it starts at 1.
+  cv::Mat K = cv::Mat::eye(3, 3, CV_64F), dist, per_view, deviations;
+  std::vector<cv::Mat> rvecs, tvecs;
+  const cv::TermCriteria until(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-9);
+  auto calibrate = [&] {
+    return cv::aruco::calibrateCameraCharuco(corners, ids, make_board(spec), size, K, dist, rvecs, tvecs,
+                                             deviations, cv::noArray(), per_view, cv::CALIB_FIX_ASPECT_RATIO, until);
+  };
+  try {
+    try {
+      out.rms_px = calibrate();
+    } catch (const cv::Exception& e) {
+      return Error{fmt::format("the lens could not be fitted to the board views ({})", e.err)};
+    }
+  } catch (const cv::Exception& e) {
+    return Error{fmt::format("the lens could not be fitted to the board views ({}); record the board in more "
+                             "places and angles", e.err)};
+  }
+  // A view at a grazing angle or with a misread corner pulls the whole fit: views whose error is
+  // well above the others' are left out and the fit made again, once.
+  std::vector<double> errors(per_view.begin<double>(), per_view.end<double>());
+  std::vector<double> sorted = errors;
+  std::nth_element(sorted.begin(), sorted.begin() + long(sorted.size() / 2), sorted.end());
+  const double limit = std::max(0.3, 2.0 * sorted[sorted.size() / 2]);
+  std::vector<std::vector<cv::Point2f>> kept_corners;
+  std::vector<std::vector<int>> kept_ids;
+  for (std::size_t i = 0; i < errors.size(); ++i)
+    if (errors[i] <= limit) kept_corners.push_back(corners[i]), kept_ids.push_back(ids[i]);
+  if (kept_corners.size() < corners.size() && kept_corners.size() >= kMinBoardViews) {
+    out.rejected_views = int(corners.size() - kept_corners.size());
+    corners = std::move(kept_corners);
+    ids = std::move(kept_ids);
+    out.views = int(corners.size());
+    out.corners = 0;
+    for (const auto& c : corners) out.corners += int(c.size());
+    try {
+      out.rms_px = calibrate();
+    } catch (const cv::Exception& e) {
+      return Error{fmt::format("the lens could not be fitted to the board views ({})", e.err)};
+    }
+  }
+  // One standard deviation of fx, fy, cx, cy as the fit itself estimates them.
+  for (int k = 0; k < 4 && k < deviations.rows; ++k) out.deviation[std::size_t(k)] = deviations.at<double>(k);
+  out.model.image_size = size;
+  out.model.K = cv::Matx33d(K);
+  out.model.distortion.assign(dist.begin<double>(), dist.end<double>());
+  return out;
+}
+
+}  // namespace pvcap::calib
