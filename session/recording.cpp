@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "calib/rig_calibration.h"
 #include "capture/aravis_camera.h"
 #include "core/log.h"
 #include "core/time.h"
@@ -137,6 +138,34 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
   return r;
 }
 
+// The rig calibration file beside the rig file (pvcap calibrate writes it), if there is one: each
+// camera's entry goes into the session's calibrations table, so the session says which calibration
+// it was recorded with. A broken file is a warning, not a reason to lose a session.
+void Recording::record_rig_calibration(SessionWriter& writer) {
+  if (rig_.source.empty()) return;
+  const auto file = calib::default_calibration_path(rig_.source);
+  if (!std::filesystem::exists(file)) return;
+  auto loaded = calib::load_rig_calibration(file);
+  if (!loaded) {
+    spdlog::warn("{} (the session is recorded without it; fix it or calibrate again)", loaded.error().message);
+    return;
+  }
+  for (std::size_t i = 0; i < rig_.cameras.size(); ++i) {
+    const calib::CameraCalibration* c = loaded.value().camera(rig_.cameras[i].name);
+    if (!c) continue;
+    const calib::MeasuredBy& m = c->pad ? *c->pad : c->intrinsics ? *c->intrinsics : calib::MeasuredBy{"unknown"};
+    const cv::Matx33d h = c->cells_to_ideal.value_or(cv::Matx33d::zeros());
+    nlohmann::json details = *c;
+    details["calibration_file"] = std::filesystem::absolute(file).string();
+    auto added = writer.add_calibration({device_ids_[i], m.created_wall_ns, m.method,
+                                         nlohmann::json(std::vector<double>(h.val, h.val + 9)).dump(), m.rms_px,
+                                         m.rms_mm, details.dump()});
+    if (!added) spdlog::warn("{}: calibration not recorded in the session: {}", rig_.cameras[i].name,
+                             added.error().message);
+  }
+  spdlog::info("calibration: {} (recorded in the session)", file.string());
+}
+
 Status Recording::start() {
   auto created = SessionWriter::create(options_.root, rig_, wall0_, host0_);
   if (!created) return created.error();
@@ -166,6 +195,7 @@ Status Recording::start() {
     if (!id) return fail(id.error());
     sensel_id_ = id.value();
   }
+  record_rig_calibration(writer);
   events_writer_.store(&writer);
   writer.start();
   if (options_.board_session)

@@ -125,6 +125,7 @@ class Recording {
   Recording();
   void warn(std::string message);
   void log_progress(double elapsed_s);
+  void record_rig_calibration(SessionWriter& writer);
 
   RigConfig rig_;
   RecordingOptions options_;

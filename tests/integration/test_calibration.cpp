@@ -1,0 +1,150 @@
+// Calibration through the pvcap command on the simulated rig (1080p, sensor noise, the store's
+// default codec), checked against the simulator's truth by `--ground-truth` itself and here.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <regex>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "calib/rig_calibration.h"
+#include "session_under_test.h"
+#include "storage/session_reader.h"
+
+namespace fs = std::filesystem;
+using namespace pvcap::testing;
+
+namespace {
+// The repository's simulated rig at full size, copied so its calibration file lands beside it.
+fs::path write_full_size_rig(const fs::path& dir) {
+  fs::copy_file(fs::path(PVCAP_SOURCE_DIR) / "rig-configs" / "sim.yaml", dir / "rig.yaml");
+  return dir / "rig.yaml";
+}
+
+fs::path only_session(const fs::path& root) {
+  for (const auto& e : fs::directory_iterator(root))
+    if (e.is_directory() && e.path().filename().string()[0] != '.') return e.path();
+  return {};
+}
+
+int count(const std::string& text, const std::string& needle) {
+  int n = 0;
+  for (auto p = text.find(needle); p != std::string::npos; p = text.find(needle, p + 1)) ++n;
+  return n;
+}
+}  // namespace
+
+// A board session, then intrinsics from it: focal length within 0.5 % and principal point within
+// 2 px of the simulator's lens for every camera (the command checks and exits 1 otherwise).
+TEST(Calibration, BoardSessionGivesEveryCamerasIntrinsicsWithinTargets) {
+  const fs::path work = work_dir("calibrate-intrinsics");
+  const fs::path rig = write_full_size_rig(work);
+  const auto board = run_pvcap(fmt::format("session --rig {} --board --duration 50 --root {} --no-web", rig.string(),
+                                           (work / "board").string()));
+  ASSERT_EQ(board.exit_code, 0) << board.output;
+  const fs::path session = only_session(work / "board");
+  const auto intrinsics = run_pvcap(fmt::format("calibrate intrinsics {} --rig {} --frames 80 --ground-truth {}",
+                                                session.string(), rig.string(), (session / "sim-truth").string()));
+  EXPECT_EQ(intrinsics.exit_code, 0) << intrinsics.output;
+  EXPECT_EQ(count(intrinsics.output, "(within targets)"), 4) << intrinsics.output;
+  const fs::path file = work / "rig.calibration.yaml";
+  ASSERT_TRUE(fs::exists(file)) << "the calibration file goes beside the rig file";
+  auto cal = pvcap::calib::load_rig_calibration(file);
+  ASSERT_TRUE(cal) << cal.error().message;
+  ASSERT_EQ(cal.value().cameras.size(), 4u);
+  for (const auto& c : cal.value().cameras) {
+    ASSERT_TRUE(c.intrinsics);
+    EXPECT_EQ(c.intrinsics->method, "charuco_intrinsics");
+    EXPECT_GE(c.intrinsics->details.at("views").get<int>(), 8);
+    EXPECT_FALSE(c.pad) << "no pose before the pad is calibrated";
+  }
+  // The session keeps what was measured from it.
+  auto reader = pvcap::SessionReader::open(session);
+  ASSERT_TRUE(reader);
+  auto rows = reader.value()->calibrations();
+  ASSERT_TRUE(rows);
+  EXPECT_EQ(rows.value().size(), 4u);
+  fs::remove_all(work);
+}
+
+// The pad's pose and homography from a recorded session with intrinsics given (the truth's, written
+// as a calibration file, so this test does not need a board session): pad corners within 0.3 px
+// median and 1 px max of the truth in every camera; the session and the next session record it.
+TEST(Calibration, PadCornersFromASessionMatchTheTruthAndLaterSessionsRecordTheCalibration) {
+  const fs::path work = work_dir("calibrate-pad");
+  const fs::path rig = write_full_size_rig(work);
+  const auto first = run_pvcap(fmt::format("session --rig {} --duration 4 --root {} --no-web", rig.string(),
+                                           (work / "s1").string()));
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const fs::path session = only_session(work / "s1");
+
+  // Without intrinsics: one clear message, exit 2.
+  const auto missing = run_pvcap(fmt::format("calibrate pad {} --rig {}", session.string(), rig.string()));
+  EXPECT_EQ(missing.exit_code, 2) << missing.output;
+  EXPECT_NE(missing.output.find("no calibration file with the cameras' intrinsics"), std::string::npos)
+      << missing.output;
+
+  std::ifstream truth_in(session / "sim-truth" / "rig.json");
+  const auto truth = nlohmann::json::parse(truth_in);
+  pvcap::calib::RigCalibration given;
+  given.rig = "sim-rig";
+  for (const auto& c : truth.at("cameras")) {
+    pvcap::calib::CameraCalibration cc;
+    cc.name = c.at("name").get<std::string>();
+    const auto m = c.at("model").get<pvcap::calib::CameraModel>();
+    cc.model.image_size = m.image_size;
+    cc.model.K = m.K;
+    cc.model.distortion = m.distortion;
+    cc.intrinsics = pvcap::calib::MeasuredBy{"truth", "", 0, 0.0};
+    given.cameras.push_back(cc);
+  }
+  const fs::path file = work / "rig.calibration.yaml";
+  ASSERT_TRUE(pvcap::calib::save_rig_calibration(file, given).ok());
+
+  const auto pad = run_pvcap(fmt::format("calibrate pad {} --rig {} --ground-truth {}", session.string(), rig.string(),
+                                         (session / "sim-truth").string()));
+  EXPECT_EQ(pad.exit_code, 0) << pad.output;
+  EXPECT_EQ(count(pad.output, "(within targets)"), 4) << pad.output;
+  EXPECT_EQ(count(pad.output, "10 markers"), 4) << pad.output;
+  auto cal = pvcap::calib::load_rig_calibration(file);
+  ASSERT_TRUE(cal) << cal.error().message;
+  for (std::size_t i = 0; i < 4; ++i) {
+    const auto& c = cal.value().cameras[i];
+    ASSERT_TRUE(c.pad && c.pad_corners_px);
+    for (std::size_t k = 0; k < 4; ++k) {
+      const cv::Point2d want(truth["cameras"][i]["pad_corners_px"][k][0].get<double>(),
+                             truth["cameras"][i]["pad_corners_px"][k][1].get<double>());
+      EXPECT_LT(cv::norm((*c.pad_corners_px)[k] - want), 1.0) << c.name << " corner " << k;
+    }
+  }
+  {
+    auto reader = pvcap::SessionReader::open(session);
+    ASSERT_TRUE(reader);
+    auto rows = reader.value()->calibrations();
+    ASSERT_TRUE(rows);
+    ASSERT_EQ(rows.value().size(), 4u);
+    EXPECT_EQ(rows.value()[0].method, "pad_markers");
+    EXPECT_LT(*rows.value()[0].rms_mm, 0.5);
+  }
+
+  // The next session on this rig records the calibration it was made with.
+  const auto second = run_pvcap(fmt::format("session --rig {} --duration 2 --root {} --no-web", rig.string(),
+                                            (work / "s2").string()));
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+  auto reader = pvcap::SessionReader::open(only_session(work / "s2"));
+  ASSERT_TRUE(reader);
+  auto rows = reader.value()->calibrations();
+  ASSERT_TRUE(rows);
+  ASSERT_EQ(rows.value().size(), 4u);
+  EXPECT_EQ(rows.value()[0].method, "pad_markers");
+  EXPECT_NE(rows.value()[0].details_json.find("rig.calibration.yaml"), std::string::npos);
+
+  // A damaged calibration file is said, and the session is recorded anyway.
+  std::ofstream(file) << "pvcap_calibration: [unclosed\n";
+  const auto third = run_pvcap(fmt::format("session --rig {} --duration 2 --root {} --no-web", rig.string(),
+                                           (work / "s3").string()));
+  EXPECT_EQ(third.exit_code, 0) << third.output;
+  EXPECT_NE(third.output.find("rig.calibration.yaml:1: YAML syntax error"), std::string::npos) << third.output;
+  fs::remove_all(work);
+}
