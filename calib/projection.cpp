@@ -1,0 +1,96 @@
+#include "calib/projection.h"
+
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+namespace pvcap::calib {
+
+cv::Mat warp_pressure(const cv::Mat& pressure, const cv::Matx33d& cells_to_image, cv::Size size) {
+  CV_Assert(pressure.type() == CV_32F);
+  cv::Mat out;
+  cv::warpPerspective(pressure, out, cells_to_image, size, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  return out;
+}
+
+PressureProjector::PressureProjector(const CameraModel& camera, const PadLayout& pad) {
+  const cv::Mat rays = camera.normalised_rays();
+  // A ray (x, y, 1) meets the pad plane at (u, v, 1) ~ [r1 r2 t]^-1 (x, y, 1) (mm); cells = mm / pitch.
+  const cv::Matx33d rt(camera.R(0, 0), camera.R(0, 1), camera.t[0], camera.R(1, 0), camera.R(1, 1), camera.t[1],
+                       camera.R(2, 0), camera.R(2, 1), camera.t[2]);
+  const cv::Matx33d to_cells = cv::Matx33d(1 / pad.pitch_mm, 0, 0, 0, 1 / pad.pitch_mm, 0, 0, 0, 1) * rt.inv();
+  map_.create(rays.size(), CV_32FC2);
+  for (int y = 0; y < rays.rows; ++y) {
+    const auto* d = rays.ptr<cv::Vec2f>(y);
+    auto* out = map_.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < rays.cols; ++x) {
+      const cv::Vec3d q = to_cells * cv::Vec3d(d[x][0], d[x][1], 1.0);
+      out[x] = q[2] > 1e-12 ? cv::Vec2f(float(q[0] / q[2]), float(q[1] / q[2])) : cv::Vec2f(-1e6f, -1e6f);
+    }
+  }
+}
+
+cv::Mat PressureProjector::project(const cv::Mat& pressure) const {
+  CV_Assert(pressure.type() == CV_32F);
+  cv::Mat out;
+  cv::remap(pressure, out, map_, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  return out;
+}
+
+cv::Mat pixel_area_mm2(const cv::Matx33d& cells_to_image, cv::Size size, const PadLayout& pad) {
+  // The inverse map g = H^-1 (image -> cells) has Jacobian determinant det(g) / w^3, w its third row.
+  const cv::Matx33d g = cells_to_image.inv();
+  const double det = cv::determinant(g), cell_area = pad.pitch_mm * pad.pitch_mm;
+  cv::Mat out(size, CV_32F);
+  for (int y = 0; y < size.height; ++y) {
+    auto* row = out.ptr<float>(y);
+    for (int x = 0; x < size.width; ++x) {
+      const double w = g(2, 0) * x + g(2, 1) * y + g(2, 2);
+      const double u = (g(0, 0) * x + g(0, 1) * y + g(0, 2)) / w, v = (g(1, 0) * x + g(1, 1) * y + g(1, 2)) / w;
+      const bool on_pad = u >= -0.5 && v >= -0.5 && u < pad.cols - 0.5 && v < pad.rows - 0.5;
+      row[x] = on_pad ? float(std::abs(det / (w * w * w)) * cell_area) : 0.0f;
+    }
+  }
+  return out;
+}
+
+double sensor_force_n(const cv::Mat& pressure_kpa, const PadLayout& pad) {
+  return cv::sum(pressure_kpa)[0] * pad.pitch_mm * pad.pitch_mm * 1e-3;  // kPa * mm^2 = 1e-3 N
+}
+
+cv::Mat warp_pressure_conserving(const cv::Mat& pressure_kpa, const cv::Matx33d& cells_to_image, cv::Size size,
+                                 const PadLayout& pad) {
+  cv::Mat warped = warp_pressure(pressure_kpa, cells_to_image, size);
+  const double in_image = cv::sum(warped.mul(pixel_area_mm2(cells_to_image, size, pad)))[0] * 1e-3;
+  const double on_sensor = sensor_force_n(pressure_kpa, pad);
+  if (in_image > 0) warped *= on_sensor / in_image;
+  return warped;
+}
+
+cv::Rect paper_crop_box(const std::array<cv::Point2d, 4>& corners, cv::Size image, double margin, cv::Size network) {
+  cv::Point2d lo = corners[0], hi = corners[0];
+  for (const cv::Point2d& p : corners) {
+    lo.x = std::min(lo.x, p.x), lo.y = std::min(lo.y, p.y);
+    hi.x = std::max(hi.x, p.x), hi.y = std::max(hi.y, p.y);
+  }
+  lo -= cv::Point2d(margin, margin);
+  hi += cv::Point2d(margin, margin);
+  // numpy's round: halves to even, as nearbyint in the default rounding mode.
+  const cv::Point2d centre(std::nearbyint((lo.x + hi.x) / 2), std::nearbyint((lo.y + hi.y) / 2));
+  double span_x = (hi.x - lo.x) / 2, span_y = (hi.y - lo.y) / 2;
+  const double aspect = double(network.height) / network.width;
+  if (span_x * aspect > span_y) span_y = span_x * aspect;
+  else span_x = span_y / aspect;
+  // Python's int() truncates toward zero.
+  const int x0 = std::max(int(std::trunc(centre.x - span_x)), 0), x1 = std::min(int(std::trunc(centre.x + span_x)), image.width);
+  const int y0 = std::max(int(std::trunc(centre.y - span_y)), 0), y1 = std::min(int(std::trunc(centre.y + span_y)), image.height);
+  return {x0, y0, std::max(0, x1 - x0), std::max(0, y1 - y0)};
+}
+
+cv::Mat apply_crop(const cv::Mat& image, const cv::Rect& box, cv::Size network) {
+  cv::Mat out;
+  cv::resize(image(box), out, network, 0, 0, cv::INTER_LINEAR);
+  return out;
+}
+
+}  // namespace pvcap::calib

@@ -1,0 +1,50 @@
+#pragma once
+// Pressure in camera images, as replay and export need it, with PressureVision's own definitions
+// (../shared/specs/pressurevision-dataset.md section 2): warping a pressure frame into a camera
+// image, the paper's crop applied identically to image and pressure, and the area each image
+// pixel covers on the pad, so that totals (newtons) survive the warp.
+#include <array>
+
+#include <opencv2/core.hpp>
+
+#include "calib/camera_model.h"
+#include "calib/pad_layout.h"
+
+namespace pvcap::calib {
+
+// A pressure image (CV_32F on the sensor grid, cell centres at integer coordinates) in an image of
+// `size` through `cells_to_image`: bilinear, zero off the pad (cv::warpPerspective, as PV does).
+// This interpolates pressure; it does not conserve force (see pixel_area_mm2).
+cv::Mat warp_pressure(const cv::Mat& pressure, const cv::Matx33d& cells_to_image, cv::Size size);
+
+// The same into the camera's real (distorted) image: every pixel's ray is followed to the pad, so
+// the overlay lies on the pad even where the lens bends it. Built once per camera, applied per frame.
+class PressureProjector {
+ public:
+  PressureProjector(const CameraModel& camera, const PadLayout& pad);
+  cv::Mat project(const cv::Mat& pressure) const;  // CV_32F of the camera's image size
+
+ private:
+  cv::Mat map_;  // CV_32FC2: image pixel -> pressure-image coordinates (outside: -1e6)
+};
+
+// The area on the pad (mm^2) each image pixel covers under `cells_to_image` (CV_32F of `size`;
+// 0 where the pixel is off the pad): sum(kPa * area_mm2) / 1000 is force in newtons.
+cv::Mat pixel_area_mm2(const cv::Matx33d& cells_to_image, cv::Size size, const PadLayout& pad);
+// Force (N) of a pressure image in kPa on the sensor grid.
+double sensor_force_n(const cv::Mat& pressure_kpa, const PadLayout& pad);
+// warp_pressure, rescaled so the image's force (with pixel_area_mm2) equals the sensor's: for
+// totals and force-weighted metrics. Zero pressure stays zero.
+cv::Mat warp_pressure_conserving(const cv::Mat& pressure_kpa, const cv::Matx33d& cells_to_image, cv::Size size,
+                                 const PadLayout& pad);
+
+// The paper's crop (PressureVision recording/sequence_reader.py crop_img): the bounding box of the
+// pad's four image corners, `margin` px wider on every side, grown about its rounded centre to the
+// network's aspect (480:384), truncated to integers and clamped to the image (which can break the
+// aspect near a border, as the original does).
+cv::Rect paper_crop_box(const std::array<cv::Point2d, 4>& pad_corners, cv::Size image, double margin = 50,
+                        cv::Size network = {480, 384});
+// Crops and resizes (bilinear) to `network`: the same call for a camera image and for its warped pressure.
+cv::Mat apply_crop(const cv::Mat& image, const cv::Rect& box, cv::Size network = {480, 384});
+
+}  // namespace pvcap::calib

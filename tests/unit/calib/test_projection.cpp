@@ -1,0 +1,71 @@
+// Warp and crop reproduce PressureVision's definitions on small cases computed by hand.
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "calib/projection.h"
+#include "sim/camera_views.h"
+
+using namespace pvcap;
+using namespace pvcap::calib;
+
+TEST(Projection, WarpIsBilinearPressureWithZerosOffThePad) {
+  cv::Mat p(105, 185, CV_32F, cv::Scalar(0));
+  p.at<float>(3, 2) = 10.0f;  // row 3, column 2
+  const cv::Matx33d twice(2, 0, 0, 0, 2, 0, 0, 0, 1);
+  const cv::Mat w = warp_pressure(p, twice, {400, 220});
+  EXPECT_FLOAT_EQ(w.at<float>(6, 4), 10.0f);   // image (4, 6) <- cell (2, 3)
+  EXPECT_FLOAT_EQ(w.at<float>(6, 5), 5.0f);    // halfway to cell (3, 3): bilinear
+  EXPECT_FLOAT_EQ(w.at<float>(7, 5), 2.5f);
+  EXPECT_FLOAT_EQ(w.at<float>(6, 7), 0.0f);
+  EXPECT_FLOAT_EQ(w.at<float>(215, 395), 0.0f);  // beyond the pad
+}
+
+TEST(Projection, PixelAreaAndTheForceConservingWarp) {
+  const PadLayout pad = default_pad_layout();
+  const cv::Matx33d twice(2, 0, 0, 0, 2, 0, 0, 0, 1);
+  const cv::Mat area = pixel_area_mm2(twice, {400, 220}, pad);
+  // Each image pixel is a quarter of a 1.25 mm cell.
+  EXPECT_NEAR(area.at<float>(50, 50), 0.25 * 1.5625, 1e-6);
+  EXPECT_EQ(area.at<float>(215, 390), 0.0f) << "off the pad";
+  // 10 kPa on the whole pad: 10e3 Pa * 185 * 105 * 1.5625e-6 m^2 = 303.515625 N.
+  const cv::Mat uniform(105, 185, CV_32F, cv::Scalar(10));
+  EXPECT_NEAR(sensor_force_n(uniform, pad), 303.515625, 1e-6);
+  const cv::Mat conserved = warp_pressure_conserving(uniform, twice, {400, 220}, pad);
+  EXPECT_NEAR(cv::sum(conserved.mul(area))[0] * 1e-3, 303.515625, 1e-3);
+  // A perspective homography: area still sums to the pad's area (231.25 x 131.25 mm).
+  const cv::Matx33d oblique(3.0, 0.4, 100, 0.1, 2.5, 80, 0.0004, 0.0009, 1);
+  EXPECT_NEAR(cv::sum(pixel_area_mm2(oblique, {1200, 700}, pad))[0], 231.25 * 131.25, 231.25 * 131.25 * 0.01);
+}
+
+TEST(Projection, PaperCropMatchesTheOriginalsArithmetic) {
+  // Corners spanning x 100..300, y 100..200: with a 50 px margin x 50..350, y 50..250; centre
+  // (200, 150); half-spans 150 and 100; 150 * 384 / 480 = 120 > 100, so y grows to 120.
+  const std::array<cv::Point2d, 4> corners = {{{100, 100}, {300, 100}, {300, 200}, {100, 200}}};
+  EXPECT_EQ(paper_crop_box(corners, {1920, 1080}), cv::Rect(50, 30, 300, 240));
+  // Taller than wide: x grows instead. y 50..450 -> half-span 200 -> x half-span 250 about 200.
+  const std::array<cv::Point2d, 4> tall = {{{150, 100}, {250, 100}, {250, 400}, {150, 400}}};
+  EXPECT_EQ(paper_crop_box(tall, {1920, 1080}), cv::Rect(0, 50, 450, 400)) << "clamped at the left edge, as the "
+                                                                               "original does";
+  // Fractions: the centre rounds half to even, the edges truncate toward zero.
+  const std::array<cv::Point2d, 4> frac = {{{100.25, 100}, {300.75, 100}, {300.75, 200}, {100.25, 200}}};
+  // x 50.25..350.75: centre round(200.5) = 200; half-span 150.25 -> x0 = int(49.75) = 49, x1 = int(350.25) = 350;
+  // y half-span max(100, 150.25 * 0.8 = 120.2): y0 = int(29.8) = 29, y1 = int(270.2) = 270.
+  EXPECT_EQ(paper_crop_box(frac, {1920, 1080}), cv::Rect(49, 29, 301, 241));
+  const cv::Mat img(1080, 1920, CV_8UC3, cv::Scalar(1, 2, 3));
+  EXPECT_EQ(apply_crop(img, paper_crop_box(corners, img.size())).size(), cv::Size(480, 384));
+}
+
+// The distorted-image projector puts a pressed cell where the camera model images the pad point.
+TEST(Projection, ProjectorFollowsTheLens) {
+  const PadLayout pad = default_pad_layout();
+  const cv::Size size(960, 540);
+  const CameraModel m = sim::sim_camera_model(1, SimCameraClock{}, size, size);
+  cv::Mat p(105, 185, CV_32F, cv::Scalar(0));
+  cv::circle(p, {20, 90}, 4, cv::Scalar(50), cv::FILLED);  // a press near a corner, where the lens bends most
+  const cv::Mat img = PressureProjector(m, pad).project(p);
+  cv::Moments mo = cv::moments(img);
+  const cv::Point2d centroid(mo.m10 / mo.m00, mo.m01 / mo.m00);
+  const cv::Point2d want = m.project({20 * pad.pitch_mm, 90 * pad.pitch_mm, 0});
+  EXPECT_LT(cv::norm(centroid - want), 0.5) << centroid << " vs " << want;
+}
