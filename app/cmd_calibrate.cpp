@@ -13,6 +13,7 @@
 
 #include "calib/charuco.h"
 #include "calib/pad_calibration.h"
+#include "calib/press_check.h"
 #include "calib/rig_calibration.h"
 #include "core/result.h"
 #include "storage/session_index.h"
@@ -290,6 +291,106 @@ int cmd_calibrate_pad(const CalibrateOptions& o) {
     return 1;
   }
   return within_targets ? 0 : 1;
+}
+
+int cmd_calibrate_check(const CalibrateOptions& o) {
+  auto session = open_session(o.session);
+  const std::filesystem::path file = calibration_file(o);
+  if (!std::filesystem::exists(file))
+    throw UserError(fmt::format("{}: no calibration file; calibrate the pad first (`pvcap calibrate pad`)",
+                                file.string()));
+  calib::RigCalibration cal = load_or_new(file, *session);
+  if (!session->pressure_device())
+    throw UserError(fmt::format("{}: the session has no pressure frames to check against", o.session.string()));
+
+  // The presses: runs of samples whose total pressure is above 30 % of the session's highest, each
+  // represented by its peak sample.
+  std::vector<std::pair<std::size_t, double>> totals;
+  double highest = 0;
+  for (std::size_t i = 0; i < session->sample_count(); ++i) {
+    auto info = session->sample_info(i);
+    if (!info) throw UserError(info.error().message);
+    if (!info.value().pressure) continue;
+    auto frame = session->pressure_frame(info.value().pressure->sequence);
+    if (!frame) continue;
+    double total = 0;
+    for (auto c : frame.value().counts) total += c;
+    totals.emplace_back(i, total);
+    highest = std::max(highest, total);
+    if (i % 64 == 0) progress("finding presses", i, session->sample_count());
+  }
+  progress("finding presses", session->sample_count(), session->sample_count());
+  std::vector<std::size_t> presses;
+  std::optional<std::pair<std::size_t, double>> peak;
+  for (const auto& [i, total] : totals) {
+    if (total > 0.3 * highest) {
+      if (!peak || total > peak->second) peak = {i, total};
+    } else if (peak) {
+      presses.push_back(peak->first);
+      peak.reset();
+    }
+  }
+  if (peak) presses.push_back(peak->first);
+  if (presses.size() > std::size_t(o.frames > 0 ? o.frames : 40))
+    presses = [&] {
+      std::vector<std::size_t> some;
+      for (std::size_t k : spread(presses.size(), std::size_t(o.frames > 0 ? o.frames : 40))) some.push_back(presses[k]);
+      return some;
+    }();
+  if (presses.empty())
+    throw UserError(fmt::format("{}: no presses found; record a few presses on the pad (the protocol's calibration "
+                                "routine, or any pressing) and check again",
+                                o.session.string()));
+
+  int rc = 0;
+  for (std::size_t c = 0; c < session->cameras().size(); ++c) {
+    const CameraInfo& camera = session->cameras()[c];
+    calib::CameraCalibration* entry = cal.camera(camera.name);
+    if (!entry || !entry->pad) {
+      fmt::print(stderr, "pvcap: {}: no pad calibration in {}; run `pvcap calibrate pad` first\n", camera.name,
+                 file.string());
+      rc = 1;
+      continue;
+    }
+    std::vector<double> px, mm;
+    nlohmann::json each = nlohmann::json::array();
+    for (std::size_t i : presses) {
+      auto s = session->sample(i, PressureMode::Nearest);
+      if (!s) throw UserError(s.error().message);
+      const auto& pf = s.value().pressure;
+      if (!pf || s.value().images.size() <= c || s.value().images[c].empty()) continue;
+      const auto centroid = calib::pressure_centroid(s.value().pressure_image, pf->grid_xscale, pf->grid_yscale);
+      const auto tip = calib::find_fingertip(s.value().images[c], *entry->pad_corners_px);
+      if (!centroid || !tip) continue;
+      const auto d = calib::press_disagreement(entry->model, cal.pad, *centroid, *tip);
+      px.push_back(d.px);
+      mm.push_back(d.mm);
+      each.push_back({{"sample", i}, {"centroid_cells", {centroid->x, centroid->y}}, {"fingertip_px", {tip->x, tip->y}},
+                      {"px", d.px}, {"mm", d.mm}});
+    }
+    if (px.empty()) {
+      fmt::print(stderr, "pvcap: {}: the fingertip was not seen in any of the {} presses\n", camera.name,
+                 presses.size());
+      rc = 1;
+      continue;
+    }
+    auto median = [](std::vector<double> v) {
+      std::sort(v.begin(), v.end());
+      return v.size() % 2 ? v[v.size() / 2] : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
+    };
+    auto rms = [](const std::vector<double>& v) {
+      double s = 0;
+      for (double x : v) s += x * x;
+      return std::sqrt(s / double(v.size()));
+    };
+    fmt::print("{}: {} presses; pressure vs fingertip: median {:.2f} px / {:.2f} mm, max {:.2f} px / {:.2f} mm\n",
+               camera.name, px.size(), median(px), median(mm), *std::max_element(px.begin(), px.end()),
+               *std::max_element(mm.begin(), mm.end()));
+    calib::MeasuredBy m{"press_check", std::filesystem::absolute(o.session).string(), wall_now_ns(), rms(px), rms(mm),
+                        {{"presses", each}}};
+    add_to_session(o.session, camera, *entry, m, file);
+  }
+  return rc;
 }
 
 }  // namespace pvcap

@@ -1,6 +1,7 @@
 #pragma once
-// `pvcap calibrate board|intrinsics|pad`: the printable board, each camera's intrinsics from a
-// board session, and the pad's pose and homography from any session that shows the mat. Results
+// `pvcap calibrate board|intrinsics|pad|check`: the printable board, each camera's intrinsics from
+// a board session, the pad's pose and homography from any session that shows the mat, and the
+// press check of a calibration against a session's presses. Results
 // go into the rig calibration file (calib/rig_calibration.h) and into the session's calibrations
 // table. With a simulated run's ground truth, also the errors against it (exit 1 above target).
 #include <filesystem>
@@ -19,5 +20,6 @@ struct CalibrateOptions {
 int cmd_calibrate_board(const std::filesystem::path& out);
 int cmd_calibrate_intrinsics(const CalibrateOptions& options);
 int cmd_calibrate_pad(const CalibrateOptions& options);
+int cmd_calibrate_check(const CalibrateOptions& options);
 
 }  // namespace pvcap

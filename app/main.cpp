@@ -144,9 +144,11 @@ int main(int argc, char** argv) {
                                                                  "(pvcap session --board)");
   auto* cal_pad = calibrate->add_subcommand("pad", "the pad's pose and homography in each camera from the mat's "
                                                    "markers, with the intrinsics of a calibration file");
+  auto* cal_check = calibrate->add_subcommand("check", "the press check: each press's pressure centroid against the "
+                                                       "fingertip seen in each camera, through the calibration");
   pvcap::CalibrateOptions cal_opts;
   std::string cal_rig;
-  for (auto* c : {cal_intrinsics, cal_pad}) {
+  for (auto* c : {cal_intrinsics, cal_pad, cal_check}) {
     c->add_option("SESSION", cal_opts.session, "the session folder")->required()->check(CLI::ExistingDirectory);
     c->add_option("--rig", cal_rig, "the rig file: the calibration file defaults to <rig>.calibration.yaml beside "
                                     "it (otherwise SESSION/calibration.yaml)")->check(CLI::ExistingFile);
@@ -159,6 +161,7 @@ int main(int argc, char** argv) {
   cal_intrinsics->add_option("--out", cal_opts.calibration, "the calibration file to write (updated if it exists)");
   cal_pad->add_option("--calibration", cal_opts.calibration, "the calibration file with the intrinsics (updated "
                                                              "with the pose)");
+  cal_check->add_option("--calibration", cal_opts.calibration, "the calibration file to check");
 
   auto* sensel = app.add_subcommand("sensel", "Sensel Morph tools");
   sensel->require_subcommand(1);
@@ -319,9 +322,10 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*cal_board) return pvcap::cmd_calibrate_board(board_out);
-    if (*cal_intrinsics || *cal_pad) {
+    if (*cal_intrinsics || *cal_pad || *cal_check) {
       if (cal_opts.calibration.empty() && !cal_rig.empty())
         cal_opts.calibration = pvcap::calib::default_calibration_path(cal_rig);
+      if (*cal_check) return pvcap::cmd_calibrate_check(cal_opts);
       return *cal_pad ? pvcap::cmd_calibrate_pad(cal_opts) : pvcap::cmd_calibrate_intrinsics(cal_opts);
     }
     if (*sensel_decode) {

@@ -1,5 +1,8 @@
 #include "calib/camera_model.h"
 
+#include <cmath>
+#include <set>
+
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
 
@@ -130,13 +133,28 @@ void to_json(nlohmann::json& j, const CameraModel& m) {
 }
 
 void from_json(const nlohmann::json& j, CameraModel& m) {
-  m.image_size = {j.at("image_size").at(0).get<int>(), j.at("image_size").at(1).get<int>()};
+  auto fail = [&](const char* what) { throw nlohmann::json::other_error::create(501, what, &j); };
+  const auto size = j.at("image_size").get<std::vector<double>>();
+  if (size.size() != 2 || !(size[0] >= 1 && size[0] <= 100000) || !(size[1] >= 1 && size[1] <= 100000))
+    fail("image_size must be [width, height] in pixels");
+  m.image_size = {int(size[0]), int(size[1])};
   m.K = matx(j.at("K"));
   m.distortion = j.at("distortion").get<std::vector<double>>();
+  static const std::set<std::size_t> counts = {0, 4, 5, 8, 12, 14};  // what OpenCV's models take
+  if (!counts.count(m.distortion.size())) fail("distortion must have 0, 4, 5, 8, 12 or 14 coefficients");
   m.R = matx(j.at("R"));
   const auto t = j.at("t_mm").get<std::vector<double>>();
-  if (t.size() != 3) throw nlohmann::json::other_error::create(501, "t_mm needs 3 numbers", &j);
+  if (t.size() != 3) fail("t_mm needs 3 numbers");
   m.t = {t[0], t[1], t[2]};
+  for (double v : m.K.val)
+    if (!std::isfinite(v)) fail("K must be finite");
+  if (!(m.K(0, 0) > 0 && m.K(1, 1) > 0)) fail("K's focal lengths must be positive");
+  for (double v : m.distortion)
+    if (!std::isfinite(v)) fail("distortion must be finite");
+  for (double v : m.R.val)
+    if (!std::isfinite(v)) fail("R must be finite");
+  for (int k = 0; k < 3; ++k)
+    if (!std::isfinite(m.t[k])) fail("t_mm must be finite");
 }
 
 }  // namespace pvcap::calib

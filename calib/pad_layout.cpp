@@ -1,5 +1,9 @@
 #include "calib/pad_layout.h"
 
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/aruco.hpp>
 
@@ -46,22 +50,37 @@ void to_json(nlohmann::json& j, const PadLayout& p) {
     j["markers"].push_back({{"id", m.id}, {"centre_mm", {m.centre_mm.x, m.centre_mm.y}}, {"size_mm", m.size_mm}});
 }
 
+namespace {
+// A number in [lo, hi], or an error naming the key (never a silent wrap from a huge value).
+double number(const nlohmann::json& j, const char* key, double lo, double hi) {
+  const double v = j.at(key).get<double>();
+  if (!(v >= lo && v <= hi))
+    throw nlohmann::json::other_error::create(501, fmt::format("{} must be in [{}, {}]", key, lo, hi), &j);
+  return v;
+}
+}  // namespace
+
 void from_json(const nlohmann::json& j, PadLayout& p) {
   p = PadLayout{};
   p.name = j.at("name").get<std::string>();
-  p.cols = j.at("cols").get<int>();
-  p.rows = j.at("rows").get<int>();
-  p.pitch_mm = j.at("pitch_mm").get<double>();
-  p.body_margin_mm = j.value("body_margin_mm", p.body_margin_mm);
+  p.cols = int(number(j, "cols", 2, 10000));
+  p.rows = int(number(j, "rows", 2, 10000));
+  p.pitch_mm = number(j, "pitch_mm", 1e-3, 100);
+  p.body_margin_mm = j.contains("body_margin_mm") ? number(j, "body_margin_mm", 0, 1000) : p.body_margin_mm;
   if (j.contains("mat_mm")) {
-    const auto& m = j.at("mat_mm");
-    p.mat_mm = {m.at(0).get<double>(), m.at(1).get<double>(), m.at(2).get<double>(), m.at(3).get<double>()};
+    const auto m = j.at("mat_mm").get<std::vector<double>>();
+    if (m.size() != 4 || !std::all_of(m.begin(), m.end(), [](double v) { return std::abs(v) < 1e5; }) || m[2] <= 0 ||
+        m[3] <= 0)
+      throw nlohmann::json::other_error::create(501, "mat_mm must be [x, y, width, height] in mm", &j);
+    p.mat_mm = {m[0], m[1], m[2], m[3]};
   }
-  p.dictionary = j.at("dictionary").get<int>();
-  for (const auto& m : j.at("markers"))
-    p.markers.push_back({m.at("id").get<int>(),
-                         {m.at("centre_mm").at(0).get<double>(), m.at("centre_mm").at(1).get<double>()},
-                         m.at("size_mm").get<double>()});
+  p.dictionary = int(number(j, "dictionary", 0, cv::aruco::DICT_APRILTAG_36h11));
+  for (const auto& m : j.at("markers")) {
+    const auto c = m.at("centre_mm").get<std::vector<double>>();
+    if (c.size() != 2 || !(std::abs(c[0]) < 1e5 && std::abs(c[1]) < 1e5))
+      throw nlohmann::json::other_error::create(501, "a marker's centre_mm must be [x, y] in mm", &m);
+    p.markers.push_back({int(number(m, "id", 0, 999)), {c[0], c[1]}, number(m, "size_mm", 1e-3, 1e4)});
+  }
 }
 
 }  // namespace pvcap::calib

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <fstream>
+#include <sstream>
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -126,18 +127,24 @@ void from_json(const nlohmann::json& j, RigCalibration& c) {
   c.cameras = j.at("cameras").get<std::vector<CameraCalibration>>();
 }
 
-Result<RigCalibration> load_rig_calibration(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) return Error{fmt::format("{}: cannot read the calibration file", path.string())};
+Result<RigCalibration> parse_rig_calibration(const std::string& text, const std::string& source) {
   try {
-    return to_json_value(YAML::Load(in)).get<RigCalibration>();
+    return to_json_value(YAML::Load(text)).get<RigCalibration>();
   } catch (const YAML::Exception& e) {
-    return Error{fmt::format("{}:{}: YAML syntax error: {}", path.string(), e.mark.line + 1, e.msg)};
+    return Error{fmt::format("{}:{}: YAML syntax error: {}", source, e.mark.line + 1, e.msg)};
   } catch (const nlohmann::json::exception& e) {
     std::string what = e.what();
     if (auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
-    return Error{fmt::format("{}: not a usable calibration file: {}", path.string(), what)};
+    return Error{fmt::format("{}: not a usable calibration file: {}", source, what)};
   }
+}
+
+Result<RigCalibration> load_rig_calibration(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) return Error{fmt::format("{}: cannot read the calibration file", path.string())};
+  std::stringstream text;
+  text << in.rdbuf();
+  return parse_rig_calibration(text.str(), path.string());
 }
 
 Status save_rig_calibration(const std::filesystem::path& path, const RigCalibration& calibration) {

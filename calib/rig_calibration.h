@@ -43,6 +43,8 @@ struct RigCalibration {
 std::filesystem::path default_calibration_path(const std::filesystem::path& rig_file);
 // Errors name the file and what is wrong with it.
 Result<RigCalibration> load_rig_calibration(const std::filesystem::path& path);
+// The same from text; `source` names it in messages.
+Result<RigCalibration> parse_rig_calibration(const std::string& text, const std::string& source);
 // Written to a temporary file and renamed over `path`: a crash leaves the old file or the new one.
 Status save_rig_calibration(const std::filesystem::path& path, const RigCalibration& calibration);
 

@@ -74,6 +74,7 @@ TEST(Calibration, BoardSessionGivesEveryCamerasIntrinsicsWithinTargets) {
 TEST(Calibration, PadCornersFromASessionMatchTheTruthAndLaterSessionsRecordTheCalibration) {
   const fs::path work = work_dir("calibrate-pad");
   const fs::path rig = write_full_size_rig(work);
+  // 4 s: two presses of the simulated Sensel (one every 2 s) for the press check.
   const auto first = run_pvcap(fmt::format("session --rig {} --duration 4 --root {} --no-web", rig.string(),
                                            (work / "s1").string()));
   ASSERT_EQ(first.exit_code, 0) << first.output;
@@ -127,6 +128,19 @@ TEST(Calibration, PadCornersFromASessionMatchTheTruthAndLaterSessionsRecordTheCa
     EXPECT_EQ(rows.value()[0].method, "pad_markers");
     EXPECT_LT(*rows.value()[0].rms_mm, 0.5);
   }
+
+  // The press check: each press's pressure centroid against the fingertip each camera sees, within
+  // 1 mm on the pad (the simulator's truth puts both at the same point).
+  const auto check = run_pvcap(fmt::format("calibrate check {} --rig {}", session.string(), rig.string()));
+  EXPECT_EQ(check.exit_code, 0) << check.output;
+  const std::regex line(R"((cam\d): (\d+) presses; pressure vs fingertip: median ([\d.]+) px / ([\d.]+) mm, max ([\d.]+) px / ([\d.]+) mm)");
+  int cameras_checked = 0;
+  for (std::sregex_iterator it(check.output.begin(), check.output.end(), line), end; it != end; ++it) {
+    ++cameras_checked;
+    EXPECT_GE(std::stoi((*it)[2]), 1) << (*it)[0];
+    EXPECT_LE(std::stod((*it)[6]), 1.0) << (*it)[0];
+  }
+  EXPECT_EQ(cameras_checked, 4) << check.output;
 
   // The next session on this rig records the calibration it was made with.
   const auto second = run_pvcap(fmt::format("session --rig {} --duration 2 --root {} --no-web", rig.string(),

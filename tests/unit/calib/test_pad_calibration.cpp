@@ -2,7 +2,10 @@
 // mosaic debayered as the capture path does), against the simulator's ground-truth model.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <fstream>
 
 #include <arv.h>
 #include <nlohmann/json.hpp>
@@ -11,6 +14,7 @@
 
 #include "calib/camera_model.h"
 #include "calib/pad_calibration.h"
+#include "calib/rig_calibration.h"
 #include "capture/pixel_format.h"
 #include "sim/camera_views.h"
 #include "sim/scene.h"
@@ -141,4 +145,43 @@ TEST(PadCalibration, HiddenMarkersAreToleratedOrExplained) {
   ASSERT_FALSE(refused);
   EXPECT_NE(refused.error().message.find("only 2 of the mat's 10 markers are visible (seen: 7, 8)"), std::string::npos)
       << refused.error().message;
+}
+
+TEST(RigCalibrationFile, RoundTripsAndNamesTheFileInEveryError) {
+  RigCalibration cal;
+  cal.rig = "lab-rig";
+  CameraCalibration c;
+  c.name = "cam0";
+  c.serial = "S1";
+  c.model = truth(0);
+  c.intrinsics = MeasuredBy{"charuco_intrinsics", "/data/s1", 5, 0.14, std::nullopt, {{"views", 40}}};
+  c.pad = MeasuredBy{"pad_markers", "/data/s2", 6, 0.3, 0.1, {{"markers", {0, 1, 2}}}};
+  c.cells_to_ideal = cells_to_ideal(c.model, cal.pad);
+  c.pad_corners_px = pad_corners_px(c.model, cal.pad);
+  cal.cameras.push_back(c);
+  const auto dir = std::filesystem::temp_directory_path() / ("pvcap-calfile-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto file = dir / "rig.calibration.yaml";
+  ASSERT_TRUE(save_rig_calibration(file, cal).ok());
+  auto back = load_rig_calibration(file);
+  ASSERT_TRUE(back) << back.error().message;
+  ASSERT_EQ(back.value().cameras.size(), 1u);
+  const auto& b = back.value().cameras[0];
+  EXPECT_EQ(b.name, "cam0");
+  EXPECT_LT(cv::norm(b.model.K - c.model.K), 1e-9);
+  EXPECT_LT(cv::norm(b.model.t - c.model.t), 1e-9);
+  EXPECT_EQ(b.intrinsics->details.at("views").get<int>(), 40);
+  EXPECT_DOUBLE_EQ(*b.pad->rms_mm, 0.1);
+  EXPECT_LT(cv::norm((*b.pad_corners_px)[2] - (*c.pad_corners_px)[2]), 1e-9);
+  EXPECT_EQ(back.value().pad.markers.size(), 10u);
+
+  std::ofstream(file) << "pvcap_calibration: 1\nrig: x\npad_layout: {name: a}\ncameras: []\n";
+  auto bad = load_rig_calibration(file);
+  ASSERT_FALSE(bad);
+  EXPECT_EQ(bad.error().message.rfind(file.string() + ": not a usable calibration file:", 0), 0u) << bad.error().message;
+  std::ofstream(file) << "rig: x\n";
+  bad = load_rig_calibration(file);
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().message.find("not a pvcap calibration file"), std::string::npos) << bad.error().message;
+  std::filesystem::remove_all(dir);
 }
