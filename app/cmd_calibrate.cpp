@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <map>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -342,6 +343,25 @@ int cmd_calibrate_check(const CalibrateOptions& o) {
                                 "routine, or any pressing) and check again",
                                 o.session.string()));
 
+  // Fingertips the operator marked on the operator page (a real rig's way), by camera name.
+  struct Mark {
+    double x, y;
+    std::int64_t frame_ns;
+  };
+  std::map<std::string, std::vector<Mark>> marks;
+  auto events = session->protocol_events();
+  if (!events) throw UserError(events.error().message);
+  for (const auto& e : events.value()) {
+    if (e.kind != "fingertip_marked") continue;
+    try {
+      const auto d = nlohmann::json::parse(e.detail);
+      marks[d.at("name").get<std::string>()].push_back(
+          {d.at("x").get<double>(), d.at("y").get<double>(), d.at("frame_ns").get<std::int64_t>()});
+    } catch (const nlohmann::json::exception&) {
+      fmt::print(stderr, "pvcap: a fingertip mark at {} ns is unreadable; left out\n", e.host_ns);
+    }
+  }
+
   int rc = 0;
   for (std::size_t c = 0; c < session->cameras().size(); ++c) {
     const CameraInfo& camera = session->cameras()[c];
@@ -368,9 +388,33 @@ int cmd_calibrate_check(const CalibrateOptions& o) {
       each.push_back({{"sample", i}, {"centroid_cells", {centroid->x, centroid->y}}, {"fingertip_px", {tip->x, tip->y}},
                       {"px", d.px}, {"mm", d.mm}});
     }
-    if (px.empty()) {
-      fmt::print(stderr, "pvcap: {}: the fingertip was not seen in any of the {} presses\n", camera.name,
-                 presses.size());
+    // The operator's marks: each against the pressure of the sample nearest the marked frame.
+    std::vector<double> marked_px, marked_mm;
+    for (const Mark& mark : marks[camera.name]) {
+      auto i = session->sample_at(mark.frame_ns);
+      if (!i) continue;
+      auto s = session->sample(i.value(), PressureMode::Nearest);
+      if (!s || !s.value().pressure) continue;
+      double total = 0;
+      for (auto v : s.value().pressure->counts) total += v;
+      if (total <= 0.3 * highest) {
+        fmt::print("{}: the fingertip marked at ({:.1f}, {:.1f}) was not during a press; left out\n", camera.name,
+                   mark.x, mark.y);
+        continue;
+      }
+      const auto centroid = calib::pressure_centroid(s.value().pressure_image, s.value().pressure->grid_xscale,
+                                                     s.value().pressure->grid_yscale);
+      if (!centroid) continue;
+      const auto d = calib::press_disagreement(entry->model, cal.pad, *centroid, {mark.x, mark.y});
+      marked_px.push_back(d.px);
+      marked_mm.push_back(d.mm);
+      each.push_back({{"sample", i.value()}, {"centroid_cells", {centroid->x, centroid->y}},
+                      {"fingertip_px", {mark.x, mark.y}}, {"marked", true}, {"px", d.px}, {"mm", d.mm}});
+    }
+    if (px.empty() && marked_px.empty()) {
+      fmt::print(stderr, "pvcap: {}: the fingertip was not seen in any of the {} presses and none was marked (click "
+                 "it on the operator page's camera view during a press)\n",
+                 camera.name, presses.size());
       rc = 1;
       continue;
     }
@@ -383,11 +427,21 @@ int cmd_calibrate_check(const CalibrateOptions& o) {
       for (double x : v) s += x * x;
       return std::sqrt(s / double(v.size()));
     };
-    fmt::print("{}: {} presses; pressure vs fingertip: median {:.2f} px / {:.2f} mm, max {:.2f} px / {:.2f} mm\n",
-               camera.name, px.size(), median(px), median(mm), *std::max_element(px.begin(), px.end()),
-               *std::max_element(mm.begin(), mm.end()));
-    calib::MeasuredBy m{"press_check", std::filesystem::absolute(o.session).string(), wall_now_ns(), rms(px), rms(mm),
-                        {{"presses", each}}};
+    if (!px.empty())
+      fmt::print("{}: {} presses; pressure vs fingertip: median {:.2f} px / {:.2f} mm, max {:.2f} px / {:.2f} mm\n",
+                 camera.name, px.size(), median(px), median(mm), *std::max_element(px.begin(), px.end()),
+                 *std::max_element(mm.begin(), mm.end()));
+    if (!marked_px.empty())
+      fmt::print("{}: {} marked presses; pressure vs marked fingertip: median {:.2f} px / {:.2f} mm, max {:.2f} px / "
+                 "{:.2f} mm\n",
+                 camera.name, marked_px.size(), median(marked_px), median(marked_mm),
+                 *std::max_element(marked_px.begin(), marked_px.end()),
+                 *std::max_element(marked_mm.begin(), marked_mm.end()));
+    std::vector<double> all_px = px, all_mm = mm;
+    all_px.insert(all_px.end(), marked_px.begin(), marked_px.end());
+    all_mm.insert(all_mm.end(), marked_mm.begin(), marked_mm.end());
+    calib::MeasuredBy m{"press_check", std::filesystem::absolute(o.session).string(), wall_now_ns(), rms(all_px),
+                        rms(all_mm), {{"presses", each}}};
     add_to_session(o.session, camera, *entry, m, file);
   }
   return rc;

@@ -313,16 +313,70 @@ void WebConsole::routes() {
     res.set_content(svg.str(), "image/svg+xml");
   });
 
-  s.Get(R"(/camera/(\d+)\.jpg)", [this](const httplib::Request& req, httplib::Response& res) {
-    const auto [image, at] = recording_->preview(std::stoul(req.matches[1]));
+  // A camera's latest preview: the thumbnail, or (full) the whole frame for marking the fingertip.
+  // X-Frame-Ns: when that frame arrived (host clock), which /fingertip sends back.
+  auto camera_image = [this](const httplib::Request& req, httplib::Response& res, bool full) {
+    if (req.matches[1].length() > 3) {
+      res.status = 404;
+      return;
+    }
+    const std::size_t camera = std::stoul(req.matches[1]);
+    const auto [image, at] = full ? recording_->preview_full(camera) : recording_->preview(camera);
     std::vector<unsigned char> jpg;
-    if (image.empty() || !cv::imencode(".jpg", image, jpg, {cv::IMWRITE_JPEG_QUALITY, 80})) {
+    if (image.empty() || !cv::imencode(".jpg", image, jpg, {cv::IMWRITE_JPEG_QUALITY, full ? 92 : 80})) {
       res.status = 404;
       res.set_content("no image from this camera yet\n", "text/plain");
       return;
     }
     res.set_header("Cache-Control", "no-store");
+    res.set_header("X-Frame-Ns", std::to_string(at));
     res.set_content(std::string(jpg.begin(), jpg.end()), "image/jpeg");
+  };
+  s.Get(R"(/camera/(\d+)\.jpg)", [camera_image](const httplib::Request& req, httplib::Response& res) {
+    camera_image(req, res, false);
+  });
+  s.Get(R"(/camera/(\d+)/full\.jpg)", [camera_image](const httplib::Request& req, httplib::Response& res) {
+    camera_image(req, res, true);
+  });
+
+  // The operator marked the fingertip on a camera's frame (for the press check on a real rig):
+  // logged on the capture clock with the frame's arrival time, the camera and the pixel.
+  s.Post("/fingertip", [this](const httplib::Request& req, httplib::Response& res) {
+    auto number = [&](const char* key) -> std::optional<double> {
+      const std::string v = req.get_param_value(key);
+      if (v.empty() || v.size() > 24) return std::nullopt;
+      try {
+        std::size_t used = 0;
+        const double d = std::stod(v, &used);
+        if (used != v.size() || !std::isfinite(d)) return std::nullopt;
+        return d;
+      } catch (const std::exception&) {
+        return std::nullopt;
+      }
+    };
+    const auto camera = number("camera"), x = number("x"), y = number("y"), frame_ns = number("frame_ns");
+    const auto cameras = recording_->status().streams;
+    std::size_t n_cameras = 0;
+    for (const auto& st : cameras) n_cameras += st.kind == "camera";
+    if (!camera || !x || !y || !frame_ns || *camera < 0 || *camera >= double(n_cameras) || *camera != std::floor(*camera) ||
+        *x < 0 || *y < 0 || *x > 100000 || *y > 100000 || *frame_ns <= 0) {
+      res.status = 400;
+      res.set_content("expected camera (an index), x, y (pixels) and frame_ns\n", "text/plain");
+      return;
+    }
+    ProtocolEventRecord e;
+    e.kind = "fingertip_marked";
+    e.detail = nlohmann::json{{"camera", int(*camera)},
+                              {"name", cameras[std::size_t(*camera)].name},
+                              {"x", *x},
+                              {"y", *y},
+                              {"frame_ns", std::int64_t(*frame_ns)}}
+                   .dump();
+    const bool ok = recording_->post(std::move(e));
+    spdlog::info("operator page: fingertip marked in {} at ({:.1f}, {:.1f})", cameras[std::size_t(*camera)].name, *x,
+                 *y);
+    res.status = ok ? 200 : 503;
+    res.set_content(ok ? "marked\n" : "not logged: the store did not commit it\n", "text/plain");
   });
 
   // The latest pressure frame as a heat map: black no pressure, then a perceptual colour map

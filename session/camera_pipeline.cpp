@@ -28,10 +28,16 @@ struct HeldFrame {
 
 }  // namespace
 
-void Preview::set(cv::Mat bgr, std::int64_t host_ns) {
+void Preview::set(cv::Mat small, cv::Mat full, std::int64_t host_ns) {
   std::lock_guard lock(mu_);
-  bgr_ = std::move(bgr);
+  bgr_ = std::move(small);
+  full_ = std::move(full);
   host_ns_ = host_ns;
+}
+
+std::pair<cv::Mat, std::int64_t> Preview::get_full() const {
+  std::lock_guard lock(mu_);
+  return {full_.clone(), host_ns_};
 }
 
 std::pair<cv::Mat, std::int64_t> Preview::get() const {
@@ -158,14 +164,17 @@ void run_camera_pipeline(const CameraPipeline& p) {
       }
       pixels.assign(frame->data, frame->data + frame->size);  // reuses the capacity
       tally.last_good_host_ns.store(frame->host_ts.ns, std::memory_order_relaxed);
-      if (frame->host_ts.ns >= next_preview_ns) {  // about once a second: a 1080p conversion costs ~10 ms
-        next_preview_ns = frame->host_ts.ns + 1'000'000'000;
+      // A preview every 0.7 s: a 1080p conversion costs ~10 ms, and a period that is no round number
+      // does not lock onto a rhythm of the participant (a press every second would otherwise show
+      // the same phase in every preview, and the operator could never mark a fingertip mid-press).
+      if (frame->host_ts.ns >= next_preview_ns) {
+        next_preview_ns = frame->host_ts.ns + 700'000'000;
         cv::Mat full;
         if (to_bgr(pixels.data(), pixels.size(), frame->width, frame->height, frame->pixel_format, full).ok()) {
           cv::Mat small;
           const double scale = 320.0 / std::max(1, frame->width);
           cv::resize(full, small, {}, scale, scale, cv::INTER_AREA);
-          p.preview.set(std::move(small), frame->host_ts.ns);
+          p.preview.set(std::move(small), std::move(full), frame->host_ts.ns);
         }
       }
       HeldFrame h{std::move(rec), std::move(pixels), frame->pixel_format, frame->width, frame->height};

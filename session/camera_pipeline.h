@@ -26,13 +26,15 @@ struct CameraTally {
 // A small colour view of the latest frame, about once a second, for the operator's page.
 class Preview {
  public:
-  void set(cv::Mat bgr, std::int64_t host_ns);
-  // A copy of the latest view (empty before the first) and when it was taken.
+  // `small` for the live thumbnails, `full` (the whole debayered frame) for marking points on it.
+  void set(cv::Mat small, cv::Mat full, std::int64_t host_ns);
+  // A copy of the latest view (empty before the first) and when it arrived (host clock).
   std::pair<cv::Mat, std::int64_t> get() const;
+  std::pair<cv::Mat, std::int64_t> get_full() const;
 
  private:
   mutable std::mutex mu_;
-  cv::Mat bgr_;
+  cv::Mat bgr_, full_;
   std::int64_t host_ns_ = 0;
 };
 

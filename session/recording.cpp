@@ -412,6 +412,11 @@ RecordingStatus Recording::status() const {
   return st;
 }
 
+std::pair<cv::Mat, std::int64_t> Recording::preview_full(std::size_t camera) const {
+  if (camera >= previews_.size()) return {};
+  return previews_[camera]->get_full();
+}
+
 std::pair<cv::Mat, std::int64_t> Recording::preview(std::size_t camera) const {
   if (camera >= previews_.size()) return {};
   return previews_[camera]->get();

@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <fstream>
 #include <regex>
 #include <set>
@@ -21,7 +22,10 @@
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
+#include "calib/camera_model.h"
+#include "calib/rig_calibration.h"
 #include "headless_browser.h"
+#include "sim/fingertip.h"
 #include "session_under_test.h"
 #include "storage/session_reader.h"
 
@@ -279,5 +283,115 @@ TEST(SessionPages, OffLoopbackEveryRequestNeedsTheToken) {
   EXPECT_EQ(u.token.size(), 32u) << "a generated token, printed with the address";
   EXPECT_EQ(codes, (std::vector<int>{401, 401, 401, 401, 401, 200, 200, 401})) << read_all(work / "pvcap.log");
   EXPECT_NE(refusal.find("token"), std::string::npos) << refusal;
+  fs::remove_all(work);
+}
+
+// A real rig's press check needs the fingertip marked by hand: on the operator page a click on a
+// camera's view opens its whole frame, and a click on the fingertip there is logged with the frame's
+// time; `pvcap calibrate check` then compares it with the pressure of that instant.
+TEST(SessionPages, TheOperatorMarksTheFingertipForThePressCheck) {
+  HeadlessBrowser browser(1600, 1000);
+  if (!browser.ok()) GTEST_SKIP() << "chromium is not installed (scripts/deps.sh installs it)";
+  const fs::path work = work_dir("mark");
+  const fs::path rig = work / "rig.yaml";
+  std::ofstream(rig) << sim_rig_yaml({{}, {}}, 640, 480, 30, 15, "free-run", /*sensel=*/true);
+  const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 14 --web-port 0", rig.string(),
+                                            (work / "sessions").string()),
+                                work / "pvcap.log");
+  ASSERT_TRUE(wait_for_text(work / "pvcap.log", "operator console:", std::chrono::seconds(60)))
+      << read_all(work / "pvcap.log");
+  const std::string tab = browser.open(printed_url(work / "pvcap.log", "operator console"));
+  ASSERT_FALSE(tab.empty());
+
+  // The simulator's truth (written while it runs): where camera 1 images the press point (100, 60).
+  nlohmann::json truth;
+  for (int i = 0; i < 200 && truth.is_null(); ++i) {
+    for (const auto& e : fs::directory_iterator(work / "sessions"))
+      if (e.path().filename().string().rfind(".sim-truth-", 0) == 0 && fs::exists(e.path() / "rig.json"))
+        truth = nlohmann::json::parse(read_all(e.path() / "rig.json"));
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_FALSE(truth.is_null());
+  const auto model = truth["cameras"][1]["model"].get<pvcap::calib::CameraModel>();
+  const cv::Point2d tip = model.project({100.0, 60.0, 0.0});
+
+  // Open camera 1's frame by clicking its thumbnail, until the frozen frame shows a press.
+  bool marked = false;
+  for (int attempt = 0; attempt < 40 && !marked; ++attempt) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    browser.eval(tab, "(() => { const i = document.querySelectorAll('#cams img')[1]; if (i) i.click(); })()");
+    nlohmann::json ready;
+    for (int i = 0; i < 40; ++i) {
+      ready = browser.eval(tab, "(() => { const f = document.getElementById('mark-frame'); return marking && "
+                                "f.complete && f.naturalWidth > 0 && f.style.width ? [f.naturalWidth, "
+                                "Number(marking.frameNs)] : null; })()");
+      if (ready.is_array()) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    if (!ready.is_array()) continue;
+    EXPECT_EQ(ready[0].get<int>(), 640) << "the whole frame, not the thumbnail";
+    const auto frame_ns = ready[1].get<std::int64_t>();
+    if (pvcap::sim::fingertip_force(frame_ns - 5'000'000, 1.0) < 0.6) {  // not pressing then: look again
+      browser.eval(tab, "closeMark()");
+      continue;
+    }
+    browser.eval(tab, fmt::format("(() => {{ const f = document.getElementById('mark-frame'); const b = "
+                                  "f.getBoundingClientRect(); f.dispatchEvent(new MouseEvent('click', {{bubbles: true, "
+                                  "clientX: Math.round(b.left + ({} + 0.5) * b.width / f.naturalWidth), clientY: "
+                                  "Math.round(b.top + ({} + 0.5) * b.height / f.naturalHeight)}})); }})()",
+                                  tip.x, tip.y));
+    for (int i = 0; i < 40 && !marked; ++i) {
+      marked = browser.eval(tab, "document.getElementById('mark-reply').textContent").get<std::string>().rfind(
+                   "marked at", 0) == 0;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    fs::create_directories(kScreenshots);
+    browser.screenshot(tab, kScreenshots / "operator-mark-fingertip.png");
+  }
+  ASSERT_TRUE(marked) << "no frame showed a press in 40 tries";
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_all(work / "pvcap.log");
+
+  fs::path session;
+  for (const auto& e : fs::directory_iterator(work / "sessions"))
+    if (e.is_directory() && e.path().filename().string()[0] != '.') session = e.path();
+  auto reader = pvcap::SessionReader::open(session);
+  ASSERT_TRUE(reader);
+  const auto events = reader.value()->protocol_events().value();
+  const auto mark = std::find_if(events.begin(), events.end(), [](const auto& e) { return e.kind == "fingertip_marked"; });
+  ASSERT_NE(mark, events.end());
+  const auto d = nlohmann::json::parse(mark->detail);
+  EXPECT_EQ(d["camera"], 1);
+  EXPECT_EQ(d["name"], "cam1");
+  // Clicks are whole CSS pixels; the frame is enlarged about 1.7 times in this window.
+  EXPECT_NEAR(d["x"].get<double>(), tip.x, 0.4) << "the click lands on the frame's own pixel";
+  EXPECT_NEAR(d["y"].get<double>(), tip.y, 0.4);
+
+  // The press check with the true calibration: the marked press agrees with the pressure to within
+  // the click's own precision (a CSS pixel of the enlarged frame, about 0.6 image px; at 640 x 480 an
+  // image pixel is 1.1 mm on the pad), and the automatic check of the same presses within 1 mm.
+  pvcap::calib::RigCalibration cal;
+  for (const auto& c : truth["cameras"]) {
+    pvcap::calib::CameraCalibration cc;
+    cc.name = c["name"].get<std::string>();
+    cc.model = c["model"].get<pvcap::calib::CameraModel>();
+    cc.intrinsics = cc.pad = pvcap::calib::MeasuredBy{"truth", "", 0, 0.0};
+    cc.cells_to_ideal = pvcap::calib::cells_to_ideal(cc.model, cal.pad);
+    cc.pad_corners_px = pvcap::calib::pad_corners_px(cc.model, cal.pad);
+    cal.cameras.push_back(cc);
+  }
+  ASSERT_TRUE(pvcap::calib::save_rig_calibration(work / "truth.calibration.yaml", cal).ok());
+  const auto check = run_pvcap(fmt::format("calibrate check {} --calibration {}", session.string(),
+                                           (work / "truth.calibration.yaml").string()));
+  EXPECT_EQ(check.exit_code, 0) << check.output;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(check.output, m, std::regex(R"(cam1: 1 marked presses; .* median [\d.]+ px / ([\d.]+) mm)")))
+      << check.output;
+  EXPECT_LE(std::stod(m[1]), 2.0) << check.output;
+  ASSERT_TRUE(std::regex_search(check.output, m, std::regex(R"(cam1: \d+ presses; .* max [\d.]+ px / ([\d.]+) mm)")))
+      << check.output;
+  EXPECT_LE(std::stod(m[1]), 1.0) << check.output;
+  EXPECT_TRUE(browser.errors().empty()) << fmt::format("{}", fmt::join(browser.errors(), "\n"));
   fs::remove_all(work);
 }
