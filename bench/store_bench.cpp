@@ -41,7 +41,7 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 // `noise` DN (standard deviation; 0: the simulator's clean image).
 std::vector<cv::Mat> make_frames(int cam, int n, double noise) {
   const cv::Size size(kW, kH);
-  const cv::Mat bgr = sim::render_default_scene_bgr(cam, size);
+  const cv::Mat bgr = sim::render_default_scene_bgr(cam, size, /*noise_dn=*/0);  // its own noise is added below
   const cv::Mat bayer = sim::to_sensor_format(bgr, "BayerRG8");
   std::vector<cv::Mat> out;
   cv::RNG rng(std::uint64_t(cam + 1));

@@ -56,7 +56,8 @@ void draw_plane(cv::Mat& bgr, const cv::Mat& rays, const cv::Matx33d& R, const c
   cv::remap(texture.bgr, bgr, map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_TRANSPARENT);
 }
 
-cv::Mat render_scene_bgr(const calib::PadLayout& pad, const calib::CameraModel& camera, const cv::Mat& rays_in) {
+cv::Mat render_scene_bgr(const calib::PadLayout& pad, const calib::CameraModel& camera, const cv::Mat& rays_in,
+                         double noise_dn) {
   const cv::Size size = camera.image_size;
   // The table: a warm wood-like gradient with fixed-seed grain.
   cv::Mat image(size, CV_8UC3);
@@ -74,16 +75,18 @@ cv::Mat render_scene_bgr(const calib::PadLayout& pad, const calib::CameraModel& 
   const cv::Mat rays = rays_in.empty() ? camera.normalised_rays() : rays_in;
   draw_plane(image, rays, camera.R, camera.t, pad_texture(pad));
 
-  // A sensor's read noise (about 2 DN), fixed per camera so frames stay cheap to make.
+  // A sensor's read noise, fixed per camera so frames stay cheap to make.
+  if (noise_dn <= 0) return image;
   cv::Mat noise(size, CV_16SC3);
-  rng.fill(noise, cv::RNG::NORMAL, 0, 2);
+  rng.fill(noise, cv::RNG::NORMAL, 0, noise_dn);
   cv::Mat noisy;
   cv::add(image, noise, noisy, cv::noArray(), CV_8UC3);
   return noisy;
 }
 
-cv::Mat render_default_scene_bgr(int index, cv::Size size) {
-  return render_scene_bgr(calib::default_pad_layout(), sim_camera_model(index, SimCameraClock{}, size, size));
+cv::Mat render_default_scene_bgr(int index, cv::Size size, double noise_dn) {
+  return render_scene_bgr(calib::default_pad_layout(), sim_camera_model(index, SimCameraClock{}, size, size), {},
+                          noise_dn);
 }
 
 namespace {

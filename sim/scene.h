@@ -26,11 +26,13 @@ PlaneTexture pad_texture(const calib::PadLayout& pad, double px_per_mm = 6.0);
 void draw_plane(cv::Mat& bgr, const cv::Mat& rays, const cv::Matx33d& R, const cv::Vec3d& t,
                 const PlaneTexture& texture);
 
-// Renders the static scene as BGR for one camera (with a fixed pattern of 2 DN sensor noise).
-// Deterministic. `rays` may be passed when the caller has them already.
-cv::Mat render_scene_bgr(const calib::PadLayout& pad, const calib::CameraModel& camera, const cv::Mat& rays = {});
+// Renders the static scene as BGR for one camera, with a fixed pattern of sensor noise (standard
+// deviation in DN; 2 is a real sensor's read noise). Deterministic. `rays` may be passed when the
+// caller has them already.
+cv::Mat render_scene_bgr(const calib::PadLayout& pad, const calib::CameraModel& camera, const cv::Mat& rays = {},
+                         double noise_dn = 2.0);
 // The scene of default camera `index` (sim/camera_views.h) at `size`: for tests and benches.
-cv::Mat render_default_scene_bgr(int index, cv::Size size);
+cv::Mat render_default_scene_bgr(int index, cv::Size size, double noise_dn = 2.0);
 
 // Converts BGR to what a camera of `pixel_format` (PFNC name: BayerRG8, BayerBG8,
 // BayerGB8, BayerGR8, Mono8, RGB8) would send. Bayer/Mono: CV_8UC1; RGB8: CV_8UC3 in R,G,B order.

@@ -12,12 +12,12 @@
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 
+#include "calib/charuco.h"
 #include "capture/pixel_format.h"
 #include "core/time.h"
-#include "sim/fingertip.h"
-#include "calib/charuco.h"
 #include "sim/board_motion.h"
 #include "sim/camera_views.h"
+#include "sim/fingertip.h"
 #include "sim/hand.h"
 #include "sim/scene.h"
 #include "sim/timecode.h"
@@ -130,8 +130,10 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   arv_fake_camera_set_trigger_frequency(arv_gv_fake_camera_get_fake_camera(self->fake_.get()),
                                         std::max(100.0, 4 * camera.frame_rate));
   // Render the scene now for the configured format: the first frame must not stall the stream.
-  if (const std::uint32_t pf = pixel_format_code(camera.pixel_format))
+  if (const std::uint32_t pf = pixel_format_code(camera.pixel_format)) {
     (void)self->base_image(camera.width, camera.height, ArvPixelFormat(pf));
+    if (board) (void)self->board_image(camera.width, camera.height, ArvPixelFormat(pf), t0_ns);
+  }
   arv_fake_camera_set_fill_pattern(arv_gv_fake_camera_get_fake_camera(self->fake_.get()), &SimCamera::fill,
                                    self.get());
   LatchService::get().add(self.get());

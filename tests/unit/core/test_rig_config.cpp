@@ -95,6 +95,24 @@ TEST(RigConfig, SimClocksAreRead) {
   EXPECT_DOUBLE_EQ(*rig.sim->cameras[0].stop_after_s, 4);
 }
 
+TEST(RigConfig, SimCameraLensAndPlaceAreReadAndChecked) {
+  const auto rig = parse_rig_config(
+      "name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  cameras:\n    - {position_mm: [10, 20, 400], look_at_mm: "
+      "[100, 60, 0], focal_px: 1200, distortion: [-0.1, 0.05, 0, 0, 0]}\n",
+      "rig.yaml");
+  const auto& c = rig.sim->cameras[0];
+  EXPECT_DOUBLE_EQ((*c.position_mm)[2], 400);
+  EXPECT_DOUBLE_EQ((*c.look_at_mm)[0], 100);
+  EXPECT_DOUBLE_EQ(*c.focal_px, 1200);
+  EXPECT_DOUBLE_EQ((*c.distortion)[1], 0.05);
+  std::string e = error_of("name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  cameras:\n    - {position_mm: [1, 2]}\n");
+  EXPECT_NE(e.find("rig.yaml:6: sim.cameras[0].position_mm: expected a list of 3 numbers"), std::string::npos) << e;
+  e = error_of("name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  cameras:\n    - {position_mm: [1, 2, -5]}\n");
+  EXPECT_NE(e.find("must stand above the pad"), std::string::npos) << e;
+  e = error_of("name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  cameras:\n    - {distortion: [a, 0, 0, 0, 0]}\n");
+  EXPECT_NE(e.find("'a' is not a number"), std::string::npos) << e;
+}
+
 TEST(RigConfig, ShippedRigFilesLoad) {
   for (const char* f : {"sim.yaml", "lab-4cam.yaml"}) {
     const auto rig = pvcap::load_rig_config(std::string(PVCAP_SOURCE_DIR) + "/rig-configs/" + f);
