@@ -17,6 +17,7 @@
 #include "calib/press_check.h"
 #include "calib/rig_calibration.h"
 #include "core/result.h"
+#include "sim/truth.h"
 #include "storage/session_index.h"
 #include "storage/session_reader.h"
 
@@ -54,20 +55,17 @@ std::vector<std::size_t> spread(std::size_t count, std::size_t wanted) {
   return out;
 }
 
-nlohmann::json read_truth(const std::filesystem::path& dir) {
-  std::ifstream in(dir / "rig.json");
-  if (!in) throw UserError(fmt::format("{}: no rig.json (is this a simulated run's sim-truth folder?)", dir.string()));
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw UserError(fmt::format("{}/rig.json: {}", dir.string(), e.what()));
-  }
+sim::RigTruth read_truth(const std::filesystem::path& dir) {
+  auto truth = sim::read_rig_truth(dir);
+  if (!truth) throw UserError(truth.error().message);
+  return std::move(truth.value());
 }
 
-const nlohmann::json* truth_camera(const nlohmann::json& truth, const std::string& name) {
-  for (const auto& c : truth.at("cameras"))
-    if (c.value("name", "") == name) return &c;
-  return nullptr;
+const sim::CameraTruth& truth_camera(const sim::RigTruth& truth, const std::filesystem::path& dir,
+                                     const std::string& name) {
+  const sim::CameraTruth* t = truth.camera(name);
+  if (!t) throw UserError(fmt::format("{}: camera {} is not in the ground truth", dir.string(), name));
+  return *t;
 }
 
 // Records `c`'s latest measurement in the session's calibrations table.
@@ -140,7 +138,7 @@ int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
   calib::RigCalibration cal = load_or_new(file, *session);
   const auto samples = spread(session->sample_count(), std::size_t(o.frames > 0 ? o.frames : 150));
   if (samples.empty()) throw UserError(fmt::format("{}: the session has no samples", o.session.string()));
-  std::optional<nlohmann::json> truth;
+  std::optional<sim::RigTruth> truth;
   if (!o.ground_truth.empty()) truth = read_truth(o.ground_truth);
   bool within_targets = true;
   for (std::size_t c = 0; c < session->cameras().size(); ++c) {
@@ -189,10 +187,7 @@ int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
                  "has not been\n",
                  fmt::join(in.empty_regions, ", "));
     if (truth) {
-      const nlohmann::json* t = truth_camera(*truth, camera.name);
-      if (!t) throw UserError(fmt::format("{}: camera {} is not in the ground truth", o.ground_truth.string(),
-                                          camera.name));
-      const auto tm = t->at("model").get<calib::CameraModel>();
+      const calib::CameraModel& tm = truth_camera(*truth, o.ground_truth, camera.name).model;
       const double efx = in.model.K(0, 0) / tm.K(0, 0) - 1, efy = in.model.K(1, 1) / tm.K(1, 1) - 1;
       const double ecx = in.model.K(0, 2) - tm.K(0, 2), ecy = in.model.K(1, 2) - tm.K(1, 2);
       const bool ok = std::abs(efx) <= kFocalTolerance && std::abs(efy) <= kFocalTolerance &&
@@ -220,7 +215,7 @@ int cmd_calibrate_pad(const CalibrateOptions& o) {
   calib::RigCalibration cal = load_or_new(file, *session);
   const auto samples = spread(session->sample_count(), std::size_t(o.frames > 0 ? o.frames : 15));
   if (samples.empty()) throw UserError(fmt::format("{}: the session has no samples", o.session.string()));
-  std::optional<nlohmann::json> truth;
+  std::optional<sim::RigTruth> truth;
   if (!o.ground_truth.empty()) truth = read_truth(o.ground_truth);
   bool within_targets = true;
   std::vector<std::string> failed;
@@ -267,15 +262,9 @@ int cmd_calibrate_pad(const CalibrateOptions& o) {
                fmt_point(p.pad_corners_px[0]), fmt_point(p.pad_corners_px[1]), fmt_point(p.pad_corners_px[2]),
                fmt_point(p.pad_corners_px[3]));
     if (truth) {
-      const nlohmann::json* t = truth_camera(*truth, camera.name);
-      if (!t) throw UserError(fmt::format("{}: camera {} is not in the ground truth", o.ground_truth.string(),
-                                          camera.name));
+      const sim::CameraTruth& t = truth_camera(*truth, o.ground_truth, camera.name);
       std::vector<double> errors;
-      for (std::size_t k = 0; k < 4; ++k) {
-        const cv::Point2d want(t->at("pad_corners_px").at(k).at(0).get<double>(),
-                               t->at("pad_corners_px").at(k).at(1).get<double>());
-        errors.push_back(cv::norm(p.pad_corners_px[k] - want));
-      }
+      for (std::size_t k = 0; k < 4; ++k) errors.push_back(cv::norm(p.pad_corners_px[k] - t.pad_corners_px[k]));
       std::sort(errors.begin(), errors.end());
       const double median = (errors[1] + errors[2]) / 2, max = errors[3];
       const bool ok = median <= kCornerMedianPx && max <= kCornerMaxPx;

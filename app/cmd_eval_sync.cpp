@@ -12,33 +12,18 @@
 #include "app/cmd_session.h"
 #include "core/result.h"
 #include "core/rig_config.h"
+#include "sim/truth.h"
 #include "storage/sqlite/database.h"
 
 namespace pvcap {
 namespace {
 
-// Ground truth CSV: header, then rows of integers. Returns column `key` -> column `value`.
+// The simulator's truth CSV as key -> value; a missing or foreign file is the user's to fix.
 std::map<std::int64_t, std::int64_t> read_truth(const std::filesystem::path& file, const std::string& key,
                                                 const std::string& value, std::int64_t key_mask = -1) {
-  std::ifstream in(file);
-  if (!in) throw UserError(fmt::format("{}: cannot read the simulator's ground truth", file.string()));
-  std::string line;
-  std::getline(in, line);
-  std::vector<std::string> header;
-  for (std::stringstream ss(line); std::getline(ss, line, ',');) header.push_back(line);
-  const auto col = [&](const std::string& name) {
-    const auto it = std::find(header.begin(), header.end(), name);
-    if (it == header.end()) throw UserError(fmt::format("{}: no column '{}'", file.string(), name));
-    return std::size_t(it - header.begin());
-  };
-  const std::size_t k = col(key), v = col(value);
-  std::map<std::int64_t, std::int64_t> out;
-  while (std::getline(in, line)) {
-    std::vector<std::int64_t> cells;
-    for (std::stringstream ss(line); std::getline(ss, line, ',');) cells.push_back(std::stoll(line));
-    if (cells.size() > std::max(k, v)) out[cells[k] & key_mask] = cells[v];
-  }
-  return out;
+  auto columns = sim::read_truth_columns(file, key, value, key_mask);
+  if (!columns) throw UserError(columns.error().message);
+  return std::move(columns.value());
 }
 
 double percentile(std::vector<double> v, double p) {

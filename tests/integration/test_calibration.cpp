@@ -10,6 +10,7 @@
 
 #include "calib/rig_calibration.h"
 #include "session_under_test.h"
+#include "sim/truth.h"
 #include "storage/session_reader.h"
 
 namespace fs = std::filesystem;
@@ -86,14 +87,14 @@ TEST(Calibration, PadCornersFromASessionMatchTheTruthAndLaterSessionsRecordTheCa
   EXPECT_NE(missing.output.find("no calibration file with the cameras' intrinsics"), std::string::npos)
       << missing.output;
 
-  std::ifstream truth_in(session / "sim-truth" / "rig.json");
-  const auto truth = nlohmann::json::parse(truth_in);
+  auto truth = pvcap::sim::read_rig_truth(session / "sim-truth");
+  ASSERT_TRUE(truth) << truth.error().message;
   pvcap::calib::RigCalibration given;
   given.rig = "sim-rig";
-  for (const auto& c : truth.at("cameras")) {
+  for (const auto& c : truth.value().cameras) {
     pvcap::calib::CameraCalibration cc;
-    cc.name = c.at("name").get<std::string>();
-    const auto m = c.at("model").get<pvcap::calib::CameraModel>();
+    cc.name = c.name;
+    const auto& m = c.model;
     cc.model.image_size = m.image_size;
     cc.model.K = m.K;
     cc.model.distortion = m.distortion;
@@ -113,11 +114,9 @@ TEST(Calibration, PadCornersFromASessionMatchTheTruthAndLaterSessionsRecordTheCa
   for (std::size_t i = 0; i < 4; ++i) {
     const auto& c = cal.value().cameras[i];
     ASSERT_TRUE(c.pad && c.pad_corners_px);
-    for (std::size_t k = 0; k < 4; ++k) {
-      const cv::Point2d want(truth["cameras"][i]["pad_corners_px"][k][0].get<double>(),
-                             truth["cameras"][i]["pad_corners_px"][k][1].get<double>());
-      EXPECT_LT(cv::norm((*c.pad_corners_px)[k] - want), 1.0) << c.name << " corner " << k;
-    }
+    for (std::size_t k = 0; k < 4; ++k)
+      EXPECT_LT(cv::norm((*c.pad_corners_px)[k] - truth.value().cameras[i].pad_corners_px[k]), 1.0)
+          << c.name << " corner " << k;
   }
   {
     auto reader = pvcap::SessionReader::open(session);

@@ -26,6 +26,7 @@
 #include "calib/rig_calibration.h"
 #include "headless_browser.h"
 #include "sim/fingertip.h"
+#include "sim/truth.h"
 #include "session_under_test.h"
 #include "storage/session_reader.h"
 
@@ -304,15 +305,15 @@ TEST(SessionPages, TheOperatorMarksTheFingertipForThePressCheck) {
   ASSERT_FALSE(tab.empty());
 
   // The simulator's truth (written while it runs): where camera 1 images the press point (100, 60).
-  nlohmann::json truth;
-  for (int i = 0; i < 200 && truth.is_null(); ++i) {
+  std::optional<pvcap::sim::RigTruth> truth;
+  for (int i = 0; i < 200 && !truth; ++i) {
     for (const auto& e : fs::directory_iterator(work / "sessions"))
       if (e.path().filename().string().rfind(".sim-truth-", 0) == 0 && fs::exists(e.path() / "rig.json"))
-        truth = nlohmann::json::parse(read_all(e.path() / "rig.json"));
+        if (auto t = pvcap::sim::read_rig_truth(e.path())) truth = t.value();
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
-  ASSERT_FALSE(truth.is_null());
-  const auto model = truth["cameras"][1]["model"].get<pvcap::calib::CameraModel>();
+  ASSERT_TRUE(truth);
+  const auto model = truth->cameras[1].model;
   const cv::Point2d tip = model.project({100.0, 60.0, 0.0});
 
   // Open camera 1's frame by clicking its thumbnail, until the frozen frame shows a press.
@@ -372,10 +373,10 @@ TEST(SessionPages, TheOperatorMarksTheFingertipForThePressCheck) {
   // the click's own precision (a CSS pixel of the enlarged frame, about 0.6 image px; at 640 x 480 an
   // image pixel is 1.1 mm on the pad), and the automatic check of the same presses within 1 mm.
   pvcap::calib::RigCalibration cal;
-  for (const auto& c : truth["cameras"]) {
+  for (const auto& c : truth->cameras) {
     pvcap::calib::CameraCalibration cc;
-    cc.name = c["name"].get<std::string>();
-    cc.model = c["model"].get<pvcap::calib::CameraModel>();
+    cc.name = c.name;
+    cc.model = c.model;
     cc.intrinsics = cc.pad = pvcap::calib::MeasuredBy{"truth", "", 0, 0.0};
     cc.cells_to_ideal = pvcap::calib::cells_to_ideal(cc.model, cal.pad);
     cc.pad_corners_px = pvcap::calib::pad_corners_px(cc.model, cal.pad);

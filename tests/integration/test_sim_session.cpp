@@ -17,7 +17,7 @@
 #include "capture/sensel_frame.h"
 #include <nlohmann/json.hpp>
 
-#include "calib/camera_model.h"
+#include "sim/truth.h"
 #include "sim/fingertip.h"
 #include "capture/sensel_units.h"
 
@@ -370,9 +370,9 @@ TEST(SimSession, SenselIsStoredAtFullRateWithItsDeviceAndArrivalTimes) {
 
   // The camera shows the same fingertip at the same instants: at each video frame's true capture time
   // (its timecode), the press point is skin while the emulator presses and pad while it does not.
-  std::ifstream truth_json(s.dir / "sim-truth" / "rig.json");
-  const auto truth = nlohmann::json::parse(truth_json);
-  const auto model = truth["cameras"][0]["model"].get<pvcap::calib::CameraModel>();
+  auto truth = pvcap::sim::read_rig_truth(s.dir / "sim-truth");
+  ASSERT_TRUE(truth) << truth.error().message;
+  const auto& model = truth.value().cameras[0].model;
   const cv::Point2d p = model.project({100.0, 60.0, 0.0});  // the press point of sim_rig_yaml's Sensel
   const cv::Point px(int(std::lround(p.x)), int(std::lround(p.y)));
   auto reader = pvcap::VideoReader::open(s.dir / "cam0-000.mkv");
