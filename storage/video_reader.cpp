@@ -10,27 +10,21 @@ extern "C" {
 #include <fmt/format.h>
 
 #include "core/frame_pool.h"
+#include "storage/av_handles.h"
 #include "storage/av_log.h"
 
 namespace pvcap {
 
-struct VideoReader::Impl {
-  AVFormatContext* fmt = nullptr;
-  AVCodecContext* dec = nullptr;
-  AVFrame* frame = nullptr;
-  AVPacket* packet = nullptr;
-  SwsContext* sws = nullptr;
+struct VideoReader::Impl {  // members are freed in reverse: the scaler first, the container last
+  av::InputFormat fmt;
+  av::CodecContext dec;
+  av::Frame frame;
+  av::Packet packet;
+  av::Scaler sws;
   cv::Mat ycbcr;  // yuv444p: the frame's planes merged, before conversion
   FramePool images{4};  // the BGR images handed out: reused once the caller has dropped them
   int stream = -1;
   bool draining = false;
-  ~Impl() {
-    sws_freeContext(sws);
-    av_packet_free(&packet);
-    av_frame_free(&frame);
-    avcodec_free_context(&dec);
-    avformat_close_input(&fmt);
-  }
 };
 
 Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::path& path) {
@@ -40,38 +34,38 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
   r->path_ = path;
   r->impl_ = std::make_unique<Impl>();
   Impl& im = *r->impl_;
-  if (avformat_open_input(&im.fmt, path.c_str(), nullptr, nullptr) < 0)
+  if (avformat_open_input(&im.fmt.ptr, path.c_str(), nullptr, nullptr) < 0)
     return Error{fmt::format("{}: not a readable video file", path.string())};
   // Matroska's header names the codec, the size and the parameter sets: probing (decoding the first
   // frames to learn what the header already says) would cost every first access a GOP. Only a file
   // whose header leaves the picture size open is probed.
   const auto header_complete = [&] {
-    for (unsigned i = 0; i < im.fmt->nb_streams; ++i) {
-      const AVCodecParameters* p = im.fmt->streams[i]->codecpar;
+    for (unsigned i = 0; i < im.fmt.ptr->nb_streams; ++i) {
+      const AVCodecParameters* p = im.fmt.ptr->streams[i]->codecpar;
       if (p->codec_type == AVMEDIA_TYPE_VIDEO && p->width > 0 && p->height > 0) return true;
     }
     return false;
   };
-  if (!header_complete() && avformat_find_stream_info(im.fmt, nullptr) < 0)
+  if (!header_complete() && avformat_find_stream_info(im.fmt.ptr, nullptr) < 0)
     return Error{fmt::format("{}: no stream information", path.string())};
   const AVCodec* codec = nullptr;
-  im.stream = av_find_best_stream(im.fmt, AVMEDIA_TYPE_VIDEO, -1, -1, &codec, 0);
+  im.stream = av_find_best_stream(im.fmt.ptr, AVMEDIA_TYPE_VIDEO, -1, -1, &codec, 0);
   if (im.stream < 0 || !codec) return Error{fmt::format("{}: no decodable video stream", path.string())};
-  im.dec = avcodec_alloc_context3(codec);
-  avcodec_parameters_to_context(im.dec, im.fmt->streams[im.stream]->codecpar);
+  im.dec.ptr = avcodec_alloc_context3(codec);
+  avcodec_parameters_to_context(im.dec.ptr, im.fmt.ptr->streams[im.stream]->codecpar);
   // Slice threads: the store writes several slices per frame, so one frame decodes on two cores
   // (frame threads would add a frame of delay to every random access).
-  im.dec->thread_count = 2;
-  im.dec->thread_type = FF_THREAD_SLICE;
-  if (avcodec_open2(im.dec, codec, nullptr) < 0) return Error{fmt::format("{}: cannot open decoder", path.string())};
-  im.frame = av_frame_alloc();
-  im.packet = av_packet_alloc();
+  im.dec.ptr->thread_count = 2;
+  im.dec.ptr->thread_type = FF_THREAD_SLICE;
+  if (avcodec_open2(im.dec.ptr, codec, nullptr) < 0) return Error{fmt::format("{}: cannot open decoder", path.string())};
+  im.frame.ptr = av_frame_alloc();
+  im.packet.ptr = av_packet_alloc();
   return r;
 }
 
 VideoReader::~VideoReader() = default;
-int VideoReader::width() const { return impl_->dec->width; }
-int VideoReader::height() const { return impl_->dec->height; }
+int VideoReader::width() const { return impl_->dec.ptr->width; }
+int VideoReader::height() const { return impl_->dec.ptr->height; }
 
 Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
   const FfmpegLogQuiet quiet;
@@ -82,9 +76,9 @@ Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
 
 void VideoReader::to_bgr(cv::Mat& bgr) {
   Impl& im = *impl_;
-  bgr = im.images.acquire(im.frame->height, im.frame->width, CV_8UC3);
-  if (im.frame->format == AV_PIX_FMT_YUV444P && im.frame->color_range != AVCOL_RANGE_JPEG &&
-      im.frame->colorspace != AVCOL_SPC_BT709) {
+  bgr = im.images.acquire(im.frame.ptr->height, im.frame.ptr->width, CV_8UC3);
+  if (im.frame.ptr->format == AV_PIX_FMT_YUV444P && im.frame.ptr->color_range != AVCOL_RANGE_JPEG &&
+      im.frame.ptr->colorspace != AVCOL_SPC_BT709) {
     // The store's default format, converted here (faster than swscale for this pair): the inverse of
     // the writer's BT.601 limited-range conversion.
     static const cv::Matx34f kYCbCrToBgr(1.164383f, 2.017232f, 0.f, -276.836f,          //
@@ -92,28 +86,28 @@ void VideoReader::to_bgr(cv::Mat& bgr) {
                                          1.164383f, 0.f, 1.596027f, -222.921f);
     std::vector<cv::Mat> planes;
     for (int p = 0; p < 3; ++p)
-      planes.emplace_back(im.frame->height, im.frame->width, CV_8UC1, im.frame->data[p],
-                          std::size_t(im.frame->linesize[p]));
+      planes.emplace_back(im.frame.ptr->height, im.frame.ptr->width, CV_8UC1, im.frame.ptr->data[p],
+                          std::size_t(im.frame.ptr->linesize[p]));
     cv::merge(planes, im.ycbcr);
     cv::transform(im.ycbcr, bgr, kYCbCrToBgr);
     return;
   }
-  im.sws = sws_getCachedContext(im.sws, im.frame->width, im.frame->height, AVPixelFormat(im.frame->format),
-                                im.frame->width, im.frame->height, AV_PIX_FMT_BGR24, SWS_POINT, nullptr, nullptr,
+  im.sws.ptr = sws_getCachedContext(im.sws.ptr, im.frame.ptr->width, im.frame.ptr->height, AVPixelFormat(im.frame.ptr->format),
+                                im.frame.ptr->width, im.frame.ptr->height, AV_PIX_FMT_BGR24, SWS_POINT, nullptr, nullptr,
                                 nullptr);
   std::uint8_t* dst[1] = {bgr.data};
   const int dst_stride[1] = {int(bgr.step[0])};
-  sws_scale(im.sws, im.frame->data, im.frame->linesize, 0, im.frame->height, dst, dst_stride);
+  sws_scale(im.sws.ptr, im.frame.ptr->data, im.frame.ptr->linesize, 0, im.frame.ptr->height, dst, dst_stride);
 }
 
 // Decodes the next frame into the decoder's own frame, without converting it.
 Result<bool> VideoReader::decode_next(std::int64_t& pts_ms) {
   Impl& im = *impl_;
   for (;;) {
-    const int rc = avcodec_receive_frame(im.dec, im.frame);
+    const int rc = avcodec_receive_frame(im.dec.ptr, im.frame.ptr);
     if (rc == 0) {
-      const AVRational tb = im.fmt->streams[im.stream]->time_base;
-      pts_ms = av_rescale_q(im.frame->best_effort_timestamp, tb, AVRational{1, 1000});
+      const AVRational tb = im.fmt.ptr->streams[im.stream]->time_base;
+      pts_ms = av_rescale_q(im.frame.ptr->best_effort_timestamp, tb, AVRational{1, 1000});
       last_pts_ms_ = pts_ms;
       return true;
     }
@@ -122,19 +116,19 @@ Result<bool> VideoReader::decode_next(std::int64_t& pts_ms) {
     if (im.draining) return false;
     // Feed the decoder.
     for (;;) {
-      const int rr = av_read_frame(im.fmt, im.packet);
+      const int rr = av_read_frame(im.fmt.ptr, im.packet.ptr);
       if (rr < 0) {  // end of file (or a truncated tail): drain what is buffered
         im.draining = true;
-        avcodec_send_packet(im.dec, nullptr);
+        avcodec_send_packet(im.dec.ptr, nullptr);
         break;
       }
-      if (im.packet->stream_index == im.stream) {
-        const int sr = avcodec_send_packet(im.dec, im.packet);
-        av_packet_unref(im.packet);
+      if (im.packet.ptr->stream_index == im.stream) {
+        const int sr = avcodec_send_packet(im.dec.ptr, im.packet.ptr);
+        av_packet_unref(im.packet.ptr);
         if (sr < 0 && sr != AVERROR(EAGAIN)) return Error{fmt::format("{}: corrupt video packet", path_.string())};
         break;
       }
-      av_packet_unref(im.packet);
+      av_packet_unref(im.packet.ptr);
     }
   }
 }
@@ -142,10 +136,10 @@ Result<bool> VideoReader::decode_next(std::int64_t& pts_ms) {
 Result<bool> VideoReader::read_at(std::int64_t pts_ms, cv::Mat& bgr, std::int64_t tolerance_ms) {
   const FfmpegLogQuiet quiet;
   Impl& im = *impl_;
-  const AVRational tb = im.fmt->streams[im.stream]->time_base;
+  const AVRational tb = im.fmt.ptr->streams[im.stream]->time_base;
   auto seek = [&](std::int64_t ts, int flags) {
-    if (av_seek_frame(im.fmt, im.stream, ts, flags) < 0) return false;
-    avcodec_flush_buffers(im.dec);
+    if (av_seek_frame(im.fmt.ptr, im.stream, ts, flags) < 0) return false;
+    avcodec_flush_buffers(im.dec.ptr);
     im.draining = false;
     last_pts_ms_ = INT64_MIN;
     return true;
@@ -181,17 +175,17 @@ Result<bool> VideoReader::next_packet(std::int64_t& pts_ms, bool& key) {
   const FfmpegLogQuiet quiet;
   Impl& im = *impl_;
   for (;;) {
-    const int rr = av_read_frame(im.fmt, im.packet);
+    const int rr = av_read_frame(im.fmt.ptr, im.packet.ptr);
     if (rr == AVERROR_EOF) return false;
     if (rr < 0) return Error{fmt::format("{}: unreadable after the last good frame (truncated?)", path_.string())};
-    if (im.packet->stream_index != im.stream) {
-      av_packet_unref(im.packet);
+    if (im.packet.ptr->stream_index != im.stream) {
+      av_packet_unref(im.packet.ptr);
       continue;
     }
-    const AVRational tb = im.fmt->streams[im.stream]->time_base;
-    pts_ms = av_rescale_q(im.packet->pts, tb, AVRational{1, 1000});
-    key = (im.packet->flags & AV_PKT_FLAG_KEY) != 0;
-    av_packet_unref(im.packet);
+    const AVRational tb = im.fmt.ptr->streams[im.stream]->time_base;
+    pts_ms = av_rescale_q(im.packet.ptr->pts, tb, AVRational{1, 1000});
+    key = (im.packet.ptr->flags & AV_PKT_FLAG_KEY) != 0;
+    av_packet_unref(im.packet.ptr);
     return true;
   }
 }

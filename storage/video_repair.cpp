@@ -7,6 +7,7 @@ extern "C" {
 
 #include <fmt/format.h>
 
+#include "storage/av_handles.h"
 #include "storage/av_log.h"
 #include "storage/video_reader.h"
 
@@ -48,57 +49,38 @@ ReconcileResult reconcile_video_file(SessionIndex& index, const std::filesystem:
   return r;
 }
 
-namespace {
-struct Demuxer {
-  AVFormatContext* ctx = nullptr;
-  ~Demuxer() { avformat_close_input(&ctx); }
-};
-struct Muxer {
-  AVFormatContext* ctx = nullptr;
-  ~Muxer() {
-    if (!ctx) return;
-    if (ctx->pb) avio_closep(&ctx->pb);
-    avformat_free_context(ctx);
-  }
-};
-struct Packet {
-  AVPacket* p = av_packet_alloc();
-  ~Packet() { av_packet_free(&p); }
-};
-}  // namespace
-
 Status remux_prefix(const std::filesystem::path& from, const std::filesystem::path& to, std::int64_t frames) {
   const std::string where = from.string();
   route_ffmpeg_log();
   const FfmpegLogQuiet quiet;  // `from` was cut by a crash: it ends early; failures are returned, named
-  Demuxer in;
-  if (avformat_open_input(&in.ctx, from.c_str(), nullptr, nullptr) < 0 || avformat_find_stream_info(in.ctx, nullptr) < 0)
+  av::InputFormat in;
+  if (avformat_open_input(&in.ptr, from.c_str(), nullptr, nullptr) < 0 || avformat_find_stream_info(in.ptr, nullptr) < 0)
     return Error{fmt::format("{}: not a readable video file", where)};
-  const int stream = av_find_best_stream(in.ctx, AVMEDIA_TYPE_VIDEO, -1, -1, nullptr, 0);
+  const int stream = av_find_best_stream(in.ptr, AVMEDIA_TYPE_VIDEO, -1, -1, nullptr, 0);
   if (stream < 0) return Error{fmt::format("{}: no video stream", where)};
-  Muxer out;
-  if (avformat_alloc_output_context2(&out.ctx, nullptr, "matroska", to.c_str()) < 0)
+  av::OutputFormat out;
+  if (avformat_alloc_output_context2(&out.ptr, nullptr, "matroska", to.c_str()) < 0)
     return Error{fmt::format("{}: cannot create a Matroska file", to.string())};
-  AVStream* os = avformat_new_stream(out.ctx, nullptr);
-  avcodec_parameters_copy(os->codecpar, in.ctx->streams[stream]->codecpar);
-  os->time_base = in.ctx->streams[stream]->time_base;
-  if (avio_open(&out.ctx->pb, to.c_str(), AVIO_FLAG_WRITE) < 0)
+  AVStream* os = avformat_new_stream(out.ptr, nullptr);
+  avcodec_parameters_copy(os->codecpar, in.ptr->streams[stream]->codecpar);
+  os->time_base = in.ptr->streams[stream]->time_base;
+  if (avio_open(&out.ptr->pb, to.c_str(), AVIO_FLAG_WRITE) < 0)
     return Error{fmt::format("{}: cannot create the file", to.string())};
-  if (avformat_write_header(out.ctx, nullptr) < 0) return Error{fmt::format("{}: cannot write a header", to.string())};
-  Packet pkt;
+  if (avformat_write_header(out.ptr, nullptr) < 0) return Error{fmt::format("{}: cannot write a header", to.string())};
+  av::Packet pkt(av_packet_alloc());
   for (std::int64_t n = 0; n < frames;) {
-    if (av_read_frame(in.ctx, pkt.p) < 0) break;
-    if (pkt.p->stream_index == stream) {
-      av_packet_rescale_ts(pkt.p, in.ctx->streams[stream]->time_base, os->time_base);
-      pkt.p->stream_index = os->index;
-      pkt.p->pos = -1;
-      if (av_interleaved_write_frame(out.ctx, pkt.p) < 0) return Error{fmt::format("{}: cannot write", to.string())};
+    if (av_read_frame(in.ptr, pkt.ptr) < 0) break;
+    if (pkt.ptr->stream_index == stream) {
+      av_packet_rescale_ts(pkt.ptr, in.ptr->streams[stream]->time_base, os->time_base);
+      pkt.ptr->stream_index = os->index;
+      pkt.ptr->pos = -1;
+      if (av_interleaved_write_frame(out.ptr, pkt.ptr) < 0) return Error{fmt::format("{}: cannot write", to.string())};
       ++n;
     }
-    av_packet_unref(pkt.p);
+    av_packet_unref(pkt.ptr);
   }
-  if (av_write_trailer(out.ctx) < 0) return Error{fmt::format("{}: cannot finish the file", to.string())};
-  if (avio_closep(&out.ctx->pb) < 0) return Error{fmt::format("{}: cannot close the file", to.string())};
+  if (av_write_trailer(out.ptr) < 0) return Error{fmt::format("{}: cannot finish the file", to.string())};
+  if (avio_closep(&out.ptr->pb) < 0) return Error{fmt::format("{}: cannot close the file", to.string())};
   return {};
 }
 

@@ -10,38 +10,24 @@ extern "C" {
 }
 
 #include <fmt/format.h>
+#include "storage/av_handles.h"
 #include "storage/av_log.h"
 
 namespace pvcap {
 
 namespace {
-std::string av_error(int rc) {
-  char buf[AV_ERROR_MAX_STRING_SIZE] = {};
-  av_strerror(rc, buf, sizeof buf);
-  return buf;
-}
 constexpr AVRational kMicros{1, 1'000'000};
 }  // namespace
 
-struct VideoWriter::Impl {
-  AVFormatContext* fmt = nullptr;
-  AVCodecContext* enc = nullptr;
-  AVStream* stream = nullptr;
-  AVFrame* frame = nullptr;
-  AVPacket* packet = nullptr;
-  SwsContext* sws = nullptr;
+struct VideoWriter::Impl {  // members are freed in reverse: the scaler first, the container last
+  av::OutputFormat fmt;
+  av::CodecContext enc;
+  AVStream* stream = nullptr;  // owned by fmt
+  av::Frame frame;
+  av::Packet packet;
+  av::Scaler sws;
   cv::Mat ycbcr;  // yuv444p: the converted image before it is split into the frame's planes
   bool header_written = false;
-  ~Impl() {
-    sws_freeContext(sws);
-    av_packet_free(&packet);
-    av_frame_free(&frame);
-    avcodec_free_context(&enc);
-    if (fmt) {
-      if (fmt->pb) avio_closep(&fmt->pb);
-      avformat_free_context(fmt);
-    }
-  }
 };
 
 Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::path& path, const VideoSettings& s) {
@@ -57,19 +43,19 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   const AVPixelFormat pix = av_get_pix_fmt(s.pixel_format.c_str());
   if (pix == AV_PIX_FMT_NONE)
     return Error{fmt::format("{}: unknown pixel format '{}' (store.video_pixel_format)", where, s.pixel_format)};
-  int rc = avformat_alloc_output_context2(&im.fmt, nullptr, "matroska", path.c_str());
-  if (rc < 0) return Error{fmt::format("{}: cannot create a Matroska file: {}", where, av_error(rc))};
-  im.enc = avcodec_alloc_context3(codec);
-  im.enc->width = s.width;
-  im.enc->height = s.height;
-  im.enc->pix_fmt = pix;
-  im.enc->time_base = kMicros;
-  im.enc->framerate = av_d2q(s.nominal_fps > 0 ? s.nominal_fps : 30, 1000);
-  im.enc->gop_size = std::max(1, s.gop_frames);
-  im.enc->keyint_min = 1;
-  im.enc->max_b_frames = 0;
-  im.enc->thread_count = s.threads;
-  if (im.fmt->oformat->flags & AVFMT_GLOBALHEADER) im.enc->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
+  int rc = avformat_alloc_output_context2(&im.fmt.ptr, nullptr, "matroska", path.c_str());
+  if (rc < 0) return Error{fmt::format("{}: cannot create a Matroska file: {}", where, av::error(rc))};
+  im.enc.ptr = avcodec_alloc_context3(codec);
+  im.enc.ptr->width = s.width;
+  im.enc.ptr->height = s.height;
+  im.enc.ptr->pix_fmt = pix;
+  im.enc.ptr->time_base = kMicros;
+  im.enc.ptr->framerate = av_d2q(s.nominal_fps > 0 ? s.nominal_fps : 30, 1000);
+  im.enc.ptr->gop_size = std::max(1, s.gop_frames);
+  im.enc.ptr->keyint_min = 1;
+  im.enc.ptr->max_b_frames = 0;
+  im.enc.ptr->thread_count = s.threads;
+  if (im.fmt.ptr->oformat->flags & AVFMT_GLOBALHEADER) im.enc.ptr->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
   AVDictionary* opts = nullptr;
   if (s.codec == "libx264") {
     av_dict_set(&opts, "preset", s.preset.c_str(), 0);
@@ -80,34 +66,34 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
     av_dict_set(&opts, "level", "3", 0);
     av_dict_set(&opts, "slicecrc", "1", 0);
   }
-  rc = avcodec_open2(im.enc, codec, &opts);
+  rc = avcodec_open2(im.enc.ptr, codec, &opts);
   av_dict_free(&opts);
   if (rc < 0)
     return Error{fmt::format("{}: cannot open encoder {} for {}x{} {}: {}", where, s.codec, s.width, s.height,
-                             s.pixel_format, av_error(rc))};
-  im.stream = avformat_new_stream(im.fmt, nullptr);
+                             s.pixel_format, av::error(rc))};
+  im.stream = avformat_new_stream(im.fmt.ptr, nullptr);
   im.stream->time_base = {1, 1000};
-  avcodec_parameters_from_context(im.stream->codecpar, im.enc);
-  rc = avio_open(&im.fmt->pb, path.c_str(), AVIO_FLAG_WRITE);
-  if (rc < 0) return Error{fmt::format("{}: cannot create the video file: {}", where, av_error(rc))};
+  avcodec_parameters_from_context(im.stream->codecpar, im.enc.ptr);
+  rc = avio_open(&im.fmt.ptr->pb, path.c_str(), AVIO_FLAG_WRITE);
+  if (rc < 0) return Error{fmt::format("{}: cannot create the video file: {}", where, av::error(rc))};
   AVDictionary* mux = nullptr;
   // A cluster reaches the file when the next one begins: closing one every half second keeps what a
   // crash can take (the open cluster plus the frames still queued) under a second.
   av_dict_set(&mux, "cluster_time_limit", "500", 0);
-  im.fmt->flags |= AVFMT_FLAG_FLUSH_PACKETS;
-  rc = avformat_write_header(im.fmt, &mux);
+  im.fmt.ptr->flags |= AVFMT_FLAG_FLUSH_PACKETS;
+  rc = avformat_write_header(im.fmt.ptr, &mux);
   av_dict_free(&mux);
-  if (rc < 0) return Error{fmt::format("{}: cannot write the video header: {}", where, av_error(rc))};
+  if (rc < 0) return Error{fmt::format("{}: cannot write the video header: {}", where, av::error(rc))};
   im.header_written = true;
-  im.frame = av_frame_alloc();
-  im.frame->format = pix;
-  im.frame->width = s.width;
-  im.frame->height = s.height;
-  if ((rc = av_frame_get_buffer(im.frame, 0)) < 0) return Error{fmt::format("{}: {}", where, av_error(rc))};
-  im.packet = av_packet_alloc();
-  im.sws = sws_getContext(s.width, s.height, AV_PIX_FMT_BGR24, s.width, s.height, pix, SWS_AREA, nullptr, nullptr,
+  im.frame.ptr = av_frame_alloc();
+  im.frame.ptr->format = pix;
+  im.frame.ptr->width = s.width;
+  im.frame.ptr->height = s.height;
+  if ((rc = av_frame_get_buffer(im.frame.ptr, 0)) < 0) return Error{fmt::format("{}: {}", where, av::error(rc))};
+  im.packet.ptr = av_packet_alloc();
+  im.sws.ptr = sws_getContext(s.width, s.height, AV_PIX_FMT_BGR24, s.width, s.height, pix, SWS_AREA, nullptr, nullptr,
                           nullptr);
-  if (!im.sws) return Error{fmt::format("{}: no conversion from BGR to {}", where, s.pixel_format)};
+  if (!im.sws.ptr) return Error{fmt::format("{}: no conversion from BGR to {}", where, s.pixel_format)};
   return w;
 }
 
@@ -115,36 +101,36 @@ VideoWriter::~VideoWriter() { (void)close(); }
 
 Status VideoWriter::encode(bool flush) {
   Impl& im = *impl_;
-  int rc = avcodec_send_frame(im.enc, flush ? nullptr : im.frame);
-  if (rc < 0 && rc != AVERROR_EOF) return Error{fmt::format("{}: encoder: {}", path_.string(), av_error(rc))};
-  while ((rc = avcodec_receive_packet(im.enc, im.packet)) >= 0) {
-    av_packet_rescale_ts(im.packet, im.enc->time_base, im.stream->time_base);
-    im.packet->stream_index = im.stream->index;
-    rc = av_interleaved_write_frame(im.fmt, im.packet);
-    if (rc < 0) return Error{fmt::format("{}: cannot write video: {}", path_.string(), av_error(rc))};
+  int rc = avcodec_send_frame(im.enc.ptr, flush ? nullptr : im.frame.ptr);
+  if (rc < 0 && rc != AVERROR_EOF) return Error{fmt::format("{}: encoder: {}", path_.string(), av::error(rc))};
+  while ((rc = avcodec_receive_packet(im.enc.ptr, im.packet.ptr)) >= 0) {
+    av_packet_rescale_ts(im.packet.ptr, im.enc.ptr->time_base, im.stream->time_base);
+    im.packet.ptr->stream_index = im.stream->index;
+    rc = av_interleaved_write_frame(im.fmt.ptr, im.packet.ptr);
+    if (rc < 0) return Error{fmt::format("{}: cannot write video: {}", path_.string(), av::error(rc))};
   }
   if (rc != AVERROR(EAGAIN) && rc != AVERROR_EOF)
-    return Error{fmt::format("{}: encoder: {}", path_.string(), av_error(rc))};
+    return Error{fmt::format("{}: encoder: {}", path_.string(), av::error(rc))};
   return {};
 }
 
 Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us) {
   Impl& im = *impl_;
   if (closed_) return Error{fmt::format("{}: write after close", path_.string())};
-  if (bgr.type() != CV_8UC3 || bgr.cols != im.enc->width || bgr.rows != im.enc->height)
+  if (bgr.type() != CV_8UC3 || bgr.cols != im.enc.ptr->width || bgr.rows != im.enc.ptr->height)
     return Error{fmt::format("{}: frame is {}x{}, the video is {}x{}", path_.string(), bgr.cols, bgr.rows,
-                             im.enc->width, im.enc->height)};
+                             im.enc.ptr->width, im.enc.ptr->height)};
   // The container keeps milliseconds: round to them here (so the stored timestamp is exactly
   // last_pts_ms()), and keep them strictly increasing (frames that arrived in a burst).
   std::int64_t pts_ms = (pts_us + (pts_us >= 0 ? 500 : -500)) / 1000;
   if (frames_ > 0 && pts_ms <= last_pts_ms_) pts_ms = last_pts_ms_ + 1;
   last_pts_ms_ = pts_ms;
   pts_us = pts_ms * 1000;
-  int rc = av_frame_make_writable(im.frame);
-  if (rc < 0) return Error{fmt::format("{}: {}", path_.string(), av_error(rc))};
+  int rc = av_frame_make_writable(im.frame.ptr);
+  if (rc < 0) return Error{fmt::format("{}: {}", path_.string(), av::error(rc))};
   const std::uint8_t* src[1] = {bgr.data};
   const int src_stride[1] = {int(bgr.step[0])};
-  if (im.enc->pix_fmt == AV_PIX_FMT_YUV444P) {
+  if (im.enc.ptr->pix_fmt == AV_PIX_FMT_YUV444P) {
     // The default format, converted here rather than by swscale (3x faster for this pair): BT.601
     // limited range, the coefficients swscale uses, straight into the frame's three planes.
     static const cv::Matx34f kBgrToYCbCr(25.064f / 256, 129.057f / 256, 65.738f / 256, 16.f,    //
@@ -153,12 +139,12 @@ Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us)
     cv::transform(bgr, im.ycbcr, kBgrToYCbCr);
     std::vector<cv::Mat> planes;
     for (int p = 0; p < 3; ++p)
-      planes.emplace_back(bgr.rows, bgr.cols, CV_8UC1, im.frame->data[p], std::size_t(im.frame->linesize[p]));
+      planes.emplace_back(bgr.rows, bgr.cols, CV_8UC1, im.frame.ptr->data[p], std::size_t(im.frame.ptr->linesize[p]));
     cv::split(im.ycbcr, planes);
   } else {
-    sws_scale(im.sws, src, src_stride, 0, bgr.rows, im.frame->data, im.frame->linesize);
+    sws_scale(im.sws.ptr, src, src_stride, 0, bgr.rows, im.frame.ptr->data, im.frame.ptr->linesize);
   }
-  im.frame->pts = pts_us;
+  im.frame.ptr->pts = pts_us;
   if (Status s = encode(false); !s.ok()) return s.error();
   return frames_++;
 }
@@ -167,9 +153,9 @@ Status VideoWriter::close() {
   if (closed_ || !impl_ || !impl_->header_written) return {};
   closed_ = true;
   Status s = encode(true);
-  const int rc = av_write_trailer(impl_->fmt);
-  if (s.ok() && rc < 0) s = Error{fmt::format("{}: cannot finish the video: {}", path_.string(), av_error(rc))};
-  avio_closep(&impl_->fmt->pb);
+  const int rc = av_write_trailer(impl_->fmt.ptr);
+  if (s.ok() && rc < 0) s = Error{fmt::format("{}: cannot finish the video: {}", path_.string(), av::error(rc))};
+  avio_closep(&impl_->fmt.ptr->pb);
   return s;
 }
 
