@@ -321,12 +321,12 @@ int cmd_calibrate_check(const CalibrateOptions& o) {
     }
   }
   if (peak) presses.push_back(peak->first);
-  if (presses.size() > std::size_t(o.frames > 0 ? o.frames : 40))
-    presses = [&] {
-      std::vector<std::size_t> some;
-      for (std::size_t k : spread(presses.size(), std::size_t(o.frames > 0 ? o.frames : 40))) some.push_back(presses[k]);
-      return some;
-    }();
+  const std::size_t most = std::size_t(o.frames > 0 ? o.frames : 40);
+  if (presses.size() > most) {
+    std::vector<std::size_t> some;
+    for (std::size_t k : spread(presses.size(), most)) some.push_back(presses[k]);
+    presses = std::move(some);
+  }
   if (presses.empty())
     throw UserError(fmt::format("{}: no presses found; record a few presses on the pad (the protocol's calibration "
                                 "routine, or any pressing) and check again",

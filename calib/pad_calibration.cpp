@@ -43,7 +43,8 @@ std::map<int, MarkerCorners> detect_pad_markers(const cv::Mat& image, const PadL
     }
     std::vector<cv::Point2f> full;
     // Pixel centres: x_full = scale * x_half + (scale - 1) / 2.
-    for (const cv::Point2f& p : corners[i]) full.emplace_back(p * float(scale) + cv::Point2f(0.5f, 0.5f) * float(scale - 1));
+    const cv::Point2f shift(0.5f * float(scale - 1), 0.5f * float(scale - 1));
+    for (const cv::Point2f& p : corners[i]) full.emplace_back(p * float(scale) + shift);
     cv::cornerSubPix(grey, full, cv::Size(3, 3), cv::Size(-1, -1),
                      cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 60, 0.005));
     out[ids[i]] = {full[0], full[1], full[2], full[3]};

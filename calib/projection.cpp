@@ -82,8 +82,10 @@ cv::Rect paper_crop_box(const std::array<cv::Point2d, 4>& corners, cv::Size imag
   if (span_x * aspect > span_y) span_y = span_x * aspect;
   else span_x = span_y / aspect;
   // Python's int() truncates toward zero.
-  const int x0 = std::max(int(std::trunc(centre.x - span_x)), 0), x1 = std::min(int(std::trunc(centre.x + span_x)), image.width);
-  const int y0 = std::max(int(std::trunc(centre.y - span_y)), 0), y1 = std::min(int(std::trunc(centre.y + span_y)), image.height);
+  const int x0 = std::max(int(std::trunc(centre.x - span_x)), 0);
+  const int x1 = std::min(int(std::trunc(centre.x + span_x)), image.width);
+  const int y0 = std::max(int(std::trunc(centre.y - span_y)), 0);
+  const int y1 = std::min(int(std::trunc(centre.y + span_y)), image.height);
   return {x0, y0, std::max(0, x1 - x0), std::max(0, y1 - y0)};
 }
 

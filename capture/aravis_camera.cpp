@@ -1,5 +1,8 @@
 #include "capture/aravis_camera.h"
 
+#include "capture/aravis_handles.h"
+#include "capture/aravis_stream.h"
+
 #include <cmath>
 #include <fstream>
 
@@ -42,12 +45,25 @@ Status preflight(const std::string& label, const LinkBudget& b) {
   return {};
 }
 
+struct AravisCamera::Link {
+  arv::GPtr<ArvCamera> camera;
+  std::shared_ptr<AravisStream> stream;
+  gulong control_lost_id = 0;
+  // GLib's "control-lost" signal, on Aravis' heartbeat thread: wakes the control loop.
+  static void on_control_lost(ArvGvDevice*, void* self) {
+    auto* cam = static_cast<AravisCamera*>(self);
+    cam->control_lost_.store(true);
+    cam->wake_.notify_all();
+  }
+};
+
 AravisCamera::AravisCamera(int index, CameraConfig config, EventHandler on_event)
     : index_(index),
       config_(std::move(config)),
       on_event_(std::move(on_event)),
       // Good frames are bounded by the buffer pool; the slack carries failed-frame records.
-      queue_(buffer_count_for(config_) + 256) {
+      queue_(buffer_count_for(config_) + 256),
+      link_(std::make_unique<Link>()) {
   arv::route_glib_logs_to_spdlog();
 }
 
@@ -73,7 +89,7 @@ CameraSettings AravisCamera::settings() const {
 StreamCounters AravisCamera::counters() const {
   std::lock_guard lock(mu_);
   StreamCounters total = past_counters_;
-  if (stream_) total += stream_->counters();
+  if (link_->stream) total += link_->stream->counters();
   return total;
 }
 
@@ -81,14 +97,9 @@ void AravisCamera::emit(CameraEvent::Kind kind, std::string message) {
   if (on_event_) on_event_(CameraEvent{index_, kind, host_now(), std::move(message)});
 }
 
-void AravisCamera::on_control_lost(ArvGvDevice*, void* self) {
-  auto* cam = static_cast<AravisCamera*>(self);
-  cam->control_lost_.store(true);
-  cam->wake_.notify_all();
-}
 
 Status AravisCamera::apply_features() {
-  ArvCamera* cam = camera_.get();
+  ArvCamera* cam = link_->camera.get();
   arv::GErrorSlot err;
   auto check = [&](const std::string& what) -> Status {
     if (err) return Error{fmt::format("{}: setting {} failed: {}", label(), what, err.message())};
@@ -172,33 +183,33 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
                              "(`pvcap devices` lists what answers)",
                              label(), err.message().empty() ? "not found" : err.message())};
   std::lock_guard lock(mu_);
-  camera_ = std::move(cam);
+  link_->camera = std::move(cam);
   if (!config_.serial.empty()) {
-    const char* serial = arv_camera_get_device_serial_number(camera_.get(), nullptr);
+    const char* serial = arv_camera_get_device_serial_number(link_->camera.get(), nullptr);
     if (!serial || config_.serial != serial) {
       const std::string got = serial ? serial : "?";
-      camera_.reset();
+      link_->camera.reset();
       return Error{fmt::format("{}: the camera at {} has serial {}, not {}", label(), id, got, config_.serial)};
     }
   }
   if (Status s = apply_features(); !s.ok()) {
-    camera_.reset();
+    link_->camera.reset();
     return s;
   }
   const LinkBudget budget{settings_.payload, settings_.frame_rate, config_.link_mbps, config_.socket_buffer_bytes,
                           read_rmem_max()};
   if (Status s = preflight(label(), budget); !s.ok()) {
-    camera_.reset();
+    link_->camera.reset();
     return s;
   }
-  auto stream = AravisStream::create(camera_.get(), index_, connection, settings_.payload, settings_.buffer_count,
+  auto stream = AravisStream::create(link_->camera.get(), index_, connection, settings_.payload, settings_.buffer_count,
                                      config_.packet_resend, config_.socket_buffer_bytes, queue_);
   if (!stream) {
-    camera_.reset();
+    link_->camera.reset();
     return Error{fmt::format("{}: {}", label(), stream.error().message)};
   }
-  stream_ = std::move(stream.value());
-  ArvDevice* dev = arv_camera_get_device(camera_.get());
+  link_->stream = std::move(stream.value());
+  ArvDevice* dev = arv_camera_get_device(link_->camera.get());
   latch_command_.clear();
   latch_value_.clear();
   for (const auto& [command, value] : {std::pair{"TimestampControlLatch", "TimestampLatchValue"},
@@ -209,7 +220,7 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
       break;
     }
   control_lost_.store(false);
-  control_lost_id_ = g_signal_connect(dev, "control-lost", G_CALLBACK(&AravisCamera::on_control_lost), this);
+  link_->control_lost_id = g_signal_connect(dev, "control-lost", G_CALLBACK(&Link::on_control_lost), this);
   return {};
 }
 
@@ -232,9 +243,9 @@ Status AravisCamera::open() {
 Status AravisCamera::start() {
   {
     std::lock_guard lock(mu_);
-    if (!camera_) return Error{fmt::format("{}: start() before a successful open()", label())};
+    if (!link_->camera) return Error{fmt::format("{}: start() before a successful open()", label())};
     arv::GErrorSlot err;
-    arv_camera_start_acquisition(camera_.get(), err.out());
+    arv_camera_start_acquisition(link_->camera.get(), err.out());
     if (err) return Error{fmt::format("{}: AcquisitionStart failed: {}", label(), err.message())};
   }
   started_at_ = host_now();
@@ -256,7 +267,8 @@ void AravisCamera::trigger_loop() {
     }
     if (!running_.load()) break;
     std::lock_guard lock(mu_);
-    if (camera_) arv_camera_software_trigger(camera_.get(), nullptr);  // a lost camera is the watchdog's business
+    // A lost camera is the watchdog's business.
+    if (link_->camera) arv_camera_software_trigger(link_->camera.get(), nullptr);
     if (std::chrono::steady_clock::now() > next + period) next = std::chrono::steady_clock::now();  // no bursts
   }
 }
@@ -266,14 +278,15 @@ void AravisCamera::teardown_connection(bool camera_reachable) {
   arv::GPtr<ArvCamera> camera;
   {
     std::lock_guard lock(mu_);
-    stream = std::move(stream_);
-    camera = std::move(camera_);
+    stream = std::move(link_->stream);
+    camera = std::move(link_->camera);
     if (stream) past_counters_ += stream->counters();
   }
   if (camera && camera_reachable) arv_camera_stop_acquisition(camera.get(), nullptr);
   if (stream) stream->quiesce();
-  if (camera && control_lost_id_) g_signal_handler_disconnect(arv_camera_get_device(camera.get()), control_lost_id_);
-  control_lost_id_ = 0;
+  if (camera && link_->control_lost_id)
+    g_signal_handler_disconnect(arv_camera_get_device(camera.get()), link_->control_lost_id);
+  link_->control_lost_id = 0;
   // `stream` stays alive while frames leased from it are still queued or being encoded.
 }
 
@@ -291,7 +304,7 @@ void AravisCamera::control_loop() {
       HostNs last;
       {
         std::lock_guard lock(mu_);
-        last = stream_ ? stream_->last_arrival() : HostNs{0};
+        last = link_->stream ? link_->stream->last_arrival() : HostNs{0};
       }
       const bool first_frame_pending = last.ns == 0 || last < started_at_;
       if (first_frame_pending) last = started_at_;
@@ -316,7 +329,7 @@ void AravisCamera::control_loop() {
         arv::GErrorSlot err;
         {
           std::lock_guard lock(mu_);
-          arv_camera_start_acquisition(camera_.get(), err.out());
+          arv_camera_start_acquisition(link_->camera.get(), err.out());
         }
         if (!err) {
           started_at_ = host_now();
@@ -349,10 +362,10 @@ bool AravisCamera::probe_clock() {
   std::uint32_t connection = 0;
   {
     std::lock_guard lock(mu_);
-    if (!camera_ || latch_command_.empty()) return true;
-    const HostNs last = stream_ ? stream_->last_arrival() : HostNs{0};
+    if (!link_->camera || latch_command_.empty()) return true;
+    const HostNs last = link_->stream ? link_->stream->last_arrival() : HostNs{0};
     if (last.ns == 0 || host_now().ns - last.ns > 100'000'000) return true;  // probe only a streaming camera
-    cam.reset(ARV_CAMERA(g_object_ref(camera_.get())));
+    cam.reset(ARV_CAMERA(g_object_ref(link_->camera.get())));
     command = latch_command_;
     value = latch_value_;
     if (settings_.timestamp_tick_hz) tick_hz = double(settings_.timestamp_tick_hz);

@@ -18,8 +18,6 @@
 #include <string>
 #include <thread>
 
-#include "capture/aravis_handles.h"
-#include "capture/aravis_stream.h"
 #include "capture/camera_frame.h"
 #include "core/bounded_queue.h"
 #include "core/result.h"
@@ -115,19 +113,19 @@ class AravisCamera {
   bool probe_clock();   // false when the camera did not answer
   void probe_loop();    // its own thread: four probes a second while streaming
   void emit(CameraEvent::Kind kind, std::string message);
-  static void on_control_lost(ArvGvDevice* device, void* self);
 
   const int index_;
   const CameraConfig config_;
   EventHandler on_event_;
   BoundedQueue<CameraFrame> queue_;
 
-  mutable std::mutex mu_;  // guards camera_, stream_, settings_, past_counters_
-  arv::GPtr<ArvCamera> camera_;
-  std::shared_ptr<AravisStream> stream_;
+  // The connection to the device (Aravis' camera, its stream, the control-lost signal): defined in
+  // the .cpp, so no Aravis or GLib type reaches the code that records.
+  struct Link;
+  mutable std::mutex mu_;  // guards link_'s camera and stream, settings_, past_counters_
+  std::unique_ptr<Link> link_;
   CameraSettings settings_;
   StreamCounters past_counters_;
-  gulong control_lost_id_ = 0;
   std::string latch_command_, latch_value_;  // the latch's feature names, empty without one
   BoundedQueue<ClockProbe> probes_{256};
 

@@ -21,16 +21,6 @@
 
 namespace pvcap {
 
-struct StreamCounters {
-  std::uint64_t completed = 0;   // Aravis: buffers completed
-  std::uint64_t failures = 0;    // Aravis: buffers failed (missing packets, timeouts)
-  std::uint64_t underruns = 0;   // Aravis: frames arriving with no free buffer
-  std::uint64_t resent_packets = 0;
-  std::uint64_t missing_packets = 0;
-  std::uint64_t queue_overflows = 0;  // pvcap: frames dropped because the queue was full
-  StreamCounters& operator+=(const StreamCounters& o);
-};
-
 class AravisStream : public std::enable_shared_from_this<AravisStream> {
  public:
   // Creates the stream on `camera` with `buffer_count` buffers of `payload` bytes. Frames go

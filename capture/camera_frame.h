@@ -70,4 +70,15 @@ struct CameraFrame {
   BufferLease lease;
 };
 
+// A camera stream's tallies (Aravis' own counters and pvcap's queue drops), summed over connections.
+struct StreamCounters {
+  std::uint64_t completed = 0;   // Aravis: buffers completed
+  std::uint64_t failures = 0;    // Aravis: buffers failed (missing packets, timeouts)
+  std::uint64_t underruns = 0;   // Aravis: frames arriving with no free buffer
+  std::uint64_t resent_packets = 0;
+  std::uint64_t missing_packets = 0;
+  std::uint64_t queue_overflows = 0;  // pvcap: frames dropped because the queue was full
+  StreamCounters& operator+=(const StreamCounters& o);
+};
+
 }  // namespace pvcap

@@ -32,7 +32,8 @@ calib::CameraModel sim_camera_model(int index, const SimCameraClock& c, cv::Size
                               size.height / 2.0 + v.principal_offset.y * size.width / 1920.0);
   return calib::CameraModel::looking_at(size, focal_configured * scale, principal,
                                         std::vector<double>(dist.begin(), dist.end()),
-                                        calib::pad_point(pos[0], pos[1], pos[2]), calib::pad_point(at[0], at[1], at[2]));
+                                        calib::pad_point(pos[0], pos[1], pos[2]),
+                                        calib::pad_point(at[0], at[1], at[2]));
 }
 
 }  // namespace pvcap::sim
