@@ -141,6 +141,7 @@ int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
   std::optional<sim::RigTruth> truth;
   if (!o.ground_truth.empty()) truth = read_truth(o.ground_truth);
   bool within_targets = true;
+  std::vector<std::string> failed;
   for (std::size_t c = 0; c < session->cameras().size(); ++c) {
     const CameraInfo& camera = session->cameras()[c];
     std::vector<calib::BoardView> views;
@@ -152,7 +153,10 @@ int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
       progress(camera.name + ": finding the board", ++done, samples.size());
     }
     auto got = calib::calibrate_intrinsics(views, {camera.width, camera.height}, spec);
-    if (!got) throw UserError(fmt::format("{}: {}", camera.name, got.error().message));
+    if (!got) {  // the other cameras' results are still kept
+      failed.push_back(fmt::format("{}: {}", camera.name, got.error().message));
+      continue;
+    }
     const calib::Intrinsics& in = got.value();
     calib::CameraCalibration* entry = cal.camera(camera.name);
     if (!entry) entry = &cal.cameras.emplace_back();
@@ -202,6 +206,10 @@ int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
   }
   if (Status s = calib::save_rig_calibration(file, cal); !s.ok()) throw UserError(s.error().message);
   fmt::print("wrote {}; next: pvcap calibrate pad SESSION --calibration {}\n", file.string(), file.string());
+  if (!failed.empty()) {
+    for (const auto& f : failed) fmt::print(stderr, "pvcap: {}\n", f);
+    return 1;
+  }
   return within_targets ? 0 : 1;
 }
 

@@ -451,8 +451,11 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   workers_.clear();
   // At close: every frame re-mapped with its stream's final clock fit, every sample re-paired.
   writer.set_finalizer([this, clocks = timeline_->final_clocks()](SessionIndex& index) {
+    spdlog::info("timeline: re-mapping every frame with the final clock fits");
+    const auto t0 = host_now().ns;
     const auto r = realign(index, {clocks, device_ids_, sensel_id_, pressure_max_offset_ns_});
-    spdlog::info("timeline: {} samples re-paired with the final clock fits", r.samples);
+    spdlog::info("timeline: {} samples re-paired with the final clock fits in {:.1f} s", r.samples,
+                 double(host_now().ns - t0) / 1e9);
   });
   const auto tl = timeline_->counts();
   writer.add_timeline_count("samples", tl.samples);

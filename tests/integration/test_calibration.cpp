@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "calib/rig_calibration.h"
 #include "session_under_test.h"
@@ -35,6 +36,24 @@ int count(const std::string& text, const std::string& needle) {
   return n;
 }
 }  // namespace
+
+// The board to print: a one-page PDF or a PNG; any other name is refused with what to use.
+TEST(Calibration, TheBoardIsWrittenAsPdfOrPng) {
+  const fs::path work = work_dir("calibrate-board");
+  auto r = run_pvcap(fmt::format("calibrate board --out {}", (work / "board.pdf").string()));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Print at 100 %"), std::string::npos) << r.output;
+  EXPECT_EQ(read_all(work / "board.pdf").rfind("%PDF-1.4", 0), 0u);
+  r = run_pvcap(fmt::format("calibrate board --out {}", (work / "board.png").string()));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  const cv::Mat png = cv::imread((work / "board.png").string(), cv::IMREAD_GRAYSCALE);
+  // 10 x 7 squares of 25 mm and a 12 mm margin at 12 px/mm.
+  EXPECT_EQ(png.size(), cv::Size(int(274 * 12), int(199 * 12)));
+  r = run_pvcap(fmt::format("calibrate board --out {}", (work / "board.txt").string()));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("the board is written as .pdf or .png"), std::string::npos) << r.output;
+  fs::remove_all(work);
+}
 
 // A board session, then intrinsics from it: focal length within 0.5 % and principal point within
 // 2 px of the simulator's lens for every camera (the command checks and exits 1 otherwise).
