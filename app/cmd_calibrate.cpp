@@ -170,14 +170,16 @@ int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
                         std::nullopt,
                         {{"views", in.views},
                          {"rejected_views", in.rejected_views},
+                         {"deviation_fx_fy_cx_cy_px", in.deviation},
                          {"corners", in.corners},
                          {"coverage", in.coverage},
                          {"coverage_grid", {calib::Intrinsics::coverage_cols, calib::Intrinsics::coverage_rows}},
                          {"empty_regions", in.empty_regions}}};
     entry->intrinsics = m;
-    fmt::print("{}: {} views ({} left out), {} corners, RMS {:.3f} px; fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f}\n",
+    fmt::print("{}: {} views ({} left out), {} corners, RMS {:.3f} px; fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f} "
+               "(the fit's standard deviation: fx {:.1f}, cx {:.1f}, cy {:.1f} px)\n",
                camera.name, in.views, in.rejected_views, in.corners, in.rms_px, in.model.K(0, 0), in.model.K(1, 1),
-               in.model.K(0, 2), in.model.K(1, 2));
+               in.model.K(0, 2), in.model.K(1, 2), in.deviation[0], in.deviation[2], in.deviation[3]);
     std::string grid;
     for (int r = 0; r < calib::Intrinsics::coverage_rows; ++r) {
       grid += "    ";

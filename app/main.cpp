@@ -12,18 +12,18 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "app/cmd_calibrate.h"
 #include "app/cmd_devices.h"
 #include "app/cmd_eval_sync.h"
 #include "app/cmd_sensel_decode.h"
 #include "app/cmd_session.h"
-#include "app/cmd_calibrate.h"
 #include "app/cmd_sim.h"
+#include "calib/rig_calibration.h"
 #include "core/log.h"
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "core/version.h"
 #include "protocol/takes.h"
-#include "calib/rig_calibration.h"
 #include "sim/netns.h"
 #include "sim/sim_rig.h"
 #include "storage/recover.h"

@@ -129,11 +129,7 @@ Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::S
                                              deviations, cv::noArray(), per_view, cv::CALIB_FIX_ASPECT_RATIO, until);
   };
   try {
-    try {
-      out.rms_px = calibrate();
-    } catch (const cv::Exception& e) {
-      return Error{fmt::format("the lens could not be fitted to the board views ({})", e.err)};
-    }
+    out.rms_px = calibrate();
   } catch (const cv::Exception& e) {
     return Error{fmt::format("the lens could not be fitted to the board views ({}); record the board in more "
                              "places and angles", e.err)};

@@ -100,12 +100,19 @@ TEST(StoreCrash, KillNineAtRandomMomentsLosesAtMostTheLastSecond) {
       for (const auto& c : s.value().info.cameras)
         EXPECT_NE(c.reason, "lost_at_interruption")
             << "sample " << i << " at " << (horizon - info.value().t_ns) / 1e6 << " ms before the horizon";
-      // Every camera's pixels: decoded, and showing the frame they should (its timecode).
+      // Every camera frame the sample names has its pixels: decoded, showing a frame (its timecode).
+      // (Free-running simulated cameras are not in phase: a sample may name fewer than four, which
+      // is the timeline's count of incomplete groups, not a loss to the kill.)
       ASSERT_EQ(s.value().images.size(), r.cameras().size()) << "sample " << i;
+      std::size_t named = 0, shown = 0;
+      for (const auto& c : s.value().info.cameras) named += c.in_video;
       for (std::size_t c = 0; c < s.value().images.size(); ++c) {
-        ASSERT_FALSE(s.value().images[c].empty()) << "sample " << i << ", camera " << c << ": no pixels";
+        if (s.value().images[c].empty()) continue;
+        ++shown;
         EXPECT_TRUE(pvcap::sim::read_timecode(s.value().images[c])) << "sample " << i << ", camera " << c;
       }
+      EXPECT_EQ(shown, named) << "sample " << i << ": every frame it names has its pixels";
+      EXPECT_GE(named, 1u) << "sample " << i;
       EXPECT_TRUE(s.value().pressure) << "sample " << i;
       ++checked;
     }
