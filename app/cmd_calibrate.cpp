@@ -109,6 +109,16 @@ std::filesystem::path calibration_file(const CalibrateOptions& o) {
 
 std::string fmt_point(cv::Point2d p) { return fmt::format("({:.1f}, {:.1f})", p.x, p.y); }
 
+// The end of intrinsics and pad: what succeeded is saved whatever failed; the failures are named;
+// exit 1 when any camera failed or missed its ground-truth target.
+int save_and_report(const std::filesystem::path& file, const calib::RigCalibration& cal,
+                    const std::vector<std::string>& failed, bool within_targets, const std::string& next) {
+  if (Status s = calib::save_rig_calibration(file, cal); !s.ok()) throw UserError(s.error().message);
+  fmt::print("wrote {}{}\n", file.string(), next);
+  for (const auto& f : failed) fmt::print(stderr, "pvcap: {}\n", f);
+  return failed.empty() && within_targets ? 0 : 1;
+}
+
 }  // namespace
 
 int cmd_calibrate_board(const std::filesystem::path& out) {
@@ -206,13 +216,8 @@ int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
     }
     add_to_session(o.session, camera, *entry, m, file);
   }
-  if (Status s = calib::save_rig_calibration(file, cal); !s.ok()) throw UserError(s.error().message);
-  fmt::print("wrote {}; next: pvcap calibrate pad SESSION --calibration {}\n", file.string(), file.string());
-  if (!failed.empty()) {
-    for (const auto& f : failed) fmt::print(stderr, "pvcap: {}\n", f);
-    return 1;
-  }
-  return within_targets ? 0 : 1;
+  return save_and_report(file, cal, failed, within_targets,
+                         fmt::format("; next: pvcap calibrate pad SESSION --calibration {}", file.string()));
 }
 
 int cmd_calibrate_pad(const CalibrateOptions& o) {
@@ -284,13 +289,7 @@ int cmd_calibrate_pad(const CalibrateOptions& o) {
     }
     add_to_session(o.session, camera, *entry, m, file);
   }
-  if (Status s = calib::save_rig_calibration(file, cal); !s.ok()) throw UserError(s.error().message);
-  fmt::print("wrote {}\n", file.string());
-  if (!failed.empty()) {
-    for (const auto& f : failed) fmt::print(stderr, "pvcap: {}\n", f);
-    return 1;
-  }
-  return within_targets ? 0 : 1;
+  return save_and_report(file, cal, failed, within_targets, "");
 }
 
 int cmd_calibrate_check(const CalibrateOptions& o) {
