@@ -55,6 +55,28 @@ std::vector<std::size_t> spread(std::size_t count, std::size_t wanted) {
   return out;
 }
 
+// The samples a command looks at: --frames of them (or `by_default`) spread over the session.
+std::vector<std::size_t> samples_to_read(const SessionReader& session, const CalibrateOptions& o,
+                                         std::size_t by_default) {
+  auto samples = spread(session.sample_count(), o.frames > 0 ? std::size_t(o.frames) : by_default);
+  if (samples.empty()) throw UserError(fmt::format("{}: the session has no samples", o.session.string()));
+  return samples;
+}
+
+// Hands camera `c`'s stored image of each sample to `use` (samples without one are skipped),
+// with progress on the terminal.
+template <typename Use>
+void for_each_image(SessionReader& session, std::size_t c, const std::vector<std::size_t>& samples,
+                    const std::string& what, Use use) {
+  std::size_t done = 0;
+  for (std::size_t i : samples) {
+    auto image = session.image(i, c);
+    if (!image) throw UserError(image.error().message);
+    if (!image.value().empty()) use(image.value());
+    progress(session.cameras()[c].name + ": " + what, ++done, samples.size());
+  }
+}
+
 sim::RigTruth read_truth(const std::filesystem::path& dir) {
   auto truth = sim::read_rig_truth(dir);
   if (!truth) throw UserError(truth.error().message);
@@ -146,8 +168,7 @@ int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
   const calib::BoardSpec spec;
   const std::filesystem::path file = calibration_file(o);
   calib::RigCalibration cal = load_or_new(file, *session);
-  const auto samples = spread(session->sample_count(), std::size_t(o.frames > 0 ? o.frames : 150));
-  if (samples.empty()) throw UserError(fmt::format("{}: the session has no samples", o.session.string()));
+  const auto samples = samples_to_read(*session, o, 150);
   std::optional<sim::RigTruth> truth;
   if (!o.ground_truth.empty()) truth = read_truth(o.ground_truth);
   bool within_targets = true;
@@ -155,13 +176,8 @@ int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
   for (std::size_t c = 0; c < session->cameras().size(); ++c) {
     const CameraInfo& camera = session->cameras()[c];
     std::vector<calib::BoardView> views;
-    std::size_t done = 0;
-    for (std::size_t i : samples) {
-      auto image = session->image(i, c);
-      if (!image) throw UserError(image.error().message);
-      if (!image.value().empty()) views.push_back(calib::detect_board(image.value(), spec));
-      progress(camera.name + ": finding the board", ++done, samples.size());
-    }
+    for_each_image(*session, c, samples, "finding the board",
+                   [&](const cv::Mat& image) { views.push_back(calib::detect_board(image, spec)); });
     auto got = calib::calibrate_intrinsics(views, {camera.width, camera.height}, spec);
     if (!got) {  // the other cameras' results are still kept
       failed.push_back(fmt::format("{}: {}", camera.name, got.error().message));
@@ -187,9 +203,11 @@ int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
                          {"empty_regions", in.empty_regions}}};
     entry->intrinsics = m;
     fmt::print("{}: {} views ({} left out), {} corners, RMS {:.3f} px; fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f} "
-               "(the fit's standard deviation: fx {:.1f}, cx {:.1f}, cy {:.1f} px)\n",
+               "(the fit's standard deviation: focal {:.1f}, cx {:.1f}, cy {:.1f} px)\n",
                camera.name, in.views, in.rejected_views, in.corners, in.rms_px, in.model.K(0, 0), in.model.K(1, 1),
-               in.model.K(0, 2), in.model.K(1, 2), in.deviation[0], in.deviation[2], in.deviation[3]);
+               in.model.K(0, 2), in.model.K(1, 2),
+               // with fx = fy fixed, OpenCV reports the focal length's deviation under one of the two
+               std::max(in.deviation[0], in.deviation[1]), in.deviation[2], in.deviation[3]);
     std::string grid;
     for (int r = 0; r < calib::Intrinsics::coverage_rows; ++r) {
       grid += "    ";
@@ -228,8 +246,7 @@ int cmd_calibrate_pad(const CalibrateOptions& o) {
                                 "calibrate intrinsics BOARD_SESSION --out {}` (or give --calibration)",
                                 file.string(), file.string()));
   calib::RigCalibration cal = load_or_new(file, *session);
-  const auto samples = spread(session->sample_count(), std::size_t(o.frames > 0 ? o.frames : 15));
-  if (samples.empty()) throw UserError(fmt::format("{}: the session has no samples", o.session.string()));
+  const auto samples = samples_to_read(*session, o, 15);
   std::optional<sim::RigTruth> truth;
   if (!o.ground_truth.empty()) truth = read_truth(o.ground_truth);
   bool within_targets = true;
@@ -251,13 +268,8 @@ int cmd_calibrate_pad(const CalibrateOptions& o) {
       continue;
     }
     calib::MarkerAccumulator markers(cal.pad);
-    std::size_t done = 0;
-    for (std::size_t i : samples) {
-      auto image = session->image(i, c);
-      if (!image) throw UserError(image.error().message);
-      if (!image.value().empty()) markers.add(image.value());
-      progress(camera.name + ": finding the mat's markers", ++done, samples.size());
-    }
+    for_each_image(*session, c, samples, "finding the mat's markers",
+                   [&](const cv::Mat& image) { markers.add(image); });
     auto got = calib::calibrate_pad(markers.median(), entry->model, cal.pad);
     if (!got) {
       failed.push_back(fmt::format("{}: {}", camera.name, got.error().message));
