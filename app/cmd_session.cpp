@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "app/cmd_report.h"
 #include "protocol/recording_env.h"
 #include "protocol/runner.h"
 #include "protocol/takes.h"
@@ -195,13 +196,17 @@ int run_session(const RigConfig& rig, const SessionCommand& command, const std::
   fmt::print("\n{}", result.report);
   if (runner && !result.dir.empty()) {
     if (auto takes = protocol::read_takes(result.dir)) {
+      // Every take in report.txt and report.html; the console keeps to the totals.
       const std::string table = protocol::format_takes(takes.value());
-      fmt::print("\n{}", table);
       std::ofstream(result.dir / "report.txt", std::ios::app) << "\n" << table;
+      const auto totals = table.find(" takes done of ");
+      const auto line = table.rfind('\n', totals);
+      fmt::print("\n{}", totals == std::string::npos ? table : table.substr(line + 1));
     } else {
       spdlog::error("the takes could not be read back: {}", takes.error().message);
     }
   }
+  if (!result.dir.empty()) write_session_report(result.dir);
   return result.exit_code;
 }
 

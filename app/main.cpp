@@ -15,6 +15,7 @@
 #include "app/cmd_calibrate.h"
 #include "app/cmd_devices.h"
 #include "app/cmd_eval_sync.h"
+#include "app/cmd_report.h"
 #include "app/cmd_sensel_decode.h"
 #include "app/cmd_session.h"
 #include "app/cmd_sim.h"
@@ -122,6 +123,14 @@ int main(int argc, char** argv) {
   bool takes_as_json = false;
   takes->add_option("SESSION", takes_dir, "the session folder")->required()->check(CLI::ExistingDirectory);
   takes->add_flag("--json", takes_as_json, "as JSON");
+
+  auto* report = app.add_subcommand("report", "the session report: report.html in the session folder (captured and "
+                                             "lost, intervals, clocks, pairing, takes, calibration, sync self-check)");
+  pvcap::ReportCommand report_cmd;
+  report->add_option("SESSION", report_cmd.session, "the session folder")->required()->check(CLI::ExistingDirectory);
+  report->add_flag("--json", report_cmd.json, "print the report's figures as JSON instead of writing the page");
+  bool no_self_check = false;
+  report->add_flag("--no-self-check", no_self_check, "leave out the sync self-check (it decodes frames around presses)");
 
   auto* sim = app.add_subcommand("sim", "serve a simulated rig (GigE Vision cameras over loopback)");
   std::string sim_rig, truth = "sim-truth";
@@ -294,6 +303,10 @@ int main(int argc, char** argv) {
       if (takes_as_json) fmt::print("{}\n", pvcap::protocol::takes_json(t.value()).dump(2));
       else fmt::print("{}", pvcap::protocol::format_takes(t.value()));
       return 0;
+    }
+    if (*report) {
+      report_cmd.self_check = !no_self_check;
+      return pvcap::cmd_report(report_cmd);
     }
     if (*verify) {
       const auto report = pvcap::verify_session(verify_dir, [](const std::string& step) { spdlog::info("{}", step); });

@@ -54,6 +54,24 @@ cv::Mat pixel_area_mm2(const cv::Matx33d& cells_to_image, cv::Size size, const P
   return out;
 }
 
+cv::Mat overlay_pressure(const cv::Mat& bgr, const cv::Mat& pressure, double full_scale, double opacity) {
+  CV_Assert(bgr.type() == CV_8UC3 && pressure.type() == CV_32F && bgr.size() == pressure.size());
+  cv::Mat level;
+  pressure.convertTo(level, CV_8U, full_scale > 0 ? 255.0 / full_scale : 0.0);
+  cv::Mat colour;
+  cv::applyColorMap(level, colour, cv::COLORMAP_INFERNO);
+  cv::Mat out = bgr.clone();
+  for (int y = 0; y < out.rows; ++y) {
+    const float* p = pressure.ptr<float>(y);
+    const auto* c = colour.ptr<cv::Vec3b>(y);
+    auto* o = out.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < out.cols; ++x)
+      if (p[x] > 0)
+        for (int k = 0; k < 3; ++k) o[x][k] = cv::saturate_cast<uchar>((1 - opacity) * o[x][k] + opacity * c[x][k]);
+  }
+  return out;
+}
+
 double sensor_force_n(const cv::Mat& pressure_kpa, const PadLayout& pad) {
   return cv::sum(pressure_kpa)[0] * pad.pitch_mm * pad.pitch_mm * 1e-3;  // kPa * mm^2 = 1e-3 N
 }

@@ -38,6 +38,13 @@ double sensor_force_n(const cv::Mat& pressure_kpa, const PadLayout& pad);
 cv::Mat warp_pressure_conserving(const cv::Mat& pressure_kpa, const cv::Matx33d& cells_to_image, cv::Size size,
                                  const PadLayout& pad);
 
+// Pressure drawn over a camera image (BGR): a perceptual colormap (inferno, black = no pressure)
+// blended in where the pressure is above zero, the image left untouched where it is zero.
+// `full_scale` is the pressure at the colormap's top (same unit as `pressure_in_image`, CV_32F of
+// the image's size, e.g. PressureProjector::project's output).
+cv::Mat overlay_pressure(const cv::Mat& bgr, const cv::Mat& pressure_in_image, double full_scale,
+                         double opacity = 0.75);
+
 // The paper's crop (PressureVision recording/sequence_reader.py crop_img): the bounding box of the
 // pad's four image corners, `margin` px wider on every side, grown about its rounded centre to the
 // network's aspect (480:384), truncated to integers and clamped to the image (which can break the

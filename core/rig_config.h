@@ -82,6 +82,10 @@ struct SimCameraClock {
   double jitter_us = 0;   // std-dev of device timestamp noise
   double packet_loss = 0;  // fraction of GVSP packets not sent
   double exposure_latency_ms = 0;  // the instant a frame shows lies this long before it leaves (its "datasheet" latency)
+  // A latency nobody declared: each frame shows the scene this long before the instant its timestamp
+  // says (negative: after), so the sessions's clocks agree while the pixels lag; the report's sync
+  // self-check must find it from the data alone.
+  double undeclared_latency_ms = 0;
   std::optional<double> stop_after_s;    // camera vanishes after this many seconds (from sim start)
   std::optional<double> return_after_s;  // and comes back (power-cycled: frame ids restart) after this many
   // Its lens and where it stands (pad coordinates in mm, z = height above the pad); any left out

@@ -110,6 +110,7 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   self->board_ = board;
   self->clock_ = SimClock{t0_ns, clock.offset_ms * 1e6, clock.drift_ppm * 1e-6, clock.jitter_us * 1e3};
   self->exposure_latency_ns_ = std::int64_t(clock.exposure_latency_ms * 1e6);
+  self->undeclared_latency_ns_ = std::int64_t(std::llround(clock.undeclared_latency_ms * 1e6));
   self->rng_.seed(seed * 1000 + std::uint64_t(index));
   const auto truth_path = truth_dir / (camera.name + "_frames.csv");
   const bool fresh = !std::filesystem::exists(truth_path);  // a camera that comes back appends
@@ -228,7 +229,7 @@ void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t t
   std::memcpy(data, base.data, base.total() * base.elemSize());
   const auto frame_id = std::uint16_t(arv_buffer_get_frame_id(buffer));
   if (hand_ && !board_) {
-    const HandPose pose = hand_->pose_at(true_ns);
+    const HandPose pose = hand_->pose_at(true_ns - undeclared_latency_ns_);
     if (pose.visible) {
       const calib::CameraModel m = model({width, height});
       const cv::Point2d c = m.project({pose.x_mm, pose.y_mm, 0.0});

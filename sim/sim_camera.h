@@ -79,6 +79,7 @@ class SimCamera {
   cv::Size configured_size_;
   SimClock clock_;
   std::int64_t exposure_latency_ns_ = 0;
+  std::int64_t undeclared_latency_ns_ = 0;  // the hand is drawn where it was this long before true_ns
   arv::GPtr<ArvGvFakeCamera> fake_;
   std::mutex mu_;  // fill runs on the fake camera's thread; truth is read from others
   std::mt19937_64 rng_;

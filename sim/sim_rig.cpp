@@ -64,6 +64,8 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
                          {"drift_ppm", clk.drift_ppm},
                          {"jitter_us", clk.jitter_us},
                          {"packet_loss", clk.packet_loss},
+                         {"exposure_latency_ms", clk.exposure_latency_ms},
+                         {"undeclared_latency_ms", clk.undeclared_latency_ms},
                          {"image_size", {cam.width, cam.height}},
                          {"model", model},
                          // pressure-image pixels (cell centres at integers) -> ideal (undistorted) pixels

@@ -393,6 +393,115 @@ Result<std::vector<StreamStatistics>> SessionReader::stream_statistics() {
   });
 }
 
+Result<std::vector<FrameTiming>> SessionReader::frame_timing(std::int64_t device_id) {
+  return guarded(dir_, [&]() -> Result<std::vector<FrameTiming>> {
+    const bool camera = std::any_of(cameras_.begin(), cameras_.end(), [&](const CameraInfo& c) {
+      return c.device_id == device_id;
+    });
+    auto q = db_->prepare(camera ? "SELECT connection, sequence, host_ns, device_ns, mapped_ns, status = 'good', kept "
+                                   "FROM frames WHERE device_id = ? ORDER BY host_ns"
+                                 : "SELECT connection, sequence, host_ns, device_ns, mapped_ns, 1, 0 FROM "
+                                   "pressure_frames WHERE device_id = ? ORDER BY host_ns");
+    q.bind_all(device_id);
+    std::vector<FrameTiming> out;
+    while (q.step())
+      out.push_back({std::uint32_t(q.column_int(0)), std::uint64_t(q.column_int(1)), q.column_int(2), q.column_int(3),
+                     opt_int(q, 4), q.column_int(5) != 0, q.column_int(6) != 0});
+    return out;
+  });
+}
+
+Result<std::vector<PressureTotal>> SessionReader::pressure_totals() {
+  if (!pressure_device_) return std::vector<PressureTotal>{};
+  return guarded(dir_, [&]() -> Result<std::vector<PressureTotal>> {
+    auto q = db_->prepare("SELECT sequence, coalesce(mapped_ns, host_ns), grid_cols, grid_rows, counts FROM "
+                          "pressure_frames WHERE device_id = ? AND connection = 0 AND counts IS NOT NULL ORDER BY "
+                          "coalesce(mapped_ns, host_ns)");
+    q.bind_all(pressure_device_->device_id);
+    std::vector<PressureTotal> out;
+    while (q.step()) {
+      const std::int64_t cols = q.column_int(2), rows = q.column_int(3);
+      if (cols <= 0 || rows <= 0 || cols > kMaxGridSide || rows > kMaxGridSide)
+        return Error{fmt::format("{}: pressure frame {} has an impossible grid {}x{}", dir_.string(), q.column_int(0),
+                                 cols, rows)};
+      auto counts = decompress_counts(q.column_blob(4), std::size_t(cols * rows));
+      if (!counts)
+        return Error{fmt::format("{}: pressure frame {}: {}", dir_.string(), q.column_int(0), counts.error().message)};
+      double total = 0;
+      for (auto c : counts.value()) total += c;
+      out.push_back({std::uint64_t(q.column_int(0)), q.column_int(1), total});
+    }
+    return out;
+  });
+}
+
+Result<std::vector<SampleInfo>> SessionReader::sample_infos() {
+  return guarded(dir_, [&]() -> Result<std::vector<SampleInfo>> {
+    std::vector<SampleInfo> out;
+    out.reserve(sample_ids_.size());
+    std::map<std::uint64_t, std::size_t> position;
+    auto q = db_->prepare(
+        "SELECT id, tick, tick_ns, t_ns, span_ns, pressure_sequence, pressure_offset_ns, before_sequence, "
+        "before_offset_ns, after_sequence, after_offset_ns FROM samples ORDER BY id");
+    while (q.step()) {
+      SampleInfo s;
+      s.index = std::uint64_t(q.column_int(0));
+      s.tick = q.column_int(1);
+      s.tick_ns = q.column_int(2);
+      s.t_ns = q.column_int(3);
+      s.span_ns = q.column_int(4);
+      auto ref = [&](int col) -> std::optional<SampleInfo::PressureRef> {
+        if (q.column_null(col)) return std::nullopt;
+        return SampleInfo::PressureRef{std::uint64_t(q.column_int(col)), q.column_int(col + 1)};
+      };
+      s.pressure = ref(5);
+      s.before = ref(7);
+      s.after = ref(9);
+      position[s.index] = out.size();
+      out.push_back(std::move(s));
+    }
+    auto f = db_->prepare(
+        "SELECT sf.sample_id, sf.device_id, sf.connection, sf.sequence, sf.offset_ns, f.kept, f.reason FROM "
+        "sample_frames sf LEFT JOIN frames f USING (device_id, connection, sequence) ORDER BY sf.sample_id, "
+        "sf.device_id");
+    while (f.step()) {
+      auto it = position.find(std::uint64_t(f.column_int(0)));
+      if (it == position.end()) continue;
+      out[it->second].cameras.push_back({f.column_int(1), std::uint32_t(f.column_int(2)),
+                                         std::uint64_t(f.column_int(3)), f.column_int(4),
+                                         !f.column_null(5) && f.column_int(5) == 1,
+                                         f.column_null(5) ? "no frame row" : text_or_empty(f, 6)});
+    }
+    return out;
+  });
+}
+
+Result<std::vector<DropRecord>> SessionReader::drops() {
+  return guarded(dir_, [&]() -> Result<std::vector<DropRecord>> {
+    std::vector<DropRecord> out;
+    auto q = db_->prepare("SELECT device_id, connection, first_sequence, count, reason, host_ns FROM drops ORDER BY "
+                          "host_ns");
+    while (q.step())
+      out.push_back({q.column_int(0), std::uint32_t(q.column_int(1)), std::uint64_t(q.column_int(2)),
+                     std::uint64_t(q.column_int(3)), text_or_empty(q, 4), q.column_int(5)});
+    return out;
+  });
+}
+
+Result<std::vector<ClockModelRecord>> SessionReader::clock_models() {
+  return guarded(dir_, [&]() -> Result<std::vector<ClockModelRecord>> {
+    std::vector<ClockModelRecord> out;
+    auto q = db_->prepare("SELECT device_id, host_ns, segment, x0_device_ns, offset_ns, skew, latency_ns, source, "
+                          "pairs, envelope_points, residual_p50_ns, residual_p99_ns FROM clock_models ORDER BY "
+                          "device_id, host_ns");
+    while (q.step())
+      out.push_back({q.column_int(0), q.column_int(1), int(q.column_int(2)), q.column_int(3), q.column_double(4),
+                     q.column_double(5), q.column_int(6), text_or_empty(q, 7), std::uint64_t(q.column_int(8)),
+                     std::uint64_t(q.column_int(9)), q.column_int(10), q.column_int(11)});
+    return out;
+  });
+}
+
 Result<std::vector<std::pair<std::string, std::uint64_t>>> SessionReader::timeline_counts() {
   return guarded(dir_, [&]() -> Result<std::vector<std::pair<std::string, std::uint64_t>>> {
     std::vector<std::pair<std::string, std::uint64_t>> out;

@@ -114,6 +114,23 @@ struct StreamStatistics {
   double mean_rate_hz = 0;
 };
 
+// When one frame of a stream came, for interval and clock plots (no pixels, no payload).
+struct FrameTiming {
+  std::uint32_t connection = 0;
+  std::uint64_t sequence = 0;
+  std::int64_t host_ns = 0, device_ns = 0;
+  std::optional<std::int64_t> mapped_ns;
+  bool good = true;   // camera: status 'good'
+  bool kept = false;  // camera: in a video
+};
+
+// One pressure frame reduced to its instant and its sum of raw counts.
+struct PressureTotal {
+  std::uint64_t sequence = 0;
+  std::int64_t t_ns = 0;  // mapped_ns (the session clock), host_ns where unmapped
+  double total_counts = 0;
+};
+
 class SessionReader {
  public:
   static Result<std::unique_ptr<SessionReader>> open(const std::filesystem::path& session_dir);
@@ -144,6 +161,14 @@ class SessionReader {
   Result<std::vector<OperatorNoteRecord>> operator_notes();
   Result<std::vector<CalibrationRecord>> calibrations();
   Result<std::vector<StreamStatistics>> stream_statistics();
+  // Every frame of one device (camera or Sensel), by arrival.
+  Result<std::vector<FrameTiming>> frame_timing(std::int64_t device_id);
+  // Every pressure frame with a pressure image (connection 0), in order of its session-clock time.
+  Result<std::vector<PressureTotal>> pressure_totals();
+  // Every sample's references and offsets, in order (one query, for whole-session statistics).
+  Result<std::vector<SampleInfo>> sample_infos();
+  Result<std::vector<DropRecord>> drops();
+  Result<std::vector<ClockModelRecord>> clock_models();
   // The timeline's tallies written at the end (what -> count), in the order written.
   Result<std::vector<std::pair<std::string, std::uint64_t>>> timeline_counts();
 

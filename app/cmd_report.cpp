@@ -1,0 +1,61 @@
+#include "app/cmd_report.h"
+
+#include <chrono>
+#include <cstdio>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "report/report_html.h"
+#include "report/session_report_data.h"
+
+namespace pvcap {
+
+namespace {
+
+// One line on stderr, rewritten as the work goes on (stdout stays clean for --json).
+void progress(const std::string& what, std::size_t done, std::size_t total) {
+  fmt::print(stderr, "\r{}: {}/{}{}", what, done, total, done >= total ? "\n" : "");
+  std::fflush(stderr);
+}
+
+}  // namespace
+
+int cmd_report(const ReportCommand& c) {
+  report::ReportOptions o;
+  o.self_check = c.self_check;
+  o.progress = progress;
+  const auto started = std::chrono::steady_clock::now();
+  if (c.json) {
+    auto data = report::build_report(c.session, o);
+    if (!data) {
+      spdlog::error("{}", data.error().message);
+      return 1;
+    }
+    fmt::print("{}\n", data.value().dump(2));
+    return 0;
+  }
+  auto written = report::write_html_report(c.session, o);
+  if (!written) {
+    spdlog::error("{}", written.error().message);
+    return 1;
+  }
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  fmt::print("report: {} ({:.0f} kB, made in {:.1f} s)\n", written.value().string(),
+             double(std::filesystem::file_size(written.value())) / 1e3, s);
+  return 0;
+}
+
+void write_session_report(const std::filesystem::path& session) {
+  report::ReportOptions o;
+  o.progress = progress;
+  auto written = report::write_html_report(session, o);
+  if (!written) {
+    spdlog::warn("the HTML report could not be made ({}); `pvcap report {}` tries again", written.error().message,
+                 session.string());
+    return;
+  }
+  fmt::print("full report (plots, sync self-check, calibration): {}\n", written.value().string());
+}
+
+}  // namespace pvcap

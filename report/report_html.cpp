@@ -1,0 +1,416 @@
+#include "report/report_html.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <vector>
+
+#include <fmt/format.h>
+
+namespace pvcap::report {
+
+namespace {
+
+using nlohmann::json;
+
+std::string esc(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string num(const json& v, int decimals = 1) {
+  if (v.is_null()) return "&ndash;";
+  if (v.is_number_integer() || v.is_number_unsigned()) return fmt::format("{}", v.get<std::int64_t>());
+  if (v.is_number()) return fmt::format("{:.{}f}", v.get<double>(), decimals);
+  if (v.is_boolean()) return v.get<bool>() ? "yes" : "no";
+  return esc(v.is_string() ? v.get<std::string>() : v.dump());
+}
+
+// A "nice" tick step for a span: 1, 2 or 5 times a power of ten, about `ticks` of them.
+double tick_step(double span, int ticks) {
+  if (span <= 0) return 1;
+  const double raw = span / ticks, p = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double m : {1.0, 2.0, 5.0, 10.0})
+    if (raw <= m * p) return m * p;
+  return 10 * p;
+}
+
+struct Frame {
+  double x0, x1, y0, y1;  // data ranges
+  int w = 640, h = 170, left = 56, right = 10, top = 8, bottom = 30;
+  double px(double x) const { return left + (x - x0) / (x1 - x0) * (w - left - right); }
+  double py(double y) const { return h - bottom - (y - y0) / (y1 - y0) * (h - top - bottom); }
+};
+
+// Axes, ticks and labels; the plot's content goes between open and close.
+std::string axes(const Frame& f, const std::string& xlabel, const std::string& ylabel) {
+  std::string s = fmt::format(
+      "<svg xmlns='http://www.w3.org/2000/svg' width='{}' height='{}' viewBox='0 0 {} {}' role='img'>"
+      "<rect x='{}' y='{}' width='{}' height='{}' fill='#fff' stroke='#999'/>",
+      f.w, f.h, f.w, f.h, f.left, f.top, f.w - f.left - f.right, f.h - f.top - f.bottom);
+  const double xs = tick_step(f.x1 - f.x0, 8), ys = tick_step(f.y1 - f.y0, 4);
+  for (double x = std::ceil(f.x0 / xs) * xs; x <= f.x1 + 1e-9; x += xs)
+    s += fmt::format("<line x1='{0:.1f}' x2='{0:.1f}' y1='{1}' y2='{2}' stroke='#eee'/><text x='{0:.1f}' y='{3}' "
+                     "font-size='10' text-anchor='middle'>{4:g}</text>",
+                     f.px(x), f.top, f.h - f.bottom, f.h - f.bottom + 12, std::round(x / xs) * xs);
+  for (double y = std::ceil(f.y0 / ys) * ys; y <= f.y1 + 1e-9; y += ys)
+    s += fmt::format("<line x1='{0}' x2='{1}' y1='{2:.1f}' y2='{2:.1f}' stroke='#eee'/><text x='{3}' y='{4:.1f}' "
+                     "font-size='10' text-anchor='end'>{5:g}</text>",
+                     f.left, f.w - f.right, f.py(y), f.left - 4, f.py(y) + 3, std::round(y / ys) * ys);
+  s += fmt::format("<text x='{}' y='{}' font-size='11' text-anchor='middle'>{}</text>", (f.left + f.w - f.right) / 2,
+                   f.h - 3, esc(xlabel));
+  s += fmt::format("<text x='12' y='{}' font-size='11' text-anchor='middle' transform='rotate(-90 12 {})'>{}</text>",
+                   (f.top + f.h - f.bottom) / 2, (f.top + f.h - f.bottom) / 2, esc(ylabel));
+  return s;
+}
+
+struct Series {
+  std::vector<std::pair<double, double>> points;
+  std::string colour, name;
+};
+
+std::string line_plot(const std::vector<Series>& series, const std::string& xlabel, const std::string& ylabel,
+                      const std::vector<double>& marks = {}, std::optional<std::pair<double, double>> yrange = {}) {
+  double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+  for (const auto& s : series)
+    for (const auto& [x, y] : s.points) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  for (double m : marks) x0 = std::min(x0, m), x1 = std::max(x1, m);
+  if (x0 > x1) return "<p class='note'>no data</p>";
+  if (yrange) y0 = yrange->first, y1 = yrange->second;
+  if (x1 - x0 < 1e-9) x0 -= 0.5, x1 += 0.5;
+  if (y1 - y0 < 1e-9) y0 -= 0.5, y1 += 0.5;
+  const double pad = (y1 - y0) * 0.05;
+  Frame f{x0, x1, y0 - pad, y1 + pad};
+  std::string s = axes(f, xlabel, ylabel);
+  for (double m : marks)
+    s += fmt::format("<line x1='{0:.1f}' x2='{0:.1f}' y1='{1}' y2='{2}' stroke='#d62728' stroke-width='1.5'/>", f.px(m),
+                     f.top, f.h - f.bottom);
+  for (const auto& se : series) {
+    std::string d;
+    for (const auto& [x, y] : se.points)
+      d += fmt::format("{}{:.1f},{:.1f}", d.empty() ? "M" : " L", f.px(x), f.py(std::clamp(y, f.y0, f.y1)));
+    s += fmt::format("<path d='{}' fill='none' stroke='{}' stroke-width='1'><title>{}</title></path>", d, se.colour,
+                     esc(se.name));
+  }
+  return s + "</svg>";
+}
+
+std::string bar_plot(const json& h, const std::string& xlabel, const std::string& colour = "#1f77b4") {
+  const auto counts = h.at("counts").get<std::vector<double>>();
+  if (counts.empty()) return "<p class='note'>no data</p>";
+  const double lo = h.at("lo"), hi = h.at("hi"), top = std::max(1.0, *std::max_element(counts.begin(), counts.end()));
+  Frame f{lo, hi, 0, top * 1.05};
+  std::string s = axes(f, xlabel, "count");
+  const double w = (hi - lo) / double(counts.size());
+  for (std::size_t i = 0; i < counts.size(); ++i) {
+    if (counts[i] <= 0) continue;
+    const double x = lo + w * double(i);
+    s += fmt::format("<rect x='{:.1f}' y='{:.1f}' width='{:.1f}' height='{:.1f}' fill='{}'><title>{:g}..{:g}: "
+                     "{:g}</title></rect>",
+                     f.px(x), f.py(counts[i]), std::max(1.0, f.px(x + w) - f.px(x) - 0.5), f.py(0) - f.py(counts[i]),
+                     colour, x, x + w, counts[i]);
+  }
+  s += "</svg>";
+  const std::uint64_t below = h.value("below", 0), above = h.value("above", 0);
+  if (below + above)
+    s += fmt::format("<p class='note'>{} below {:g}, {} above {:g} (outside the plot)</p>", below, lo, above, hi);
+  return s;
+}
+
+const char* status_colour(const std::string& status) {
+  if (status == "done") return "#2ca02c";
+  if (status == "bad") return "#d62728";
+  if (status == "superseded") return "#9467bd";
+  if (status == "skipped") return "#7f7f7f";
+  return "#ff7f0e";  // interrupted
+}
+
+std::string takes_timeline(const json& takes, double duration_s) {
+  double end = duration_s;
+  for (const auto& t : takes)
+    if (t.contains("end_s")) end = std::max(end, t["end_s"].get<double>());
+  if (end <= 0) return "";
+  Frame f{0, end, 0, 1};
+  f.h = 90;
+  f.bottom = 30;
+  std::string s = axes(f, "session time (s)", "");
+  for (const auto& t : takes) {
+    if (!t.contains("start_s") || !t.contains("end_s")) continue;
+    const double a = t["start_s"], b = t["end_s"];
+    const bool right = t.value("hand", "") == "right";
+    const double y0 = right ? 0.5 : 0.05, y1 = right ? 0.95 : 0.5;
+    s += fmt::format("<rect x='{:.1f}' y='{:.1f}' width='{:.1f}' height='{:.1f}' fill='{}' stroke='#333' "
+                     "stroke-width='0.5'><title>{} ({}): {:.1f}-{:.1f} s</title></rect>",
+                     f.px(a), f.py(y1), std::max(1.0, f.px(b) - f.px(a)), f.py(y0) - f.py(y1),
+                     status_colour(t.value("status", "")), esc(t.value("sequence", "")), esc(t.value("status", "")), a, b);
+  }
+  s += fmt::format("<text x='{}' y='{:.1f}' font-size='10' text-anchor='end'>left</text><text x='{}' y='{:.1f}' "
+                   "font-size='10' text-anchor='end'>right</text>",
+                   f.left - 4, f.py(0.25) + 3, f.left - 4, f.py(0.75) + 3);
+  return s + "</svg>";
+}
+
+const char* kPalette[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b"};
+
+}  // namespace
+
+std::string render_html(const json& r) {
+  const json& session = r.at("session");
+  std::string h;
+  h += "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>pvcap report: " +
+       esc(session.value("folder", "")) + "</title><style>"
+       "body{font-family:system-ui,sans-serif;margin:24px auto;max-width:1100px;padding:0 16px;color:#222;"
+       "font-size:15px}h1{font-size:24px}h2{font-size:19px;margin-top:32px;border-bottom:1px solid #ccc}"
+       "h3{font-size:15px;margin:16px 0 4px}table{border-collapse:collapse;margin:8px 0}"
+       "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#f3f3f3}"
+       "td:first-child,th:first-child{text-align:left}.ok{color:#1a7f37;font-weight:600}"
+       ".bad{color:#c62828;font-weight:600}.note{color:#555;font-size:13px;margin:2px 0}"
+       ".banner{padding:10px 14px;border-radius:6px;margin:12px 0;font-size:16px}"
+       ".banner.ok{background:#e6f4ea}.banner.bad{background:#fdecea}.thumbs{display:flex;flex-wrap:wrap;gap:12px}"
+       ".thumbs figure{margin:0}.thumbs figcaption{font-size:13px}.plots{display:flex;flex-wrap:wrap;gap:8px}"
+       "</style></head><body>";
+  h += "<h1>Session report</h1>";
+  h += "<table>";
+  auto row = [&](const std::string& k, const std::string& v) { h += "<tr><th>" + k + "</th><td>" + v + "</td></tr>"; };
+  row("folder", esc(session.value("folder", "")));
+  row("rig", esc(session.value("rig", "")) + (session.value("simulated", false) ? " (simulated)" : ""));
+  row("started", esc(session.value("started_utc", "")));
+  row("ended", session.value("ended_cleanly", false)
+                   ? esc(session.value("end_reason", "")) + fmt::format(" after {:.1f} s", session.value("duration_s", 0.0))
+                   : "<span class='bad'>did not end cleanly</span> " + esc(session.value("end_reason", "")));
+  if (session.contains("participant"))
+    row("participant", esc(session["participant"].value("pseudonym", "")) + ", skin tone " +
+                           esc(session["participant"].value("skin_tone", "")) + ", " +
+                           esc(session["participant"].value("hand_order", "")));
+  if (session.contains("conditions"))
+    row("conditions", "lighting " + esc(session["conditions"].value("lighting", "")) + ", overlay " +
+                          esc(session["conditions"].value("sensor_overlay", "")));
+  row("pvcap", esc(session.value("pvcap_version", "")));
+  h += "</table>";
+
+  // Captured and lost.
+  std::uint64_t lost = 0;
+  bool reconciles = true;
+  for (const auto& s : r.at("streams")) {
+    reconciles &= s.value("reconciles", false);
+    lost += s.value("not_received", std::uint64_t(0)) + s.value("connection_losses", std::uint64_t(0));
+    if (s.contains("not_kept"))
+      for (const auto& [why, n] : s["not_kept"].items())
+        if (why != "subsampled") lost += n.get<std::uint64_t>();
+  }
+  h += fmt::format("<div class='banner {}'>{}</div>", lost == 0 ? "ok" : "bad",
+                   lost == 0 ? "Every frame the devices numbered arrived, and every kept frame is stored."
+                             : fmt::format("{} frames were lost or not stored for a reason other than the 15 Hz "
+                                           "subsampling: see the table below.",
+                                           lost));
+  h += "<h2>Captured and lost</h2><table><tr><th>stream</th><th>frames stored</th><th>good</th><th>in video</th>"
+       "<th>subsampled</th><th>not kept (other reasons)</th><th>never received</th><th>connection losses</th>"
+       "<th>rate (Hz)</th><th>reconciles</th></tr>";
+  for (const auto& s : r.at("streams")) {
+    std::string other;
+    std::uint64_t subsampled = 0;
+    if (s.contains("not_kept"))
+      for (const auto& [why, n] : s["not_kept"].items()) {
+        if (why == "subsampled") subsampled = n;
+        else other += fmt::format("{}{}: {}", other.empty() ? "" : ", ", esc(why), n.get<std::uint64_t>());
+      }
+    const bool camera = s.value("kind", "") == "camera";
+    h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
+                     "<td>{:.2f}</td><td class='{}'>{}</td></tr>",
+                     esc(s.value("name", "")), s.value("frames", 0),
+                     camera && s["by_status"].contains("good") ? num(s["by_status"]["good"]) : "&ndash;",
+                     camera ? num(s["in_video"]) : "&ndash;", camera ? fmt::format("{}", subsampled) : "&ndash;",
+                     other.empty() ? (camera ? "0" : "&ndash;") : other, s.value("not_received", 0),
+                     s.value("connection_losses", 0), s.value("mean_rate_hz", 0.0),
+                     s.value("reconciles", false) ? "ok" : "bad", s.value("reconciles", false) ? "yes" : "NO");
+  }
+  h += "</table>";
+  h += reconciles ? "<p class='note'>Counts reconcile with the store: per camera, frames stored = good + incomplete = "
+                    "in video + not kept (by reason); never received is the drops table (frames the device numbered "
+                    "that never came).</p>"
+                  : "<p class='bad'>Counts do not reconcile with the store: run `pvcap verify` on the session.</p>";
+
+  // Sync self-check.
+  if (r.contains("self_check")) {
+    const json& sc = r["self_check"];
+    h += "<h2>Sync self-check</h2>";
+    h += fmt::format("<p>Each camera's time offset to the pressure, estimated from the data alone ({} presses found, "
+                     "{} isolated, {} used). Positive: the camera's frames show an instant earlier than their time "
+                     "says (a latency not declared in the rig file).</p>",
+                     sc.value("presses_found", 0), sc.value("presses_isolated", 0), sc.value("presses_used", 0));
+    h += "<table><tr><th>camera</th><th>offset (ms)</th><th>&plusmn; (ms, 1 s.e.)</th><th>presses</th><th>verdict"
+         "</th></tr>";
+    for (const auto& c : sc["cameras"]) {
+      const bool ok = c.value("verdict", "") == "ok";
+      const bool flagged = ok && std::abs(c["offset_ms"].get<double>()) > 2 + 2 * c["uncertainty_ms"].get<double>();
+      h += fmt::format("<tr><td>{}</td><td class='{}'>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                       esc(c.value("name", "")), flagged ? "bad" : "", num(c["offset_ms"], 2),
+                       num(c["uncertainty_ms"], 2), c.value("presses", 0),
+                       flagged ? "offset beyond 2 ms: check the rig file's latency_ns for this camera"
+                               : esc(c.value("verdict", "")));
+    }
+    h += "</table><p class='note'>" + esc(sc.value("method", "")) + "</p>";
+  }
+
+  // Intervals.
+  h += "<h2>Frame intervals</h2><p class='note'>Time between consecutive frames of each stream on the session clock; "
+       "red lines: frames the device numbered that never arrived.</p>";
+  for (const auto& s : r.at("intervals")) {
+    Series se{{}, "#1f77b4", s.value("name", "")};
+    for (const auto& p : s["series"]) se.points.emplace_back(p[0].get<double>(), p[1].get<double>());
+    std::vector<double> marks;
+    for (const auto& d : s["drops"]) marks.push_back(d[0].get<double>());
+    h += fmt::format("<h3>{}: median {:.2f} ms, p99 {:.2f} ms, max {:.2f} ms, {} never received</h3>",
+                     esc(s.value("name", "")), s.value("median_ms", 0.0), s.value("p99_ms", 0.0), s.value("max_ms", 0.0),
+                     s.value("not_received", 0));
+    const double med = s.value("median_ms", 1.0);
+    h += "<div class='plots'>" +
+         line_plot({se}, "session time (s)", "interval (ms)", marks, std::make_pair(0.0, std::max(3 * med, 1.0))) +
+         bar_plot(s["histogram"], "interval (ms)") + "</div>";
+  }
+
+  // Clocks.
+  h += "<h2>Clock models</h2><p class='note'>Each device's clock against the host's: how its offset moved (drift), "
+       "and the 99th percentile of arrival latency above the fitted line (residuals). A reset starts a new segment."
+       "</p><table><tr><th>stream</th><th>source</th><th>segments</th><th>resets</th><th>drift (ppm)</th>"
+       "<th>declared latency (ms)</th><th>residual p99, median (&micro;s)</th><th>residual p99, max (&micro;s)</th></tr>";
+  for (const auto& c : r.at("clocks"))
+    h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.0f}</td>"
+                     "<td>{:.0f}</td></tr>",
+                     esc(c.value("name", "")), esc(c.value("source", "")), c.value("segments", 0), c.value("resets", 0),
+                     c.value("final_drift_ppm", 0.0), c.value("latency_ms", 0.0), c.value("residual_p99_us_median", 0.0),
+                     c.value("residual_p99_us_max", 0.0));
+  h += "</table>";
+  {
+    std::vector<Series> offsets, residuals;
+    std::size_t k = 0;
+    for (const auto& c : r.at("clocks")) {
+      Series o{{}, kPalette[k % 6], c.value("name", "")}, res{{}, kPalette[k % 6], c.value("name", "")};
+      for (const auto& p : c["series"]) {
+        o.points.emplace_back(p["t_s"].get<double>(), p["offset_change_us"].get<double>() / 1e3);
+        res.points.emplace_back(p["t_s"].get<double>(), p["residual_p99_us"].get<double>());
+      }
+      offsets.push_back(std::move(o));
+      residuals.push_back(std::move(res));
+      ++k;
+    }
+    h += "<div class='plots'>" + line_plot(offsets, "session time (s)", "offset change (ms)") +
+         line_plot(residuals, "session time (s)", "residual p99 (\xC2\xB5s)") + "</div><p class='note'>";
+    k = 0;
+    for (const auto& c : r.at("clocks"))
+      h += fmt::format("<span style='color:{}'>&#9632;</span> {} &nbsp; ", kPalette[k++ % 6], esc(c.value("name", "")));
+    h += "</p>";
+  }
+
+  // Pairing.
+  {
+    const json& p = r.at("pairing");
+    h += "<h2>Pairing</h2>";
+    h += fmt::format("<p>{} samples; {} paired with a pressure frame, {} without; {} missing a camera; {} ties (the "
+                     "pressure frames before and after equally near). |camera &minus; pressure| offset: p50 {:.2f} ms, "
+                     "p99 {:.2f} ms. Spread of a sample's camera frames: p50 {:.2f} ms, max {:.2f} ms.</p>",
+                     p.value("samples", 0), p.value("paired", 0), p.value("unpaired", 0),
+                     p.value("missing_a_camera", 0), p.value("ties", 0), p.value("abs_offset_ms_p50", 0.0),
+                     p.value("abs_offset_ms_p99", 0.0), p.value("camera_span_ms_p50", 0.0),
+                     p.value("camera_span_ms_max", 0.0));
+    h += bar_plot(p["offset_histogram_ms"], "pressure frame time minus sample time (ms)");
+    if (p.contains("timeline_counts")) {
+      h += "<table><tr><th>timeline tally</th><th>count</th></tr>";
+      for (const auto& [what, n] : p["timeline_counts"].items())
+        h += fmt::format("<tr><td>{}</td><td>{}</td></tr>", esc(what), n.get<std::uint64_t>());
+      h += "</table>";
+    }
+  }
+
+  // Protocol.
+  {
+    const json& p = r.at("protocol");
+    h += "<h2>Protocol</h2>";
+    if (p.contains("note")) h += "<p class='note'>" + esc(p["note"].get<std::string>()) + "</p>";
+    if (!p["takes"].empty()) {
+      h += takes_timeline(p["takes"], session.value("duration_s", 0.0));
+      h += "<p class='note'><span style='color:#2ca02c'>&#9632;</span> done <span style='color:#9467bd'>&#9632;"
+           "</span> superseded <span style='color:#d62728'>&#9632;</span> bad <span style='color:#ff7f0e'>&#9632;"
+           "</span> interrupted</p>";
+      if (p.contains("by_force") && !p["by_force"].empty()) {
+        h += "<h3>Force by requested level (done takes)</h3><table><tr><th>force level</th><th>takes</th><th>mean "
+             "force (N)</th><th>peak force (N)</th></tr>";
+        for (const auto& [level, v] : p["by_force"].items())
+          h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>", esc(level), num(v.value("takes", json())),
+                           num(v.value("mean_newtons", json()), 2), num(v.value("peak_newtons", json()), 2));
+        h += "</table>";
+      }
+      h += "<h3>Takes</h3><table><tr><th>sequence</th><th>status</th><th>start (s)</th><th>end (s)</th><th>mean "
+           "(N)</th><th>peak (N)</th><th>check</th></tr>";
+      for (const auto& t : p["takes"])
+        h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>{}</td></tr>",
+                         esc(t.value("sequence", "")), esc(t.value("status", "")), num(t.value("start_s", json()), 1),
+                         num(t.value("end_s", json()), 1), t.value("mean_newtons", 0.0), t.value("peak_newtons", 0.0),
+                         t.contains("check_ok") ? (t["check_ok"].get<bool>() ? "ok" : "<span class='bad'>problem</span>")
+                                                : "&ndash;");
+      h += "</table>";
+    }
+  }
+
+  // Calibration.
+  h += "<h2>Calibration</h2><table><tr><th>camera</th><th>measured</th><th>RMS (px)</th><th>RMS (mm on the pad)</th>"
+       "</tr>";
+  for (const auto& c : r.at("calibration")) {
+    if (c["measurements"].empty())
+      h += "<tr><td>" + esc(c.value("name", "")) + "</td><td colspan='3'>not calibrated</td></tr>";
+    for (const auto& m : c["measurements"])
+      h += fmt::format("<tr><td>{}</td><td>{} ({})</td><td>{}</td><td>{}</td></tr>", esc(c.value("name", "")),
+                       esc(m.value("method", "")), esc(m.value("created_utc", "")), num(m.value("rms_px", json()), 3),
+                       num(m.value("rms_mm", json()), 3));
+  }
+  h += "</table><div class='thumbs'>";
+  for (const auto& c : r.at("calibration"))
+    if (c.contains("thumbnail"))
+      h += fmt::format("<figure><img src='{}' width='480' alt='{}'><figcaption>{}: sample {}{}</figcaption></figure>",
+                       c["thumbnail"].get<std::string>(), esc(c.value("name", "")), esc(c.value("name", "")),
+                       c.value("thumbnail_sample", 0),
+                       c.value("thumbnail_overlay", false) ? ", the pressure overlaid through its calibration"
+                                                           : " (no pad calibration: no overlay)");
+  h += "</div>";
+
+  // Events.
+  h += "<h2>Events</h2>";
+  if (r.at("events").empty()) h += "<p class='note'>none</p>";
+  else {
+    h += "<table><tr><th>time (s)</th><th>kind</th><th>message</th></tr>";
+    for (const auto& e : r["events"])
+      h += fmt::format("<tr><td>{:.3f}</td><td>{}</td><td style='text-align:left'>{}</td></tr>", e.value("t_s", 0.0),
+                       esc(e.value("kind", "")), esc(e.value("message", "")));
+    h += "</table>";
+  }
+  h += "<p class='note'>Made by pvcap report from the session's store; `pvcap report SESSION --json` prints the same "
+       "figures.</p></body></html>\n";
+  return h;
+}
+
+Result<std::filesystem::path> write_html_report(const std::filesystem::path& dir, const ReportOptions& o) {
+  auto data = build_report(dir, o);
+  if (!data) return data.error();
+  const std::filesystem::path path = dir / "report.html", tmp = dir / "report.html.tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << render_html(data.value());
+    out.flush();
+    if (!out) return Error{fmt::format("{}: could not write the report (disk full or read-only?)", tmp.string())};
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) return Error{fmt::format("{}: could not write the report: {}", path.string(), ec.message())};
+  return path;
+}
+
+}  // namespace pvcap::report
