@@ -1,5 +1,7 @@
 #include "app/cmd_report.h"
 
+#include <unistd.h>
+
 #include <chrono>
 #include <cstdio>
 
@@ -13,9 +15,12 @@ namespace pvcap {
 
 namespace {
 
-// One line on stderr, rewritten as the work goes on (stdout stays clean for --json).
+// One line on stderr, rewritten as the work goes on (stdout stays clean for --json); only on a
+// terminal, where a rewritten line reads as progress rather than noise.
 void progress(const std::string& what, std::size_t done, std::size_t total) {
-  fmt::print(stderr, "\r{}: {}/{}{}", what, done, total, done >= total ? "\n" : "");
+  static const bool terminal = isatty(STDERR_FILENO) == 1;
+  if (!terminal) return;
+  fmt::print(stderr, "\r{}: {}/{}\x1b[K{}", what, done, total, done >= total ? "\n" : "");
   std::fflush(stderr);
 }
 
@@ -47,6 +52,7 @@ int cmd_report(const ReportCommand& c) {
 }
 
 void write_session_report(const std::filesystem::path& session) {
+  std::fflush(stdout);
   report::ReportOptions o;
   o.progress = progress;
   auto written = report::write_html_report(session, o);

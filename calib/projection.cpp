@@ -1,5 +1,6 @@
 #include "calib/projection.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <opencv2/imgproc.hpp>
@@ -65,9 +66,11 @@ cv::Mat overlay_pressure(const cv::Mat& bgr, const cv::Mat& pressure, double ful
     const float* p = pressure.ptr<float>(y);
     const auto* c = colour.ptr<cv::Vec3b>(y);
     auto* o = out.ptr<cv::Vec3b>(y);
-    for (int x = 0; x < out.cols; ++x)
-      if (p[x] > 0)
-        for (int k = 0; k < 3; ++k) o[x][k] = cv::saturate_cast<uchar>((1 - opacity) * o[x][k] + opacity * c[x][k]);
+    for (int x = 0; x < out.cols; ++x) {
+      if (!(p[x] > 0) || full_scale <= 0) continue;
+      const double a = opacity * std::min(1.0, p[x] / (0.1 * full_scale));
+      for (int k = 0; k < 3; ++k) o[x][k] = cv::saturate_cast<uchar>((1 - a) * o[x][k] + a * c[x][k]);
+    }
   }
   return out;
 }

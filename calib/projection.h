@@ -39,7 +39,8 @@ cv::Mat warp_pressure_conserving(const cv::Mat& pressure_kpa, const cv::Matx33d&
                                  const PadLayout& pad);
 
 // Pressure drawn over a camera image (BGR): a perceptual colormap (inferno, black = no pressure)
-// blended in where the pressure is above zero, the image left untouched where it is zero.
+// blended in where the pressure is above zero, fading in over the lowest tenth of the scale so
+// the faint tails of the interpolation do not paint a dark halo; untouched where it is zero.
 // `full_scale` is the pressure at the colormap's top (same unit as `pressure_in_image`, CV_32F of
 // the image's size, e.g. PressureProjector::project's output).
 cv::Mat overlay_pressure(const cv::Mat& bgr, const cv::Mat& pressure_in_image, double full_scale,

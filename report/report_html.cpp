@@ -46,7 +46,7 @@ double tick_step(double span, int ticks) {
 
 struct Frame {
   double x0, x1, y0, y1;  // data ranges
-  int w = 640, h = 170, left = 56, right = 10, top = 8, bottom = 30;
+  int w = 520, h = 170, left = 56, right = 10, top = 8, bottom = 30;
   double px(double x) const { return left + (x - x0) / (x1 - x0) * (w - left - right); }
   double py(double y) const { return h - bottom - (y - y0) / (y1 - y0) * (h - top - bottom); }
 };
@@ -61,11 +61,11 @@ std::string axes(const Frame& f, const std::string& xlabel, const std::string& y
   for (double x = std::ceil(f.x0 / xs) * xs; x <= f.x1 + 1e-9; x += xs)
     s += fmt::format("<line x1='{0:.1f}' x2='{0:.1f}' y1='{1}' y2='{2}' stroke='#eee'/><text x='{0:.1f}' y='{3}' "
                      "font-size='10' text-anchor='middle'>{4:g}</text>",
-                     f.px(x), f.top, f.h - f.bottom, f.h - f.bottom + 12, std::round(x / xs) * xs);
+                     f.px(x), f.top, f.h - f.bottom, f.h - f.bottom + 12, std::round(x / xs) * xs + 0.0);
   for (double y = std::ceil(f.y0 / ys) * ys; y <= f.y1 + 1e-9; y += ys)
     s += fmt::format("<line x1='{0}' x2='{1}' y1='{2:.1f}' y2='{2:.1f}' stroke='#eee'/><text x='{3}' y='{4:.1f}' "
                      "font-size='10' text-anchor='end'>{5:g}</text>",
-                     f.left, f.w - f.right, f.py(y), f.left - 4, f.py(y) + 3, std::round(y / ys) * ys);
+                     f.left, f.w - f.right, f.py(y), f.left - 4, f.py(y) + 3, std::round(y / ys) * ys + 0.0);
   s += fmt::format("<text x='{}' y='{}' font-size='11' text-anchor='middle'>{}</text>", (f.left + f.w - f.right) / 2,
                    f.h - 3, esc(xlabel));
   s += fmt::format("<text x='12' y='{}' font-size='11' text-anchor='middle' transform='rotate(-90 12 {})'>{}</text>",
@@ -122,7 +122,7 @@ std::string bar_plot(const json& h, const std::string& xlabel, const std::string
   s += "</svg>";
   const std::uint64_t below = h.value("below", 0), above = h.value("above", 0);
   if (below + above)
-    s += fmt::format("<p class='note'>{} below {:g}, {} above {:g} (outside the plot)</p>", below, lo, above, hi);
+    s += fmt::format("<p class='note'>{} below {:.3g}, {} above {:.3g} (outside the plot)</p>", below, lo, above, hi);
   return s;
 }
 
@@ -172,7 +172,7 @@ std::string render_html(const json& r) {
        "font-size:15px}h1{font-size:24px}h2{font-size:19px;margin-top:32px;border-bottom:1px solid #ccc}"
        "h3{font-size:15px;margin:16px 0 4px}table{border-collapse:collapse;margin:8px 0}"
        "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#f3f3f3}"
-       "td:first-child,th:first-child{text-align:left}.ok{color:#1a7f37;font-weight:600}"
+       "td:first-child,th:first-child,td.t{text-align:left}.ok{color:#1a7f37;font-weight:600}"
        ".bad{color:#c62828;font-weight:600}.note{color:#555;font-size:13px;margin:2px 0}"
        ".banner{padding:10px 14px;border-radius:6px;margin:12px 0;font-size:16px}"
        ".banner.ok{background:#e6f4ea}.banner.bad{background:#fdecea}.thumbs{display:flex;flex-wrap:wrap;gap:12px}"
@@ -189,7 +189,7 @@ std::string render_html(const json& r) {
                    : "<span class='bad'>did not end cleanly</span> " + esc(session.value("end_reason", "")));
   if (session.contains("participant"))
     row("participant", esc(session["participant"].value("pseudonym", "")) + ", skin tone " +
-                           esc(session["participant"].value("skin_tone", "")) + ", " +
+                           esc(session["participant"].value("skin_tone", "")) + ", hand order " +
                            esc(session["participant"].value("hand_order", "")));
   if (session.contains("conditions"))
     row("conditions", "lighting " + esc(session["conditions"].value("lighting", "")) + ", overlay " +
@@ -252,7 +252,7 @@ std::string render_html(const json& r) {
     for (const auto& c : sc["cameras"]) {
       const bool ok = c.value("verdict", "") == "ok";
       const bool flagged = ok && std::abs(c["offset_ms"].get<double>()) > 2 + 2 * c["uncertainty_ms"].get<double>();
-      h += fmt::format("<tr><td>{}</td><td class='{}'>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+      h += fmt::format("<tr><td>{}</td><td class='{}'>{}</td><td>{}</td><td>{}</td><td class='t'>{}</td></tr>",
                        esc(c.value("name", "")), flagged ? "bad" : "", num(c["offset_ms"], 2),
                        num(c["uncertainty_ms"], 2), c.value("presses", 0),
                        flagged ? "offset beyond 2 ms: check the rig file's latency_ns for this camera"
@@ -281,13 +281,14 @@ std::string render_html(const json& r) {
   // Clocks.
   h += "<h2>Clock models</h2><p class='note'>Each device's clock against the host's: how its offset moved (drift), "
        "and the 99th percentile of arrival latency above the fitted line (residuals). A reset starts a new segment."
-       "</p><table><tr><th>stream</th><th>source</th><th>segments</th><th>resets</th><th>drift (ppm)</th>"
+       "</p><table><tr><th>stream</th><th>source</th><th>segments</th><th>resets</th><th>device clock fast by (ppm)"
+       "</th>"
        "<th>declared latency (ms)</th><th>residual p99, median (&micro;s)</th><th>residual p99, max (&micro;s)</th></tr>";
   for (const auto& c : r.at("clocks"))
     h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.0f}</td>"
                      "<td>{:.0f}</td></tr>",
                      esc(c.value("name", "")), esc(c.value("source", "")), c.value("segments", 0), c.value("resets", 0),
-                     c.value("final_drift_ppm", 0.0), c.value("latency_ms", 0.0), c.value("residual_p99_us_median", 0.0),
+                     c.value("device_fast_ppm", 0.0), c.value("latency_ms", 0.0), c.value("residual_p99_us_median", 0.0),
                      c.value("residual_p99_us_max", 0.0));
   h += "</table>";
   {
@@ -388,7 +389,7 @@ std::string render_html(const json& r) {
   else {
     h += "<table><tr><th>time (s)</th><th>kind</th><th>message</th></tr>";
     for (const auto& e : r["events"])
-      h += fmt::format("<tr><td>{:.3f}</td><td>{}</td><td style='text-align:left'>{}</td></tr>", e.value("t_s", 0.0),
+      h += fmt::format("<tr><td>{:.3f}</td><td>{}</td><td class='t'>{}</td></tr>", e.value("t_s", 0.0),
                        esc(e.value("kind", "")), esc(e.value("message", "")));
     h += "</table>";
   }

@@ -200,7 +200,7 @@ json clocks_section(SessionReader& r, std::int64_t start_ns) {
         series.push_back({{"t_s", round_to(seconds(m.host_ns, start_ns), 1e-3)},
                           {"segment", m.segment},
                           {"offset_change_us", round_to((offset_now - first_offset[m.segment]) / 1e3, 1e-3)},
-                          {"drift_ppm", round_to(m.skew * 1e6, 1e-3)},
+                          {"device_fast_ppm", round_to(-m.skew * 1e6, 1e-3)},
                           {"residual_p50_us", round_to(double(m.residual_p50_ns) / 1e3, 1e-3)},
                           {"residual_p99_us", round_to(double(m.residual_p99_ns) / 1e3, 1e-3)}});
     }
@@ -210,7 +210,8 @@ json clocks_section(SessionReader& r, std::int64_t start_ns) {
                    {"segments", segments.size()},
                    {"resets", segments.empty() ? 0 : segments.size() - 1},
                    {"latency_ms", double(last.latency_ns) / 1e6},
-                   {"final_drift_ppm", round_to(last.skew * 1e6, 1e-3)},
+                   // The fit's skew is host per device time: a device clock running fast has it negative.
+                   {"device_fast_ppm", round_to(-last.skew * 1e6, 1e-3)},
                    {"pairs", last.pairs},
                    {"residual_p99_us_median", round_to(percentile(p99, 0.5), 1e-3)},
                    {"residual_p99_us_max", round_to(p99.empty() ? 0 : *std::max_element(p99.begin(), p99.end()), 1e-3)},
@@ -401,34 +402,38 @@ json self_check_section(SessionReader& r, const std::vector<std::optional<calib:
   return out;
 }
 
-// A pressure-overlay frame per camera: the sample at the session's strongest press.
+// A pressure-overlay frame per camera: the sample at the session's strongest press (or the nearest
+// one holding that camera's frame, when its frame is missing there).
 void add_thumbnails(SessionReader& r, json& calibration, const std::vector<std::optional<calib::CameraCalibration>>& cal,
                     const calib::PadLayout& pad, const std::vector<PressureTotal>& totals) {
   if (totals.empty() || r.sample_count() == 0) return;
   const auto peak = std::max_element(totals.begin(), totals.end(), [](const PressureTotal& a, const PressureTotal& b) {
     return a.total_counts < b.total_counts;
   });
-  auto at = r.sample_at(peak->t_ns);
-  if (!at) return;
-  auto s = r.sample(at.value(), PressureMode::Nearest);
-  if (!s || !s.value().pressure) return;
-  const PressureFrame& p = *s.value().pressure;
-  const sensel::Grid grid{p.grid_cols, p.grid_rows, p.grid_xscale, p.grid_yscale};
-  const std::vector<float> up = sensel::upsample(p.counts, grid);
-  const cv::Mat counts(grid.out_rows(), grid.out_cols(), CV_32F, const_cast<float*>(up.data()));
-  double top = 0;
-  cv::minMaxLoc(counts, nullptr, &top);
+  auto centre = r.sample_at(peak->t_ns);
+  if (!centre) return;
   for (std::size_t c = 0; c < r.cameras().size() && c < calibration.size(); ++c) {
-    if (c >= s.value().images.size() || s.value().images[c].empty()) continue;
-    const cv::Mat& image = s.value().images[c];
-    cv::Mat shown = image;
-    if (cal[c] && cal[c]->model.image_size == image.size()) {
-      const calib::PressureProjector projector(cal[c]->model, pad);
-      shown = calib::overlay_pressure(image, projector.project(counts), top);
+    for (int d : {0, -1, 1, -2, 2, -3, 3}) {
+      const std::int64_t i = std::int64_t(centre.value()) + d;
+      if (i < 0 || i >= std::int64_t(r.sample_count())) continue;
+      auto s = r.sample(std::size_t(i), PressureMode::Nearest);
+      if (!s || !s.value().pressure || c >= s.value().images.size() || s.value().images[c].empty()) continue;
+      const PressureFrame& p = *s.value().pressure;
+      const cv::Mat& image = s.value().images[c];
+      cv::Mat shown = image;
+      if (cal[c] && cal[c]->model.image_size == image.size()) {
+        const sensel::Grid grid{p.grid_cols, p.grid_rows, p.grid_xscale, p.grid_yscale};
+        const std::vector<float> up = sensel::upsample(p.counts, grid);
+        const cv::Mat counts(grid.out_rows(), grid.out_cols(), CV_32F, const_cast<float*>(up.data()));
+        double top = 0;
+        cv::minMaxLoc(counts, nullptr, &top);
+        shown = calib::overlay_pressure(image, calib::PressureProjector(cal[c]->model, pad).project(counts), top);
+      }
+      calibration[c]["thumbnail"] = jpeg_data_uri(shown, 480);
+      calibration[c]["thumbnail_sample"] = i;
+      calibration[c]["thumbnail_overlay"] = cal[c].has_value();
+      break;
     }
-    calibration[c]["thumbnail"] = jpeg_data_uri(shown, 480);
-    calibration[c]["thumbnail_sample"] = at.value();
-    calibration[c]["thumbnail_overlay"] = cal[c].has_value();
   }
 }
 
