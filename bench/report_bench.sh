@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# The HTML report of a simulated session: its size and how long it takes to build on one core
+# (taskset -c 0), with and without the sync self-check. The session is recorded on the full-size
+# simulated rig (4 x 1080p at 30 Hz, the Sensel), its pad calibrated with the simulator's lenses
+# (so the self-check and the overlay thumbnails have a calibration to work through).
+#
+#   bash bench/report_bench.sh [minutes | SESSION_FOLDER]   (default 10; recording needs root)
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+pvcap=$here/build/app/pvcap
+[ -x "$pvcap" ] || { echo "build first: bash scripts/build.sh" >&2; exit 1; }
+arg=${1:-10}
+if [ -d "$arg" ]; then
+  session=$(cd "$arg" && pwd)
+else
+  work=$(mktemp -d /tmp/pvcap-report-bench-XXXXXX)
+  echo "recording $arg minutes into $work (log: $work/pvcap.log)"
+  "$pvcap" session --rig "$here/rig-configs/sim.yaml" --root "$work/sessions" --duration $((arg * 60)) --no-web \
+    > "$work/pvcap.log" 2>&1 || { echo "the session failed: $work/pvcap.log" >&2; exit 1; }
+  session=$(ls -d "$work"/sessions/*/ | head -1)
+  session=${session%/}
+fi
+if [ ! -f "$session/calibration.yaml" ]; then
+  # The simulator's lenses as a calibration file (intrinsics only); the pad is then calibrated
+  # from the session itself, as a lab would.
+  /usr/bin/python3 - "$session" <<'PY'
+import json, sys
+s = sys.argv[1]
+t = json.load(open(f"{s}/sim-truth/rig.json"))
+cams = [{"name": c["name"], "model": c["model"], "intrinsics": {"method": "truth", "rms_px": 0.0}} for c in t["cameras"]]
+json.dump({"pvcap_calibration": 1, "rig": "sim-rig", "pad_layout": t["pad"], "cameras": cams},
+          open(f"{s}/calibration.yaml", "w"))
+PY
+  "$pvcap" --log-level warn calibrate pad "$session" > /dev/null
+fi
+span=$(/usr/bin/python3 -c "import sqlite3, sys; db = sqlite3.connect(f'file:{sys.argv[1]}/session.db?mode=ro', uri=True)
+print('%.1f' % ((lambda r: (r[1] - r[0]) / 1e9 if r[1] else float('nan'))(db.execute('SELECT started_host_ns, ended_host_ns FROM session').fetchone())))" "$session")
+t0=$EPOCHREALTIME
+taskset -c 0 "$pvcap" --log-level warn report "$session" --no-self-check > /dev/null
+t1=$EPOCHREALTIME
+taskset -c 0 "$pvcap" --log-level warn report "$session" > /dev/null
+t2=$EPOCHREALTIME
+"$pvcap" --log-level warn report "$session" --json > "$session/report.json"
+echo "session:                    $session ($span s)"
+echo "report.html:                $(( $(stat -c %s "$session/report.html") / 1024 )) kB"
+/usr/bin/python3 -c "import sys; a, b, c = map(float, sys.argv[1:]); print(f'build, one core:            {b - a:.1f} s without the self-check, {c - b:.1f} s with it')" "$t0" "$t1" "$t2"
+/usr/bin/python3 - "$session/report.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+sc = r["self_check"]
+print(f"self-check:                 {sc['presses_used']} presses used of {sc['presses_found']} found")
+for c in sc["cameras"]:
+    print(f"  {c['name']}: offset {c['offset_ms']} ms +- {c['uncertainty_ms']} ms ({c['verdict']})")
+PY
