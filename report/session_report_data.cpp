@@ -395,6 +395,7 @@ json self_check_section(SessionReader& r, const std::vector<std::optional<calib:
       j["offset_ms"] = e.offset_ms ? json(round_to(*e.offset_ms, 1e-3)) : json(nullptr);
       j["uncertainty_ms"] = e.uncertainty_ms ? json(round_to(*e.uncertainty_ms, 1e-3)) : json(nullptr);
       j["presses"] = e.presses_used;
+      j["presses_rejected"] = e.presses_rejected;
       j["verdict"] = e.verdict;
     }
     out["cameras"].push_back(std::move(j));

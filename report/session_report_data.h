@@ -16,7 +16,7 @@ namespace pvcap::report {
 struct ReportOptions {
   bool self_check = true;
   bool thumbnails = true;
-  int max_self_check_presses = 16;  // spread over the session; bounds the frames decoded
+  int max_self_check_presses = 12;  // spread over the session; bounds the frames decoded
   // Called now and then with what is being done and how far (done of total); may be empty.
   std::function<void(const std::string& what, std::size_t done, std::size_t total)> progress;
 };

@@ -1,6 +1,7 @@
 #include "report/sync_self_check.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -37,8 +38,8 @@ double at(const std::vector<TimedValue>& p, double t_ns) {
   return span <= 0 ? b.value : a.value + (b.value - a.value) * (t_ns - double(a.t_ns)) / span;
 }
 
-// Least-squares residual (mean square) of a cubic y = a0 + a1 x + a2 x^2 + a3 x^3 through the points.
-double cubic_residual(const std::vector<std::pair<double, double>>& xy) {
+// Least-squares cubic y = c0 + c1 x + c2 x^2 + c3 x^3 through the points (zeros when degenerate).
+std::array<double, 4> fit_cubic(const std::vector<std::pair<double, double>>& xy) {
   constexpr int n = 4;
   double a[n][n + 1] = {};
   for (const auto& [x, y] : xy) {
@@ -54,36 +55,72 @@ double cubic_residual(const std::vector<std::pair<double, double>>& xy) {
     for (int r = c + 1; r < n; ++r)
       if (std::abs(a[r][c]) > std::abs(a[pivot][c])) pivot = r;
     std::swap(a[c], a[pivot]);
-    if (std::abs(a[c][c]) < 1e-12) return 0;
+    if (std::abs(a[c][c]) < 1e-12) return {0, 0, 0, 0};
     for (int r = c + 1; r < n; ++r) {
       const double f = a[r][c] / a[c][c];
       for (int k = c; k <= n; ++k) a[r][k] -= f * a[c][k];
     }
   }
-  double coef[n];
+  std::array<double, 4> coef{};
   for (int r = n - 1; r >= 0; --r) {
     double v = a[r][n];
-    for (int k = r + 1; k < n; ++k) v -= a[r][k] * coef[k];
-    coef[r] = v / a[r][r];
+    for (int k = r + 1; k < n; ++k) v -= a[r][k] * coef[std::size_t(k)];
+    coef[std::size_t(r)] = v / a[r][r];
   }
+  return coef;
+}
+
+double cubic_at(const std::array<double, 4>& c, double x) { return c[0] + x * (c[1] + x * (c[2] + x * c[3])); }
+
+// Mean square residual of the best cubic through the points.
+double cubic_residual(const std::vector<std::pair<double, double>>& xy) {
+  if (xy.empty()) return 0;
+  const auto c = fit_cubic(xy);
   double sse = 0;
-  for (const auto& [x, y] : xy) {
-    const double e = y - (coef[0] + x * (coef[1] + x * (coef[2] + x * coef[3])));
-    sse += e * e;
-  }
-  return xy.empty() ? 0.0 : sse / double(xy.size());
+  for (const auto& [x, y] : xy) sse += (y - cubic_at(c, x)) * (y - cubic_at(c, x));
+  return sse / double(xy.size());
 }
 
 // The frames on a press's flanks: image change between 25 % and 95 % of its range, where it moves
 // with the pressure (below, a fingertip appears or leaves at once; above, it barely changes).
 bool on_flank(double scaled_image) { return scaled_image >= 0.25 && scaled_image <= 0.95; }
 
+// (pressure at the frame's time minus the offset, image change) for one press's flank frames.
+void flank_points(const Scaled& press, double offset_ms, std::vector<std::pair<double, double>>& xy) {
+  for (const auto& v : press.image)
+    if (on_flank(v.value)) xy.emplace_back(at(press.pressure, double(v.t_ns) - offset_ms * 1e6), v.value);
+}
+
 double residual(const std::vector<Scaled>& presses, const std::vector<std::size_t>& use, double offset_ms) {
   std::vector<std::pair<double, double>> xy;
-  for (std::size_t k : use)
-    for (const auto& v : presses[k].image)
-      if (on_flank(v.value)) xy.emplace_back(at(presses[k].pressure, double(v.t_ns) - offset_ms * 1e6), v.value);
+  for (std::size_t k : use) flank_points(presses[k], offset_ms, xy);
   return cubic_residual(xy);
+}
+
+// Presses that disagree with the rest at `offset_ms` (a press window that caught something else:
+// the hand arriving mid-press, frames of a stalled camera): their mean square distance from the
+// pooled curve is more than 4 times the median press's (and above 0.02^2, a visible misfit).
+// The curve is fitted to `fit`'s presses and every press of `use` is judged against it.
+std::vector<std::size_t> consistent_presses(const std::vector<Scaled>& presses, const std::vector<std::size_t>& fit,
+                                            const std::vector<std::size_t>& use, double offset_ms) {
+  std::vector<std::pair<double, double>> xy;
+  for (std::size_t k : fit) flank_points(presses[k], offset_ms, xy);
+  const auto curve = fit_cubic(xy);
+  std::vector<double> misfit;
+  for (std::size_t k : use) {
+    std::vector<std::pair<double, double>> own;
+    flank_points(presses[k], offset_ms, own);
+    double sse = 0;
+    for (const auto& [x, y] : own) sse += (y - cubic_at(curve, x)) * (y - cubic_at(curve, x));
+    misfit.push_back(own.empty() ? 0.0 : sse / double(own.size()));
+  }
+  std::vector<double> sorted = misfit;
+  std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(sorted.size() / 2), sorted.end());
+  const double limit = std::max(4 * sorted[sorted.size() / 2], 0.02 * 0.02);
+  std::vector<std::size_t> kept;
+  for (std::size_t i = 0; i < use.size(); ++i)
+    if (misfit[i] <= limit) kept.push_back(use[i]);
+  return kept;
 }
 
 struct Search {
@@ -147,6 +184,18 @@ OffsetEstimate estimate_offset(const std::vector<PressSignals>& presses, const S
   }
   std::vector<std::size_t> all(scaled.size());
   for (std::size_t k = 0; k < all.size(); ++k) all[k] = k;
+  // Once with every press; the presses that disagree with the rest are set aside, and every press is
+  // judged again against the curve of those that agree (a bad press skews the first curve, and
+  // with it the verdict on some good ones).
+  const std::vector<std::size_t> first = consistent_presses(scaled, all, all, search(scaled, all, o).offset_ms);
+  all = consistent_presses(scaled, first, all, search(scaled, first, o).offset_ms);
+  e.presses_rejected = int(scaled.size() - all.size());
+  e.presses_used = int(all.size());
+  if (e.presses_used < o.min_presses) {
+    e.verdict = fmt::format("too few presses to tell: {} agree with each other, {} needed", e.presses_used,
+                            o.min_presses);
+    return e;
+  }
   const Search s = search(scaled, all, o);
   if (s.at_edge) {
     e.verdict = fmt::format("no clear offset within +-{:.0f} ms: the image change does not follow the pressure",

@@ -10,7 +10,8 @@
 // much, and no one curve fits both. The estimate is the shift at which one smooth curve (a cubic,
 // pooled over presses, each press's signals scaled to [0, 1], fitted to the frames on the presses'
 // flanks) fits best, refined to a fraction of a millisecond by a parabola through the residual's
-// minimum; its uncertainty is the jackknife over presses (statistical only: presses recorded at
+// minimum, once more without the presses that disagree with the rest; its uncertainty is the
+// jackknife over presses (statistical only: presses recorded at
 // the same phase of the frame grid share their bias).
 #include <cstdint>
 #include <optional>
@@ -37,6 +38,7 @@ struct OffsetEstimate {
   std::optional<double> offset_ms;
   std::optional<double> uncertainty_ms;  // one standard error (jackknife over presses)
   int presses_used = 0;
+  int presses_rejected = 0;  // left out for disagreeing with the others (see consistent_presses)
   std::string verdict;  // "ok", or in words why there is no estimate
 };
 

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <thread>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -122,6 +123,12 @@ TEST(Report, AProtocolSessionsReportOpensInABrowserAndItsCountsAreTheStores) {
   if (!browser.ok()) GTEST_SKIP() << "chromium is not installed";
   const std::string tab = browser.open("file://" + (session / "report.html").string());
   ASSERT_FALSE(tab.empty());
+  bool loaded = false;  // navigation returns before the page has loaded
+  for (int i = 0; i < 200 && !loaded; ++i) {
+    loaded = browser.eval(tab, "document.readyState === 'complete' && document.title.startsWith('pvcap report')") == true;
+    if (!loaded) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(loaded);
   const std::string dom = browser.dom(tab);
   for (const char* section : {"Captured and lost", "Sync self-check", "Frame intervals", "Clock models", "Pairing",
                               "Protocol", "Calibration", "Counts reconcile with the store"})

@@ -56,6 +56,17 @@ TEST(SyncSelfCheck, RecoversAKnownOffsetFromTheFlanksOfThePresses) {
   }
 }
 
+TEST(SyncSelfCheck, APressThatDisagreesWithTheOthersIsLeftOut) {
+  auto p = presses(12, 7.0, 21);
+  // One window caught something else: its image change runs the other way.
+  for (auto& v : p[4].image) v.value = 1.0 - v.value;
+  const auto e = estimate_offset(p);
+  ASSERT_EQ(e.verdict, "ok");
+  EXPECT_EQ(e.presses_rejected, 1);
+  EXPECT_EQ(e.presses_used, 11);
+  EXPECT_NEAR(*e.offset_ms, 7.0, 1.0);
+}
+
 TEST(SyncSelfCheck, SaysWhenThereAreTooFewPressesToTell) {
   const auto e = estimate_offset(presses(3, 7.0, 5));
   EXPECT_FALSE(e.offset_ms);
