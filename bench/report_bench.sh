@@ -50,5 +50,9 @@ r = json.load(open(sys.argv[1]))
 sc = r["self_check"]
 print(f"self-check:                 {sc['presses_used']} presses used of {sc['presses_found']} found")
 for c in sc["cameras"]:
-    print(f"  {c['name']}: offset {c['offset_ms']} ms +- {c['uncertainty_ms']} ms ({c['verdict']})")
+    if c["offset_ms"] is None:
+        print(f"  {c['name']}: no offset ({c['verdict']})")
+    else:
+        print(f"  {c['name']}: offset {c['offset_ms']:+.2f} ms +- {c['uncertainty_ms']:.2f} ms, "
+              f"{c['presses']} presses ({c.get('presses_rejected', 0)} set aside)")
 PY
