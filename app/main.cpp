@@ -15,6 +15,7 @@
 #include "app/cmd_calibrate.h"
 #include "app/cmd_devices.h"
 #include "app/cmd_eval_sync.h"
+#include "app/cmd_export.h"
 #include "app/cmd_report.h"
 #include "app/cmd_sensel_decode.h"
 #include "app/cmd_session.h"
@@ -131,6 +132,29 @@ int main(int argc, char** argv) {
   report->add_flag("--json", report_cmd.json, "print the report's figures as JSON instead of writing the page");
   bool no_self_check = false;
   report->add_flag("--no-self-check", no_self_check, "leave out the sync self-check (it decodes frames around presses)");
+
+  auto* export_cmd = app.add_subcommand("export", "write sessions in the PressureVisionDB layout (the released loaders "
+                                                  "read them unchanged); one independent job per session");
+  pvcap::ExportCommand export_opts;
+  std::string export_layout = "pressurevision", force_format = "pkl";
+  std::vector<std::size_t> export_cameras;
+  double export_from = -1, export_to = -1;
+  export_cmd->add_option("SESSION", export_opts.sessions, "session folders")->required()->check(CLI::ExistingDirectory);
+  export_cmd->add_option("--layout", export_layout, "pressurevision (metadata.json) or pressurevision-plus (meta.json, "
+                                                    "a homography per frame)")
+      ->check(CLI::IsMember({"pressurevision", "pressurevision-plus"}));
+  export_cmd->add_option("--out", export_opts.options.out, "the dataset folder (shared by many sessions)")->required();
+  std::string export_take;
+  export_cmd->add_option("--take", export_take, "only this take (its sequence name, as `pvcap takes` lists it)");
+  export_cmd->add_option("--from", export_from, "only samples from this many seconds after the session's start");
+  export_cmd->add_option("--to", export_to, "only samples before this many seconds after the session's start");
+  export_cmd->add_option("--cameras", export_cameras, "only these cameras (0-based indices, e.g. --cameras 0 2)");
+  export_cmd->add_option("--jpeg-quality", export_opts.options.jpeg_quality, "JPEG quality, 1..100 (default 95)")
+      ->check(CLI::Range(1, 100));
+  export_cmd->add_option("--force-format", force_format, "pkl (what the loaders read, default) or npy")
+      ->check(CLI::IsMember({"pkl", "npy"}));
+  export_cmd->add_flag("--include-all", export_opts.options.include_all,
+                       "also superseded, bad and interrupted takes (done takes only by default)");
 
   auto* sim = app.add_subcommand("sim", "serve a simulated rig (GigE Vision cameras over loopback)");
   std::string sim_rig, truth = "sim-truth";
@@ -307,6 +331,17 @@ int main(int argc, char** argv) {
     if (*report) {
       report_cmd.self_check = !no_self_check;
       return pvcap::cmd_report(report_cmd);
+    }
+    if (*export_cmd) {
+      auto& o = export_opts.options;
+      o.layout = export_layout == "pressurevision" ? pvcap::exporting::Layout::PressureVision
+                                                   : pvcap::exporting::Layout::PressureVisionPlus;
+      o.npy = force_format == "npy";
+      o.cameras = export_cameras;
+      if (!export_take.empty()) o.take = export_take;
+      if (export_from >= 0) o.from_s = export_from;
+      if (export_to >= 0) o.to_s = export_to;
+      return pvcap::cmd_export(export_opts, g_stop);
     }
     if (*verify) {
       const auto report = pvcap::verify_session(verify_dir, [](const std::string& step) { spdlog::info("{}", step); });

@@ -17,6 +17,7 @@
 #include "core/time.h"
 #include "protocol/takes.h"
 #include "report/press_windows.h"
+#include "report/session_calibration.h"
 #include "report/sync_self_check.h"
 #include "storage/session_reader.h"
 
@@ -279,11 +280,12 @@ json protocol_section(const std::filesystem::path& dir, std::int64_t start_ns) {
   return out;
 }
 
-// The newest calibration with a pad pose per camera (as recorded in the session), by camera index.
+// Each camera's calibration measurements as the session records them, and the pose in force.
 std::vector<std::optional<calib::CameraCalibration>> calibration_in_force(SessionReader& r, json& section) {
   auto rows = r.calibrations();
   if (!rows) throw UserError(rows.error().message);
-  std::vector<std::optional<calib::CameraCalibration>> out(r.cameras().size());
+  auto in_force = pad_calibrations(r);
+  if (!in_force) throw UserError(in_force.error().message);
   section = json::array();
   for (std::size_t c = 0; c < r.cameras().size(); ++c) {
     json cam = {{"name", r.cameras()[c].name}, {"measurements", json::array()}};
@@ -293,17 +295,11 @@ std::vector<std::optional<calib::CameraCalibration>> calibration_in_force(Sessio
       if (row.rms_px) m["rms_px"] = round_to(*row.rms_px, 1e-4);
       if (row.rms_mm) m["rms_mm"] = round_to(*row.rms_mm, 1e-4);
       cam["measurements"].push_back(std::move(m));
-      try {
-        auto cal = json::parse(row.details_json).get<calib::CameraCalibration>();
-        if (cal.pad && cal.pad_corners_px) out[c] = std::move(cal);
-      } catch (const std::exception&) {
-        // A row without a readable camera entry (older or foreign) says nothing about the pose.
-      }
     }
-    cam["pad_calibrated"] = out[c].has_value();
+    cam["pad_calibrated"] = in_force.value()[c].has_value();
     section.push_back(std::move(cam));
   }
-  return out;
+  return in_force.value();
 }
 
 // The pixels near the contact in one camera: a square of 30 mm on the pad around `centre_cells`.

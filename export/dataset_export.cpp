@@ -1,0 +1,384 @@
+#include "export/dataset_export.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "capture/sensel_units.h"
+#include "export/numpy_files.h"
+#include "export/pv_geometry.h"
+#include "export/sha256.h"
+#include "protocol/takes.h"
+#include "report/session_calibration.h"
+#include "storage/session_reader.h"
+
+namespace pvcap::exporting {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+// kPa = counts / 2.7125 in the loaders (1736 counts per newton on a 1.25 mm cell).
+constexpr double kLoaderCountsPerKpa = 1736.0 * 1.25e-3 * 1.25e-3 * 1000.0;
+
+// Written beside its final name and renamed over it: readers and resumed runs see whole files.
+Status write_atomically(const fs::path& path, const std::string& bytes) {
+  const fs::path tmp = path.string() + fmt::format(".tmp-{}", getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), std::streamsize(bytes.size()));
+    out.flush();
+    if (!out) {
+      const std::string why = std::strerror(errno);
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      return Error{fmt::format("{}: could not be written ({}; is the disk full?)", path.string(), why)};
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) return Error{fmt::format("{}: could not be written: {}", path.string(), ec.message())};
+  return {};
+}
+
+// The output folder's participant mapping, read and extended under an exclusive lock, so parallel
+// jobs exporting the same participant agree on one folder.
+Result<std::string> participant_folder(const fs::path& out, const std::string& pseudonym) {
+  const fs::path lock_path = out / "participants.lock";
+  const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) return Error{fmt::format("{}: cannot be opened: {}", lock_path.string(), std::strerror(errno))};
+  struct Unlock {
+    int fd;
+    ~Unlock() { ::close(fd); }  // closing drops the lock
+  } unlock{fd};
+  if (flock(fd, LOCK_EX) != 0) return Error{fmt::format("{}: cannot be locked: {}", lock_path.string(), std::strerror(errno))};
+  const fs::path map_path = out / "participants.json";
+  json map = json::object();
+  if (fs::exists(map_path)) {
+    std::ifstream in(map_path);
+    map = json::parse(in, nullptr, false);
+    if (!map.is_object())
+      return Error{fmt::format("{}: is not the participant mapping pvcap writes (a JSON object); move it away",
+                               map_path.string())};
+  }
+  if (map.contains(pseudonym) && map[pseudonym].is_string()) return map[pseudonym].get<std::string>();
+  int next = 1;
+  for (const auto& [code, folder] : map.items())
+    if (folder.is_string()) next = std::max(next, std::atoi(folder.get<std::string>().substr(0, 4).c_str()) + 1);
+  if (next > 9999) return Error{fmt::format("{}: no 4-digit participant id left", map_path.string())};
+  const std::string folder = fmt::format("{:04d}_{}", next, pseudonym);
+  map[pseudonym] = folder;
+  if (auto w = write_atomically(map_path, map.dump(2) + "\n"); !w.ok()) return w.error();
+  return folder;
+}
+
+bool safe_name(const std::string& s) {
+  return !s.empty() && s != "." && s != ".." && s.find('/') == std::string::npos && s.find('\0') == std::string::npos;
+}
+
+json matrix(const cv::Matx44d& m) {
+  json out = json::array();
+  for (int r = 0; r < 4; ++r) out.push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
+  return out;
+}
+
+json matrix(const cv::Matx33d& m) {
+  json out = json::array();
+  for (int r = 0; r < 3; ++r) out.push_back({m(r, 0), m(r, 1), m(r, 2)});
+  return out;
+}
+
+// The sample's pressure in the loaders' units, on the 185 x 105 sensel grid (rows x cols: 105 x 185).
+Result<cv::Mat> loader_force(SessionReader& r, std::uint64_t sequence) {
+  auto p = r.pressure_frame(sequence);
+  if (!p) return p.error();
+  const PressureFrame& f = p.value();
+  const sensel::Grid grid{f.grid_cols, f.grid_rows, f.grid_xscale, f.grid_yscale};
+  const std::vector<float> up = sensel::upsample(f.counts, grid);
+  cv::Mat out(grid.out_rows(), grid.out_cols(), CV_32F);
+  for (std::size_t i = 0; i < up.size(); ++i)
+    out.at<float>(int(i)) = float(sensel::upsampled_sensel_kpa(up[i], grid) * kLoaderCountsPerKpa);
+  return out;
+}
+
+struct PlannedSequence {
+  const protocol::TakeRow* take = nullptr;
+  std::string folder;
+  std::vector<std::size_t> samples;  // kept samples, in order
+  std::size_t left_out = 0;
+};
+
+}  // namespace
+
+std::string light_direction_words(const std::string& lighting) {
+  // A code of L, C, R (and '-' for a light off) becomes words; anything else is passed on as the
+  // lab wrote it (the loaders look for the words left, center, right in it).
+  const bool code = !lighting.empty() && lighting.find_first_not_of("LCRlcr-") == std::string::npos;
+  if (!code) return lighting.empty() ? "unrecorded" : lighting;
+  std::string out;
+  for (char c : lighting) {
+    const char* word = c == 'L' || c == 'l' ? "left" : c == 'C' || c == 'c' ? "center" : c == 'R' || c == 'r' ? "right" : nullptr;
+    if (word) out += (out.empty() ? "" : " ") + std::string(word);
+  }
+  return out.empty() ? "none" : out;
+}
+
+Result<ExportResult> export_session(const fs::path& session, const ExportOptions& o, const std::atomic<bool>& stop) {
+  auto opened = SessionReader::open(session);
+  if (!opened) return opened.error();
+  SessionReader& r = *opened.value();
+  const SessionInfo& info = r.info();
+  if (!r.pressure_device())
+    return Error{fmt::format("{}: the session has no pressure frames; the layout needs force for every frame",
+                             session.string())};
+  if (o.jpeg_quality < 1 || o.jpeg_quality > 100)
+    return Error{fmt::format("--jpeg-quality {} is not in 1..100", o.jpeg_quality)};
+
+  // Cameras, each with the pad calibration the loaders' geometry is made from.
+  std::vector<std::size_t> cameras = o.cameras;
+  if (cameras.empty())
+    for (std::size_t c = 0; c < r.cameras().size(); ++c) cameras.push_back(c);
+  for (std::size_t c : cameras)
+    if (c >= r.cameras().size())
+      return Error{fmt::format("{}: there is no camera {} (the session has {}: 0..{})", session.string(), c,
+                               r.cameras().size(), r.cameras().size() - 1)};
+  auto calibrations = report::pad_calibrations(r);
+  if (!calibrations) return calibrations.error();
+  ExportResult result;
+  json pv_cameras = json::object(), plus_cameras = json::object();
+  std::vector<std::array<cv::Point2d, 4>> measured_pv_order;
+  for (std::size_t k = 0; k < cameras.size(); ++k) {
+    const CameraInfo& camera = r.cameras()[cameras[k]];
+    const auto& cal = calibrations.value()[cameras[k]];
+    if (!cal)
+      return Error{fmt::format("{}: camera {} has no pad calibration in the session; the layout needs each camera's "
+                               "pose: run `pvcap calibrate pad {}` (or leave the camera out with --cameras)",
+                               session.string(), camera.name, session.string())};
+    // pvcap's corners run (0,0), (185,0), (185,105), (0,105); the loaders' (185,0), (185,105), (0,105), (0,0).
+    const auto& c = *cal->pad_corners_px;
+    measured_pv_order.push_back({c[1], c[2], c[3], c[0]});
+    const PvPose pose = fit_pv_pose(cal->model.K, measured_pv_order.back());
+    std::vector<double> d = cal->model.distortion;
+    d.resize(8, 0.0);  // k1 k2 p1 p2 k3, then the rational model's k4 k5 k6 (unused: 0)
+    pv_cameras[std::to_string(k)] = {{"ModelViewMatrix", matrix(pose.model_view)},
+                                     {"fx", cal->model.K(0, 0)}, {"fy", cal->model.K(1, 1)},
+                                     {"cx", cal->model.K(0, 2)}, {"cy", cal->model.K(1, 2)},
+                                     {"k1", d[0]}, {"k2", d[1]}, {"p1", d[2]}, {"p2", d[3]},
+                                     {"k3", d[4]}, {"k4", d[5]}, {"k5", d[6]}, {"k6", d[7]}};
+    result.cameras.push_back({camera.name, pose.rms_px, pose.max_px});
+  }
+
+  // The takes of this folder to export.
+  auto takes = protocol::read_takes(session);
+  if (!takes) return takes.error();
+  const std::string here = fs::absolute(session).lexically_normal().string();
+  std::vector<const protocol::TakeRow*> chosen;
+  std::set<std::string> names;
+  for (const auto& t : takes.value().takes) {
+    if (fs::absolute(t.session).lexically_normal().string() != here) continue;  // an earlier folder's
+    names.insert(t.sequence);
+    if (o.take && t.sequence != *o.take) continue;
+    if (!t.first_sample || !t.end_sample || *t.end_sample <= *t.first_sample) continue;  // nothing recorded
+    const bool wanted = t.status == "done" || o.include_all;
+    if (wanted) chosen.push_back(&t);
+  }
+  if (takes.value().takes.empty())
+    return Error{fmt::format("{}: the session ran no protocol, so it has no takes to export as sequences",
+                             session.string())};
+  if (o.take && !names.count(*o.take)) {
+    std::string list;
+    for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+    return Error{fmt::format("{}: no take named '{}' (takes: {})", session.string(), *o.take, list)};
+  }
+
+  // Participant folder.
+  std::error_code ec;
+  fs::create_directories(o.out, ec);
+  if (ec) return Error{fmt::format("{}: cannot be made: {}", o.out.string(), ec.message())};
+  const std::string pseudonym = info.participant ? info.participant->pseudonym : "unrecorded";
+  auto folder = participant_folder(o.out, pseudonym);
+  if (!folder) return folder.error();
+  result.participant_folder = o.out / folder.value();
+
+  // Which samples each take keeps: every selected camera's frame stored and a pressure frame paired.
+  auto samples = r.sample_infos();
+  if (!samples) return samples.error();
+  std::vector<PlannedSequence> plan;
+  std::size_t total = 0;
+  for (const protocol::TakeRow* t : chosen) {
+    PlannedSequence p;
+    p.take = t;
+    for (std::size_t i = *t->first_sample; i < *t->end_sample && i < samples.value().size(); ++i) {
+      const SampleInfo& s = samples.value()[i];
+      const double at_s = double(s.t_ns - info.started_host_ns) / 1e9;
+      if ((o.from_s && at_s < *o.from_s) || (o.to_s && at_s >= *o.to_s)) continue;
+      bool complete = s.pressure.has_value();
+      for (std::size_t c : cameras) {
+        const auto f = std::find_if(s.cameras.begin(), s.cameras.end(), [&](const SampleCamera& sc) {
+          return sc.device_id == r.cameras()[c].device_id;
+        });
+        complete &= f != s.cameras.end() && f->in_video;
+      }
+      if (complete) p.samples.push_back(i);
+      else ++p.left_out;
+    }
+    if (p.samples.empty()) continue;  // a time range that misses the take
+    total += p.samples.size();
+    plan.push_back(std::move(p));
+  }
+
+  // Sequence folders: the take's name; a folder already holding another take gets "(2)", "(3)"...
+  std::set<std::string> taken;
+  for (auto& p : plan) {
+    const json source = {{"session", here}, {"step", p.take->step}, {"start_ns", p.take->start_ns.value_or(0)}};
+    if (!safe_name(p.take->sequence))
+      return Error{fmt::format("{}: take name '{}' cannot be a folder name", session.string(), p.take->sequence)};
+    for (int n = 1;; ++n) {
+      const std::string name = n == 1 ? p.take->sequence : fmt::format("{}({})", p.take->sequence, n);
+      if (taken.count(name)) continue;
+      const fs::path dir = result.participant_folder / name, marker = dir / "pvcap_source.json";
+      if (fs::exists(marker)) {
+        std::ifstream in(marker);
+        const json there = json::parse(in, nullptr, false);
+        if (there != source) continue;  // another take's folder (another session, or a retake)
+      } else if (fs::exists(dir) && !fs::is_empty(dir)) {
+        continue;  // something not ours
+      }
+      fs::create_directories(dir, ec);
+      if (ec) return Error{fmt::format("{}: cannot be made: {}", dir.string(), ec.message())};
+      if (!fs::exists(marker))
+        if (auto w = write_atomically(marker, source.dump(2) + "\n"); !w.ok()) return w.error();
+      p.folder = name;
+      taken.insert(name);
+      break;
+    }
+  }
+
+  const std::string meta_name = o.layout == Layout::PressureVision ? "metadata.json" : "meta.json";
+  const std::string force_ext = o.npy ? "npy" : "pkl";
+  std::size_t done = 0;
+  for (const auto& p : plan) {
+    const fs::path dir = result.participant_folder / p.folder;
+    SequenceResult seq{(fs::path(folder.value()) / p.folder).string(), p.take->status, p.samples.size(), p.left_out};
+    if (fs::exists(dir / meta_name)) {  // finished by an earlier run
+      seq.was_complete = true;
+      done += p.samples.size();
+      result.frames_found += p.samples.size();
+      if (o.progress) o.progress(done, total);
+      result.sequences.push_back(seq);
+      continue;
+    }
+    // A killed run's half-written files (never renamed into place) are of no use.
+    for (const auto& e : fs::recursive_directory_iterator(dir, ec))
+      if (e.is_regular_file() && e.path().filename().string().find(".tmp-") != std::string::npos) fs::remove(e.path(), ec);
+    for (std::size_t k = 0; k < cameras.size(); ++k) fs::create_directories(dir / fmt::format("camera_{}", k), ec);
+    fs::create_directories(dir / "force", ec);
+    if (ec) return Error{fmt::format("{}: cannot be made: {}", dir.string(), ec.message())};
+    json timesteps = json::array();
+    for (std::size_t t = 0; t < p.samples.size(); ++t) {
+      if (stop.load()) {
+        result.interrupted = true;
+        result.sequences.push_back(seq);
+        return result;
+      }
+      const std::size_t i = p.samples[t];
+      const SampleInfo& s = samples.value()[i];
+      timesteps.push_back(double(s.t_ns - info.started_host_ns) / 1e9);
+      bool wrote = false;
+      for (std::size_t k = 0; k < cameras.size(); ++k) {
+        const fs::path jpg = dir / fmt::format("camera_{}", k) / fmt::format("{:05d}.jpg", t);
+        if (fs::exists(jpg)) continue;
+        auto image = r.image(i, cameras[k]);
+        if (!image) return image.error();
+        std::vector<std::uint8_t> bytes;
+        if (!cv::imencode(".jpg", image.value(), bytes, {cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality}))
+          return Error{fmt::format("{}: the JPEG encoder refused the frame", jpg.string())};
+        if (auto w = write_atomically(jpg, std::string(bytes.begin(), bytes.end())); !w.ok()) return w.error();
+        wrote = true;
+      }
+      const fs::path force = dir / "force" / fmt::format("{:05d}.{}", t, force_ext);
+      if (!fs::exists(force)) {
+        auto f = loader_force(r, s.pressure->sequence);
+        if (!f) return f.error();
+        if (auto w = write_atomically(force, o.npy ? numpy_npy(f.value()) : numpy_pickle(f.value())); !w.ok())
+          return w.error();
+        wrote = true;
+      }
+      ++(wrote ? result.frames_written : result.frames_found);
+      if (o.progress) o.progress(++done, total);
+    }
+
+    // The manifest, then the metadata: the sequence is complete once its metadata exists.
+    json manifest = {{"algorithm", "sha256"}, {"files", json::object()}};
+    std::vector<fs::path> files;
+    for (const auto& e : fs::recursive_directory_iterator(dir))
+      if (e.is_regular_file() && e.path().filename() != "manifest.json" && e.path().filename() != meta_name &&
+          e.path().string().find(".tmp-") == std::string::npos)
+        files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files) {
+      auto sum = sha256_file(f);
+      if (!sum) return sum.error();
+      manifest["files"][fs::relative(f, dir).string()] = {{"bytes", fs::file_size(f)}, {"sha256", sum.value()}};
+    }
+    json meta;
+    meta["num_cameras"] = cameras.size();
+    meta["num_frames"] = p.samples.size();
+    meta["timesteps"] = timesteps;
+    json participant = {{"Skintone", info.participant ? info.participant->skin_tone : "unrecorded"},
+                        {"Light Direction", light_direction_words(info.conditions ? info.conditions->lighting : "")}};
+    meta["participant"] = participant;
+    if (o.layout == Layout::PressureVision) {
+      meta["camera_calibrations"] = pv_cameras;
+    } else {
+      meta["camera_ids"] = json::array();
+      meta["is_weak"] = false;
+      for (std::size_t k = 0; k < cameras.size(); ++k) {
+        meta["camera_ids"].push_back(k);
+        json per_frame = json::object();
+        const cv::Matx33d h = corner_homography(measured_pv_order[k]);
+        json imgpts = json::array();
+        for (const auto& q : measured_pv_order[k]) imgpts.push_back({q.x, q.y});
+        for (std::size_t t = 0; t < p.samples.size(); ++t)
+          per_frame[std::to_string(t)] = {{"homography", matrix(h)}, {"imgpts", imgpts}};
+        meta["camera_calibrations"][std::to_string(k)] = per_frame;
+      }
+    }
+    json cams = json::array();
+    for (std::size_t k = 0; k < cameras.size(); ++k)
+      cams.push_back({{"camera", k},
+                      {"name", r.cameras()[cameras[k]].name},
+                      {"serial", r.cameras()[cameras[k]].serial},
+                      {"loader_corner_rms_px", result.cameras[k].loader_corner_rms_px},
+                      {"loader_corner_max_px", result.cameras[k].loader_corner_max_px}});
+    meta["pvcap"] = {{"session", here},
+                     {"participant_code", pseudonym},
+                     {"take", {{"step", p.take->step}, {"sequence", p.take->sequence}, {"status", p.take->status},
+                               {"action", p.take->action}, {"hand", p.take->hand}, {"force", p.take->force},
+                               {"repetitions", p.take->repetitions}}},
+                     {"samples", p.samples},
+                     {"samples_left_out", p.left_out},
+                     {"cameras", cams},
+                     {"force_units", "loader counts: kPa = value / 2.7125 (1736 per newton on a 1.25 mm sensel)"},
+                     {"timesteps", "seconds from the session's start on its one clock (CLOCK_MONOTONIC)"}};
+    if (auto w = write_atomically(dir / "manifest.json", manifest.dump(1) + "\n"); !w.ok()) return w.error();
+    if (auto w = write_atomically(dir / meta_name, meta.dump(1) + "\n"); !w.ok()) return w.error();
+    result.sequences.push_back(seq);
+  }
+  return result;
+}
+
+}  // namespace pvcap::exporting

@@ -1,0 +1,251 @@
+// The PressureVisionDB export end to end: a simulated protocol session, its pad calibrated, exported
+// in both layouts and read back by a Python script that knows only the layout's contract (json,
+// pickle, numpy, OpenCV): every sequence and frame is there, the force is the store's, the loaders'
+// own homography puts the grid's corners within 3 px of the simulator's truth (PV++'s per-frame
+// homographies within 0.5 px), and an interrupted export resumes.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <thread>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "calib/rig_calibration.h"
+#include "capture/sensel_units.h"
+#include "session_under_test.h"
+#include "sim/truth.h"
+#include "storage/session_reader.h"
+
+namespace fs = std::filesystem;
+using namespace pvcap::testing;
+using nlohmann::json;
+
+namespace {
+
+fs::path only_session(const fs::path& root) {
+  for (const auto& e : fs::directory_iterator(root))
+    if (e.is_directory() && e.path().filename().string()[0] != '.') return e.path();
+  return {};
+}
+
+// Runs a command and returns its stdout.
+std::string output_of(const std::string& command) {
+  std::string out;
+  FILE* p = popen(command.c_str(), "r");
+  if (!p) return out;
+  char buf[65536];
+  while (std::size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
+  pclose(p);
+  return out;
+}
+
+// A protocol session at 960x540 with its pad calibrated (the simulator's lenses given, as a lab
+// gives the lenses a board session measured). Recorded once for the tests below.
+struct Recorded {
+  fs::path work, session;
+};
+
+const Recorded& recorded() {
+  static const Recorded r = [] {
+    Recorded out;
+    out.work = work_dir("export");
+    std::string rig = read_all(fs::path(PVCAP_SOURCE_DIR) / "rig-configs" / "sim.yaml");
+    for (auto [from, to] : {std::pair<std::string, std::string>{"width: 1920", "width: 960"}, {"height: 1080", "height: 540"}})
+      for (auto at = rig.find(from); at != std::string::npos; at = rig.find(from)) rig.replace(at, from.size(), to);
+    std::ofstream(out.work / "rig.yaml") << rig;
+    const auto run = run_pvcap(fmt::format(
+        "session --rig {} --root {} --protocol {} --auto --fast --participant P017 --skin-tone dark --lighting L-R "
+        "--overlay white_vinyl --no-web",
+        (out.work / "rig.yaml").string(), (out.work / "sessions").string(),
+        write_press_protocol(out.work, "[low, high]", 0.5, 0.4, 1.5, 0.3).string()));
+    EXPECT_EQ(run.exit_code, 0) << run.output;
+    out.session = only_session(out.work / "sessions");
+    auto truth = pvcap::sim::read_rig_truth(out.session / "sim-truth");
+    EXPECT_TRUE(truth) << truth.error().message;
+    pvcap::calib::RigCalibration lenses;
+    lenses.rig = "sim-rig";
+    for (const auto& c : truth.value().cameras) {
+      pvcap::calib::CameraCalibration cc;
+      cc.name = c.name;
+      cc.model.image_size = c.model.image_size;
+      cc.model.K = c.model.K;
+      cc.model.distortion = c.model.distortion;
+      cc.intrinsics = pvcap::calib::MeasuredBy{"truth", "", 0, 0.0};
+      lenses.cameras.push_back(cc);
+    }
+    EXPECT_TRUE(pvcap::calib::save_rig_calibration(out.work / "lenses.yaml", lenses).ok());
+    const auto pad = run_pvcap(fmt::format("calibrate pad {} --calibration {}", out.session.string(),
+                                           (out.work / "lenses.yaml").string()));
+    EXPECT_EQ(pad.exit_code, 0) << pad.output;
+    return out;
+  }();
+  return r;
+}
+
+json read_back(const fs::path& dir, const fs::path& session) {
+  const std::string out = output_of(fmt::format("/usr/bin/python3 {} {} {}",
+                                                (fs::path(PVCAP_SOURCE_DIR) / "tests" / "integration" /
+                                                 "read_pressurevision_export.py")
+                                                    .string(),
+                                                dir.string(), (session / "sim-truth" / "rig.json").string()));
+  return json::parse(out, nullptr, false);
+}
+
+// The store's own pressure of a sample in kPa summed over the 185 x 105 sensels (the documented
+// expansion and units, capture/sensel_units.h).
+double store_kpa_sum(pvcap::SessionReader& r, std::size_t sample) {
+  auto info = r.sample_info(sample);
+  auto frame = r.pressure_frame(info.value().pressure->sequence);
+  const auto& f = frame.value();
+  const pvcap::sensel::Grid g{f.grid_cols, f.grid_rows, f.grid_xscale, f.grid_yscale};
+  double sum = 0;
+  for (float v : pvcap::sensel::upsample(f.counts, g)) sum += pvcap::sensel::upsampled_sensel_kpa(v, g);
+  return sum;
+}
+
+}  // namespace
+
+TEST(Export, ThePressureVisionLayoutReadsBackAsTheLoadersReadIt) {
+  const Recorded& rec = recorded();
+  ASSERT_FALSE(rec.session.empty());
+  const fs::path out = rec.work / "pv";
+  const auto run = run_pvcap(fmt::format("export {} --layout pressurevision --out {}", rec.session.string(), out.string()));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const json back = read_back(out, rec.session);
+  ASSERT_TRUE(back.is_object()) << "the Python reader failed";
+  EXPECT_EQ(back["participants"]["P017"], "0001_P017");
+
+  const auto takes = json::parse(run_pvcap(fmt::format("--log-level warn takes {} --json", rec.session.string())).output);
+  ASSERT_EQ(back["sequences"].size(), takes["takes"].size()) << "every done take is a sequence";
+  auto reader = pvcap::SessionReader::open(rec.session);
+  ASSERT_TRUE(reader) << reader.error().message;
+  for (const auto& seq : back["sequences"]) {
+    SCOPED_TRACE(seq["sequence"].get<std::string>());
+    EXPECT_EQ(seq["participant"], "0001_P017");
+    EXPECT_EQ(seq["participant_keys"]["Skintone"], "dark");
+    EXPECT_EQ(seq["participant_keys"]["Light Direction"], "left right");
+    EXPECT_EQ(seq["image_size"], json::array({960, 540}));
+    // The take's samples, every one (the simulated rig loses none), in order on the session clock.
+    const json* take = nullptr;
+    for (const auto& t : takes["takes"])
+      if (t["sequence"] == seq["sequence"]) take = &t;
+    ASSERT_NE(take, nullptr);
+    const std::size_t first = (*take)["first_sample"], end = (*take)["end_sample"];
+    const std::size_t n = seq["num_frames"];
+    EXPECT_GE(n + 2, end - first) << "at most a sample or two without every camera";
+    EXPECT_GT(n, 15u);
+    for (std::size_t t = 1; t < n; ++t) EXPECT_GT(seq["timesteps"][t].get<double>(), seq["timesteps"][t - 1].get<double>());
+    // The force the loaders compute is the store's pressure: compare each frame with the sample at its time.
+    for (std::size_t t = 0; t < n; ++t) {
+      const std::int64_t at = reader.value()->info().started_host_ns +
+                              std::llround(seq["timesteps"][t].get<double>() * 1e9);
+      auto i = reader.value()->sample_at(at);
+      ASSERT_TRUE(i);
+      const double expected = store_kpa_sum(*reader.value(), i.value());
+      EXPECT_NEAR(seq["force_kpa_sums"][t].get<double>(), expected, 1e-4 * std::max(1.0, expected)) << t;
+    }
+    // The loaders' homography (their 235 x 135 mm pad through the exported pose) lands on the grid.
+    for (const auto& [camera, px] : seq["corner_error_px"].items()) EXPECT_LT(px.get<double>(), 3.0) << camera;
+  }
+  // The residual of that fit is reported per camera.
+  EXPECT_NE(run.output.find("the loaders' pad corners lie"), std::string::npos) << run.output;
+  std::printf("%s", run.output.c_str());
+  // Every file has its checksum, and the metadata says where it came from.
+  for (const auto& seq : back["sequences"]) {
+    const fs::path dir = out / seq["participant"].get<std::string>() / seq["sequence"].get<std::string>();
+    const json manifest = json::parse(read_all(dir / "manifest.json"));
+    EXPECT_EQ(manifest["files"].size(), seq["num_frames"].get<std::size_t>() * 5 + 1);  // 4 cameras, force, source
+    const json meta = json::parse(read_all(dir / "metadata.json"));
+    EXPECT_EQ(meta["pvcap"]["take"]["sequence"], seq["sequence"]);
+  }
+  // Again: everything is found, nothing rewritten.
+  const auto again = run_pvcap(fmt::format("export {} --layout pressurevision --out {}", rec.session.string(), out.string()));
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("(0 written now"), std::string::npos) << again.output;
+}
+
+TEST(Export, ThePressureVisionPlusLayoutHasAnExactHomographyPerFrame) {
+  const Recorded& rec = recorded();
+  ASSERT_FALSE(rec.session.empty());
+  const fs::path out = rec.work / "pvplus";
+  const auto run = run_pvcap(fmt::format("export {} --layout pressurevision-plus --out {} --jpeg-quality 80",
+                                         rec.session.string(), out.string()));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const json back = read_back(out, rec.session);
+  ASSERT_TRUE(back.is_object());
+  ASSERT_FALSE(back["sequences"].empty());
+  for (const auto& seq : back["sequences"]) {
+    ASSERT_EQ(seq["corner_error_px"].size(), 4u);
+    for (const auto& [camera, px] : seq["corner_error_px"].items()) EXPECT_LT(px.get<double>(), 0.5) << camera;
+  }
+}
+
+TEST(Export, OneTakeSomeCamerasAndNpyForce) {
+  const Recorded& rec = recorded();
+  ASSERT_FALSE(rec.session.empty());
+  const fs::path out = rec.work / "one-take";
+  const std::string take = "press_index_finger_high_2x_right";
+  const auto run = run_pvcap(fmt::format("export {} --out {} --take {} --cameras 0 3 --force-format npy",
+                                         rec.session.string(), out.string(), take));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const fs::path participant = out / "0001_P017";
+  std::size_t sequences = 0;
+  for (const auto& e : fs::directory_iterator(participant)) sequences += e.is_directory();
+  EXPECT_EQ(sequences, 1u);
+  const fs::path dir = participant / take;
+  const json meta = json::parse(read_all(dir / "metadata.json"));
+  EXPECT_EQ(meta["num_cameras"], 2);
+  EXPECT_EQ(meta["pvcap"]["cameras"][0]["name"], "cam0");
+  EXPECT_EQ(meta["pvcap"]["cameras"][1]["name"], "cam3");
+  EXPECT_TRUE(fs::exists(dir / "camera_1" / "00000.jpg"));
+  EXPECT_FALSE(fs::exists(dir / "camera_2"));
+  EXPECT_TRUE(fs::exists(dir / "force" / "00000.npy"));
+  const std::string npy = output_of(fmt::format(
+      "/usr/bin/python3 -c \"import numpy; a = numpy.load('{}'); print(a.shape, a.dtype)\"",
+      (dir / "force" / "00000.npy").string()));
+  EXPECT_EQ(npy, "(105, 185) float32\n");
+}
+
+TEST(Export, AnInterruptedExportResumesAndMistakesAreNamed) {
+  const Recorded& rec = recorded();
+  ASSERT_FALSE(rec.session.empty());
+  const fs::path out = rec.work / "resume";
+  // Killed mid-way: only whole files are left, and the second run completes the rest.
+  const pid_t pid = spawn_pvcap(fmt::format("export {} --layout pressurevision --out {}", rec.session.string(),
+                                            out.string()),
+                                rec.work / "export-killed.log");
+  for (int i = 0; i < 200; ++i) {
+    std::size_t files = 0;
+    if (fs::exists(out))
+      for (const auto& e : fs::recursive_directory_iterator(out)) files += e.path().extension() == ".jpg";
+    if (files > 40) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(25));
+  }
+  kill(pid, SIGKILL);
+  waitpid(pid, nullptr, 0);
+  const auto resumed = run_pvcap(fmt::format("export {} --layout pressurevision --out {}", rec.session.string(),
+                                             out.string()));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_EQ(resumed.output.find(", 0 found from an earlier run"), std::string::npos)
+      << "the killed run's frames are kept: " << resumed.output;
+  const json back = read_back(out, rec.session);
+  ASSERT_TRUE(back.is_object()) << "every frame readable after the resume";
+  const json whole = read_back(rec.work / "pv", rec.session);
+  if (whole.is_object()) {
+    EXPECT_EQ(back["sequences"].size(), whole["sequences"].size());
+  }
+
+  // Mistakes: one message naming what and where, exit 1.
+  const auto no_take = run_pvcap(fmt::format("export {} --out {} --take nonesuch", rec.session.string(), out.string()));
+  EXPECT_EQ(no_take.exit_code, 1);
+  EXPECT_NE(no_take.output.find("no take named 'nonesuch'"), std::string::npos) << no_take.output;
+  const auto no_camera = run_pvcap(fmt::format("export {} --out {} --cameras 7", rec.session.string(), out.string()));
+  EXPECT_EQ(no_camera.exit_code, 1);
+  EXPECT_NE(no_camera.output.find("there is no camera 7"), std::string::npos) << no_camera.output;
+}
