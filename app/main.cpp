@@ -153,6 +153,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 100));
   export_cmd->add_option("--force-format", force_format, "pkl (what the loaders read, default) or npy")
       ->check(CLI::IsMember({"pkl", "npy"}));
+  export_cmd->add_flag("--crop-paper", export_opts.options.paper_crop,
+                       "the paper's crop: each frame cut to the pad + 50 px, 480 x 384 (intrinsics adjusted)");
   export_cmd->add_flag("--include-all", export_opts.options.include_all,
                        "also superseded, bad and interrupted takes (done takes only by default)");
 

@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "calib/projection.h"
 #include "capture/sensel_units.h"
 #include "export/numpy_files.h"
 #include "export/pv_geometry.h"
@@ -158,8 +159,9 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
   auto calibrations = report::pad_calibrations(r);
   if (!calibrations) return calibrations.error();
   ExportResult result;
-  json pv_cameras = json::object(), plus_cameras = json::object();
+  json pv_cameras = json::object();
   std::vector<std::array<cv::Point2d, 4>> measured_pv_order;
+  std::vector<cv::Rect> crops;  // with --crop paper: each camera's box in the recorded frame
   for (std::size_t k = 0; k < cameras.size(); ++k) {
     const CameraInfo& camera = r.cameras()[cameras[k]];
     const auto& cal = calibrations.value()[cameras[k]];
@@ -169,13 +171,27 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
                                session.string(), camera.name, session.string())};
     // pvcap's corners run (0,0), (185,0), (185,105), (0,105); the loaders' (185,0), (185,105), (0,105), (0,0).
     const auto& c = *cal->pad_corners_px;
-    measured_pv_order.push_back({c[1], c[2], c[3], c[0]});
-    const PvPose pose = fit_pv_pose(cal->model.K, measured_pv_order.back());
+    std::array<cv::Point2d, 4> measured{c[1], c[2], c[3], c[0]};
+    cv::Matx33d K = cal->model.K;
+    if (o.paper_crop) {
+      // cv::resize maps a pixel centre x of the box to (x - x0 + 0.5) * s - 0.5: an affine map A,
+      // which the intrinsics absorb (fx' = s fx, cx' = (cx - x0 + 0.5) s - 0.5) and the corners follow.
+      const cv::Rect box = calib::paper_crop_box(c, {camera.width, camera.height});
+      const double sx = 480.0 / box.width, sy = 384.0 / box.height;
+      const cv::Matx33d A(sx, 0, (0.5 - box.x) * sx - 0.5, 0, sy, (0.5 - box.y) * sy - 0.5, 0, 0, 1);
+      K = A * K;
+      for (auto& q : measured) {
+        const cv::Vec3d v = A * cv::Vec3d(q.x, q.y, 1);
+        q = {v[0], v[1]};
+      }
+      crops.push_back(box);
+    }
+    measured_pv_order.push_back(measured);
+    const PvPose pose = fit_pv_pose(K, measured_pv_order.back());
     std::vector<double> d = cal->model.distortion;
     d.resize(8, 0.0);  // k1 k2 p1 p2 k3, then the rational model's k4 k5 k6 (unused: 0)
     pv_cameras[std::to_string(k)] = {{"ModelViewMatrix", matrix(pose.model_view)},
-                                     {"fx", cal->model.K(0, 0)}, {"fy", cal->model.K(1, 1)},
-                                     {"cx", cal->model.K(0, 2)}, {"cy", cal->model.K(1, 2)},
+                                     {"fx", K(0, 0)}, {"fy", K(1, 1)}, {"cx", K(0, 2)}, {"cy", K(1, 2)},
                                      {"k1", d[0]}, {"k2", d[1]}, {"p1", d[2]}, {"p2", d[3]},
                                      {"k3", d[4]}, {"k4", d[5]}, {"k5", d[6]}, {"k6", d[7]}};
     result.cameras.push_back({camera.name, pose.rms_px, pose.max_px});
@@ -303,8 +319,9 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
         if (fs::exists(jpg)) continue;
         auto image = r.image(i, cameras[k]);
         if (!image) return image.error();
+        const cv::Mat frame = o.paper_crop ? calib::apply_crop(image.value(), crops[k]) : image.value();
         std::vector<std::uint8_t> bytes;
-        if (!cv::imencode(".jpg", image.value(), bytes, {cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality}))
+        if (!cv::imencode(".jpg", frame, bytes, {cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality}))
           return Error{fmt::format("{}: the JPEG encoder refused the frame", jpg.string())};
         if (auto w = write_atomically(jpg, std::string(bytes.begin(), bytes.end())); !w.ok()) return w.error();
         wrote = true;
@@ -360,6 +377,7 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
     json cams = json::array();
     for (std::size_t k = 0; k < cameras.size(); ++k)
       cams.push_back({{"camera", k},
+                      {"crop_box", o.paper_crop ? json{crops[k].x, crops[k].y, crops[k].width, crops[k].height} : json()},
                       {"name", r.cameras()[cameras[k]].name},
                       {"serial", r.cameras()[cameras[k]].serial},
                       {"loader_corner_rms_px", result.cameras[k].loader_corner_rms_px},
@@ -373,6 +391,7 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
                      {"samples_left_out", p.left_out},
                      {"cameras", cams},
                      {"force_units", "loader counts: kPa = value / 2.7125 (1736 per newton on a 1.25 mm sensel)"},
+                     {"paper_crop", o.paper_crop},
                      {"timesteps", "seconds from the session's start on its one clock (CLOCK_MONOTONIC)"}};
     if (auto w = write_atomically(dir / "manifest.json", manifest.dump(1) + "\n"); !w.ok()) return w.error();
     if (auto w = write_atomically(dir / meta_name, meta.dump(1) + "\n"); !w.ok()) return w.error();

@@ -38,6 +38,10 @@ struct ExportOptions {
   int jpeg_quality = 95;
   bool npy = false;                         // force frames as .npy instead of .pkl
   bool include_all = false;                 // superseded, bad and interrupted takes too
+  // The paper's crop (spec 2.2): each camera's frames cut to the pad with a 50 px border, grown to
+  // 480:384 and resized to 480 x 384; the intrinsics and homographies follow, so the loaders' own
+  // geometry lands on the cropped frames (train with CROP_IMAGES off: they are cropped already).
+  bool paper_crop = false;
   // Frames written (or found) of the total to write; called often, from the exporting thread.
   std::function<void(std::size_t done, std::size_t total)> progress;
 };

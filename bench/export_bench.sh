@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Export speed for a simulated protocol session: records one (default 10 minutes on the full-size
+# simulated rig, the paper's protocol performed by the simulated hand), calibrates its pad with the
+# simulator's lenses, then runs build/bench/export_bench on it: export time beside the JPEG encoder
+# alone on the same frames.
+#
+#   bash bench/export_bench.sh [minutes | SESSION_FOLDER]   (recording needs root)
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+pvcap=$here/build/app/pvcap
+[ -x "$here/build/bench/export_bench" ] || { echo "build first: bash scripts/build.sh" >&2; exit 1; }
+arg=${1:-10}
+if [ -d "$arg" ]; then
+  session=$(cd "$arg" && pwd)
+else
+  work=$(mktemp -d /tmp/pvcap-export-bench-XXXXXX)
+  echo "recording $arg minutes of the protocol into $work (log: $work/pvcap.log)"
+  "$pvcap" session --rig "$here/rig-configs/sim.yaml" --root "$work/sessions" --duration $((arg * 60)) --no-web \
+    --protocol "$here/rig-configs/protocols/pressurevision.yaml" --auto --participant BENCH01 --skin-tone light \
+    --hand-order right_first --lighting LCR --overlay white_vinyl > "$work/pvcap.log" 2>&1 \
+    || { echo "the session failed: $work/pvcap.log" >&2; exit 1; }
+  session=$(ls -d "$work"/sessions/*/ | head -1)
+  session=${session%/}
+fi
+if [ ! -f "$session/calibration.yaml" ]; then
+  /usr/bin/python3 - "$session" <<'PY'
+import json, sys
+s = sys.argv[1]
+t = json.load(open(f"{s}/sim-truth/rig.json"))
+cams = [{"name": c["name"], "model": c["model"], "intrinsics": {"method": "truth", "rms_px": 0.0}} for c in t["cameras"]]
+json.dump({"pvcap_calibration": 1, "rig": "sim-rig", "pad_layout": t["pad"], "cameras": cams},
+          open(f"{s}/calibration.yaml", "w"))
+PY
+  "$pvcap" --log-level warn calibrate pad "$session" > /dev/null
+fi
+"$here/build/bench/export_bench" "$session"
