@@ -14,6 +14,7 @@
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "calib/projection.h"
@@ -304,6 +305,8 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
     fs::create_directories(dir / "force", ec);
     if (ec) return Error{fmt::format("{}: cannot be made: {}", dir.string(), ec.message())};
     json timesteps = json::array();
+    // Checksums of what this run wrote, taken from memory; files an earlier run wrote are read back.
+    std::map<std::string, std::pair<std::size_t, std::string>> sums;
     for (std::size_t t = 0; t < p.samples.size(); ++t) {
       if (stop.load()) {
         result.interrupted = true;
@@ -314,24 +317,41 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
       const SampleInfo& s = samples.value()[i];
       timesteps.push_back(double(s.t_ns - info.started_host_ns) / 1e9);
       bool wrote = false;
+      // Decoded here (the reader is one thread's), encoded on OpenCV's pool, one camera per worker:
+      // JPEG encoding is the larger half of the work and the cameras are independent.
+      std::vector<fs::path> jpgs;
+      std::vector<cv::Mat> frames;
       for (std::size_t k = 0; k < cameras.size(); ++k) {
         const fs::path jpg = dir / fmt::format("camera_{}", k) / fmt::format("{:05d}.jpg", t);
         if (fs::exists(jpg)) continue;
         auto image = r.image(i, cameras[k]);
         if (!image) return image.error();
-        const cv::Mat frame = o.paper_crop ? calib::apply_crop(image.value(), crops[k]) : image.value();
-        std::vector<std::uint8_t> bytes;
-        if (!cv::imencode(".jpg", frame, bytes, {cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality}))
-          return Error{fmt::format("{}: the JPEG encoder refused the frame", jpg.string())};
-        if (auto w = write_atomically(jpg, std::string(bytes.begin(), bytes.end())); !w.ok()) return w.error();
+        frames.push_back(o.paper_crop ? calib::apply_crop(image.value(), crops[k]) : image.value());
+        jpgs.push_back(jpg);
+      }
+      std::vector<std::string> encoded(frames.size());
+      std::vector<std::uint8_t> refused(frames.size(), 0);
+      cv::parallel_for_(cv::Range(0, int(frames.size())), [&](const cv::Range& range) {
+        for (int k = range.start; k < range.end; ++k) {
+          std::vector<std::uint8_t> bytes;
+          refused[std::size_t(k)] = !cv::imencode(".jpg", frames[std::size_t(k)], bytes,
+                                                  {cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality});
+          encoded[std::size_t(k)].assign(bytes.begin(), bytes.end());
+        }
+      });
+      for (std::size_t k = 0; k < jpgs.size(); ++k) {
+        if (refused[k]) return Error{fmt::format("{}: the JPEG encoder refused the frame", jpgs[k].string())};
+        if (auto w = write_atomically(jpgs[k], encoded[k]); !w.ok()) return w.error();
+        sums[fs::relative(jpgs[k], dir).string()] = {encoded[k].size(), sha256_hex(encoded[k])};
         wrote = true;
       }
       const fs::path force = dir / "force" / fmt::format("{:05d}.{}", t, force_ext);
       if (!fs::exists(force)) {
         auto f = loader_force(r, s.pressure->sequence);
         if (!f) return f.error();
-        if (auto w = write_atomically(force, o.npy ? numpy_npy(f.value()) : numpy_pickle(f.value())); !w.ok())
-          return w.error();
+        const std::string bytes = o.npy ? numpy_npy(f.value()) : numpy_pickle(f.value());
+        if (auto w = write_atomically(force, bytes); !w.ok()) return w.error();
+        sums[fs::relative(force, dir).string()] = {bytes.size(), sha256_hex(bytes)};
         wrote = true;
       }
       ++(wrote ? result.frames_written : result.frames_found);
@@ -347,9 +367,14 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
         files.push_back(e.path());
     std::sort(files.begin(), files.end());
     for (const auto& f : files) {
+      const std::string name = fs::relative(f, dir).string();
+      if (const auto known = sums.find(name); known != sums.end()) {
+        manifest["files"][name] = {{"bytes", known->second.first}, {"sha256", known->second.second}};
+        continue;
+      }
       auto sum = sha256_file(f);
       if (!sum) return sum.error();
-      manifest["files"][fs::relative(f, dir).string()] = {{"bytes", fs::file_size(f)}, {"sha256", sum.value()}};
+      manifest["files"][name] = {{"bytes", fs::file_size(f)}, {"sha256", sum.value()}};
     }
     json meta;
     meta["num_cameras"] = cameras.size();
