@@ -22,15 +22,5 @@ else
   session=$(ls -d "$work"/sessions/*/ | head -1)
   session=${session%/}
 fi
-if [ ! -f "$session/calibration.yaml" ]; then
-  /usr/bin/python3 - "$session" <<'PY'
-import json, sys
-s = sys.argv[1]
-t = json.load(open(f"{s}/sim-truth/rig.json"))
-cams = [{"name": c["name"], "model": c["model"], "intrinsics": {"method": "truth", "rms_px": 0.0}} for c in t["cameras"]]
-json.dump({"pvcap_calibration": 1, "rig": "sim-rig", "pad_layout": t["pad"], "cameras": cams},
-          open(f"{s}/calibration.yaml", "w"))
-PY
-  "$pvcap" --log-level warn calibrate pad "$session" > /dev/null
-fi
+bash "$here/bench/calibrate_sim_pad.sh" "$session"
 "$here/build/bench/export_bench" "$session"

@@ -20,19 +20,7 @@ else
   session=$(ls -d "$work"/sessions/*/ | head -1)
   session=${session%/}
 fi
-if [ ! -f "$session/calibration.yaml" ]; then
-  # The simulator's lenses as a calibration file (intrinsics only); the pad is then calibrated
-  # from the session itself, as a lab would.
-  /usr/bin/python3 - "$session" <<'PY'
-import json, sys
-s = sys.argv[1]
-t = json.load(open(f"{s}/sim-truth/rig.json"))
-cams = [{"name": c["name"], "model": c["model"], "intrinsics": {"method": "truth", "rms_px": 0.0}} for c in t["cameras"]]
-json.dump({"pvcap_calibration": 1, "rig": "sim-rig", "pad_layout": t["pad"], "cameras": cams},
-          open(f"{s}/calibration.yaml", "w"))
-PY
-  "$pvcap" --log-level warn calibrate pad "$session" > /dev/null
-fi
+bash "$here/bench/calibrate_sim_pad.sh" "$session"
 span=$(/usr/bin/python3 -c "import sqlite3, sys; db = sqlite3.connect(f'file:{sys.argv[1]}/session.db?mode=ro', uri=True)
 print('%.1f' % ((lambda r: (r[1] - r[0]) / 1e9 if r[1] else float('nan'))(db.execute('SELECT started_host_ns, ended_host_ns FROM session').fetchone())))" "$session")
 t0=$EPOCHREALTIME

@@ -31,6 +31,27 @@ std::string text_or_empty(const sqlite::Statement& q, int col) { return q.column
 std::optional<std::int64_t> opt_int(const sqlite::Statement& q, int col) {
   return q.column_null(col) ? std::nullopt : std::optional<std::int64_t>(q.column_int(col));
 }
+constexpr const char* kSampleColumns =
+    "SELECT id, tick, tick_ns, t_ns, span_ns, pressure_sequence, pressure_offset_ns, before_sequence, "
+    "before_offset_ns, after_sequence, after_offset_ns FROM samples ";
+
+// A samples row (kSampleColumns) without its camera frames.
+SampleInfo sample_row(const sqlite::Statement& q) {
+  SampleInfo s;
+  s.index = std::uint64_t(q.column_int(0));
+  s.tick = q.column_int(1);
+  s.tick_ns = q.column_int(2);
+  s.t_ns = q.column_int(3);
+  s.span_ns = q.column_int(4);
+  auto ref = [&](int col) -> std::optional<SampleInfo::PressureRef> {
+    if (q.column_null(col)) return std::nullopt;
+    return SampleInfo::PressureRef{std::uint64_t(q.column_int(col)), q.column_int(col + 1)};
+  };
+  s.pressure = ref(5);
+  s.before = ref(7);
+  s.after = ref(9);
+  return s;
+}
 }  // namespace
 
 cv::Mat PressureFrame::image() const {
@@ -103,24 +124,10 @@ Result<SampleInfo> SessionReader::sample_info(std::size_t i) {
   if (i >= sample_ids_.size())
     return Error{fmt::format("{}: no sample {} (the session has {})", dir_.string(), i, sample_ids_.size())};
   return guarded(dir_, [&]() -> Result<SampleInfo> {
-    SampleInfo s;
-    auto q = db_->prepare(
-        "SELECT id, tick, tick_ns, t_ns, span_ns, pressure_sequence, pressure_offset_ns, before_sequence, "
-        "before_offset_ns, after_sequence, after_offset_ns FROM samples WHERE id = ?");
+    auto q = db_->prepare(std::string(kSampleColumns) + "WHERE id = ?");
     q.bind_all(std::int64_t(sample_ids_[i]));
     if (!q.step()) return Error{fmt::format("{}: sample {} vanished from the index", dir_.string(), i)};
-    s.index = std::uint64_t(q.column_int(0));
-    s.tick = q.column_int(1);
-    s.tick_ns = q.column_int(2);
-    s.t_ns = q.column_int(3);
-    s.span_ns = q.column_int(4);
-    auto ref = [&](int col) -> std::optional<SampleInfo::PressureRef> {
-      if (q.column_null(col)) return std::nullopt;
-      return SampleInfo::PressureRef{std::uint64_t(q.column_int(col)), q.column_int(col + 1)};
-    };
-    s.pressure = ref(5);
-    s.before = ref(7);
-    s.after = ref(9);
+    SampleInfo s = sample_row(q);
     auto f = db_->prepare(
         "SELECT sf.device_id, sf.connection, sf.sequence, sf.offset_ns, f.kept, f.reason FROM sample_frames sf "
         "LEFT JOIN frames f USING (device_id, connection, sequence) WHERE sf.sample_id = ? ORDER BY sf.device_id");
@@ -440,25 +447,10 @@ Result<std::vector<SampleInfo>> SessionReader::sample_infos() {
     std::vector<SampleInfo> out;
     out.reserve(sample_ids_.size());
     std::map<std::uint64_t, std::size_t> position;
-    auto q = db_->prepare(
-        "SELECT id, tick, tick_ns, t_ns, span_ns, pressure_sequence, pressure_offset_ns, before_sequence, "
-        "before_offset_ns, after_sequence, after_offset_ns FROM samples ORDER BY id");
+    auto q = db_->prepare(std::string(kSampleColumns) + "ORDER BY id");
     while (q.step()) {
-      SampleInfo s;
-      s.index = std::uint64_t(q.column_int(0));
-      s.tick = q.column_int(1);
-      s.tick_ns = q.column_int(2);
-      s.t_ns = q.column_int(3);
-      s.span_ns = q.column_int(4);
-      auto ref = [&](int col) -> std::optional<SampleInfo::PressureRef> {
-        if (q.column_null(col)) return std::nullopt;
-        return SampleInfo::PressureRef{std::uint64_t(q.column_int(col)), q.column_int(col + 1)};
-      };
-      s.pressure = ref(5);
-      s.before = ref(7);
-      s.after = ref(9);
-      position[s.index] = out.size();
-      out.push_back(std::move(s));
+      position[std::uint64_t(q.column_int(0))] = out.size();
+      out.push_back(sample_row(q));
     }
     auto f = db_->prepare(
         "SELECT sf.sample_id, sf.device_id, sf.connection, sf.sequence, sf.offset_ns, f.kept, f.reason FROM "

@@ -11,6 +11,8 @@
 
 #include <fmt/format.h>
 
+#include "calib/rig_calibration.h"
+#include "sim/truth.h"
 #include "storage/sqlite/database.h"
 
 namespace fs = std::filesystem;
@@ -159,6 +161,24 @@ RecordedSession record(const std::string& test_name, const std::string& rig_yaml
     s.cameras.push_back(std::move(c));
   }
   return s;
+}
+
+std::string write_truth_lenses(const std::filesystem::path& session, const std::filesystem::path& file) {
+  auto truth = pvcap::sim::read_rig_truth(session / "sim-truth");
+  if (!truth) return truth.error().message;
+  pvcap::calib::RigCalibration lenses;
+  lenses.rig = "sim-rig";
+  for (const auto& c : truth.value().cameras) {
+    pvcap::calib::CameraCalibration cc;
+    cc.name = c.name;
+    cc.model.image_size = c.model.image_size;
+    cc.model.K = c.model.K;
+    cc.model.distortion = c.model.distortion;
+    cc.intrinsics = pvcap::calib::MeasuredBy{"truth", "", 0, 0.0};
+    lenses.cameras.push_back(cc);
+  }
+  auto saved = pvcap::calib::save_rig_calibration(file, lenses);
+  return saved.ok() ? std::string() : saved.error().message;
 }
 
 }  // namespace pvcap::testing

@@ -31,6 +31,11 @@ std::filesystem::path write_press_protocol(const std::filesystem::path& dir, con
 // Four 320x240 cameras at 30 Hz and a Sensel: the protocol tests' rig, written as dir/rig.yaml.
 std::filesystem::path write_protocol_rig(const std::filesystem::path& dir);
 
+// The simulator's lenses (its truth, without the pads' poses) as a rig calibration file at `file`:
+// what a board session would have measured, so a test can calibrate the pad without one. Empty
+// string on success, else what went wrong.
+std::string write_truth_lenses(const std::filesystem::path& session, const std::filesystem::path& file);
+
 struct CommandResult {
   int exit_code = -1;
   std::string output;  // stdout and stderr

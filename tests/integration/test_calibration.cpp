@@ -113,20 +113,8 @@ TEST(Calibration, PadCornersFromASessionMatchTheTruthAndLaterSessionsRecordTheCa
 
   auto truth = pvcap::sim::read_rig_truth(session / "sim-truth");
   ASSERT_TRUE(truth) << truth.error().message;
-  pvcap::calib::RigCalibration given;
-  given.rig = "sim-rig";
-  for (const auto& c : truth.value().cameras) {
-    pvcap::calib::CameraCalibration cc;
-    cc.name = c.name;
-    const auto& m = c.model;
-    cc.model.image_size = m.image_size;
-    cc.model.K = m.K;
-    cc.model.distortion = m.distortion;
-    cc.intrinsics = pvcap::calib::MeasuredBy{"truth", "", 0, 0.0};
-    given.cameras.push_back(cc);
-  }
   const fs::path file = work / "rig.calibration.yaml";
-  ASSERT_TRUE(pvcap::calib::save_rig_calibration(file, given).ok());
+  ASSERT_EQ(write_truth_lenses(session, file), "");
 
   const auto pad = run_pvcap(fmt::format("calibrate pad {} --rig {} --ground-truth {}", session.string(), rig.string(),
                                          (session / "sim-truth").string()));

@@ -69,20 +69,7 @@ const Recorded& recorded() {
         write_press_protocol(out.work, "[low, high]", 0.5, 0.4, 1.5, 0.3).string()));
     EXPECT_EQ(run.exit_code, 0) << run.output;
     out.session = only_session(out.work / "sessions");
-    auto truth = pvcap::sim::read_rig_truth(out.session / "sim-truth");
-    EXPECT_TRUE(truth) << truth.error().message;
-    pvcap::calib::RigCalibration lenses;
-    lenses.rig = "sim-rig";
-    for (const auto& c : truth.value().cameras) {
-      pvcap::calib::CameraCalibration cc;
-      cc.name = c.name;
-      cc.model.image_size = c.model.image_size;
-      cc.model.K = c.model.K;
-      cc.model.distortion = c.model.distortion;
-      cc.intrinsics = pvcap::calib::MeasuredBy{"truth", "", 0, 0.0};
-      lenses.cameras.push_back(cc);
-    }
-    EXPECT_TRUE(pvcap::calib::save_rig_calibration(out.work / "lenses.yaml", lenses).ok());
+    EXPECT_EQ(write_truth_lenses(out.session, out.work / "lenses.yaml"), "");
     const auto pad = run_pvcap(fmt::format("calibrate pad {} --calibration {}", out.session.string(),
                                            (out.work / "lenses.yaml").string()));
     EXPECT_EQ(pad.exit_code, 0) << pad.output;

@@ -172,20 +172,7 @@ TEST(Report, TheSyncSelfCheckFindsLatenciesTheRigFileDoesNotDeclare) {
 
   // The cameras' lenses as the simulator made them (so this test needs no board session), then the
   // pad calibrated from the session itself: the self-check finds the contact through it.
-  auto truth = pvcap::sim::read_rig_truth(session / "sim-truth");
-  ASSERT_TRUE(truth) << truth.error().message;
-  pvcap::calib::RigCalibration lenses;
-  lenses.rig = "sim-rig";
-  for (const auto& c : truth.value().cameras) {
-    pvcap::calib::CameraCalibration cc;
-    cc.name = c.name;
-    cc.model.image_size = c.model.image_size;
-    cc.model.K = c.model.K;
-    cc.model.distortion = c.model.distortion;
-    cc.intrinsics = pvcap::calib::MeasuredBy{"truth", "", 0, 0.0};
-    lenses.cameras.push_back(cc);
-  }
-  ASSERT_TRUE(pvcap::calib::save_rig_calibration(work / "lenses.yaml", lenses).ok());
+  ASSERT_EQ(write_truth_lenses(session, work / "lenses.yaml"), "");
   const auto pad = run_pvcap(fmt::format("calibrate pad {} --calibration {}", session.string(),
                                          (work / "lenses.yaml").string()));
   ASSERT_EQ(pad.exit_code, 0) << pad.output;
