@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
+#include <future>
 #include <map>
 #include <set>
 #include <sstream>
@@ -307,8 +308,23 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
     json timesteps = json::array();
     // Checksums of what this run wrote, taken from memory; files an earlier run wrote are read back.
     std::map<std::string, std::pair<std::size_t, std::string>> sums;
+    // A sample's frames are decoded here (the reader is one thread's) while the previous sample's
+    // are encoded, written and hashed in the background (one camera per worker of OpenCV's pool):
+    // decoding and JPEG encoding cost about the same, and overlap.
+    struct Encoded {
+      Status status;
+      std::vector<std::pair<std::string, std::pair<std::size_t, std::string>>> sums;
+    };
+    std::future<Encoded> in_flight;
+    auto collect = [&]() -> Status {
+      if (!in_flight.valid()) return {};
+      Encoded e = in_flight.get();
+      for (auto& [name, sum] : e.sums) sums[name] = std::move(sum);
+      return e.status;
+    };
     for (std::size_t t = 0; t < p.samples.size(); ++t) {
       if (stop.load()) {
+        (void)collect();
         result.interrupted = true;
         result.sequences.push_back(seq);
         return result;
@@ -317,8 +333,6 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
       const SampleInfo& s = samples.value()[i];
       timesteps.push_back(double(s.t_ns - info.started_host_ns) / 1e9);
       bool wrote = false;
-      // Decoded here (the reader is one thread's), encoded on OpenCV's pool, one camera per worker:
-      // JPEG encoding is the larger half of the work and the cameras are independent.
       std::vector<fs::path> jpgs;
       std::vector<cv::Mat> frames;
       for (std::size_t k = 0; k < cameras.size(); ++k) {
@@ -329,21 +343,35 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
         frames.push_back(o.paper_crop ? calib::apply_crop(image.value(), crops[k]) : image.value());
         jpgs.push_back(jpg);
       }
-      std::vector<std::string> encoded(frames.size());
-      std::vector<std::uint8_t> refused(frames.size(), 0);
-      cv::parallel_for_(cv::Range(0, int(frames.size())), [&](const cv::Range& range) {
-        for (int k = range.start; k < range.end; ++k) {
-          std::vector<std::uint8_t> bytes;
-          refused[std::size_t(k)] = !cv::imencode(".jpg", frames[std::size_t(k)], bytes,
-                                                  {cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality});
-          encoded[std::size_t(k)].assign(bytes.begin(), bytes.end());
-        }
-      });
-      for (std::size_t k = 0; k < jpgs.size(); ++k) {
-        if (refused[k]) return Error{fmt::format("{}: the JPEG encoder refused the frame", jpgs[k].string())};
-        if (auto w = write_atomically(jpgs[k], encoded[k]); !w.ok()) return w.error();
-        sums[fs::relative(jpgs[k], dir).string()] = {encoded[k].size(), sha256_hex(encoded[k])};
+      if (auto c = collect(); !c.ok()) return c.error();
+      if (!jpgs.empty()) {
         wrote = true;
+        in_flight = std::async(std::launch::async, [&dir, quality = o.jpeg_quality, jpgs = std::move(jpgs),
+                                                    frames = std::move(frames)]() {
+          Encoded e;
+          std::vector<std::string> encoded(frames.size());
+          std::vector<std::uint8_t> refused(frames.size(), 0);
+          cv::parallel_for_(cv::Range(0, int(frames.size())), [&](const cv::Range& range) {
+            for (int k = range.start; k < range.end; ++k) {
+              std::vector<std::uint8_t> bytes;
+              refused[std::size_t(k)] =
+                  !cv::imencode(".jpg", frames[std::size_t(k)], bytes, {cv::IMWRITE_JPEG_QUALITY, quality});
+              encoded[std::size_t(k)].assign(bytes.begin(), bytes.end());
+            }
+          });
+          for (std::size_t k = 0; k < jpgs.size(); ++k) {
+            if (refused[k]) {
+              e.status = Error{fmt::format("{}: the JPEG encoder refused the frame", jpgs[k].string())};
+              return e;
+            }
+            if (auto w = write_atomically(jpgs[k], encoded[k]); !w.ok()) {
+              e.status = w;
+              return e;
+            }
+            e.sums.push_back({fs::relative(jpgs[k], dir).string(), {encoded[k].size(), sha256_hex(encoded[k])}});
+          }
+          return e;
+        });
       }
       const fs::path force = dir / "force" / fmt::format("{:05d}.{}", t, force_ext);
       if (!fs::exists(force)) {
@@ -357,6 +385,7 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
       ++(wrote ? result.frames_written : result.frames_found);
       if (o.progress) o.progress(++done, total);
     }
+    if (auto c = collect(); !c.ok()) return c.error();
 
     // The manifest, then the metadata: the sequence is complete once its metadata exists.
     json manifest = {{"algorithm", "sha256"}, {"files", json::object()}};
