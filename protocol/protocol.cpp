@@ -94,8 +94,12 @@ Protocol parse_protocol(const std::string& text, const std::filesystem::path& so
     std::string pictogram;
     ar.require("pictogram", pictogram);
     base.pictogram = (source.parent_path() / pictogram).lexically_normal().string();
-    if (!std::filesystem::exists(base.pictogram))
-      ar.fail(a["pictogram"], "pictogram", fmt::format("{} does not exist", base.pictogram));
+    // The error_code form: a name the file system refuses (too long, ...) is a mistake in the file,
+    // said as one, not an exception from the file system.
+    std::error_code missing;
+    if (!std::filesystem::exists(base.pictogram, missing))
+      ar.fail(a["pictogram"], "pictogram",
+              fmt::format("{} does not exist{}", base.pictogram, missing ? " (" + missing.message() + ")" : ""));
     ar.get_in_range("repetitions", base.repetitions, 1, 100);
     ar.get("check_side", base.check_side);
     std::vector<Force> forces;
