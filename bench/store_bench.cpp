@@ -1,12 +1,14 @@
-// Store benchmark, printed in one run (figures in docs/PERFORMANCE.md):
-//  1. pipeline fps, one 1080p camera: debayer + encode + index through SessionWriter, against the
-//     ffmpeg command line encoding the same raw Bayer frames with the same settings (ratio; goal >= 1);
-//  2. real-time factor for four 1080p cameras at 15 Hz with the default codec (goal >= 1.5);
-//  3. random access: one camera image of a random sample (goal < 30 ms);
+// Store benchmark, printed in one run for the default mode (raw: the sensor's mosaic, lossless) and
+// the lossy colour mode (figures in docs/PERFORMANCE.md):
+//  1. pipeline fps, one 1080p camera: (debayer +) encode + index through SessionWriter, against the
+//     ffmpeg command line encoding the same frames with the same settings (ratio; goal >= 1);
+//  2. real-time factor for four 1080p cameras at 15 Hz (goal >= 1.5);
+//  3. random access: one camera image of a random sample, demosaiced (goal < 30 ms);
 //  4. sequential reading: samples (all cameras decoded) per second;
-//  5. quality: PSNR of the decoded images against their debayered sources.
+//  5. exactness: raw mode, the stored mosaic against the sensor's ("bit-exact"); colour mode, PSNR of
+//     the decoded images against their debayered sources.
 // The speed figures come with the same measure for the ffmpeg command line, run in the same run.
-// Usage: store_bench [FRAMES=90] [NOISE_DN=2] ["STORE SETTINGS", e.g. "crf: 16, gop_seconds: 0.5"]
+// Usage: store_bench [FRAMES=90] [NOISE_DN=2] ["STORE SETTINGS" for both modes, e.g. "crf: 16"]
 // Frames are the simulator's scene with a moving fingertip and sensor noise, prepared beforehand.
 #include <algorithm>
 #include <chrono>
@@ -24,6 +26,7 @@
 #include "core/rig_config.h"
 #include "core/time.h"
 #include "sim/scene.h"
+#include "storage/bayer_planes.h"
 #include "storage/session_reader.h"
 #include "storage/session_writer.h"
 
@@ -77,19 +80,25 @@ double run_pipeline(const fs::path& root, const std::vector<std::vector<cv::Mat>
   SessionWriter& writer = *w.value();
   std::vector<std::int64_t> ids;
   for (const auto& c : rig.cameras)
-    ids.push_back(writer.add_camera({"camera", c.name, "", "", "", "", "", "{}"}, kW, kH).value());
+    ids.push_back(writer.add_camera({"camera", c.name, "", "", "", "", "", "{}"}, kW, kH, "BayerRG8").value());
   writer.start();
   const auto start = Clock::now();
   std::vector<std::thread> feeders;
   for (std::size_t c = 0; c < frames.size(); ++c)
     feeders.emplace_back([&, c] {
       FramePool images(std::size_t(rig.store.queue_frames) + 2);  // as the recorder's camera workers do
+      const bool raw = writer.stores_raw(ids[c]);
       for (std::size_t i = 0; i < frames[c].size(); ++i) {
-        cv::Mat bgr = images.acquire(kH, kW, CV_8UC3);
-        (void)to_bgr(frames[c][i].data, frames[c][i].total(), kW, kH, kBayer, bgr);
+        cv::Mat image = images.acquire(kH, kW, raw ? CV_8UC1 : CV_8UC3);
+        if (raw) frames[c][i].copyTo(image);  // the mosaic, as the camera worker copies it
+        else (void)to_bgr(frames[c][i].data, frames[c][i].total(), kW, kH, kBayer, image);
         const std::int64_t t = t0 + std::int64_t(i) * 66'666'667;
         FrameRecord f{ids[c], 0, i, i, std::int64_t(i), t, 0, "good", false, "", {}, {}, t};
-        while (!writer.submit_video(ids[c], bgr, f)) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        // Full speed, but through memory only: waiting while the encoder's queue is full measures the
+        // encoder, not the spill (which would take the frames beyond it to disk).
+        while (writer.camera_stats(ids[c]).encoder_backlog >= std::size_t(rig.store.queue_frames))
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        if (!writer.submit_video(ids[c], image, f)) throw std::runtime_error("the store refused a frame");
         if (c != 0) continue;  // one sample per instant, naming every camera's frame of it
         SampleRecord sample{i, std::int64_t(i), t, t, 0, {}, {}, {}, {}};
         for (const std::int64_t id : ids) sample.cameras.push_back({id, 0, i, 0});
@@ -108,45 +117,48 @@ double percentile(std::vector<double> v, double p) {
   std::sort(v.begin(), v.end());
   return v[std::min(v.size() - 1, std::size_t(p * double(v.size())))];
 }
-}  // namespace
 
-int main(int argc, char** argv) {
-  const int n = argc > 1 ? std::max(15, std::atoi(argv[1])) : 90;  // frames per camera (90 = 6 s at 15 Hz)
-  const double noise = argc > 2 ? std::atof(argv[2]) : 2.0;           // sensor noise, DN
-  const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-store-bench-{}", getpid());
-  fs::remove_all(work);
-  fs::create_directories(work);
-  const std::string fields = argc > 3 ? argv[3] : "";                  // store settings other than the defaults
-  StoreConfig store;
-  try {
-    store = bench_rig(1, fields).store;
-  } catch (const std::exception& e) {
-    std::printf("%s\n", e.what());
-    return 2;
-  }
-  std::printf("store bench: %d frames per camera, 1920x1080 BayerRG8 with sensor noise %.1f DN, %s crf %d %s %s, "
-              "GOP %.1f s, %u cores\n",
-              n, noise,
-              store.video_codec.c_str(), store.crf, store.preset.c_str(), store.video_pixel_format.c_str(),
-              store.gop_seconds_x10 / 10.0, std::thread::hardware_concurrency());
-  std::vector<std::vector<cv::Mat>> frames;
-  for (int c = 0; c < 4; ++c) frames.push_back(make_frames(c, n, noise));
+// Steps 1-5 for one mode (`fields`: the store settings of the mode), printed with `label`.
+void bench_mode(const std::string& label, const fs::path& work, const std::vector<std::vector<cv::Mat>>& frames,
+                const std::string& fields, double noise) {
+  const StoreConfig store = bench_rig(1, fields).store;
+  const bool raw = store.video_mode == "raw";
+  const int n = int(frames[0].size());
+  if (raw)
+    std::printf("\n[%s] raw: the mosaic's four planes stacked (960x2160 grey), %s, lossless, intra-only\n",
+                label.c_str(), store.raw_codec.c_str());
+  else
+    std::printf("\n[%s] colour: debayered, %s crf %d %s %s, GOP %.1f s\n", label.c_str(), store.video_codec.c_str(),
+                store.crf, store.preset.c_str(), store.video_pixel_format.c_str(), store.gop_seconds_x10 / 10.0);
+  const fs::path dir = work / label;
+  fs::create_directories(dir);
 
-  // 1. One camera: pvcap's pipeline against the ffmpeg command line on the same raw frames.
-  const double one = run_pipeline(work / "one", {frames[0]}, fields, nullptr);
+  // 1. One camera: pvcap's pipeline against the ffmpeg command line on the same frames.
+  const double one = run_pipeline(dir / "one", {frames[0]}, fields, nullptr);
   const double pipeline_fps = n / one;
-  // The reference: ffmpeg encoding camera `c`'s raw frames with the same settings, one thread each.
+  // The reference: ffmpeg encoding camera `c`'s frames with the same settings, one thread each (raw
+  // mode: given the planes already stacked, so ffmpeg does less than the pipeline).
   auto ffmpeg_cmd = [&](int c) {
-    const fs::path raw_path = work / fmt::format("cam{}.bayer", c);
-    std::ofstream raw(raw_path, std::ios::binary);
-    for (const auto& f : frames[std::size_t(c)])
-      raw.write(reinterpret_cast<const char*>(f.data), std::streamsize(f.total()));
+    const fs::path raw_path = dir / fmt::format("cam{}.{}", c, raw ? "planes" : "bayer");
+    std::ofstream out(raw_path, std::ios::binary);
+    for (const auto& f : frames[std::size_t(c)]) {
+      cv::Mat data = f;
+      if (raw) pack_bayer_planes(f, data);
+      out.write(reinterpret_cast<const char*>(data.data), std::streamsize(data.total()));
+    }
+    const std::string output = (dir / fmt::format("ffmpeg{}.mkv", c)).string();
+    if (raw) {
+      const std::string x264 = store.raw_codec == "libx264" ? " -preset " + store.preset + " -qp 0" : "";
+      return fmt::format("ffmpeg -hide_banner -loglevel error -y -f rawvideo -pix_fmt gray -s {}x{} -framerate 15 "
+                         "-i {} -c:v {}{} -pix_fmt gray -threads 1 {}",
+                         kW / 2, kH * 2, raw_path.string(), store.raw_codec, x264, output);
+    }
     return fmt::format(
         "ffmpeg -hide_banner -loglevel error -y -f rawvideo -pix_fmt bayer_rggb8 -s {}x{} -framerate 15 -i {} "
         "-c:v libx264 -preset {} -crf {} -pix_fmt {} -g {} -bf 0 -threads 1 -x264-params repeat-headers=1:slices=4 "
         "{}",
         kW, kH, raw_path.string(), store.preset, store.crf, store.video_pixel_format,
-        int(15 * store.gop_seconds_x10 / 10), (work / fmt::format("ffmpeg{}.mkv", c)).string());
+        int(15 * store.gop_seconds_x10 / 10), output);
   };
   auto run_timed = [&](const std::string& cmd) {
     const auto t = Clock::now();
@@ -155,14 +167,14 @@ int main(int argc, char** argv) {
     return seconds_since(t);
   };
   const double ffmpeg_fps = n / run_timed(ffmpeg_cmd(0));
-  std::printf("pipeline, 1 camera (debayer + encode + index): %.1f fps; ffmpeg command line, same frames and "
-              "settings: %.1f fps; ratio %.2f (goal >= 1.0)\n",
-              pipeline_fps, ffmpeg_fps, pipeline_fps / ffmpeg_fps);
+  std::printf("pipeline, 1 camera (%s + index): %.1f fps; ffmpeg command line, same frames and settings: %.1f fps; "
+              "ratio %.2f (goal >= 1.0)\n",
+              raw ? "plane split + encode" : "debayer + encode", pipeline_fps, ffmpeg_fps, pipeline_fps / ffmpeg_fps);
 
   // 2. Four cameras at once: how many times faster than 4 x 15 Hz, and the same for four ffmpeg
   // command lines run side by side (what the machine allows at these settings).
   fs::path session;
-  const double four = run_pipeline(work / "four", frames, fields, &session);
+  const double four = run_pipeline(dir / "four", frames, fields, &session);
   const double four_fps = 4.0 * n / four;
   std::string all = "(";
   for (int c = 0; c < 4; ++c) all += ffmpeg_cmd(c) + " & ";
@@ -174,10 +186,7 @@ int main(int argc, char** argv) {
 
   // 3. Random access and 4. sequential reading, on the four-camera store.
   auto reader = SessionReader::open(session);
-  if (!reader) {
-    std::printf("cannot read the store back: %s\n", reader.error().message.c_str());
-    return 1;
-  }
+  if (!reader) throw std::runtime_error("cannot read the store back: " + reader.error().message);
   auto& r = *reader.value();
   std::mt19937 rng(7);
   std::vector<double> ms;
@@ -188,40 +197,87 @@ int main(int argc, char** argv) {
     ms.push_back(seconds_since(t) * 1e3);
     if (!img || img.value().empty()) std::printf("sample %zu camera %zu did not read\n", i, c);
   }
-  std::printf("random access, one camera image of a random sample: p50 %.1f ms, p95 %.1f ms, max %.1f ms (goal < 30 "
-              "ms)\n",
-              percentile(ms, 0.5), percentile(ms, 0.95), percentile(ms, 1.0));
+  std::printf("random access, one camera image of a random sample%s: p50 %.1f ms, p95 %.1f ms, max %.1f ms (goal < "
+              "30 ms)\n",
+              raw ? " (decoded and demosaiced)" : "", percentile(ms, 0.5), percentile(ms, 0.95), percentile(ms, 1.0));
   const auto t_seq = Clock::now();
   for (std::size_t i = 0; i < r.sample_count(); ++i)
     if (!r.sample(i)) std::printf("sample %zu did not read\n", i);
   const double seq_s = seconds_since(t_seq);
   std::printf("sequential reading: %.1f samples/s (%.1f decoded 1080p frames/s)\n", double(r.sample_count()) / seq_s,
               double(r.sample_count() * r.cameras().size()) / seq_s);
-  // 5. Quality: camera 0's decoded images against the debayered frames they were made from (and,
-  // with noise, against the noise-free scene: what the encoder kept of the picture itself).
-  const std::vector<cv::Mat> clean = noise > 0 ? make_frames(0, n, 0) : std::vector<cv::Mat>{};
-  double worst = 1e9, sum = 0, worst_clean = 1e9;
-  for (std::size_t i = 0; i < r.sample_count() && i < frames[0].size(); ++i) {
-    auto img = r.image(i, 0);
-    if (!img || img.value().empty()) continue;
-    cv::Mat source;
-    (void)to_bgr(frames[0][i].data, frames[0][i].total(), kW, kH, kBayer, source);
-    const double psnr = cv::PSNR(img.value(), source);
-    worst = std::min(worst, psnr);
-    sum += psnr;
-    if (!clean.empty()) {
-      (void)to_bgr(clean[i].data, clean[i].total(), kW, kH, kBayer, source);
-      worst_clean = std::min(worst_clean, cv::PSNR(img.value(), source));
+  // 5. Exactness: raw mode, every stored mosaic of camera 0 against the sensor's; colour mode, the
+  // decoded images against the debayered frames they were made from (and, with noise, against the
+  // noise-free scene: what the encoder kept of the picture itself).
+  if (raw) {
+    double worst = 0;
+    std::size_t compared = 0;
+    for (std::size_t i = 0; i < r.sample_count() && i < frames[0].size(); ++i) {
+      auto m = r.raw_image(i, 0);
+      if (!m || m.value().empty()) continue;
+      worst = std::max(worst, cv::norm(m.value(), frames[0][i], cv::NORM_INF));
+      ++compared;
     }
+    if (worst == 0 && compared == frames[0].size())
+      std::printf("exactness, camera 0: bit-exact (%zu of %zu stored mosaics equal the sensor's)\n", compared,
+                  frames[0].size());
+    else
+      std::printf("exactness, camera 0: NOT exact: largest difference %.0f DN over %zu of %zu frames\n", worst,
+                  compared, frames[0].size());
+  } else {
+    const std::vector<cv::Mat> clean = noise > 0 ? make_frames(0, n, 0) : std::vector<cv::Mat>{};
+    double worst = 1e9, sum = 0, worst_clean = 1e9;
+    for (std::size_t i = 0; i < r.sample_count() && i < frames[0].size(); ++i) {
+      auto img = r.image(i, 0);
+      if (!img || img.value().empty()) continue;
+      cv::Mat source;
+      (void)to_bgr(frames[0][i].data, frames[0][i].total(), kW, kH, kBayer, source);
+      const double psnr = cv::PSNR(img.value(), source);
+      worst = std::min(worst, psnr);
+      sum += psnr;
+      if (!clean.empty()) {
+        (void)to_bgr(clean[i].data, clean[i].total(), kW, kH, kBayer, source);
+        worst_clean = std::min(worst_clean, cv::PSNR(img.value(), source));
+      }
+    }
+    std::printf("exactness, camera 0: lossy, worst frame PSNR %.1f dB, mean %.1f dB against the debayered source "
+                "(goal >= 45)",
+                worst, sum / double(std::min(r.sample_count(), frames[0].size())));
+    if (!clean.empty()) std::printf("; worst %.1f dB against the noise-free scene", worst_clean);
+    std::printf("\n");
   }
-  std::printf("quality, camera 0: worst frame PSNR %.1f dB, mean %.1f dB against the debayered source (goal >= 45)",
-              worst, sum / double(std::min(r.sample_count(), frames[0].size())));
-  if (!clean.empty()) std::printf("; worst %.1f dB against the noise-free scene", worst_clean);
-  std::printf("\n");
   std::uintmax_t bytes = 0;
   for (const auto& e : fs::directory_iterator(session)) bytes += e.is_regular_file() ? e.file_size() : 0;
   std::printf("store size: %.1f MB for %d samples of 4 cameras (%.2f MB per 1080p frame)\n", double(bytes) / 1e6, n,
               double(bytes) / 1e6 / (4.0 * n));
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int n = argc > 1 ? std::max(15, std::atoi(argv[1])) : 90;  // frames per camera (90 = 6 s at 15 Hz)
+  const double noise = argc > 2 ? std::atof(argv[2]) : 2.0;           // sensor noise, DN
+  const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-store-bench-{}", getpid());
+  fs::remove_all(work);
+  fs::create_directories(work);
+  const std::string fields = argc > 3 ? argv[3] : "";  // store settings other than the defaults
+  auto with = [&](const std::string& mode) { return fields.empty() ? mode : mode + ", " + fields; };
+  try {
+    (void)bench_rig(1, fields);
+  } catch (const std::exception& e) {
+    std::printf("%s\n", e.what());
+    return 2;
+  }
+  std::printf("store bench: %d frames per camera, 1920x1080 BayerRG8 with sensor noise %.1f DN, %u cores\n", n, noise,
+              std::thread::hardware_concurrency());
+  std::vector<std::vector<cv::Mat>> frames;
+  for (int c = 0; c < 4; ++c) frames.push_back(make_frames(c, n, noise));
+  try {
+    bench_mode("default", work, frames, with("video_mode: raw"), noise);
+    bench_mode("lossy", work, frames, with("video_mode: color"), noise);
+  } catch (const std::exception& e) {
+    std::printf("%s\n", e.what());
+    return 1;
+  }
   if (!std::getenv("PVCAP_BENCH_KEEP")) fs::remove_all(work);
   else std::printf("kept %s\n", work.c_str());
   return 0;

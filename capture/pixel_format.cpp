@@ -1,6 +1,7 @@
 #include "capture/pixel_format.h"
 
 #include <arv.h>
+
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
@@ -25,25 +26,21 @@ std::uint32_t pixel_format_code(const std::string& name) {
   return 0;
 }
 
+bool is_bayer(std::uint32_t pf) {
+  return pf == ARV_PIXEL_FORMAT_BAYER_RG_8 || pf == ARV_PIXEL_FORMAT_BAYER_BG_8 || pf == ARV_PIXEL_FORMAT_BAYER_GR_8 ||
+         pf == ARV_PIXEL_FORMAT_BAYER_GB_8;
+}
+
 Status to_bgr(const std::uint8_t* data, std::size_t size, int width, int height, std::uint32_t pf, cv::Mat& bgr) {
   const bool rgb = pf == ARV_PIXEL_FORMAT_RGB_8_PACKED;
   const std::size_t need = std::size_t(width) * std::size_t(height) * (rgb ? 3 : 1);
   if (!data || size < need)
     return Error{fmt::format("frame has {} bytes, {}x{} {} needs {}", size, width, height, pixel_format_name(pf), need)};
-  // OpenCV names Bayer patterns by the second row's first two pixels, so a sensor whose
-  // top-left 2x2 is R G / G B (PFNC BayerRG8) is OpenCV's BayerBG (checked by a test).
-  int code = -1;
-  switch (pf) {
-    case ARV_PIXEL_FORMAT_BAYER_RG_8: code = cv::COLOR_BayerBG2BGR; break;
-    case ARV_PIXEL_FORMAT_BAYER_BG_8: code = cv::COLOR_BayerRG2BGR; break;
-    case ARV_PIXEL_FORMAT_BAYER_GR_8: code = cv::COLOR_BayerGB2BGR; break;
-    case ARV_PIXEL_FORMAT_BAYER_GB_8: code = cv::COLOR_BayerGR2BGR; break;
-    case ARV_PIXEL_FORMAT_MONO_8: code = cv::COLOR_GRAY2BGR; break;
-    case ARV_PIXEL_FORMAT_RGB_8_PACKED: code = cv::COLOR_RGB2BGR; break;
-    default: return Error{fmt::format("pixel format {} is not supported", pixel_format_name(pf))};
-  }
   const cv::Mat in(height, width, rgb ? CV_8UC3 : CV_8UC1, const_cast<std::uint8_t*>(data));
-  cv::cvtColor(in, bgr, code);
+  if (is_bayer(pf)) return debayer(in, pixel_format_name(pf), Demosaic::Bilinear, bgr);
+  if (pf == ARV_PIXEL_FORMAT_MONO_8) cv::cvtColor(in, bgr, cv::COLOR_GRAY2BGR);
+  else if (rgb) cv::cvtColor(in, bgr, cv::COLOR_RGB2BGR);
+  else return Error{fmt::format("pixel format {} is not supported", pixel_format_name(pf))};
   return {};
 }
 

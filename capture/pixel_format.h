@@ -5,6 +5,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "capture/demosaic.h"
 #include "core/result.h"
 
 namespace pvcap {
@@ -13,6 +14,9 @@ namespace pvcap {
 Status to_bgr(const std::uint8_t* data, std::size_t size, int width, int height, std::uint32_t pixel_format,
               cv::Mat& bgr);
 std::string pixel_format_name(std::uint32_t pixel_format);
+// True for the Bayer mosaics (BayerRG8, BayerBG8, BayerGR8, BayerGB8).
+bool is_bayer(std::uint32_t pixel_format);
+
 // PFNC code for a name this module supports (BayerRG8, ..., Mono8, RGB8); 0 when unknown.
 std::uint32_t pixel_format_code(const std::string& name);
 

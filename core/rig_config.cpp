@@ -95,6 +95,13 @@ SenselRigConfig parse_sensel(const YAML::Node& node, const std::filesystem::path
 StoreConfig parse_store(const YAML::Node& node, const std::filesystem::path& file) {
   StoreConfig s;
   MapReader r(node, file, "store");
+  r.get("video_mode", s.video_mode);
+  if (s.video_mode != "raw" && s.video_mode != "color")
+    r.fail(r.node()["video_mode"], "video_mode", fmt::format("'{}' is not one of raw, color", s.video_mode));
+  r.get("raw_codec", s.raw_codec);
+  if (s.raw_codec != "ffvhuff" && s.raw_codec != "ffv1" && s.raw_codec != "libx264")
+    r.fail(r.node()["raw_codec"], "raw_codec",
+           fmt::format("'{}' is not one of ffvhuff, ffv1, libx264 (lossless codecs of grey pictures)", s.raw_codec));
   r.get("video_codec", s.video_codec);
   r.get_in_range("crf", s.crf, 0, 51);
   r.get("preset", s.preset);

@@ -62,7 +62,12 @@ struct SimSenselConfig {
 };
 
 struct StoreConfig {
-  std::string video_codec = "libx264";  // any FFmpeg encoder; "ffv1" for lossless
+  // "raw": a Bayer camera's mosaic stored losslessly (its four planes, `raw_codec`), demosaiced when
+  // read; "color": debayered on the capture path and stored with `video_codec` (lossy by default).
+  // Cameras that send colour or grey pixels always take the colour path.
+  std::string video_mode = "raw";
+  std::string raw_codec = "ffvhuff";    // lossless, intra-only: ffvhuff (fastest here), ffv1, libx264 (qp 0)
+  std::string video_codec = "libx264";  // colour mode: any FFmpeg encoder; "ffv1" for lossless
   int crf = 10;                         // libx264 quality (lower is better; 0 = lossless)
   std::string preset = "ultrafast";     // libx264 speed preset: real time for 4 x 1080p at 15 Hz on 2 cores
   std::string video_pixel_format = "yuv444p";  // keep full chroma: skin colour is the signal

@@ -68,6 +68,8 @@ nlohmann::json stream_json(const session::StreamStatus& s) {
           {"encoder_behind", s.encoder_behind},
           {"connection_losses", s.connection_losses},
           {"encoder_backlog", s.encoder_backlog},
+          {"spill_backlog", s.spill_backlog},
+          {"spilled", s.spilled},
           {"rate_hz", std::round(s.rate_hz * 10) / 10},
           {"since_last_frame_ms", std::round(s.since_last_frame_ms)}};
 }

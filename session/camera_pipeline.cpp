@@ -1,8 +1,10 @@
 #include "session/camera_pipeline.h"
 
+#include <cstring>
 #include <map>
 #include <thread>
 
+#include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
 #include "capture/pixel_format.h"
@@ -54,6 +56,7 @@ void run_camera_pipeline(const CameraPipeline& p) {
   sync::SessionTimeline& timeline = p.timeline;
   TimelineEnd& end = p.end;
   const std::size_t encoder_queue = p.encoder_queue;
+  const bool raw_video = writer.stores_raw(device_id);
   std::int64_t next_preview_ns = 0;
   SequenceUnwrapper unwrap(16, /*zero_is_skipped=*/true);
   std::uint32_t connection = UINT32_MAX;
@@ -63,7 +66,8 @@ void run_camera_pipeline(const CameraPipeline& p) {
   auto recycle = [&](std::vector<std::uint8_t>&& pixels) {
     if (spare.size() < 32) spare.push_back(std::move(pixels));
   };
-  // So are the debayered images: one for each the encoder can hold, and the one being filled.
+  // So are the images for the encoder (mosaics or debayered): one for each it can hold, and the one
+  // being filled.
   FramePool images(encoder_queue + 2);
   // A frame that times out incomplete is delivered after its successor: hold gaps open for a
   // second so such a frame is counted once, as what it is.
@@ -84,13 +88,23 @@ void run_camera_pipeline(const CameraPipeline& p) {
         recycle(std::move(h.pixels));
         continue;
       }
-      cv::Mat bgr = images.acquire(h.height, h.width, CV_8UC3);
-      const Status converted = to_bgr(h.pixels.data(), h.pixels.size(), h.width, h.height, h.pixel_format, bgr);
+      // Raw video takes the sensor's own mosaic (no demosaicing here); colour video a BGR image.
+      const bool raw = raw_video && is_bayer(h.pixel_format);
+      cv::Mat image = images.acquire(h.height, h.width, raw ? CV_8UC1 : CV_8UC3);
+      Status converted;
+      if (!raw) {
+        converted = to_bgr(h.pixels.data(), h.pixels.size(), h.width, h.height, h.pixel_format, image);
+      } else if (h.pixels.size() < image.total()) {
+        converted = Error{fmt::format("frame has {} bytes, a {}x{} mosaic needs {}", h.pixels.size(), h.width,
+                                      h.height, image.total())};
+      } else {
+        std::memcpy(image.data, h.pixels.data(), image.total());
+      }
       recycle(std::move(h.pixels));
       if (!converted) {
         h.rec.reason = "unsupported_pixels: " + converted.error().message;
       } else {
-        if (writer.submit_video(device_id, std::move(bgr), h.rec)) continue;  // the encoder records it
+        if (writer.submit_video(device_id, std::move(image), h.rec)) continue;  // the encoder records it
         tally.encoder_behind.fetch_add(1, std::memory_order_relaxed);
         h.rec.reason = "encoder_behind";
       }

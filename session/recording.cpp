@@ -108,6 +108,7 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
   const std::size_t n = rig.cameras.size();
   r->device_ids_.assign(n, 0);
   r->warned_encoder_.assign(n, false);
+  r->warned_spill_.assign(n, false);
   Recording* self = r.get();
   for (std::size_t i = 0; i < n; ++i) {
     r->tallies_.push_back(std::make_unique<CameraTally>());
@@ -183,7 +184,7 @@ Status Recording::start() {
     const CameraSettings s = cameras_[i]->settings();
     DeviceRecord d{"camera", rig_.cameras[i].name, s.vendor, s.model, s.serial, s.address, s.firmware,
                    settings_json(s, rig_.cameras[i])};
-    auto id = writer.add_camera(d, s.width, s.height);
+    auto id = writer.add_camera(d, s.width, s.height, s.pixel_format);
     if (!id) return fail(id.error());
     device_ids_[i] = id.value();
   }
@@ -292,18 +293,25 @@ std::string Recording::wait(const std::atomic<bool>& interrupt, std::optional<do
       spdlog::error("storage failed, stopping capture (everything written so far is kept): {}", *failure);
       return "storage failure: " + *failure;
     }
-    // A camera whose encoder falls behind loses frames for the rest of the session unless the
-    // operator acts: say so once, with what to change, rather than only count it.
-    for (std::size_t i = 0; i < cameras_.size(); ++i)
+    // An encoder behind its camera spills frames to disk (nothing lost; it catches up later): say so
+    // once. Frames lost because the spill could not keep up either: say so once, with what to change.
+    for (std::size_t i = 0; i < cameras_.size(); ++i) {
+      if (!warned_spill_[i] && writer_->camera_stats(device_ids_[i]).spilled > 0) {
+        warned_spill_[i] = true;
+        warn(fmt::format("{}: the video encoder is behind; frames wait on disk (the spill) until it catches up. "
+                         "Nothing is lost; the session may take longer to close",
+                         rig_.cameras[i].name));
+      }
       if (!warned_encoder_[i] && tallies_[i]->encoder_behind.load() > 0) {
         warned_encoder_[i] = true;
-        warn(fmt::format("{}: the video encoder cannot keep up, frames are being dropped (counted as "
-                         "encoder_behind). This PC has {} cores for {} camera{} at crf {} preset {}: raise store.crf "
-                         "or lower store.video_fps in the rig file, or record on a PC with more cores "
+        warn(fmt::format("{}: frames are being dropped (encoder_behind): neither the video encoder nor its spill to "
+                         "disk keeps up. This PC has {} cores for {} camera{} (store.video_mode {}): lower "
+                         "store.video_fps in the rig file, record to a faster disk, or on a PC with more cores "
                          "(docs/PERFORMANCE.md, Store)",
                          rig_.cameras[i].name, std::thread::hardware_concurrency(), cameras_.size(),
-                         cameras_.size() == 1 ? "" : "s", rig_.store.crf, rig_.store.preset));
+                         cameras_.size() == 1 ? "" : "s", rig_.store.video_mode));
       }
+    }
     if (std::chrono::steady_clock::now() - last_progress >= 2s) {
       last_progress = std::chrono::steady_clock::now();
       log_progress(elapsed);
@@ -381,6 +389,8 @@ RecordingStatus Recording::status() const {
       const auto cs = writer_->camera_stats(device_ids_[i]);
       s.in_video = cs.frames_in_video;
       s.encoder_backlog = cs.encoder_backlog;
+      s.spill_backlog = cs.spill_backlog;
+      s.spilled = cs.spilled;
     }
     s.rate_hz = rate(i, s.good);
     s.since_last_frame_ms = since(t.last_good_host_ns.load());

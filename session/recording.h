@@ -63,7 +63,9 @@ struct StreamStatus {
   std::string name, kind;  // kind: camera | sensel
   std::uint64_t received = 0, good = 0, in_video = 0, incomplete = 0, not_received = 0, encoder_behind = 0,
                 connection_losses = 0;
-  std::size_t encoder_backlog = 0;
+  std::size_t encoder_backlog = 0;  // kept frames waiting for the encoder (memory and spill)
+  std::size_t spill_backlog = 0;    // of which on disk
+  std::uint64_t spilled = 0;        // frames that went through the spill so far
   double rate_hz = 0;                 // over the last status interval
   double since_last_frame_ms = -1;    // since its last good frame arrived; -1: none yet
 };
@@ -153,7 +155,7 @@ class Recording {
   std::atomic<int> state_{0};  // index into kStates
   std::string stop_reason_;
   std::optional<std::string> start_failure_;
-  std::vector<bool> warned_encoder_;
+  std::vector<bool> warned_encoder_, warned_spill_;
 
   mutable std::mutex mu_;  // what follows
   std::deque<std::string> warnings_;

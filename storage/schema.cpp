@@ -188,6 +188,13 @@ CREATE TABLE operator_notes (
 CREATE INDEX samples_by_time ON samples(t_ns);
 )sql";
 
+// 3 -> 4: raw videos (the sensor's Bayer mosaic, stored losslessly) say so in their row.
+constexpr const char* kTo4 = R"sql(
+ALTER TABLE video_files ADD COLUMN layout TEXT NOT NULL DEFAULT 'bgr';
+ALTER TABLE video_files ADD COLUMN bayer_format TEXT;
+ALTER TABLE video_files ADD COLUMN bit_depth INTEGER;
+)sql";
+
 // Decodes every stored device payload once and stores its counts in the portable form. Read in
 // pages by rowid, each page before its updates: rows are never changed under a running SELECT.
 void fill_pressure_counts(sqlite::Database& db, const std::function<void(const std::string&)>& progress) {
@@ -247,6 +254,7 @@ void apply_step(sqlite::Database& db, int version, const std::function<void(cons
     db.exec(kTo3);
     fill_pressure_counts(db, progress);
   }
+  if (version == 3) db.exec(kTo4);
   db.set_user_version(version + 1);
 }
 }  // namespace

@@ -1,7 +1,7 @@
 #pragma once
 // The session index's schema and its migrations. PRAGMA user_version is the schema
 // version; docs/store.md documents every table of the current one. A store written
-// by an older pvcap is upgraded step by step (1 -> 2 -> 3), each step in its own
+// by an older pvcap is upgraded step by step (1 -> 2 -> 3 -> 4), each step in its own
 // transaction, so an interrupted upgrade leaves a consistent older version behind.
 #include <filesystem>
 #include <functional>
@@ -16,7 +16,10 @@ namespace pvcap {
 // 2: mapped times, 15 Hz samples, clock models, timeline counts
 // 3: participant, conditions, calibrations, protocol events, operator notes, pressure counts
 //    (zlib), video segments with their state
-inline constexpr int kSchemaVersion = 3;
+// 4: raw videos: each video file's layout (bgr or bayer_planes), Bayer pattern and bit depth
+inline constexpr int kSchemaVersion = 4;
+// The oldest version SessionReader reads as it is (3 differs from 4 only by colour-only videos).
+inline constexpr int kOldestReadableSchemaVersion = 3;
 
 // Creates the schema of `version` (the current one unless a test asks for an older store) in an
 // empty database: version 1, then each upgrade step, in one transaction.

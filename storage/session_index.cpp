@@ -70,9 +70,10 @@ std::int64_t SessionIndex::add_device(const DeviceRecord& d) {
 
 void SessionIndex::add_video_file(const VideoFileRecord& v) {
   db_->prepare(
-         "INSERT INTO video_files (id, device_id, path, codec, pixel_format, width, height, segment, state) "
-         "VALUES (?,?,?,?,?,?,?,?,'open')")
-      .bind_all(v.id, v.device_id, v.path, v.codec, v.pixel_format, v.width, v.height, v.segment)
+         "INSERT INTO video_files (id, device_id, path, codec, pixel_format, width, height, segment, state, layout, "
+         "bayer_format, bit_depth) VALUES (?,?,?,?,?,?,?,?,'open',?,?,?)")
+      .bind_all(v.id, v.device_id, v.path, v.codec, v.pixel_format, v.width, v.height, v.segment, v.layout,
+                v.bayer_format, v.bit_depth)
       .run();
 }
 

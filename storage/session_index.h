@@ -37,9 +37,13 @@ struct VideoFileRecord {
   std::int64_t id = 0;
   std::int64_t device_id = 0;
   std::string path;  // relative to the session directory
-  std::string codec, pixel_format;
-  int width = 0, height = 0;
+  std::string codec, pixel_format;  // what the file's codec holds ("gray" for raw videos)
+  int width = 0, height = 0;        // the camera's image (a raw video's mosaic)
   int segment = 0;
+  // "bgr": debayered colour; "bayer_planes": the sensor's mosaic, lossless (storage/bayer_planes.h)
+  std::string layout = "bgr";
+  std::optional<std::string> bayer_format;  // raw videos: the pattern as PFNC names it ("BayerRG8")
+  std::optional<int> bit_depth;             // raw videos: bits per sample
 };
 // A segment finished cleanly (trailer written): how many frames it holds.
 struct VideoFileClosed {

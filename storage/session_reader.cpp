@@ -72,8 +72,8 @@ Result<std::unique_ptr<SessionReader>> SessionReader::open(const std::filesystem
     r->db_ = std::make_unique<sqlite::Database>(db_path, sqlite::Database::Mode::ReadOnly);
     auto& db = *r->db_;
     const int version = db.user_version();
-    if (version != kSchemaVersion)
-      return Error{version >= 1 && version < kSchemaVersion
+    if (version < kOldestReadableSchemaVersion || version > kSchemaVersion)
+      return Error{version >= 1 && version < kOldestReadableSchemaVersion
                        ? fmt::format("{}: store version {} was written by an older pvcap: 'pvcap migrate {}' "
                                      "upgrades it",
                                      db_path.string(), version, dir.string())
@@ -140,7 +140,7 @@ Result<SampleInfo> SessionReader::sample_info(std::size_t i) {
   });
 }
 
-Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c) {
+Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) {
   return guarded(dir_, [&]() -> Result<cv::Mat> {
     auto q = db_->prepare(
         "SELECT f.video_file_id, f.host_ns, v.path, f.video_pts_ms FROM frames f JOIN video_files v ON v.id = "
@@ -161,8 +161,10 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c) {
       if (!opened) return opened.error();
       it = videos_.emplace(file_id, std::move(opened.value())).first;
     }
+    it->second->set_demosaic(demosaic_);
     cv::Mat bgr;
-    auto found = it->second->read_at(ts.ms, bgr, ts.tolerance_ms);
+    auto found = mosaic ? it->second->read_raw_at(ts.ms, bgr, ts.tolerance_ms)
+                        : it->second->read_at(ts.ms, bgr, ts.tolerance_ms);
     if (!found) return found.error();
     if (!found.value())
       return Error{fmt::format("{}: no frame at {} ms in {}", dir_.string(), ts.ms, (dir_ / rel).string())};
@@ -259,13 +261,19 @@ Result<Sample> SessionReader::sample(std::size_t i, PressureMode mode) {
   return s;
 }
 
-Result<cv::Mat> SessionReader::image(std::size_t i, std::size_t camera) {
+void SessionReader::set_demosaic(Demosaic method) { demosaic_ = method; }
+
+Result<cv::Mat> SessionReader::image(std::size_t i, std::size_t camera) { return one_image(i, camera, false); }
+Result<cv::Mat> SessionReader::raw_image(std::size_t i, std::size_t camera) { return one_image(i, camera, true); }
+
+Result<cv::Mat> SessionReader::one_image(std::size_t i, std::size_t camera, bool mosaic) {
   if (camera >= cameras_.size())
     return Error{fmt::format("{}: no camera {} (the session has {})", dir_.string(), camera, cameras_.size())};
   auto info = sample_info(i);
   if (!info) return info.error();
   for (const auto& c : info.value().cameras)
-    if (c.device_id == cameras_[camera].device_id) return c.in_video ? camera_image(c) : Result<cv::Mat>(cv::Mat());
+    if (c.device_id == cameras_[camera].device_id)
+      return c.in_video ? camera_image(c, mosaic) : Result<cv::Mat>(cv::Mat());
   return cv::Mat();
 }
 

@@ -20,6 +20,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "capture/demosaic.h"
 #include "core/result.h"
 #include "storage/session_index.h"
 
@@ -148,6 +149,12 @@ class SessionReader {
   Result<Sample> sample(std::size_t i, PressureMode mode = PressureMode::Nearest);
   // One camera's image of sample i (`camera` indexes cameras()); empty when that frame was not stored.
   Result<cv::Mat> image(std::size_t i, std::size_t camera);
+  // The same frame as the sensor's Bayer mosaic (CV_8UC1), exactly as captured: raw videos only
+  // (an Error for a colour video); empty when that frame was not stored.
+  Result<cv::Mat> raw_image(std::size_t i, std::size_t camera);
+  // How raw videos become the colour images above: bilinear (the default, as the capture path's
+  // previews), edge-aware or VNG (capture/pixel_format.h).
+  void set_demosaic(Demosaic method);
   // The sample nearest `t_ns` on the session clock (info().started_host_ns + seconds * 1e9).
   Result<std::size_t> sample_at(std::int64_t t_ns) const;
   Result<PressureFrame> pressure_frame(std::uint64_t sequence, std::uint32_t connection = 0);
@@ -174,7 +181,9 @@ class SessionReader {
 
  private:
   SessionReader() = default;
-  Result<cv::Mat> camera_image(const SampleCamera& c);
+  Result<cv::Mat> camera_image(const SampleCamera& c, bool mosaic = false);
+  Result<cv::Mat> one_image(std::size_t i, std::size_t camera, bool mosaic);
+  Demosaic demosaic_ = Demosaic::Bilinear;
   std::filesystem::path dir_;
   std::unique_ptr<sqlite::Database> db_;
   SessionInfo info_;

@@ -14,7 +14,10 @@
 #include <spdlog/spdlog.h>
 
 #include "core/time.h"
+#include "capture/pixel_format.h"
 #include "core/version.h"
+#include "storage/bayer_planes.h"
+#include "storage/frame_spill.h"
 #include "storage/video_repair.h"
 
 namespace pvcap {
@@ -29,11 +32,10 @@ struct SessionWriter::Camera {
   int segment = -1;
   std::int64_t segment_start_us = 0;
   std::vector<std::int64_t> failed_files;  // segments a write failed in: reconciled at close
-  BoundedQueue<std::pair<cv::Mat, FrameRecord>> queue;
+  std::unique_ptr<FrameSpillQueue> queue;  // made at add_camera, when the session folder exists
   std::thread thread;
   std::atomic<std::uint64_t> in_video{0}, encoder_drops{0}, segments{0};
   std::atomic<bool> failed{false};
-  explicit Camera(std::size_t capacity) : queue(capacity) {}
 };
 
 namespace {
@@ -143,8 +145,13 @@ Status SessionWriter::open_segment(Camera& cam, std::int64_t first_pts_us, bool 
   const std::string file = fmt::format("{}-{:03}.mkv", safe_name(cam.name), segment);
   auto video = VideoWriter::open(dir_ / file, cam.settings);
   if (!video) return video.error();
-  const VideoFileRecord rec{next_video_file_id_.fetch_add(1), cam.device_id, file, cam.settings.codec,
-                            cam.settings.pixel_format, cam.settings.width, cam.settings.height, segment};
+  VideoFileRecord rec{next_video_file_id_.fetch_add(1), cam.device_id, file, cam.settings.stored_codec(),
+                      cam.settings.stored_pixel_format(), cam.settings.width, cam.settings.height, segment};
+  if (cam.settings.raw()) {
+    rec.layout = kBayerPlanesLayout;
+    rec.bayer_format = cam.settings.bayer_format;
+    rec.bit_depth = 8;
+  }
   if (direct) {
     if (Status s = index_write([&] { index_->add_video_file(rec); }); !s.ok()) return s;
   } else {
@@ -158,18 +165,12 @@ Status SessionWriter::open_segment(Camera& cam, std::int64_t first_pts_us, bool 
   return {};
 }
 
-Result<std::int64_t> SessionWriter::add_camera(const DeviceRecord& device, int width, int height) {
-  auto cam = std::make_unique<Camera>(std::size_t(store_.queue_frames));
+Result<std::int64_t> SessionWriter::add_camera(const DeviceRecord& device, int width, int height,
+                                              const std::string& pixel_format) {
+  auto cam = std::make_unique<Camera>();
   cam->name = device.name;
-  VideoSettings& vs = cam->settings;
-  vs.codec = store_.video_codec;
-  vs.crf = store_.crf;
-  vs.preset = store_.preset;
-  vs.pixel_format = store_.video_pixel_format;
-  vs.width = width;
-  vs.height = height;
-  vs.nominal_fps = store_.video_fps > 0 ? store_.video_fps : 30;
-  vs.gop_frames = std::max(1, int(vs.nominal_fps * store_.gop_seconds_x10 / 10.0));
+  cam->queue = std::make_unique<FrameSpillQueue>(dir_, safe_name(device.name), std::size_t(store_.queue_frames));
+  cam->settings = camera_video_settings(store_, width, height, pixel_format);
   auto id = index_write([&] { return index_->add_device(device); });
   if (!id) return id.error();
   cam->device_id = id.value();
@@ -203,8 +204,7 @@ void SessionWriter::start() {
 bool SessionWriter::submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecord frame) {
   for (auto& cam : cameras_) {
     if (cam->device_id != device_id) continue;
-    std::pair<cv::Mat, FrameRecord> item{std::move(bgr), std::move(frame)};
-    if (cam->queue.try_push(item)) return true;
+    if (cam->queue->push(std::move(bgr), std::move(frame))) return true;
     cam->encoder_drops.fetch_add(1);
     return false;
   }
@@ -213,10 +213,33 @@ bool SessionWriter::submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecor
 
 void SessionWriter::encode_loop(Camera& cam) {
   const std::int64_t segment_us = std::int64_t(store_.segment_seconds * 1e6);
-  while (!cam.queue.closed_and_empty()) {
-    auto item = cam.queue.pop_for(std::chrono::milliseconds(100));
+  FrameSpillQueue& queue = *cam.queue;
+  std::optional<std::chrono::steady_clock::time_point> drain_started;
+  auto next_progress = std::chrono::steady_clock::now();
+  std::size_t drain_from = 0;
+  while (!queue.drained()) {
+    auto item = queue.pop_for(std::chrono::milliseconds(100));
+    if (const auto now = std::chrono::steady_clock::now(); queue.is_closed() && now >= next_progress) {
+      // The session has stopped and the encoder is still working through its backlog: say so.
+      const std::size_t left = queue.backlog();
+      if (!drain_started) {
+        drain_started = now;
+        drain_from = left;
+      }
+      if (left > 0)
+        spdlog::info("{}: encoding the frames still waiting: {} left of {} ({} on disk)", cam.name, left,
+                     drain_from, queue.on_disk());
+      next_progress = now + std::chrono::seconds(2);
+    }
     if (!item) continue;
-    auto& [bgr, rec] = *item;
+    if (!item->lost_reason.empty()) {  // the spill could not take it: recorded with why
+      cam.encoder_drops.fetch_add(1);
+      item->rec.reason = item->lost_reason;
+      index_writer_->push(std::move(item->rec));
+      continue;
+    }
+    cv::Mat& bgr = item->image;
+    FrameRecord& rec = item->rec;
     // The frame's instant on the session clock when the timeline mapped it (evenly spaced, as the
     // camera exposed them), else its arrival; the file's exact timestamp goes into its row.
     const std::int64_t pts_us = (rec.mapped_ns.value_or(rec.host_ns) - started_host_ns_) / 1000;
@@ -230,6 +253,7 @@ void SessionWriter::encode_loop(Camera& cam) {
         set_failure(s.error().message);
       } else {
         index_writer_->push(VideoFileClosed{id, frames});
+        queue.release_finished();  // spilled frames in the finished segment are safe on disk now
         if (Status o = open_segment(cam, pts_us, false); !o.ok()) {
           cam.failed.store(true);
           set_failure(o.error().message);
@@ -253,6 +277,16 @@ void SessionWriter::encode_loop(Camera& cam) {
     if (!rec.kept) rec.reason = "video_write_failed";
     index_writer_->push(std::move(rec));
   }
+  const double drain_s =
+      drain_started ? std::chrono::duration<double>(std::chrono::steady_clock::now() - *drain_started).count() : 0;
+  if (drain_started && drain_from > 0)
+    spdlog::info("{}: {} waiting frames encoded in {:.1f} s after the stop", cam.name, drain_from, drain_s);
+  // The spill in the store: how many frames waited on disk, and how long the end waited for them.
+  if (const std::uint64_t spilled = queue.spilled_total(); spilled > 0)
+    index_writer_->push(EventRecord{host_now().ns, "spill", cam.device_id,
+                                    fmt::format("{} frames waited on disk for the encoder (the spill); {} frames were "
+                                                "still waiting at the stop, encoded in {:.1f} s",
+                                                spilled, drain_from, drain_s)});
 }
 
 void SessionWriter::set_failure(std::string message) {
@@ -291,10 +325,32 @@ std::optional<std::string> SessionWriter::failure() const {
   return failure_;
 }
 
+VideoSettings camera_video_settings(const StoreConfig& store, int width, int height, const std::string& pixel_format) {
+  VideoSettings vs;
+  if (store.video_mode == "raw" && is_bayer(pixel_format_code(pixel_format))) vs.bayer_format = pixel_format;
+  vs.raw_codec = store.raw_codec;
+  vs.codec = store.video_codec;
+  vs.crf = store.crf;
+  vs.preset = store.preset;
+  vs.pixel_format = store.video_pixel_format;
+  vs.width = width;
+  vs.height = height;
+  vs.nominal_fps = store.video_fps > 0 ? store.video_fps : 30;
+  vs.gop_frames = std::max(1, int(vs.nominal_fps * store.gop_seconds_x10 / 10.0));
+  return vs;
+}
+
+bool SessionWriter::stores_raw(std::int64_t device_id) const {
+  for (const auto& cam : cameras_)
+    if (cam->device_id == device_id) return cam->settings.raw();
+  return false;
+}
+
 CameraStoreStats SessionWriter::camera_stats(std::int64_t device_id) const {
   for (const auto& cam : cameras_)
     if (cam->device_id == device_id)
-      return {cam->in_video.load(), cam->encoder_drops.load(), cam->segments.load(), cam->queue.size()};
+      return {cam->in_video.load(), cam->encoder_drops.load(), cam->segments.load(), cam->queue->backlog(),
+              cam->queue->on_disk(), cam->queue->spilled_total()};
   return {};
 }
 
@@ -310,7 +366,7 @@ Status SessionWriter::close(const std::string& end_reason) {
   if (watcher_.joinable()) watcher_.join();
   const bool storage_failed = failure().has_value();
   if (storage_failed) release_reserve();
-  for (auto& cam : cameras_) cam->queue.close();
+  for (auto& cam : cameras_) cam->queue->close();
   for (auto& cam : cameras_) {
     if (cam->thread.joinable()) cam->thread.join();
     if (!cam->failed.load()) {
@@ -320,10 +376,15 @@ Status SessionWriter::close(const std::string& end_reason) {
         if (result.ok()) result = s;
       } else {
         index_writer_->push(VideoFileClosed{cam->video_file_id, frames});
+        cam->queue->release_finished();
       }
     } else {
       (void)cam->video->close();  // best effort: its tail may be cut; reconciled below
     }
+  }
+  {
+    std::error_code ec;  // empty once every spill is encoded and released; else kept for recover
+    std::filesystem::remove(dir_ / kSpillFolder, ec);
   }
   index_writer_->stop();
   if (auto f = index_writer_->failure(); f && result.ok()) result = Error{*f};

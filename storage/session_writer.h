@@ -36,10 +36,16 @@ namespace pvcap {
 
 struct CameraStoreStats {
   std::uint64_t frames_in_video = 0;
-  std::uint64_t encoder_drops = 0;   // kept frames the encoder could not take in time
+  std::uint64_t encoder_drops = 0;   // kept frames neither the encoder nor its spill could take
   std::uint64_t segments = 0;
-  std::size_t encoder_backlog = 0;  // kept frames waiting for the encoder now
+  std::size_t encoder_backlog = 0;  // kept frames waiting for the encoder now (memory and spill)
+  std::size_t spill_backlog = 0;    // of which on disk
+  std::uint64_t spilled = 0;        // frames that went through the spill so far
 };
+
+// A camera's video settings from the rig file's store section: raw for a Bayer `pixel_format`
+// (PFNC name) when store.video_mode is raw, colour otherwise. Used by the writer and by recover.
+VideoSettings camera_video_settings(const StoreConfig& store, int width, int height, const std::string& pixel_format);
 
 class SessionWriter {
  public:
@@ -49,7 +55,12 @@ class SessionWriter {
   ~SessionWriter();
 
   // Registers a camera and opens its first video segment; returns its device id in the index.
-  Result<std::int64_t> add_camera(const DeviceRecord& device, int width, int height);
+  // `pixel_format` is what the camera sends (PFNC name): a Bayer mosaic is stored raw when
+  // store.video_mode is raw (submit_video then takes the mosaic), anything else in colour.
+  Result<std::int64_t> add_camera(const DeviceRecord& device, int width, int height,
+                                  const std::string& pixel_format = "");
+  // Whether this camera's video takes the sensor's mosaic (CV_8UC1) rather than BGR images.
+  bool stores_raw(std::int64_t device_id) const;
   // Registers a non-video device (the Sensel); returns its device id.
   Result<std::int64_t> add_device(const DeviceRecord& device);
   // Session conditions and calibrations, written before start().
@@ -77,8 +88,10 @@ class SessionWriter {
   }
   // Written at close (the timeline's tallies: groups, missed ticks, unpaired samples by reason).
   void add_timeline_count(std::string what, std::uint64_t count) { timeline_counts_.emplace_back(std::move(what), count); }
-  // Queues a kept frame for its camera's video. False (and nothing queued) when the
-  // encoder is behind; the caller records the frame as not kept, reason "encoder_behind".
+  // Queues a kept frame (BGR, or the mosaic when stores_raw) for its camera's video: in memory, or
+  // through the camera's spill on disk when the encoder is behind (storage/frame_spill.h). False
+  // (nothing queued) only when the spill cannot keep up either, or the disk refused it; the caller
+  // records the frame as not kept, reason "encoder_behind".
   bool submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecord frame);
 
   void add_stream_stats(const StreamStatsRecord& stats) { stream_stats_.push_back(stats); }
@@ -89,7 +102,8 @@ class SessionWriter {
   // transaction (the timeline's final re-mapping). A failure is reported, and leaves the
   // values recorded online in place.
   void set_finalizer(std::function<void(SessionIndex&)> finalize) { finalizer_ = std::move(finalize); }
-  // Drains every queue, finishes videos and index. Returns the first error, if any.
+  // Drains every queue (a spill to its end, with progress in the log), finishes videos and index.
+  // Returns the first error, if any.
   Status close(const std::string& end_reason);
 
   const std::filesystem::path& dir() const { return dir_; }

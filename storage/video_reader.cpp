@@ -11,6 +11,7 @@ extern "C" {
 
 #include "core/frame_pool.h"
 #include "storage/av_handles.h"
+#include "storage/bayer_planes.h"
 #include "storage/av_log.h"
 
 namespace pvcap {
@@ -22,6 +23,7 @@ struct VideoReader::Impl {  // members are freed in reverse: the scaler first, t
   av::Packet packet;
   av::Scaler sws;
   cv::Mat ycbcr;  // yuv444p: the frame's planes merged, before conversion
+  cv::Mat mosaic;  // raw videos: the frame's mosaic, before demosaicing
   FramePool images{4};  // the BGR images handed out: reused once the caller has dropped them
   int stream = -1;
   bool draining = false;
@@ -51,6 +53,21 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
   const AVCodec* codec = nullptr;
   im.stream = av_find_best_stream(im.fmt.ptr, AVMEDIA_TYPE_VIDEO, -1, -1, &codec, 0);
   if (im.stream < 0 || !codec) return Error{fmt::format("{}: no decodable video stream", path.string())};
+  // A raw video names its layout in its tags (storage/video_writer.cpp).
+  const AVDictionary* tags = im.fmt.ptr->streams[im.stream]->metadata;
+  auto tag = [&](const char* key) -> std::string {
+    const AVDictionaryEntry* e = av_dict_get(tags, key, nullptr, 0);
+    return e ? e->value : "";
+  };
+  if (const std::string layout = tag("PVCAP_LAYOUT"); !layout.empty()) {
+    if (layout != kBayerPlanesLayout)
+      return Error{fmt::format("{}: picture layout '{}' is not one this pvcap reads (update pvcap)", path.string(),
+                               layout)};
+    r->bayer_format_ = tag("PVCAP_BAYER_FORMAT");
+    if (r->bayer_format_.rfind("Bayer", 0) != 0 || tag("PVCAP_BIT_DEPTH") != "8")
+      return Error{fmt::format("{}: raw video of '{}' at {} bits is not one this pvcap reads", path.string(),
+                               r->bayer_format_, tag("PVCAP_BIT_DEPTH"))};
+  }
   im.dec.ptr = avcodec_alloc_context3(codec);
   avcodec_parameters_to_context(im.dec.ptr, im.fmt.ptr->streams[im.stream]->codecpar);
   // Slice threads: the store writes several slices per frame, so one frame decodes on two cores
@@ -58,24 +75,47 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
   im.dec.ptr->thread_count = 2;
   im.dec.ptr->thread_type = FF_THREAD_SLICE;
   if (avcodec_open2(im.dec.ptr, codec, nullptr) < 0) return Error{fmt::format("{}: cannot open decoder", path.string())};
+  if (r->raw() && im.dec.ptr->height % 4 != 0)
+    return Error{fmt::format("{}: a raw video's picture must stack four planes", path.string())};
   im.frame.ptr = av_frame_alloc();
   im.packet.ptr = av_packet_alloc();
   return r;
 }
 
 VideoReader::~VideoReader() = default;
-int VideoReader::width() const { return impl_->dec.ptr->width; }
-int VideoReader::height() const { return impl_->dec.ptr->height; }
+int VideoReader::width() const { return raw() ? impl_->dec.ptr->width * 2 : impl_->dec.ptr->width; }
+int VideoReader::height() const { return raw() ? impl_->dec.ptr->height / 2 : impl_->dec.ptr->height; }
 
 Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
   const FfmpegLogQuiet quiet;
   auto more = decode_next(pts_ms);
-  if (more && more.value()) to_bgr(bgr);
+  if (more && more.value())
+    if (Status s = to_bgr(bgr); !s.ok()) return s.error();
   return more;
 }
 
-void VideoReader::to_bgr(cv::Mat& bgr) {
+Status VideoReader::to_mosaic(cv::Mat& mosaic) {
+  const AVFrame* f = impl_->frame.ptr;
+  // The decoder says what a picture is only once it has decoded one. H.264's decoder hands a grey
+  // (4:0:0) picture out as 4:2:0 with blank chroma: its first plane is the grey picture.
+  const bool grey = f->format == AV_PIX_FMT_GRAY8 || f->format == AV_PIX_FMT_YUV420P || f->format == AV_PIX_FMT_YUVJ420P;
+  if (!grey || f->height % 4 != 0 || f->width <= 0)
+    return Error{fmt::format("{}: a raw video's pictures must be 8-bit grey with four planes stacked",
+                             path_.string())};
+  const cv::Mat planes(f->height, f->width, CV_8UC1, f->data[0], std::size_t(f->linesize[0]));
+  unpack_bayer_planes(planes, mosaic);
+  return {};
+}
+
+Status VideoReader::to_bgr(cv::Mat& bgr) {
   Impl& im = *impl_;
+  if (raw()) {
+    if (Status s = to_mosaic(im.mosaic); !s.ok()) return s;
+    bgr = im.images.acquire(im.mosaic.rows, im.mosaic.cols, CV_8UC3);
+    if (Status s = debayer(im.mosaic, bayer_format_, demosaic_, bgr); !s.ok())
+      return Error{fmt::format("{}: {}", path_.string(), s.error().message)};
+    return {};
+  }
   bgr = im.images.acquire(im.frame.ptr->height, im.frame.ptr->width, CV_8UC3);
   if (im.frame.ptr->format == AV_PIX_FMT_YUV444P && im.frame.ptr->color_range != AVCOL_RANGE_JPEG &&
       im.frame.ptr->colorspace != AVCOL_SPC_BT709) {
@@ -90,7 +130,7 @@ void VideoReader::to_bgr(cv::Mat& bgr) {
                           std::size_t(im.frame.ptr->linesize[p]));
     cv::merge(planes, im.ycbcr);
     cv::transform(im.ycbcr, bgr, kYCbCrToBgr);
-    return;
+    return {};
   }
   im.sws.ptr = sws_getCachedContext(im.sws.ptr, im.frame.ptr->width, im.frame.ptr->height, AVPixelFormat(im.frame.ptr->format),
                                 im.frame.ptr->width, im.frame.ptr->height, AV_PIX_FMT_BGR24, SWS_POINT, nullptr, nullptr,
@@ -98,6 +138,7 @@ void VideoReader::to_bgr(cv::Mat& bgr) {
   std::uint8_t* dst[1] = {bgr.data};
   const int dst_stride[1] = {int(bgr.step[0])};
   sws_scale(im.sws.ptr, im.frame.ptr->data, im.frame.ptr->linesize, 0, im.frame.ptr->height, dst, dst_stride);
+  return {};
 }
 
 // Decodes the next frame into the decoder's own frame, without converting it.
@@ -134,6 +175,17 @@ Result<bool> VideoReader::decode_next(std::int64_t& pts_ms) {
 }
 
 Result<bool> VideoReader::read_at(std::int64_t pts_ms, cv::Mat& bgr, std::int64_t tolerance_ms) {
+  return seek_and_convert(pts_ms, bgr, tolerance_ms, false);
+}
+
+Result<bool> VideoReader::read_raw_at(std::int64_t pts_ms, cv::Mat& mosaic, std::int64_t tolerance_ms) {
+  if (!raw())
+    return Error{fmt::format("{}: a colour video (stored debayered) holds no sensor mosaic", path_.string())};
+  return seek_and_convert(pts_ms, mosaic, tolerance_ms, true);
+}
+
+Result<bool> VideoReader::seek_and_convert(std::int64_t pts_ms, cv::Mat& out, std::int64_t tolerance_ms,
+                                           bool as_mosaic) {
   const FfmpegLogQuiet quiet;
   Impl& im = *impl_;
   const AVRational tb = im.fmt.ptr->streams[im.stream]->time_base;
@@ -152,7 +204,11 @@ Result<bool> VideoReader::read_at(std::int64_t pts_ms, cv::Mat& bgr, std::int64_
       if (!more.value()) return false;
       if (at >= pts_ms - tolerance_ms) {
         if (at > pts_ms + tolerance_ms) return false;
-        to_bgr(bgr);
+        if (as_mosaic) {
+          if (Status s = to_mosaic(out); !s.ok()) return s.error();
+          return true;
+        }
+        if (Status s = to_bgr(out); !s.ok()) return s.error();
         return true;
       }
     }

@@ -1,13 +1,16 @@
 #pragma once
 // Reads a session video back, frame by frame, as BGR images with their
-// timestamps (the libav* edge on the reading side).
+// timestamps (the libav* edge on the reading side). A raw video (the sensor's Bayer mosaic,
+// stored losslessly) is demosaiced as it is read, or handed out as the mosaic itself.
 #include <climits>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <string>
 
 #include <opencv2/core.hpp>
 
+#include "capture/demosaic.h"
 #include "core/result.h"
 
 namespace pvcap {
@@ -29,17 +32,29 @@ class VideoReader {
   // otherwise seeks to the key frame before it (at most one GOP to decode). False when the
   // file holds no such frame.
   Result<bool> read_at(std::int64_t pts_ms, cv::Mat& bgr, std::int64_t tolerance_ms = 1);
+  // The same frame as the sensor's mosaic (CV_8UC1), exactly as captured. An Error for a colour video.
+  Result<bool> read_raw_at(std::int64_t pts_ms, cv::Mat& mosaic, std::int64_t tolerance_ms = 1);
+  // How raw videos become colour (bilinear unless set; colour videos ignore it).
+  void set_demosaic(Demosaic method) { demosaic_ = method; }
+  // The image size (a raw video's mosaic size, not its stacked planes).
   int width() const;
   int height() const;
+  // A raw video's Bayer pattern ("BayerRG8"); empty for a colour video.
+  const std::string& bayer_format() const { return bayer_format_; }
+  bool raw() const { return !bayer_format_.empty(); }
 
  private:
   VideoReader() = default;
   Result<bool> decode_next(std::int64_t& pts_ms);
-  void to_bgr(cv::Mat& bgr);
+  Result<bool> seek_and_convert(std::int64_t pts_ms, cv::Mat& out, std::int64_t tolerance_ms, bool as_mosaic);
+  Status to_bgr(cv::Mat& bgr);
+  Status to_mosaic(cv::Mat& mosaic);
   struct Impl;
   std::unique_ptr<Impl> impl_;
   std::filesystem::path path_;
   std::int64_t last_pts_ms_ = INT64_MIN;  // of the frame next() returned last
+  std::string bayer_format_;
+  Demosaic demosaic_ = Demosaic::Bilinear;
 };
 
 }  // namespace pvcap

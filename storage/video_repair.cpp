@@ -64,6 +64,8 @@ Status remux_prefix(const std::filesystem::path& from, const std::filesystem::pa
   AVStream* os = avformat_new_stream(out.ptr, nullptr);
   avcodec_parameters_copy(os->codecpar, in.ptr->streams[stream]->codecpar);
   os->time_base = in.ptr->streams[stream]->time_base;
+  // The file's own description (a raw video's layout and Bayer pattern) goes with its frames.
+  av_dict_copy(&os->metadata, in.ptr->streams[stream]->metadata, 0);
   if (avio_open(&out.ptr->pb, to.c_str(), AVIO_FLAG_WRITE) < 0)
     return Error{fmt::format("{}: cannot create the file", to.string())};
   if (avformat_write_header(out.ptr, nullptr) < 0) return Error{fmt::format("{}: cannot write a header", to.string())};

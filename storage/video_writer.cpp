@@ -11,6 +11,7 @@ extern "C" {
 
 #include <fmt/format.h>
 #include "storage/av_handles.h"
+#include "storage/bayer_planes.h"
 #include "storage/av_log.h"
 
 namespace pvcap {
@@ -38,16 +39,25 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   Impl& im = *w->impl_;
   const std::string where = path.string();
 
-  const AVCodec* codec = avcodec_find_encoder_by_name(s.codec.c_str());
-  if (!codec) return Error{fmt::format("{}: FFmpeg has no encoder '{}' (store.video_codec)", where, s.codec)};
-  const AVPixelFormat pix = av_get_pix_fmt(s.pixel_format.c_str());
+  const std::string codec_name = s.stored_codec();
+  const AVCodec* codec = avcodec_find_encoder_by_name(codec_name.c_str());
+  if (!codec)
+    return Error{fmt::format("{}: FFmpeg has no encoder '{}' ({})", where, codec_name,
+                             s.raw() ? "store.raw_codec" : "store.video_codec")};
+  const AVPixelFormat pix = av_get_pix_fmt(s.stored_pixel_format().c_str());
   if (pix == AV_PIX_FMT_NONE)
     return Error{fmt::format("{}: unknown pixel format '{}' (store.video_pixel_format)", where, s.pixel_format)};
+  if (s.raw() && (s.width % 2 != 0 || s.height % 2 != 0))
+    return Error{fmt::format("{}: a {} mosaic of {}x{} has no whole 2x2 cells; raw video needs an even width and "
+                             "height (or store.video_mode: color)",
+                             where, s.bayer_format, s.width, s.height)};
+  // In raw mode the codec sees the four planes stacked: half the width, twice the height.
+  const cv::Size coded = s.raw() ? bayer_planes_size({s.width, s.height}) : cv::Size(s.width, s.height);
   int rc = avformat_alloc_output_context2(&im.fmt.ptr, nullptr, "matroska", path.c_str());
   if (rc < 0) return Error{fmt::format("{}: cannot create a Matroska file: {}", where, av::error(rc))};
   im.enc.ptr = avcodec_alloc_context3(codec);
-  im.enc.ptr->width = s.width;
-  im.enc.ptr->height = s.height;
+  im.enc.ptr->width = coded.width;
+  im.enc.ptr->height = coded.height;
   im.enc.ptr->pix_fmt = pix;
   im.enc.ptr->time_base = kMicros;
   im.enc.ptr->framerate = av_d2q(s.nominal_fps > 0 ? s.nominal_fps : 30, 1000);
@@ -57,21 +67,29 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   im.enc.ptr->thread_count = s.threads;
   if (im.fmt.ptr->oformat->flags & AVFMT_GLOBALHEADER) im.enc.ptr->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
   AVDictionary* opts = nullptr;
-  if (s.codec == "libx264") {
+  if (codec_name == "libx264") {
     av_dict_set(&opts, "preset", s.preset.c_str(), 0);
-    av_dict_set(&opts, "crf", std::to_string(s.crf).c_str(), 0);
+    if (s.raw()) av_dict_set(&opts, "qp", "0", 0);  // lossless
+    else av_dict_set(&opts, "crf", std::to_string(s.crf).c_str(), 0);
     // In-band SPS/PPS on every key frame: any GOP decodes on its own.
     av_dict_set(&opts, "x264-params", "repeat-headers=1:bframes=0:slices=4", 0);
-  } else if (s.codec == "ffv1") {
+  } else if (codec_name == "ffv1") {
     av_dict_set(&opts, "level", "3", 0);
     av_dict_set(&opts, "slicecrc", "1", 0);
   }
   rc = avcodec_open2(im.enc.ptr, codec, &opts);
   av_dict_free(&opts);
   if (rc < 0)
-    return Error{fmt::format("{}: cannot open encoder {} for {}x{} {}: {}", where, s.codec, s.width, s.height,
-                             s.pixel_format, av::error(rc))};
+    return Error{fmt::format("{}: cannot open encoder {} for {}x{} {}: {}", where, codec_name, coded.width,
+                             coded.height, s.stored_pixel_format(), av::error(rc))};
   im.stream = avformat_new_stream(im.fmt.ptr, nullptr);
+  if (s.raw()) {
+    // The file says what it holds, so a raw video is readable without the index.
+    av_dict_set(&im.stream->metadata, "PVCAP_LAYOUT", kBayerPlanesLayout, 0);
+    av_dict_set(&im.stream->metadata, "PVCAP_BAYER_FORMAT", s.bayer_format.c_str(), 0);
+    av_dict_set(&im.stream->metadata, "PVCAP_BIT_DEPTH", "8", 0);
+    av_dict_set(&im.stream->metadata, "PVCAP_SIZE", fmt::format("{}x{}", s.width, s.height).c_str(), 0);
+  }
   im.stream->time_base = {1, 1000};
   avcodec_parameters_from_context(im.stream->codecpar, im.enc.ptr);
   rc = avio_open(&im.fmt.ptr->pb, path.c_str(), AVIO_FLAG_WRITE);
@@ -87,10 +105,14 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   im.header_written = true;
   im.frame.ptr = av_frame_alloc();
   im.frame.ptr->format = pix;
-  im.frame.ptr->width = s.width;
-  im.frame.ptr->height = s.height;
+  im.frame.ptr->width = coded.width;
+  im.frame.ptr->height = coded.height;
   if ((rc = av_frame_get_buffer(im.frame.ptr, 0)) < 0) return Error{fmt::format("{}: {}", where, av::error(rc))};
   im.packet.ptr = av_packet_alloc();
+  w->raw_ = s.raw();
+  w->width_ = s.width;
+  w->height_ = s.height;
+  if (s.raw()) return w;
   im.sws.ptr = sws_getContext(s.width, s.height, AV_PIX_FMT_BGR24, s.width, s.height, pix, SWS_AREA, nullptr, nullptr,
                           nullptr);
   if (!im.sws.ptr) return Error{fmt::format("{}: no conversion from BGR to {}", where, s.pixel_format)};
@@ -117,9 +139,9 @@ Status VideoWriter::encode(bool flush) {
 Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us) {
   Impl& im = *impl_;
   if (closed_) return Error{fmt::format("{}: write after close", path_.string())};
-  if (bgr.type() != CV_8UC3 || bgr.cols != im.enc.ptr->width || bgr.rows != im.enc.ptr->height)
-    return Error{fmt::format("{}: frame is {}x{}, the video is {}x{}", path_.string(), bgr.cols, bgr.rows,
-                             im.enc.ptr->width, im.enc.ptr->height)};
+  if (bgr.type() != (raw_ ? CV_8UC1 : CV_8UC3) || bgr.cols != width_ || bgr.rows != height_)
+    return Error{fmt::format("{}: frame is {}x{} with {} channel(s), the video takes {}x{} {}", path_.string(),
+                             bgr.cols, bgr.rows, bgr.channels(), width_, height_, raw_ ? "mosaics" : "BGR images")};
   // The container keeps milliseconds: round to them here (so the stored timestamp is exactly
   // last_pts_ms()), and keep them strictly increasing (frames that arrived in a burst).
   std::int64_t pts_ms = (pts_us + (pts_us >= 0 ? 500 : -500)) / 1000;
@@ -130,7 +152,11 @@ Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us)
   if (rc < 0) return Error{fmt::format("{}: {}", path_.string(), av::error(rc))};
   const std::uint8_t* src[1] = {bgr.data};
   const int src_stride[1] = {int(bgr.step[0])};
-  if (im.enc.ptr->pix_fmt == AV_PIX_FMT_YUV444P) {
+  if (raw_) {
+    cv::Mat planes(im.enc.ptr->height, im.enc.ptr->width, CV_8UC1, im.frame.ptr->data[0],
+                   std::size_t(im.frame.ptr->linesize[0]));
+    pack_bayer_planes(bgr, planes);
+  } else if (im.enc.ptr->pix_fmt == AV_PIX_FMT_YUV444P) {
     // The default format, converted here rather than by swscale (3x faster for this pair): BT.601
     // limited range, the coefficients swscale uses, straight into the frame's three planes.
     static const cv::Matx34f kBgrToYCbCr(25.064f / 256, 129.057f / 256, 65.738f / 256, 16.f,    //

@@ -16,6 +16,12 @@
 namespace pvcap {
 
 struct VideoSettings {
+  // Raw mode: a Bayer pattern as PFNC names it ("BayerRG8"). Frames come in as the sensor's mosaic
+  // and are stored losslessly as its four planes (storage/bayer_planes.h) with `raw_codec`; the
+  // layout, pattern and bit depth are written into the file's tags. Empty: colour mode (BGR in,
+  // `codec` with `crf`, `preset` and `pixel_format`).
+  std::string bayer_format;
+  std::string raw_codec = "ffvhuff";
   std::string codec = "libx264";
   int crf = 10;
   std::string preset = "ultrafast";
@@ -23,7 +29,11 @@ struct VideoSettings {
   int gop_frames = 15;       // at most this many frames between key frames
   double nominal_fps = 15;   // rate-control hint only; timestamps are real
   int threads = 1;           // per encoder; cameras already run in parallel
-  int width = 0, height = 0;
+  int width = 0, height = 0;  // the camera's image (in raw mode the mosaic, not the stacked planes)
+  bool raw() const { return !bayer_format.empty(); }
+  // What the file's codec is and holds, as the index records it.
+  std::string stored_codec() const { return raw() ? raw_codec : codec; }
+  std::string stored_pixel_format() const { return raw() ? "gray" : pixel_format; }
 };
 
 class VideoWriter {
@@ -33,9 +43,9 @@ class VideoWriter {
   VideoWriter(const VideoWriter&) = delete;
   VideoWriter& operator=(const VideoWriter&) = delete;
 
-  // Encodes one BGR frame (CV_8UC3, the configured size) at `pts_us` (µs from the
-  // session start). Returns the frame's 0-based index in the file.
-  Result<std::int64_t> write(const cv::Mat& bgr, std::int64_t pts_us);
+  // Encodes one frame at `pts_us` (µs from the session start): BGR (CV_8UC3) in colour mode, the
+  // mosaic (CV_8UC1) in raw mode, of the configured size. Returns its 0-based index in the file.
+  Result<std::int64_t> write(const cv::Mat& image, std::int64_t pts_us);
   // Flushes the encoder and writes the trailer. Safe to call twice.
   Status close();
   std::int64_t frames_written() const { return frames_; }
@@ -53,6 +63,8 @@ class VideoWriter {
   std::int64_t frames_ = 0;
   std::int64_t last_pts_ms_ = 0;
   bool closed_ = false;
+  bool raw_ = false;
+  int width_ = 0, height_ = 0;
 };
 
 }  // namespace pvcap

@@ -100,6 +100,10 @@ class Transaction {
   ~Transaction() {
     if (!done_) try { db_.exec("ROLLBACK"); } catch (...) {}
   }
+  void rollback() {
+    if (!done_) db_.exec("ROLLBACK");
+    done_ = true;
+  }
   void commit() {
     db_.exec("COMMIT");
     done_ = true;

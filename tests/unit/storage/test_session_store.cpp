@@ -19,6 +19,7 @@
 #include "core/time.h"
 #include "storage/pressure_blob.h"
 #include "storage/recover.h"
+#include "sim/scene.h"
 #include "storage/session_reader.h"
 #include "storage/session_writer.h"
 #include "storage/sqlite/database.h"
@@ -83,7 +84,8 @@ struct WrittenStore {
   int samples = 0;
 };
 
-WrittenStore write_store(const fs::path& root, double seconds) {
+// `raw_first`: the first camera is a Bayer camera stored raw (its frames the mosaic of the noise).
+WrittenStore write_store(const fs::path& root, double seconds, bool raw_first = false) {
   WrittenStore out;
   const auto rig = parse_rig_config(
       "name: store-test\ncameras:\n  - {name: camA, address: 10.0.0.1}\n  - {name: camB, address: 10.0.0.2}\n"
@@ -94,7 +96,9 @@ WrittenStore write_store(const fs::path& root, double seconds) {
   EXPECT_TRUE(w) << w.error().message;
   auto& writer = *w.value();
   for (const char* name : {"camA", "camB"}) {
-    auto id = writer.add_camera(DeviceRecord{"camera", name, "v", "m", std::string("S-") + name, "a", "f", "{}"}, 64, 48);
+    const std::string format = raw_first && out.cams.empty() ? "BayerRG8" : "";
+    auto id = writer.add_camera(DeviceRecord{"camera", name, "v", "m", std::string("S-") + name, "a", "f", "{}"}, 64,
+                                48, format);
     EXPECT_TRUE(id) << id.error().message;
     out.cams.push_back(id.value());
   }
@@ -119,7 +123,9 @@ WrittenStore write_store(const fs::path& root, double seconds) {
     SampleRecord s{std::uint64_t(i), i, t, t, 0, {}, {}, {}, {}};
     for (std::size_t c = 0; c < out.cams.size(); ++c) {
       FrameRecord f{out.cams[c], 0, std::uint64_t(i), std::uint64_t(i), i * 1000, t, 0, "good", false, "", {}, {}, t};
-      EXPECT_TRUE(writer.submit_video(out.cams[c], noise_frame(int(c), i), f));
+      cv::Mat image = noise_frame(int(c), i);
+      if (writer.stores_raw(out.cams[c])) image = sim::to_sensor_format(image, "BayerRG8");
+      EXPECT_TRUE(writer.submit_video(out.cams[c], image, f));
       s.cameras.push_back({out.cams[c], 0, std::uint64_t(i), 0});
     }
     // Pressure frames at k * 8 ms; the sample at 10 ms + i * 66.67 ms lies between two of them.
@@ -346,11 +352,12 @@ TEST(SessionStore, OlderSchemasAreMigratedAfterABackup) {
   std::vector<int> passed;
   std::vector<std::string> said;
   { auto index = SessionIndex::open_for_update(path, &passed, [&](const std::string& s) { said.push_back(s); }); }
-  EXPECT_EQ(passed, (std::vector<int>{2, 3}));
+  EXPECT_EQ(passed, (std::vector<int>{2, 3, 4}));
   // The operator sees each step, and how far the long one (every pressure frame decoded) has come.
   EXPECT_EQ(said, (std::vector<std::string>{"upgrading the index from version 1 to 2",
                                             "upgrading the index from version 2 to 3",
-                                            "raw pressure counts: 1 of 1 frames"}));
+                                            "raw pressure counts: 1 of 1 frames",
+                                            "upgrading the index from version 3 to 4"}));
   EXPECT_TRUE(fs::exists(root / "session.db.v1.bak"));
   {
     sqlite::Database backup(root / "session.db.v1.bak", sqlite::Database::Mode::ReadOnly);
@@ -386,7 +393,7 @@ TEST(SessionStore, ThePythonExampleInTheDocsReadsWhatTheReaderReads) {
   const auto end = page.find("```", begin + 10);
   ASSERT_NE(begin, std::string::npos);
   const auto root = temp_root("python");
-  const auto st = write_store(root, 2.5);
+  const auto st = write_store(root, 2.5, /*raw_first=*/true);  // one raw camera, one colour
   std::ofstream(root / "example.py") << page.substr(begin + 10, end - begin - 10);
 
   const std::size_t sample = 20;  // in the third segment: the script must find its file and position
@@ -407,6 +414,11 @@ TEST(SessionStore, ThePythonExampleInTheDocsReadsWhatTheReaderReads) {
   for (std::size_t c = 0; c < r.value()->cameras().size(); ++c) {
     const cv::Scalar m = cv::mean(s.value().images[c]);
     expected += fmt::format("{} {:.3f}\n", r.value()->cameras()[c].name, (m[0] + m[1] + m[2]) / 3);
+    if (c == 0) {  // the raw camera: its mosaic as stored, and the very sums of the image the reader gives
+      auto mosaic = r.value()->raw_image(sample, c);
+      ASSERT_TRUE(mosaic) << mosaic.error().message;
+      expected += fmt::format("{} mosaic {:.3f}\n", r.value()->cameras()[c].name, cv::mean(mosaic.value())[0]);
+    }
   }
   std::uint64_t total = 0;
   for (auto v : s.value().pressure->counts) total += v;

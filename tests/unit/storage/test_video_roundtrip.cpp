@@ -10,6 +10,7 @@
 #include "core/rig_config.h"
 #include "sim/scene.h"
 #include "sim/timecode.h"
+#include "storage/bayer_planes.h"
 #include "storage/video_reader.h"
 #include "storage/video_writer.h"
 
@@ -155,6 +156,98 @@ TEST(VideoRoundTrip, Ffv1IsBitExact) {
   fs::remove_all(dir);
 }
 
+// Raw video (the default for Bayer cameras): the mosaic comes back bit for bit, and the colour image
+// read from it is the capture path's own debayering of that mosaic, for every raw codec offered.
+TEST(VideoRoundTrip, RawVideoKeepsTheMosaicBitExactAndDemosaicsOnRead) {
+  for (const std::string codec : {"ffvhuff", "ffv1", "libx264"}) {
+    SCOPED_TRACE(codec);
+    const auto dir = temp_dir("raw-" + codec);
+    VideoSettings s;
+    s.bayer_format = "BayerRG8";
+    s.raw_codec = codec;
+    s.width = 320;
+    s.height = 180;
+    auto w = VideoWriter::open(dir / "v.mkv", s);
+    ASSERT_TRUE(w) << w.error().message;
+    std::vector<cv::Mat> mosaics;
+    cv::RNG rng(7);
+    for (int i = 0; i < 6; ++i) {
+      cv::Mat m = sim::to_sensor_format(frame_with_timecode(i), "BayerRG8");
+      cv::Mat noise(m.size(), CV_8SC1);
+      rng.fill(noise, cv::RNG::NORMAL, 0, 2);  // a real sensor's noise: nothing for a lossless codec to drop
+      cv::add(m, noise, m, cv::noArray(), CV_8U);
+      mosaics.push_back(m);
+      auto idx = w.value()->write(m, (i + 1) * 66'667);
+      ASSERT_TRUE(idx) << idx.error().message;
+    }
+    // A colour image is refused by a raw video, with what it takes instead.
+    auto wrong = w.value()->write(cv::Mat(180, 320, CV_8UC3), 1'000'000);
+    ASSERT_FALSE(wrong);
+    EXPECT_NE(wrong.error().message.find("mosaics"), std::string::npos) << wrong.error().message;
+    ASSERT_TRUE(w.value()->close().ok());
+
+    auto r = VideoReader::open(dir / "v.mkv");
+    ASSERT_TRUE(r) << r.error().message;
+    EXPECT_TRUE(r.value()->raw());
+    EXPECT_EQ(r.value()->bayer_format(), "BayerRG8");
+    EXPECT_EQ(r.value()->width(), 320);
+    EXPECT_EQ(r.value()->height(), 180);
+    for (int i = 5; i >= 0; --i) {  // backwards: every frame is its own key frame
+      const std::int64_t pts_ms = ((i + 1) * 66'667 + 500) / 1000;
+      cv::Mat mosaic, bgr, expected;
+      auto found = r.value()->read_raw_at(pts_ms, mosaic);
+      ASSERT_TRUE(found && found.value()) << i;
+      EXPECT_EQ(cv::norm(mosaic, mosaics[std::size_t(i)], cv::NORM_INF), 0.0) << "frame " << i;
+      ASSERT_TRUE(r.value()->read_at(pts_ms, bgr).value());
+      ASSERT_TRUE(to_bgr(mosaics[std::size_t(i)].data, mosaics[std::size_t(i)].total(), 320, 180,
+                         pixel_format_code("BayerRG8"), expected)
+                      .ok());
+      EXPECT_EQ(cv::norm(bgr, expected, cv::NORM_INF), 0.0) << "frame " << i;
+      const auto tc = sim::read_timecode(bgr);
+      ASSERT_TRUE(tc) << "frame " << i;
+      EXPECT_EQ(tc->frame_id, i);
+    }
+    // Another demosaicing, on request: a different image of the same mosaic.
+    r.value()->set_demosaic(Demosaic::EdgeAware);
+    cv::Mat ea, bilinear;
+    ASSERT_TRUE(r.value()->read_at(67, ea).value());
+    ASSERT_TRUE(to_bgr(mosaics[0].data, mosaics[0].total(), 320, 180, pixel_format_code("BayerRG8"), bilinear).ok());
+    EXPECT_GT(cv::norm(ea, bilinear, cv::NORM_INF), 0.0);
+    fs::remove_all(dir);
+  }
+}
+
+TEST(VideoRoundTrip, ColourVideosHaveNoMosaicToGive) {
+  const auto dir = temp_dir("colour-no-mosaic");
+  VideoSettings s;
+  s.width = 64;
+  s.height = 64;
+  auto w = VideoWriter::open(dir / "v.mkv", s);
+  ASSERT_TRUE(w) << w.error().message;
+  ASSERT_TRUE(w.value()->write(cv::Mat(64, 64, CV_8UC3, cv::Scalar(1, 2, 3)), 0));
+  ASSERT_TRUE(w.value()->close().ok());
+  auto r = VideoReader::open(dir / "v.mkv");
+  ASSERT_TRUE(r);
+  EXPECT_FALSE(r.value()->raw());
+  cv::Mat m;
+  auto got = r.value()->read_raw_at(0, m);
+  ASSERT_FALSE(got);
+  EXPECT_NE(got.error().message.find("holds no sensor mosaic"), std::string::npos) << got.error().message;
+  fs::remove_all(dir);
+}
+
+TEST(VideoWriter, RawVideoOfAnOddSizeIsRefusedWithWhatToDo) {
+  const auto dir = temp_dir("raw-odd");
+  VideoSettings s;
+  s.bayer_format = "BayerRG8";
+  s.width = 321;
+  s.height = 180;
+  auto w = VideoWriter::open(dir / "v.mkv", s);
+  ASSERT_FALSE(w);
+  EXPECT_NE(w.error().message.find("store.video_mode: color"), std::string::npos) << w.error().message;
+  fs::remove_all(dir);
+}
+
 TEST(VideoWriter, UnknownCodecIsNamed) {
   const auto dir = temp_dir("badcodec");
   VideoSettings s;
@@ -173,4 +266,23 @@ TEST(VideoReader, ForeignFileIsAnErrorNotACrash) {
   auto r = VideoReader::open(dir / "x.mkv");
   EXPECT_FALSE(r);
   fs::remove_all(dir);
+}
+
+TEST(BayerPlanes, PackAndUnpackAreInverseAndPutEachCellPositionInItsOwnPlane) {
+  for (int type : {CV_8UC1, CV_16UC1}) {
+    cv::Mat mosaic(6, 8, type);
+    cv::randu(mosaic, 0, type == CV_8UC1 ? 256 : 4096);
+    cv::Mat planes, back;
+    pack_bayer_planes(mosaic, planes);
+    ASSERT_EQ(planes.size(), cv::Size(4, 12));
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 4; ++x)
+        for (int p = 0; p < 4; ++p) {  // p: the cell's top-left, top-right, bottom-left, bottom-right
+          const int my = 2 * y + p / 2, mx = 2 * x + p % 2;
+          if (type == CV_8UC1) EXPECT_EQ(planes.at<std::uint8_t>(p * 3 + y, x), mosaic.at<std::uint8_t>(my, mx));
+          else EXPECT_EQ(planes.at<std::uint16_t>(p * 3 + y, x), mosaic.at<std::uint16_t>(my, mx));
+        }
+    unpack_bayer_planes(planes, back);
+    EXPECT_EQ(cv::norm(back, mosaic, cv::NORM_INF), 0.0);
+  }
 }

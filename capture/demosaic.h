@@ -1,0 +1,24 @@
+#pragma once
+// Bayer mosaics to colour, by pattern name: one place for the pattern arithmetic, used by the
+// capture path (previews, colour video) and by the store's readers (raw video). No Aravis here, so
+// readers and their fuzz targets link without it.
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "core/result.h"
+
+namespace pvcap {
+
+// How a Bayer mosaic becomes colour: OpenCV's bilinear (the capture path's and the default),
+// its edge-aware variant, or VNG (8-bit only).
+enum class Demosaic { Bilinear, EdgeAware, Vng };
+const char* to_string(Demosaic d);
+// "bilinear", "edge-aware", "vng"; an Error naming the choices otherwise.
+Result<Demosaic> parse_demosaic(const std::string& name);
+
+// Demosaics `mosaic` (CV_8UC1 or CV_16UC1, one Bayer pattern named as PFNC names it, e.g. "BayerRG8")
+// into `bgr` (CV_8UC3 or CV_16UC3).
+Status debayer(const cv::Mat& mosaic, const std::string& bayer_format, Demosaic method, cv::Mat& bgr);
+
+}  // namespace pvcap

@@ -1,0 +1,362 @@
+#include "storage/frame_spill.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/uio.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include <fmt/format.h>
+
+namespace pvcap {
+
+namespace {
+
+// Record: "PVSP", u32 total bytes, u32 CRC-32 of everything after it, then the fields below and the
+// pixels. Little-endian (the machine's; a spill is read back by the same machine).
+constexpr char kMagic[4] = {'P', 'V', 'S', 'P'};
+constexpr std::size_t kPrefix = 12;          // magic, size, CRC
+constexpr std::uint32_t kMaxRecord = 1u << 30;  // a frame larger than 1 GiB is damage, not a frame
+
+class Buffer {
+ public:
+  template <typename T>
+  void put(const T& v) {
+    const auto* p = reinterpret_cast<const std::uint8_t*>(&v);
+    bytes_.insert(bytes_.end(), p, p + sizeof(T));
+  }
+  void put_string(const std::string& s) {
+    put(std::uint16_t(std::min<std::size_t>(s.size(), 0xffff)));
+    bytes_.insert(bytes_.end(), s.begin(), s.begin() + std::min<std::size_t>(s.size(), 0xffff));
+  }
+  std::vector<std::uint8_t>& bytes() { return bytes_; }
+
+ private:
+  std::vector<std::uint8_t> bytes_;
+};
+
+class Cursor {
+ public:
+  Cursor(const std::uint8_t* p, std::size_t n) : p_(p), n_(n) {}
+  template <typename T>
+  bool get(T& v) {
+    if (n_ < sizeof(T)) return false;
+    std::memcpy(&v, p_, sizeof(T));
+    p_ += sizeof(T);
+    n_ -= sizeof(T);
+    return true;
+  }
+  bool get_string(std::string& s) {
+    std::uint16_t len = 0;
+    if (!get(len) || n_ < len) return false;
+    s.assign(reinterpret_cast<const char*>(p_), len);
+    p_ += len;
+    n_ -= len;
+    return true;
+  }
+  const std::uint8_t* at() const { return p_; }
+  std::size_t left() const { return n_; }
+
+ private:
+  const std::uint8_t* p_;
+  std::size_t n_;
+};
+
+// The record's fields after the prefix, up to (not including) the pixels.
+std::vector<std::uint8_t> fields(const SpillItem& item) {
+  Buffer b;
+  const FrameRecord& r = item.rec;
+  b.put(r.device_id);
+  b.put(r.connection);
+  b.put(r.sequence);
+  b.put(r.frame_id);
+  b.put(r.device_ns);
+  b.put(r.host_ns);
+  b.put(r.aravis_system_ns);
+  b.put(std::uint8_t(r.mapped_ns.has_value()));
+  b.put(r.mapped_ns.value_or(0));
+  b.put_string(r.status);
+  b.put(std::int32_t(item.image.rows));
+  b.put(std::int32_t(item.image.cols));
+  b.put(std::int32_t(item.image.type()));
+  b.put(std::uint64_t(item.image.total() * item.image.elemSize()));
+  return std::move(b.bytes());
+}
+
+bool full_pread(int fd, void* buf, std::size_t n, std::int64_t off) {
+  auto* p = static_cast<std::uint8_t*>(buf);
+  while (n > 0) {
+    const ssize_t got = ::pread(fd, p, n, off);
+    if (got < 0 && errno == EINTR) continue;
+    if (got <= 0) return false;
+    p += got;
+    n -= std::size_t(got);
+    off += got;
+  }
+  return true;
+}
+
+// The record at `off`: its frame and its size in bytes; an Error when it is cut or damaged.
+Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off) {
+  std::uint8_t prefix[kPrefix];
+  if (!full_pread(fd, prefix, kPrefix, off)) return Error{"cut before its header"};
+  if (std::memcmp(prefix, kMagic, 4) != 0) return Error{"not a spill record"};
+  std::uint32_t size = 0, crc = 0;
+  std::memcpy(&size, prefix + 4, 4);
+  std::memcpy(&crc, prefix + 8, 4);
+  if (size < kPrefix || size > kMaxRecord) return Error{fmt::format("impossible record size {}", size)};
+  std::vector<std::uint8_t> body(size - kPrefix);
+  if (!full_pread(fd, body.data(), body.size(), off + std::int64_t(kPrefix))) return Error{"cut in its body"};
+  if (std::uint32_t(crc32(0L, body.data(), uInt(body.size()))) != crc) return Error{"CRC mismatch"};
+  Cursor c(body.data(), body.size());
+  SpillRecord out;
+  FrameRecord& r = out.rec;
+  std::uint8_t has_mapped = 0;
+  std::int64_t mapped = 0;
+  std::int32_t rows = 0, cols = 0, type = 0;
+  std::uint64_t pixel_bytes = 0;
+  if (!c.get(r.device_id) || !c.get(r.connection) || !c.get(r.sequence) || !c.get(r.frame_id) || !c.get(r.device_ns) ||
+      !c.get(r.host_ns) || !c.get(r.aravis_system_ns) || !c.get(has_mapped) || !c.get(mapped) ||
+      !c.get_string(r.status) || !c.get(rows) || !c.get(cols) || !c.get(type) || !c.get(pixel_bytes))
+    return Error{"fields cut short"};
+  if (has_mapped) r.mapped_ns = mapped;
+  if (rows <= 0 || cols <= 0 || rows > 65536 || cols > 65536 || (type != CV_8UC1 && type != CV_8UC3 && type != CV_16UC1))
+    return Error{fmt::format("impossible image {}x{} of type {}", cols, rows, type)};
+  cv::Mat image(rows, cols, type);
+  if (pixel_bytes != image.total() * image.elemSize() || c.left() != pixel_bytes)
+    return Error{"pixel count does not match the image"};
+  std::memcpy(image.data, c.at(), pixel_bytes);
+  out.image = std::move(image);
+  return std::make_pair(std::move(out), std::size_t(size));
+}
+
+}  // namespace
+
+FrameSpillQueue::FrameSpillQueue(std::filesystem::path dir, std::string camera, std::size_t memory_frames,
+                                 std::size_t writer_frames)
+    : folder_(std::move(dir) / kSpillFolder),
+      camera_(std::move(camera)),
+      memory_cap_(memory_frames),
+      writer_cap_(writer_frames),
+      writer_([this] { writer_loop(); }) {}
+
+FrameSpillQueue::~FrameSpillQueue() {
+  {
+    std::lock_guard lock(mu_);
+    stop_writer_ = true;
+    closed_ = true;
+  }
+  to_write_.notify_all();
+  writer_.join();
+  if (fd_ >= 0) ::close(fd_);  // what it holds stays for recover
+}
+
+bool FrameSpillQueue::push(cv::Mat image, FrameRecord rec) {
+  std::lock_guard lock(mu_);
+  if (closed_) return false;
+  if (for_writer_.empty() && !writing_ && on_disk_ == 0 && memory_.size() < memory_cap_) {
+    memory_.push_back({std::move(image), std::move(rec)});
+    ready_.notify_one();
+    return true;
+  }
+  // Behind: from here on, every frame goes through the disk until the encoder has caught up.
+  if (failure_ || for_writer_.size() >= writer_cap_) return false;
+  for_writer_.push_back({std::move(image), std::move(rec)});
+  ++spilled_;
+  to_write_.notify_one();
+  return true;
+}
+
+Status FrameSpillQueue::append(const SpillItem& item) {
+  std::vector<std::uint8_t> head(kPrefix);
+  std::vector<std::uint8_t> body = fields(item);
+  const cv::Mat pixels = item.image.isContinuous() ? item.image : item.image.clone();
+  const std::size_t pixel_bytes = pixels.total() * pixels.elemSize();
+  const std::uint32_t size = std::uint32_t(kPrefix + body.size() + pixel_bytes);
+  uLong crc = crc32(0L, body.data(), uInt(body.size()));
+  crc = crc32(crc, pixels.data, uInt(pixel_bytes));
+  std::memcpy(head.data(), kMagic, 4);
+  std::memcpy(head.data() + 4, &size, 4);
+  const std::uint32_t crc32v = std::uint32_t(crc);
+  std::memcpy(head.data() + 8, &crc32v, 4);
+  iovec parts[3] = {{head.data(), head.size()}, {body.data(), body.size()}, {pixels.data, pixel_bytes}};
+  std::size_t done = 0;
+  while (done < size) {
+    // Skip what is already written, then write the rest.
+    iovec rest[3];
+    int n = 0;
+    std::size_t skip = done;
+    for (const iovec& p : parts) {
+      if (skip >= p.iov_len) {
+        skip -= p.iov_len;
+        continue;
+      }
+      rest[n++] = {static_cast<std::uint8_t*>(p.iov_base) + skip, p.iov_len - skip};
+      skip = 0;
+    }
+    const ssize_t w = ::pwritev(fd_, rest, n, write_off_ + std::int64_t(done));
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) return Error{fmt::format("{}: cannot write the spill: {}", file_.string(), std::strerror(errno))};
+    done += std::size_t(w);
+  }
+  write_off_ += size;
+  return {};
+}
+
+void FrameSpillQueue::writer_loop() {
+  std::unique_lock lock(mu_);
+  for (;;) {
+    to_write_.wait(lock, [&] { return stop_writer_ || !for_writer_.empty(); });
+    if (for_writer_.empty()) return;  // stopping, nothing left
+    SpillItem item = std::move(for_writer_.front());
+    for_writer_.pop_front();
+    writing_ = true;
+    Status status;
+    if (fd_ < 0) {  // a new spill episode: a new file (quick; under the lock so the reader sees it whole)
+      std::error_code ec;
+      std::filesystem::create_directories(folder_, ec);
+      file_ = folder_ / fmt::format("{}-{:04}.spill", camera_, next_file_++);
+      fd_ = ::open(file_.c_str(), O_CREAT | O_RDWR | O_TRUNC | O_CLOEXEC, 0644);
+      if (fd_ < 0) status = Error{fmt::format("{}: cannot create the spill file: {}", file_.string(), std::strerror(errno))};
+      write_off_ = read_off_ = 0;
+    }
+    if (status.ok()) {
+      lock.unlock();
+      status = append(item);
+      lock.lock();
+    }
+    writing_ = false;
+    if (status.ok()) {
+      ++on_disk_;
+    } else {
+      if (!failure_) failure_ = status.error().message;
+      item.lost_reason = "spill_write_failed";
+      item.image.release();
+      lost_.push_back(std::move(item));
+    }
+    ready_.notify_all();
+  }
+}
+
+std::optional<SpillItem> FrameSpillQueue::pop_for(std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mu_);
+  const auto nothing_left = [&] {
+    return memory_.empty() && lost_.empty() && for_writer_.empty() && !writing_ && on_disk_ == 0;
+  };
+  ready_.wait_for(lock, timeout,
+                  [&] { return !lost_.empty() || !memory_.empty() || on_disk_ > 0 || (closed_ && nothing_left()); });
+  if (!lost_.empty()) {
+    SpillItem item = std::move(lost_.front());
+    lost_.pop_front();
+    return item;
+  }
+  if (!memory_.empty()) {  // memory frames are older than anything spilled
+    SpillItem item = std::move(memory_.front());
+    memory_.pop_front();
+    return item;
+  }
+  if (on_disk_ == 0) return std::nullopt;
+  const int fd = fd_;
+  const std::int64_t off = read_off_;
+  lock.unlock();  // the writer appends beyond `off` meanwhile
+  auto got = read_record(fd, off);
+  lock.lock();
+  if (!got) {
+    // Written by us a moment ago and unreadable now: the disk failed. What is left in this file stays
+    // for recover; the frames are not handed out (their rows come from recover).
+    if (!failure_)
+      failure_ = fmt::format("{}: a spilled frame cannot be read back ({}); recover finishes it", file_.string(),
+                             got.error().message);
+    ::close(fd_);
+    fd_ = -1;
+    on_disk_ = 0;
+    return std::nullopt;
+  }
+  read_off_ += std::int64_t(got.value().second);
+  --on_disk_;
+  if (on_disk_ == 0 && for_writer_.empty() && !writing_) {
+    // Caught up: this episode's file is done; back to memory for the next frames.
+    ::close(fd_);
+    fd_ = -1;
+    finished_files_.push_back(file_);
+  }
+  SpillItem item{std::move(got.value().first.image), std::move(got.value().first.rec), "", true};
+  return item;
+}
+
+void FrameSpillQueue::close() {
+  {
+    std::lock_guard lock(mu_);
+    closed_ = true;
+  }
+  ready_.notify_all();
+}
+
+bool FrameSpillQueue::drained() const {
+  std::lock_guard lock(mu_);
+  return closed_ && memory_.empty() && lost_.empty() && for_writer_.empty() && !writing_ && on_disk_ == 0;
+}
+
+bool FrameSpillQueue::is_closed() const {
+  std::lock_guard lock(mu_);
+  return closed_;
+}
+
+void FrameSpillQueue::release_finished() {
+  std::vector<std::filesystem::path> files;
+  {
+    std::lock_guard lock(mu_);
+    files.swap(finished_files_);
+  }
+  std::error_code ec;
+  for (const auto& f : files) std::filesystem::remove(f, ec);
+}
+
+std::size_t FrameSpillQueue::backlog() const {
+  std::lock_guard lock(mu_);
+  return memory_.size() + for_writer_.size() + (writing_ ? 1 : 0) + on_disk_;
+}
+
+std::size_t FrameSpillQueue::on_disk() const {
+  std::lock_guard lock(mu_);
+  return on_disk_ + for_writer_.size() + (writing_ ? 1 : 0);
+}
+
+std::uint64_t FrameSpillQueue::spilled_total() const {
+  std::lock_guard lock(mu_);
+  return spilled_;
+}
+
+std::optional<std::string> FrameSpillQueue::failure() const {
+  std::lock_guard lock(mu_);
+  return failure_;
+}
+
+Result<std::size_t> read_spill_file(const std::filesystem::path& file, const std::function<void(SpillRecord&&)>& each) {
+  const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return Error{fmt::format("{}: cannot open: {}", file.string(), std::strerror(errno))};
+  std::size_t n = 0;
+  std::int64_t off = 0;
+  for (;;) {
+    auto got = read_record(fd, off);
+    if (!got) {
+      std::uint8_t probe;
+      const bool at_end = ::pread(fd, &probe, 1, off) == 0;
+      if (n == 0 && !at_end && got.error().message == "not a spill record") {
+        ::close(fd);
+        return Error{fmt::format("{}: not a pvcap spill file", file.string())};
+      }
+      break;  // the end, or a crash's cut tail
+    }
+    off += std::int64_t(got.value().second);
+    ++n;
+    each(std::move(got.value().first));
+  }
+  ::close(fd);
+  return n;
+}
+
+}  // namespace pvcap

@@ -1,0 +1,108 @@
+#pragma once
+// A camera's kept frames on their way to its encoder, in order, never dropped for being late.
+//
+// While the encoder keeps up, frames wait in memory (a few). When it falls behind, every further
+// frame goes to a spill file on disk (append-only, in the session folder) until the encoder has
+// read the spill back to its end; then memory again. Order is kept throughout: memory frames are
+// always older than spilled ones, so the video's timestamps only grow. Memory stays bounded (the
+// memory queue plus a few frames waiting for the spill's writer thread); only a disk that cannot
+// take the frames loses them, and then each with its reason.
+//
+// Crash safety: a spill record is written with its index row (FrameRecord) and a CRC, so a file
+// cut by a crash reads up to its last whole record; `pvcap recover` encodes whatever a spill holds
+// that no video does (storage/recover.cpp). A spill file read back to its end is deleted only once
+// the video segment holding its frames is finished (release_finished()), so a crash in between
+// still finds them.
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <filesystem>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "core/result.h"
+#include "storage/session_index.h"
+
+namespace pvcap {
+
+inline constexpr const char* kSpillFolder = "spill";
+
+struct SpillItem {
+  cv::Mat image;
+  FrameRecord rec;
+  std::string lost_reason;  // set: the frame could not be kept (image empty); record it with this reason
+  bool from_spill = false;  // read back from disk
+};
+
+class FrameSpillQueue {
+ public:
+  // `dir`: the session folder (spill files go to dir/spill/<camera>-<n>.spill, made on first use).
+  FrameSpillQueue(std::filesystem::path dir, std::string camera, std::size_t memory_frames,
+                  std::size_t writer_frames = 8);
+  ~FrameSpillQueue();
+  FrameSpillQueue(const FrameSpillQueue&) = delete;
+  FrameSpillQueue& operator=(const FrameSpillQueue&) = delete;
+
+  // Capture side; never waits on the disk. False only when the spill's writer is itself behind
+  // (the disk is slower than the camera) or the queue is closed: the caller records the frame as lost.
+  bool push(cv::Mat image, FrameRecord rec);
+  // Encoder side: the next frame in order, waiting up to `timeout`. Empty on timeout, or when
+  // closed and everything (memory and disk) has been handed out.
+  std::optional<SpillItem> pop_for(std::chrono::milliseconds timeout);
+  // No more pushes; pop_for goes on until memory and spill are empty.
+  void close();
+  bool drained() const;  // closed, and nothing left to hand out
+  bool is_closed() const;
+  // The encoder finished a video segment: spill files read to their end before now can go.
+  void release_finished();
+
+  std::size_t backlog() const;         // frames waiting: in memory, for the writer, and on disk
+  std::size_t on_disk() const;         // of which on disk
+  std::uint64_t spilled_total() const;  // frames that went through the disk so far
+  std::optional<std::string> failure() const;  // the disk refused a write (the first reason)
+
+ private:
+  void writer_loop();
+  Status append(const SpillItem& item);
+
+  std::filesystem::path folder_;
+  std::string camera_;
+  std::size_t memory_cap_, writer_cap_;
+
+  mutable std::mutex mu_;
+  std::condition_variable ready_;   // the encoder's: something to pop
+  std::condition_variable to_write_;  // the writer's: something to append
+  std::deque<SpillItem> memory_, for_writer_, lost_;
+  bool writing_ = false;  // the writer holds an item (taken from for_writer_, not yet on disk)
+  std::size_t on_disk_ = 0;
+  std::uint64_t spilled_ = 0;
+  bool closed_ = false, stop_writer_ = false;
+  std::optional<std::string> failure_;
+
+  // The spill file being written and read (opened on the first spill of an episode).
+  int fd_ = -1;
+  std::filesystem::path file_;
+  std::int64_t write_off_ = 0, read_off_ = 0;
+  int next_file_ = 1;
+  std::vector<std::filesystem::path> finished_files_;  // read to their end; deleted at release_finished
+  std::thread writer_;
+};
+
+// One record of a spill file as `pvcap recover` reads it.
+struct SpillRecord {
+  FrameRecord rec;
+  cv::Mat image;
+};
+// Reads every whole record of `file` in order and hands it to `each`; stops at the end or at the
+// first record that is cut or damaged (a crash's tail). Returns the records read, or an Error when
+// the file cannot be opened or is not a spill file.
+Result<std::size_t> read_spill_file(const std::filesystem::path& file, const std::function<void(SpillRecord&&)>& each);
+
+}  // namespace pvcap

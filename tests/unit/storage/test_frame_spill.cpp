@@ -1,0 +1,164 @@
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <thread>
+
+#include "storage/frame_spill.h"
+
+namespace fs = std::filesystem;
+using namespace pvcap;
+using namespace std::chrono_literals;
+
+namespace {
+fs::path temp_dir(const std::string& name) {
+  const auto d = fs::temp_directory_path() / ("pvcap-test-spill-" + name + "-" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+cv::Mat image_of(std::uint64_t i) {
+  cv::Mat m(6, 8, CV_8UC1);
+  cv::randu(m, 0, 256);
+  m.at<std::uint8_t>(0, 0) = std::uint8_t(i);
+  return m;
+}
+
+FrameRecord row_of(std::uint64_t i) {
+  FrameRecord r;
+  r.device_id = 3;
+  r.connection = 1;
+  r.sequence = i;
+  r.frame_id = i + 100;
+  r.device_ns = std::int64_t(i) * 1000;
+  r.host_ns = std::int64_t(i) * 2000;
+  r.aravis_system_ns = 5;
+  r.status = "good";
+  if (i % 2) r.mapped_ns = std::int64_t(i) * 3000;
+  return r;
+}
+
+std::size_t spill_files(const fs::path& dir) {
+  std::size_t n = 0;
+  if (fs::is_directory(dir / kSpillFolder))
+    for (const auto& e : fs::directory_iterator(dir / kSpillFolder)) n += e.path().extension() == ".spill";
+  return n;
+}
+}  // namespace
+
+// An encoder that is behind: the frames beyond the memory queue go through the disk, and all come
+// back in order, pixels and rows intact; once caught up, frames stay in memory again.
+TEST(FrameSpill, FramesBeyondMemoryGoThroughTheDiskAndComeBackInOrder) {
+  const fs::path dir = temp_dir("order");
+  std::vector<cv::Mat> images;
+  {
+    FrameSpillQueue q(dir, "cam0", /*memory_frames=*/4, /*writer_frames=*/64);
+    for (std::uint64_t i = 0; i < 30; ++i) {
+      images.push_back(image_of(i));
+      ASSERT_TRUE(q.push(images.back().clone(), row_of(i))) << i;
+    }
+    EXPECT_EQ(q.spilled_total(), 26u);
+    EXPECT_EQ(q.backlog(), 30u);
+    for (std::uint64_t i = 0; i < 30; ++i) {
+      auto item = q.pop_for(2s);
+      ASSERT_TRUE(item) << i;
+      EXPECT_EQ(item->rec.sequence, i);
+      EXPECT_EQ(item->from_spill, i >= 4) << i;
+      EXPECT_EQ(cv::norm(item->image, images[i], cv::NORM_INF), 0.0) << i;
+      const FrameRecord want = row_of(i);
+      EXPECT_EQ(item->rec.frame_id, want.frame_id);
+      EXPECT_EQ(item->rec.device_ns, want.device_ns);
+      EXPECT_EQ(item->rec.host_ns, want.host_ns);
+      EXPECT_EQ(item->rec.mapped_ns, want.mapped_ns);
+      EXPECT_EQ(item->rec.status, "good");
+    }
+    EXPECT_EQ(q.backlog(), 0u);
+    // Caught up: the episode's file waits for its segment to be finished, then goes.
+    EXPECT_EQ(spill_files(dir), 1u);
+    q.release_finished();
+    EXPECT_EQ(spill_files(dir), 0u);
+    // And the next frame is a memory frame again.
+    ASSERT_TRUE(q.push(image_of(30), row_of(30)));
+    auto item = q.pop_for(1s);
+    ASSERT_TRUE(item);
+    EXPECT_FALSE(item->from_spill);
+    q.close();
+    EXPECT_FALSE(q.pop_for(10ms));
+    EXPECT_TRUE(q.drained());
+  }
+  fs::remove_all(dir);
+}
+
+// Pushes and pops from two threads at once, the encoder slower than the camera for a while: nothing
+// lost, nothing reordered, and the memory queue never holds more than its size.
+TEST(FrameSpill, ACameraFasterThanItsEncoderLosesNothing) {
+  const fs::path dir = temp_dir("race");
+  {
+    FrameSpillQueue q(dir, "cam1", 3, 16);
+    std::uint64_t pushed = 0, refused = 0;
+    std::thread camera([&] {
+      for (std::uint64_t i = 0; i < 400; ++i) {
+        if (q.push(image_of(i), row_of(i))) ++pushed;
+        else ++refused;
+        std::this_thread::sleep_for(200us);
+      }
+      q.close();
+    });
+    std::uint64_t expected = 0, from_spill = 0;
+    while (auto item = q.pop_for(2s)) {
+      EXPECT_EQ(item->rec.sequence, expected);
+      expected = item->rec.sequence + 1;
+      from_spill += item->from_spill;
+      if (item->rec.sequence < 200) std::this_thread::sleep_for(1ms);  // behind, then catching up
+    }
+    camera.join();
+    EXPECT_EQ(refused, 0u);
+    EXPECT_EQ(expected, 400u);
+    EXPECT_GT(from_spill, 0u);
+    EXPECT_TRUE(q.drained());
+  }
+  fs::remove_all(dir);
+}
+
+// A spill cut by a crash reads up to its last whole record; a foreign file is named as such.
+TEST(FrameSpill, ACutSpillReadsToItsLastWholeRecord) {
+  const fs::path dir = temp_dir("cut");
+  {
+    FrameSpillQueue q(dir, "cam2", 0, 64);  // no memory: every frame goes to the disk
+    for (std::uint64_t i = 0; i < 5; ++i) ASSERT_TRUE(q.push(image_of(i), row_of(i)));
+  }  // destroyed without reading (its writer finishes first): what it holds stays, as after a crash
+  ASSERT_EQ(spill_files(dir), 1u);
+  const fs::path file = fs::directory_iterator(dir / kSpillFolder)->path();
+  const auto size = fs::file_size(file);
+  fs::resize_file(file, size - 10);  // the last record cut
+  std::vector<std::uint64_t> seen;
+  auto n = read_spill_file(file, [&](SpillRecord&& r) {
+    seen.push_back(r.rec.sequence);
+    EXPECT_EQ(r.image.at<std::uint8_t>(0, 0), std::uint8_t(r.rec.sequence));
+  });
+  ASSERT_TRUE(n) << n.error().message;
+  EXPECT_EQ(n.value(), 4u);
+  EXPECT_EQ(seen, (std::vector<std::uint64_t>{0, 1, 2, 3}));
+  // A flipped byte in a record's pixels ends the reading there (its CRC), never a wrong frame.
+  {
+    std::FILE* f = std::fopen(file.c_str(), "r+b");
+    std::fseek(f, long(size / 2), SEEK_SET);
+    const int c = std::fgetc(f);
+    std::fseek(f, long(size / 2), SEEK_SET);
+    std::fputc(c ^ 0xff, f);
+    std::fclose(f);
+  }
+  auto damaged = read_spill_file(file, [](SpillRecord&&) {});
+  ASSERT_TRUE(damaged);
+  EXPECT_LT(damaged.value(), 4u);
+  const fs::path foreign = dir / "foreign.spill";
+  std::FILE* f = std::fopen(foreign.c_str(), "wb");
+  std::fputs("not a spill file at all, but long enough", f);
+  std::fclose(f);
+  auto refused = read_spill_file(foreign, [](SpillRecord&&) {});
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find("not a pvcap spill file"), std::string::npos);
+  fs::remove_all(dir);
+}
