@@ -20,6 +20,7 @@
 
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
+#include <spdlog/spdlog.h>
 
 #include "capture/pixel_format.h"
 #include "core/frame_pool.h"
@@ -259,6 +260,7 @@ int main(int argc, char** argv) {
   const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-store-bench-{}", getpid());
   fs::remove_all(work);
   fs::create_directories(work);
+  spdlog::set_level(spdlog::level::warn);  // the writer's progress lines would interleave with the figures
   const std::string fields = argc > 3 ? argv[3] : "";  // store settings other than the defaults
   auto with = [&](const std::string& mode) { return fields.empty() ? mode : mode + ", " + fields; };
   try {
