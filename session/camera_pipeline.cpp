@@ -90,15 +90,17 @@ void run_camera_pipeline(const CameraPipeline& p) {
       }
       // Raw video takes the sensor's own mosaic (no demosaicing here); colour video a BGR image.
       const bool raw = raw_video && is_bayer(h.pixel_format);
-      cv::Mat image = images.acquire(h.height, h.width, raw ? CV_8UC1 : CV_8UC3);
+      const int raw_type = bayer_bit_depth(h.pixel_format) > 8 ? CV_16UC1 : CV_8UC1;
+      cv::Mat image = images.acquire(h.height, h.width, raw ? raw_type : CV_8UC3);
+      const std::size_t bytes = image.total() * image.elemSize();
       Status converted;
       if (!raw) {
         converted = to_bgr(h.pixels.data(), h.pixels.size(), h.width, h.height, h.pixel_format, image);
-      } else if (h.pixels.size() < image.total()) {
+      } else if (h.pixels.size() < bytes) {
         converted = Error{fmt::format("frame has {} bytes, a {}x{} mosaic needs {}", h.pixels.size(), h.width,
-                                      h.height, image.total())};
+                                      h.height, bytes)};
       } else {
-        std::memcpy(image.data, h.pixels.data(), image.total());
+        std::memcpy(image.data, h.pixels.data(), bytes);
       }
       recycle(std::move(h.pixels));
       if (!converted) {

@@ -113,7 +113,7 @@ void drain_spills(SessionIndex& index, const std::filesystem::path& dir,
         if (vs.raw()) {
           rec.layout = kBayerPlanesLayout;
           rec.bayer_format = vs.bayer_format;
-          rec.bit_depth = 8;
+          rec.bit_depth = vs.bit_depth;
         }
         auto next_id = db.prepare("SELECT coalesce(max(id), 0) + 1 FROM video_files");
         next_id.step();

@@ -150,7 +150,7 @@ Status SessionWriter::open_segment(Camera& cam, std::int64_t first_pts_us, bool 
   if (cam.settings.raw()) {
     rec.layout = kBayerPlanesLayout;
     rec.bayer_format = cam.settings.bayer_format;
-    rec.bit_depth = 8;
+    rec.bit_depth = cam.settings.bit_depth;
   }
   if (direct) {
     if (Status s = index_write([&] { index_->add_video_file(rec); }); !s.ok()) return s;
@@ -327,7 +327,10 @@ std::optional<std::string> SessionWriter::failure() const {
 
 VideoSettings camera_video_settings(const StoreConfig& store, int width, int height, const std::string& pixel_format) {
   VideoSettings vs;
-  if (store.video_mode == "raw" && is_bayer(pixel_format_code(pixel_format))) vs.bayer_format = pixel_format;
+  if (store.video_mode == "raw" && is_bayer(pixel_format_code(pixel_format))) {
+    vs.bayer_format = pixel_format;
+    vs.bit_depth = bayer_bit_depth(pixel_format_code(pixel_format));
+  }
   vs.raw_codec = store.raw_codec;
   vs.codec = store.video_codec;
   vs.crf = store.crf;

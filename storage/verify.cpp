@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "capture/sensel_frame.h"
+#include "storage/frame_spill.h"
 #include "storage/pressure_blob.h"
 #include "storage/session_index.h"
 #include "storage/sqlite/database.h"
@@ -186,9 +187,18 @@ VerifyReport verify_session(const std::filesystem::path& dir, const std::functio
       r.losses.push_back(fmt::format("{} frames arrived incomplete (frames.status)", n));
     if (const auto n = scalar(db, "SELECT count(*) FROM frames WHERE reason = 'encoder_behind'"))
       r.losses.push_back(fmt::format("{} kept frames were not encoded in time (reason encoder_behind)", n));
-    for (const char* why : {"lost_at_interruption", "video_write_failed"})
+    for (const char* why : {"lost_at_interruption", "video_write_failed", "spill_write_failed"})
       if (const auto n = scalar(db, fmt::format("SELECT count(*) FROM frames WHERE reason = '{}'", why)))
         r.losses.push_back(fmt::format("{} frames meant for a video are not in it (reason {})", n, why));
+    // Frames still waiting in a spill (a crash caught the encoder behind): recover encodes them.
+    std::error_code ec;
+    std::size_t spills = 0;
+    for (std::filesystem::directory_iterator it(dir / kSpillFolder, ec), end; !ec && it != end; it.increment(ec))
+      spills += it->path().extension() == ".spill";
+    if (spills)
+      r.losses.push_back(fmt::format("{}: {} spill file(s) hold frames that may not be in a video yet; 'pvcap "
+                                     "recover' encodes them",
+                                     (dir / kSpillFolder).string(), spills));
   } catch (const sqlite::SqliteError& e) {
     r.errors.push_back(fmt::format("{}: {}", db_path.string(), e.what()));
   }

@@ -7,6 +7,8 @@ extern "C" {
 #include <libswscale/swscale.h>
 }
 
+#include <cstdlib>
+
 #include <fmt/format.h>
 
 #include "core/frame_pool.h"
@@ -24,6 +26,7 @@ struct VideoReader::Impl {  // members are freed in reverse: the scaler first, t
   av::Scaler sws;
   cv::Mat ycbcr;  // yuv444p: the frame's planes merged, before conversion
   cv::Mat mosaic;  // raw videos: the frame's mosaic, before demosaicing
+  cv::Mat bgr16;   // raw videos of more than 8 bits: demosaiced, before the 8-bit colour image
   FramePool images{4};  // the BGR images handed out: reused once the caller has dropped them
   int stream = -1;
   bool draining = false;
@@ -64,9 +67,11 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
       return Error{fmt::format("{}: picture layout '{}' is not one this pvcap reads (update pvcap)", path.string(),
                                layout)};
     r->bayer_format_ = tag("PVCAP_BAYER_FORMAT");
-    if (r->bayer_format_.rfind("Bayer", 0) != 0 || tag("PVCAP_BIT_DEPTH") != "8")
+    const std::string depth = tag("PVCAP_BIT_DEPTH");
+    r->bit_depth_ = depth.size() == 1 || depth.size() == 2 ? std::atoi(depth.c_str()) : 0;
+    if (r->bayer_format_.rfind("Bayer", 0) != 0 || r->bit_depth_ < 8 || r->bit_depth_ > 16)
       return Error{fmt::format("{}: raw video of '{}' at {} bits is not one this pvcap reads", path.string(),
-                               r->bayer_format_, tag("PVCAP_BIT_DEPTH"))};
+                               r->bayer_format_, depth)};
   }
   im.dec.ptr = avcodec_alloc_context3(codec);
   avcodec_parameters_to_context(im.dec.ptr, im.fmt.ptr->streams[im.stream]->codecpar);
@@ -98,11 +103,12 @@ Status VideoReader::to_mosaic(cv::Mat& mosaic) {
   const AVFrame* f = impl_->frame.ptr;
   // The decoder says what a picture is only once it has decoded one. H.264's decoder hands a grey
   // (4:0:0) picture out as 4:2:0 with blank chroma: its first plane is the grey picture.
-  const bool grey = f->format == AV_PIX_FMT_GRAY8 || f->format == AV_PIX_FMT_YUV420P || f->format == AV_PIX_FMT_YUVJ420P;
-  if (!grey || f->height % 4 != 0 || f->width <= 0)
-    return Error{fmt::format("{}: a raw video's pictures must be 8-bit grey with four planes stacked",
-                             path_.string())};
-  const cv::Mat planes(f->height, f->width, CV_8UC1, f->data[0], std::size_t(f->linesize[0]));
+  const bool grey8 = f->format == AV_PIX_FMT_GRAY8 || f->format == AV_PIX_FMT_YUV420P || f->format == AV_PIX_FMT_YUVJ420P;
+  const bool grey16 = f->format == AV_PIX_FMT_GRAY16LE;
+  if (!(bit_depth_ > 8 ? grey16 : grey8) || f->height % 4 != 0 || f->width <= 0)
+    return Error{fmt::format("{}: a raw video's pictures must be {}-bit grey with four planes stacked",
+                             path_.string(), bit_depth_ > 8 ? 16 : 8)};
+  const cv::Mat planes(f->height, f->width, grey16 ? CV_16UC1 : CV_8UC1, f->data[0], std::size_t(f->linesize[0]));
   unpack_bayer_planes(planes, mosaic);
   return {};
 }
@@ -112,8 +118,11 @@ Status VideoReader::to_bgr(cv::Mat& bgr) {
   if (raw()) {
     if (Status s = to_mosaic(im.mosaic); !s.ok()) return s;
     bgr = im.images.acquire(im.mosaic.rows, im.mosaic.cols, CV_8UC3);
-    if (Status s = debayer(im.mosaic, bayer_format_, demosaic_, bgr); !s.ok())
+    cv::Mat& colour = bit_depth_ > 8 ? im.bgr16 : bgr;
+    if (Status s = debayer(im.mosaic, bayer_format_, demosaic_, colour); !s.ok())
       return Error{fmt::format("{}: {}", path_.string(), s.error().message)};
+    // Colour images are 8-bit: the top 8 of the sensor's bits (the mosaic keeps them all).
+    if (bit_depth_ > 8) im.bgr16.convertTo(bgr, CV_8U, 1.0 / double(1 << (bit_depth_ - 8)));
     return {};
   }
   bgr = im.images.acquire(im.frame.ptr->height, im.frame.ptr->width, CV_8UC3);

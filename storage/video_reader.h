@@ -32,7 +32,8 @@ class VideoReader {
   // otherwise seeks to the key frame before it (at most one GOP to decode). False when the
   // file holds no such frame.
   Result<bool> read_at(std::int64_t pts_ms, cv::Mat& bgr, std::int64_t tolerance_ms = 1);
-  // The same frame as the sensor's mosaic (CV_8UC1), exactly as captured. An Error for a colour video.
+  // The same frame as the sensor's mosaic (CV_8UC1; CV_16UC1 above 8 bits), exactly as captured. An
+  // Error for a colour video. (Colour images are always 8-bit: a deeper mosaic's top 8 bits.)
   Result<bool> read_raw_at(std::int64_t pts_ms, cv::Mat& mosaic, std::int64_t tolerance_ms = 1);
   // How raw videos become colour (bilinear unless set; colour videos ignore it).
   void set_demosaic(Demosaic method) { demosaic_ = method; }
@@ -42,6 +43,7 @@ class VideoReader {
   // A raw video's Bayer pattern ("BayerRG8"); empty for a colour video.
   const std::string& bayer_format() const { return bayer_format_; }
   bool raw() const { return !bayer_format_.empty(); }
+  int bit_depth() const { return bit_depth_; }  // a raw video's bits per sample
 
  private:
   VideoReader() = default;
@@ -54,6 +56,7 @@ class VideoReader {
   std::filesystem::path path_;
   std::int64_t last_pts_ms_ = INT64_MIN;  // of the frame next() returned last
   std::string bayer_format_;
+  int bit_depth_ = 8;
   Demosaic demosaic_ = Demosaic::Bilinear;
 };
 

@@ -47,6 +47,12 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   const AVPixelFormat pix = av_get_pix_fmt(s.stored_pixel_format().c_str());
   if (pix == AV_PIX_FMT_NONE)
     return Error{fmt::format("{}: unknown pixel format '{}' (store.video_pixel_format)", where, s.pixel_format)};
+  if (s.raw() && s.bit_depth > 8 && codec_name == "libx264")
+    return Error{fmt::format("{}: libx264 keeps at most 10 bits; a {}-bit {} mosaic needs store.raw_codec ffvhuff or "
+                             "ffv1",
+                             where, s.bit_depth, s.bayer_format)};
+  if (s.raw() && (s.bit_depth < 8 || s.bit_depth > 16))
+    return Error{fmt::format("{}: a raw video of {} bits per sample is not possible", where, s.bit_depth)};
   if (s.raw() && (s.width % 2 != 0 || s.height % 2 != 0))
     return Error{fmt::format("{}: a {} mosaic of {}x{} has no whole 2x2 cells; raw video needs an even width and "
                              "height (or store.video_mode: color)",
@@ -87,7 +93,7 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
     // The file says what it holds, so a raw video is readable without the index.
     av_dict_set(&im.stream->metadata, "PVCAP_LAYOUT", kBayerPlanesLayout, 0);
     av_dict_set(&im.stream->metadata, "PVCAP_BAYER_FORMAT", s.bayer_format.c_str(), 0);
-    av_dict_set(&im.stream->metadata, "PVCAP_BIT_DEPTH", "8", 0);
+    av_dict_set(&im.stream->metadata, "PVCAP_BIT_DEPTH", std::to_string(s.bit_depth).c_str(), 0);
     av_dict_set(&im.stream->metadata, "PVCAP_SIZE", fmt::format("{}x{}", s.width, s.height).c_str(), 0);
   }
   im.stream->time_base = {1, 1000};
@@ -110,6 +116,7 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   if ((rc = av_frame_get_buffer(im.frame.ptr, 0)) < 0) return Error{fmt::format("{}: {}", where, av::error(rc))};
   im.packet.ptr = av_packet_alloc();
   w->raw_ = s.raw();
+  w->input_type_ = !s.raw() ? CV_8UC3 : s.bit_depth > 8 ? CV_16UC1 : CV_8UC1;
   w->width_ = s.width;
   w->height_ = s.height;
   if (s.raw()) return w;
@@ -139,9 +146,11 @@ Status VideoWriter::encode(bool flush) {
 Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us) {
   Impl& im = *impl_;
   if (closed_) return Error{fmt::format("{}: write after close", path_.string())};
-  if (bgr.type() != (raw_ ? CV_8UC1 : CV_8UC3) || bgr.cols != width_ || bgr.rows != height_)
-    return Error{fmt::format("{}: frame is {}x{} with {} channel(s), the video takes {}x{} {}", path_.string(),
-                             bgr.cols, bgr.rows, bgr.channels(), width_, height_, raw_ ? "mosaics" : "BGR images")};
+  if (bgr.type() != input_type_ || bgr.cols != width_ || bgr.rows != height_)
+    return Error{fmt::format("{}: frame is {}x{} of type {}, the video takes {}x{} {}", path_.string(), bgr.cols,
+                             bgr.rows, cv::typeToString(bgr.type()), width_, height_,
+                             !raw_ ? "BGR images (CV_8UC3)"
+                                   : input_type_ == CV_16UC1 ? "16-bit mosaics (CV_16UC1)" : "mosaics (CV_8UC1)")};
   // The container keeps milliseconds: round to them here (so the stored timestamp is exactly
   // last_pts_ms()), and keep them strictly increasing (frames that arrived in a burst).
   std::int64_t pts_ms = (pts_us + (pts_us >= 0 ? 500 : -500)) / 1000;
@@ -153,7 +162,7 @@ Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us)
   const std::uint8_t* src[1] = {bgr.data};
   const int src_stride[1] = {int(bgr.step[0])};
   if (raw_) {
-    cv::Mat planes(im.enc.ptr->height, im.enc.ptr->width, CV_8UC1, im.frame.ptr->data[0],
+    cv::Mat planes(im.enc.ptr->height, im.enc.ptr->width, input_type_, im.frame.ptr->data[0],
                    std::size_t(im.frame.ptr->linesize[0]));
     pack_bayer_planes(bgr, planes);
   } else if (im.enc.ptr->pix_fmt == AV_PIX_FMT_YUV444P) {

@@ -21,6 +21,7 @@ struct VideoSettings {
   // layout, pattern and bit depth are written into the file's tags. Empty: colour mode (BGR in,
   // `codec` with `crf`, `preset` and `pixel_format`).
   std::string bayer_format;
+  int bit_depth = 8;  // raw mode: bits per sample; above 8 the mosaic comes in CV_16UC1 (stored as 16-bit grey)
   std::string raw_codec = "ffvhuff";
   std::string codec = "libx264";
   int crf = 10;
@@ -33,7 +34,7 @@ struct VideoSettings {
   bool raw() const { return !bayer_format.empty(); }
   // What the file's codec is and holds, as the index records it.
   std::string stored_codec() const { return raw() ? raw_codec : codec; }
-  std::string stored_pixel_format() const { return raw() ? "gray" : pixel_format; }
+  std::string stored_pixel_format() const { return raw() ? (bit_depth > 8 ? "gray16le" : "gray") : pixel_format; }
 };
 
 class VideoWriter {
@@ -44,7 +45,7 @@ class VideoWriter {
   VideoWriter& operator=(const VideoWriter&) = delete;
 
   // Encodes one frame at `pts_us` (µs from the session start): BGR (CV_8UC3) in colour mode, the
-  // mosaic (CV_8UC1) in raw mode, of the configured size. Returns its 0-based index in the file.
+  // mosaic (CV_8UC1, or CV_16UC1 above 8 bits) in raw mode, of the configured size. Returns its 0-based index in the file.
   Result<std::int64_t> write(const cv::Mat& image, std::int64_t pts_us);
   // Flushes the encoder and writes the trailer. Safe to call twice.
   Status close();
@@ -64,6 +65,7 @@ class VideoWriter {
   std::int64_t last_pts_ms_ = 0;
   bool closed_ = false;
   bool raw_ = false;
+  int input_type_ = 0;  // what write() takes
   int width_ = 0, height_ = 0;
 };
 

