@@ -359,7 +359,8 @@ RecordingStatus Recording::status() const {
   const std::int64_t now = host_now().ns;
   if (writer_) st.session_dir = writer_->dir().string();
   if (rec_start_) st.elapsed_s = double(now - rec_start_) / 1e9;
-  auto since = [&](std::int64_t t) { return t > 0 ? double(now - t) / 1e6 : -1.0; };
+  // A frame stamped after `now` was read (it arrived meanwhile) is 0 ms old, not "none yet" (-1).
+  auto since = [&](std::int64_t t) { return t > 0 ? std::max(0.0, double(now - t) / 1e6) : -1.0; };
   std::lock_guard lock(mu_);
   rate_marks_.resize(cameras_.size() + (sensel_ ? 1 : 0));
   rates_.resize(rate_marks_.size(), 0.0);
