@@ -16,6 +16,7 @@
 #include "app/cmd_devices.h"
 #include "app/cmd_eval_sync.h"
 #include "app/cmd_export.h"
+#include "app/cmd_replay.h"
 #include "app/cmd_report.h"
 #include "app/cmd_sensel_decode.h"
 #include "app/cmd_session.h"
@@ -133,6 +134,22 @@ int main(int argc, char** argv) {
   bool no_self_check = false;
   report->add_flag("--no-self-check", no_self_check, "leave out the sync self-check (it decodes frames around presses)");
 
+  auto* replay_cmd = app.add_subcommand("replay", "render a recorded session into a video: the camera views with the "
+                                                  "pressure overlaid through each calibration, the pressure image, "
+                                                  "the take, hand, force and time");
+  pvcap::ReplayCommand replay_opts;
+  std::string replay_take;
+  double replay_from = -1, replay_to = -1;
+  replay_cmd->add_option("SESSION", replay_opts.session, "a session folder")->required()->check(CLI::ExistingDirectory);
+  replay_cmd->add_option("--out", replay_opts.options.out, "the video to write (.mp4, or .mkv)")->required();
+  replay_cmd->add_option("--take", replay_take, "only this take (its name, as `pvcap takes` lists it)");
+  replay_cmd->add_option("--from", replay_from, "from this many seconds after the session's start");
+  replay_cmd->add_option("--to", replay_to, "up to this many seconds after the session's start");
+  replay_cmd->add_option("--speed", replay_opts.options.speed, "playback speed (2: twice as fast; default 1)")
+      ->check(CLI::PositiveNumber);
+  replay_cmd->add_option("--pressure-max", replay_opts.options.pressure_full_scale_kpa,
+                         "pressure at the colour map's top, kPa (default 60)")
+      ->check(CLI::PositiveNumber);
   auto* export_cmd = app.add_subcommand("export", "write sessions in the PressureVisionDB layout (the released loaders "
                                                   "read them unchanged); one independent job per session");
   pvcap::ExportCommand export_opts;
@@ -333,6 +350,12 @@ int main(int argc, char** argv) {
     if (*report) {
       report_cmd.self_check = !no_self_check;
       return pvcap::cmd_report(report_cmd);
+    }
+    if (*replay_cmd) {
+      if (!replay_take.empty()) replay_opts.options.take = replay_take;
+      if (replay_from >= 0) replay_opts.options.from_s = replay_from;
+      if (replay_to >= 0) replay_opts.options.to_s = replay_to;
+      return pvcap::cmd_replay(replay_opts, g_stop);
     }
     if (*export_cmd) {
       auto& o = export_opts.options;

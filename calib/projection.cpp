@@ -38,6 +38,14 @@ cv::Mat PressureProjector::project(const cv::Mat& pressure) const {
   return out;
 }
 
+PressureProjector PressureProjector::scaled(cv::Size view) const {
+  PressureProjector out;
+  // Linear resampling of a smooth map; where it mixes in the off-pad marker the result stays far
+  // off the pad, so the view shows no pressure there either.
+  cv::resize(map_, out.map_, view, 0, 0, cv::INTER_LINEAR);
+  return out;
+}
+
 cv::Mat pixel_area_mm2(const cv::Matx33d& cells_to_image, cv::Size size, const PadLayout& pad) {
   // The inverse map g = H^-1 (image -> cells) has Jacobian determinant det(g) / w^3, w its third row.
   const cv::Matx33d g = cells_to_image.inv();

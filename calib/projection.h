@@ -23,8 +23,12 @@ class PressureProjector {
  public:
   PressureProjector(const CameraModel& camera, const PadLayout& pad);
   cv::Mat project(const cv::Mat& pressure) const;  // CV_32F of the camera's image size
+  // The same projection for the image shown at another size (a scaled view): each view pixel takes
+  // the ray of the image point at its centre.
+  PressureProjector scaled(cv::Size view) const;
 
  private:
+  PressureProjector() = default;
   cv::Mat map_;  // CV_32FC2: image pixel -> pressure-image coordinates (outside: -1e6)
 };
 

@@ -13,14 +13,15 @@ const char* to_string(Demosaic d) {
     case Demosaic::Bilinear: return "bilinear";
     case Demosaic::EdgeAware: return "edge-aware";
     case Demosaic::Vng: return "vng";
+    case Demosaic::HalfSize: return "half-size";
   }
   return "?";
 }
 
 Result<Demosaic> parse_demosaic(const std::string& name) {
-  for (Demosaic d : {Demosaic::Bilinear, Demosaic::EdgeAware, Demosaic::Vng})
+  for (Demosaic d : {Demosaic::Bilinear, Demosaic::EdgeAware, Demosaic::Vng, Demosaic::HalfSize})
     if (name == to_string(d)) return d;
-  return Error{fmt::format("demosaicing '{}' is not one of bilinear, edge-aware, vng", name)};
+  return Error{fmt::format("demosaicing '{}' is not one of bilinear, edge-aware, vng, half-size", name)};
 }
 
 namespace {
@@ -39,7 +40,37 @@ int opencv_bayer_code(const std::string& pattern, Demosaic method) {
 }
 }  // namespace
 
+Status half_size_from_planes(const cv::Mat planes[4], const std::string& bayer_format, cv::Mat& bgr) {
+  // Where R and B sit in the 2x2 cell (the G are the other two), by PFNC's pattern name.
+  const std::string pattern = bayer_format.rfind("Bayer", 0) == 0 && bayer_format.size() >= 7 ? bayer_format.substr(5, 2) : "";
+  int r = -1, b = -1;
+  if (pattern == "RG") r = 0, b = 3;
+  else if (pattern == "BG") r = 3, b = 0;
+  else if (pattern == "GR") r = 1, b = 2;
+  else if (pattern == "GB") r = 2, b = 1;
+  else return Error{fmt::format("'{}' is not a Bayer pattern pvcap knows", bayer_format)};
+  int g[2], n = 0;
+  for (int k = 0; k < 4; ++k)
+    if (k != r && k != b) g[n++] = k;
+  cv::Mat green;
+  cv::addWeighted(planes[g[0]], 0.5, planes[g[1]], 0.5, 0, green);
+  const cv::Mat bgr_planes[3] = {planes[b], green, planes[r]};
+  cv::merge(bgr_planes, 3, bgr);
+  return {};
+}
+
 Status debayer(const cv::Mat& mosaic, const std::string& bayer_format, Demosaic method, cv::Mat& bgr) {
+  if (method == Demosaic::HalfSize) {
+    if (mosaic.channels() != 1 || mosaic.cols % 2 || mosaic.rows % 2)
+      return Error{fmt::format("a {} mosaic has one channel and an even size", bayer_format)};
+    cv::Mat planes[4], top[2], bottom[2];
+    const int pair = CV_MAKETYPE(mosaic.depth(), 2);
+    cv::split(cv::Mat(mosaic.rows / 2, mosaic.cols / 2, pair, const_cast<uchar*>(mosaic.ptr(0)), mosaic.step[0] * 2), top);
+    cv::split(cv::Mat(mosaic.rows / 2, mosaic.cols / 2, pair, const_cast<uchar*>(mosaic.ptr(1)), mosaic.step[0] * 2),
+              bottom);
+    planes[0] = top[0], planes[1] = top[1], planes[2] = bottom[0], planes[3] = bottom[1];
+    return half_size_from_planes(planes, bayer_format, bgr);
+  }
   const int code = bayer_format.rfind("Bayer", 0) == 0 && bayer_format.size() >= 7
                        ? opencv_bayer_code(bayer_format.substr(5, 2), method)
                        : -1;

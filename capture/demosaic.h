@@ -11,8 +11,9 @@
 namespace pvcap {
 
 // How a Bayer mosaic becomes colour: OpenCV's bilinear (the capture path's and the default),
-// its edge-aware variant, or VNG (8-bit only).
-enum class Demosaic { Bilinear, EdgeAware, Vng };
+// its edge-aware variant, VNG (8-bit only), or half size: each 2x2 cell one pixel (its R, the mean
+// of its two G, its B), no interpolation at all: a W/2 x H/2 image, for previews and replays.
+enum class Demosaic { Bilinear, EdgeAware, Vng, HalfSize };
 const char* to_string(Demosaic d);
 // "bilinear", "edge-aware", "vng"; an Error naming the choices otherwise.
 Result<Demosaic> parse_demosaic(const std::string& name);
@@ -20,5 +21,8 @@ Result<Demosaic> parse_demosaic(const std::string& name);
 // Demosaics `mosaic` (CV_8UC1 or CV_16UC1, one Bayer pattern named as PFNC names it, e.g. "BayerRG8")
 // into `bgr` (CV_8UC3 or CV_16UC3).
 Status debayer(const cv::Mat& mosaic, const std::string& bayer_format, Demosaic method, cv::Mat& bgr);
+// Demosaic::HalfSize from the cell's four planes (top-left, top-right, bottom-left, bottom-right),
+// each W/2 x H/2: what a raw video already holds, so it needs no splitting.
+Status half_size_from_planes(const cv::Mat planes[4], const std::string& bayer_format, cv::Mat& bgr);
 
 }  // namespace pvcap

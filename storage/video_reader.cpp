@@ -10,6 +10,7 @@ extern "C" {
 #include <cstdlib>
 
 #include <fmt/format.h>
+#include <opencv2/imgproc.hpp>
 
 #include "core/frame_pool.h"
 #include "storage/av_handles.h"
@@ -115,6 +116,18 @@ Status VideoReader::to_mosaic(cv::Mat& mosaic) {
 
 Status VideoReader::to_bgr(cv::Mat& bgr) {
   Impl& im = *impl_;
+  if (raw() && demosaic_ == Demosaic::HalfSize && bit_depth_ == 8 && im.frame.ptr->format == AV_PIX_FMT_GRAY8) {
+    // The decoded picture already holds the four planes: no mosaic in between.
+    const AVFrame* f = im.frame.ptr;
+    const int h = f->height / 4;
+    const cv::Mat stacked(f->height, f->width, CV_8UC1, f->data[0], std::size_t(f->linesize[0]));
+    const cv::Mat planes[4] = {stacked.rowRange(0, h), stacked.rowRange(h, 2 * h), stacked.rowRange(2 * h, 3 * h),
+                               stacked.rowRange(3 * h, 4 * h)};
+    bgr = im.images.acquire(h, f->width, CV_8UC3);
+    if (Status s = half_size_from_planes(planes, bayer_format_, bgr); !s.ok())
+      return Error{fmt::format("{}: {}", path_.string(), s.error().message)};
+    return {};
+  }
   if (raw()) {
     if (Status s = to_mosaic(im.mosaic); !s.ok()) return s;
     bgr = im.images.acquire(im.mosaic.rows, im.mosaic.cols, CV_8UC3);
@@ -126,6 +139,13 @@ Status VideoReader::to_bgr(cv::Mat& bgr) {
     return {};
   }
   bgr = im.images.acquire(im.frame.ptr->height, im.frame.ptr->width, CV_8UC3);
+  if (demosaic_ == Demosaic::HalfSize) {  // a colour video asked for half size: converted, then halved
+    demosaic_ = Demosaic::Bilinear;
+    Status s = to_bgr(bgr);
+    demosaic_ = Demosaic::HalfSize;
+    if (s.ok()) cv::resize(cv::Mat(bgr), bgr, {}, 0.5, 0.5, cv::INTER_AREA);
+    return s;
+  }
   if (im.frame.ptr->format == AV_PIX_FMT_YUV444P && im.frame.ptr->color_range != AVCOL_RANGE_JPEG &&
       im.frame.ptr->colorspace != AVCOL_SPC_BT709) {
     // The store's default format, converted here (faster than swscale for this pair): the inverse of

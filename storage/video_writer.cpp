@@ -59,8 +59,8 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
                              where, s.bayer_format, s.width, s.height)};
   // In raw mode the codec sees the four planes stacked: half the width, twice the height.
   const cv::Size coded = s.raw() ? bayer_planes_size({s.width, s.height}) : cv::Size(s.width, s.height);
-  int rc = avformat_alloc_output_context2(&im.fmt.ptr, nullptr, "matroska", path.c_str());
-  if (rc < 0) return Error{fmt::format("{}: cannot create a Matroska file: {}", where, av::error(rc))};
+  int rc = avformat_alloc_output_context2(&im.fmt.ptr, nullptr, s.container.c_str(), path.c_str());
+  if (rc < 0) return Error{fmt::format("{}: cannot create a {} file: {}", where, s.container, av::error(rc))};
   im.enc.ptr = avcodec_alloc_context3(codec);
   im.enc.ptr->width = coded.width;
   im.enc.ptr->height = coded.height;
@@ -103,7 +103,7 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   AVDictionary* mux = nullptr;
   // A cluster reaches the file when the next one begins: closing one every half second keeps what a
   // crash can take (the open cluster plus the frames still queued) under a second.
-  av_dict_set(&mux, "cluster_time_limit", "500", 0);
+  if (s.container == "matroska") av_dict_set(&mux, "cluster_time_limit", "500", 0);
   im.fmt.ptr->flags |= AVFMT_FLAG_FLUSH_PACKETS;
   rc = avformat_write_header(im.fmt.ptr, &mux);
   av_dict_free(&mux);

@@ -30,6 +30,7 @@ struct VideoSettings {
   int gop_frames = 15;       // at most this many frames between key frames
   double nominal_fps = 15;   // rate-control hint only; timestamps are real
   int threads = 1;           // per encoder; cameras already run in parallel
+  std::string container = "matroska";  // FFmpeg's muxer name ("mp4" for a rendered replay)
   int width = 0, height = 0;  // the camera's image (in raw mode the mosaic, not the stacked planes)
   bool raw() const { return !bayer_format.empty(); }
   // What the file's codec is and holds, as the index records it.
