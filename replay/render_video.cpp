@@ -1,7 +1,11 @@
 #include "replay/render_video.h"
 
 #include <chrono>
-#include <future>
+#include <condition_variable>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -10,6 +14,55 @@
 #include "storage/video_writer.h"
 
 namespace pvcap::replay {
+
+namespace {
+// One camera's images of samples [first, end), decoded ahead on a thread and a reader of its own
+// (at most `depth` waiting): four of these keep both cores busy while the pictures are composed
+// and encoded.
+class CameraPrefetch {
+ public:
+  CameraPrefetch(const std::filesystem::path& dir, std::size_t camera, std::size_t first, std::size_t end,
+                 std::size_t depth)
+      : depth_(depth), thread_([=, this] { run(dir, camera, first, end); }) {}
+  ~CameraPrefetch() {
+    {
+      std::lock_guard lock(mu_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  // The next sample's image (empty: that frame was not stored), waiting for it.
+  Result<cv::Mat> next() {
+    std::unique_lock lock(mu_);
+    cv_.wait(lock, [&] { return !queue_.empty(); });
+    Result<cv::Mat> r = std::move(queue_.front());
+    queue_.pop_front();
+    cv_.notify_all();
+    return r;
+  }
+
+ private:
+  void run(const std::filesystem::path& dir, std::size_t camera, std::size_t first, std::size_t end) {
+    auto reader = SessionReader::open(dir);
+    if (reader) reader.value()->set_demosaic(Demosaic::HalfSize);
+    for (std::size_t i = first; i < end; ++i) {
+      Result<cv::Mat> image = reader ? reader.value()->image(i, camera) : Result<cv::Mat>(reader.error());
+      std::unique_lock lock(mu_);
+      cv_.wait(lock, [&] { return stop_ || queue_.size() < depth_; });
+      if (stop_) return;
+      queue_.push_back(std::move(image));
+      cv_.notify_all();
+    }
+  }
+  std::size_t depth_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<Result<cv::Mat>> queue_;
+  bool stop_ = false;
+  std::thread thread_;  // last: starts once the members above exist
+};
+}  // namespace
 
 Result<RenderResult> render_replay(const std::filesystem::path& session, const RenderOptions& o,
                                    const std::function<void(std::size_t, std::size_t)>& progress,
@@ -60,7 +113,7 @@ Result<RenderResult> render_replay(const std::filesystem::path& session, const R
   vs.height = Layout::kHeight;
   vs.nominal_fps = 15 * o.speed;
   vs.gop_frames = 30;
-  vs.threads = 1;  // the other core composes the next picture meanwhile
+  vs.threads = 1;  // the cameras decode ahead on the other threads meanwhile
   const std::filesystem::path tmp = o.out.parent_path() / (".tmp-" + o.out.filename().string());
   auto writer = VideoWriter::open(tmp, vs);
   if (!writer) return writer.error();
@@ -72,22 +125,24 @@ Result<RenderResult> render_replay(const std::filesystem::path& session, const R
   };
 
   RenderResult r;
-  // Picture i+1 is composed (decoding, overlays) while picture i is encoded.
-  auto compose = [&](std::size_t i) { return composer.value().compose(i); };
-  std::future<Result<cv::Mat>> next = std::async(std::launch::async, compose, first);
+  std::vector<std::unique_ptr<CameraPrefetch>> cameras;
+  for (std::size_t c = 0; c < reader.cameras().size() && c < 4; ++c)
+    cameras.push_back(std::make_unique<CameraPrefetch>(session, c, first, end, 6));
   std::int64_t last_t = t_first.value();
   for (std::size_t i = first; i < end; ++i) {
-    Result<cv::Mat> picture = next.get();
-    if (!picture) return fail(picture.error());
+    std::vector<cv::Mat> images;
+    for (auto& camera : cameras) {
+      auto image = camera->next();
+      if (!image) return fail(image.error());
+      images.push_back(std::move(image.value()));
+    }
     if (stop && stop->load()) return fail(Error{fmt::format("{}: stopped; nothing written", o.out.string())});
+    auto picture = composer.value().compose(i, std::move(images));
+    if (!picture) return fail(picture.error());
     auto t = sample_t(i);
     if (!t) return fail(t.error());
-    if (i + 1 < end) next = std::async(std::launch::async, compose, i + 1);
     const std::int64_t pts_us = std::int64_t(double(t.value() - t_first.value()) / o.speed / 1000.0);
-    if (auto w = writer.value()->write(picture.value(), pts_us); !w) {
-      if (next.valid()) next.wait();
-      return fail(w.error());
-    }
+    if (auto w = writer.value()->write(picture.value(), pts_us); !w) return fail(w.error());
     last_t = t.value();
     ++r.frames;
     if (progress) progress(i + 1 - first, end - first);

@@ -45,12 +45,7 @@ Result<ReplayComposer> ReplayComposer::open(SessionReader& reader, const std::fi
   // A view is a third of a 1080p image across: the half-size image (each Bayer cell one pixel, no
   // interpolation) has more than it shows, at a fraction of a full demosaic's cost.
   reader.set_demosaic(Demosaic::HalfSize);
-  for (std::size_t k = 0; k < reader.cameras().size() && k < 4; ++k) {
-    auto r = SessionReader::open(dir);
-    if (!r) return r.error();
-    r.value()->set_demosaic(Demosaic::HalfSize);
-    c.camera_readers_.push_back(std::move(r.value()));
-  }
+  c.dir_ = dir;
   auto cal = report::pad_calibrations(reader);
   if (!cal) return cal.error();
   const calib::PadLayout pad = calib::default_pad_layout();
@@ -59,7 +54,7 @@ Result<ReplayComposer> ReplayComposer::open(SessionReader& reader, const std::fi
     const CameraInfo& info = reader.cameras()[k];
     if (cc && cc->model.image_size == cv::Size(info.width, info.height))
       c.projectors_.emplace_back(
-          calib::PressureProjector(cc->model, pad).scaled({Layout::kViewWidth, Layout::kViewHeight}));
+          calib::PressureProjector(cc->model, pad).scaled(Layout::fitted(cc->model.image_size).size()));
     else
       c.projectors_.emplace_back(std::nullopt);
   }
@@ -93,6 +88,28 @@ Result<std::pair<std::size_t, std::size_t>> ReplayComposer::take_samples(const s
 }
 
 Result<cv::Mat> ReplayComposer::compose(std::size_t i) {
+  for (std::size_t k = camera_readers_.size(); k < reader_->cameras().size() && k < 4; ++k) {  // on first use
+    auto r = SessionReader::open(dir_);
+    if (!r) return r.error();
+    r.value()->set_demosaic(Demosaic::HalfSize);
+    camera_readers_.push_back(std::move(r.value()));
+  }
+  // Every camera's frame decoded on its own reader, in parallel.
+  std::vector<cv::Mat> images(camera_readers_.size());
+  std::vector<std::string> errors(camera_readers_.size());
+  cv::parallel_for_(cv::Range(0, int(camera_readers_.size())), [&](const cv::Range& range) {
+    for (int c = range.start; c < range.end; ++c) {
+      auto image = camera_readers_[std::size_t(c)]->image(i, std::size_t(c));
+      if (image) images[std::size_t(c)] = std::move(image.value());
+      else errors[std::size_t(c)] = image.error().message;
+    }
+  });
+  for (const auto& e : errors)
+    if (!e.empty()) return Error{e};
+  return compose(i, std::move(images));
+}
+
+Result<cv::Mat> ReplayComposer::compose(std::size_t i, std::vector<cv::Mat> images) {
   auto info = reader_->sample_info(i);
   if (!info) return info.error();
   Sample s;
@@ -102,18 +119,7 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i) {
     if (!p) return p.error();
     s.pressure = std::move(p.value());
   }
-  // Every camera's frame decoded on its own reader, in parallel.
-  s.images.resize(camera_readers_.size());
-  std::vector<std::string> errors(camera_readers_.size());
-  cv::parallel_for_(cv::Range(0, int(camera_readers_.size())), [&](const cv::Range& range) {
-    for (int c = range.start; c < range.end; ++c) {
-      auto image = camera_readers_[std::size_t(c)]->image(i, std::size_t(c));
-      if (image) s.images[std::size_t(c)] = std::move(image.value());
-      else errors[std::size_t(c)] = image.error().message;
-    }
-  });
-  for (const auto& e : errors)
-    if (!e.empty()) return Error{e};
+  s.images = std::move(images);
   cv::Mat canvas(Layout::kHeight, Layout::kWidth, CV_8UC3, kBackground);
   const cv::Mat kpa = s.pressure ? pressure_kpa(*s.pressure) : cv::Mat();
   for (std::size_t c = 0; c < reader_->cameras().size() && c < 4; ++c) {
@@ -126,10 +132,12 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i) {
       text(tile, name + ": " + why, {20, Layout::kViewHeight / 2}, 0.7, kDim);
       continue;
     }
+    const CameraInfo& info = reader_->cameras()[c];
+    const cv::Rect fit = Layout::fitted({info.width, info.height});
     cv::Mat view;
-    cv::resize(s.images[c], view, tile.size(), 0, 0, cv::INTER_LINEAR);  // from half size: a small step down
+    cv::resize(s.images[c], view, fit.size(), 0, 0, cv::INTER_LINEAR);  // from half size: a small step down
     if (!kpa.empty() && projectors_[c]) view = calib::overlay_pressure(view, projectors_[c]->project(kpa), full_scale_kpa_);
-    view.copyTo(tile);
+    view.copyTo(tile(fit));
     const std::string label = name + (projectors_[c] ? "" : " (no calibration: no overlay)");
     int base = 0;
     const cv::Size size = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, 0.6, 1, &base);

@@ -4,6 +4,8 @@
 // transparent where there is none), and a panel with the pressure image itself and what was
 // happening: the take's action, hand, force level, repetitions, status, and the time. What the
 // replay window shows and what `pvcap replay --out` renders, the same picture.
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <filesystem>
 #include <memory>
@@ -24,9 +26,16 @@ struct Layout {
   static constexpr int kViewWidth = 640, kViewHeight = 360;  // each camera, 16:9
   static constexpr int kPanelWidth = 400;
   static constexpr int kWidth = 2 * kViewWidth + kPanelWidth, kHeight = 2 * kViewHeight;
-  // Camera c's view: row c / 2, column c % 2.
+  // Camera c's tile: row c / 2, column c % 2.
   static cv::Rect view(std::size_t camera) {
     return {int(camera % 2) * kViewWidth, int(camera / 2) * kViewHeight, kViewWidth, kViewHeight};
+  }
+  // Where an image of `image` size is shown in its tile: as large as fits, its aspect kept, centred
+  // (in tile coordinates).
+  static cv::Rect fitted(cv::Size image) {
+    const double s = std::min(double(kViewWidth) / image.width, double(kViewHeight) / image.height);
+    const int w = int(std::lround(image.width * s)), h = int(std::lround(image.height * s));
+    return {(kViewWidth - w) / 2, (kViewHeight - h) / 2, w, h};
   }
 };
 
@@ -47,6 +56,9 @@ class ReplayComposer {
 
   // The picture of sample i (Layout::kWidth x kHeight, BGR).
   Result<cv::Mat> compose(std::size_t i);
+  // The same with the cameras' images already read (cameras() order, half size; empty: not stored),
+  // as a renderer that decodes ahead on its own readers has them.
+  Result<cv::Mat> compose(std::size_t i, std::vector<cv::Mat> images);
   // The take sample i belongs to, if any.
   std::optional<TakeLabel> take_at(std::size_t i) const;
   // The samples of the take named `name` ([first, end)); an Error listing the takes otherwise.
@@ -57,6 +69,7 @@ class ReplayComposer {
  private:
   explicit ReplayComposer(SessionReader& reader) : reader_(&reader) {}
   SessionReader* reader_;
+  std::filesystem::path dir_;
   // One more reader per camera, so the cameras' frames decode in parallel (a reader is one thread's).
   std::vector<std::unique_ptr<SessionReader>> camera_readers_;
   double full_scale_kpa_ = 60;

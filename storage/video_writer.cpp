@@ -29,6 +29,7 @@ struct VideoWriter::Impl {  // members are freed in reverse: the scaler first, t
   av::Scaler sws;
   cv::Mat ycbcr;  // yuv444p: the converted image before it is split into the frame's planes
   bool header_written = false;
+  bool matroska = true;
 };
 
 Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::path& path, const VideoSettings& s) {
@@ -59,6 +60,7 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
                              where, s.bayer_format, s.width, s.height)};
   // In raw mode the codec sees the four planes stacked: half the width, twice the height.
   const cv::Size coded = s.raw() ? bayer_planes_size({s.width, s.height}) : cv::Size(s.width, s.height);
+  im.matroska = s.container == "matroska";
   int rc = avformat_alloc_output_context2(&im.fmt.ptr, nullptr, s.container.c_str(), path.c_str());
   if (rc < 0) return Error{fmt::format("{}: cannot create a {} file: {}", where, s.container, av::error(rc))};
   im.enc.ptr = avcodec_alloc_context3(codec);
@@ -133,6 +135,10 @@ Status VideoWriter::encode(bool flush) {
   int rc = avcodec_send_frame(im.enc.ptr, flush ? nullptr : im.frame.ptr);
   if (rc < 0 && rc != AVERROR_EOF) return Error{fmt::format("{}: encoder: {}", path_.string(), av::error(rc))};
   while ((rc = avcodec_receive_packet(im.enc.ptr, im.packet.ptr)) >= 0) {
+    // MP4 plays a frame for its duration and drops a last frame without one: give each the nominal
+    // frame time (Matroska files, the store's, need none: each frame's timestamp is what counts).
+    if (im.packet.ptr->duration == 0 && !im.matroska)
+      im.packet.ptr->duration = av_rescale_q(1, av_inv_q(im.enc.ptr->framerate), im.enc.ptr->time_base);
     av_packet_rescale_ts(im.packet.ptr, im.enc.ptr->time_base, im.stream->time_base);
     im.packet.ptr->stream_index = im.stream->index;
     rc = av_interleaved_write_frame(im.fmt.ptr, im.packet.ptr);

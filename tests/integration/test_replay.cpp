@@ -1,0 +1,153 @@
+// `pvcap replay --out` on a short simulated protocol session: the video has a picture per sample of
+// the take at the session's own timing, and in each camera's view the pressure overlay's hot pixels
+// lie where the simulator's truth put the press, projected through that camera's true lens.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <opencv2/imgproc.hpp>
+
+#include "replay/replay_composer.h"
+#include "sim/hand.h"
+#include "sim/truth.h"
+#include "storage/session_reader.h"
+#include "storage/video_reader.h"
+#include "tests/integration/session_under_test.h"
+
+namespace fs = std::filesystem;
+using pvcap::testing::run_pvcap;
+using pvcap::testing::sim_rig_yaml;
+using pvcap::testing::work_dir;
+using pvcap::testing::write_press_protocol;
+using pvcap::testing::write_truth_lenses;
+using Layout = pvcap::replay::Layout;
+
+namespace {
+fs::path only_session(const fs::path& root) {
+  for (const auto& e : fs::directory_iterator(root))
+    if (e.is_directory() && e.path().filename().string()[0] != '.') return e.path();
+  return {};
+}
+}  // namespace
+
+TEST(Replay, TheRenderedTakeShowsThePressWhereTheSimulatorPutIt) {
+  const fs::path work = work_dir("replay");
+  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}, {}, {}}, 640, 480, 30, 15, "free-run", /*sensel=*/true);
+  const auto session_run = run_pvcap(fmt::format(
+      "session --rig {} --root {} --protocol {} --auto --fast --participant R02 --skin-tone medium --no-web",
+      (work / "rig.yaml").string(), (work / "sessions").string(),
+      write_press_protocol(work, "[high]", 0.5, 0.4, 2.0, 0.3).string()));
+  ASSERT_EQ(session_run.exit_code, 0) << session_run.output;
+  const fs::path session = only_session(work / "sessions");
+  // The pad calibrated through the simulator's lenses (no board session needed here).
+  ASSERT_EQ(write_truth_lenses(session, work / "lenses.yaml"), "");
+  const auto pad = run_pvcap(fmt::format("calibrate pad {} --calibration {}", session.string(),
+                                         (work / "lenses.yaml").string()));
+  ASSERT_EQ(pad.exit_code, 0) << pad.output;
+
+  // The first take, rendered.
+  auto reader = pvcap::SessionReader::open(session);
+  ASSERT_TRUE(reader) << reader.error().message;
+  auto& r = *reader.value();
+  auto composer = pvcap::replay::ReplayComposer::open(r, session);
+  ASSERT_TRUE(composer) << composer.error().message;
+  for (std::size_t c = 0; c < 4; ++c) EXPECT_TRUE(composer.value().calibrated(c)) << c;
+  const std::string take = "press_index_finger_high_2x_right";
+  auto range = composer.value().take_samples(take);
+  ASSERT_TRUE(range) << range.error().message;
+  const auto [first, end] = range.value();
+  ASSERT_GT(end - first, 20u);
+  const fs::path out = work / "take.mp4";
+  const auto rendered = run_pvcap(fmt::format("replay {} --out {} --take {}", session.string(), out.string(), take));
+  ASSERT_EQ(rendered.exit_code, 0) << rendered.output;
+  std::printf("%s", rendered.output.c_str());
+  EXPECT_NE(rendered.output.find(fmt::format("{} frames", end - first)), std::string::npos) << rendered.output;
+
+  // Frame count and duration: a picture per sample, at the samples' own times.
+  auto video = pvcap::VideoReader::open(out);
+  ASSERT_TRUE(video) << video.error().message;
+  EXPECT_EQ(video.value()->width(), Layout::kWidth);
+  EXPECT_EQ(video.value()->height(), Layout::kHeight);
+  std::vector<cv::Mat> pictures;
+  std::vector<std::int64_t> pts;
+  for (;;) {
+    cv::Mat picture;
+    std::int64_t at = 0;
+    auto more = video.value()->next(picture, at);
+    ASSERT_TRUE(more) << more.error().message;
+    if (!more.value()) break;
+    pictures.push_back(picture.clone());
+    pts.push_back(at);
+  }
+  ASSERT_EQ(pictures.size(), end - first);
+  const std::int64_t t_first = r.sample_info(first).value().t_ns, t_last = r.sample_info(end - 1).value().t_ns;
+  EXPECT_NEAR(double(pts.back() - pts.front()), double(t_last - t_first) / 1e6, 2.0) << "duration in ms";
+
+  // The strongest press of the take, and where the simulated hand was pressing then (the truth).
+  std::size_t peak = first;
+  double peak_total = -1;
+  for (std::size_t i = first; i < end; ++i) {
+    auto s = r.sample(i);
+    ASSERT_TRUE(s);
+    if (!s.value().pressure) continue;
+    const double total = cv::sum(s.value().pressure_image)[0];
+    if (total > peak_total) peak_total = total, peak = i;
+  }
+  ASSERT_GT(peak_total, 0);
+  const std::int64_t t_peak = r.sample_info(peak).value().t_ns;
+  std::optional<pvcap::sim::HandCommand> press;
+  {
+    std::ifstream hand(session / "sim-truth" / "hand.csv");
+    std::string line;
+    while (std::getline(hand, line)) {
+      const auto comma = line.find(',');
+      if (comma == std::string::npos) continue;
+      auto c = pvcap::sim::HandCommand::parse(line.substr(comma + 1));
+      if (c && c->from_ns <= t_peak && c->mode == pvcap::sim::HandCommand::Mode::Press) press = c;
+    }
+  }
+  ASSERT_TRUE(press) << "no press command before the peak";
+  auto truth = pvcap::sim::read_rig_truth(session / "sim-truth");
+  ASSERT_TRUE(truth) << truth.error().message;
+
+  // In each view: the pixels the overlay changed (the rendering against the same image without it),
+  // their centroid against the truth's press projected through the camera's true lens.
+  r.set_demosaic(pvcap::Demosaic::HalfSize);
+  const cv::Mat& picture = pictures[peak - first];
+  for (std::size_t c = 0; c < 4; ++c) {
+    const auto& cam = r.cameras()[c];
+    const cv::Rect fit = Layout::fitted({cam.width, cam.height});
+    const cv::Rect where(Layout::view(c).tl() + fit.tl(), fit.size());
+    auto image = r.image(peak, c);
+    ASSERT_TRUE(image && !image.value().empty()) << c;
+    cv::Mat plain, diff, mask;
+    cv::resize(image.value(), plain, fit.size(), 0, 0, cv::INTER_LINEAR);
+    cv::absdiff(picture(where), plain, diff);
+    cv::transform(diff, mask, cv::Matx13f(1, 1, 1));
+    mask = mask > 90;
+    mask(cv::Rect(0, fit.height - 32, fit.width, 32)).setTo(0);  // the camera's name label
+    // The largest blob: the video's coding also changes a few pixels along the markers' sharp edges.
+    cv::Mat labels, stats, centroids;
+    const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids);
+    int best = 0;
+    for (int k = 1; k < n; ++k)
+      if (best == 0 || stats.at<int>(k, cv::CC_STAT_AREA) > stats.at<int>(best, cv::CC_STAT_AREA)) best = k;
+    ASSERT_GT(best, 0) << "camera " << c << ": no overlay found";
+    const int area = stats.at<int>(best, cv::CC_STAT_AREA);
+    ASSERT_GT(area, 20) << "camera " << c << ": no overlay found";
+    const cv::Point2d hot(centroids.at<double>(best, 0), centroids.at<double>(best, 1));
+    const auto* t = truth.value().camera(cam.name);
+    ASSERT_NE(t, nullptr);
+    const cv::Point2d px = t->model.project({press->x_mm, press->y_mm, 0.0});
+    const double scale = double(fit.width) / cam.width;
+    const cv::Point2d expected((px.x + 0.5) * scale - 0.5, (px.y + 0.5) * scale - 0.5);
+    const double off = cv::norm(hot - expected);
+    std::printf("%s: overlay centre (%.1f, %.1f), truth (%.1f, %.1f): %.2f view px (%d pixels hot)\n",
+                cam.name.c_str(), hot.x, hot.y, expected.x, expected.y, off, area);
+    EXPECT_LT(off, 4.0) << cam.name;
+  }
+  fs::remove_all(work);
+}
