@@ -34,7 +34,10 @@ PressureProjector::PressureProjector(const CameraModel& camera, const PadLayout&
 cv::Mat PressureProjector::project(const cv::Mat& pressure) const {
   CV_Assert(pressure.type() == CV_32F);
   cv::Mat out;
-  cv::remap(pressure, out, map_, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  if (!fixed_map_.empty())  // the off-pad marker saturates to -32768: still far outside the pressure image
+    cv::remap(pressure, out, fixed_map_, fixed_fraction_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  else
+    cv::remap(pressure, out, map_, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
   return out;
 }
 
@@ -43,6 +46,7 @@ PressureProjector PressureProjector::scaled(cv::Size view) const {
   // Linear resampling of a smooth map; where it mixes in the off-pad marker the result stays far
   // off the pad, so the view shows no pressure there either.
   cv::resize(map_, out.map_, view, 0, 0, cv::INTER_LINEAR);
+  cv::convertMaps(out.map_, cv::noArray(), out.fixed_map_, out.fixed_fraction_, CV_16SC2);
   return out;
 }
 
@@ -65,17 +69,20 @@ cv::Mat pixel_area_mm2(const cv::Matx33d& cells_to_image, cv::Size size, const P
 
 cv::Mat overlay_pressure(const cv::Mat& bgr, const cv::Mat& pressure, double full_scale, double opacity) {
   CV_Assert(bgr.type() == CV_8UC3 && pressure.type() == CV_32F && bgr.size() == pressure.size());
-  cv::Mat level;
-  pressure.convertTo(level, CV_8U, full_scale > 0 ? 255.0 / full_scale : 0.0);
-  cv::Mat colour;
-  cv::applyColorMap(level, colour, cv::COLORMAP_INFERNO);
   cv::Mat out = bgr.clone();
-  for (int y = 0; y < out.rows; ++y) {
-    const float* p = pressure.ptr<float>(y);
+  if (full_scale <= 0) return out;
+  // Only where there is pressure (a few fingertips: a small part of the image) is anything drawn.
+  const cv::Rect roi = cv::boundingRect(pressure > 0);
+  if (roi.empty()) return out;
+  cv::Mat level, colour;
+  pressure(roi).convertTo(level, CV_8U, 255.0 / full_scale);
+  cv::applyColorMap(level, colour, cv::COLORMAP_INFERNO);
+  for (int y = 0; y < roi.height; ++y) {
+    const float* p = pressure.ptr<float>(roi.y + y) + roi.x;
     const auto* c = colour.ptr<cv::Vec3b>(y);
-    auto* o = out.ptr<cv::Vec3b>(y);
-    for (int x = 0; x < out.cols; ++x) {
-      if (!(p[x] > 0) || full_scale <= 0) continue;
+    auto* o = out.ptr<cv::Vec3b>(roi.y + y) + roi.x;
+    for (int x = 0; x < roi.width; ++x) {
+      if (!(p[x] > 0)) continue;
       const double a = opacity * std::min(1.0, p[x] / (0.1 * full_scale));
       for (int k = 0; k < 3; ++k) o[x][k] = cv::saturate_cast<uchar>((1 - a) * o[x][k] + a * c[x][k]);
     }

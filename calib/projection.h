@@ -24,12 +24,14 @@ class PressureProjector {
   PressureProjector(const CameraModel& camera, const PadLayout& pad);
   cv::Mat project(const cv::Mat& pressure) const;  // CV_32F of the camera's image size
   // The same projection for the image shown at another size (a scaled view): each view pixel takes
-  // the ray of the image point at its centre.
+  // the ray of the image point at its centre. For display: its map is fixed-point (1/32 cell), which
+  // remaps about twice as fast.
   PressureProjector scaled(cv::Size view) const;
 
  private:
   PressureProjector() = default;
   cv::Mat map_;  // CV_32FC2: image pixel -> pressure-image coordinates (outside: -1e6)
+  cv::Mat fixed_map_, fixed_fraction_;  // scaled(): map_ as cv::convertMaps makes it, CV_16SC2 + CV_16UC1
 };
 
 // The area on the pad (mm^2) each image pixel covers under `cells_to_image` (CV_32F of `size`;
