@@ -26,10 +26,22 @@ void to_json(nlohmann::json& j, const MeasuredBy& m) {
        {"details", m.details}};
   if (m.rms_mm) j["rms_mm"] = *m.rms_mm;
 }
+namespace {
+// An integer field, `fallback` when absent. A number that is no integer (1e108) is an error, not a
+// conversion: nlohmann's would be undefined behaviour for a value out of the integer's range.
+std::int64_t integer_or(const nlohmann::json& j, const char* key, std::int64_t fallback) {
+  if (!j.contains(key)) return fallback;
+  const auto& v = j.at(key);
+  if (!v.is_number_integer())
+    throw nlohmann::json::type_error::create(302, fmt::format("'{}' must be an integer", key), &v);
+  return v.get<std::int64_t>();
+}
+}  // namespace
+
 void from_json(const nlohmann::json& j, MeasuredBy& m) {
   m.method = j.at("method").get<std::string>();
   m.session = j.value("session", "");
-  m.created_wall_ns = j.value("created_wall_ns", std::int64_t(0));
+  m.created_wall_ns = integer_or(j, "created_wall_ns", 0);
   m.rms_px = j.at("rms_px").get<double>();
   if (j.contains("rms_mm")) m.rms_mm = j.at("rms_mm").get<double>();
   m.details = j.value("details", nlohmann::json::object());
@@ -121,7 +133,7 @@ void to_json(nlohmann::json& j, const RigCalibration& c) {
 }
 
 void from_json(const nlohmann::json& j, RigCalibration& c) {
-  if (j.value("pvcap_calibration", 0) != 1)
+  if (!j.is_object() || integer_or(j, "pvcap_calibration", 0) != 1)
     throw nlohmann::json::other_error::create(501, "not a pvcap calibration file (no 'pvcap_calibration: 1')", &j);
   c.rig = j.value("rig", "");
   c.pad = j.at("pad_layout").get<PadLayout>();

@@ -217,18 +217,21 @@ void SessionWriter::encode_loop(Camera& cam) {
   std::optional<std::chrono::steady_clock::time_point> drain_started;
   auto next_progress = std::chrono::steady_clock::now();
   std::size_t drain_from = 0;
+  bool drain_from_disk = false;
   while (!queue.drained()) {
     auto item = queue.pop_for(std::chrono::milliseconds(100));
     if (const auto now = std::chrono::steady_clock::now(); queue.is_closed() && now >= next_progress) {
-      // The session has stopped and the encoder is still working through its backlog: say so.
-      const std::size_t left = queue.backlog();
+      // The session has stopped and the encoder works through its backlog: a real drain (frames on
+      // disk) is said, with progress; the few frames of the memory queue are not worth a line.
+      const std::size_t left = queue.backlog(), on_disk = queue.on_disk();
       if (!drain_started) {
         drain_started = now;
         drain_from = left;
+        drain_from_disk = on_disk > 0;
       }
-      if (left > 0)
-        spdlog::info("{}: encoding the frames still waiting: {} left of {} ({} on disk)", cam.name, left,
-                     drain_from, queue.on_disk());
+      if (on_disk > 0)
+        spdlog::info("{}: encoding the frames still waiting: {} left of {} ({} on disk)", cam.name, left, drain_from,
+                     on_disk);
       next_progress = now + std::chrono::seconds(2);
     }
     if (!item) continue;
@@ -279,7 +282,7 @@ void SessionWriter::encode_loop(Camera& cam) {
   }
   const double drain_s =
       drain_started ? std::chrono::duration<double>(std::chrono::steady_clock::now() - *drain_started).count() : 0;
-  if (drain_started && drain_from > 0)
+  if (drain_from_disk)
     spdlog::info("{}: {} waiting frames encoded in {:.1f} s after the stop", cam.name, drain_from, drain_s);
   // The spill in the store: how many frames waited on disk, and how long the end waited for them.
   if (const std::uint64_t spilled = queue.spilled_total(); spilled > 0)

@@ -380,6 +380,37 @@ TEST(SessionStore, OlderSchemasAreMigratedAfterABackup) {
   fs::remove_all(root);
 }
 
+// A version-3 store (before raw video: the same tables without the videos' layout columns, every
+// video in colour) is read as it is, without an upgrade: its images and pressure come back.
+TEST(SessionStore, AVersion3StoreIsReadWithoutAnUpgrade) {
+  const auto root = temp_root("v3");
+  const auto st = write_store(root, 1.0);
+  std::string expected_first;
+  {
+    auto r = SessionReader::open(st.dir);
+    ASSERT_TRUE(r);
+    auto s = r.value()->sample(3);
+    ASSERT_TRUE(s);
+    expected_first = fmt::format("{}", cv::sum(s.value().images[0])[0]);
+  }
+  {
+    sqlite::Database db(st.dir / "session.db", sqlite::Database::Mode::ReadWrite);
+    for (const char* column : {"layout", "bayer_format", "bit_depth"})
+      db.exec(fmt::format("ALTER TABLE video_files DROP COLUMN {}", column));
+    db.set_user_version(3);
+  }
+  auto r = SessionReader::open(st.dir);
+  ASSERT_TRUE(r) << r.error().message;
+  EXPECT_EQ(r.value()->info().schema_version, 3);
+  auto s = r.value()->sample(3);
+  ASSERT_TRUE(s) << s.error().message;
+  EXPECT_EQ(fmt::format("{}", cv::sum(s.value().images[0])[0]), expected_first);
+  EXPECT_TRUE(s.value().pressure);
+  auto raw = r.value()->raw_image(3, 0);
+  ASSERT_FALSE(raw) << "a colour video has no mosaic";
+  fs::remove_all(root);
+}
+
 // docs/store.md's Python example, run as written (extracted from the page) against a store: what it
 // prints must be what the C++ reader reads.
 TEST(SessionStore, ThePythonExampleInTheDocsReadsWhatTheReaderReads) {
