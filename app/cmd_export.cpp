@@ -1,6 +1,7 @@
 #include "app/cmd_export.h"
 
-#include <unistd.h>
+#include "app/progress_line.h"
+
 
 #include <chrono>
 #include <cstdio>
@@ -15,22 +16,14 @@ int cmd_export(const ExportCommand& c, const std::atomic<bool>& stop) {
   for (const auto& session : c.sessions) {
     exporting::ExportOptions o = c.options;
     const auto started = std::chrono::steady_clock::now();
-    const bool terminal = isatty(STDERR_FILENO) == 1;
-    int last_decile = -1;
-    // A rewritten line on a terminal; a line per tenth in a log (a cluster job's output).
+    ProgressLine bar;
     o.progress = [&](std::size_t done, std::size_t total) {
       const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       const double rate = s > 0 ? double(done) / s : 0;
       const double left = rate > 0 ? double(total - done) / rate : 0;
-      const std::string line = fmt::format("{}: {}/{} frames, {:.1f} frames/s, {:.0f} s left", session.filename().string(),
-                                           done, total, rate, left);
-      if (terminal) {
-        fmt::print(stderr, "\r{}\x1b[K{}", line, done >= total ? "\n" : "");
-        std::fflush(stderr);
-      } else if (const int decile = total ? int(10 * done / total) : 10; decile != last_decile) {
-        last_decile = decile;
-        spdlog::info("{}", line);
-      }
+      bar.show(fmt::format("{}: {}/{} frames, {:.1f} frames/s, {:.0f} s left", session.filename().string(), done,
+                           total, rate, left),
+               done, total);
     };
     auto r = exporting::export_session(session, o, stop);
     if (!r) {

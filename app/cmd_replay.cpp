@@ -1,6 +1,7 @@
 #include "app/cmd_replay.h"
 
-#include <unistd.h>
+#include "app/progress_line.h"
+
 
 #include <chrono>
 #include <cstdio>
@@ -16,27 +17,19 @@ int cmd_replay(const ReplayCommand& c, const std::atomic<bool>& stop) {
     return 2;
   }
   const auto started = std::chrono::steady_clock::now();
-  const bool terminal = isatty(STDERR_FILENO) == 1;
-  int last_decile = -1;
-  // A progress bar rewritten in place on a terminal; a line per tenth in a log.
+  ProgressLine bar;
   auto progress = [&](std::size_t done, std::size_t total) {
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     const double rate = s > 0 ? double(done) / s : 0;
     const double left = rate > 0 ? double(total - done) / rate : 0;
     const int filled = total ? int(30 * done / total) : 30;
-    const std::string line = fmt::format("[{}{}] {}/{} samples, {:.1f}/s, {:.0f} s left", std::string(filled, '#'),
-                                         std::string(30 - filled, ' '), done, total, rate, left);
-    if (terminal) {
-      fmt::print(stderr, "\r{}\x1b[K{}", line, done >= total ? "\n" : "");
-      std::fflush(stderr);
-    } else if (const int decile = total ? int(10 * done / total) : 10; decile != last_decile) {
-      last_decile = decile;
-      spdlog::info("{}", line);
-    }
+    bar.show(fmt::format("[{}{}] {}/{} samples, {:.1f}/s, {:.0f} s left", std::string(filled, '#'),
+                         std::string(30 - filled, ' '), done, total, rate, left),
+             done, total);
   };
   auto r = replay::render_replay(c.session, c.options, progress, &stop);
   if (!r) {
-    if (terminal) fmt::print(stderr, "\n");
+    bar.abandon();
     spdlog::error("{}", r.error().message);
     return 1;
   }

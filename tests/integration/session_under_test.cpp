@@ -89,6 +89,12 @@ fs::path work_dir(const std::string& name) {
   return d;
 }
 
+fs::path only_session(const fs::path& root) {
+  for (const auto& e : fs::directory_iterator(root))
+    if (e.is_directory() && e.path().filename().string()[0] != '.') return e.path();
+  return {};
+}
+
 std::string read_all(const fs::path& p) {
   std::ifstream in(p);
   std::stringstream s;

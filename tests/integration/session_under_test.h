@@ -47,6 +47,9 @@ pid_t spawn_pvcap(const std::string& args, const std::filesystem::path& log, con
 std::string read_all(const std::filesystem::path& p);
 // A fresh, empty folder for one test's files: <tmp>/pvcap-it-<name>-<pid>.
 std::filesystem::path work_dir(const std::string& name);
+// The one session folder pvcap made under `root` (not the simulator's .sim-truth-* while it runs);
+// empty when there is none.
+std::filesystem::path only_session(const std::filesystem::path& root);
 // Waits until `log` contains `needle`; false after `timeout`.
 bool wait_for_text(const std::filesystem::path& log, const std::string& needle, std::chrono::seconds timeout);
 

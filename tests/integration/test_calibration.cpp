@@ -16,6 +16,7 @@
 #include "storage/session_reader.h"
 
 namespace fs = std::filesystem;
+using pvcap::testing::only_session;
 using namespace pvcap::testing;
 
 namespace {
@@ -23,12 +24,6 @@ namespace {
 fs::path write_full_size_rig(const fs::path& dir) {
   fs::copy_file(fs::path(PVCAP_SOURCE_DIR) / "rig-configs" / "sim.yaml", dir / "rig.yaml");
   return dir / "rig.yaml";
-}
-
-fs::path only_session(const fs::path& root) {
-  for (const auto& e : fs::directory_iterator(root))
-    if (e.is_directory() && e.path().filename().string()[0] != '.') return e.path();
-  return {};
 }
 
 int count(const std::string& text, const std::string& needle) {

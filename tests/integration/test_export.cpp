@@ -26,16 +26,11 @@
 #include "storage/session_reader.h"
 
 namespace fs = std::filesystem;
+using pvcap::testing::only_session;
 using namespace pvcap::testing;
 using nlohmann::json;
 
 namespace {
-
-fs::path only_session(const fs::path& root) {
-  for (const auto& e : fs::directory_iterator(root))
-    if (e.is_directory() && e.path().filename().string()[0] != '.') return e.path();
-  return {};
-}
 
 // Runs a command and returns its stdout.
 std::string output_of(const std::string& command) {

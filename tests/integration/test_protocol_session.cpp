@@ -29,9 +29,10 @@ fs::path write_protocol(const fs::path& dir) {
 }
 fs::path write_rig(const fs::path& dir) { return write_protocol_rig(dir); }
 
-fs::path only_session(const fs::path& root, const std::set<fs::path>& except = {}) {
+// The session folder under `root` that is not `except` (a resumed session's second folder).
+fs::path session_other_than(const fs::path& root, const fs::path& except) {
   for (const auto& e : fs::directory_iterator(root))
-    if (e.is_directory() && e.path().filename().string()[0] != '.' && !except.count(e.path())) return e.path();
+    if (e.is_directory() && e.path().filename().string()[0] != '.' && e.path() != except) return e.path();
   return {};
 }
 
@@ -118,7 +119,7 @@ TEST(ProtocolSession, AKilledSessionResumesAndTogetherTheFoldersCoverTheProtocol
   const auto resumed = run_pvcap(fmt::format("session --rig {} --resume {}", rig.string(), first.string()));
   ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
   EXPECT_NE(resumed.output.find("resuming"), std::string::npos);
-  const fs::path second = only_session(work / "sessions", {first});
+  const fs::path second = session_other_than(work / "sessions", first);
   ASSERT_FALSE(second.empty());
 
   const auto t = takes_of(second);

@@ -18,20 +18,13 @@
 #include "tests/integration/session_under_test.h"
 
 namespace fs = std::filesystem;
+using pvcap::testing::only_session;
 using pvcap::testing::run_pvcap;
 using pvcap::testing::sim_rig_yaml;
 using pvcap::testing::work_dir;
 using pvcap::testing::write_press_protocol;
 using pvcap::testing::write_truth_lenses;
 using Layout = pvcap::replay::Layout;
-
-namespace {
-fs::path only_session(const fs::path& root) {
-  for (const auto& e : fs::directory_iterator(root))
-    if (e.is_directory() && e.path().filename().string()[0] != '.') return e.path();
-  return {};
-}
-}  // namespace
 
 TEST(Replay, TheRenderedTakeShowsThePressWhereTheSimulatorPutIt) {
   const fs::path work = work_dir("replay");

@@ -19,18 +19,13 @@
 #include "storage/sqlite/database.h"
 
 namespace fs = std::filesystem;
+using pvcap::testing::only_session;
 using namespace pvcap::testing;
 using nlohmann::json;
 
 namespace {
 
 const fs::path kScreenshots = fs::path(PVCAP_BINARY_DIR) / "tests" / "screenshots";
-
-fs::path only_session(const fs::path& root) {
-  for (const auto& e : fs::directory_iterator(root))
-    if (e.is_directory() && e.path().filename().string()[0] != '.') return e.path();
-  return {};
-}
 
 json report_json(const fs::path& session) {
   const auto r = run_pvcap(fmt::format("--log-level warn report {} --json", session.string()));

@@ -22,6 +22,7 @@
 #include "tests/integration/session_under_test.h"
 
 namespace fs = std::filesystem;
+using pvcap::testing::only_session;
 using pvcap::testing::run_pvcap;
 using pvcap::testing::sim_rig_yaml;
 using pvcap::testing::read_all;
@@ -37,12 +38,6 @@ std::string with_store(std::string yaml, const std::string& extra) {
   return yaml;
 }
 
-
-fs::path only_session(const fs::path& root) {
-  for (const auto& e : fs::directory_iterator(root))
-    if (e.is_directory() && e.path().filename().string()[0] != '.') return e.path();  // not .sim-truth-*
-  return {};
-}
 
 }  // namespace
 

@@ -21,6 +21,7 @@
 #include "tests/integration/session_under_test.h"
 
 namespace fs = std::filesystem;
+using pvcap::testing::only_session;
 using pvcap::testing::read_all;
 using pvcap::testing::run_pvcap;
 using pvcap::testing::sim_rig_yaml;
@@ -34,12 +35,6 @@ std::string with_store(std::string yaml, const std::string& extra) {
   const std::string at = "  preset: ultrafast\n";
   yaml.replace(yaml.find(at), at.size(), extra);
   return yaml;
-}
-
-fs::path only_session(const fs::path& root) {
-  for (const auto& e : fs::directory_iterator(root))
-    if (e.is_directory() && e.path().filename().string()[0] != '.') return e.path();
-  return {};
 }
 
 std::int64_t count(pvcap::sqlite::Database& db, const std::string& sql) {
