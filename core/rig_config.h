@@ -75,7 +75,7 @@ struct StoreConfig {
   // Key frame interval in tenths of a second (<= 1 s). Half a second: a random access decodes half as
   // many frames, and on a real (noisy) sensor key frames cost little more than the others (+5 % size).
   int gop_seconds_x10 = 5;
-  int queue_frames = 24;     // per-camera frames waiting for the encoder before drops
+  int queue_frames = 24;     // per-camera frames waiting for the encoder in memory; beyond them, the spill on disk
   double segment_seconds = 60;  // a camera's video is cut into files this long; 0 = one file
   int min_free_mb = 512;     // stop the session cleanly when the disk's free space drops below this
   int reserve_mb = 32;       // space set aside at start, freed to finish the store if the disk fills anyway
