@@ -267,11 +267,11 @@ std::optional<SpillItem> FrameSpillQueue::pop_for(std::chrono::milliseconds time
   if (!got) {
     // Written by us a moment ago and unreadable now: the disk failed. What is left in this file stays
     // for recover; the frames are not handed out (their rows come from recover).
+    // The file stays open (the writer may be appending to it this moment); failure_ makes push()
+    // refuse further frames, so the queue still drains and closes.
     if (!failure_)
       failure_ = fmt::format("{}: a spilled frame cannot be read back ({}); recover finishes it", file_.string(),
                              got.error().message);
-    ::close(fd_);
-    fd_ = -1;
     on_disk_ = 0;
     return std::nullopt;
   }
