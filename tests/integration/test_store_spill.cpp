@@ -31,9 +31,11 @@ using namespace std::chrono_literals;
 
 namespace {
 
-std::string with_store(std::string yaml, const std::string& extra) {
+// The rig's store section with its `preset: ultrafast` line replaced by `lines` (these tests set
+// their own preset and codec; test_store_failures' with_store appends instead).
+std::string store_lines_instead_of_preset(std::string yaml, const std::string& lines) {
   const std::string at = "  preset: ultrafast\n";
-  yaml.replace(yaml.find(at), at.size(), extra);
+  yaml.replace(yaml.find(at), at.size(), lines);
   return yaml;
 }
 
@@ -65,7 +67,7 @@ TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
   const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-spill-hog-{}", getpid());
   fs::remove_all(work);
   fs::create_directories(work);
-  std::ofstream(work / "rig.yaml") << with_store(
+  std::ofstream(work / "rig.yaml") << store_lines_instead_of_preset(
       sim_rig_yaml({{}, {}, {}, {}}, 1920, 1080, 30, 0, "free-run", /*sensel=*/true),
       "  preset: ultrafast\n  raw_codec: libx264\n  queue_frames: 2\n");
   pvcap::testing::CommandResult result;
@@ -110,7 +112,7 @@ TEST(StoreSpill, KillDuringTheDrainThenRecoverPutsEverySpilledFrameInAVideo) {
   const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-spill-kill-{}", getpid());
   fs::remove_all(work);
   fs::create_directories(work);
-  std::ofstream(work / "rig.yaml") << with_store(
+  std::ofstream(work / "rig.yaml") << store_lines_instead_of_preset(
       sim_rig_yaml({{}, {}, {}, {}}, 640, 480, 30, 0, "free-run", /*sensel=*/true),
       "  raw_codec: libx264\n  preset: veryslow\n  queue_frames: 4\n");
   const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 6 --no-web",
