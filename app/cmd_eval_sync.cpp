@@ -170,6 +170,8 @@ SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, 
       ++e.paired;
       if (samples.column_int(2) == truly->sequence) ++e.paired_nearest;
       else e.paired_tie += tie(samples.column_int(2));
+    } else if (double(std::llabs(truly->true_ns - sample_true)) / 1e6 > targets.max_offset_ms) {
+      ++e.rightly_unpaired;
     }
     if (naive->sequence == truly->sequence) ++e.naive_nearest;
     else e.naive_tie += tie(naive->sequence);
@@ -183,9 +185,10 @@ SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, 
   }
   e.tie_ms = tie_ms;
   if (sensel_id >= 0) {
-    const double frac = e.samples ? double(e.paired_nearest + e.paired_tie) / double(e.samples) : 0;
+    const double frac =
+        e.samples ? double(e.paired_nearest + e.paired_tie + e.rightly_unpaired) / double(e.samples) : 0;
     if (frac < targets.nearest_fraction)
-      e.missed.push_back(fmt::format("paired with the truly nearest pressure frame (ties within {:g} ms either way): "
+      e.missed.push_back(fmt::format("paired with the truly nearest pressure frame or rightly unpaired (ties within {:g} ms either way): "
                                      "{:.2f} % < {:.1f} %",
                                      tie_ms, 100 * frac, 100 * targets.nearest_fraction));
   }
@@ -211,6 +214,11 @@ std::string format_evaluation(const SyncEvaluation& e) {
   fmt::format_to(out, "  counting ties (two frames equally near within {:g} ms) either way: pvcap {:.2f} % ({} ties), "
                       "naive {:.2f} %\n",
                  e.tie_ms, pct(e.paired_nearest + e.paired_tie), e.paired_tie, pct(e.naive_nearest + e.naive_tie));
+  if (e.rightly_unpaired > 0)
+    fmt::format_to(out,
+                   "  {} sample(s) rightly left without pressure: the Sensel sent no frame within the pairing's "
+                   "limit of them (a gap in its scans), which counts as right\n",
+                   e.rightly_unpaired);
   if (e.missed.empty()) fmt::format_to(out, "all targets met\n");
   for (const auto& m : e.missed) fmt::format_to(out, "TARGET MISSED: {}\n", m);
   return fmt::to_string(b);

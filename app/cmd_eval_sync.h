@@ -25,6 +25,7 @@ struct SyncEvaluation {
   std::size_t samples = 0, samples_complete = 0;
   std::size_t paired = 0, paired_nearest = 0;  // pvcap: samples with pressure; with the truly nearest frame
   std::size_t paired_tie = 0;  // of the others: the chosen frame is as near, within the tie tolerance
+  std::size_t rightly_unpaired = 0;  // no pressure, and truly no stored frame within the allowed offset
   std::size_t naive_nearest = 0;               // arrival-time pairing: with the truly nearest frame
   std::size_t naive_tie = 0;
   double warmup_s = 0;                         // excluded from the timing errors
@@ -39,6 +40,9 @@ struct SyncTargets {
   // is right. Streams at commensurate rates (60 Hz cameras, 125 Hz Sensel) put whole runs of
   // samples on such ties.
   double tie_ms = 0.05;
+  // The pairing's own limit (TimelineConfig::pressure_max_offset_ns): a sample whose truly nearest
+  // stored frame is farther than this is rightly left without pressure (the Sensel had a gap).
+  double max_offset_ms = 20.0;
 };
 
 // Reads `session_dir`/session.db and `session_dir`/sim-truth. Throws UserError if either is unusable.

@@ -5,6 +5,7 @@
 // runs under umockdev's preload library).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <mutex>
 #include <thread>
 
@@ -83,8 +84,12 @@ struct Rig {
   }
 };
 
-double mean_interval_ms(const std::vector<sensel::PressureSample>& s) {
-  return double(s.back().device_ts.ns - s.front().device_ts.ns) / double(s.size() - 1) / 1e6;
+// Device-clock intervals between consecutive frames, sorted.
+std::vector<double> intervals_ms(const std::vector<sensel::PressureSample>& s) {
+  std::vector<double> out;
+  for (std::size_t i = 1; i < s.size(); ++i) out.push_back(double(s[i].device_ts.ns - s[i - 1].device_ts.ns) / 1e6);
+  std::sort(out.begin(), out.end());
+  return out;
 }
 
 }  // namespace
@@ -102,7 +107,12 @@ TEST(SenselDriver, OpensConfiguresAndStreams) {
   // them, so the rate is judged on the device's clock, not on how many arrived in a wall-clock window.
   const auto samples = rig.collect(188);
   ASSERT_GE(samples.size(), 188u);
-  EXPECT_NEAR(mean_interval_ms(samples), 8.0, 0.5) << "~125 Hz at medium detail";
+  // A polled Morph scans when asked, no sooner than its scan period after the last scan: never
+  // faster than 125 Hz, and at 125 Hz whenever the driver asks in time, which it must do for most
+  // frames (a starved moment on a loaded machine stretches single intervals, not the median).
+  const auto intervals = intervals_ms(samples);
+  EXPECT_GE(intervals.front(), 7.99) << "faster than the device's scan period";
+  EXPECT_NEAR(intervals[intervals.size() / 2], 8.0, 0.05) << "~125 Hz at medium detail (median interval)";
   EXPECT_EQ(rig.device->lost_frames(), 0u);
   bool pressed = false, wrapped = false;
   for (std::size_t i = 1; i < samples.size(); ++i) {
@@ -199,8 +209,9 @@ TEST(SenselDriver, HighDetailRunsAtTheDevicesSlowerRate) {
   const auto samples = rig.collect(100);
   ASSERT_GE(samples.size(), 100u);
   // At most ~51 Hz (19.6 ms per scan), slower while the fingertip makes frames bigger.
-  EXPECT_GE(mean_interval_ms(samples), 19.6);
-  EXPECT_LT(mean_interval_ms(samples), 33.0);
+  const auto intervals = intervals_ms(samples);
+  EXPECT_GE(intervals.front(), 19.59);
+  EXPECT_LT(intervals[intervals.size() / 2], 33.0) << "median interval";
   EXPECT_EQ(samples.back().frame.pressure->counts.size(), std::size_t(93 * 53));
 }
 
