@@ -2,18 +2,44 @@
 
 #include "app/progress_line.h"
 
-
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "replay/as_devices.h"
+
 namespace pvcap {
 
+namespace {
+int replay_as_devices(const ReplayCommand& c) {
+  auto r = replay::write_replay_rig(c.session, c.rig_out, c.rate);
+  if (!r) {
+    spdlog::error("{}", r.error().message);
+    return 1;
+  }
+  const auto& v = r.value();
+  fmt::print("replay rig: {}\n"
+             "its simulated devices re-serve {:.1f} s of {} ({:.1f} s at rate {:g}) through the GigE Vision and "
+             "Sensel protocols.\nrecord it again with:\n  pvcap session --rig {} --duration {:.0f}\n",
+             v.rig_file.string(), v.session_seconds, c.session.string(), v.replay_seconds, c.rate,
+             v.rig_file.string(), std::ceil(v.replay_seconds + 2.0));
+  return 0;
+}
+}  // namespace
+
 int cmd_replay(const ReplayCommand& c, const std::atomic<bool>& stop) {
+  if (c.as_devices) {
+    if (!c.options.out.empty()) {
+      spdlog::error("pvcap replay: --as-devices and --out are two different replays; give one");
+      return 2;
+    }
+    return replay_as_devices(c);
+  }
   if (c.options.out.empty()) {
-    spdlog::error("pvcap replay needs --out FILE.mp4 (the replay window is not built yet)");
+    spdlog::error("pvcap replay needs --out FILE.mp4 (a rendered video) or --as-devices (a rig that re-serves it)");
     return 2;
   }
   const auto started = std::chrono::steady_clock::now();

@@ -134,14 +134,23 @@ int main(int argc, char** argv) {
   bool no_self_check = false;
   report->add_flag("--no-self-check", no_self_check, "leave out the sync self-check (it decodes frames around presses)");
 
-  auto* replay_cmd = app.add_subcommand("replay", "render a recorded session into a video: the camera views with the "
+  auto* replay_cmd = app.add_subcommand("replay", "render a recorded session into a video (the camera views with the "
                                                   "pressure overlaid through each calibration, the pressure image, "
-                                                  "the take, hand, force and time");
+                                                  "the take, hand, force and time), or re-serve it through the "
+                                                  "simulated devices (--as-devices)");
   pvcap::ReplayCommand replay_opts;
   std::string replay_take;
   double replay_from = -1, replay_to = -1;
   replay_cmd->add_option("SESSION", replay_opts.session, "a session folder")->required()->check(CLI::ExistingDirectory);
-  replay_cmd->add_option("--out", replay_opts.options.out, "the video to write (.mp4, or .mkv)")->required();
+  replay_cmd->add_option("--out", replay_opts.options.out, "the video to write (.mp4, or .mkv)");
+  replay_cmd->add_flag("--as-devices", replay_opts.as_devices,
+                       "write a rig file whose simulated devices re-serve the session through the cameras' and the "
+                       "Sensel's own protocols; `pvcap session` on it records the session again");
+  replay_cmd->add_option("--rate", replay_opts.rate, "--as-devices: play this much faster (default 1: the original "
+                                                     "timing; the round trip is exact only at 1)")
+      ->check(CLI::Range(0.1, 10.0));
+  replay_cmd->add_option("--rig-out", replay_opts.rig_out, "--as-devices: the rig file to write (default "
+                                                           "./SESSION-replay.yaml)");
   replay_cmd->add_option("--take", replay_take, "only this take (its name, as `pvcap takes` lists it)");
   replay_cmd->add_option("--from", replay_from, "from this many seconds after the session's start");
   replay_cmd->add_option("--to", replay_to, "up to this many seconds after the session's start");

@@ -124,6 +124,14 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
   SimConfig s;
   MapReader r(node, file, "sim");
   r.get("seed", s.seed);
+  if (r.has("replay")) {
+    std::string dir;
+    r.get("replay", dir);
+    if (dir.empty()) r.fail(node["replay"], "replay", "expected the folder of a recorded session");
+    // Relative to the rig file, like every other path in it.
+    s.replay = std::filesystem::path(dir).is_absolute() ? std::filesystem::path(dir) : file.parent_path() / dir;
+    r.get_in_range("replay_rate", s.replay_rate, 0.1, 10.0);
+  }
   const YAML::Node cams = r.child("cameras");
   if (cams) {
     if (!cams.IsSequence()) r.fail(cams, "cameras", "expected a list, one entry per rig camera");
@@ -189,6 +197,13 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
 }
 
 }  // namespace
+
+double sample_rate_hz(const RigConfig& rig) {
+  if (rig.store.video_fps > 0) return rig.store.video_fps;
+  double fastest = 0;
+  for (const auto& c : rig.cameras) fastest = std::max(fastest, c.frame_rate);
+  return fastest > 0 ? fastest : 60.0;
+}
 
 RigConfig parse_rig_config(const std::string& text, const std::filesystem::path& source) {
   RigConfig rig;

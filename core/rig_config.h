@@ -104,6 +104,10 @@ struct SimConfig {
   std::vector<SimCameraClock> cameras;  // one per rig camera, same order
   SimSenselConfig sensel;
   std::uint64_t seed = 1;
+  // Set: the simulated devices re-serve this recorded session instead of a scene (`pvcap replay
+  // SESSION --as-devices` writes such a rig file); `replay_rate` > 1 plays it faster.
+  std::optional<std::filesystem::path> replay;
+  double replay_rate = 1.0;
 };
 
 struct RigConfig {
@@ -115,6 +119,10 @@ struct RigConfig {
   StoreConfig store;
   std::optional<SimConfig> sim;  // present for a simulated rig
 };
+
+// The rate of the session's sample grid: the store's video_fps, or the fastest camera's rate when
+// every frame is kept (video_fps 0), or 60 Hz for a rig without cameras.
+double sample_rate_hz(const RigConfig& rig);
 
 // Loads and validates a rig file. Throws UserError("file:line: key: problem").
 RigConfig load_rig_config(const std::filesystem::path& path);

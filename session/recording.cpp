@@ -76,8 +76,11 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
   std::unique_ptr<Recording> r(new Recording());
   r->rig_ = rig;
   r->options_ = options;
-  r->wall0_ = wall_now_ns();
-  r->host0_ = host_now().ns;
+  // The session starts at the sample grid's lattice point at or before now (sync::grid_lattice_floor):
+  // its ticks then fall on the instants of any other session's, whole periods apart.
+  const std::int64_t now_host = host_now().ns;
+  r->host0_ = sync::grid_lattice_floor(now_host, sample_rate_hz(rig));
+  r->wall0_ = wall_now_ns() - (now_host - r->host0_);
   // One rig, one recorder: before any device (or the simulator) is touched.
   auto lock = RigLock::acquire(rig.source);
   if (!lock) return lock.error();
@@ -213,7 +216,7 @@ Status Recording::start() {
     tc.camera_latency_ns.push_back(c.latency_ns);
   }
   if (tc.camera_hz <= 0) tc.camera_hz = 60;
-  tc.sample_hz = rig_.store.video_fps > 0 ? rig_.store.video_fps : tc.camera_hz;
+  tc.sample_hz = sample_rate_hz(rig_);
   tc.anchor_ns = host0_;
   tc.has_pressure = bool(sensel_);
   if (rig_.sensel) tc.pressure_latency_ns = rig_.sensel->latency_ns;

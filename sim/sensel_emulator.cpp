@@ -148,6 +148,12 @@ std::vector<std::uint8_t> SenselEmulator::read_variable(std::uint8_t r, std::int
     out.push_back(kBufferedEnd);
     return out;
   }
+  if (r == reg::kReadFrame && replay_) {  // a recorded frame, as it came; none left: no answer
+    const auto& frames = replay_->pressure_frames();
+    if (replay_next_ >= frames.size()) return {};
+    ++frames_sent_;
+    return response_read_variable(kRvsAck, r, frames[replay_next_++].payload);
+  }
   if (r == reg::kReadFrame) {
     payload = frame_payload(now_ns);
     ++frames_sent_;
@@ -166,6 +172,28 @@ std::vector<std::uint8_t> SenselEmulator::read_variable(std::uint8_t r, std::int
     return {kRvsNack, r};
   }
   return response_read_variable(kRvsAck, r, payload);
+}
+
+std::optional<std::int64_t> SenselEmulator::replay_due(std::int64_t now_ns) {
+  if (!replay_) return std::nullopt;
+  const auto& frames = replay_->pressure_frames();
+  if (!replay_started_) {  // the first frame read: frames due before it are not sent
+    replay_started_ = true;
+    replay_->start(now_ns);
+    while (replay_next_ < frames.size() && replay_->due_ns(frames[replay_next_].t_ns) < now_ns) ++replay_next_;
+  }
+  if (replay_next_ >= frames.size()) return std::nullopt;
+  return replay_->due_ns(frames[replay_next_].t_ns);
+}
+
+void SenselEmulator::replay_sent(std::int64_t host_ns) {
+  if (!replay_ || !truth_ || replay_next_ == 0) return;
+  const ReplayPressureFrame& f = replay_->pressure_frames()[replay_next_ - 1];
+  if (f.payload.size() < 6) return;
+  std::uint32_t device_us = 0;
+  for (int i = 0; i < 4; ++i) device_us |= std::uint32_t(f.payload[2 + std::size_t(i)]) << (8 * i);
+  *truth_ << int(f.payload[1]) << ',' << device_us << ',' << replay_->due_ns(f.t_ns) << ',' << host_ns << '\n';
+  if (++replay_logged_ % 32 == 0) truth_->flush();
 }
 
 std::vector<std::uint8_t> SenselEmulator::variable_reg(std::uint8_t address) const {

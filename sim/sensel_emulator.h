@@ -12,6 +12,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <ostream>
 #include <random>
 #include <span>
@@ -20,6 +21,7 @@
 
 #include "capture/sensel_frame.h"
 #include "capture/sensel_pressure_codec.h"
+#include "sim/session_replay.h"
 
 namespace pvcap::sim {
 
@@ -68,6 +70,18 @@ class SenselEmulator {
     drop_rng_.seed(seed);
   }
 
+  // Replay (sim/session_replay.h): frame reads answer with the session's recorded payloads, in
+  // order, each when it is due; the scene and the clock are not used. When they run out, frame
+  // reads go unanswered (a silent device).
+  void set_replay(std::shared_ptr<SessionReplay> replay) { replay_ = std::move(replay); }
+  bool replaying() const { return bool(replay_); }
+  // When the next recorded frame is due (host time); the first call starts the replay at `now_ns`
+  // and passes over frames due before it. Empty when the recording is over.
+  std::optional<std::int64_t> replay_due(std::int64_t now_ns);
+  // The last replayed frame left the transport at `host_ns`: logged to the truth log (set_truth_log)
+  // as "counter,device_us,due_ns,sent_ns".
+  void replay_sent(std::int64_t host_ns);
+
   sensel::Grid grid() const;  // of the current scan detail
   // Ground truth: one line "counter,true_ns,device_us" per frame sent (flushed every 32).
   void set_truth_log(std::ostream* out) { truth_ = out; }
@@ -99,6 +113,10 @@ class SenselEmulator {
   std::int64_t next_scan_ns_ = 0;  // buffered and async modes: when the next scan completes
   std::uint64_t frames_sent_ = 0;
   std::atomic<bool> corrupt_next_{false}, truncate_next_{false};  // set from test threads
+  std::shared_ptr<SessionReplay> replay_;
+  std::size_t replay_next_ = 0;
+  std::uint64_t replay_logged_ = 0;
+  bool replay_started_ = false;
 };
 
 }  // namespace pvcap::sim

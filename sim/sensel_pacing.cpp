@@ -17,6 +17,14 @@ PacedAnswer SenselPacer::answer(std::span<const std::uint8_t> request, std::int6
   const bool frame_read = request.size() >= 3 && request[0] == 0x81 && request[1] == sensel::reg::kReadFrame &&
                           request[2] == 0 && emu_.reg(sensel::reg::kScanBufferControl) == 0;
   if (!frame_read) return {emu_.on_host_bytes(request, now_ns), now_ns};
+  if (emu_.replaying()) {  // a recorded frame leaves when it is due (no scan, no added USB delay)
+    const auto due = emu_.replay_due(now_ns);
+    // Not due for a while (a gap in the recording, or its end): this request goes unanswered, as
+    // on a device that stalls; an answer held past the driver's timeout would answer its next one.
+    if (!due || *due > now_ns + kReplayHoldNs) return {{}, now_ns, false};
+    const std::int64_t at = std::max(now_ns, *due);
+    return {emu_.on_host_bytes(request, at), at, true};
+  }
 
   const std::int64_t scan_ns = std::max(next_scan_ns_, now_ns);
   PacedAnswer a{emu_.on_host_bytes(request, scan_ns), scan_ns};

@@ -23,7 +23,11 @@ struct SenselLink {
 struct PacedAnswer {
   std::vector<std::uint8_t> bytes;
   std::int64_t deliver_at_ns = 0;  // host CLOCK_MONOTONIC
+  bool replayed = false;           // a recorded frame (SenselEmulator::replay_sent() after it left)
 };
+
+// The longest a replayed frame read is held for its frame (below the driver's 0.5 s timeout).
+inline constexpr std::int64_t kReplayHoldNs = 350'000'000;
 
 class SenselPacer {
  public:

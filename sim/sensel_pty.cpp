@@ -2,6 +2,8 @@
 
 #include <fcntl.h>
 #include <poll.h>
+#include <pthread.h>
+#include <sched.h>
 #include <sys/prctl.h>
 #include <stdlib.h>
 #include <termios.h>
@@ -49,6 +51,11 @@ void SenselPty::serve() {
   // Answers leave when the pacer says, not up to 50 us later (the kernel's default timer slack):
   // the emulated device's latency floor is then the pseudo-terminal's alone.
   prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
+  if (emu_.replaying()) {  // a replay's timing is what it re-serves: a real-time priority where allowed
+    sched_param rt{};
+    rt.sched_priority = 10;
+    (void)pthread_setschedparam(pthread_self(), SCHED_FIFO, &rt);
+  }
 
   std::uint8_t buf[256];
   SenselPacer pacer(emu_, link_);
@@ -76,6 +83,7 @@ void SenselPty::serve() {
     if (const std::int64_t wait_ns = answer.deliver_at_ns - host_now().ns; wait_ns > 0)
       std::this_thread::sleep_for(std::chrono::nanoseconds(wait_ns));
     send(answer.bytes);
+    if (answer.replayed) emu_.replay_sent(host_now().ns);
   }
 }
 

@@ -17,83 +17,13 @@
 #include "core/time.h"
 #include "sim/board_motion.h"
 #include "sim/camera_views.h"
+#include "sim/fake_camera_latch.h"
 #include "sim/fingertip.h"
 #include "sim/hand.h"
 #include "sim/scene.h"
 #include "sim/timecode.h"
 
 namespace pvcap::sim {
-
-namespace {
-// Serves the fake camera's own GenICam XML with a timestamp latch added, once per process
-// (Aravis reads the file name when each fake camera is made).
-void install_latch_genicam() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    arv::GPtr<ArvFakeCamera> probe(arv_fake_camera_new("PVSIM-XML"));
-    size_t size = 0;
-    const char* xml = probe ? arv_fake_camera_get_genicam_xml(probe.get(), &size) : nullptr;
-    if (!xml) return;
-    std::string text(xml, size);
-    while (!text.empty() && text.back() == '\0') text.pop_back();
-    const std::string features = fmt::format(
-        R"(<Command Name="TimestampControlLatch" NameSpace="Standard">
-<ToolTip>Latches the device clock into TimestampLatchValue</ToolTip>
-<pValue>PvcapTimestampLatchCommand</pValue><CommandValue>1</CommandValue></Command>
-<IntReg Name="PvcapTimestampLatchCommand" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
-<AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
-<IntReg Name="TimestampLatchValue" NameSpace="Standard"><Address>{:#x}</Address><Length>8</Length>
-<AccessMode>RO</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
-)",
-        SimCamera::kLatchCommandRegister, SimCamera::kLatchValueRegister);
-    const auto end = text.rfind("</RegisterDescription>");
-    if (end == std::string::npos) return;
-    text.insert(end, features);
-    const auto path = std::filesystem::temp_directory_path() / fmt::format("pvcap-fake-camera-{}.xml", getpid());
-    std::ofstream(path) << text;
-    arv_set_fake_camera_genicam_filename(path.c_str());
-  });
-}
-}  // namespace
-
-namespace {
-// One thread serves the latch of every simulated camera in the process (a thread per camera
-// polling this often would take a good part of a core from the simulators).
-class LatchService {
- public:
-  static LatchService& get() {
-    static LatchService service;
-    return service;
-  }
-  void add(SimCamera* camera) {
-    std::lock_guard lock(mu_);
-    cameras_.push_back(camera);
-    if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
-  }
-  // After this returns the camera is not touched again.
-  void remove(SimCamera* camera) {
-    std::lock_guard lock(mu_);
-    cameras_.erase(std::remove(cameras_.begin(), cameras_.end(), camera), cameras_.end());
-  }
-  ~LatchService() {
-    running_.store(false);
-    if (thread_.joinable()) thread_.join();
-  }
-
- private:
-  void run() {
-    while (running_.load()) {
-      std::this_thread::sleep_for(std::chrono::microseconds(200));
-      std::lock_guard lock(mu_);
-      for (SimCamera* c : cameras_) c->serve_latch();
-    }
-  }
-  std::mutex mu_;
-  std::vector<SimCamera*> cameras_;
-  std::atomic<bool> running_{true};
-  std::thread thread_;
-};
-}  // namespace
 
 Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConfig& camera,
                                                      const SimCameraClock& clock, std::int64_t t0_ns,
@@ -137,25 +67,15 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   }
   arv_fake_camera_set_fill_pattern(arv_gv_fake_camera_get_fake_camera(self->fake_.get()), &SimCamera::fill,
                                    self.get());
-  LatchService::get().add(self.get());
+  SimCamera* raw = self.get();
+  add_latch(raw, arv_gv_fake_camera_get_fake_camera(raw->fake_.get()),
+            [raw](std::int64_t host_ns) { return raw->clock_.device_time(host_ns); });
   return self;
 }
 
 
-// The latch: when the host has set the command register, the device clock's value goes into
-// the value register and the command clears. Checked every 0.2 ms.
-void SimCamera::serve_latch() {
-  ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(fake_.get());
-  guint32 command = 0;
-  if (!arv_fake_camera_read_register(fake, kLatchCommandRegister, &command) || command == 0) return;
-  const auto device = std::uint64_t(std::max<std::int64_t>(0, clock_.device_time(host_now().ns)));
-  arv_fake_camera_write_register(fake, kLatchValueRegister, guint32(device >> 32));
-  arv_fake_camera_write_register(fake, kLatchValueRegister + 4, guint32(device & 0xFFFFFFFFu));
-  arv_fake_camera_write_register(fake, kLatchCommandRegister, 0);
-}
-
 SimCamera::~SimCamera() {
-  LatchService::get().remove(this);
+  remove_latch(this);
   fake_.reset();  // joins the fake camera's thread: no fill runs after this
   std::lock_guard lock(mu_);
   truth_.flush();

@@ -4,11 +4,8 @@
 // the pixels (scene + timecode) and the device clock (offset, drift, jitter).
 // Every emitted frame is logged to a ground-truth CSV as it happens.
 //
-// It also has the GenICam timestamp latch real GigE cameras offer (SFNC
-// `TimestampControlLatch` + `TimestampLatchValue`), which Aravis' fake camera
-// lacks: the simulator serves its GenICam XML with the two features added, and
-// one thread for all simulated cameras latches the device clock when the command
-// register is set, within 0.2 ms (the host polls the value until it changes).
+// It also has the GenICam timestamp latch real GigE cameras offer
+// (sim/fake_camera_latch.h).
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -58,11 +55,6 @@ class SimCamera {
   SimCamera& operator=(const SimCamera&) = delete;
 
   const SimClock& clock() const { return clock_; }
-  // Latches the device clock if the host asked (called by the process's one latch thread).
-  void serve_latch();
-  // Where the latch lives in the fake camera's register space (big-endian).
-  static constexpr std::uint32_t kLatchCommandRegister = 0xF000;
-  static constexpr std::uint32_t kLatchValueRegister = 0xF008;  // 64 bits: high word, then low
   // The ground-truth camera model for images of `size`.
   calib::CameraModel model(cv::Size size) const;
 

@@ -27,6 +27,7 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
   std::error_code ec;
   std::filesystem::create_directories(truth_dir, ec);
   if (ec) return Error{fmt::format("cannot create {}: {}", truth_dir.string(), ec.message())};
+  if (rig.sim->replay) return create_replay(rig, truth_dir);
   std::unique_ptr<SimRig> self(new SimRig());
   self->rig_ = rig;
   self->truth_dir_ = truth_dir;
@@ -106,6 +107,53 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
   return self;
 }
 
+Result<std::unique_ptr<SimRig>> SimRig::create_replay(const RigConfig& rig, const std::filesystem::path& truth_dir) {
+  auto opened = SessionReplay::open(*rig.sim->replay, rig.sim->replay_rate);
+  if (!opened) return opened.error();
+  std::unique_ptr<SimRig> self(new SimRig());
+  self->rig_ = rig;
+  self->truth_dir_ = truth_dir;
+  self->t0_ns_ = host_now().ns;
+  self->hand_ = std::make_shared<Hand>(rig.sim->sensel);
+  self->replay_ = opened.value();
+  nlohmann::json truth = {{"t0_ns", self->t0_ns_},
+                          {"clock", "CLOCK_MONOTONIC"},
+                          {"replay", std::filesystem::absolute(self->replay_->dir()).string()},
+                          {"replay_rate", self->replay_->rate()}};
+  for (const CameraConfig& cam : rig.cameras) {
+    auto made = ReplayCamera::create(cam, self->replay_, truth_dir);
+    if (!made) return made.error();
+    self->replay_cameras_.push_back(std::move(made.value()));
+    truth["cameras"].push_back({{"name", cam.name}, {"address", cam.address}});
+  }
+  if (rig.sensel && rig.sensel->tty == "sim") {
+    if (!self->replay_->has_pressure())
+      return Error{fmt::format("{}: the replayed session has no pressure frames, but the rig has a Sensel",
+                               self->replay_->dir().string())};
+    self->sensel_ = std::make_unique<SenselEmulator>(
+        SenselScene{}, SenselClock{},
+        self->replay_->sensel_serial().empty() ? std::string("SM01164910368") : self->replay_->sensel_serial());
+    self->sensel_->set_replay(self->replay_);
+    self->sensel_truth_.open(truth_dir / "sensel_replay.csv");
+    self->sensel_truth_ << "counter,device_us,due_ns,sent_ns\n";
+    self->sensel_->set_truth_log(&self->sensel_truth_);
+    auto pty = SenselPty::create(*self->sensel_, SenselLink{0, 0, 1});
+    if (!pty) return pty.error();
+    self->sensel_pty_ = std::move(pty.value());
+    std::error_code ec;
+    std::filesystem::create_symlink(self->sensel_pty_->slave_path(), truth_dir / "sensel.tty", ec);
+    if (ec) return Error{fmt::format("cannot publish the Sensel emulator's tty: {}", ec.message())};
+    truth["sensel"] = {{"tty", self->sensel_pty_->slave_path()},
+                       {"frames", self->replay_->pressure_frames().size()},
+                       {"serial", self->replay_->sensel_serial()}};
+  }
+  std::ofstream(truth_dir / "rig.json") << truth.dump(2) << '\n';
+  spdlog::info("sim: replaying {} through {} cameras ({}){}", self->replay_->dir().string(),
+               self->replay_cameras_.size(), fmt::join(sim_addresses(rig), ", "),
+               self->sensel_ ? " and the Sensel" : "");
+  return self;
+}
+
 void SimRig::steer(const HandCommand& c) {
   hand_->set(c);
   std::lock_guard lock(hand_truth_mu_);
@@ -119,6 +167,7 @@ void SimRig::steer(const HandCommand& c) {
 SimRig::~SimRig() {
   sensel_pty_.reset();  // stops serving before the emulator goes
   sensel_.reset();
+  replay_cameras_.clear();
 }
 
 void SimRig::run(const std::atomic<bool>& stop) {

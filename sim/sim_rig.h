@@ -4,7 +4,8 @@
 // the config gives. Writes the ground truth of the run into `truth_dir`:
 // rig.json (clocks, homographies, pad geometry) and <camera>_frames.csv. With a
 // `sensel: {tty: sim}` it also serves an emulated Sensel Morph on a pseudo-terminal,
-// linked as truth_dir/sensel.tty, logging sensel_frames.csv.
+// linked as truth_dir/sensel.tty, logging sensel_frames.csv. With `sim: {replay: SESSION}`
+// the devices re-serve a recorded session instead (sim/session_replay.h).
 #include <atomic>
 #include <filesystem>
 #include <fstream>
@@ -17,6 +18,8 @@
 #include "sim/hand.h"
 #include "sim/sensel_emulator.h"
 #include "sim/sensel_pty.h"
+#include "sim/replay_camera.h"
+#include "sim/session_replay.h"
 #include "sim/sim_camera.h"
 
 namespace pvcap::sim {
@@ -31,7 +34,7 @@ class SimRig {
   // Serves until `stop` becomes true, removing cameras whose stop_after_s has passed and
   // bringing them back (power-cycled) at return_after_s.
   void run(const std::atomic<bool>& stop);
-  std::size_t camera_count() const { return cameras_.size(); }
+  std::size_t camera_count() const { return cameras_.size() + replay_cameras_.size(); }
   // Steers the simulated hand (protocol --auto); logged to truth_dir/hand.csv.
   void steer(const HandCommand& c);
 
@@ -48,6 +51,11 @@ class SimRig {
   std::unique_ptr<SenselEmulator> sensel_;
   std::unique_ptr<SenselPty> sensel_pty_;
   std::vector<std::unique_ptr<SimCamera>> cameras_;
+  // A replayed session (`sim: {replay: SESSION}`) instead of the scene.
+  std::shared_ptr<SessionReplay> replay_;
+  std::vector<std::unique_ptr<ReplayCamera>> replay_cameras_;
+
+  static Result<std::unique_ptr<SimRig>> create_replay(const RigConfig& rig, const std::filesystem::path& truth_dir);
 };
 
 // The camera addresses of a simulated rig (for the network namespace).

@@ -79,6 +79,12 @@ std::vector<Group> Grouper::take(bool flush) {
 
 Subsampler::Subsampler(std::int64_t anchor_ns, double grid_hz) : anchor_ns_(anchor_ns), period_ns_(1e9 / grid_hz) {}
 
+std::int64_t grid_lattice_floor(std::int64_t t_ns, double grid_hz) {
+  const long double period = 1e9L / static_cast<long double>(grid_hz);
+  const long double k = std::floor(static_cast<long double>(t_ns) / period);
+  return std::int64_t(std::llround(k * period));
+}
+
 std::int64_t Subsampler::tick_time(std::int64_t tick) const {
   return anchor_ns_ + std::int64_t(std::llround(double(tick) * period_ns_));
 }

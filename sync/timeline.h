@@ -68,6 +68,12 @@ class Grouper {
   std::uint64_t complete_ = 0, incomplete_ = 0, late_ = 0;
 };
 
+// The sample grids of all sessions at one rate share a lattice of the host clock: instants k / grid_hz
+// seconds from its zero. A session anchors its grid at the lattice point at or before its start, so two
+// sessions' ticks differ by whole periods: a session re-served through the simulated devices at a shift
+// of whole periods (sim/session_replay.h) is sampled at the same instants when it is recorded again.
+std::int64_t grid_lattice_floor(std::int64_t t_ns, double grid_hz);
+
 // Picks, for each tick of a grid anchored at `anchor_ns` (tick k at anchor + k * period,
 // computed, never accumulated, so it cannot drift), the group whose time is nearest the
 // tick, among groups within half a grid period. A tick no group came near is reported as

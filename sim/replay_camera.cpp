@@ -1,0 +1,194 @@
+#include "sim/replay_camera.h"
+
+#include <pthread.h>
+#include <sched.h>
+
+#include <chrono>
+#include <cstring>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "core/time.h"
+#include "sim/fake_camera_latch.h"
+#include "storage/session_reader.h"
+
+namespace pvcap::sim {
+
+namespace {
+constexpr std::size_t kReadAhead = 12;  // stored mosaics decoded ahead of their frames
+
+// Aravis' fake camera sends its next frame at the next multiple of its frame period (CLOCK_REALTIME,
+// microseconds) after it has sent this one. The period returned puts that multiple in
+// [target_us - window_us, target_us]: the engine wakes just before the frame is due.
+std::uint32_t period_waking_at(std::int64_t now_us, std::int64_t target_us, std::int64_t window_us) {
+  const std::int64_t d = target_us - now_us;
+  if (d <= window_us) return 1;  // due now: wake at once
+  for (std::int64_t p = d - window_us; p <= 8 * d + 100'000 && p < INT32_MAX; ++p) {
+    const std::int64_t next = now_us + p - now_us % p;
+    if (next >= target_us - window_us && next <= target_us) return std::uint32_t(p);
+  }
+  return 1000;  // none found (never seen): wake every millisecond until it is due
+}
+}  // namespace
+
+Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& camera,
+                                                         std::shared_ptr<SessionReplay> replay,
+                                                         const std::filesystem::path& truth_dir) {
+  if (camera.address.empty())
+    return Error{fmt::format("{}: a replayed camera needs an 'address' (127.0.0.x)", camera.name)};
+  auto index = replay->camera_index(camera.name);
+  if (!index) return index.error();
+  std::unique_ptr<ReplayCamera> self(new ReplayCamera());
+  self->name_ = camera.name;
+  self->replay_ = std::move(replay);
+  self->index_ = index.value();
+  const auto log_path = truth_dir / (camera.name + "_replay.csv");
+  self->log_.open(log_path);
+  if (!self->log_) return Error{fmt::format("cannot write {}", log_path.string())};
+  self->log_ << "frame_id,device_ns,due_ns,sent_ns\n";
+  install_latch_genicam();
+  const std::string serial = camera.serial.empty() ? camera.name : camera.serial;
+  self->fake_.reset(arv_gv_fake_camera_new(camera.address.c_str(), serial.c_str()));
+  if (!self->fake_ || !arv_gv_fake_camera_is_running(self->fake_.get()))
+    return Error{fmt::format("{}: the fake camera could not listen on {} (the simulated rig runs in its own network "
+                             "namespace)",
+                             camera.name, camera.address)};
+  ReplayCamera* raw = self.get();
+  raw->reader_ = std::thread([raw] { raw->read_ahead(); });
+  ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(raw->fake_.get());
+  arv_fake_camera_set_fill_pattern(fake, &ReplayCamera::fill, raw);
+  add_latch(raw, fake, [raw](std::int64_t host_ns) { return raw->replay_->camera_device_time(raw->index_, host_ns); });
+  spdlog::info("replay: {} re-serves {} recorded frames on {}", camera.name,
+               raw->replay_->camera_frames(raw->index_).size(), camera.address);
+  return self;
+}
+
+ReplayCamera::~ReplayCamera() {
+  remove_latch(this);
+  {
+    std::lock_guard lock(mu_);
+    stop_ = true;
+  }
+  changed_.notify_all();
+  fake_.reset();  // joins the engine's thread: no fill runs after this
+  if (reader_.joinable()) reader_.join();
+  log_.flush();
+}
+
+void ReplayCamera::read_ahead() {
+  auto reader = SessionReader::open(replay_->dir());
+  std::optional<std::size_t> camera;
+  if (reader) {
+    for (std::size_t i = 0; i < reader.value()->cameras().size(); ++i)
+      if (reader.value()->cameras()[i].name == name_) camera = i;
+  } else {
+    spdlog::warn("replay: {}: stored images cannot be read ({}); sending grey frames", name_, reader.error().message);
+  }
+  bool warned = false;
+  for (const auto& f : replay_->camera_frames(index_)) {
+    if (f.sample < 0) continue;
+    cv::Mat mosaic;
+    if (reader && camera) {
+      auto got = reader.value()->raw_image(std::size_t(f.sample), *camera);
+      if (got) {
+        mosaic = std::move(got.value());
+      } else if (!warned) {
+        warned = true;
+        spdlog::warn("replay: {}: sample {}: {} (frames without a stored mosaic are sent grey)", name_, f.sample,
+                     got.error().message);
+      }
+    }
+    std::unique_lock lock(mu_);
+    changed_.wait(lock, [&] { return stop_ || ready_.size() < kReadAhead; });
+    if (stop_) return;
+    ready_.emplace_back(f.sample, std::move(mosaic));
+    changed_.notify_all();
+  }
+}
+
+cv::Mat ReplayCamera::stored_image(std::int64_t sample) {
+  std::unique_lock lock(mu_);
+  for (;;) {
+    while (!ready_.empty() && ready_.front().first < sample) ready_.pop_front();  // frames skipped at the start
+    if (!ready_.empty() && ready_.front().first == sample) {
+      cv::Mat m = std::move(ready_.front().second);
+      ready_.pop_front();
+      changed_.notify_all();
+      return m;
+    }
+    changed_.notify_all();
+    // The read-ahead is behind (a busy machine): wait a little, then send what there is.
+    if (!changed_.wait_for(lock, std::chrono::milliseconds(30), [&] { return stop_ || !ready_.empty(); }) || stop_)
+      return {};
+  }
+}
+
+void ReplayCamera::fill(ArvBuffer* buffer, void* self, guint32, guint32, ArvPixelFormat) {
+  static_cast<ReplayCamera*>(self)->fill_buffer(buffer);
+}
+
+void ReplayCamera::fill_buffer(ArvBuffer* buffer) {
+  const auto& frames = replay_->camera_frames(index_);
+  const std::int64_t now = host_now().ns;
+  if (!streaming_) {
+    // Acquisition has started: the first device to stream fixes the replay's shift. Frames due
+    // before this camera started are not sent (the recorder was not listening yet).
+    streaming_ = true;
+    replay_->start(now);
+    // The frames' timing is what is replayed: where allowed (root, or an rtprio limit), the engine's
+    // thread wakes at a real-time priority, so a busy recorder beside it does not delay its frames.
+    sched_param rt{};
+    rt.sched_priority = 10;
+    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &rt) != 0)
+      spdlog::debug("replay: {}: sending at normal priority (no permission for SCHED_FIFO)", name_);
+    while (next_ < frames.size() && replay_->due_ns(frames[next_].t_ns) < now) ++next_;
+  }
+  ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(fake_.get());
+  if (next_ >= frames.size()) {
+    // Over (or the recorder restarted acquisition after the end): the engine sends this buffer
+    // whatever happens; then it sleeps for good.
+    arv_fake_camera_write_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US, 0xFFFFFFFFu);
+    arv_buffer_set_frame_id(buffer, frames.empty() ? 1 : frames.back().frame_id);
+    return;
+  }
+  const ReplayCameraFrame& f = frames[next_++];
+  const std::int64_t due = replay_->due_ns(f.t_ns);
+  cv::Mat image = f.sample >= 0 ? stored_image(f.sample) : cv::Mat();
+  if (!image.empty()) last_ = image;
+  else image = last_;
+  if (const std::int64_t wait = due - host_now().ns; wait > 0)
+    std::this_thread::sleep_for(std::chrono::nanoseconds(wait));
+  size_t size = 0;
+  auto* data = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &size)));
+  const std::size_t payload = arv_fake_camera_get_payload(fake);
+  if (data) {
+    if (!image.empty() && image.isContinuous())
+      std::memcpy(data, image.data, std::min(payload, image.total() * image.elemSize()));
+    else
+      std::memset(data, 128, payload);
+  }
+  arv_buffer_set_frame_id(buffer, f.frame_id);
+  arv_buffer_set_timestamp(buffer, guint64(std::max<std::int64_t>(0, f.device_ns)));
+  log_ << f.frame_id << ',' << f.device_ns << ',' << due << ',' << host_now().ns << '\n';  // leaves now
+  if (++logged_ % 32 == 0) log_.flush();
+  plan_next_tick();
+}
+
+void ReplayCamera::plan_next_tick() {
+  const auto& frames = replay_->camera_frames(index_);
+  ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(fake_.get());
+  if (next_ >= frames.size()) {  // that was the last frame: no more ticks
+    arv_fake_camera_write_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US, 0xFFFFFFFFu);
+    return;
+  }
+  // Wake 0.2-0.5 ms before the next frame is due; the fill waits the rest (the engine answers no
+  // control packet while a fill waits, so the wait is kept short).
+  const std::int64_t mono = host_now().ns;
+  const std::int64_t real_us = g_get_real_time();
+  const std::int64_t due_us = real_us + (replay_->due_ns(frames[next_].t_ns) - mono) / 1000;
+  arv_fake_camera_write_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US,
+                                 period_waking_at(real_us, due_us - 200, 300));
+}
+
+}  // namespace pvcap::sim

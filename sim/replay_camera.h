@@ -1,0 +1,61 @@
+#pragma once
+// One camera of a recorded session, re-served over GigE Vision by Aravis' fake-camera engine
+// (sim/session_replay.h): the frames it sent then, each with its recorded frame id and device
+// timestamp, leaving at its recorded instant (shifted), with the stored mosaic of the frames the
+// session kept (read ahead on a thread of its own) and the last stored one for the others. Its
+// timestamp latch reads the recorded clock.
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include <opencv2/core.hpp>
+
+#include "capture/aravis_handles.h"
+#include "core/result.h"
+#include "core/rig_config.h"
+#include "sim/session_replay.h"
+
+namespace pvcap::sim {
+
+class ReplayCamera {
+ public:
+  // Serves the recorded camera named like `camera` at `camera.address`; logs each frame it sends to
+  // truth_dir/<name>_replay.csv (frame_id, device_ns, due_ns, sent_ns).
+  static Result<std::unique_ptr<ReplayCamera>> create(const CameraConfig& camera, std::shared_ptr<SessionReplay> replay,
+                                                      const std::filesystem::path& truth_dir);
+  ~ReplayCamera();
+  ReplayCamera(const ReplayCamera&) = delete;
+  ReplayCamera& operator=(const ReplayCamera&) = delete;
+
+ private:
+  ReplayCamera() = default;
+  static void fill(ArvBuffer* buffer, void* self, guint32 exposure_us, guint32 gain, ArvPixelFormat format);
+  void fill_buffer(ArvBuffer* buffer);
+  void plan_next_tick();
+  void read_ahead();
+  cv::Mat stored_image(std::int64_t sample);
+
+  std::string name_;
+  std::shared_ptr<SessionReplay> replay_;
+  std::size_t index_ = 0;    // the camera's index in the replay
+  std::size_t next_ = 0;     // the next frame to send
+  bool streaming_ = false;   // the first frame after acquisition start has been sent
+  cv::Mat last_;             // the last stored mosaic sent (frames the session did not keep reuse it)
+  arv::GPtr<ArvGvFakeCamera> fake_;
+  std::ofstream log_;
+  std::uint64_t logged_ = 0;
+
+  // Read-ahead of stored mosaics, in the order of the frames that have them.
+  std::mutex mu_;
+  std::condition_variable changed_;
+  std::deque<std::pair<std::int64_t, cv::Mat>> ready_;
+  bool stop_ = false;
+  std::thread reader_;
+};
+
+}  // namespace pvcap::sim

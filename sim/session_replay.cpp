@@ -1,0 +1,158 @@
+#include "sim/session_replay.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "core/rig_config.h"
+#include "core/time.h"
+#include "storage/sqlite/database.h"
+#include "sync/timeline.h"
+
+namespace pvcap::sim {
+
+namespace {
+// The first frame leaves this long after the first device starts: time for the others to start.
+// Short enough that a Sensel asked for its first frame answers before the driver gives up (0.5 s).
+constexpr std::int64_t kLeadNs = 200'000'000;
+}  // namespace
+
+Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem::path& session_dir, double rate) {
+  const auto db_path = session_dir / "session.db";
+  if (!std::filesystem::exists(db_path))
+    return Error{fmt::format("{}: not a pvcap session (no session.db) - nothing to replay", session_dir.string())};
+  std::shared_ptr<SessionReplay> r(new SessionReplay());
+  r->dir_ = session_dir;
+  r->rate_ = rate;
+  try {
+    sqlite::Database db(db_path, sqlite::Database::Mode::ReadOnly);
+    auto s = db.prepare("SELECT started_host_ns, rig_config, rig_path FROM session");
+    if (!s.step()) return Error{fmt::format("{}: the session table is empty", db_path.string())};
+    r->anchor_ns_ = s.column_int(0);
+    std::int64_t sensel_latency_ns = 0;
+    try {
+      const RigConfig rig = parse_rig_config(s.column_text(1), s.column_text(2));
+      r->grid_hz_ = sample_rate_hz(rig);
+      if (rig.sensel) sensel_latency_ns = rig.sensel->latency_ns;
+    } catch (const UserError& e) {
+      return Error{fmt::format("{}: the rig file stored with the session cannot be read: {}", db_path.string(),
+                               e.what())};
+    }
+
+    // Which sample stores which camera frame (samples by id, as SessionReader numbers them).
+    std::map<std::int64_t, std::int64_t> sample_index;
+    auto ids = db.prepare("SELECT id FROM samples ORDER BY id");
+    while (ids.step()) sample_index.emplace(ids.column_int(0), std::int64_t(sample_index.size()));
+    std::map<std::tuple<std::int64_t, std::int64_t, std::int64_t>, std::int64_t> stored;
+    auto members = db.prepare("SELECT sample_id, device_id, connection, sequence FROM sample_frames");
+    while (members.step())
+      stored[{members.column_int(1), members.column_int(2), members.column_int(3)}] =
+          sample_index[members.column_int(0)];
+
+    // Every camera frame that arrived whole and was put on the session clock, in the order sent.
+    std::int64_t first = INT64_MAX;
+    auto cams = db.prepare("SELECT id, name FROM devices WHERE kind = 'camera' ORDER BY id");
+    auto frames = db.prepare(
+        "SELECT connection, sequence, frame_id, device_ns, mapped_ns, kept FROM frames WHERE device_id = ? AND "
+        "mapped_ns IS NOT NULL AND frame_id <> 0 AND status = 'good' ORDER BY connection, sequence");
+    while (cams.step()) {
+      Camera c;
+      c.name = cams.column_text(1);
+      frames.reset();
+      frames.bind_all(cams.column_int(0));
+      while (frames.step()) {
+        ReplayCameraFrame f{std::uint64_t(frames.column_int(2)), frames.column_int(3), frames.column_int(4), -1};
+        if (frames.column_int(5) != 0) {
+          const auto it = stored.find({cams.column_int(0), frames.column_int(0), frames.column_int(1)});
+          if (it != stored.end()) f.sample = it->second;
+        }
+        c.clock.emplace_back(f.t_ns, f.device_ns);
+        c.frames.push_back(f);
+      }
+      std::sort(c.clock.begin(), c.clock.end());
+      if (!c.frames.empty()) first = std::min(first, c.frames.front().t_ns);
+      r->cameras_.push_back(std::move(c));
+    }
+
+    // The Sensel's frames as they came, each due when it reached the host (its mapped time plus the
+    // latency the rig declared, which the recorder subtracts again).
+    auto sensel = db.prepare("SELECT id, serial FROM devices WHERE kind = 'sensel' ORDER BY id LIMIT 1");
+    if (sensel.step()) {
+      r->sensel_serial_ = sensel.column_text(1);
+      auto p = db.prepare(
+          "SELECT payload, mapped_ns FROM pressure_frames WHERE device_id = ? AND mapped_ns IS NOT NULL "
+          "ORDER BY connection, sequence");
+      p.bind_all(sensel.column_int(0));
+      while (p.step()) r->pressure_.push_back({p.column_blob(0), p.column_int(1) + sensel_latency_ns});
+      if (!r->pressure_.empty()) first = std::min(first, r->pressure_.front().t_ns);
+    }
+    if (first == INT64_MAX)
+      return Error{fmt::format("{}: the session holds no frame on its clock - nothing to replay", session_dir.string())};
+    r->first_t_ns_ = first;
+  } catch (const sqlite::SqliteError& e) {
+    return Error{fmt::format("{}: cannot be read: {}", db_path.string(), e.what())};
+  }
+  return r;
+}
+
+Result<std::size_t> SessionReplay::camera_index(const std::string& name) const {
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < cameras_.size(); ++i) {
+    if (cameras_[i].name == name) return i;
+    names.push_back(cameras_[i].name);
+  }
+  return Error{fmt::format("{}: the replayed session has no camera '{}' (it has: {})", dir_.string(), name,
+                           fmt::join(names, ", "))};
+}
+
+std::int64_t SessionReplay::origin_for(std::int64_t now_ns) const {
+  // The session's first frame leaves kLeadNs from now; the anchor's stand-in is then moved to the
+  // next lattice point of the grid, so the re-recording's ticks fall where the recording's did.
+  const double period_ns = 1e9 / grid_hz_;
+  const auto origin = now_ns + kLeadNs - std::int64_t(double(first_t_ns_ - anchor_ns_) / rate_);
+  return sync::grid_lattice_floor(origin + std::int64_t(std::ceil(period_ns)), grid_hz_);
+}
+
+std::int64_t SessionReplay::start(std::int64_t now_ns) {
+  std::lock_guard lock(mu_);
+  if (!origin_) origin_ = origin_for(now_ns);
+  return *origin_;
+}
+
+std::int64_t SessionReplay::due_ns(std::int64_t t_ns) const {
+  std::int64_t origin = 0;
+  {
+    std::lock_guard lock(mu_);
+    origin = origin_ ? *origin_ : 0;
+  }
+  if (origin == 0) origin = origin_for(host_now().ns);
+  return origin + std::int64_t(std::llround(double(t_ns - anchor_ns_) / rate_));
+}
+
+std::int64_t SessionReplay::session_time(std::int64_t host_ns) const {
+  std::int64_t origin = 0;
+  {
+    std::lock_guard lock(mu_);
+    origin = origin_ ? *origin_ : 0;
+  }
+  if (origin == 0) origin = origin_for(host_now().ns);
+  return anchor_ns_ + std::int64_t(std::llround(double(host_ns - origin) * rate_));
+}
+
+std::int64_t SessionReplay::camera_device_time(std::size_t c, std::int64_t host_ns) const {
+  const auto& clock = cameras_[c].clock;
+  const std::int64_t t = session_time(host_ns);
+  if (clock.empty()) return t;
+  // Between two recorded frames: on the line through them; outside: at the device's nominal rate.
+  const auto hi = std::lower_bound(clock.begin(), clock.end(), std::make_pair(t, INT64_MIN));
+  if (hi == clock.begin()) return clock.front().second + (t - clock.front().first);
+  if (hi == clock.end()) return clock.back().second + (t - clock.back().first);
+  const auto lo = std::prev(hi);
+  if (hi->first == lo->first) return lo->second;
+  const double f = double(t - lo->first) / double(hi->first - lo->first);
+  return lo->second + std::int64_t(std::llround(f * double(hi->second - lo->second)));
+}
+
+}  // namespace pvcap::sim
