@@ -39,8 +39,21 @@ int cmd_replay(const ReplayCommand& c, const std::atomic<bool>& stop) {
     return replay_as_devices(c);
   }
   if (c.options.out.empty()) {
-    spdlog::error("pvcap replay needs --out FILE.mp4 (a rendered video) or --as-devices (a rig that re-serves it)");
-    return 2;
+    replay::WindowOptions w = c.window;
+    w.pressure_full_scale_kpa = c.options.pressure_full_scale_kpa;
+    if (!replay::display_available()) {
+      spdlog::error("pvcap replay: no display to open the window on (DISPLAY is not set); render the session with "
+                    "--out FILE.mp4, or re-serve it with --as-devices");
+      return 2;
+    }
+    auto shown = replay::run_replay_window(c.session, w, &stop);
+    if (!shown) {
+      spdlog::error("{}", shown.error().message);
+      return 1;
+    }
+    fmt::print("replay window closed: {} pictures shown, the last of sample {}\n", shown.value().pictures,
+               shown.value().last_sample);
+    return 0;
   }
   const auto started = std::chrono::steady_clock::now();
   ProgressLine bar;

@@ -1,4 +1,5 @@
 #pragma once
+// `pvcap replay SESSION`: the session in a window, steered by keys (replay/replay_window.h).
 // `pvcap replay SESSION --out FILE.mp4 [--take NAME] [--from S] [--to S] [--speed X]`: the session's
 // four views with the pressure overlaid, the pressure image and the take's labels, rendered into a
 // video without a display (replay/render_video.h), with progress and the time left.
@@ -8,6 +9,7 @@
 #include <filesystem>
 
 #include "replay/render_video.h"
+#include "replay/replay_window.h"
 
 namespace pvcap {
 
@@ -15,6 +17,7 @@ struct ReplayCommand {
   std::filesystem::path session;
   replay::RenderOptions options;
   bool as_devices = false;  // write the rig file that re-serves the session (replay/as_devices.h)
+  replay::WindowOptions window;  // neither --out nor --as-devices: the window (replay/replay_window.h)
   double rate = 1.0;
   std::filesystem::path rig_out;
 };

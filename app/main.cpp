@@ -137,7 +137,8 @@ int main(int argc, char** argv) {
   auto* replay_cmd = app.add_subcommand("replay", "render a recorded session into a video (the camera views with the "
                                                   "pressure overlaid through each calibration, the pressure image, "
                                                   "the take, hand, force and time), or re-serve it through the "
-                                                  "simulated devices (--as-devices)");
+                                                  "simulated devices (--as-devices); without either, in a window "
+                                                  "(keys: space, arrows, [ ], p n, - +, q)");
   pvcap::ReplayCommand replay_opts;
   std::string replay_take;
   double replay_from = -1, replay_to = -1;
@@ -149,6 +150,10 @@ int main(int argc, char** argv) {
   replay_cmd->add_option("--rate", replay_opts.rate, "--as-devices: play this much faster (default 1: the original "
                                                      "timing; the round trip is exact only at 1)")
       ->check(CLI::Range(0.1, 10.0));
+  replay_cmd->add_option("--keys", replay_opts.window.keys, "the window: press these keys first (space, right, "
+                                                           "left, n, p, +, -, q, ...; for demos and tests)")
+      ->delimiter(',');
+  replay_cmd->add_option("--snapshot", replay_opts.window.snapshot, "the window: write its last picture here (PNG)");
   replay_cmd->add_option("--rig-out", replay_opts.rig_out, "--as-devices: the rig file to write (default "
                                                            "./SESSION-replay.yaml)");
   replay_cmd->add_option("--take", replay_take, "only this take (its name, as `pvcap takes` lists it)");

@@ -188,4 +188,12 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i, std::vector<cv::Mat> imag
   return canvas;
 }
 
+std::vector<std::size_t> ReplayComposer::take_starts() const {
+  std::vector<std::size_t> out;
+  for (const auto& t : takes_) out.push_back(t.first);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
 }  // namespace pvcap::replay

@@ -63,6 +63,9 @@ class ReplayComposer {
   std::optional<TakeLabel> take_at(std::size_t i) const;
   // The samples of the take named `name` ([first, end)); an Error listing the takes otherwise.
   Result<std::pair<std::size_t, std::size_t>> take_samples(const std::string& name) const;
+  // The first sample of every take (retakes too), in order: what the window's next/previous take
+  // keys jump between.
+  std::vector<std::size_t> take_starts() const;
   // Whether camera c has a calibration to draw the pressure through.
   bool calibrated(std::size_t camera) const { return camera < projectors_.size() && projectors_[camera].has_value(); }
 

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "replay/replay_composer.h"
@@ -146,5 +147,26 @@ TEST(Replay, TheRenderedTakeShowsThePressWhereTheSimulatorPutIt) {
                 cam.name.c_str(), hot.x, hot.y, expected.x, expected.y, off, area);
     EXPECT_LT(off, 4.0) << cam.name;
   }
+
+  // The window, on Qt's headless display: to the next take, two samples on, quit. What it showed
+  // last is that sample's picture, with the status line under it.
+  const auto starts = composer.value().take_starts();
+  ASSERT_GE(starts.size(), 2u);
+  ASSERT_GT(starts.back(), 0u);
+  const std::size_t expected = *std::upper_bound(starts.begin(), starts.end(), std::size_t{0}) + 2;
+  setenv("QT_QPA_PLATFORM", "offscreen", 1);
+  const fs::path shot = work / "window.png";
+  const auto window =
+      run_pvcap(fmt::format("replay {} --keys n,right,right,q --snapshot {}", session.string(), shot.string()));
+  unsetenv("QT_QPA_PLATFORM");
+  ASSERT_EQ(window.exit_code, 0) << window.output;
+  EXPECT_NE(window.output.find(fmt::format("the last of sample {}", expected)), std::string::npos)
+      << window.output;
+  const cv::Mat seen = cv::imread(shot.string());
+  ASSERT_FALSE(seen.empty());
+  ASSERT_GT(seen.rows, Layout::kHeight) << "the status line under the picture";
+  auto want = composer.value().compose(expected);
+  ASSERT_TRUE(want) << want.error().message;
+  EXPECT_EQ(cv::norm(seen(cv::Rect(0, 0, Layout::kWidth, Layout::kHeight)), want.value(), cv::NORM_INF), 0.0);
   fs::remove_all(work);
 }
