@@ -14,6 +14,11 @@
 namespace pvcap::sim {
 
 namespace {
+// Times beyond this (~30 years of nanoseconds) are damage, not a session: refused, so the replay's
+// arithmetic never overflows.
+constexpr std::int64_t kMaxTimeNs = std::int64_t(1) << 60;
+bool plausible(std::int64_t t) { return t > -kMaxTimeNs && t < kMaxTimeNs; }
+
 // The first frame leaves this long after the first device starts: time for the others to start.
 // Short enough that a Sensel asked for its first frame answers before the driver gives up (0.5 s).
 constexpr std::int64_t kLeadNs = 200'000'000;
@@ -31,6 +36,8 @@ Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem
     auto s = db.prepare("SELECT started_host_ns, rig_config, rig_path FROM session");
     if (!s.step()) return Error{fmt::format("{}: the session table is empty", db_path.string())};
     r->anchor_ns_ = s.column_int(0);
+    if (!plausible(r->anchor_ns_))
+      return Error{fmt::format("{}: the session's start is an impossible time (a damaged index)", db_path.string())};
     std::int64_t sensel_latency_ns = 0;
     try {
       const RigConfig rig = parse_rig_config(s.column_text(1), s.column_text(2));
@@ -48,8 +55,8 @@ Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem
     std::map<std::tuple<std::int64_t, std::int64_t, std::int64_t>, std::int64_t> stored;
     auto members = db.prepare("SELECT sample_id, device_id, connection, sequence FROM sample_frames");
     while (members.step())
-      stored[{members.column_int(1), members.column_int(2), members.column_int(3)}] =
-          sample_index[members.column_int(0)];
+      if (const auto it = sample_index.find(members.column_int(0)); it != sample_index.end())
+        stored[{members.column_int(1), members.column_int(2), members.column_int(3)}] = it->second;
 
     // Every camera frame that arrived whole and was put on the session clock, in the order sent.
     std::int64_t first = INT64_MAX;
@@ -64,6 +71,9 @@ Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem
       frames.bind_all(cams.column_int(0));
       while (frames.step()) {
         ReplayCameraFrame f{std::uint64_t(frames.column_int(2)), frames.column_int(3), frames.column_int(4), -1};
+        if (!plausible(f.device_ns) || !plausible(f.t_ns))
+          return Error{fmt::format("{}: camera {} has a frame at an impossible time (a damaged index)",
+                                   db_path.string(), c.name)};
         if (frames.column_int(5) != 0) {
           const auto it = stored.find({cams.column_int(0), frames.column_int(0), frames.column_int(1)});
           if (it != stored.end()) f.sample = it->second;
@@ -85,7 +95,11 @@ Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem
           "SELECT payload, mapped_ns FROM pressure_frames WHERE device_id = ? AND mapped_ns IS NOT NULL "
           "ORDER BY connection, sequence");
       p.bind_all(sensel.column_int(0));
-      while (p.step()) r->pressure_.push_back({p.column_blob(0), p.column_int(1) + sensel_latency_ns});
+      while (p.step()) {
+        if (!plausible(p.column_int(1)))
+          return Error{fmt::format("{}: a pressure frame at an impossible time (a damaged index)", db_path.string())};
+        r->pressure_.push_back({p.column_blob(0), p.column_int(1) + sensel_latency_ns});
+      }
       if (!r->pressure_.empty()) first = std::min(first, r->pressure_.front().t_ns);
     }
     if (first == INT64_MAX)

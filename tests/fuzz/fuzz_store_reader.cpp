@@ -1,7 +1,9 @@
 // libFuzzer target: the store's readers on damaged input. The first byte picks what the rest is:
-// 'D' a session.db (read through SessionReader: every sample, pressure frame, action, event and
-// statistic), 'V' a video file (VideoReader: open, random access, sequential decoding). Any
-// bytes give data or an Error with a message; never a crash, a hang or an exception.
+// 'D' a session.db (read through SessionReader: every sample, pressure frame and total, action,
+// event, drop, clock model and statistic), 'R' a session.db read to be re-served through the
+// devices (sim::SessionReplay, and the rig file `pvcap replay --as-devices` writes from it), 'V' a
+// video file (VideoReader: open, random access, sequential decoding). Any bytes give data or an
+// Error with a message; never a crash, a hang or an exception.
 #include <unistd.h>
 
 #include <cstddef>
@@ -10,6 +12,8 @@
 #include <fstream>
 #include <string>
 
+#include "replay/as_devices.h"
+#include "sim/session_replay.h"
 #include "storage/session_reader.h"
 #include "storage/video_reader.h"
 
@@ -41,11 +45,36 @@ void read_store(const std::filesystem::path& dir) {
     (void)reader.sample_at(std::int64_t(i) * 66'000'000);
   }
   (void)reader.pressure_frame(0);
+  (void)reader.pressure_frames_between(INT64_MIN / 2, INT64_MAX / 2);
+  (void)reader.pressure_totals();
+  (void)reader.sample_infos();
+  (void)reader.drops();
+  (void)reader.clock_models();
+  (void)reader.timeline_counts();
+  (void)reader.protocol_events();
+  for (const auto& c : reader.cameras()) (void)reader.frame_timing(c.device_id);
   (void)reader.actions();
   (void)reader.events();
   (void)reader.operator_notes();
   (void)reader.calibrations();
   (void)reader.stream_statistics();
+}
+
+void read_replay(const std::filesystem::path& dir) {
+  auto r = pvcap::sim::SessionReplay::open(dir);
+  if (!r) {
+    if (r.error().message.empty()) __builtin_trap();
+    return;
+  }
+  auto& replay = *r.value();
+  (void)replay.start(1'000'000'000);
+  for (std::size_t c = 0;; ++c) {
+    auto i = replay.camera_index("cam" + std::to_string(c));
+    if (!i) break;
+    for (const auto& f : replay.camera_frames(i.value())) (void)replay.camera_device_time(i.value(), replay.due_ns(f.t_ns));
+  }
+  auto rig = pvcap::replay::write_replay_rig(dir, dir / "replay.yaml", 1.0);
+  if (!rig && rig.error().message.empty()) __builtin_trap();
 }
 
 void read_video(const std::filesystem::path& path) {
@@ -67,6 +96,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (data[0] == 'D') {
     write_file(scratch() / "session.db", data + 1, size - 1);
     read_store(scratch());
+  } else if (data[0] == 'R') {
+    write_file(scratch() / "session.db", data + 1, size - 1);
+    read_replay(scratch());
   } else if (data[0] == 'V') {
     write_file(scratch() / "video.mkv", data + 1, size - 1);
     read_video(scratch() / "video.mkv");

@@ -74,6 +74,7 @@ int main(int argc, char** argv) {
     o << in.rdbuf();
   };
   seed(dir / "session.db", out / "seed-db", 'D');
+  seed(dir / "session.db", out / "seed-replay", 'R');
   seed(dir / "a-000.mkv", out / "seed-video", 'V');
   fs::remove_all(root);
   return 0;
