@@ -14,6 +14,10 @@
 namespace pvcap {
 
 namespace {
+// The devices start re-serving 0.2-0.3 s after the recording starts them (sim/session_replay.h):
+// a session this much longer than the replay records all of it and stops before they fall silent.
+constexpr double kReplayStartS = 0.5;
+
 int replay_as_devices(const ReplayCommand& c) {
   auto r = replay::write_replay_rig(c.session, c.rig_out, c.rate);
   if (!r) {
@@ -23,9 +27,9 @@ int replay_as_devices(const ReplayCommand& c) {
   const auto& v = r.value();
   fmt::print("replay rig: {}\n"
              "its simulated devices re-serve {:.1f} s of {} ({:.1f} s at rate {:g}) through the GigE Vision and "
-             "Sensel protocols.\nrecord it again with:\n  pvcap session --rig {} --duration {:.0f}\n",
+             "Sensel protocols.\nrecord it again with:\n  pvcap session --rig {} --duration {:.1f}\n",
              v.rig_file.string(), v.session_seconds, c.session.string(), v.replay_seconds, c.rate,
-             v.rig_file.string(), std::ceil(v.replay_seconds + 2.0));
+             v.rig_file.string(), std::ceil(10 * (v.replay_seconds + kReplayStartS)) / 10);
   return 0;
 }
 }  // namespace

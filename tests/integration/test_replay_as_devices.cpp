@@ -104,11 +104,17 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   const auto rig = run_pvcap(fmt::format("replay {} --as-devices --rig-out {}", recorded.string(),
                                          (work / "replay.yaml").string()));
   ASSERT_EQ(rig.exit_code, 0) << rig.output;
-  ASSERT_NE(rig.output.find("pvcap session --rig " + (work / "replay.yaml").string()), std::string::npos)
-      << rig.output;
-  const auto again = run_pvcap(fmt::format("session --rig {} --root {} --duration 11 --no-web",
-                                           (work / "replay.yaml").string(), (work / "replayed").string()));
+  // The printed command, as a user would run it.
+  const std::string printed = "pvcap session --rig " + (work / "replay.yaml").string() + " --duration ";
+  const auto at = rig.output.find(printed);
+  ASSERT_NE(at, std::string::npos) << rig.output;
+  const double duration = std::stod(rig.output.substr(at + printed.size()));
+  EXPECT_GT(duration, 8.0);
+  EXPECT_LT(duration, 9.0);
+  const auto again = run_pvcap(fmt::format("session --rig {} --root {} --duration {} --no-web",
+                                           (work / "replay.yaml").string(), (work / "replayed").string(), duration));
   ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_EQ(again.output.find("camera lost"), std::string::npos) << "the session ends before the replay falls silent";
   const fs::path replayed = only_session(work / "replayed");
   ASSERT_FALSE(replayed.empty()) << again.output;
 
