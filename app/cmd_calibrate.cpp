@@ -322,7 +322,7 @@ int cmd_calibrate_check(const CalibrateOptions& o) {
     auto info = session->sample_info(i);
     if (!info) throw UserError(info.error().message);
     if (!info.value().pressure) continue;
-    auto frame = session->pressure_frame(info.value().pressure->sequence);
+    auto frame = session->pressure_frame(info.value().pressure->sequence, info.value().pressure->connection);
     if (!frame) continue;
     double total = 0;
     for (auto c : frame.value().counts) total += c;

@@ -38,7 +38,11 @@ Result<std::unique_ptr<SenselDevice>> SenselDevice::open(TransportFactory factor
 }
 
 void SenselDevice::emit(SenselEvent::Kind kind, std::string message) {
-  if (on_event_) on_event_(SenselEvent{kind, host_now(), std::move(message)});
+  emit(SenselEvent{kind, host_now(), std::move(message)});
+}
+
+void SenselDevice::emit(SenselEvent e) {
+  if (on_event_) on_event_(e);
 }
 
 std::map<std::string, std::uint64_t> SenselDevice::rejected() const {
@@ -184,6 +188,8 @@ Status SenselDevice::configure(const SenselConfig& config) {
 Status SenselDevice::start() {
   const std::uint8_t sync[] = {1};
   if (Status s = write_reg(reg::kScanEnabled, sync); !s.ok()) return s;
+  session_serial_ = info_.serial;  // what a reconnect must find again
+  session_grid_ = info_.grid;
   running_.store(true);
   thread_ = std::thread([this] { stream_loop(); });
   return {};
@@ -217,13 +223,43 @@ void SenselDevice::stream_loop() {
       if (!t) continue;
       transport_ = std::move(t.value());
       const std::uint8_t sync[] = {1};
-      if (open_sequence().ok() && apply_config().ok() && write_reg(reg::kScanEnabled, sync).ok()) {
-        counter_ = SequenceUnwrapper(8, false);  // a power-cycled device restarts its counter
-        clock_ = SequenceUnwrapper(32, false);   // and its clock
-        emit(SenselEvent::Kind::Reconnected, fmt::format("{}: Sensel reconnected, streaming again", transport_->describe()));
-      } else {
+      if (!open_sequence().ok()) {
         transport_.reset();
+        continue;
       }
+      // Only the session's own Morph is recorded again: another one (a swapped cable, a second
+      // sensor on the bench) would mix two sensors' data in one stream.
+      if (info_.serial != session_serial_) {
+        emit(SenselEvent::Kind::WrongDevice,
+             fmt::format("{}: a different Sensel Morph (serial {}) answered where the session's (serial {}) was "
+                         "unplugged; it is NOT recorded - plug the session's Morph back in",
+                         transport_->describe(), info_.serial, session_serial_));
+        transport_.reset();
+        continue;
+      }
+      if (!apply_config().ok() || !write_reg(reg::kScanEnabled, sync).ok()) {
+        transport_.reset();
+        continue;
+      }
+      if (!(info_.grid == session_grid_)) {
+        emit(SenselEvent::Kind::WrongDevice,
+             fmt::format("{}: the Morph came back scanning a {}x{} grid, not the session's {}x{}; it is NOT recorded",
+                         transport_->describe(), info_.grid.cols, info_.grid.rows, session_grid_.cols,
+                         session_grid_.rows));
+        transport_.reset();
+        continue;
+      }
+      counter_ = SequenceUnwrapper(8, false);  // a power-cycled device restarts its counter
+      clock_ = SequenceUnwrapper(32, false);   // and its clock
+      ++connection_;  // so sequences never repeat within a connection
+      first_device_ns_ = -1, connection_frames_ = 0;
+      SenselEvent e{SenselEvent::Kind::Reconnected, host_now(),
+                    fmt::format("{}: Sensel reconnected (serial {}), streaming again as connection {}",
+                                transport_->describe(), info_.serial, connection_)};
+      e.connection = connection_;
+      e.away_ns = e.at.ns - unplugged_at_.ns;
+      e.missed = std::uint64_t(std::max<std::int64_t>(0, e.away_ns) / std::max<std::int64_t>(1, frame_period_ns_));
+      emit(std::move(e));
       continue;
     }
     auto [host, wait_ns, r] = stamped([&] { return transact(command_read_variable(reg::kReadFrame), Expect::ReadVariable, reg::kReadFrame); });
@@ -235,6 +271,9 @@ void SenselDevice::stream_loop() {
         flush_input();
       } else {
         emit(SenselEvent::Kind::Unplugged, fmt::format("{}; everything captured so far is kept, reopening every second", msg));
+        unplugged_at_ = host_now();
+        if (connection_frames_ > 1 && last_device_ns_ > first_device_ns_)  // its rate until now
+          frame_period_ns_ = (last_device_ns_ - first_device_ns_) / std::int64_t(connection_frames_ - 1);
         transport_.reset();
       }
       continue;
@@ -265,6 +304,10 @@ void SenselDevice::stream_loop() {
       tick = clock_.next(frame.value().timestamp_us);
     }
     s.device_ts = DeviceNs{std::int64_t(tick.sequence) * 1000};
+    s.connection = connection_;
+    if (first_device_ns_ < 0) first_device_ns_ = s.device_ts.ns;
+    last_device_ns_ = s.device_ts.ns;
+    ++connection_frames_;
     s.grid = info_.grid;
     s.frame = std::move(frame.value());
     s.payload = std::move(r.value().data);

@@ -47,7 +47,8 @@ struct PressureSample {
   std::int64_t host_wait_ns = 0;  // answer time minus request time (the stamp's uncertainty)
   HostNs first_byte_ts;           // when the answer's first bytes arrived (its earliest sign, for clock models)
   DeviceNs device_ts;             // device µs timestamp, unwrapped past 2^32, in ns
-  std::uint64_t sequence = 0;     // rolling counter, unwrapped
+  std::uint32_t connection = 0;   // 0, then one more after each reconnect (the counter restarts with it)
+  std::uint64_t sequence = 0;     // rolling counter, unwrapped (within the connection)
   std::uint64_t lost_before = 0;  // frames the counter says were skipped before this one
   Grid grid;
   Frame frame;                    // contacts, accelerometer, pressure counts, labels
@@ -55,9 +56,14 @@ struct PressureSample {
 };
 
 struct SenselEvent {
-  enum class Kind { Stall, Garbage, Unplugged, Reconnected } kind;
+  // WrongDevice: after an unplug, a Morph with another serial (or grid) answered where the
+  // session's was; it is not recorded, and the driver keeps looking for the session's own.
+  enum class Kind { Stall, Garbage, Unplugged, Reconnected, WrongDevice } kind;
   HostNs at;
   std::string message;
+  std::uint32_t connection = 0;  // Reconnected: the new connection's number
+  std::int64_t away_ns = 0;      // Reconnected: how long the device was gone
+  std::uint64_t missed = 0;      // Reconnected: frames it would have sent meanwhile, at its rate before
 };
 
 class SenselDevice {
@@ -95,6 +101,7 @@ class SenselDevice {
   void flush_input();
   void stream_loop();
   void emit(SenselEvent::Kind kind, std::string message);
+  void emit(SenselEvent e);
 
   TransportFactory factory_;
   EventHandler on_event_;
@@ -105,6 +112,13 @@ class SenselDevice {
   SenselInfo info_;
   SenselConfig config_;
   BoundedQueue<PressureSample> queue_{512};
+  std::uint32_t connection_ = 0;
+  std::string session_serial_;   // the Morph the session streams from: a reconnect must find this one
+  Grid session_grid_;
+  HostNs unplugged_at_;
+  std::int64_t first_device_ns_ = -1, last_device_ns_ = 0;  // this connection's, for its frame rate
+  std::uint64_t connection_frames_ = 0;
+  std::int64_t frame_period_ns_ = 8'000'000;  // measured before an unplug (medium detail's by default)
   SequenceUnwrapper counter_{8, false};
   SequenceUnwrapper clock_{32, false};
   std::atomic<bool> running_{false};

@@ -190,6 +190,22 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
       sr.get_in_range("clock_reset_at_s", v, 0.0, 1e7);
       s.sensel.clock_reset_at_s = v;
     }
+    if (sr.has("unplug_at_s")) {
+      double v = 0;
+      sr.get_in_range("unplug_at_s", v, 0.0, 1e7);
+      s.sensel.unplug_at_s = v;
+    }
+    if (sr.has("replug_after_s")) {
+      double v = 0;
+      sr.get_in_range("replug_after_s", v, 0.0, 1e7);
+      if (!s.sensel.unplug_at_s) sr.fail(sn["replug_after_s"], "replug_after_s", "needs an unplug_at_s before it");
+      s.sensel.replug_after_s = v;
+    }
+    if (sr.has("replug_serial")) {
+      std::string v;
+      sr.get("replug_serial", v);
+      s.sensel.replug_serial = v;
+    }
     sr.finish();
   }
   r.finish();

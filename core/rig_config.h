@@ -59,6 +59,10 @@ struct SimSenselConfig {
   double usb_jitter_max_ms = 4.0;   // ...with a tail up to this
   double drop_fraction = 0;         // frames the device scans but loses (its counter skips them)
   std::optional<double> clock_reset_at_s;  // the device clock restarts at 0 this long after start
+  // Unplugged this long after start, and plugged back (power-cycled: counter and clock restart) after
+  // `replug_after_s` on a new pseudo-terminal, as `replug_serial` if given (another Morph).
+  std::optional<double> unplug_at_s, replug_after_s;
+  std::optional<std::string> replug_serial;
 };
 
 struct StoreConfig {

@@ -105,8 +105,8 @@ json matrix(const cv::Matx33d& m) {
 }
 
 // The sample's pressure in the loaders' units, on the 185 x 105 sensel grid (rows x cols: 105 x 185).
-Result<cv::Mat> loader_force(SessionReader& r, std::uint64_t sequence) {
-  auto p = r.pressure_frame(sequence);
+Result<cv::Mat> loader_force(SessionReader& r, const SampleInfo::PressureRef& ref) {
+  auto p = r.pressure_frame(ref.sequence, ref.connection);
   if (!p) return p.error();
   const PressureFrame& f = p.value();
   const sensel::Grid grid{f.grid_cols, f.grid_rows, f.grid_xscale, f.grid_yscale};
@@ -375,7 +375,7 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
       }
       const fs::path force = dir / "force" / fmt::format("{:05d}.{}", t, force_ext);
       if (!fs::exists(force)) {
-        auto f = loader_force(r, s.pressure->sequence);
+        auto f = loader_force(r, *s.pressure);
         if (!f) return f.error();
         const std::string bytes = o.npy ? numpy_npy(f.value()) : numpy_pickle(f.value());
         if (auto w = write_atomically(force, bytes); !w.ok()) return w.error();

@@ -115,7 +115,7 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i, std::vector<cv::Mat> imag
   Sample s;
   s.info = std::move(info.value());
   if (s.info.pressure) {
-    auto p = reader_->pressure_frame(s.info.pressure->sequence);
+    auto p = reader_->pressure_frame(s.info.pressure->sequence, s.info.pressure->connection);
     if (!p) return p.error();
     s.pressure = std::move(p.value());
   }

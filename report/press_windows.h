@@ -14,6 +14,7 @@ struct PressWindow {
   std::int64_t from_ns = 0, to_ns = 0;        // the window around it (margin either side)
   std::uint64_t peak_sequence = 0;            // the pressure frame at its peak
   double peak_total = 0;
+  std::uint32_t peak_connection = 0;  // the Sensel connection of the peak frame (one more after each replug)
 };
 
 struct PressFinding {

@@ -343,7 +343,7 @@ json self_check_section(SessionReader& r, const std::vector<std::optional<calib:
     PressSignals base;
     for (const auto& t : totals)
       if (t.t_ns >= w.from_ns && t.t_ns <= w.to_ns) base.pressure.push_back({t.t_ns, t.total_counts});
-    auto peak = r.pressure_frame(w.peak_sequence);
+    auto peak = r.pressure_frame(w.peak_sequence, w.peak_connection);
     if (!peak) continue;
     const auto centroid =
         calib::pressure_centroid(peak.value().image(), peak.value().grid_xscale, peak.value().grid_yscale);

@@ -101,8 +101,15 @@ void SenselPipeline::on_event(const sensel::SenselEvent& e) {
   using K = sensel::SenselEvent::Kind;
   if (e.kind == K::Reconnected) spdlog::warn("{}", e.message);
   else spdlog::error("{}", e.message);
-  static const char* kinds[] = {"sensel_stall", "sensel_garbage", "sensel_unplugged", "sensel_reconnected"};
-  if (SessionWriter* w = writer_) w->record(EventRecord{e.at.ns, kinds[int(e.kind)], device_id_, e.message});
+  static const char* kinds[] = {"sensel_stall", "sensel_garbage", "sensel_unplugged", "sensel_reconnected",
+                                "sensel_wrong_device"};
+  static_assert(std::size(kinds) == std::size_t(sensel::SenselEvent::Kind::WrongDevice) + 1);
+  SessionWriter* w = writer_;
+  if (!w) return;
+  w->record(EventRecord{e.at.ns, kinds[int(e.kind)], device_id_, e.message});
+  // The frames it would have sent while it was away: lost, with the reason.
+  if (e.kind == K::Reconnected && e.missed > 0)
+    w->record(DropRecord{device_id_, e.connection, 0, e.missed, "unplugged", e.at.ns});
 }
 
 void SenselPipeline::run() {
@@ -112,14 +119,14 @@ void SenselPipeline::run() {
     auto s = q.pop_for(100ms);
     if (!s) continue;
     if (s->lost_before)
-      writer.record(DropRecord{device_id_, 0, s->sequence - s->lost_before, s->lost_before, "not_received",
+      writer.record(DropRecord{device_id_, s->connection, s->sequence - s->lost_before, s->lost_before, "not_received",
                                s->host_ts.ns});
     // The clock model fits when the answer began to arrive (the midpoint is the stamp's best
     // single guess, but an arrival is what a latency floor bounds; its first bytes come before
     // the rest of a frame's 64-byte packets).
     const std::int64_t arrival = s->first_byte_ts.ns;
-    const std::int64_t mapped = timeline_->pressure_frame(0, s->sequence, s->device_ts.ns, arrival);
-    PressureRecord rec{device_id_, 0, s->sequence, s->lost_before, s->device_ts.ns, s->host_ts.ns, s->host_wait_ns,
+    const std::int64_t mapped = timeline_->pressure_frame(s->connection, s->sequence, s->device_ts.ns, arrival);
+    PressureRecord rec{device_id_, s->connection, s->sequence, s->lost_before, s->device_ts.ns, s->host_ts.ns, s->host_wait_ns,
                        s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale, {}, mapped, 0, {}};
     // The counts again in the store's portable form (zlib on the index's thread), for readers
     // without the Sensel codec; the device's payload is kept as it came.

@@ -170,10 +170,43 @@ SimRig::~SimRig() {
   replay_cameras_.clear();
 }
 
+// The Morph comes back power-cycled (its counter and clock restart) on a new pseudo-terminal, which
+// the published link now names; as another Morph when the rig says so.
+void SimRig::replug_sensel() {
+  const SimSenselConfig& ss = rig_.sim->sensel;
+  const std::int64_t now = host_now().ns;
+  sensel_ = std::make_unique<SenselEmulator>(hand_scene(hand_), SenselClock{now, 0.0, ss.drift_ppm},
+                                             ss.replug_serial.value_or("SM01164910368"));
+  sensel_->set_truth_log(&sensel_truth_);
+  auto pty = SenselPty::create(*sensel_, SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, rig_.sim->seed + 1});
+  if (!pty) {
+    spdlog::error("sim: the Sensel cannot come back: {}", pty.error().message);
+    return;
+  }
+  sensel_pty_ = std::move(pty.value());
+  std::error_code ec;
+  const auto link = truth_dir_ / "sensel.tty", fresh = truth_dir_ / "sensel.tty.new";
+  std::filesystem::remove(fresh, ec);
+  std::filesystem::create_symlink(sensel_pty_->slave_path(), fresh, ec);
+  if (!ec) std::filesystem::rename(fresh, link, ec);  // atomic: the driver finds one or the other
+  spdlog::warn("sim: the Sensel is plugged back in on {}{}", sensel_pty_->slave_path(),
+               ss.replug_serial ? " as another Morph (serial " + *ss.replug_serial + ")" : "");
+}
+
 void SimRig::run(const std::atomic<bool>& stop) {
   while (!stop.load()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     const double elapsed_s = double(host_now().ns - t0_ns_) / 1e9;
+    const SimSenselConfig& ss = rig_.sim->sensel;
+    if (sensel_pty_ && ss.unplug_at_s && !sensel_unplugged_ && elapsed_s >= *ss.unplug_at_s) {
+      sensel_unplugged_ = true;
+      spdlog::warn("sim: the Sensel is unplugged now (unplug_at_s = {})", *ss.unplug_at_s);
+      sensel_pty_.reset();  // the master closes: the driver's tty reads fail, as after a USB unplug
+    }
+    if (sensel_unplugged_ && !sensel_replugged_ && ss.replug_after_s && elapsed_s >= *ss.replug_after_s) {
+      sensel_replugged_ = true;
+      replug_sensel();
+    }
     for (std::size_t i = 0; i < cameras_.size(); ++i) {
       const SimCameraClock& clk = rig_.sim->cameras[i];
       if (cameras_[i] && clk.stop_after_s && !returned_[i] && elapsed_s >= *clk.stop_after_s) {

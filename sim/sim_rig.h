@@ -50,6 +50,8 @@ class SimRig {
   std::ofstream sensel_truth_;
   std::unique_ptr<SenselEmulator> sensel_;
   std::unique_ptr<SenselPty> sensel_pty_;
+  bool sensel_unplugged_ = false, sensel_replugged_ = false;
+  void replug_sensel();
   std::vector<std::unique_ptr<SimCamera>> cameras_;
   // A replayed session (`sim: {replay: SESSION}`) instead of the scene.
   std::shared_ptr<SessionReplay> replay_;

@@ -33,7 +33,7 @@ std::optional<std::int64_t> opt_int(const sqlite::Statement& q, int col) {
 }
 constexpr const char* kSampleColumns =
     "SELECT id, tick, tick_ns, t_ns, span_ns, pressure_sequence, pressure_offset_ns, before_sequence, "
-    "before_offset_ns, after_sequence, after_offset_ns FROM samples ";
+    "before_offset_ns, after_sequence, after_offset_ns, pressure_connection FROM samples ";
 
 // A samples row (kSampleColumns) without its camera frames.
 SampleInfo sample_row(const sqlite::Statement& q) {
@@ -45,7 +45,8 @@ SampleInfo sample_row(const sqlite::Statement& q) {
   s.span_ns = q.column_int(4);
   auto ref = [&](int col) -> std::optional<SampleInfo::PressureRef> {
     if (q.column_null(col)) return std::nullopt;
-    return SampleInfo::PressureRef{std::uint64_t(q.column_int(col)), q.column_int(col + 1)};
+    return SampleInfo::PressureRef{std::uint64_t(q.column_int(col)), q.column_int(col + 1),
+                                   q.column_null(11) ? 0u : std::uint32_t(q.column_int(11))};
   };
   s.pressure = ref(5);
   s.before = ref(7);
@@ -242,14 +243,14 @@ Result<Sample> SessionReader::sample(std::size_t i, PressureMode mode) {
     s.images[std::size_t(cam - cameras_.begin())] = std::move(image.value());
   }
   if (s.info.pressure) {
-    auto p = pressure_frame(s.info.pressure->sequence);
+    auto p = pressure_frame(s.info.pressure->sequence, s.info.pressure->connection);
     if (!p) return p.error();
     s.pressure = std::move(p.value());
     s.pressure_image = s.pressure->image();
     if (mode == PressureMode::Interpolated && s.info.before && s.info.after &&
         s.info.after->offset_ns > s.info.before->offset_ns) {
-      auto a = pressure_frame(s.info.before->sequence);
-      auto b = pressure_frame(s.info.after->sequence);
+      auto a = pressure_frame(s.info.before->sequence, s.info.before->connection);
+      auto b = pressure_frame(s.info.after->sequence, s.info.after->connection);
       if (a && b && a.value().counts.size() == b.value().counts.size() && a.value().grid_cols == b.value().grid_cols) {
         // Weight of the later frame: where the sample's instant (offset 0) lies between the two.
         const double w = double(-s.info.before->offset_ns) / double(s.info.after->offset_ns - s.info.before->offset_ns);
@@ -429,8 +430,8 @@ Result<std::vector<FrameTiming>> SessionReader::frame_timing(std::int64_t device
 Result<std::vector<PressureTotal>> SessionReader::pressure_totals() {
   if (!pressure_device_) return std::vector<PressureTotal>{};
   return guarded(dir_, [&]() -> Result<std::vector<PressureTotal>> {
-    auto q = db_->prepare("SELECT sequence, coalesce(mapped_ns, host_ns), grid_cols, grid_rows, counts FROM "
-                          "pressure_frames WHERE device_id = ? AND connection = 0 AND counts IS NOT NULL ORDER BY "
+    auto q = db_->prepare("SELECT sequence, coalesce(mapped_ns, host_ns), grid_cols, grid_rows, counts, connection FROM "
+                          "pressure_frames WHERE device_id = ? AND counts IS NOT NULL ORDER BY "
                           "coalesce(mapped_ns, host_ns)");
     q.bind_all(pressure_device_->device_id);
     std::vector<PressureTotal> out;
@@ -444,7 +445,7 @@ Result<std::vector<PressureTotal>> SessionReader::pressure_totals() {
         return Error{fmt::format("{}: pressure frame {}: {}", dir_.string(), q.column_int(0), counts.error().message)};
       double total = 0;
       for (auto c : counts.value()) total += c;
-      out.push_back({std::uint64_t(q.column_int(0)), q.column_int(1), total});
+      out.push_back({std::uint64_t(q.column_int(0)), q.column_int(1), total, std::uint32_t(q.column_int(5))});
     }
     return out;
   });

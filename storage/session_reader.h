@@ -79,6 +79,7 @@ struct SampleInfo {
   struct PressureRef {
     std::uint64_t sequence = 0;
     std::int64_t offset_ns = 0;
+    std::uint32_t connection = 0;  // the Sensel's connection (one more after each replug); the same for all three
   };
   std::optional<PressureRef> pressure, before, after;  // nearest; the neighbours around t_ns
 };
@@ -130,6 +131,7 @@ struct PressureTotal {
   std::uint64_t sequence = 0;
   std::int64_t t_ns = 0;  // mapped_ns (the session clock), host_ns where unmapped
   double total_counts = 0;
+  std::uint32_t connection = 0;  // of the Sensel (one more after each replug)
 };
 
 class SessionReader {

@@ -112,7 +112,8 @@ struct Pairing {
   std::optional<FrameRef> nearest, before, after;  // before <= sample_ns < after
   std::int64_t offset_ns = 0;                      // nearest.t - sample_ns
 };
-// The frames of `sorted` (by time) around `t`, and the nearest of them if within `max_offset_ns`.
+// The frames of `sorted` (by time) around `t`, and the nearest of them if within `max_offset_ns`;
+// all of one connection (a frame of another is left out).
 template <class It>
 Pairing pair_nearest(It begin, It end, std::int64_t t, std::int64_t max_offset_ns);
 
@@ -159,6 +160,11 @@ Pairing pair_nearest(It begin, It end, std::int64_t t, std::int64_t max_offset_n
     p.nearest = *best;
     p.offset_ns = best->t_ns - t;
   }
+  // The three are of one connection (the store keeps one for them): the nearest frame's, else the
+  // one before's. A reconnect's gap is never interpolated across.
+  const std::uint32_t connection = p.nearest ? p.nearest->connection : p.before ? p.before->connection : 0;
+  if (p.before && p.before->connection != connection) p.before.reset();
+  if (p.after && p.after->connection != connection) p.after.reset();
   return p;
 }
 

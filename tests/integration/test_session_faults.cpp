@@ -14,6 +14,8 @@
 #include <fmt/format.h>
 
 #include "session_under_test.h"
+#include "storage/session_reader.h"
+#include "storage/sqlite/database.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap::testing;
@@ -87,5 +89,92 @@ TEST(SessionFaults, ARootThatCannotTakeASessionEndsWithExit1AndAMessage) {
                                                 (work / "a-file" / "sessions").string()));
   EXPECT_EQ(under_file.exit_code, 1) << under_file.output;
   EXPECT_NE(under_file.output.find((work / "a-file").string()), std::string::npos) << under_file.output;
+  fs::remove_all(work);
+}
+
+namespace {
+// The rig of write_rig with the simulated Morph unplugged 3 s in and back (power-cycled) at 4.5 s,
+// as `replug` says (empty: the same Morph).
+fs::path write_replug_rig(const fs::path& dir, const std::string& replug) {
+  std::string yaml = sim_rig_yaml({{}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  const std::string end = "period_s: 1.0}";
+  const auto at = yaml.find(end);
+  if (at == std::string::npos) return {};
+  yaml.replace(at, end.size(), "period_s: 1.0, unplug_at_s: 3, replug_after_s: 4.5" + replug + "}");
+  std::ofstream(dir / "rig.yaml") << yaml;
+  return dir / "rig.yaml";
+}
+
+std::int64_t scalar(pvcap::sqlite::Database& db, const std::string& sql) {
+  auto q = db.prepare(sql);
+  EXPECT_TRUE(q.step()) << sql;
+  return q.column_null(0) ? -1 : q.column_int(0);
+}
+}  // namespace
+
+// The Morph unplugged and plugged back during a session: the operator is told both, the frames
+// after it are a new connection (their sequences restart, and never collide with the first
+// connection's), the time away is recorded as lost frames with the reason, and every sample still
+// reads its own pressure frame.
+TEST(SessionFaults, ASenselPluggedBackIsANewConnectionAndItsAbsenceIsRecordedAsLost) {
+  const fs::path work = work_dir("replug");
+  const fs::path rig = write_replug_rig(work, "");
+  ASSERT_FALSE(rig.empty());
+  const auto run = run_pvcap(fmt::format("session --rig {} --root {} --duration 9 --no-web", rig.string(),
+                                         (work / "sessions").string()));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("Sensel reconnected (serial SM01164910368), streaming again as connection 1"),
+            std::string::npos)
+      << run.output;
+  const fs::path session = only_session(work / "sessions");
+  ASSERT_FALSE(session.empty());
+  pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_unplugged'"), 1);
+  EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_reconnected'"), 1);
+  EXPECT_GT(scalar(db, "SELECT count(*) FROM pressure_frames WHERE connection = 0"), 200);
+  EXPECT_GT(scalar(db, "SELECT count(*) FROM pressure_frames WHERE connection = 1"), 200);
+  EXPECT_EQ(scalar(db, "SELECT count(*) FROM (SELECT connection, sequence FROM pressure_frames GROUP BY 1, 2 "
+                       "HAVING count(*) > 1)"),
+            0)
+      << "a sequence repeated within a connection";
+  // Away from the unplug (3 s) to the reconnect (4.5 s, then the driver's next try, once a second):
+  // 1.5-2.5 s at ~125 Hz.
+  const auto lost = scalar(db, "SELECT sum(count) FROM drops WHERE reason = 'unplugged' AND connection = 1");
+  EXPECT_GT(lost, 150);
+  EXPECT_LT(lost, 400);
+  // Samples on both sides pair with their own connection's frames, and each reads back.
+  EXPECT_GT(scalar(db, "SELECT count(*) FROM samples WHERE pressure_connection = 1"), 20);
+  EXPECT_EQ(scalar(db, "SELECT count(*) FROM samples s WHERE pressure_sequence IS NOT NULL AND NOT EXISTS (SELECT 1 "
+                       "FROM pressure_frames p WHERE p.connection = s.pressure_connection AND p.sequence = "
+                       "s.pressure_sequence AND abs(p.mapped_ns - s.t_ns) <= 20000000)"),
+            0)
+      << "a sample names a pressure frame that is not the one near it";
+  auto reader = pvcap::SessionReader::open(session);
+  ASSERT_TRUE(reader) << reader.error().message;
+  for (std::size_t i = 0; i < reader.value()->sample_count(); ++i) {
+    auto s = reader.value()->sample(i, pvcap::PressureMode::Interpolated);
+    ASSERT_TRUE(s) << i << ": " << s.error().message;
+  }
+  fs::remove_all(work);
+}
+
+// Another Morph plugged in where the session's was unplugged is refused, loudly, and not recorded.
+TEST(SessionFaults, ADifferentSenselPluggedInIsRefusedAndNotRecorded) {
+  const fs::path work = work_dir("other-morph");
+  const fs::path rig = write_replug_rig(work, ", replug_serial: SM99999999999");
+  ASSERT_FALSE(rig.empty());
+  const auto run = run_pvcap(fmt::format("session --rig {} --root {} --duration 7 --no-web", rig.string(),
+                                         (work / "sessions").string()));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("a different Sensel Morph (serial SM99999999999) answered where the session's (serial "
+                            "SM01164910368) was unplugged; it is NOT recorded"),
+            std::string::npos)
+      << run.output;
+  const fs::path session = only_session(work / "sessions");
+  ASSERT_FALSE(session.empty());
+  pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  EXPECT_GE(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_wrong_device'"), 1);
+  EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_reconnected'"), 0);
+  EXPECT_EQ(scalar(db, "SELECT count(*) FROM pressure_frames WHERE connection <> 0"), 0);
   fs::remove_all(work);
 }
