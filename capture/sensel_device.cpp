@@ -230,10 +230,12 @@ void SenselDevice::stream_loop() {
       // Only the session's own Morph is recorded again: another one (a swapped cable, a second
       // sensor on the bench) would mix two sensors' data in one stream.
       if (info_.serial != session_serial_) {
-        emit(SenselEvent::Kind::WrongDevice,
-             fmt::format("{}: a different Sensel Morph (serial {}) answered where the session's (serial {}) was "
-                         "unplugged; it is NOT recorded - plug the session's Morph back in",
-                         transport_->describe(), info_.serial, session_serial_));
+        if (info_.serial != refused_serial_)  // said once per Morph, not at every retry
+          emit(SenselEvent::Kind::WrongDevice,
+               fmt::format("{}: a different Sensel Morph (serial {}) answered where the session's (serial {}) was "
+                           "unplugged; it is NOT recorded - plug the session's Morph back in",
+                           transport_->describe(), info_.serial, session_serial_));
+        refused_serial_ = info_.serial;
         transport_.reset();
         continue;
       }

@@ -114,6 +114,7 @@ class SenselDevice {
   BoundedQueue<PressureSample> queue_{512};
   std::uint32_t connection_ = 0;
   std::string session_serial_;   // the Morph the session streams from: a reconnect must find this one
+  std::string refused_serial_;   // the other Morph last refused (its message is given once)
   Grid session_grid_;
   HostNs unplugged_at_;
   std::int64_t first_device_ns_ = -1, last_device_ns_ = 0;  // this connection's, for its frame rate
