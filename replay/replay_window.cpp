@@ -85,13 +85,12 @@ Result<WindowSummary> run_replay_window(const std::filesystem::path& session, co
       cv::imshow(title, last);
       shown = i, was_playing = player.playing(), was_speed = player.speed();
     }
-    int code = -1;
     if (scripted < options.keys.size()) {
       (void)cv::waitKey(1);  // let the window draw
       player.press(key_from_name(options.keys[scripted++]), host_now().ns);
       continue;
     }
-    code = cv::waitKeyEx(player.wait_ms(host_now().ns));
+    const int code = cv::waitKeyEx(player.wait_ms(host_now().ns));
     if (cv::getWindowProperty(title, cv::WND_PROP_VISIBLE) < 1) break;  // closed by the window manager
     player.press(key_from_code(code), host_now().ns);
   }

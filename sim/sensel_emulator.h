@@ -50,7 +50,8 @@ struct SenselClock {
 
 class SenselEmulator {
  public:
-  SenselEmulator(SenselScene scene, SenselClock clock, std::string serial = "SM01164910368");
+  SenselEmulator(SenselScene scene, SenselClock clock, std::string serial = kDefaultSerial);
+  static constexpr const char* kDefaultSerial = "SM01164910368";  // the Morph the specs' captures came from
 
   // Consumes host bytes; returns the device's answers (empty while a command is incomplete).
   std::vector<std::uint8_t> on_host_bytes(std::span<const std::uint8_t> bytes, std::int64_t now_ns);

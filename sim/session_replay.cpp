@@ -135,24 +135,20 @@ std::int64_t SessionReplay::start(std::int64_t now_ns) {
   return *origin_;
 }
 
-std::int64_t SessionReplay::due_ns(std::int64_t t_ns) const {
-  std::int64_t origin = 0;
+std::int64_t SessionReplay::origin() const {
   {
     std::lock_guard lock(mu_);
-    origin = origin_ ? *origin_ : 0;
+    if (origin_) return *origin_;
   }
-  if (origin == 0) origin = origin_for(host_now().ns);
-  return origin + std::int64_t(std::llround(double(t_ns - anchor_ns_) / rate_));
+  return origin_for(host_now().ns);  // not started: as if starting now
+}
+
+std::int64_t SessionReplay::due_ns(std::int64_t t_ns) const {
+  return origin() + std::int64_t(std::llround(double(t_ns - anchor_ns_) / rate_));
 }
 
 std::int64_t SessionReplay::session_time(std::int64_t host_ns) const {
-  std::int64_t origin = 0;
-  {
-    std::lock_guard lock(mu_);
-    origin = origin_ ? *origin_ : 0;
-  }
-  if (origin == 0) origin = origin_for(host_now().ns);
-  return anchor_ns_ + std::int64_t(std::llround(double(host_ns - origin) * rate_));
+  return anchor_ns_ + std::int64_t(std::llround(double(host_ns - origin()) * rate_));
 }
 
 std::int64_t SessionReplay::camera_device_time(std::size_t c, std::int64_t host_ns) const {

@@ -64,6 +64,7 @@ class SessionReplay {
  private:
   SessionReplay() = default;
   std::int64_t origin_for(std::int64_t now_ns) const;
+  std::int64_t origin() const;  // the host instant standing for the recorded anchor
   struct Camera {
     std::string name;
     std::vector<ReplayCameraFrame> frames;  // in the order they were sent

@@ -88,12 +88,8 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
                     ss.clock_reset_at_s ? self->t0_ns_ + std::int64_t(*ss.clock_reset_at_s * 1e9) : INT64_MAX});
     if (ss.drop_fraction > 0) self->sensel_->set_drop_fraction(ss.drop_fraction, rig.sim->seed + 17);
     self->sensel_->set_truth_log(&self->sensel_truth_);
-    auto pty = SenselPty::create(*self->sensel_, SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, rig.sim->seed});
-    if (!pty) return pty.error();
-    self->sensel_pty_ = std::move(pty.value());
-    std::error_code ec;
-    std::filesystem::create_symlink(self->sensel_pty_->slave_path(), truth_dir / "sensel.tty", ec);
-    if (ec) return Error{fmt::format("cannot publish the Sensel emulator's tty: {}", ec.message())};
+    if (Status s = self->serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, rig.sim->seed}); !s.ok())
+      return s.error();
     truth["sensel"] = {{"tty", self->sensel_pty_->slave_path()}, {"press_x_mm", ss.press_x_mm},
                        {"press_y_mm", ss.press_y_mm}, {"peak_grams", ss.peak_grams}, {"period_s", ss.period_s},
                        {"clock_start_us", ss.clock_start_us}, {"drift_ppm", ss.drift_ppm},
@@ -132,17 +128,12 @@ Result<std::unique_ptr<SimRig>> SimRig::create_replay(const RigConfig& rig, cons
                                self->replay_->dir().string())};
     self->sensel_ = std::make_unique<SenselEmulator>(
         SenselScene{}, SenselClock{},
-        self->replay_->sensel_serial().empty() ? std::string("SM01164910368") : self->replay_->sensel_serial());
+        self->replay_->sensel_serial().empty() ? SenselEmulator::kDefaultSerial : self->replay_->sensel_serial());
     self->sensel_->set_replay(self->replay_);
     self->sensel_truth_.open(truth_dir / "sensel_replay.csv");
     self->sensel_truth_ << "counter,device_us,due_ns,sent_ns\n";
     self->sensel_->set_truth_log(&self->sensel_truth_);
-    auto pty = SenselPty::create(*self->sensel_, SenselLink{0, 0, 1});
-    if (!pty) return pty.error();
-    self->sensel_pty_ = std::move(pty.value());
-    std::error_code ec;
-    std::filesystem::create_symlink(self->sensel_pty_->slave_path(), truth_dir / "sensel.tty", ec);
-    if (ec) return Error{fmt::format("cannot publish the Sensel emulator's tty: {}", ec.message())};
+    if (Status s = self->serve_sensel(SenselLink{0, 0, 1}); !s.ok()) return s.error();
     truth["sensel"] = {{"tty", self->sensel_pty_->slave_path()},
                        {"frames", self->replay_->pressure_frames().size()},
                        {"serial", self->replay_->sensel_serial()}};
@@ -170,25 +161,33 @@ SimRig::~SimRig() {
   replay_cameras_.clear();
 }
 
+// Serves sensel_ on a new pseudo-terminal and publishes it as truth_dir/sensel.tty (atomically, so
+// a driver reopening the link finds the old terminal or the new one, never none).
+Status SimRig::serve_sensel(SenselLink link) {
+  auto pty = SenselPty::create(*sensel_, link);
+  if (!pty) return pty.error();
+  sensel_pty_ = std::move(pty.value());
+  std::error_code ec;
+  const auto published = truth_dir_ / "sensel.tty", fresh = truth_dir_ / "sensel.tty.new";
+  std::filesystem::remove(fresh, ec);
+  std::filesystem::create_symlink(sensel_pty_->slave_path(), fresh, ec);
+  if (!ec) std::filesystem::rename(fresh, published, ec);
+  if (ec) return Error{fmt::format("cannot publish the Sensel emulator's tty as {}: {}", published.string(), ec.message())};
+  return {};
+}
+
 // The Morph comes back power-cycled (its counter and clock restart) on a new pseudo-terminal, which
 // the published link now names; as another Morph when the rig says so.
 void SimRig::replug_sensel() {
   const SimSenselConfig& ss = rig_.sim->sensel;
   const std::int64_t now = host_now().ns;
   sensel_ = std::make_unique<SenselEmulator>(hand_scene(hand_), SenselClock{now, 0.0, ss.drift_ppm},
-                                             ss.replug_serial.value_or("SM01164910368"));
+                                             ss.replug_serial.value_or(SenselEmulator::kDefaultSerial));
   sensel_->set_truth_log(&sensel_truth_);
-  auto pty = SenselPty::create(*sensel_, SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, rig_.sim->seed + 1});
-  if (!pty) {
-    spdlog::error("sim: the Sensel cannot come back: {}", pty.error().message);
+  if (Status s = serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, rig_.sim->seed + 1}); !s.ok()) {
+    spdlog::error("sim: the Sensel cannot come back: {}", s.error().message);
     return;
   }
-  sensel_pty_ = std::move(pty.value());
-  std::error_code ec;
-  const auto link = truth_dir_ / "sensel.tty", fresh = truth_dir_ / "sensel.tty.new";
-  std::filesystem::remove(fresh, ec);
-  std::filesystem::create_symlink(sensel_pty_->slave_path(), fresh, ec);
-  if (!ec) std::filesystem::rename(fresh, link, ec);  // atomic: the driver finds one or the other
   spdlog::warn("sim: the Sensel is plugged back in on {}{}", sensel_pty_->slave_path(),
                ss.replug_serial ? " as another Morph (serial " + *ss.replug_serial + ")" : "");
 }

@@ -41,6 +41,18 @@ cv::Mat frame_with_timecode(int i) {
   band_bgr.copyTo(bgr(band));
   return bgr;
 }
+// A raw (mosaic) video of `bayer` pixels with `codec`, 320 wide unless said otherwise, 180 high.
+VideoSettings raw_settings(const std::string& bayer, const std::string& codec = "ffvhuff", int bit_depth = 8,
+                           int width = 320) {
+  VideoSettings s;
+  s.bayer_format = bayer;
+  s.bit_depth = bit_depth;
+  s.raw_codec = codec;
+  s.width = width;
+  s.height = 180;
+  return s;
+}
+
 }  // namespace
 
 TEST(VideoRoundTrip, DefaultCodecKeepsRealTimestampsAndReadableTimecodes) {
@@ -162,12 +174,7 @@ TEST(VideoRoundTrip, RawVideoKeepsTheMosaicBitExactAndDemosaicsOnRead) {
   for (const std::string codec : {"ffvhuff", "ffv1", "libx264"}) {
     SCOPED_TRACE(codec);
     const auto dir = temp_dir("raw-" + codec);
-    VideoSettings s;
-    s.bayer_format = "BayerRG8";
-    s.raw_codec = codec;
-    s.width = 320;
-    s.height = 180;
-    auto w = VideoWriter::open(dir / "v.mkv", s);
+    auto w = VideoWriter::open(dir / "v.mkv", raw_settings("BayerRG8", codec));
     ASSERT_TRUE(w) << w.error().message;
     std::vector<cv::Mat> mosaics;
     cv::RNG rng(7);
@@ -225,13 +232,7 @@ TEST(VideoRoundTrip, RawVideoKeepsA12BitMosaicBitExact) {
   for (const std::string codec : {"ffvhuff", "ffv1"}) {
     SCOPED_TRACE(codec);
     const auto dir = temp_dir("raw12-" + codec);
-    VideoSettings s;
-    s.bayer_format = "BayerRG12";
-    s.bit_depth = 12;
-    s.raw_codec = codec;
-    s.width = 320;
-    s.height = 180;
-    auto w = VideoWriter::open(dir / "v.mkv", s);
+    auto w = VideoWriter::open(dir / "v.mkv", raw_settings("BayerRG12", codec, 12));
     ASSERT_TRUE(w) << w.error().message;
     std::vector<cv::Mat> mosaics;
     cv::RNG rng(12);
@@ -264,14 +265,8 @@ TEST(VideoRoundTrip, RawVideoKeepsA12BitMosaicBitExact) {
     }
     fs::remove_all(dir);
   }
-  VideoSettings x264;
-  x264.bayer_format = "BayerRG12";
-  x264.bit_depth = 12;
-  x264.raw_codec = "libx264";
-  x264.width = 64;
-  x264.height = 64;
   const auto dir = temp_dir("raw12-x264");
-  auto refused = VideoWriter::open(dir / "v.mkv", x264);
+  auto refused = VideoWriter::open(dir / "v.mkv", raw_settings("BayerRG12", "libx264", 12));
   ASSERT_FALSE(refused);
   EXPECT_NE(refused.error().message.find("at most 10 bits"), std::string::npos) << refused.error().message;
   fs::remove_all(dir);
@@ -298,11 +293,7 @@ TEST(VideoRoundTrip, ColourVideosHaveNoMosaicToGive) {
 
 TEST(VideoWriter, RawVideoOfAnOddSizeIsRefusedWithWhatToDo) {
   const auto dir = temp_dir("raw-odd");
-  VideoSettings s;
-  s.bayer_format = "BayerRG8";
-  s.width = 321;
-  s.height = 180;
-  auto w = VideoWriter::open(dir / "v.mkv", s);
+  auto w = VideoWriter::open(dir / "v.mkv", raw_settings("BayerRG8", "ffvhuff", 8, 321));
   ASSERT_FALSE(w);
   EXPECT_NE(w.error().message.find("store.video_mode: color"), std::string::npos) << w.error().message;
   fs::remove_all(dir);
