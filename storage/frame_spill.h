@@ -8,6 +8,11 @@
 // memory queue plus a few frames waiting for the spill's writer thread); only a disk that cannot
 // take the frames loses them, and then each with its reason.
 //
+// The spill's writer may be held up (a busy core, the page cache throttling writes): it takes up to
+// `writer_frames` frames behind (32 by default, a second of a 30 Hz camera: 64 MB of 1080p 8-bit
+// mosaics, 200 MB of BGR) before a frame is refused. 8 was too few: under a test suite's load a
+// writer fell 270 ms behind and 15 frames were lost.
+//
 // Crash safety: a spill record is written with its index row (FrameRecord) and a CRC, so a file
 // cut by a crash reads up to its last whole record; `pvcap recover` encodes whatever a spill holds
 // that no video does (storage/recover.cpp). A spill file read back to its end is deleted only once
@@ -45,7 +50,7 @@ class FrameSpillQueue {
  public:
   // `dir`: the session folder (spill files go to dir/spill/<camera>-<n>.spill, made on first use).
   FrameSpillQueue(std::filesystem::path dir, std::string camera, std::size_t memory_frames,
-                  std::size_t writer_frames = 8);
+                  std::size_t writer_frames = 32);
   ~FrameSpillQueue();
   FrameSpillQueue(const FrameSpillQueue&) = delete;
   FrameSpillQueue& operator=(const FrameSpillQueue&) = delete;

@@ -2,10 +2,13 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <type_traits>
@@ -39,6 +42,9 @@ struct SessionWriter::Camera {
 };
 
 namespace {
+// How much nicer than the recorder's other threads an encoder runs (encode_loop).
+constexpr int kEncoderNiceStep = 5;
+
 std::string safe_name(std::string s) {
   for (char& c : s)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') c = '-';
@@ -212,6 +218,15 @@ bool SessionWriter::submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecor
 }
 
 void SessionWriter::encode_loop(Camera& cam) {
+  // The encoder is the one stage allowed to fall behind (its frames wait in the spill), so on a
+  // busy machine it yields to the threads that may not: capture, the spill's writer, the index.
+  // Nice only matters under contention; an idle machine encodes at full speed.
+  const auto tid = id_t(syscall(SYS_gettid));
+  errno = 0;
+  const int nice_now = getpriority(PRIO_PROCESS, tid);
+  const bool niced = errno == 0 && setpriority(PRIO_PROCESS, tid, std::min(19, nice_now + kEncoderNiceStep)) == 0;
+  if (!niced)
+    spdlog::debug("{}: encoder thread keeps the default priority ({})", cam.name, std::strerror(errno));
   const std::int64_t segment_us = std::int64_t(store_.segment_seconds * 1e6);
   FrameSpillQueue& queue = *cam.queue;
   std::optional<std::chrono::steady_clock::time_point> drain_started;
@@ -226,6 +241,9 @@ void SessionWriter::encode_loop(Camera& cam) {
       const std::size_t left = queue.backlog(), on_disk = queue.on_disk();
       if (!drain_started) {
         drain_started = now;
+        // Nothing is captured any more: the drain is what the operator waits for. (Taking the
+        // priority back needs CAP_SYS_NICE or an rlimit; without them the drain stays nicer.)
+        if (niced) (void)setpriority(PRIO_PROCESS, tid, nice_now);
         drain_from = left;
         drain_from_disk = on_disk > 0;
       }
