@@ -29,6 +29,7 @@
 #include "protocol/takes.h"
 #include "sim/netns.h"
 #include "sim/sim_rig.h"
+#include "session/realign.h"
 #include "storage/recover.h"
 #include "storage/verify.h"
 
@@ -393,6 +394,16 @@ int main(int argc, char** argv) {
         spdlog::error("{}", r.error().message);
         return 1;
       }
+      // The timeline re-mapped with the final fits the store holds, as a finished session's was.
+      auto realigned = pvcap::realign_if_needed(recover_dir, r.value().was_interrupted,
+                                                [](const std::string& step) { spdlog::info("{}", step); });
+      if (!realigned) {
+        spdlog::error("{}", realigned.error().message);
+        return 1;
+      }
+      if (const auto& done = realigned.value())
+        r.value().done.push_back(fmt::format("timeline re-mapped with the stored clock fits: {} samples re-paired",
+                                             done->samples));
       fmt::print("session {}\n", recover_dir);
       for (const auto& d : r.value().done) fmt::print("  {}\n", d);
       if (r.value().done.empty()) fmt::print("nothing to recover: the session ended cleanly\n");

@@ -65,6 +65,7 @@ nlohmann::json stream_json(const session::StreamStatus& s) {
           {"in_video", s.in_video},
           {"incomplete", s.incomplete},
           {"not_received", s.not_received},
+          {"queue_overflow", s.queue_overflow},
           {"encoder_behind", s.encoder_behind},
           {"connection_losses", s.connection_losses},
           {"encoder_backlog", s.encoder_backlog},

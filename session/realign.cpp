@@ -5,63 +5,176 @@
 #include <map>
 #include <tuple>
 
+#include <fmt/format.h>
+
+#include "core/time.h"
+#include "sync/timeline.h"
+
 namespace pvcap {
 
-RealignResult realign(SessionIndex& index, const RealignInput& in) {
+namespace {
+
+struct StoredSegment {
+  std::int64_t first_arrival_ns = 0;
+  std::int64_t x0 = 0, latency_ns = 0;
+  double offset_ns = 0, skew = 0;
+};
+
+struct StoredClocks {
+  std::int64_t device_id = 0;
+  bool pressure = false;
+  std::vector<StoredSegment> segments;  // in order
+};
+
+// Each stream's segments as the store holds them: begun at the segment's first row, fitted as its
+// last row says.
+std::vector<StoredClocks> stored_clocks(sqlite::Database& db) {
+  std::vector<StoredClocks> out;
+  auto q = db.prepare(
+      "SELECT m.device_id, d.kind = 'sensel', m.segment, m.host_ns, m.x0_device_ns, m.offset_ns, m.skew, m.latency_ns "
+      "FROM clock_models m JOIN devices d ON d.id = m.device_id ORDER BY m.device_id, m.segment, m.host_ns");
+  int segment = -1;
+  while (q.step()) {
+    const std::int64_t device = q.column_int(0);
+    if (out.empty() || out.back().device_id != device) {
+      out.push_back({device, q.column_int(1) != 0, {}});
+      segment = -1;
+    }
+    auto& segments = out.back().segments;
+    const int s = int(q.column_int(2));
+    if (s != segment) {
+      segments.push_back({q.column_int(3), 0, 0, 0, 0});
+      segment = s;
+    }
+    StoredSegment& seg = segments.back();
+    seg.x0 = q.column_int(4);
+    seg.offset_ns = q.column_double(5);
+    seg.skew = q.column_double(6);
+    seg.latency_ns = q.column_int(7);
+  }
+  return out;
+}
+
+void add_event(SessionIndex& index, const char* kind, std::string message) {
+  index.add_event(EventRecord{host_now().ns, kind, std::nullopt, std::move(message)});
+}
+
+}  // namespace
+
+bool realign_pending(sqlite::Database& db) {
+  auto q = db.prepare(
+      "SELECT (SELECT max(rowid) FROM events WHERE kind = 'realign_started'), (SELECT max(rowid) FROM events WHERE "
+      "kind = 'realign_done')");
+  if (!q.step() || q.column_null(0)) return false;
+  return q.column_null(1) || q.column_int(1) < q.column_int(0);
+}
+
+Result<std::optional<RealignResult>> realign_if_needed(const std::filesystem::path& dir, bool interrupted,
+                                                      const std::function<void(const std::string&)>& progress) {
+  try {
+    SessionIndex index = SessionIndex::open_for_update(dir / "session.db");
+    if (!interrupted && !realign_pending(index.db())) return std::optional<RealignResult>{};
+    RealignOptions o;
+    o.progress = progress;
+    return std::optional<RealignResult>{realign(index, o)};
+  } catch (const std::exception& e) {
+    return Error{fmt::format("{}: re-mapping the timeline failed: {}", (dir / "session.db").string(), e.what())};
+  }
+}
+
+RealignResult realign(SessionIndex& index, const RealignOptions& o) {
   using Stream = SessionIndex::Stream;
+  auto say = [&](const std::string& line) {
+    if (o.progress) o.progress(line);
+  };
+  const std::int64_t t0 = host_now().ns;
+  RealignResult result;
+  sqlite::Database& db = index.db();
+  {
+    sqlite::Transaction tx(db);
+    add_event(index, "realign_started", "re-mapping every frame with the final clock fits");
+    tx.commit();
+  }
+
+  // Step 1: every frame's instant from its segment's fit.
   std::vector<sync::FrameRef> pressure;
   std::map<std::tuple<std::int64_t, std::uint32_t, std::uint64_t>, std::int64_t> camera_mapped;
-  for (const auto& sc : in.clocks) {
-    const bool is_pressure = sc.stream < 0;
-    const std::int64_t device = is_pressure ? in.pressure_device_id : in.camera_device_ids[std::size_t(sc.stream)];
-    const Stream kind = is_pressure ? Stream::Pressure : Stream::Camera;
-    for (std::size_t k = 0; k < sc.segments.size(); ++k) {
-      const std::int64_t from = k == 0 ? INT64_MIN : sc.segments[k].first_arrival_ns;
-      const std::int64_t to = k + 1 < sc.segments.size() ? sc.segments[k + 1].first_arrival_ns : INT64_MAX;
-      const auto& f = sc.segments[k].fit;
-      index.remap(kind, device, from, to, f.x0, f.offset_ns, f.skew, sc.segments[k].latency_ns);
+  std::int64_t pressure_device_id = 0;
+  {
+    sqlite::Transaction tx(db);
+    for (const auto& sc : stored_clocks(db)) {
+      const Stream kind = sc.pressure ? Stream::Pressure : Stream::Camera;
+      for (std::size_t k = 0; k < sc.segments.size(); ++k) {
+        const std::int64_t from = k == 0 ? INT64_MIN : sc.segments[k].first_arrival_ns;
+        const std::int64_t to = k + 1 < sc.segments.size() ? sc.segments[k + 1].first_arrival_ns : INT64_MAX;
+        const auto& f = sc.segments[k];
+        index.remap(kind, sc.device_id, from, to, f.x0, f.offset_ns, f.skew, f.latency_ns);
+        ++result.segments;
+      }
+      for (const auto& m : index.mapped(kind, sc.device_id)) {
+        if (sc.pressure) pressure.push_back({-1, m.sequence, m.mapped_ns, m.connection});
+        else camera_mapped[{sc.device_id, m.connection, m.sequence}] = m.mapped_ns;
+      }
+      if (sc.pressure) pressure_device_id = sc.device_id;
     }
-    for (const auto& m : index.mapped(kind, device)) {
-      if (is_pressure) pressure.push_back({-1, m.sequence, m.mapped_ns, m.connection});
-      else camera_mapped[{device, m.connection, m.sequence}] = m.mapped_ns;
-    }
+    tx.commit();
   }
   std::sort(pressure.begin(), pressure.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
+  say(fmt::format("re-mapping: {} clock segments applied; re-pairing the samples", result.segments));
 
-  RealignResult result;
-  for (auto& [id, members] : index.sample_members()) {
-    SampleRecord s;
-    s.index = id;
-    std::int64_t lo = INT64_MAX, hi = INT64_MIN;
-    std::vector<std::int64_t> times;
-    for (const auto& m : members) {
-      const auto it = camera_mapped.find({m.device_id, m.connection, m.sequence});
-      if (it == camera_mapped.end()) continue;
-      times.push_back(it->second);
-      lo = std::min(lo, it->second);
-      hi = std::max(hi, it->second);
+  // Step 2: every sample's instant and pairing, committed in steps.
+  const auto members = index.sample_members();
+  const std::size_t step = std::max<std::size_t>(1, o.samples_per_step);
+  for (std::size_t begin = 0; begin < members.size(); begin += step) {
+    sqlite::Transaction tx(db);
+    const std::size_t end = std::min(members.size(), begin + step);
+    for (std::size_t i = begin; i < end; ++i) {
+      const auto& [id, frames] = members[i];
+      SampleRecord s;
+      s.index = id;
+      std::int64_t lo = INT64_MAX, hi = INT64_MIN;
+      std::vector<std::int64_t> times;
+      for (const auto& m : frames) {
+        const auto it = camera_mapped.find({m.device_id, m.connection, m.sequence});
+        if (it == camera_mapped.end()) continue;
+        times.push_back(it->second);
+        lo = std::min(lo, it->second);
+        hi = std::max(hi, it->second);
+      }
+      if (times.empty()) continue;
+      // Mean relative to the earliest, so the sum cannot overflow.
+      std::int64_t rel = 0;
+      for (auto t : times) rel += t - lo;
+      s.t_ns = lo + rel / std::int64_t(times.size());
+      s.span_ns = hi - lo;
+      for (const auto& m : frames) {
+        const auto it = camera_mapped.find({m.device_id, m.connection, m.sequence});
+        if (it != camera_mapped.end()) s.cameras.push_back({m.device_id, m.connection, m.sequence, it->second - s.t_ns});
+      }
+      const auto p = sync::pair_nearest(pressure.begin(), pressure.end(), s.t_ns, o.max_offset_ns);
+      auto ref = [&](const std::optional<sync::FrameRef>& f) -> std::optional<SampleFrameRef> {
+        if (!f) return std::nullopt;
+        return SampleFrameRef{pressure_device_id, f->connection, f->sequence, f->t_ns - s.t_ns};
+      };
+      s.pressure = ref(p.nearest);
+      s.pressure_before = ref(p.before);
+      s.pressure_after = ref(p.after);
+      index.update_sample(s);
+      ++result.samples;
     }
-    if (times.empty()) continue;
-    // Mean relative to the earliest, so the sum cannot overflow.
-    std::int64_t rel = 0;
-    for (auto t : times) rel += t - lo;
-    s.t_ns = lo + rel / std::int64_t(times.size());
-    s.span_ns = hi - lo;
-    for (const auto& m : members) {
-      const auto it = camera_mapped.find({m.device_id, m.connection, m.sequence});
-      if (it != camera_mapped.end()) s.cameras.push_back({m.device_id, m.connection, m.sequence, it->second - s.t_ns});
-    }
-    const auto p = sync::pair_nearest(pressure.begin(), pressure.end(), s.t_ns, in.max_offset_ns);
-    auto ref = [&](const std::optional<sync::FrameRef>& f) -> std::optional<SampleFrameRef> {
-      if (!f) return std::nullopt;
-      return SampleFrameRef{in.pressure_device_id, f->connection, f->sequence, f->t_ns - s.t_ns};
-    };
-    s.pressure = ref(p.nearest);
-    s.pressure_before = ref(p.before);
-    s.pressure_after = ref(p.after);
-    index.update_sample(s);
-    ++result.samples;
+    result.seconds = double(host_now().ns - t0) / 1e9;
+    if (end == members.size())
+      add_event(index, "realign_done",
+                fmt::format("{} samples re-paired with the final clock fits in {:.1f} s", result.samples, result.seconds));
+    tx.commit();
+    if (end < members.size()) say(fmt::format("re-mapping: {} of {} samples re-paired", end, members.size()));
   }
+  if (members.empty()) {
+    sqlite::Transaction tx(db);
+    add_event(index, "realign_done", "no samples to re-pair");
+    tx.commit();
+  }
+  result.seconds = double(host_now().ns - t0) / 1e9;
   return result;
 }
 

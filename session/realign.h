@@ -1,28 +1,50 @@
 #pragma once
-// The last step of a recording: every frame re-mapped with its stream's final clock
-// fit (the online fit each frame met was fitted on less), then every sample's instant
-// and pressure pairing recomputed. Which frames are in the videos is not revisited;
-// that was decided online, within half a frame period, which the final fit does not
-// change.
+// The last step of a recording, and of recovering one: every frame re-mapped with its stream's
+// final clock fit (the online fit each frame met was fitted on less), then every sample's instant
+// and pressure pairing recomputed. Which frames are in the videos is not revisited; that was
+// decided online, within half a frame period, which the final fit does not change.
+//
+// The fits come from the store (clock_models: a segment begins at its first row and is fitted as
+// its last row says; the recorder writes each segment's final fit when it ends), so a session
+// killed mid-way is re-mapped by `pvcap recover` exactly as a finished one is at its close.
+//
+// Committed in steps: the frames' new instants in one transaction, then the samples in steps of
+// `samples_per_step`, each step said. The event `realign_started` is committed first and
+// `realign_done` with the last step; an interruption in between leaves the first without the
+// second, and `pvcap recover` runs it again (the same fits give the same result).
 #include <cstdint>
-#include <vector>
+#include <filesystem>
+#include <optional>
+#include <functional>
+#include <string>
 
+#include "core/result.h"
 #include "storage/session_index.h"
-#include "sync/session_timeline.h"
+#include "storage/sqlite/database.h"
 
 namespace pvcap {
 
-struct RealignInput {
-  std::vector<sync::SessionTimeline::StreamClocks> clocks;
-  std::vector<std::int64_t> camera_device_ids;  // by camera index
-  std::int64_t pressure_device_id = 0;
-  std::int64_t max_offset_ns = 20'000'000;
+struct RealignOptions {
+  std::int64_t max_offset_ns = 20'000'000;  // farther than this from a sample: no pressure paired
+  std::size_t samples_per_step = 2000;
+  std::function<void(const std::string&)> progress;  // a line per step
 };
 
 struct RealignResult {
-  std::size_t samples = 0;
+  std::size_t samples = 0;   // re-paired
+  std::size_t segments = 0;  // clock segments applied, over all streams
+  double seconds = 0;
 };
 
-RealignResult realign(SessionIndex& index, const RealignInput& in);
+RealignResult realign(SessionIndex& index, const RealignOptions& options = {});
+
+// The store's re-mapping was started and not finished (interrupted), or a session recorded with
+// the re-mapping in steps never got to it (killed while recording).
+bool realign_pending(sqlite::Database& db);
+
+// `pvcap recover`'s last step: re-maps the session in `dir` when it was interrupted (`interrupted`:
+// recover found it so) or its re-mapping is pending; nullopt when neither.
+Result<std::optional<RealignResult>> realign_if_needed(const std::filesystem::path& dir, bool interrupted,
+                                                      const std::function<void(const std::string&)>& progress);
 
 }  // namespace pvcap

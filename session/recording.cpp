@@ -329,7 +329,7 @@ void Recording::log_progress(double elapsed_s) {
     const auto& t = *tallies_[i];
     line += fmt::format(" | {} {} rx, {} video, {} lost", rig_.cameras[i].name, t.received.load(),
                         writer_->camera_stats(device_ids_[i]).frames_in_video,
-                        t.not_received.load() + t.incomplete.load() + t.encoder_behind.load());
+                        t.not_received.load() + t.queue_overflow.load() + t.incomplete.load() + t.encoder_behind.load());
   }
   if (sensel_) line += fmt::format(" | sensel {} frames", sensel_->stored());
   line += fmt::format(" | {} samples", samples_.load());
@@ -387,6 +387,7 @@ RecordingStatus Recording::status() const {
     s.good = t.good.load();
     s.incomplete = t.incomplete.load();
     s.not_received = t.not_received.load();
+    s.queue_overflow = t.queue_overflow.load();
     s.encoder_behind = t.encoder_behind.load();
     s.connection_losses = t.lost_events.load();
     if (writer_) {
@@ -406,6 +407,7 @@ RecordingStatus Recording::status() const {
     s.kind = "sensel";
     s.received = s.good = sensel_->stored();
     s.not_received = sensel_->lost_frames();
+    s.queue_overflow = sensel_->queue_overflows();
     s.rate_hz = rate(cameras_.size(), s.good);
     s.since_last_frame_ms = since(sensel_->last_frame_host_ns());
     st.streams.push_back(std::move(s));
@@ -463,13 +465,13 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   for (auto& cam : cameras_) cam->stop();
   for (auto& w : workers_) w.join();
   workers_.clear();
-  // At close: every frame re-mapped with its stream's final clock fit, every sample re-paired.
-  writer.set_finalizer([this, clocks = timeline_->final_clocks()](SessionIndex& index) {
+  // At close: every frame re-mapped with its stream's final clock fit, every sample re-paired,
+  // from the fits the store holds (each stream's final one written now), in committed steps.
+  timeline_->final_snapshots();
+  writer.set_finalizer([max_offset_ns = pressure_max_offset_ns_](SessionIndex& index) {
     spdlog::info("timeline: re-mapping every frame with the final clock fits");
-    const auto t0 = host_now().ns;
-    const auto r = realign(index, {clocks, device_ids_, sensel_id_, pressure_max_offset_ns_});
-    spdlog::info("timeline: {} samples re-paired with the final clock fits in {:.1f} s", r.samples,
-                 double(host_now().ns - t0) / 1e9);
+    const auto r = realign(index, {max_offset_ns, 2000, [](const std::string& line) { spdlog::info("{}", line); }});
+    spdlog::info("timeline: {} samples re-paired with the final clock fits in {:.1f} s", r.samples, r.seconds);
   });
   const auto tl = timeline_->counts();
   writer.add_timeline_count("samples", tl.samples);

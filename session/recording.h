@@ -63,6 +63,7 @@ struct StreamStatus {
   std::string name, kind;  // kind: camera | sensel
   std::uint64_t received = 0, good = 0, in_video = 0, incomplete = 0, not_received = 0, encoder_behind = 0,
                 connection_losses = 0;
+  std::uint64_t queue_overflow = 0;  // received by the driver and dropped, its queue full (pvcap too slow)
   std::size_t encoder_backlog = 0;  // kept frames waiting for the encoder (memory and spill)
   std::size_t spill_backlog = 0;    // of which on disk
   std::uint64_t spilled = 0;        // frames that went through the spill so far

@@ -428,9 +428,7 @@ Status SessionWriter::close(const std::string& end_reason) {
     }
   if (finalizer_ && !storage_failed) {
     try {
-      sqlite::Transaction tx(index_->db());
-      finalizer_(*index_);
-      tx.commit();
+      finalizer_(*index_);  // commits its own steps
     } catch (const std::exception& e) {
       spdlog::error("{}: re-mapping the timeline at the end failed ({}); the online values stay", dir_.string(), e.what());
     }

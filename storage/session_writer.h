@@ -98,9 +98,9 @@ class SessionWriter {
   // Set when storage failed or the disk is nearly full: capture should stop.
   std::optional<std::string> failure() const;
 
-  // Runs on the finished index at close, before the session is marked ended, in its own
-  // transaction (the timeline's final re-mapping). A failure is reported, and leaves the
-  // values recorded online in place.
+  // Runs on the finished index at close, before the session is marked ended (the timeline's
+  // final re-mapping); it commits its own transactions. A failure is reported, and leaves the
+  // values recorded online (or its committed steps) in place.
   void set_finalizer(std::function<void(SessionIndex&)> finalize) { finalizer_ = std::move(finalize); }
   // Drains every queue (a spill to its end, with progress in the log), finishes videos and index.
   // Returns the first error, if any.

@@ -30,14 +30,12 @@ SessionTimeline::SessionTimeline(TimelineConfig config, std::function<void(Sampl
   }
 }
 
-std::int64_t SessionTimeline::map(Stream& s, int id, std::int64_t device_ns, std::int64_t arrival_ns) {
-  if (s.model.add(device_ns, arrival_ns)) ++s.resets;
-  s.residuals.push_back(s.model.residual(device_ns, arrival_ns));
-  if (arrival_ns >= s.next_snapshot_ns) {
-    s.next_snapshot_ns = arrival_ns + kSnapshotPeriodNs;
-    const auto& seg = s.model.segments().back();
-    ClockSnapshot snap{id,        arrival_ns,     s.model.segment(), seg.fit, seg.latency_ns, s.model.probed(),
-                       s.model.pairs(), s.model.envelope_points(), 0, 0};
+void SessionTimeline::emit(Stream& s, int id, std::int64_t host_ns, int segment, const ClockModel::Segment& seg,
+                           bool probed, bool current) {
+  ClockSnapshot snap{id, host_ns, segment, seg.fit, seg.latency_ns, probed, 0, 0, 0, 0};
+  if (current) {
+    snap.pairs = s.model.pairs();
+    snap.envelope_points = s.model.envelope_points();
     auto& r = s.residuals;
     if (!r.empty()) {
       std::nth_element(r.begin(), r.begin() + std::ptrdiff_t(r.size() / 2), r.end());
@@ -46,9 +44,37 @@ std::int64_t SessionTimeline::map(Stream& s, int id, std::int64_t device_ns, std
       snap.residual_p99_ns = r[r.size() * 99 / 100];
     }
     r.clear();
-    if (on_clock_) on_clock_(snap);
+  }
+  if (on_clock_) on_clock_(snap);
+}
+
+std::int64_t SessionTimeline::map(Stream& s, int id, std::int64_t device_ns, std::int64_t arrival_ns) {
+  if (s.model.add(device_ns, arrival_ns)) {
+    // A reset: the segment that ended is stored with its last fit (just before this arrival), and
+    // the new one from this arrival on, so a re-mapping from the store finds where each begins.
+    ++s.resets;
+    const auto& segments = s.model.segments();
+    const auto& ended = segments[segments.size() - 2];
+    emit(s, id, arrival_ns - 1, s.model.segment() - 1, ended, s.last_probed, false);
+    s.next_snapshot_ns = arrival_ns;
+  }
+  s.last_probed = s.model.probed();
+  s.residuals.push_back(s.model.residual(device_ns, arrival_ns));
+  s.last_arrival_ns = arrival_ns;
+  if (arrival_ns >= s.next_snapshot_ns) {
+    s.next_snapshot_ns = arrival_ns + kSnapshotPeriodNs;
+    emit(s, id, arrival_ns, s.model.segment(), s.model.segments().back(), s.model.probed(), true);
   }
   return s.model.map(device_ns);
+}
+
+void SessionTimeline::final_snapshots() {
+  auto last = [&](Stream& s, int id) {
+    if (s.model.segment() < 0) return;
+    emit(s, id, s.last_arrival_ns, s.model.segment(), s.model.segments().back(), s.model.probed(), true);
+  };
+  for (std::size_t c = 0; c < cameras_.size(); ++c) last(cameras_[c], int(c));
+  if (config_.has_pressure) last(pressure_, -1);
 }
 
 std::int64_t SessionTimeline::camera_frame(int c, std::uint32_t connection, std::uint64_t sequence,
@@ -142,14 +168,6 @@ SessionTimeline::Counts SessionTimeline::counts() const {
   for (const auto& s : cameras_) c.clock_resets.push_back(s.resets);
   c.clock_resets.push_back(pressure_.resets);
   return c;
-}
-
-std::vector<SessionTimeline::StreamClocks> SessionTimeline::final_clocks() const {
-  std::vector<StreamClocks> out;
-  for (std::size_t c = 0; c < cameras_.size(); ++c)
-    out.push_back({int(c), cameras_[c].model.segments()});
-  if (config_.has_pressure) out.push_back({-1, pressure_.model.segments()});
-  return out;
 }
 
 }  // namespace pvcap::sync

@@ -86,22 +86,24 @@ class SessionTimeline {
   };
   Counts counts() const;
 
-  // Each stream's clock segments as finally fitted (once the workers have stopped), to
-  // re-map the whole recording with the best fit rather than the one each frame met.
-  struct StreamClocks {
-    int stream = 0;  // camera index, or -1 for the pressure stream
-    std::vector<ClockModel::Segment> segments;
-  };
-  std::vector<StreamClocks> final_clocks() const;
+  // Hands every stream's current fit to `on_clock` (at the stream's last arrival), so the store
+  // holds each segment's final fit: a re-mapping from the store (session/realign.h) needs nothing
+  // else. Call once the streams are stopped.
+  void final_snapshots();
 
  private:
   struct Stream {
     ClockModel model;
     std::vector<std::int64_t> residuals;  // since the last snapshot
     std::int64_t next_snapshot_ns = 0;
+    std::int64_t last_arrival_ns = 0;
+    bool last_probed = false;  // the fit was the probes' before the latest pair
     int resets = 0;
   };
   std::int64_t map(Stream& s, int id, std::int64_t device_ns, std::int64_t arrival_ns);
+  // One snapshot; `current`: of the model's current segment (with its pair counts and residuals).
+  void emit(Stream& s, int id, std::int64_t host_ns, int segment, const ClockModel::Segment& seg, bool probed,
+            bool current);
   void advance(std::vector<SampleOut>& done, bool flush);  // under mu_
   void decide(const Group& g, bool kept, const char* reason);
 

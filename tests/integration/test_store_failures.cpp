@@ -19,6 +19,7 @@
 #include "core/time.h"
 #include "sim/timecode.h"
 #include "storage/session_reader.h"
+#include "storage/sqlite/database.h"
 #include "tests/integration/session_under_test.h"
 
 namespace fs = std::filesystem;
@@ -73,6 +74,31 @@ TEST(StoreCrash, KillNineAtRandomMomentsLosesAtMostTheLastSecond) {
     auto recovered = run_pvcap(fmt::format("--log-level warn recover {}", dir.string()));
     EXPECT_EQ(recovered.exit_code, 0) << recovered.output;
     EXPECT_NE(recovered.output.find("the session's end set"), std::string::npos) << recovered.output;
+    // The timeline was re-mapped with the clock fits the store holds, as a finished session's is:
+    // every sample's instant is its frames' and its pressure frame the one the offset says.
+    EXPECT_NE(recovered.output.find("timeline re-mapped with the stored clock fits"), std::string::npos)
+        << recovered.output;
+    {
+      pvcap::sqlite::Database db(dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+      auto done = db.prepare("SELECT count(*) FROM events WHERE kind = 'realign_done'");
+      ASSERT_TRUE(done.step());
+      EXPECT_EQ(done.column_int(0), 1);
+      auto q = db.prepare(
+          "SELECT s.id, s.t_ns, p.mapped_ns - s.pressure_offset_ns, (SELECT avg(f.mapped_ns) FROM sample_frames sf "
+          "JOIN frames f USING (device_id, connection, sequence) WHERE sf.sample_id = s.id) FROM samples s JOIN "
+          "pressure_frames p ON p.device_id = s.pressure_device_id AND p.connection = s.pressure_connection AND "
+          "p.sequence = s.pressure_sequence");
+      std::size_t rows = 0;
+      while (q.step()) {
+        ++rows;
+        EXPECT_EQ(q.column_int(2), q.column_int(1)) << "sample " << q.column_int(0);
+        EXPECT_NEAR(q.column_double(3), double(q.column_int(1)), 1.0) << "sample " << q.column_int(0);
+      }
+      EXPECT_GT(rows, 15u);
+    }
+    auto recovered_again = run_pvcap(fmt::format("--log-level warn recover {}", dir.string()));
+    EXPECT_EQ(recovered_again.output.find("re-mapped"), std::string::npos) << "once is enough: "
+                                                                           << recovered_again.output;
     auto after = run_pvcap(fmt::format("--log-level off verify {}", dir.string()));
     EXPECT_EQ(after.exit_code, 3) << after.output;  // lossy: the last moments are gone
     EXPECT_EQ(after.output.find("ERROR"), std::string::npos) << after.output;

@@ -1,0 +1,154 @@
+// The end-of-session re-mapping from the fits the store holds: each clock segment applied from its
+// first row on, samples re-paired with the nearest pressure frame, committed in steps, and an
+// interrupted run finished by running it again.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include "session/realign.h"
+#include "storage/session_index.h"
+
+namespace fs = std::filesystem;
+using namespace pvcap;
+
+namespace {
+
+constexpr std::int64_t kMs = 1'000'000;
+
+// A camera at 30 Hz whose clock restarts at frame 30 (a reconnect: its device time starts again
+// near zero), a Sensel at 125 Hz, and a sample every other camera frame. Every mapped time is
+// recorded wrong (+7 ms) as an online fit might have had it; the stored fits are exact:
+// camera host = device + 1000 ms (segment 0) or device + 2000 ms (segment 1), Sensel host = device
+// + 500 ms - 0.5 ms latency.
+struct Fixture {
+  fs::path dir;
+  std::int64_t camera = 0, sensel = 0;
+  std::size_t samples = 0;
+
+  explicit Fixture(const std::string& name) {
+    dir = fs::temp_directory_path() / fmt::format("pvcap-realign-{}-{}", name, getpid());
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    SessionIndex index = SessionIndex::create(dir / "session.db");
+    index.add_session({1, 0, "test", "rig", "rig.yaml", "", true});
+    camera = index.add_device({"camera", "cam0", "", "", "", "", "", ""});
+    sensel = index.add_device({"sensel", "sensel", "", "", "", "", "", ""});
+    auto camera_host = [](int i) { return std::int64_t(i) * 33'333'333 + 10 * kMs; };
+    auto camera_device = [&](int i) { return i < 30 ? camera_host(i) - 1000 * kMs : camera_host(i) - 2000 * kMs; };
+    for (int i = 0; i < 60; ++i) {
+      FrameRecord f{camera, 0, std::uint64_t(i + 1), std::uint64_t(i + 1), camera_device(i), camera_host(i) + 3 * kMs,
+                    0, "good", true, "", {}, {}, camera_host(i) + 7 * kMs, {}};
+      index.add_frame(f);
+    }
+    for (int k = 0; k < 250; ++k) {
+      const std::int64_t host = std::int64_t(k) * 8 * kMs;
+      PressureRecord p{sensel, 0, std::uint64_t(k), 0, host - 500 * kMs + kMs / 2, host + kMs, 0, 185, 105, 1, 1,
+                       {1, 2, 3}, host + 7 * kMs, 0, {}};
+      index.add_pressure(p);
+    }
+    for (int i = 0; i + 1 < 60; i += 2) {
+      SampleRecord s{samples, i / 2, camera_host(i), camera_host(i) + 7 * kMs, 0, {{camera, 0, std::uint64_t(i + 1), 0}},
+                     std::nullopt, std::nullopt, std::nullopt};
+      index.add_sample(s);
+      ++samples;
+    }
+    // What the timeline stores: a row a second, the reset's rows, and each segment's final fit.
+    auto row = [&](std::int64_t device, std::int64_t host, int segment, std::int64_t x0, double offset,
+                   std::int64_t latency) {
+      index.add_clock_model({device, host, segment, x0, offset, 0.0, latency, "arrivals", 10, 4, 0, 0});
+    };
+    row(camera, camera_host(0), 0, 0, 990 * kMs, 0);  // an early, still imprecise fit
+    row(camera, camera_host(29), 0, 0, 1000 * kMs, 0);
+    row(camera, camera_host(30), 1, 0, 1990 * kMs, 0);
+    row(camera, camera_host(59), 1, 0, 2000 * kMs, 0);
+    row(sensel, 0, 0, 0, 500 * kMs, kMs / 2);
+  }
+  ~Fixture() { fs::remove_all(dir); }
+};
+
+struct SampleRow {
+  std::int64_t t_ns = 0, pressure_sequence = -1, pressure_offset_ns = 0;
+};
+
+std::vector<SampleRow> sample_rows(sqlite::Database& db) {
+  std::vector<SampleRow> out;
+  auto q = db.prepare("SELECT t_ns, pressure_sequence, pressure_offset_ns FROM samples ORDER BY id");
+  while (q.step()) out.push_back({q.column_int(0), q.column_null(1) ? -1 : q.column_int(1), q.column_int(2)});
+  return out;
+}
+
+}  // namespace
+
+TEST(Realign, EachSegmentIsMappedWithItsLastStoredFitAndEverySampleRePaired) {
+  Fixture f("mapped");
+  SessionIndex index = SessionIndex::open_for_update(f.dir / "session.db");
+  std::vector<std::string> said;
+  const auto r = realign(index, {20 * kMs, 4, [&](const std::string& s) { said.push_back(s); }});
+  EXPECT_EQ(r.samples, f.samples);
+  EXPECT_EQ(r.segments, 3u);
+  EXPECT_FALSE(realign_pending(index.db()));
+  // Camera frames on both sides of the restart land on their true host time.
+  auto q = index.db().prepare("SELECT sequence, mapped_ns, device_ns FROM frames ORDER BY sequence");
+  while (q.step()) {
+    const auto seq = q.column_int(0);
+    const std::int64_t offset = seq <= 30 ? 1000 * kMs : 2000 * kMs;
+    EXPECT_EQ(q.column_int(1), q.column_int(2) + offset) << "frame " << seq;
+  }
+  // Pressure: device + 500 ms - 0.5 ms latency, so every sample's nearest frame is within 4 ms.
+  for (const auto& s : sample_rows(index.db())) {
+    ASSERT_GE(s.pressure_sequence, 0);
+    EXPECT_LE(std::abs(s.pressure_offset_ns), 4 * kMs);
+    auto p = index.db().prepare("SELECT mapped_ns FROM pressure_frames WHERE sequence = ?");
+    p.bind_all(s.pressure_sequence);
+    ASSERT_TRUE(p.step());
+    EXPECT_EQ(p.column_int(0) - s.t_ns, s.pressure_offset_ns);
+  }
+  // Progress: the frames' step, then one line per step of 4 samples but the last.
+  ASSERT_FALSE(said.empty());
+  EXPECT_NE(said.front().find("3 clock segments"), std::string::npos) << said.front();
+  EXPECT_EQ(said.size(), 1 + (f.samples + 3) / 4 - 1);
+}
+
+TEST(Realign, AnInterruptedReMappingIsPendingAndRunningItAgainFinishesIt) {
+  Fixture f("interrupted");
+  std::vector<SampleRow> reference;
+  {
+    Fixture g("reference");  // the same session, re-mapped without interruption
+    SessionIndex index = SessionIndex::open_for_update(g.dir / "session.db");
+    realign(index, {20 * kMs, 4, nullptr});
+    reference = sample_rows(index.db());
+  }
+  {
+    SessionIndex index = SessionIndex::open_for_update(f.dir / "session.db");
+    int steps = 0;
+    // Killed after two committed steps of samples (the throw stands for the process dying).
+    EXPECT_THROW(realign(index, {20 * kMs, 4,
+                                 [&](const std::string&) {
+                                   if (++steps == 3) throw std::runtime_error("killed");
+                                 }}),
+                 std::runtime_error);
+    EXPECT_TRUE(realign_pending(index.db()));
+    const auto partial = sample_rows(index.db());
+    std::size_t done = 0;
+    for (std::size_t i = 0; i < partial.size(); ++i) done += partial[i].t_ns == reference[i].t_ns;
+    EXPECT_EQ(done, 8u) << "two steps of four samples were committed";
+  }
+  auto again = realign_if_needed(f.dir, /*interrupted=*/false, nullptr);
+  ASSERT_TRUE(again) << again.error().message;
+  ASSERT_TRUE(again.value().has_value()) << "a pending re-mapping is run again";
+  SessionIndex index = SessionIndex::open_for_update(f.dir / "session.db");
+  EXPECT_FALSE(realign_pending(index.db()));
+  const auto finished = sample_rows(index.db());
+  ASSERT_EQ(finished.size(), reference.size());
+  for (std::size_t i = 0; i < finished.size(); ++i) {
+    EXPECT_EQ(finished[i].t_ns, reference[i].t_ns) << i;
+    EXPECT_EQ(finished[i].pressure_sequence, reference[i].pressure_sequence) << i;
+  }
+  auto nothing = realign_if_needed(f.dir, false, nullptr);
+  ASSERT_TRUE(nothing);
+  EXPECT_FALSE(nothing.value().has_value()) << "a finished re-mapping is not run again";
+}
