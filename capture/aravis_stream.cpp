@@ -105,7 +105,13 @@ void AravisStream::handle(ArvBuffer* buffer) {
     frame.detail = name;
     arv_stream_push_buffer(stream_.get(), buffer);
   }
-  if (!queue_.try_push(frame)) overflows_.fetch_add(1, std::memory_order_relaxed);  // `frame` releases its buffer
+  frame.dropped_before = dropped_since_push_;
+  if (queue_.try_push(frame)) {
+    dropped_since_push_ = 0;
+  } else {  // `frame` releases its buffer; the next frame pushed tells the pipeline
+    overflows_.fetch_add(1, std::memory_order_relaxed);
+    ++dropped_since_push_;
+  }
 }
 
 StreamCounters AravisStream::counters() const {

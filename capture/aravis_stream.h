@@ -54,6 +54,7 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   std::atomic<int> in_callback_{0};
   std::atomic<std::int64_t> last_arrival_ns_{0};
   std::atomic<std::uint64_t> overflows_{0};
+  std::uint32_t dropped_since_push_ = 0;  // the stream thread's alone
   gulong signal_id_ = 0;
 };
 

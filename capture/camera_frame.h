@@ -61,6 +61,9 @@ struct CameraFrame {
   HostNs host_ts;                 // pvcap's arrival stamp (CLOCK_MONOTONIC)
   std::int64_t aravis_system_ns = 0;  // Aravis' own wall-clock arrival stamp, kept for diagnosis
   FrameStatus status = FrameStatus::Good;
+  // Frames the driver received just before this one and dropped, pvcap's queue being full (their
+  // ids are the ones right before this frame's): lost with that reason, not "not received".
+  std::uint32_t dropped_before = 0;
   std::string detail;             // why, when status is not Good
   std::uint32_t pixel_format = 0; // PFNC code
   int width = 0;

@@ -11,6 +11,7 @@
 namespace pvcap::sensel {
 
 namespace {
+constexpr std::size_t kMaxDroppedKept = 100'000;  // sequences of frames dropped while the queue stays full
 constexpr int kReadTimeoutMs = 500;  // the official library's single-attempt limit: longer is a stall
 
 // Runs `f` and stamps it with the midpoint of CLOCK_MONOTONIC before and after.
@@ -259,6 +260,8 @@ void SenselDevice::stream_loop() {
                     fmt::format("{}: Sensel reconnected (serial {}), streaming again as connection {}",
                                 transport_->describe(), info_.serial, connection_)};
       e.connection = connection_;
+      e.dropped = std::move(dropped_);
+      dropped_.clear();
       e.away_ns = e.at.ns - unplugged_at_.ns;
       e.missed = std::uint64_t(std::max<std::int64_t>(0, e.away_ns) / std::max<std::int64_t>(1, frame_period_ns_));
       emit(std::move(e));
@@ -314,7 +317,13 @@ void SenselDevice::stream_loop() {
     s.frame = std::move(frame.value());
     s.payload = std::move(r.value().data);
     frames_.fetch_add(1);
-    if (!queue_.try_push(s)) overflows_.fetch_add(1);
+    s.dropped_before = std::move(dropped_);
+    dropped_.clear();
+    if (!queue_.try_push(s)) {
+      overflows_.fetch_add(1);
+      dropped_ = std::move(s.dropped_before);
+      if (dropped_.size() < kMaxDroppedKept) dropped_.push_back(s.sequence);
+    }
   }
 }
 

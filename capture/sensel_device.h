@@ -50,6 +50,9 @@ struct PressureSample {
   std::uint32_t connection = 0;   // 0, then one more after each reconnect (the counter restarts with it)
   std::uint64_t sequence = 0;     // rolling counter, unwrapped (within the connection)
   std::uint64_t lost_before = 0;  // frames the counter says were skipped before this one
+  // Frames of this connection received since the previous sample handed over, and dropped for
+  // want of room in the driver's queue (their sequences): lost with that reason.
+  std::vector<std::uint64_t> dropped_before;
   Grid grid;
   Frame frame;                    // contacts, accelerometer, pressure counts, labels
   std::vector<std::uint8_t> payload;  // the frame exactly as the device sent it (checksum verified)
@@ -64,6 +67,7 @@ struct SenselEvent {
   std::uint32_t connection = 0;  // Reconnected: the new connection's number
   std::int64_t away_ns = 0;      // Reconnected: how long the device was gone
   std::uint64_t missed = 0;      // Reconnected: frames it would have sent meanwhile, at its rate before
+  std::vector<std::uint64_t> dropped;  // Reconnected: the previous connection's last frames the queue had no room for
 };
 
 class SenselDevice {
@@ -112,6 +116,7 @@ class SenselDevice {
   SenselInfo info_;
   SenselConfig config_;
   BoundedQueue<PressureSample> queue_{512};
+  std::vector<std::uint64_t> dropped_;  // sequences dropped since the last sample queued (this connection's)
   std::uint32_t connection_ = 0;
   std::string session_serial_;   // the Morph the session streams from: a reconnect must find this one
   std::string refused_serial_;   // the other Morph last refused (its message is given once)

@@ -62,7 +62,12 @@ Status read_one(const std::filesystem::path& dir, SessionTakes& out, int depth) 
       TakeRow& t = rows[by_sequence[sequence]];
       t.status = d.value("status", "done");
       t.end_ns = e.host_ns;
-      if (d.contains("check")) t.check_ok = d["check"].value("ok", true);
+      if (d.contains("check")) {
+        t.check_ok = d["check"].value("ok", true);
+        if (d["check"].contains("problems") && d["check"]["problems"].is_array())
+          for (const auto& p : d["check"]["problems"])
+            if (p.is_string()) t.check_problems.push_back(p.get<std::string>());
+      }
     } else if (e.kind == "skip") {
       TakeRow t = row_of(e, sequence);
       t.status = "skipped";
@@ -188,6 +193,7 @@ nlohmann::json takes_json(const SessionTakes& t) {
     row["first_sample"] = r.first_sample ? nlohmann::json(*r.first_sample) : nlohmann::json();
     row["end_sample"] = r.end_sample ? nlohmann::json(*r.end_sample) : nlohmann::json();
     row["check_ok"] = r.check_ok ? nlohmann::json(*r.check_ok) : nlohmann::json();
+    row["check_problems"] = r.check_problems;
     j["takes"].push_back(row);
   }
   for (const auto& [force, s] : by_force(t))

@@ -26,6 +26,7 @@ struct TakeRow {
   double mean_newtons = 0, peak_newtons = 0, mean_contact_mm2 = 0, peak_contact_mm2 = 0;
   std::size_t pressure_frames = 0;
   std::optional<bool> check_ok;
+  std::vector<std::string> check_problems;  // what the take check found, as the operator was told
 };
 
 struct SessionTakes {

@@ -113,6 +113,7 @@ json streams_section(SessionReader& r) {
               {"kind", s.kind},
               {"frames", s.frames},
               {"not_received", s.dropped},
+              {"not_received_by_reason", s.dropped_by_reason},
               {"connection_losses", s.connection_losses},
               {"mean_rate_hz", round_to(s.mean_rate_hz, 1e-3)}};
     if (s.kind == "camera") {

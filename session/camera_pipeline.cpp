@@ -71,9 +71,22 @@ void run_camera_pipeline(const CameraPipeline& p) {
   FramePool images(encoder_queue + 2);
   // A frame that times out incomplete is delivered after its successor: hold gaps open for a
   // second so such a frame is counted once, as what it is.
+  // Frames that never reached pvcap: those Aravis had no free buffer for (its underrun counter
+  // grew meanwhile; a slow consumer holds the buffers), the others not received (lost on the link,
+  // or never sent).
+  std::uint64_t underruns_seen = camera.counters().underruns, underrun_credit = 0;
   auto report_gap = [&](const GapTracker::Gap& g) {
     tally.not_received.fetch_add(g.count, std::memory_order_relaxed);
-    writer.record(DropRecord{device_id, connection, g.first, g.count, "not_received", g.noticed_ns});
+    const std::uint64_t underruns = camera.counters().underruns;
+    underrun_credit += underruns - std::min(underruns, underruns_seen);
+    underruns_seen = underruns;
+    const std::uint64_t by_underrun = std::min(g.count, underrun_credit);
+    underrun_credit -= by_underrun;
+    if (by_underrun > 0)
+      writer.record(DropRecord{device_id, connection, g.first, by_underrun, "buffer_underrun", g.noticed_ns});
+    if (g.count > by_underrun)
+      writer.record(DropRecord{device_id, connection, g.first + by_underrun, g.count - by_underrun, "not_received",
+                               g.noticed_ns});
   };
   // The timeline's verdicts: the kept frame of a sample goes to the video, the others to the index.
   auto apply_decisions = [&] {
@@ -153,7 +166,15 @@ void run_camera_pipeline(const CameraPipeline& p) {
     const auto step = unwrap.next(frame->frame_id);
     FrameRecord rec{device_id, frame->connection, step.sequence, frame->frame_id, frame->device_ts.ns,
                     frame->host_ts.ns, frame->aravis_system_ns, to_string(frame->status), false, "", {}, {}, {}, {}};
-    gaps.missing(step.sequence - step.missing, step.missing, frame->host_ts.ns);
+    // The frames just before this one that the driver dropped (its queue full) are lost with that
+    // reason; the rest of a gap may still arrive late (an incomplete frame), so it waits.
+    const std::uint64_t by_queue = std::min<std::uint64_t>(frame->dropped_before, step.missing);
+    if (by_queue > 0) {
+      tally.queue_overflow.fetch_add(by_queue, std::memory_order_relaxed);
+      writer.record(DropRecord{device_id, frame->connection, step.sequence - by_queue, by_queue, "queue_overflow",
+                               frame->host_ts.ns});
+    }
+    gaps.missing(step.sequence - step.missing, step.missing - by_queue, frame->host_ts.ns);
     if (step.out_of_order && !gaps.arrived_late(step.sequence)) {
       // Not a frame we were missing. An incomplete buffer whose leader packet was lost still
       // carries the id and timestamp of the buffer's previous frame (seen with Aravis 0.8):

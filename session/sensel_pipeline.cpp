@@ -1,8 +1,12 @@
 #include "session/sensel_pipeline.h"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+
+#include "core/loss_runs.h"
 
 namespace pvcap::session {
 
@@ -110,6 +114,17 @@ void SenselPipeline::on_event(const sensel::SenselEvent& e) {
   // The frames it would have sent while it was away: lost, with the reason.
   if (e.kind == K::Reconnected && e.missed > 0)
     w->record(DropRecord{device_id_, e.connection, 0, e.missed, "unplugged", e.at.ns});
+  // The previous connection's last frames, received but dropped for want of room in the queue.
+  if (e.kind == K::Reconnected && !e.dropped.empty() && e.connection > 0)
+    record_losses(*w, e.connection - 1, e.dropped.front(), e.dropped.back() + 1, e.dropped, e.at.ns);
+}
+
+void SenselPipeline::record_losses(SessionWriter& writer, std::uint32_t connection, std::uint64_t from,
+                                   std::uint64_t to, const std::vector<std::uint64_t>& dropped, std::int64_t host_ns) {
+  for_each_loss_run(from, to, dropped, [&](std::uint64_t first, std::uint64_t count, bool by_queue) {
+    writer.record(DropRecord{device_id_, connection, first, count, by_queue ? "queue_overflow" : "not_received",
+                             host_ns});
+  });
 }
 
 void SenselPipeline::run() {
@@ -118,9 +133,13 @@ void SenselPipeline::run() {
   while (!q.closed_and_empty()) {
     auto s = q.pop_for(100ms);
     if (!s) continue;
-    if (s->lost_before)
-      writer.record(DropRecord{device_id_, s->connection, s->sequence - s->lost_before, s->lost_before, "not_received",
-                               s->host_ts.ns});
+    // Every sequence between the previous frame of this connection and this one is lost: dropped
+    // by the driver for want of room in its queue, or never received (the device's counter says).
+    std::uint64_t from = s->sequence - s->lost_before;
+    if (previous_ && previous_->first == s->connection) from = previous_->second + 1;
+    else if (!s->dropped_before.empty()) from = std::min(from, s->dropped_before.front());
+    record_losses(writer, s->connection, from, s->sequence, s->dropped_before, s->host_ts.ns);
+    previous_ = {s->connection, s->sequence};
     // The clock model fits when the answer began to arrive (the midpoint is the stamp's best
     // single guess, but an arrival is what a latency floor bounds; its first bytes come before
     // the rest of a frame's 64-byte packets).

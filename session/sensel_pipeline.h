@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -61,6 +62,10 @@ class SenselPipeline {
  private:
   SenselPipeline() = default;
   void on_event(const sensel::SenselEvent& e);
+  // Drops rows for the sequences [from, to) of `connection`: runs in `dropped` as queue_overflow,
+  // the others as not_received.
+  void record_losses(SessionWriter& writer, std::uint32_t connection, std::uint64_t from, std::uint64_t to,
+                     const std::vector<std::uint64_t>& dropped, std::int64_t host_ns);
   void run();
 
   SenselRigConfig config_;
@@ -70,6 +75,7 @@ class SenselPipeline {
   sync::SessionTimeline* timeline_ = nullptr;
   std::thread worker_;
   std::atomic<std::uint64_t> stored_{0};
+  std::optional<std::pair<std::uint32_t, std::uint64_t>> previous_;  // run(): the last frame's connection, sequence
   std::atomic<std::int64_t> last_host_ns_{0};
   mutable std::mutex history_mu_;
   std::deque<PressurePoint> history_;

@@ -391,6 +391,9 @@ Result<std::vector<StreamStatistics>> SessionReader::stream_statistics() {
       auto dr = db_->prepare("SELECT coalesce(sum(count), 0) FROM drops WHERE device_id = ?");
       dr.bind_all(s.device_id);
       if (dr.step()) s.dropped = std::uint64_t(dr.column_int(0));
+      auto why = db_->prepare("SELECT reason, sum(count) FROM drops WHERE device_id = ? GROUP BY reason");
+      why.bind_all(s.device_id);
+      while (why.step()) s.dropped_by_reason[why.column_text(0)] = std::uint64_t(why.column_int(1));
       if (camera) {
         auto r = db_->prepare("SELECT coalesce(reason, ''), count(*) FROM frames WHERE device_id = ? AND kept = 0 GROUP "
                               "BY reason");

@@ -109,7 +109,8 @@ struct StreamStatistics {
   std::string name, kind;
   std::uint64_t frames = 0;  // rows stored (camera: every received frame; sensel: every frame)
   std::uint64_t in_video = 0;
-  std::uint64_t dropped = 0;  // never arrived (drops table)
+  std::uint64_t dropped = 0;  // never reached the store (drops table)
+  std::map<std::string, std::uint64_t> dropped_by_reason;  // not_received, queue_overflow, buffer_underrun, unplugged
   std::map<std::string, std::uint64_t> not_kept;  // camera frames not in a video, by reason
   std::map<std::string, std::uint64_t> by_status;  // camera frames by status (good, incomplete, ...)
   std::uint64_t connection_losses = 0;             // camera_lost / sensel_unplugged events

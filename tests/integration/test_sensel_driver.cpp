@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include "capture/sensel_device.h"
@@ -125,6 +126,36 @@ TEST(SenselDriver, OpensConfiguresAndStreams) {
   EXPECT_TRUE(wrapped) << "the emulated clock starts just before its 32-bit wrap";
   EXPECT_TRUE(pressed);
   EXPECT_LT(samples[5].host_wait_ns, 50'000'000) << "request-to-answer time bounds the stamp's error";
+}
+
+// A consumer that stops taking frames: the driver's queue (512) fills, further frames are dropped,
+// and the next frame it hands over names exactly the sequences it dropped, so the store can
+// record them as queue_overflow rather than as never received.
+TEST(SenselDriver, FramesItsQueueHadNoRoomForAreNamedToTheNextFrame) {
+  Rig rig;
+  ASSERT_NO_FATAL_FAILURE(rig.open());
+  ASSERT_TRUE(rig.device->configure({.scan_detail = 1}).ok());
+  ASSERT_TRUE(rig.device->start().ok());
+  // 512 frames fill the queue in ~4.1 s at 125 Hz; wait until some were dropped beyond it.
+  for (auto deadline = std::chrono::steady_clock::now() + 20s;
+       rig.device->queue_overflows() < 40 && std::chrono::steady_clock::now() < deadline;)
+    std::this_thread::sleep_for(100ms);
+  ASSERT_GE(rig.device->queue_overflows(), 40u);
+  const auto samples = rig.collect(600);
+  std::set<std::uint64_t> delivered, named;
+  for (const auto& s : samples) {
+    delivered.insert(s.sequence);
+    for (auto q : s.dropped_before) {
+      EXPECT_LT(q, s.sequence) << "a dropped frame is named by a later one";
+      named.insert(q);
+    }
+  }
+  EXPECT_EQ(named.size(), rig.device->queue_overflows()) << "every dropped frame is named once";
+  for (auto q : named) EXPECT_EQ(delivered.count(q), 0u) << "sequence " << q << " both dropped and delivered";
+  // Together, delivered and dropped frames leave no sequence unaccounted for (the emulator loses none).
+  const std::uint64_t first = *delivered.begin(), last = *delivered.rbegin();
+  EXPECT_EQ(delivered.size() + named.size(), last - first + 1);
+  EXPECT_EQ(rig.device->lost_frames(), 0u);
 }
 
 TEST(SenselDriver, CorruptFrameIsRejectedAndCountedAndStreamingGoesOn) {

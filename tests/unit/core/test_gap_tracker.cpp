@@ -1,6 +1,10 @@
 #include <gtest/gtest.h>
 
+#include <tuple>
+#include <vector>
+
 #include "core/gap_tracker.h"
+#include "core/loss_runs.h"
 
 using pvcap::GapTracker;
 
@@ -49,4 +53,21 @@ TEST(GapTracker, FlushReportsEverythingOpen) {
   t.missing(5, 1, 0);
   t.settle(1, /*flush_all=*/true);
   EXPECT_EQ(reports, 2);
+}
+
+TEST(LossRuns, ARangeSplitsIntoRunsOfDroppedAndNotReceived) {
+  std::vector<std::tuple<std::uint64_t, std::uint64_t, bool>> runs;
+  auto collect = [&](std::uint64_t first, std::uint64_t count, bool dropped) { runs.emplace_back(first, count, dropped); };
+  // 10..19 missing; the driver dropped 12, 13 and 19 (and 5 and 30, outside the range).
+  pvcap::for_each_loss_run(10, 20, {5, 12, 13, 19, 30}, collect);
+  using R = std::tuple<std::uint64_t, std::uint64_t, bool>;
+  EXPECT_EQ(runs, (std::vector<R>{{10, 2, false}, {12, 2, true}, {14, 5, false}, {19, 1, true}}));
+  runs.clear();
+  pvcap::for_each_loss_run(7, 7, {7}, collect);
+  EXPECT_TRUE(runs.empty()) << "an empty range has no run";
+  pvcap::for_each_loss_run(3, 6, {}, collect);
+  EXPECT_EQ(runs, (std::vector<R>{{3, 3, false}}));
+  runs.clear();
+  pvcap::for_each_loss_run(3, 6, {3, 4, 5}, collect);
+  EXPECT_EQ(runs, (std::vector<R>{{3, 3, true}}));
 }
