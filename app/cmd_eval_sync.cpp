@@ -1,261 +1,14 @@
 #include "app/cmd_eval_sync.h"
 
-#include <algorithm>
-#include <cmath>
 #include <fstream>
-#include <map>
-#include <sstream>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "app/cmd_session.h"
-#include "core/result.h"
 #include "core/rig_config.h"
-#include "sim/truth.h"
-#include "storage/sqlite/database.h"
 
 namespace pvcap {
-namespace {
-
-// The simulator's truth CSV as key -> value; a missing or foreign file is the user's to fix.
-std::map<std::int64_t, std::int64_t> read_truth(const std::filesystem::path& file, const std::string& key,
-                                                const std::string& value, std::int64_t key_mask = -1) {
-  auto columns = sim::read_truth_columns(file, key, value, key_mask);
-  if (!columns) throw UserError(columns.error().message);
-  return std::move(columns.value());
-}
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, std::size_t(p / 100.0 * double(v.size())))];
-}
-
-StreamTiming timing(std::string name, const std::vector<double>& mapped_err, const std::vector<double>& arrival_err) {
-  StreamTiming t;
-  t.name = std::move(name);
-  t.frames = mapped_err.size();
-  t.bias_ms = percentile(mapped_err, 50);
-  std::vector<double> dev;
-  for (double e : mapped_err) dev.push_back(std::fabs(e - t.bias_ms));
-  t.p50_ms = percentile(dev, 50);
-  t.p99_ms = percentile(dev, 99);
-  t.max_ms = dev.empty() ? 0 : *std::max_element(dev.begin(), dev.end());
-  t.arrival_bias_ms = percentile(arrival_err, 50);
-  std::vector<double> adev;
-  for (double e : arrival_err) adev.push_back(std::fabs(e - t.arrival_bias_ms));
-  t.arrival_p99_ms = percentile(adev, 99);
-  return t;
-}
-
-struct PressureTruth {
-  std::int64_t sequence, true_ns, host_ns;
-};
-
-// The element of `v` (sorted by `key`) nearest `t`.
-template <class T, class Key>
-const T* nearest(const std::vector<T>& v, std::int64_t t, Key key) {
-  auto it = std::lower_bound(v.begin(), v.end(), t, [&](const T& x, std::int64_t value) { return key(x) < value; });
-  const T* best = nullptr;
-  if (it != v.end()) best = &*it;
-  if (it != v.begin() && (!best || t - key(*(it - 1)) <= key(*best) - t)) best = &*(it - 1);
-  return best;
-}
-
-}  // namespace
-
-SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, const SyncTargets& targets) {
-  const auto truth_dir = dir / "sim-truth";
-  const double tie_ms = targets.tie_ms;
-  sqlite::Database db(dir / "session.db", sqlite::Database::Mode::ReadOnly);
-  SyncEvaluation e;
-  e.warmup_s = warmup_s;
-  std::int64_t start_ns = 0;
-  {
-    auto q = db.prepare("SELECT started_host_ns FROM session");
-    if (!q.step()) throw UserError(fmt::format("{}: no session row", (dir / "session.db").string()));
-    start_ns = q.column_int(0);
-  }
-  const std::int64_t from_ns = start_ns + std::int64_t(warmup_s * 1e9);
-
-  // Camera frames: true time by device timestamp.
-  std::map<std::tuple<std::int64_t, std::int64_t, std::int64_t>, std::pair<std::int64_t, std::int64_t>> frame_times;
-  std::int64_t sensel_id = -1;
-  std::string sensel_name;
-  auto devices = db.prepare("SELECT id, kind, name FROM devices ORDER BY id");
-  std::vector<std::tuple<std::int64_t, std::string, std::string>> device_list;
-  while (devices.step()) device_list.emplace_back(devices.column_int(0), devices.column_text(1), devices.column_text(2));
-  for (const auto& [id, kind, name] : device_list) {
-    if (kind != "camera") {
-      sensel_id = id;
-      sensel_name = name;
-      continue;
-    }
-    const auto truth = read_truth(truth_dir / (name + "_frames.csv"), "device_ns", "true_ns");
-    std::vector<double> mapped_err, arrival_err;
-    auto q = db.prepare(
-        "SELECT connection, sequence, device_ns, host_ns, mapped_ns FROM frames WHERE device_id = ? AND mapped_ns IS "
-        "NOT NULL");
-    q.bind_all(id);
-    while (q.step()) {
-      const auto it = truth.find(q.column_int(2));
-      if (it == truth.end()) continue;
-      const std::int64_t host = q.column_int(3), mapped = q.column_int(4);
-      frame_times[{id, q.column_int(0), q.column_int(1)}] = {it->second, host};
-      if (host < from_ns) continue;
-      mapped_err.push_back(double(mapped - it->second) / 1e6);
-      arrival_err.push_back(double(host - it->second) / 1e6);
-    }
-    e.streams.push_back(timing(name, mapped_err, arrival_err));
-  }
-
-  // Pressure frames: true time by the device's raw microsecond stamp.
-  std::vector<PressureTruth> pressure;
-  if (sensel_id >= 0) {
-    const auto truth = read_truth(truth_dir / "sensel_frames.csv", "device_us", "true_ns");
-    std::vector<double> mapped_err, arrival_err;
-    auto q = db.prepare(
-        "SELECT sequence, device_ns, host_ns, host_wait_ns, mapped_ns FROM pressure_frames WHERE device_id = ? "
-        "ORDER BY sequence");
-    q.bind_all(sensel_id);
-    while (q.step()) {
-      const auto it = truth.find((q.column_int(1) / 1000) & 0xFFFFFFFF);
-      if (it == truth.end() || q.column_null(4)) continue;
-      const std::int64_t host = q.column_int(2), arrival = host + q.column_int(3) / 2, mapped = q.column_int(4);
-      pressure.push_back({q.column_int(0), it->second, host});
-      if (host < from_ns) continue;
-      mapped_err.push_back(double(mapped - it->second) / 1e6);
-      arrival_err.push_back(double(arrival - it->second) / 1e6);
-    }
-    StreamTiming t = timing(sensel_name, mapped_err, arrival_err);
-    t.is_camera = false;
-    e.streams.push_back(t);
-  }
-
-  // Samples: which pressure frame each was paired with, against the truly nearest one.
-  std::vector<PressureTruth> by_true = pressure, by_host = pressure;
-  std::sort(by_true.begin(), by_true.end(), [](auto& a, auto& b) { return a.true_ns < b.true_ns; });
-  std::sort(by_host.begin(), by_host.end(), [](auto& a, auto& b) { return a.host_ns < b.host_ns; });
-  std::map<std::int64_t, std::int64_t> true_of_sequence;
-  for (const auto& p : pressure) true_of_sequence[p.sequence] = p.true_ns;
-  const std::size_t cameras = e.streams.size() - (sensel_id >= 0 ? 1 : 0);
-  auto samples = db.prepare("SELECT id, cameras, pressure_sequence FROM samples ORDER BY id");
-  auto members = db.prepare("SELECT device_id, connection, sequence FROM sample_frames WHERE sample_id = ?");
-  while (samples.step()) {
-    members.reset();
-    members.bind_all(samples.column_int(0));
-    double true_sum = 0, host_sum = 0;
-    int n = 0;
-    while (members.step()) {
-      const auto it = frame_times.find({members.column_int(0), members.column_int(1), members.column_int(2)});
-      if (it == frame_times.end()) continue;
-      true_sum += double(it->second.first);
-      host_sum += double(it->second.second);
-      ++n;
-    }
-    if (n == 0 || true_sum / n < double(from_ns)) continue;
-    ++e.samples;
-    if (std::size_t(samples.column_int(1)) == cameras) ++e.samples_complete;
-    if (by_true.empty()) continue;
-    const auto sample_true = std::int64_t(true_sum / n);
-    const auto* truly = nearest(by_true, sample_true, [](const PressureTruth& p) { return p.true_ns; });
-    const auto* naive = nearest(by_host, std::int64_t(host_sum / n), [](const PressureTruth& p) { return p.host_ns; });
-    const auto tie = [&](std::int64_t sequence) {  // as near as the nearest, within the tolerance
-      const auto it = true_of_sequence.find(sequence);
-      return it != true_of_sequence.end() &&
-             double(std::llabs(it->second - sample_true) - std::llabs(truly->true_ns - sample_true)) / 1e6 < tie_ms;
-    };
-    if (!samples.column_null(2)) {
-      ++e.paired;
-      if (samples.column_int(2) == truly->sequence) ++e.paired_nearest;
-      else e.paired_tie += tie(samples.column_int(2));
-    } else if (double(std::llabs(truly->true_ns - sample_true)) / 1e6 > targets.max_offset_ms) {
-      ++e.rightly_unpaired;
-    }
-    if (naive->sequence == truly->sequence) ++e.naive_nearest;
-    else e.naive_tie += tie(naive->sequence);
-  }
-
-  for (const auto& s : e.streams) {
-    const double limit = s.is_camera ? targets.camera_p99_ms : targets.sensel_p99_ms;
-    if (s.p99_ms > limit) e.missed.push_back(fmt::format("{}: p99 {:.3f} ms > {:g} ms", s.name, s.p99_ms, limit));
-    if (std::fabs(s.bias_ms) >= targets.bias_ms)
-      e.missed.push_back(fmt::format("{}: bias {:.3f} ms, not < {:g} ms", s.name, s.bias_ms, targets.bias_ms));
-  }
-  e.tie_ms = tie_ms;
-  if (sensel_id >= 0) {
-    const double frac =
-        e.samples ? double(e.paired_nearest + e.paired_tie + e.rightly_unpaired) / double(e.samples) : 0;
-    if (frac < targets.nearest_fraction)
-      e.missed.push_back(fmt::format("paired with the truly nearest pressure frame or rightly unpaired (ties within {:g} ms either way): "
-                                     "{:.2f} % < {:.1f} %",
-                                     tie_ms, 100 * frac, 100 * targets.nearest_fraction));
-  }
-  return e;
-}
-
-std::string format_evaluation(const SyncEvaluation& e) {
-  fmt::memory_buffer b;
-  auto out = std::back_inserter(b);
-  fmt::format_to(out, "timestamp error against the simulator's truth (first {:g} s excluded), mapped vs raw arrival:\n",
-                 e.warmup_s);
-  fmt::format_to(out, "{:<8} {:>7} {:>9} {:>8} {:>8} {:>8} | {:>12} {:>11}\n", "stream", "frames", "bias ms", "p50 ms",
-                 "p99 ms", "max ms", "arrival bias", "arrival p99");
-  for (const auto& s : e.streams)
-    fmt::format_to(out, "{:<8} {:>7} {:>9.3f} {:>8.3f} {:>8.3f} {:>8.3f} | {:>12.3f} {:>11.3f}\n", s.name, s.frames,
-                   s.bias_ms, s.p50_ms, s.p99_ms, s.max_ms, s.arrival_bias_ms, s.arrival_p99_ms);
-  const auto pct = [&](std::size_t n) { return e.samples ? 100.0 * double(n) / double(e.samples) : 0.0; };
-  fmt::format_to(out, "samples: {} ({} with every camera), {} paired with pressure\n", e.samples, e.samples_complete,
-                 e.paired);
-  fmt::format_to(out, "paired with the truly nearest pressure frame: pvcap {:.2f} % ({} of {}), naive arrival-time "
-                      "pairing {:.2f} % ({})\n",
-                 pct(e.paired_nearest), e.paired_nearest, e.samples, pct(e.naive_nearest), e.naive_nearest);
-  fmt::format_to(out, "  counting ties (two frames equally near within {:g} ms) either way: pvcap {:.2f} % ({} ties), "
-                      "naive {:.2f} %\n",
-                 e.tie_ms, pct(e.paired_nearest + e.paired_tie), e.paired_tie, pct(e.naive_nearest + e.naive_tie));
-  if (e.rightly_unpaired > 0)
-    fmt::format_to(out,
-                   "  {} sample(s) rightly left without pressure: the Sensel sent no frame within the pairing's "
-                   "limit of them (a gap in its scans), which counts as right\n",
-                   e.rightly_unpaired);
-  if (e.missed.empty()) fmt::format_to(out, "all targets met\n");
-  for (const auto& m : e.missed) fmt::format_to(out, "TARGET MISSED: {}\n", m);
-  return fmt::to_string(b);
-}
-
-std::filesystem::path write_eval_scenario(const EvalSyncOptions& o) {
-  std::filesystem::create_directories(o.root);
-  // Four VGA cameras at 60 Hz (the paper's rate; VGA so that four of them and the recorder fit
-  // two cores), arbitrary clock offsets and +-drift; a Sensel with a long-tailed USB delay,
-  // lost frames and a clock reset half-way. Every simulated device declares its latency, as a
-  // datasheet would, and the rig file states it.
-  std::string yaml = "name: eval-sync\ncameras:\n";
-  const double offsets_ms[] = {5000, 12500.5, 800.25, 31000.75};
-  for (int i = 0; i < 4; ++i)
-    yaml += fmt::format(
-        "  - {{name: cam{0}, serial: PVSIM{0}, address: 127.0.0.{1}, pixel_format: BayerRG8, width: 640, "
-        "height: 480, frame_rate: 60, exposure_us: 4000, packet_size: 8192, socket_buffer_bytes: 4194304, "
-        "link_mbps: 10000, latency_ns: 2000000}}\n",
-        i, i + 2);
-  // The emulated Morph's answers reach the driver through a pseudo-terminal, whose delivery (the
-  // kernel's tty flip buffer, a thread wake-up) takes ~0.06 ms at the least on these machines: the
-  // emulated link's "datasheet" latency, declared as a lab declares its device's.
-  yaml += "sensel: {tty: sim, scan_detail: medium, latency_ns: 60000}\n";
-  yaml += "store: {video_codec: libx264, preset: ultrafast, crf: 18, video_fps: 15}\n";
-  yaml += fmt::format("sim:\n  seed: {}\n", o.seed);
-  yaml += fmt::format(
-      "  sensel: {{drift_ppm: {}, usb_jitter_mean_ms: {}, usb_jitter_max_ms: {}, drop_fraction: {}, "
-      "clock_reset_at_s: {}}}\n",
-      -o.drift_ppm / 2, o.jitter_ms / 4, o.jitter_ms, o.loss, o.seconds / 2 + 1);
-  yaml += "  cameras:\n";
-  for (int i = 0; i < 4; ++i)
-    yaml += fmt::format("    - {{clock_offset_ms: {}, drift_ppm: {}, jitter_us: 0, exposure_latency_ms: 2}}\n",
-                        offsets_ms[i] + double(o.seed % 97), (i % 2 ? -1 : 1) * o.drift_ppm * (1.0 - 0.2 * i));
-  const auto path = o.root / "eval-sync.yaml";
-  std::ofstream(path) << yaml;
-  return path;
-}
 
 int eval_sync(const std::filesystem::path& scenario, const EvalSyncOptions& o, const std::atomic<bool>& stop) {
   const RigConfig rig = load_rig_config(scenario);
@@ -264,7 +17,7 @@ int eval_sync(const std::filesystem::path& scenario, const EvalSyncOptions& o, c
   command.recording.root = sessions;
   command.recording.device_wait_s = 15.0;
   command.recording.self_exe = o.self_exe;
-  command.duration_s = o.seconds;
+  command.duration_s = o.scenario.seconds;
   if (const int rc = run_session(rig, command, stop); rc != 0) {
     spdlog::error("the evaluation session failed; nothing to evaluate");
     return 1;
@@ -274,8 +27,8 @@ int eval_sync(const std::filesystem::path& scenario, const EvalSyncOptions& o, c
     if (entry.is_directory() && entry.path().filename().string()[0] != '.' &&
         (dir.empty() || entry.path().filename() > dir.filename()))
       dir = entry.path();
-  const SyncEvaluation e = evaluate_sync(dir, o.warmup_s);
-  const std::string text = format_evaluation(e);
+  const sim::SyncEvaluation e = sim::evaluate_sync(dir, o.warmup_s);
+  const std::string text = sim::format_evaluation(e);
   fmt::print("\n{}", text);
   std::ofstream(dir / "eval-sync.txt") << text;
   return e.missed.empty() ? 0 : 1;

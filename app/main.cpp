@@ -240,15 +240,15 @@ int main(int argc, char** argv) {
       "eval-sync", "record a simulated session with a hard timing scenario and measure the timeline against its truth");
   pvcap::EvalSyncOptions eval_opts;
   std::string eval_root;
-  eval->add_option("--seconds", eval_opts.seconds, "length of the recording")->capture_default_str()
+  eval->add_option("--seconds", eval_opts.scenario.seconds, "length of the recording")->capture_default_str()
       ->check(CLI::Range(5.0, 3600.0));
-  eval->add_option("--drift-ppm", eval_opts.drift_ppm, "camera clock drift (+- this; the Sensel half of it)")
+  eval->add_option("--drift-ppm", eval_opts.scenario.drift_ppm, "camera clock drift (+- this; the Sensel half of it)")
       ->capture_default_str()->check(CLI::Range(0.0, 1000.0));
-  eval->add_option("--jitter-ms", eval_opts.jitter_ms, "Sensel USB arrival jitter cap (long tail; mean a quarter)")
+  eval->add_option("--jitter-ms", eval_opts.scenario.jitter_ms, "Sensel USB arrival jitter cap (long tail; mean a quarter)")
       ->capture_default_str()->check(CLI::Range(0.0, 50.0));
-  eval->add_option("--loss", eval_opts.loss, "fraction of pressure frames the device loses")->capture_default_str()
+  eval->add_option("--loss", eval_opts.scenario.loss, "fraction of pressure frames the device loses")->capture_default_str()
       ->check(CLI::Range(0.0, 0.5));
-  eval->add_option("--seed", eval_opts.seed, "scenario seed")->capture_default_str();
+  eval->add_option("--seed", eval_opts.scenario.seed, "scenario seed")->capture_default_str();
   eval->add_option("--warmup", eval_opts.warmup_s, "seconds at the start left out of the timing errors")
       ->capture_default_str()->check(CLI::Range(0.0, 60.0));
   eval->add_option("--root", eval_root, "folder for the scenario and its session (default: a new temporary one)");
@@ -347,9 +347,9 @@ int main(int argc, char** argv) {
                            ? std::filesystem::temp_directory_path() / fmt::format("pvcap-eval-sync-{}", getpid())
                            : std::filesystem::path(eval_root);
       eval_opts.self_exe = self_exe();
-      const auto scenario = pvcap::write_eval_scenario(eval_opts);
+      const auto scenario = pvcap::sim::write_eval_scenario(eval_opts.scenario, eval_opts.root);
       ensure_sim_network(pvcap::load_rig_config(scenario));
-      spdlog::info("eval-sync: scenario {}, {:g} s", scenario.string(), eval_opts.seconds);
+      spdlog::info("eval-sync: scenario {}, {:g} s", scenario.string(), eval_opts.scenario.seconds);
       return pvcap::eval_sync(scenario, eval_opts, g_stop);
     }
     if (*takes) {

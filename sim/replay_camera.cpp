@@ -46,7 +46,9 @@ Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& c
   const auto log_path = truth_dir / (camera.name + "_replay.csv");
   self->log_.open(log_path);
   if (!self->log_) return Error{fmt::format("cannot write {}", log_path.string())};
-  self->log_ << "frame_id,device_ns,due_ns,sent_ns\n";
+  // entered_ns: when the engine called the fill; image_ns: when its stored mosaic was at hand
+  // (what a late frame was waiting for).
+  self->log_ << "frame_id,device_ns,due_ns,sent_ns,entered_ns,image_ns\n";
   install_latch_genicam();
   const std::string serial = camera.serial.empty() ? camera.name : camera.serial;
   self->fake_.reset(arv_gv_fake_camera_new(camera.address.c_str(), serial.c_str()));
@@ -155,6 +157,7 @@ void ReplayCamera::fill_buffer(ArvBuffer* buffer) {
   const ReplayCameraFrame& f = frames[next_++];
   const std::int64_t due = replay_->due_ns(f.t_ns);
   cv::Mat image = f.sample >= 0 ? stored_image(f.sample) : cv::Mat();
+  const std::int64_t image_ns = host_now().ns;
   if (!image.empty()) last_ = image;
   else image = last_;
   if (const std::int64_t wait = due - host_now().ns; wait > 0)
@@ -170,7 +173,8 @@ void ReplayCamera::fill_buffer(ArvBuffer* buffer) {
   }
   arv_buffer_set_frame_id(buffer, f.frame_id);
   arv_buffer_set_timestamp(buffer, guint64(std::max<std::int64_t>(0, f.device_ns)));
-  log_ << f.frame_id << ',' << f.device_ns << ',' << due << ',' << host_now().ns << '\n';  // leaves now
+  log_ << f.frame_id << ',' << f.device_ns << ',' << due << ',' << host_now().ns << ',' << now << ',' << image_ns
+       << '\n';  // leaves now
   if (++logged_ % 32 == 0) log_.flush();
   plan_next_tick();
 }

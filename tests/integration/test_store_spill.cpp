@@ -114,7 +114,7 @@ TEST(StoreSpill, KillDuringTheDrainThenRecoverPutsEverySpilledFrameInAVideo) {
   fs::create_directories(work);
   std::ofstream(work / "rig.yaml") << store_lines_instead_of_preset(
       sim_rig_yaml({{}, {}, {}, {}}, 640, 480, 30, 0, "free-run", /*sensel=*/true),
-      "  raw_codec: libx264\n  preset: veryslow\n  queue_frames: 4\n");
+      "  raw_codec: libx264\n  preset: placebo\n  queue_frames: 4\n");
   const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 6 --no-web",
                                             (work / "rig.yaml").string(), (work / "sessions").string()),
                                 work / "log.txt");

@@ -13,7 +13,7 @@
 #include <set>
 #include <sstream>
 
-#include "app/cmd_eval_sync.h"
+#include "sim/sync_evaluation.h"
 #include "storage/sqlite/database.h"
 #include "tests/integration/session_under_test.h"
 
@@ -108,7 +108,7 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
             0);
 
   // Against the truth: every stream on one clock; pairing far better than arrival times.
-  const auto e = evaluate_sync(dir, 3);
+  const auto e = pvcap::sim::evaluate_sync(dir, 3);
   ASSERT_EQ(e.streams.size(), 5u);
   for (const auto& s : e.streams) {
     EXPECT_GT(s.frames, 100u) << s.name;
@@ -128,7 +128,7 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
     }
   }
   // The truly nearest frame for nearly all (99.5 % is eval-sync's target; ctest's load costs some).
-  EXPECT_GE((e.paired_nearest + e.paired_tie + e.rightly_unpaired) * 100, e.samples * 95) << format_evaluation(e);
-  EXPECT_GT(e.paired_nearest, e.naive_nearest + e.samples / 4) << format_evaluation(e);
+  EXPECT_GE((e.paired_nearest + e.paired_tie + e.rightly_unpaired) * 100, e.samples * 95) << pvcap::sim::format_evaluation(e);
+  EXPECT_GT(e.paired_nearest, e.naive_nearest + e.samples / 4) << pvcap::sim::format_evaluation(e);
   std::filesystem::remove_all(root);
 }
