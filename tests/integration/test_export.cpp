@@ -53,6 +53,12 @@ const Recorded& recorded() {
   static const Recorded r = [] {
     Recorded out;
     out.work = work_dir("export");
+    // Shared by the tests below, so removed when the test program ends.
+    static const fs::path to_remove = out.work;
+    std::atexit([] {
+      std::error_code ec;
+      fs::remove_all(to_remove, ec);
+    });
     std::string rig = read_all(fs::path(PVCAP_SOURCE_DIR) / "rig-configs" / "sim.yaml");
     for (auto [from, to] : {std::pair<std::string, std::string>{"width: 1920", "width: 960"}, {"height: 1080", "height: 540"}})
       for (auto at = rig.find(from); at != std::string::npos; at = rig.find(from)) rig.replace(at, from.size(), to);
