@@ -12,6 +12,7 @@
 
 #include "calib/rig_calibration.h"
 #include "capture/aravis_camera.h"
+#include "core/allocator.h"
 #include "core/log.h"
 #include "core/time.h"
 #include "session/camera_pipeline.h"
@@ -318,6 +319,7 @@ std::string Recording::wait(const std::atomic<bool>& interrupt, std::optional<do
     if (std::chrono::steady_clock::now() - last_progress >= 2s) {
       last_progress = std::chrono::steady_clock::now();
       log_progress(elapsed);
+      return_free_memory();  // so a long session's memory stays flat (core/allocator.h)
     }
     std::this_thread::sleep_for(100ms);
   }
