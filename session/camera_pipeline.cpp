@@ -70,10 +70,9 @@ void run_camera_pipeline(const CameraPipeline& p) {
   // being filled.
   FramePool images(encoder_queue + 2);
   // A frame that times out incomplete is delivered after its successor: hold gaps open for a
-  // second so such a frame is counted once, as what it is.
-  // Frames that never reached pvcap: those Aravis had no free buffer for (its underrun counter
-  // grew meanwhile; a slow consumer holds the buffers), the others not received (lost on the link,
-  // or never sent).
+  // second so such a frame is counted once, as what it is. A gap that stays is frames that never
+  // reached pvcap: those Aravis had no free buffer for (its underrun counter grew meanwhile; a slow
+  // consumer holds the buffers), the others not received (lost on the link, or never sent).
   std::uint64_t underruns_seen = camera.counters().underruns, underrun_credit = 0;
   auto report_gap = [&](const GapTracker::Gap& g) {
     tally.not_received.fetch_add(g.count, std::memory_order_relaxed);
