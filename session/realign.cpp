@@ -129,7 +129,7 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
     sqlite::Transaction tx(db);
     const std::size_t end = std::min(members.size(), begin + step);
     for (std::size_t i = begin; i < end; ++i) {
-      const auto& [id, frames] = members[i];
+      const auto& [id, stored_t_ns, stored_span_ns, frames] = members[i];
       SampleRecord s;
       s.index = id;
       std::int64_t lo = INT64_MAX, hi = INT64_MIN;
@@ -141,12 +141,18 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
         lo = std::min(lo, it->second);
         hi = std::max(hi, it->second);
       }
-      if (times.empty()) continue;
-      // Mean relative to the earliest, so the sum cannot overflow.
-      std::int64_t rel = 0;
-      for (auto t : times) rel += t - lo;
-      s.t_ns = lo + rel / std::int64_t(times.size());
-      s.span_ns = hi - lo;
+      if (times.empty()) {
+        // None of its frames was stored (lost at an interruption): its instant stays the live
+        // timeline's, and its pressure is still re-paired against the re-mapped pressure frames.
+        s.t_ns = stored_t_ns;
+        s.span_ns = stored_span_ns;
+      } else {
+        // Mean relative to the earliest, so the sum cannot overflow.
+        std::int64_t rel = 0;
+        for (auto t : times) rel += t - lo;
+        s.t_ns = lo + rel / std::int64_t(times.size());
+        s.span_ns = hi - lo;
+      }
       for (const auto& m : frames) {
         const auto it = camera_mapped.find({m.device_id, m.connection, m.sequence});
         if (it != camera_mapped.end()) s.cameras.push_back({m.device_id, m.connection, m.sequence, it->second - s.t_ns});

@@ -217,14 +217,17 @@ std::vector<SessionIndex::MappedRef> SessionIndex::mapped(Stream stream, std::in
   return out;
 }
 
-std::vector<std::pair<std::uint64_t, std::vector<SampleFrameRef>>> SessionIndex::sample_members() {
-  auto q = db_->prepare("SELECT sample_id, device_id, connection, sequence, offset_ns FROM sample_frames ORDER BY sample_id");
-  std::vector<std::pair<std::uint64_t, std::vector<SampleFrameRef>>> out;
+std::vector<SessionIndex::SampleMembers> SessionIndex::sample_members() {
+  auto q = db_->prepare(
+      "SELECT s.id, s.t_ns, s.span_ns, sf.device_id, sf.connection, sf.sequence, sf.offset_ns FROM samples s "
+      "LEFT JOIN sample_frames sf ON sf.sample_id = s.id ORDER BY s.id");
+  std::vector<SampleMembers> out;
   while (q.step()) {
     const auto id = std::uint64_t(q.column_int(0));
-    if (out.empty() || out.back().first != id) out.push_back({id, {}});
-    out.back().second.push_back(
-        {q.column_int(1), std::uint32_t(q.column_int(2)), std::uint64_t(q.column_int(3)), q.column_int(4)});
+    if (out.empty() || out.back().id != id) out.push_back({id, q.column_int(1), q.column_int(2), {}});
+    if (!q.column_null(3))
+      out.back().frames.push_back(
+          {q.column_int(3), std::uint32_t(q.column_int(4)), std::uint64_t(q.column_int(5)), q.column_int(6)});
   }
   return out;
 }

@@ -242,8 +242,13 @@ class SessionIndex {
     std::int64_t mapped_ns = 0;
   };
   std::vector<MappedRef> mapped(Stream stream, std::int64_t device_id);
-  // Every sample's camera frames: sample id -> (device, connection, sequence).
-  std::vector<std::pair<std::uint64_t, std::vector<SampleFrameRef>>> sample_members();
+  // Every sample with its stored instant and camera frames (none when the sample names no frame).
+  struct SampleMembers {
+    std::uint64_t id = 0;
+    std::int64_t t_ns = 0, span_ns = 0;
+    std::vector<SampleFrameRef> frames;
+  };
+  std::vector<SampleMembers> sample_members();
   // Rewrites a sample's instant, its frames' offsets and its pressure pairing.
   void update_sample(const SampleRecord& s);
 

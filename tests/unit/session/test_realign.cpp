@@ -152,3 +152,29 @@ TEST(Realign, AnInterruptedReMappingIsPendingAndRunningItAgainFinishesIt) {
   ASSERT_TRUE(nothing);
   EXPECT_FALSE(nothing.value().has_value()) << "a finished re-mapping is not run again";
 }
+
+// A kill can commit a sample before the rows of the frames it names (they were still being
+// encoded): those frames are lost at the interruption. The sample keeps its live instant, and its
+// pressure is re-paired against the re-mapped pressure frames, so its offset stays consistent.
+TEST(Realign, ASampleWhoseFramesWereNeverStoredKeepsItsInstantAndIsRePaired) {
+  Fixture f("lost");
+  const std::int64_t t = 59 * 33'333'333 + 10 * kMs + 5 * kMs;  // within the pressure stream's span
+  {
+    SessionIndex index = SessionIndex::open_for_update(f.dir / "session.db");
+    SampleRecord s{f.samples, 30, t, t, 0, {{f.camera, 0, 61, 0}}, std::nullopt, std::nullopt, std::nullopt};
+    index.add_sample(s);
+  }
+  SessionIndex index = SessionIndex::open_for_update(f.dir / "session.db");
+  const auto r = realign(index, {20 * kMs, 4, nullptr});
+  EXPECT_EQ(r.samples, f.samples + 1);
+  const auto rows = sample_rows(index.db());
+  ASSERT_EQ(rows.size(), f.samples + 1);
+  const auto& lost = rows.back();
+  EXPECT_EQ(lost.t_ns, t);
+  ASSERT_GE(lost.pressure_sequence, 0);
+  auto p = index.db().prepare("SELECT mapped_ns FROM pressure_frames WHERE sequence = ?");
+  p.bind_all(lost.pressure_sequence);
+  ASSERT_TRUE(p.step());
+  EXPECT_EQ(p.column_int(0) - t, lost.pressure_offset_ns);
+  EXPECT_LE(std::abs(lost.pressure_offset_ns), 4 * kMs);
+}
