@@ -31,35 +31,63 @@ void ClockModel::add_probe(std::int64_t device_ns, std::int64_t host_lo_ns, std:
   // A probe from before this segment's clock (x far back) belongs to no segment we fit.
   if (x < -options_.reset_back_ns) return;
   probes_.push_back({x, host_lo_ns - device_ns, host_hi_ns - device_ns});
-  if (probes_.size() > options_.max_bins) probes_.erase(probes_.begin(), probes_.begin() + std::ptrdiff_t(probes_.size() / 2));
+  if (probes_.size() > options_.max_probes) {
+    // Thin by half, keeping the segment's whole span: of each neighbouring pair, the tighter
+    // bracket (it constrains the line more).
+    std::vector<Probe> kept;
+    kept.reserve(probes_.size() / 2 + 1);
+    for (std::size_t i = 0; i + 1 < probes_.size(); i += 2) {
+      const Probe& a = probes_[i];
+      const Probe& b = probes_[i + 1];
+      kept.push_back(b.hi - b.lo < a.hi - a.lo ? b : a);
+    }
+    if (probes_.size() % 2) kept.push_back(probes_.back());
+    probes_ = std::move(kept);
+  }
   refit_probes();
   publish();
+}
+
+double ClockModel::probe_band(double slope, double* centre) const {
+  double lo = -1e300, hi = 1e300;
+  for (const Probe& p : probes_) {
+    lo = std::max(lo, double(p.lo) - slope * double(p.x));
+    hi = std::min(hi, double(p.hi) - slope * double(p.x));
+  }
+  if (centre) *centre = 0.5 * (lo + hi);
+  return hi - lo;
 }
 
 void ClockModel::refit_probes() {
   const std::size_t n = probes_.size();
   if (n < 4 || probes_.back().x - probes_.front().x < options_.min_span_for_skew_ns) return;
-  auto mid = [](const Probe& p) { return 0.5 * double(p.lo + p.hi); };
-  const std::size_t h = n / 2;
-  slopes_.clear();
-  for (std::size_t i = 0; i + h < n; ++i)
-    slopes_.push_back((mid(probes_[i + h]) - mid(probes_[i])) / double(probes_[i + h].x - probes_[i].x));
-  std::nth_element(slopes_.begin(), slopes_.begin() + std::ptrdiff_t(slopes_.size() / 2), slopes_.end());
-  const double slope = std::clamp(slopes_[slopes_.size() / 2], -options_.max_skew, options_.max_skew);
-  // Every probe says: offset in [lo - slope x, hi - slope x]. Take the centre of what all allow;
-  // if a wrong slope leaves nothing, the median of the midpoints.
-  double lo = -1e300, hi = 1e300;
-  std::vector<double> mids;
-  for (const Probe& p : probes_) {
-    lo = std::max(lo, double(p.lo) - slope * double(p.x));
-    hi = std::min(hi, double(p.hi) - slope * double(p.x));
-    mids.push_back(mid(p) - slope * double(p.x));
+  // Every probe says the line passes through its bracket: offset + slope x in [lo, hi]. The
+  // width of what all of them leave open is concave in the slope; take the slope where it is
+  // widest (the middle of that plateau), and the offset at the centre of the band there. When
+  // brackets disagree (width < 0), the same search finds the line that violates them least.
+  // (Theil-Sen slopes over bracket midpoints came first: a load that lengthens the read-back
+  // half of the brackets late in a session biases the midpoints, and an 8 s session's fit
+  // came out a millisecond off at its ends; docs/PERFORMANCE.md.)
+  const double m = options_.max_skew;
+  double a = -m, b = m;
+  for (int i = 0; i < 80; ++i) {
+    const double s1 = a + (b - a) / 3, s2 = b - (b - a) / 3;
+    if (probe_band(s1) < probe_band(s2)) a = s1;
+    else b = s2;
   }
-  double offset = 0.5 * (lo + hi);
-  if (lo > hi) {
-    std::nth_element(mids.begin(), mids.begin() + std::ptrdiff_t(mids.size() / 2), mids.end());
-    offset = mids[mids.size() / 2];
-  }
+  const double best = 0.5 * (a + b);
+  const double widest = probe_band(best) - 1.0;  // within a nanosecond of the widest
+  auto edge = [&](double inside, double outside) {
+    if (probe_band(outside) >= widest) return outside;
+    for (int i = 0; i < 60; ++i) {
+      const double mid = 0.5 * (inside + outside);
+      (probe_band(mid) >= widest ? inside : outside) = mid;
+    }
+    return inside;
+  };
+  const double slope = 0.5 * (edge(best, -m) + edge(best, m));
+  double offset = 0;
+  probe_band(slope, &offset);
   probe_fit_ = {fit_.x0, offset, slope};
   probed_ = true;
 }

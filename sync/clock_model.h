@@ -31,9 +31,8 @@
 // machine) from drift. A device that can be asked for its clock (GigE Vision's timestamp
 // latch) gives probes instead: the device time read at an instant known to lie between
 // two host times. Once a segment has probes spanning `min_span_for_skew_ns`, they define
-// the mapping (Theil-Sen slope over probe midpoints half the segment apart; offset at the
-// centre of what every probe's bracket allows) and no latency is subtracted: the probe
-// reads the clock the frames are stamped with.
+// the mapping (the line through the widest band all the probes' brackets leave open, at its
+// centre) and no latency is subtracted: the probe reads the clock the frames are stamped with.
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -60,6 +59,7 @@ struct ClockModelOptions {
   std::int64_t min_span_for_skew_ns = 2'000'000'000;  // until the pairs span this, assume no drift
   std::int64_t bin_ns = 500'000'000;           // the envelope's resolution in device time...
   std::size_t max_bins = 4096;                 // ...doubled whenever it would need more bins than this
+  std::size_t max_probes = 512;                // probes kept per segment (thinned to the tighter of each pair)
 };
 
 class ClockModel {
@@ -103,6 +103,9 @@ class ClockModel {
   void start_segment(std::int64_t device_ns, std::int64_t arrival_ns);
   void refit();
   void refit_probes();
+  // Width of the band every probe's bracket leaves open for this slope (negative: they
+  // disagree); `centre` gets the offset in its middle.
+  double probe_band(double slope, double* centre = nullptr) const;
   void publish();  // the current segment's mapping into segments_
 
   ClockModelOptions options_;

@@ -210,3 +210,45 @@ TEST(ClockModel, ProbesFromBeforeAResetAreNotMixedIn) {
   EXPECT_FALSE(m.probed()) << "a new segment needs 2 s of its own probes";
   EXPECT_LT(std::llabs(m.map(900'000'000) - 4'900'000'000), 2'000'000);
 }
+
+TEST(ClockModel, ProbesWhoseReadBackSlowsLateInTheSessionDoNotTiltTheLine) {
+  // An 8 s session on a machine that gets busier: every probe's bracket holds the latch instant,
+  // but from the fourth second on the read-back half of the bracket is three times as long.
+  // The brackets' midpoints drift late; the band every bracket leaves open does not.
+  std::mt19937_64 rng(20261124);
+  std::exponential_distribution<double> delay(1.0 / 1e6);
+  std::vector<double> worst_us;
+  for (int trial = 0; trial < 50; ++trial) {
+    ClockModel m;
+    DeviceClock clock{5'000'000'000, 80};
+    m.add(clock.device(0), 3'000'000);
+    for (std::int64_t t = 1'000'000; t < 8'000'000'000; t += 250'000'000) {
+      const double scale = t > 4'000'000'000 ? 3.0 : 1.0;
+      const auto before = std::int64_t(100'000 + 0.3 * delay(rng)), after = std::int64_t(200'000 + scale * delay(rng));
+      m.add_probe(clock.device(t), t - before, t + after);
+    }
+    ASSERT_TRUE(m.probed());
+    double worst = 0;
+    for (std::int64_t t = 0; t < 8'000'000'000; t += 100'000'000)
+      worst = std::max(worst, std::fabs(double(m.map(clock.device(t)) - t)) / 1e3);
+    worst_us.push_back(worst);
+  }
+  // A bracket's own asymmetry (0.1 ms before, 0.2 ms after at the least) stays: ~50 us.
+  EXPECT_LT(percentile(worst_us, 50), 200.0);
+  EXPECT_LT(percentile(worst_us, 95), 500.0);
+}
+
+TEST(ClockModel, ThinnedProbesKeepTheSegmentsSpanAndTheTighterBrackets) {
+  ClockModel m({.max_probes = 16});
+  DeviceClock clock{0, -30};
+  m.add(clock.device(0), 1'000'000);
+  std::mt19937_64 rng(3);
+  std::uniform_int_distribution<std::int64_t> wide(0, 3'000'000);
+  for (std::int64_t t = 0; t < 60'000'000'000; t += 250'000'000) {
+    // Every tenth probe is tight; the rest are up to 3 ms wide around the instant.
+    const std::int64_t half = (t / 250'000'000) % 10 == 0 ? 20'000 : wide(rng);
+    m.add_probe(clock.device(t), t - half, t + half);
+  }
+  for (std::int64_t t = 0; t < 60'000'000'000; t += 1'000'000'000)
+    EXPECT_LT(std::llabs(m.map(clock.device(t)) - t), 200'000) << t;
+}
