@@ -170,27 +170,31 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
     return v.empty() ? 0.0 : v[std::min(v.size() - 1, std::size_t(double(v.size()) * q))];
   };
   // How far apart a re-recording puts a frame: tens to a few hundred microseconds (a camera's clock
-  // is fitted to its latch probes afresh, run to run p50 5-260 us; the Sensel's pseudo-terminal adds
-  // its floor again, 60-80 us). A pick can be broken the other way by as much as a sample's instant
-  // and its frames moved: twice the worst stream's p95, measured here.
-  double reproduced_us = 250;
+  // is fitted to its latch probes afresh; the Sensel's pseudo-terminal adds its floor again, 60-80
+  // us). Printed: it is the replay's precision, and a loaded machine moves it. Beyond half the
+  // Sensel's scan period (4 ms) the pairings could not be compared at all.
   for (const auto& [stream, v] : moved_us) {
     std::printf("re-recorded instants, %s: |again - then| p50 %.1f p95 %.1f us (%zu frames)\n", stream.c_str(),
                 pct(v, 0.5), pct(v, 0.95), v.size());
-    EXPECT_LT(pct(v, 0.5), 500.0) << stream;
-    EXPECT_LT(pct(v, 0.95), 1000.0) << stream;
-    reproduced_us = std::max(reproduced_us, pct(v, 0.95));
+    EXPECT_LT(pct(v, 0.95), 4000.0) << stream;
   }
-  const double kReproducedUs = reproduced_us;
 
-  // A pick that differs is a tie broken the other way when, on the original's clock, both picks lay
-  // equally far from the instant they were picked for, within what a re-recording reproduces. (The
-  // simulated Morph scans every 8 ms against a 66.7 ms grid: the same three phases recur, so a session
-  // can have a third of its samples within tens of microseconds of a tie.)
-  auto tie = [&](const std::string& stream, std::int64_t then_device, std::int64_t again_device, std::int64_t at) {
+  // A pick that differs is a tie broken the other way when the re-recording's pick is the nearer
+  // one on the re-recording's own clock: the original picked the nearest on its clock, and the
+  // frames moved between the two by the re-recording's precision. (The simulated Morph scans every
+  // 8 ms against a 66.7 ms grid: the same three phases recur, so a session can have a third of its
+  // samples within tens of microseconds of a tie.) A pick that is not the nearer on its own clock
+  // is a pairing fault, and counts against the 99 %.
+  std::vector<double> tie_margins_us;  // how near a tie the original's choice was
+  auto tie = [&](const std::string& stream, std::int64_t then_device, std::int64_t again_device, std::int64_t at_then,
+                 std::int64_t at_again) {
     const auto x = ra_.mapped_ns.find({stream, then_device}), y = ra_.mapped_ns.find({stream, again_device});
-    if (x == ra_.mapped_ns.end() || y == ra_.mapped_ns.end()) return false;
-    return std::fabs(std::fabs(double(x->second - at)) - std::fabs(double(y->second - at))) < 2e3 * kReproducedUs;
+    const auto xa = rb_.mapped_ns.find({stream, then_device}), ya = rb_.mapped_ns.find({stream, again_device});
+    if (x == ra_.mapped_ns.end() || y == ra_.mapped_ns.end() || xa == rb_.mapped_ns.end() ||
+        ya == rb_.mapped_ns.end())
+      return false;
+    tie_margins_us.push_back((std::fabs(double(y->second - at_then)) - std::fabs(double(x->second - at_then))) / 1e3);
+    return std::fabs(double(ya->second - at_again)) <= std::fabs(double(xa->second - at_again)) + 1e3;
   };
   // A frame the original picked that the replay never sent (it was due before that device began
   // streaming: the recorder was not listening yet) cannot be picked again: such samples are not
@@ -223,11 +227,11 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
     }
     bool explained = twin->pressure == s.pressure ||
                      (!s.pressure.empty() && !twin->pressure.empty() &&
-                      tie("pressure", s.pressure_device_ns, twin->pressure_device_ns, s.t_ns));
+                      tie("pressure", s.pressure_device_ns, twin->pressure_device_ns, s.t_ns, twin->t_ns));
     for (const auto& [name, frame] : s.cameras) {
       const auto it = twin->cameras.find(name);
       if (it == twin->cameras.end()) explained = false;
-      else if (it->second != frame) explained = explained && tie(name, frame.second, it->second.second, s.tick_ns);
+      else if (it->second != frame) explained = explained && tie(name, frame.second, it->second.second, s.tick_ns, twin->tick_ns);
     }
     if (explained) {
       ++ties;
@@ -239,11 +243,13 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   }
   const std::size_t compared = a.size() - not_sent;
   const double same_pct = 100.0 * double(same) / double(compared);
+  std::sort(tie_margins_us.begin(), tie_margins_us.end());
   std::printf("as-devices round trip: %zu of %zu samples name the same camera frames and pressure frame "
-              "(%.2f %%; pressure alone %zu); %zu more broke a tie (both picks within %.0f us of equally near) "
-              "the other way; %zu differ; %zu not compared (a frame they name was due before its device "
-              "streamed again)\n",
-              same, compared, same_pct, pressure_same, ties, kReproducedUs, different, not_sent);
+              "(%.2f %%; pressure alone %zu); %zu more broke a tie the other way (the re-recording's pick is the "
+              "nearer on its clock; the original's was nearer by at most %.0f us); %zu differ; %zu not compared (a "
+              "frame they name was due before its device streamed again)\n",
+              same, compared, same_pct, pressure_same, ties, tie_margins_us.empty() ? 0.0 : tie_margins_us.back(),
+              different, not_sent);
   EXPECT_LE(not_sent, 3u) << "only the session's first moments";
   EXPECT_GE(100.0 * double(same + ties) / double(compared), 99.0);
 
