@@ -7,6 +7,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -40,8 +41,17 @@ void install_latch_genicam() {
     const auto end = text.rfind("</RegisterDescription>");
     if (end == std::string::npos) return;
     text.insert(end, features);
-    const auto path = std::filesystem::temp_directory_path() / fmt::format("pvcap-fake-camera-{}.xml", getpid());
-    std::ofstream(path) << text;
+    // Named by its content, so every simulator process shares one file instead of leaving one
+    // each; written aside and renamed into place, so a concurrent reader never sees half of it.
+    const auto dir = std::filesystem::temp_directory_path();
+    const auto path = dir / fmt::format("pvcap-fake-camera-{:016x}.xml", std::hash<std::string>{}(text));
+    if (!std::filesystem::exists(path)) {
+      const auto aside = dir / fmt::format("pvcap-fake-camera-{}.xml.tmp", getpid());
+      std::ofstream(aside) << text;
+      std::error_code ec;
+      std::filesystem::rename(aside, path, ec);
+      if (ec) std::filesystem::remove(aside, ec);
+    }
     arv_set_fake_camera_genicam_filename(path.c_str());
   });
 }
