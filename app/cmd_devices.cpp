@@ -12,14 +12,10 @@ namespace pvcap {
 
 namespace {
 
-// Serial ports a Sensel Morph may be behind: cdc_acm devices, udev's /dev/morph* names, and extra paths.
+// Serial ports a Sensel Morph may be behind: /dev's candidates, and extra paths.
 std::vector<std::string> sensel_candidates(const std::vector<std::string>& extra) {
   std::vector<std::string> out = extra;
-  std::error_code ec;
-  for (const auto& e : std::filesystem::directory_iterator("/dev", ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("ttyACM", 0) == 0 || name.rfind("morph", 0) == 0) out.push_back(e.path().string());
-  }
+  for (auto& path : sensel::sensel_tty_candidates("/dev")) out.push_back(std::move(path));
   return out;
 }
 

@@ -6,6 +6,7 @@
 #include <chrono>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 namespace pvcap::sensel {
@@ -31,7 +32,7 @@ SenselDevice::~SenselDevice() { stop(); }
 
 Result<std::unique_ptr<SenselDevice>> SenselDevice::open(TransportFactory factory, EventHandler on_event) {
   std::unique_ptr<SenselDevice> d(new SenselDevice(std::move(factory), std::move(on_event)));
-  auto t = d->factory_();
+  auto t = d->factory_("");
   if (!t) return t.error();
   d->transport_ = std::move(t.value());
   if (Status s = d->open_sequence(); !s.ok()) return s.error();
@@ -220,7 +221,7 @@ void SenselDevice::stream_loop() {
     if (!transport_) {  // unplugged: reopen every second (stop() does not wait for the second to pass)
       for (int i = 0; i < 20 && running_.load(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
       if (!running_.load()) break;
-      auto t = factory_();
+      auto t = factory_(session_serial_);
       if (!t) continue;
       transport_ = std::move(t.value());
       const std::uint8_t sync[] = {1};
@@ -325,6 +326,21 @@ void SenselDevice::stream_loop() {
       if (dropped_.size() < kMaxDroppedKept) dropped_.push_back(s.sequence);
     }
   }
+}
+
+Result<std::string> find_tty_with_serial(const std::string& serial, const std::vector<std::string>& candidates) {
+  std::vector<std::string> seen;
+  for (const auto& path : candidates) {
+    auto t = open_tty(path);
+    if (!t) continue;  // gone, not ours to open, or held by another pvcap
+    auto info = SenselDevice::probe(std::move(t.value()));
+    if (!info) continue;  // not a Morph
+    if (info.value().serial == serial) return path;
+    seen.push_back(fmt::format("{} (serial {})", path, info.value().serial));
+  }
+  return Error{fmt::format("no Sensel Morph with serial {} on {}{}{}", serial,
+                           candidates.empty() ? "any tty" : fmt::format("{}", fmt::join(candidates, ", ")),
+                           seen.empty() ? "" : "; found: ", fmt::format("{}", fmt::join(seen, ", ")))};
 }
 
 }  // namespace pvcap::sensel

@@ -72,7 +72,9 @@ struct SenselEvent {
 
 class SenselDevice {
  public:
-  using TransportFactory = std::function<Result<std::unique_ptr<Transport>>()>;
+  // Opens the link to the Morph. `session_serial` is empty for the first open; on a reconnect it
+  // names the Morph the session records, so a factory can look for it where it now is.
+  using TransportFactory = std::function<Result<std::unique_ptr<Transport>>(const std::string& session_serial)>;
   using EventHandler = std::function<void(const SenselEvent&)>;
 
   // Opens through `factory` (called again to reconnect) and runs the open sequence.
@@ -133,5 +135,9 @@ class SenselDevice {
   mutable std::mutex rejected_mu_;
   std::map<std::string, std::uint64_t> rejected_;
 };
+
+// Of `candidates` (tty paths), the one whose Morph has serial `serial` (register 0x0F): each is
+// opened, asked without a reset and closed; a port another pvcap holds is skipped untouched.
+Result<std::string> find_tty_with_serial(const std::string& serial, const std::vector<std::string>& candidates);
 
 }  // namespace pvcap::sensel

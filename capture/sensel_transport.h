@@ -4,6 +4,7 @@
 // bulk endpoints. read() waits at most `timeout_ms`; 0 bytes means nothing arrived in
 // time; an Error means the device is gone (unplugged, hung up).
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <span>
 #include <string>
@@ -23,6 +24,9 @@ class Transport {
 
 // Opens a tty in raw mode at 115200 8N1 (nominal on USB CDC).
 Result<std::unique_ptr<Transport>> open_tty(const std::string& path);
+// Serial ports in `dir` a Morph may be behind, sorted: cdc_acm's ttyACM*, and names containing
+// "morph" (a udev rule's /dev/morph*; the Sensel SDK scans for the same names).
+std::vector<std::string> sensel_tty_candidates(const std::filesystem::path& dir = "/dev");
 
 // Opens the Morph (USB 2c2f:0003) whose USB serial string is `usb_serial` ("" = the only
 // one on the bus): detaches cdc_acm from interfaces 0 and 1, claims interface 1.

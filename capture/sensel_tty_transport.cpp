@@ -5,6 +5,8 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 
@@ -90,6 +92,19 @@ Result<std::unique_ptr<Transport>> open_tty(const std::string& path) {
   tcsetattr(fd, TCSANOW, &t);
   tcflush(fd, TCIOFLUSH);
   return std::unique_ptr<Transport>(new TtyTransport(fd, path));
+}
+
+std::vector<std::string> sensel_tty_candidates(const std::filesystem::path& dir) {
+  std::vector<std::string> out;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
+    std::string name = e.path().filename().string();
+    const bool acm = name.rfind("ttyACM", 0) == 0;
+    std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (acm || name.find("morph") != std::string::npos) out.push_back(e.path().string());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
 }
 
 }  // namespace pvcap::sensel

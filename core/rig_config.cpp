@@ -158,6 +158,7 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
           cr.fail(cams[i]["return_after_s"], "return_after_s", "needs a stop_after_s before it");
         c.return_after_s = v;
       }
+      cr.get("trigger_line", c.trigger_line);
       cr.get_numbers("position_mm", c.position_mm);
       cr.get_numbers("look_at_mm", c.look_at_mm);
       if (cr.has("focal_px")) {
@@ -205,6 +206,11 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
       std::string v;
       sr.get("replug_serial", v);
       s.sensel.replug_serial = v;
+    }
+    if (sr.has("replug_renamed")) {
+      sr.get("replug_renamed", s.sensel.replug_renamed);
+      if (!s.sensel.replug_after_s)
+        sr.fail(sn["replug_renamed"], "replug_renamed", "needs a replug_after_s before it");
     }
     sr.finish();
   }

@@ -60,9 +60,11 @@ struct SimSenselConfig {
   double drop_fraction = 0;         // frames the device scans but loses (its counter skips them)
   std::optional<double> clock_reset_at_s;  // the device clock restarts at 0 this long after start
   // Unplugged this long after start, and plugged back (power-cycled: counter and clock restart) after
-  // `replug_after_s` on a new pseudo-terminal, as `replug_serial` if given (another Morph).
+  // `replug_after_s` on a new pseudo-terminal, as `replug_serial` if given (another Morph), and under
+  // another name if `replug_renamed` (its first name is gone, as ttyACM0 coming back as ttyACM1).
   std::optional<double> unplug_at_s, replug_after_s;
   std::optional<std::string> replug_serial;
+  bool replug_renamed = false;
 };
 
 struct StoreConfig {
@@ -97,6 +99,7 @@ struct SimCameraClock {
   double undeclared_latency_ms = 0;
   std::optional<double> stop_after_s;    // camera vanishes after this many seconds (from sim start)
   std::optional<double> return_after_s;  // and comes back (power-cycled: frame ids restart) after this many
+  bool trigger_line = true;              // wired to the rig's trigger line (used with trigger: hardware)
   // Its lens and where it stands (pad coordinates in mm, z = height above the pad); any left out
   // take the default of the camera's position in the rig (see sim/camera_views.cpp).
   std::optional<std::array<double, 3>> position_mm, look_at_mm;

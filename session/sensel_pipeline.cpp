@@ -1,6 +1,7 @@
 #include "session/sensel_pipeline.h"
 
 #include <algorithm>
+#include <memory>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -23,8 +24,30 @@ Result<std::unique_ptr<SenselPipeline>> SenselPipeline::open(const SenselRigConf
   r->config_ = cfg;
   const std::string path = cfg.tty == "sim" ? (sim_dir / "sensel.tty").string() : cfg.tty;
   sensel::SenselDevice::TransportFactory factory;
-  if (cfg.usb_serial) factory = [serial = *cfg.usb_serial] { return sensel::open_usb(serial); };
-  else factory = [path] { return sensel::open_tty(path); };
+  if (cfg.usb_serial) {
+    factory = [serial = *cfg.usb_serial](const std::string&) { return sensel::open_usb(serial); };
+  } else {
+    // A Morph plugged back in may come back under another name (ttyACM0 -> ttyACM1 while the old
+    // node is still held): when its tty is gone, the session's Morph is looked for by its serial
+    // among the ports where a Morph may be (the simulated rig publishes its own in sim_dir).
+    const std::filesystem::path ports = cfg.tty == "sim" ? sim_dir : std::filesystem::path("/dev");
+    factory = [ports, current = std::make_shared<std::string>(path)](
+                  const std::string& session_serial) -> Result<std::unique_ptr<sensel::Transport>> {
+      auto t = sensel::open_tty(*current);
+      // Only when its node is gone: a port that exists but fails (busy, no permission) is said as is.
+      std::error_code ec;
+      if (t || session_serial.empty() || std::filesystem::exists(*current, ec)) return t;
+      std::vector<std::string> others;
+      for (auto& c : sensel::sensel_tty_candidates(ports))
+        if (c != *current) others.push_back(std::move(c));
+      auto found = sensel::find_tty_with_serial(session_serial, others);
+      if (!found) return t;  // still away: the reconnect loop tries again in a second
+      spdlog::warn("sensel: {} is gone; the session's Morph (serial {}) is back on {}", *current, session_serial,
+                   found.value());
+      *current = found.value();
+      return sensel::open_tty(*current);
+    };
+  }
   const char* key = cfg.usb_serial ? "sensel.usb" : "sensel.tty";
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
   for (;;) {

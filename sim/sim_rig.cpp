@@ -161,14 +161,14 @@ SimRig::~SimRig() {
   replay_cameras_.clear();
 }
 
-// Serves sensel_ on a new pseudo-terminal and publishes it as truth_dir/sensel.tty (atomically, so
-// a driver reopening the link finds the old terminal or the new one, never none).
-Status SimRig::serve_sensel(SenselLink link) {
+// Serves sensel_ on a new pseudo-terminal and publishes it as truth_dir/<name> (atomically, so a
+// driver reopening the link finds the old terminal or the new one, never none).
+Status SimRig::serve_sensel(SenselLink link, const std::string& name) {
   auto pty = SenselPty::create(*sensel_, link);
   if (!pty) return pty.error();
   sensel_pty_ = std::move(pty.value());
   std::error_code ec;
-  const auto published = truth_dir_ / "sensel.tty", fresh = truth_dir_ / "sensel.tty.new";
+  const auto published = truth_dir_ / name, fresh = truth_dir_ / (name + ".new");
   std::filesystem::remove(fresh, ec);
   std::filesystem::create_symlink(sensel_pty_->slave_path(), fresh, ec);
   if (!ec) std::filesystem::rename(fresh, published, ec);
@@ -184,11 +184,20 @@ void SimRig::replug_sensel() {
   sensel_ = std::make_unique<SenselEmulator>(hand_scene(hand_), SenselClock{now, 0.0, ss.drift_ppm},
                                              ss.replug_serial.value_or(SenselEmulator::kDefaultSerial));
   sensel_->set_truth_log(&sensel_truth_);
-  if (Status s = serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, rig_.sim->seed + 1}); !s.ok()) {
+  // Renamed: the first name is gone, and the Morph appears under a name a udev rule would give it
+  // (the driver finds it by its serial among such names).
+  std::string name = "sensel.tty";
+  if (ss.replug_renamed) {
+    std::error_code ec;
+    std::filesystem::remove(truth_dir_ / name, ec);
+    name = "morph-replugged";
+  }
+  if (Status s = serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, rig_.sim->seed + 1}, name);
+      !s.ok()) {
     spdlog::error("sim: the Sensel cannot come back: {}", s.error().message);
     return;
   }
-  spdlog::warn("sim: the Sensel is plugged back in on {}{}", sensel_pty_->slave_path(),
+  spdlog::warn("sim: the Sensel is plugged back in on {} ({}){}", sensel_pty_->slave_path(), name,
                ss.replug_serial ? " as another Morph (serial " + *ss.replug_serial + ")" : "");
 }
 

@@ -52,7 +52,7 @@ class SimRig {
   std::unique_ptr<SenselPty> sensel_pty_;
   bool sensel_unplugged_ = false, sensel_replugged_ = false;
   void replug_sensel();
-  Status serve_sensel(SenselLink link);
+  Status serve_sensel(SenselLink link, const std::string& name = "sensel.tty");
   std::vector<std::unique_ptr<SimCamera>> cameras_;
   // A replayed session (`sim: {replay: SESSION}`) instead of the scene.
   std::shared_ptr<SessionReplay> replay_;

@@ -44,12 +44,12 @@ struct Rig {
     ASSERT_TRUE(l) << l.error().message;
     link = std::move(l.value());
     const std::string serial = link->identity().serial;
-    auto factory = [serial] { return sensel::open_usb(serial); };
+    auto factory = [serial](const std::string&) { return sensel::open_usb(serial); };
 #else
     auto l = sim::SenselPty::create(emu);
     ASSERT_TRUE(l) << l.error().message;
     link = std::move(l.value());
-    auto factory = [path = link->slave_path()] { return sensel::open_tty(path); };
+    auto factory = [path = link->slave_path()](const std::string&) { return sensel::open_tty(path); };
 #endif
     auto d = sensel::SenselDevice::open(factory,
                                         [this](const sensel::SenselEvent& e) {

@@ -158,6 +158,30 @@ TEST(SessionFaults, ASenselPluggedBackIsANewConnectionAndItsAbsenceIsRecordedAsL
   fs::remove_all(work);
 }
 
+// The Morph comes back under another name (its first tty is gone, as /dev/ttyACM0 coming back as
+// /dev/ttyACM1): the driver finds it by its serial among the ports a Morph may be behind, says
+// where, and records it as the next connection.
+TEST(SessionFaults, ASenselBackUnderAnotherNameIsFoundByItsSerial) {
+  const fs::path work = work_dir("renamed-morph");
+  const fs::path rig = write_replug_rig(work, ", replug_renamed: true");
+  ASSERT_FALSE(rig.empty());
+  const auto run = run_pvcap(fmt::format("session --rig {} --root {} --duration 8 --no-web", rig.string(),
+                                         (work / "sessions").string()));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("is gone; the session's Morph (serial SM01164910368) is back on "), std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find("morph-replugged"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("Sensel reconnected (serial SM01164910368), streaming again as connection 1"),
+            std::string::npos)
+      << run.output;
+  const fs::path session = only_session(work / "sessions");
+  ASSERT_FALSE(session.empty());
+  pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_reconnected'"), 1);
+  EXPECT_GT(scalar(db, "SELECT count(*) FROM pressure_frames WHERE connection = 1"), 200);
+  fs::remove_all(work);
+}
+
 // Another Morph plugged in where the session's was unplugged is refused, loudly, and not recorded.
 TEST(SessionFaults, ADifferentSenselPluggedInIsRefusedAndNotRecorded) {
   const fs::path work = work_dir("other-morph");
