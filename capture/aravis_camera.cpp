@@ -2,6 +2,7 @@
 
 #include "capture/aravis_handles.h"
 #include "capture/aravis_stream.h"
+#include "capture/gvcp_ping.h"
 
 #include <cmath>
 #include <fstream>
@@ -293,6 +294,11 @@ void AravisCamera::teardown_connection(bool camera_reachable) {
 void AravisCamera::control_loop() {
   bool connected = true;
   HostNs next_attempt{0};
+  // A camera on a trigger line may rightly be silent; once it has been for the stall time, it is
+  // asked every 250 ms whether it is there: three unanswered asks (~0.8 s) and it is lost.
+  HostNs last_ask{0};
+  int unanswered = 0;
+  bool said_no_trigger = false;
   while (running_.load()) {
     {
       std::unique_lock lock(wake_mu_);
@@ -310,17 +316,43 @@ void AravisCamera::control_loop() {
       if (first_frame_pending) last = started_at_;
       const auto silent_ms = (now.ns - last.ns) / 1'000'000;
       const auto limit = first_frame_pending ? first_frame_timeout() : stall_timeout();
-      // Hardware-triggered cameras may rightly be silent; free-run and software-triggered ones may not.
-      const bool stalled = config_.trigger != TriggerMode::Hardware && silent_ms > limit.count();
+      bool stalled = silent_ms > limit.count();
+      if (config_.trigger == TriggerMode::Hardware) {
+        if (!stalled) {
+          unanswered = 0;
+          said_no_trigger = false;
+        } else if (now.ns - last_ask.ns >= 250'000'000) {
+          last_ask = now;
+          if (gvcp_answers(settings().address, 250ms)) {
+            unanswered = 0;
+            if (!said_no_trigger)
+              emit(CameraEvent::Kind::NoTrigger,
+                   fmt::format("{}: no frame for {} ms, but the camera answers: no trigger reaches it (check its "
+                               "trigger cable and that the trigger source runs)",
+                               label(), silent_ms));
+            said_no_trigger = true;
+          } else {
+            ++unanswered;
+          }
+        }
+        stalled = unanswered >= 3;
+      }
       if (stalled || control_lost_.load()) {
         emit(CameraEvent::Kind::Lost,
              fmt::format("{}: camera lost ({}) -- unplugged, powered off, or its link is down; the other "
                          "cameras keep recording, reconnecting every second",
-                         label(), control_lost_.load() ? "control channel lost" :
-                                                         fmt::format("no frame for {} ms", silent_ms)));
+                         label(),
+                         control_lost_.load()                         ? "control channel lost"
+                         : config_.trigger == TriggerMode::Hardware ? fmt::format(
+                                                                          "no frame for {} ms, and no answer when "
+                                                                          "asked",
+                                                                          silent_ms)
+                                                                    : fmt::format("no frame for {} ms", silent_ms)));
         teardown_connection(false);
         connected = false;
         next_attempt = now;
+        unanswered = 0;
+        said_no_trigger = false;
       }
     } else if (now >= next_attempt) {
       next_attempt = HostNs{now.ns + 1'000'000'000};

@@ -39,7 +39,8 @@ struct CameraSettings {
 };
 
 struct CameraEvent {
-  enum class Kind { Lost, Reconnected };
+  // NoTrigger: a camera on a trigger line sends nothing but answers: no trigger reaches it.
+  enum class Kind { Lost, Reconnected, NoTrigger };
   int camera = 0;
   Kind kind = Kind::Lost;
   HostNs at;

@@ -125,8 +125,11 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
       } else {
         spdlog::warn("{}", e.message);
       }
+      const char* kind = lost                                            ? "camera_lost"
+                         : e.kind == CameraEvent::Kind::NoTrigger ? "camera_no_trigger"
+                                                                  : "camera_reconnected";
       if (SessionWriter* w = self->events_writer_.load())
-        w->record(EventRecord{e.at.ns, lost ? "camera_lost" : "camera_reconnected", self->device_ids_[i], e.message});
+        w->record(EventRecord{e.at.ns, kind, self->device_ids_[i], e.message});
     }));
   }
   for (auto& cam : r->cameras_)

@@ -1,4 +1,4 @@
-#include "sim/fake_camera_latch.h"
+#include "sim/fake_camera_features.h"
 
 #include <unistd.h>
 
@@ -19,7 +19,7 @@
 
 namespace pvcap::sim {
 
-void install_latch_genicam() {
+void install_fake_camera_genicam() {
   static std::once_flag once;
   std::call_once(once, [] {
     arv::GPtr<ArvFakeCamera> probe(arv_fake_camera_new("PVSIM-XML"));
@@ -36,11 +36,18 @@ void install_latch_genicam() {
 <AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
 <IntReg Name="TimestampLatchValue" NameSpace="Standard"><Address>{:#x}</Address><Length>8</Length>
 <AccessMode>RO</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+<IntReg Name="PvcapTriggerSourceRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
+<AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
 )",
-        kLatchCommandRegister, kLatchValueRegister);
+        kLatchCommandRegister, kLatchValueRegister, kTriggerSourceRegister);
     const auto end = text.rfind("</RegisterDescription>");
     if (end == std::string::npos) return;
     text.insert(end, features);
+    // TriggerSource reads and writes our register; the engine's own stays at Software (set per camera).
+    const auto source = text.find("<Enumeration Name=\"TriggerSource\"");
+    const std::string engine_register = "<pValue>TriggerSourceRegister</pValue>";
+    const auto value = source == std::string::npos ? std::string::npos : text.find(engine_register, source);
+    if (value != std::string::npos) text.replace(value, engine_register.size(), "<pValue>PvcapTriggerSourceRegister</pValue>");
     // Named by its content, so every simulator process shares one file instead of leaving one
     // each; written aside and renamed into place, so a concurrent reader never sees half of it.
     const auto dir = std::filesystem::temp_directory_path();
@@ -57,62 +64,85 @@ void install_latch_genicam() {
 }
 
 namespace {
-// One thread serves the latch of every simulated camera in the process (a thread per camera
-// polling this often would take a good part of a core from the simulators).
-class LatchService {
+// One thread serves the latch and trigger line of every simulated camera in the process (a
+// thread per camera polling this often would take a good part of a core from the simulators).
+class FeatureService {
  public:
-  static LatchService& get() {
-    static LatchService service;
+  static FeatureService& get() {
+    static FeatureService service;
     return service;
   }
-  void add(const void* owner, ArvFakeCamera* fake, DeviceClock clock) {
+  void add(const void* owner, ArvFakeCamera* fake, DeviceClock clock, double line_hz) {
+    // The engine triggers on a pending software trigger; which source the host chose is ours.
+    arv_fake_camera_write_register(fake, kEngineTriggerSource, kSoftware);
     std::lock_guard lock(mu_);
-    latches_.push_back({owner, fake, std::move(clock)});
+    cameras_.push_back({owner, fake, std::move(clock), line_hz, -1});
     if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
   }
   void remove(const void* owner) {
     std::lock_guard lock(mu_);
-    latches_.erase(std::remove_if(latches_.begin(), latches_.end(), [&](const Latch& l) { return l.owner == owner; }),
-                   latches_.end());
+    cameras_.erase(std::remove_if(cameras_.begin(), cameras_.end(), [&](const Camera& c) { return c.owner == owner; }),
+                   cameras_.end());
   }
-  ~LatchService() {
+  ~FeatureService() {
     running_.store(false);
     if (thread_.joinable()) thread_.join();
   }
 
  private:
-  struct Latch {
+  // The fake engine's registers (arvfakecamera.h).
+  static constexpr std::uint32_t kEngineTriggerMode = 0x300, kEngineTriggerSource = 0x304,
+                                 kEngineTriggerSoftware = 0x30c, kSoftware = 1;
+  struct Camera {
     const void* owner;
     ArvFakeCamera* fake;
     DeviceClock clock;
+    double line_hz;
+    std::int64_t last_pulse;  // the line's last pulse this camera saw (its index)
   };
   // When the host has set the command register, the device clock's value goes into the value
   // register and the command clears.
-  static void serve(const Latch& l) {
+  static void serve_latch(const Camera& c) {
     guint32 command = 0;
-    if (!arv_fake_camera_read_register(l.fake, kLatchCommandRegister, &command) || command == 0) return;
-    const auto device = std::uint64_t(std::max<std::int64_t>(0, l.clock(host_now().ns)));
-    arv_fake_camera_write_register(l.fake, kLatchValueRegister, guint32(device >> 32));
-    arv_fake_camera_write_register(l.fake, kLatchValueRegister + 4, guint32(device & 0xFFFFFFFFu));
-    arv_fake_camera_write_register(l.fake, kLatchCommandRegister, 0);
+    if (!arv_fake_camera_read_register(c.fake, kLatchCommandRegister, &command) || command == 0) return;
+    const auto device = std::uint64_t(std::max<std::int64_t>(0, c.clock(host_now().ns)));
+    arv_fake_camera_write_register(c.fake, kLatchValueRegister, guint32(device >> 32));
+    arv_fake_camera_write_register(c.fake, kLatchValueRegister + 4, guint32(device & 0xFFFFFFFFu));
+    arv_fake_camera_write_register(c.fake, kLatchCommandRegister, 0);
+  }
+  // At each new pulse of the line, a camera triggered by it (TriggerMode On, source Line0) is
+  // triggered as the engine understands it.
+  static void serve_line(Camera& c, std::int64_t now_ns) {
+    if (c.line_hz <= 0) return;
+    const auto pulse = std::int64_t(double(now_ns) * c.line_hz / 1e9);
+    if (pulse == c.last_pulse) return;
+    c.last_pulse = pulse;
+    guint32 mode = 0, source = 0;
+    if (!arv_fake_camera_read_register(c.fake, kEngineTriggerMode, &mode) || mode != 1) return;
+    if (!arv_fake_camera_read_register(c.fake, kTriggerSourceRegister, &source) || source == kSoftware) return;
+    arv_fake_camera_write_register(c.fake, kEngineTriggerSoftware, 1);
   }
   void run() {
     while (running_.load()) {
       std::this_thread::sleep_for(std::chrono::microseconds(200));
+      const std::int64_t now = host_now().ns;
       std::lock_guard lock(mu_);
-      for (const Latch& l : latches_) serve(l);
+      for (Camera& c : cameras_) {
+        serve_latch(c);
+        serve_line(c, now);
+      }
     }
   }
   std::mutex mu_;
-  std::vector<Latch> latches_;
+  std::vector<Camera> cameras_;
   std::atomic<bool> running_{true};
   std::thread thread_;
 };
 }  // namespace
 
-void add_latch(const void* owner, ArvFakeCamera* fake, DeviceClock clock) {
-  LatchService::get().add(owner, fake, std::move(clock));
+void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, double line_hz) {
+  FeatureService::get().add(owner, fake, std::move(clock), line_hz);
 }
-void remove_latch(const void* owner) { LatchService::get().remove(owner); }
+void stop_serving(const void* owner) { FeatureService::get().remove(owner); }
 
 }  // namespace pvcap::sim

@@ -1,9 +1,14 @@
 #pragma once
-// The GenICam timestamp latch real GigE cameras offer (SFNC `TimestampControlLatch` +
-// `TimestampLatchValue`), which Aravis' fake camera lacks, for every simulated camera
-// (sim_camera.h, replay_camera.h): the fake cameras serve their GenICam XML with the two
-// features added, and one thread for all of them latches each device clock when its command
-// register is set, within 0.2 ms (the host polls the value until it changes).
+// What real GigE cameras offer and Aravis' fake camera lacks, for every simulated camera
+// (sim_camera.h, replay_camera.h):
+// - the timestamp latch (SFNC `TimestampControlLatch` + `TimestampLatchValue`): the device clock
+//   is latched within 0.2 ms of its command register being set (the host polls the value);
+// - a trigger line: the fake engine fills a frame only free-running or on a software trigger, so
+//   `TriggerSource` is moved to a register of ours, the engine is left in software-trigger mode,
+//   and a camera set to a line (`Line0`) is triggered at the line's pulses, which fall at whole
+//   periods of CLOCK_MONOTONIC: every camera on a line of one rate is triggered together, as by
+//   one wire. `Software` still triggers on the host's `TriggerSoftware` alone.
+// The fake cameras serve their GenICam XML with these features; one thread serves them all.
 #include <cstdint>
 #include <functional>
 
@@ -13,17 +18,18 @@ namespace pvcap::sim {
 
 inline constexpr std::uint32_t kLatchCommandRegister = 0xF000;
 inline constexpr std::uint32_t kLatchValueRegister = 0xF008;  // 64 bits: high word, then low
+inline constexpr std::uint32_t kTriggerSourceRegister = 0xF010;  // 0 = Line0, 1 = Software (the XML's values)
 
-// Makes the fake cameras created after this call serve the GenICam XML with the latch (once per
-// process; Aravis reads the file name when each fake camera is made).
-void install_latch_genicam();
+// Makes the fake cameras created after this call serve the GenICam XML with these features (once
+// per process; Aravis reads the file name when each fake camera is made).
+void install_fake_camera_genicam();
 
 // The device clock of a simulated camera: its time at a host instant (CLOCK_MONOTONIC ns).
 using DeviceClock = std::function<std::int64_t(std::int64_t host_ns)>;
 
-// Serves `fake`'s latch with `clock` until remove_latch(owner); after remove_latch returns,
-// neither `fake` nor `clock` is touched again.
-void add_latch(const void* owner, ArvFakeCamera* fake, DeviceClock clock);
-void remove_latch(const void* owner);
+// Serves `fake`'s latch with `clock`, and its trigger line pulsing at `line_hz`, until
+// stop_serving(owner); after stop_serving returns, neither `fake` nor `clock` is touched again.
+void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, double line_hz);
+void stop_serving(const void* owner);
 
 }  // namespace pvcap::sim

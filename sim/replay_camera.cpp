@@ -10,7 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/time.h"
-#include "sim/fake_camera_latch.h"
+#include "sim/fake_camera_features.h"
 #include "storage/session_reader.h"
 
 namespace pvcap::sim {
@@ -49,7 +49,7 @@ Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& c
   // entered_ns: when the engine called the fill; image_ns: when its stored mosaic was at hand
   // (what a late frame was waiting for).
   self->log_ << "frame_id,device_ns,due_ns,sent_ns,entered_ns,image_ns\n";
-  install_latch_genicam();
+  install_fake_camera_genicam();
   const std::string serial = camera.serial.empty() ? camera.name : camera.serial;
   self->fake_.reset(arv_gv_fake_camera_new(camera.address.c_str(), serial.c_str()));
   if (!self->fake_ || !arv_gv_fake_camera_is_running(self->fake_.get()))
@@ -60,14 +60,16 @@ Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& c
   raw->reader_ = std::thread([raw] { raw->read_ahead(); });
   ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(raw->fake_.get());
   arv_fake_camera_set_fill_pattern(fake, &ReplayCamera::fill, raw);
-  add_latch(raw, fake, [raw](std::int64_t host_ns) { return raw->replay_->camera_device_time(raw->index_, host_ns); });
+  // No trigger line: a replayed camera sends its recorded frames at their recorded times.
+  serve_features(
+      raw, fake, [raw](std::int64_t host_ns) { return raw->replay_->camera_device_time(raw->index_, host_ns); }, 0.0);
   spdlog::info("replay: {} re-serves {} recorded frames on {}", camera.name,
                raw->replay_->camera_frames(raw->index_).size(), camera.address);
   return self;
 }
 
 ReplayCamera::~ReplayCamera() {
-  remove_latch(this);
+  stop_serving(this);
   {
     std::lock_guard lock(mu_);
     stop_ = true;

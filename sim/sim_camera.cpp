@@ -17,7 +17,7 @@
 #include "core/time.h"
 #include "sim/board_motion.h"
 #include "sim/camera_views.h"
-#include "sim/fake_camera_latch.h"
+#include "sim/fake_camera_features.h"
 #include "sim/fingertip.h"
 #include "sim/hand.h"
 #include "sim/scene.h"
@@ -49,7 +49,7 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   if (fresh) self->truth_ << "frame_id,true_ns,device_ns,width,height\n";
 
   const std::string serial = camera.serial.empty() ? fmt::format("PVSIM{}", index) : camera.serial;
-  install_latch_genicam();
+  install_fake_camera_genicam();
   self->fake_.reset(arv_gv_fake_camera_new(camera.address.c_str(), serial.c_str()));
   if (!self->fake_ || !arv_gv_fake_camera_is_running(self->fake_.get()))
     return Error{fmt::format("{}: the fake camera could not listen on {} (is the address on an interface? the "
@@ -57,9 +57,10 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
                              camera.name, camera.address)};
   if (clock.packet_loss > 0) g_object_set(self->fake_.get(), "gvsp-lost-ratio", clock.packet_loss, nullptr);
   // The engine looks for a pending software trigger once per 1/trigger_frequency: keep that well
-  // above the camera's rate so software-triggered frames are not delayed by the simulator.
+  // above the camera's rate so triggered frames are not delayed by the simulator (2 ms at most:
+  // cameras on one trigger line expose together).
   arv_fake_camera_set_trigger_frequency(arv_gv_fake_camera_get_fake_camera(self->fake_.get()),
-                                        std::max(100.0, 4 * camera.frame_rate));
+                                        std::max(500.0, 4 * camera.frame_rate));
   // Render the scene now for the configured format: the first frame must not stall the stream.
   if (const std::uint32_t pf = pixel_format_code(camera.pixel_format)) {
     (void)self->base_image(camera.width, camera.height, ArvPixelFormat(pf));
@@ -68,14 +69,17 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   arv_fake_camera_set_fill_pattern(arv_gv_fake_camera_get_fake_camera(self->fake_.get()), &SimCamera::fill,
                                    self.get());
   SimCamera* raw = self.get();
-  add_latch(raw, arv_gv_fake_camera_get_fake_camera(raw->fake_.get()),
-            [raw](std::int64_t host_ns) { return raw->clock_.device_time(host_ns); });
+  // Wired to a trigger line pulsing at its configured rate (used when the host picks Line0), unless
+  // the rig's simulator says its cable is off.
+  serve_features(raw, arv_gv_fake_camera_get_fake_camera(raw->fake_.get()),
+                 [raw](std::int64_t host_ns) { return raw->clock_.device_time(host_ns); },
+                 clock.trigger_line ? camera.frame_rate : 0.0);
   return self;
 }
 
 
 SimCamera::~SimCamera() {
-  remove_latch(this);
+  stop_serving(this);
   fake_.reset();  // joins the fake camera's thread: no fill runs after this
   std::lock_guard lock(mu_);
   truth_.flush();

@@ -5,7 +5,7 @@
 // Every emitted frame is logged to a ground-truth CSV as it happens.
 //
 // It also has the GenICam timestamp latch real GigE cameras offer
-// (sim/fake_camera_latch.h).
+// (sim/fake_camera_features.h).
 #include <cstdint>
 #include <filesystem>
 #include <fstream>

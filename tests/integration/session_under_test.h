@@ -16,6 +16,7 @@ struct SimCameraSpec {
   double packet_loss = 0;
   double stop_after_s = -1;    // < 0: never
   double return_after_s = -1;  // < 0: never
+  bool trigger_line = true;    // false: not wired to the simulated trigger line
   double drift_ppm = 0;
   double offset_ms = 1000;     // fields are set by name in the tests ({.packet_loss = 0.01})
 };

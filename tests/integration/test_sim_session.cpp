@@ -2,6 +2,8 @@
 // store is checked against the simulator's ground truth.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <fmt/format.h>
 
 #include <fstream>
@@ -245,6 +247,60 @@ TEST(SimSession, KilledCameraIsReportedWithinTwoSecondsAndTheOthersKeepRecording
     EXPECT_GT(double(c.frames.size()), 0.8 * duration * 30);
     EXPECT_EQ(account(c).unaccounted, 0u);
   }
+  fs::remove_all(s.dir.parent_path().parent_path());
+}
+
+// Cameras on a trigger line (the simulator's line pulses at the configured 30 Hz, every camera at
+// the same instants). One vanishes: it sends nothing, as a camera whose trigger stopped would, but it
+// no longer answers either, and is reported lost within 2 s. Another is not wired to the line: it
+// answers, so the operator is told no trigger reaches it, and it is not called lost.
+TEST(SimSession, AHardwareTriggeredCameraThatVanishesIsReportedWithinTwoSeconds) {
+  const double duration = 7;
+  const auto s = record("hwtrigger",
+                        sim_rig_yaml({{}, {}, {.stop_after_s = 3.0}, {.trigger_line = false}}, kWidth, kHeight, 30, 15,
+                                     "hardware"),
+                        duration);
+  ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
+  ASSERT_EQ(s.cameras.size(), 4u);
+  EXPECT_NE(s.result.output.find("cam2 (serial PVSIM2 at 127.0.0.4): camera lost (no frame for"), std::string::npos)
+      << s.result.output;
+  EXPECT_NE(s.result.output.find("cam3 (serial PVSIM3 at 127.0.0.5): no frame for"), std::string::npos)
+      << s.result.output;
+  pvcap::sqlite::Database db(s.dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  auto events = [&](const char* kind, std::int64_t device) {
+    auto q = db.prepare("SELECT count(*), min(host_ns) FROM events WHERE kind = ? AND device_id = ?");
+    q.bind_all(std::string(kind), device);
+    EXPECT_TRUE(q.step());
+    return std::pair{q.column_int(0), q.column_null(1) ? std::int64_t(0) : q.column_int(1)};
+  };
+  const auto& dead = s.cameras[2];
+  ASSERT_FALSE(dead.truth.empty());
+  const std::int64_t vanished_ns = dead.truth.back().true_ns;  // its last frame
+  const auto [lost, lost_at] = events("camera_lost", dead.device_id);
+  ASSERT_EQ(lost, 1) << "no camera_lost event stored";
+  EXPECT_GT(lost_at - vanished_ns, 0);
+  EXPECT_LE(lost_at - vanished_ns, 2'000'000'000) << "reported " << (lost_at - vanished_ns) / 1e6 << " ms after";
+  std::printf("hardware-triggered camera reported lost %.0f ms after its last frame\n",
+              double(lost_at - vanished_ns) / 1e6);
+  EXPECT_EQ(events("camera_no_trigger", dead.device_id).first, 0) << "it did not answer: lost, not untriggered";
+  // Not wired: told once, never lost, no frames.
+  EXPECT_EQ(events("camera_no_trigger", s.cameras[3].device_id).first, 1);
+  EXPECT_EQ(events("camera_lost", s.cameras[3].device_id).first, 0);
+  EXPECT_TRUE(s.cameras[3].frames.empty());
+  // The two on the line record at its rate, triggered together: their frames group into complete pairs.
+  for (std::size_t i : {0u, 1u}) {
+    SCOPED_TRACE(s.cameras[i].name);
+    EXPECT_GT(double(s.cameras[i].frames.size()), 0.8 * duration * 30);
+    EXPECT_EQ(events("camera_no_trigger", s.cameras[i].device_id).first, 0);
+    EXPECT_EQ(account(s.cameras[i]).unaccounted, 0u);
+  }
+  // (The engine notices a pending trigger within 2 ms; a loaded machine adds its own delays.)
+  auto q = db.prepare("SELECT count(*), sum(span_ns < 5000000) FROM samples WHERE cameras >= 2");
+  ASSERT_TRUE(q.step());
+  EXPECT_GT(q.column_int(0), 60);
+  std::printf("samples with two or more cameras: %lld, of which %lld span under 5 ms\n",
+              static_cast<long long>(q.column_int(0)), static_cast<long long>(q.column_int(1)));
+  EXPECT_GE(q.column_int(1) * 10, q.column_int(0) * 8) << "frames of one pulse lie within 5 ms of each other";
   fs::remove_all(s.dir.parent_path().parent_path());
 }
 

@@ -93,8 +93,9 @@ TEST(StoreCrash, KillNineAtRandomMomentsLosesAtMostTheLastSecond) {
         ++rows;
         EXPECT_EQ(q.column_int(2), q.column_int(1)) << "sample " << q.column_int(0);
         // A sample whose frames were still being encoded at the kill names none that is stored.
-        if (!q.column_null(3))
+        if (!q.column_null(3)) {
           EXPECT_NEAR(q.column_double(3), double(q.column_int(1)), 1.0) << "sample " << q.column_int(0);
+        }
       }
       EXPECT_GT(rows, 15u);
     }
