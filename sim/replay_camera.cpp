@@ -11,6 +11,7 @@
 
 #include "core/time.h"
 #include "sim/fake_camera_features.h"
+#include "sim/scene.h"
 #include "storage/session_reader.h"
 
 namespace pvcap::sim {
@@ -41,6 +42,7 @@ Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& c
   if (!index) return index.error();
   std::unique_ptr<ReplayCamera> self(new ReplayCamera());
   self->name_ = camera.name;
+  self->pixel_format_ = camera.pixel_format;
   self->replay_ = std::move(replay);
   self->index_ = index.value();
   const auto log_path = truth_dir / (camera.name + "_replay.csv");
@@ -89,7 +91,7 @@ void ReplayCamera::read_ahead() {
   } else {
     spdlog::warn("replay: {}: stored images cannot be read ({}); sending grey frames", name_, reader.error().message);
   }
-  bool warned = false;
+  bool warned = false, said_colour = false;
   for (const auto& f : replay_->camera_frames(index_)) {
     if (f.sample < 0) continue;
     cv::Mat mosaic;
@@ -97,9 +99,17 @@ void ReplayCamera::read_ahead() {
       auto got = reader.value()->raw_image(std::size_t(f.sample), *camera);
       if (got) {
         mosaic = std::move(got.value());
+      } else if (auto colour = reader.value()->image(std::size_t(f.sample), *camera); colour) {
+        // A colour store holds no mosaic: its image is sampled back into the sensor's pattern.
+        if (!colour.value().empty()) mosaic = to_sensor_format(colour.value(), pixel_format_);
+        if (!said_colour)
+          spdlog::warn("replay: {}: the store keeps colour video, not the sensor's mosaics: its images are sent "
+                       "sampled back into {} (lossy video: close to what was captured, not bit for bit)",
+                       name_, pixel_format_);
+        said_colour = true;
       } else if (!warned) {
         warned = true;
-        spdlog::warn("replay: {}: sample {}: {} (frames without a stored mosaic are sent grey)", name_, f.sample,
+        spdlog::warn("replay: {}: sample {}: {} (frames without a stored image are sent grey)", name_, f.sample,
                      got.error().message);
       }
     }

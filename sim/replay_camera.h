@@ -2,8 +2,9 @@
 // One camera of a recorded session, re-served over GigE Vision by Aravis' fake-camera engine
 // (sim/session_replay.h): the frames it sent then, each with its recorded frame id and device
 // timestamp, leaving at its recorded instant (shifted), with the stored mosaic of the frames the
-// session kept (read ahead on a thread of its own) and the last stored one for the others. Its
-// timestamp latch reads the recorded clock.
+// session kept (read ahead on a thread of its own; a colour store's image is sampled back into the
+// sensor's pattern) and the last stored one for the others. Its timestamp latch reads the recorded
+// clock.
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -41,6 +42,7 @@ class ReplayCamera {
   cv::Mat stored_image(std::int64_t sample);
 
   std::string name_;
+  std::string pixel_format_;  // what it sends (a colour store's images are sampled back into it)
   std::shared_ptr<SessionReplay> replay_;
   std::size_t index_ = 0;    // the camera's index in the replay
   std::size_t next_ = 0;     // the next frame to send

@@ -312,3 +312,58 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   EXPECT_LT(pct(sensel_errors, 0.5), 4.0);
   fs::remove_all(work);
 }
+
+// A colour store keeps no mosaics: its images are sampled back into the camera's Bayer pattern and
+// sent, so the re-recording shows the recorded scene (not grey frames), as close as the lossy video
+// and a second demosaicing allow.
+TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
+  const fs::path work = work_dir("replay-colour");
+  std::string yaml = sim_rig_yaml({{}}, 640, 480, 30, 15);
+  const std::string preset = "  preset: ultrafast\n";
+  yaml.replace(yaml.find(preset), preset.size(), preset + "  video_mode: color\n");
+  std::ofstream(work / "rig.yaml") << yaml;
+  const auto first = run_pvcap(fmt::format("session --rig {} --root {} --duration 3 --no-web",
+                                           (work / "rig.yaml").string(), (work / "recorded").string()));
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const fs::path recorded = only_session(work / "recorded");
+  ASSERT_FALSE(recorded.empty()) << first.output;
+  const auto rig = run_pvcap(fmt::format("replay {} --as-devices --rig-out {}", recorded.string(),
+                                         (work / "replay.yaml").string()));
+  ASSERT_EQ(rig.exit_code, 0) << rig.output;
+  const auto again = run_pvcap(fmt::format("session --rig {} --root {} --duration 3.5 --no-web",
+                                           (work / "replay.yaml").string(), (work / "replayed").string()));
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("sampled back into BayerRG8"), std::string::npos) << again.output;
+  const fs::path replayed = only_session(work / "replayed");
+  ASSERT_FALSE(replayed.empty()) << again.output;
+
+  // Samples found in both by the camera frame's device time: their images agree.
+  const Recorded ra = read_recorded(recorded), rb = read_recorded(replayed);
+  std::map<std::int64_t, std::int64_t> b_by_device;
+  for (const auto& s : rb.samples)
+    for (const auto& [name, frame] : s.cameras) b_by_device[frame.second] = s.index;
+  auto a = SessionReader::open(recorded), b = SessionReader::open(replayed);
+  ASSERT_TRUE(a && b);
+  std::vector<double> differences;  // mean |again - then| per image (8-bit levels)
+  double grey_difference = 0;       // what a grey frame would have differed by
+  for (const auto& s : ra.samples) {
+    if (s.cameras.empty()) continue;
+    const auto it = b_by_device.find(s.cameras.begin()->second.second);
+    if (it == b_by_device.end()) continue;
+    auto x = a.value()->image(std::size_t(s.index), 0), y = b.value()->image(std::size_t(it->second), 0);
+    if (!x || !y || x.value().empty() || y.value().empty()) continue;
+    cv::Mat diff;
+    cv::absdiff(x.value(), y.value(), diff);
+    differences.push_back(cv::mean(diff)[0]);
+    cv::absdiff(x.value(), cv::Scalar::all(128), diff);
+    grey_difference = std::max(grey_difference, cv::mean(diff)[0]);
+  }
+  ASSERT_GT(differences.size(), 20u);
+  std::sort(differences.begin(), differences.end());
+  std::printf("colour store re-served: %zu images compared; mean |again - then| median %.2f, worst %.2f levels "
+              "(a grey frame: %.1f)\n",
+              differences.size(), differences[differences.size() / 2], differences.back(), grey_difference);
+  EXPECT_LT(differences.back(), 8.0);
+  EXPECT_GT(grey_difference, 20.0) << "the scene is not grey: the comparison means something";
+  fs::remove_all(work);
+}
