@@ -12,7 +12,6 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "app/cmd_calibrate.h"
 #include "app/cmd_devices.h"
 #include "app/cmd_eval_sync.h"
 #include "app/cmd_export.h"
@@ -22,6 +21,7 @@
 #include "app/cmd_session.h"
 #include "app/cmd_sim.h"
 #include "calib/rig_calibration.h"
+#include "calib/session_calibration.h"
 #include "core/log.h"
 #include "core/result.h"
 #include "core/rig_config.h"
@@ -213,7 +213,7 @@ int main(int argc, char** argv) {
                                                    "markers, with the intrinsics of a calibration file");
   auto* cal_check = calibrate->add_subcommand("check", "the press check: each press's pressure centroid against the "
                                                        "fingertip seen in each camera, through the calibration");
-  pvcap::CalibrateOptions cal_opts;
+  pvcap::calib::SessionCalibrationOptions cal_opts;
   std::string cal_rig;
   for (auto* c : {cal_intrinsics, cal_pad, cal_check}) {
     c->add_option("SESSION", cal_opts.session, "the session folder")->required()->check(CLI::ExistingDirectory);
@@ -419,12 +419,12 @@ int main(int argc, char** argv) {
       for (const auto& d : r.value()) fmt::print("{}: {}\n", migrate_dir, d);
       return 0;
     }
-    if (*cal_board) return pvcap::cmd_calibrate_board(board_out);
+    if (*cal_board) return pvcap::calib::write_board(board_out);
     if (*cal_intrinsics || *cal_pad || *cal_check) {
       if (cal_opts.calibration.empty() && !cal_rig.empty())
         cal_opts.calibration = pvcap::calib::default_calibration_path(cal_rig);
-      if (*cal_check) return pvcap::cmd_calibrate_check(cal_opts);
-      return *cal_pad ? pvcap::cmd_calibrate_pad(cal_opts) : pvcap::cmd_calibrate_intrinsics(cal_opts);
+      if (*cal_check) return pvcap::calib::check_against_presses(cal_opts);
+      return *cal_pad ? pvcap::calib::pad_from_session(cal_opts) : pvcap::calib::intrinsics_from_session(cal_opts);
     }
     if (*sensel_decode) {
       int rc = 0;

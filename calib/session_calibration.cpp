@@ -1,4 +1,4 @@
-#include "app/cmd_calibrate.h"
+#include "calib/session_calibration.h"
 
 #include <unistd.h>
 
@@ -21,7 +21,7 @@
 #include "storage/session_index.h"
 #include "storage/session_reader.h"
 
-namespace pvcap {
+namespace pvcap::calib {
 namespace {
 
 // Targets the ground-truth check holds a simulated run's calibration to (issue: calibration).
@@ -56,7 +56,7 @@ std::vector<std::size_t> spread(std::size_t count, std::size_t wanted) {
 }
 
 // The samples a command looks at: --frames of them (or `by_default`) spread over the session.
-std::vector<std::size_t> samples_to_read(const SessionReader& session, const CalibrateOptions& o,
+std::vector<std::size_t> samples_to_read(const SessionReader& session, const SessionCalibrationOptions& o,
                                          std::size_t by_default) {
   auto samples = spread(session.sample_count(), o.frames > 0 ? std::size_t(o.frames) : by_default);
   if (samples.empty()) throw UserError(fmt::format("{}: the session has no samples", o.session.string()));
@@ -125,7 +125,7 @@ calib::RigCalibration load_or_new(const std::filesystem::path& file, const Sessi
   return cal;
 }
 
-std::filesystem::path calibration_file(const CalibrateOptions& o) {
+std::filesystem::path calibration_file(const SessionCalibrationOptions& o) {
   return o.calibration.empty() ? o.session / "calibration.yaml" : o.calibration;
 }
 
@@ -143,7 +143,7 @@ int save_and_report(const std::filesystem::path& file, const calib::RigCalibrati
 
 }  // namespace
 
-int cmd_calibrate_board(const std::filesystem::path& out) {
+int write_board(const std::filesystem::path& out) {
   const calib::BoardSpec spec;
   const std::string ext = out.extension().string();
   if (ext == ".pdf") {
@@ -163,7 +163,7 @@ int cmd_calibrate_board(const std::filesystem::path& out) {
   return 0;
 }
 
-int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
+int intrinsics_from_session(const SessionCalibrationOptions& o) {
   auto session = open_session(o.session);
   const calib::BoardSpec spec;
   const std::filesystem::path file = calibration_file(o);
@@ -238,7 +238,7 @@ int cmd_calibrate_intrinsics(const CalibrateOptions& o) {
                          fmt::format("; next: pvcap calibrate pad SESSION --calibration {}", file.string()));
 }
 
-int cmd_calibrate_pad(const CalibrateOptions& o) {
+int pad_from_session(const SessionCalibrationOptions& o) {
   auto session = open_session(o.session);
   const std::filesystem::path file = calibration_file(o);
   if (!std::filesystem::exists(file))
@@ -304,7 +304,7 @@ int cmd_calibrate_pad(const CalibrateOptions& o) {
   return save_and_report(file, cal, failed, within_targets, "");
 }
 
-int cmd_calibrate_check(const CalibrateOptions& o) {
+int check_against_presses(const SessionCalibrationOptions& o) {
   auto session = open_session(o.session);
   const std::filesystem::path file = calibration_file(o);
   if (!std::filesystem::exists(file))
@@ -457,4 +457,4 @@ int cmd_calibrate_check(const CalibrateOptions& o) {
   return rc;
 }
 
-}  // namespace pvcap
+}  // namespace pvcap::calib
