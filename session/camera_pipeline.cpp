@@ -145,7 +145,7 @@ void run_camera_pipeline(const CameraPipeline& p) {
     // Timestamp-latch probes of this camera's clock (cameras that have the latch).
     while (auto probe = camera.clock_probes().pop_for(0ms))
       if (probe->connection == connection)
-        timeline.camera_probe(index, probe->device.ns, probe->host_lo.ns, probe->host_hi.ns);
+        timeline.camera_probe(index, probe->device, probe->host_lo, probe->host_hi);
     if (!frame) continue;
     tally.received.fetch_add(1, std::memory_order_relaxed);
     if (frame->connection != connection) {  // frame ids restart with each connection
@@ -191,8 +191,10 @@ void run_camera_pipeline(const CameraPipeline& p) {
       const std::int64_t leader_ns = frame->aravis_system_ns + (host_now().ns - wall_now_ns());
       const bool leader_usable = frame->aravis_system_ns > 0 && leader_ns <= frame->host_ts.ns &&
                                  frame->host_ts.ns - leader_ns < 1'000'000'000;
-      rec.mapped_ns = timeline.camera_frame(index, frame->connection, step.sequence, frame->device_ts.ns,
-                                            leader_usable ? leader_ns : frame->host_ts.ns);
+      rec.mapped_ns = timeline
+                          .camera_frame(index, frame->connection, step.sequence, frame->device_ts,
+                                        leader_usable ? HostNs{leader_ns} : frame->host_ts)
+                          .ns;
       std::vector<std::uint8_t> pixels;
       if (!spare.empty()) {
         pixels = std::move(spare.back());

@@ -166,8 +166,7 @@ void SenselPipeline::run() {
     // The clock model fits when the answer began to arrive (the midpoint is the stamp's best
     // single guess, but an arrival is what a latency floor bounds; its first bytes come before
     // the rest of a frame's 64-byte packets).
-    const std::int64_t arrival = s->first_byte_ts.ns;
-    const std::int64_t mapped = timeline_->pressure_frame(s->connection, s->sequence, s->device_ts.ns, arrival);
+    const std::int64_t mapped = timeline_->pressure_frame(s->connection, s->sequence, s->device_ts, s->first_byte_ts).ns;
     PressureRecord rec{device_id_, s->connection, s->sequence, s->lost_before, s->device_ts.ns, s->host_ts.ns, s->host_wait_ns,
                        s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale, {}, mapped, 0, {}};
     // The counts again in the store's portable form (zlib on the index's thread), for readers

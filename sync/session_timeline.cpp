@@ -77,9 +77,9 @@ void SessionTimeline::final_snapshots() {
   if (config_.has_pressure) last(pressure_, -1);
 }
 
-std::int64_t SessionTimeline::camera_frame(int c, std::uint32_t connection, std::uint64_t sequence,
-                                           std::int64_t device_ns, std::int64_t arrival_ns) {
-  const std::int64_t t = map(cameras_[std::size_t(c)], c, device_ns, arrival_ns);
+HostNs SessionTimeline::camera_frame(int c, std::uint32_t connection, std::uint64_t sequence, DeviceNs device,
+                                     HostNs arrival) {
+  const std::int64_t t = map(cameras_[std::size_t(c)], c, device.ns, arrival.ns);
   std::vector<SampleOut> done;
   {
     std::lock_guard lock(mu_);
@@ -89,12 +89,12 @@ std::int64_t SessionTimeline::camera_frame(int c, std::uint32_t connection, std:
     advance(done, false);
   }
   for (auto& s : done) on_sample_(std::move(s));
-  return t;
+  return HostNs{t};
 }
 
-std::int64_t SessionTimeline::pressure_frame(std::uint32_t connection, std::uint64_t sequence, std::int64_t device_ns,
-                                             std::int64_t arrival_ns) {
-  const std::int64_t t = map(pressure_, -1, device_ns, arrival_ns);
+HostNs SessionTimeline::pressure_frame(std::uint32_t connection, std::uint64_t sequence, DeviceNs device,
+                                       HostNs arrival) {
+  const std::int64_t t = map(pressure_, -1, device.ns, arrival.ns);
   std::vector<SampleOut> done;
   {
     std::lock_guard lock(mu_);
@@ -102,11 +102,11 @@ std::int64_t SessionTimeline::pressure_frame(std::uint32_t connection, std::uint
     advance(done, false);
   }
   for (auto& s : done) on_sample_(std::move(s));
-  return t;
+  return HostNs{t};
 }
 
-void SessionTimeline::camera_probe(int c, std::int64_t device_ns, std::int64_t host_lo_ns, std::int64_t host_hi_ns) {
-  cameras_[std::size_t(c)].model.add_probe(device_ns, host_lo_ns, host_hi_ns);
+void SessionTimeline::camera_probe(int c, DeviceNs device, HostNs host_lo, HostNs host_hi) {
+  cameras_[std::size_t(c)].model.add_probe(device.ns, host_lo.ns, host_hi.ns);
 }
 
 std::vector<FrameDecision> SessionTimeline::take_decisions(int c) {

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "core/time.h"
 #include "sync/clock_model.h"
 #include "sync/timeline.h"
 
@@ -65,17 +66,17 @@ class SessionTimeline {
   SessionTimeline(TimelineConfig config, std::function<void(SampleOut)> on_sample,
                   std::function<void(ClockSnapshot)> on_clock);
 
+  // The drivers' two clocks meet here, so they are typed: a device's own time (DeviceNs) and
+  // CLOCK_MONOTONIC (HostNs) cannot be passed for one another.
   // From camera `c`'s worker: maps the frame, hands it to the grouper, returns its mapped time.
-  std::int64_t camera_frame(int c, std::uint32_t connection, std::uint64_t sequence, std::int64_t device_ns,
-                            std::int64_t arrival_ns);
-  // From camera `c`'s worker: its clock read at a host instant in [host_lo_ns, host_hi_ns]
-  // (a timestamp-latch probe).
-  void camera_probe(int c, std::int64_t device_ns, std::int64_t host_lo_ns, std::int64_t host_hi_ns);
+  HostNs camera_frame(int c, std::uint32_t connection, std::uint64_t sequence, DeviceNs device, HostNs arrival);
+  // From camera `c`'s worker: its clock read at a host instant in [host_lo, host_hi] (a
+  // timestamp-latch probe).
+  void camera_probe(int c, DeviceNs device, HostNs host_lo, HostNs host_hi);
   // Decisions for camera `c`'s frames made since the last call.
   std::vector<FrameDecision> take_decisions(int c);
   // From the Sensel's worker.
-  std::int64_t pressure_frame(std::uint32_t connection, std::uint64_t sequence, std::int64_t device_ns,
-                              std::int64_t arrival_ns);
+  HostNs pressure_frame(std::uint32_t connection, std::uint64_t sequence, DeviceNs device, HostNs arrival);
   // At the end: decides everything pending.
   void flush();
 
