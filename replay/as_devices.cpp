@@ -33,13 +33,20 @@ Result<ReplayRig> write_replay_rig(const std::filesystem::path& session_dir, std
     return Error{fmt::format("{}: the rig file stored with the session has no cameras", dir.string())};
 
   rig["name"] = fmt::format("{}-replay", rig["name"] ? rig["name"].as<std::string>() : std::string("rig"));
-  // The cameras on the simulator's loopback addresses, paced by the replay (not by a trigger).
+  // The cameras on the simulator's loopback addresses. Hardware-triggered ones stay so: the replay's
+  // trigger line pulses as each recorded frame falls due (sim/replay_camera.h). The others free-run,
+  // paced by the replay (a software trigger's timing would be the new recorder's, not the session's).
   for (std::size_t i = 0; i < rig["cameras"].size(); ++i) {
     YAML::Node cam = rig["cameras"][i];
     const std::string address = cam["address"] ? cam["address"].as<std::string>() : std::string();
     if (address.rfind("127.", 0) != 0) cam["address"] = fmt::format("127.0.0.{}", 2 + i);
-    cam["trigger"] = "free-run";
-    cam.remove("trigger_source");
+    const bool hardware = cam["trigger"] && cam["trigger"].as<std::string>() == "hardware";
+    if (hardware) {
+      cam["trigger_source"] = "Line0";  // the simulated camera's line
+    } else {
+      cam["trigger"] = "free-run";
+      cam.remove("trigger_source");
+    }
   }
   if (rig["sensel"]) {
     rig["sensel"].remove("usb");

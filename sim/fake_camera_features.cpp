@@ -72,11 +72,11 @@ class FeatureService {
     static FeatureService service;
     return service;
   }
-  void add(const void* owner, ArvFakeCamera* fake, DeviceClock clock, double line_hz) {
+  void add(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line) {
     // The engine triggers on a pending software trigger; which source the host chose is ours.
     arv_fake_camera_write_register(fake, kEngineTriggerSource, kSoftware);
     std::lock_guard lock(mu_);
-    cameras_.push_back({owner, fake, std::move(clock), line_hz, -1});
+    cameras_.push_back({owner, fake, std::move(clock), std::move(line), INT64_MIN});
     if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
   }
   void remove(const void* owner) {
@@ -97,8 +97,8 @@ class FeatureService {
     const void* owner;
     ArvFakeCamera* fake;
     DeviceClock clock;
-    double line_hz;
-    std::int64_t last_pulse;  // the line's last pulse this camera saw (its index)
+    TriggerLine line;
+    std::int64_t last_pulse;  // the line's last pulse that reached this camera (its index)
   };
   // When the host has set the command register, the device clock's value goes into the value
   // register and the command clears.
@@ -111,15 +111,15 @@ class FeatureService {
     arv_fake_camera_write_register(c.fake, kLatchCommandRegister, 0);
   }
   // At each new pulse of the line, a camera triggered by it (TriggerMode On, source Line0) is
-  // triggered as the engine understands it.
+  // triggered as the engine understands it (a trigger pending until it acquires).
   static void serve_line(Camera& c, std::int64_t now_ns) {
-    if (c.line_hz <= 0) return;
-    const auto pulse = std::int64_t(double(now_ns) * c.line_hz / 1e9);
-    if (pulse == c.last_pulse) return;
-    c.last_pulse = pulse;
+    if (!c.line) return;
     guint32 mode = 0, source = 0;
     if (!arv_fake_camera_read_register(c.fake, kEngineTriggerMode, &mode) || mode != 1) return;
     if (!arv_fake_camera_read_register(c.fake, kTriggerSourceRegister, &source) || source == kSoftware) return;
+    const std::int64_t pulse = c.line(now_ns);
+    if (pulse <= c.last_pulse) return;
+    c.last_pulse = pulse;
     arv_fake_camera_write_register(c.fake, kEngineTriggerSoftware, 1);
   }
   void run() {
@@ -140,8 +140,12 @@ class FeatureService {
 };
 }  // namespace
 
-void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, double line_hz) {
-  FeatureService::get().add(owner, fake, std::move(clock), line_hz);
+TriggerLine periodic_line(double hz) {
+  return [hz](std::int64_t host_ns) { return std::int64_t(double(host_ns) * hz / 1e9); };
+}
+
+void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line) {
+  FeatureService::get().add(owner, fake, std::move(clock), std::move(line));
 }
 void stop_serving(const void* owner) { FeatureService::get().remove(owner); }
 

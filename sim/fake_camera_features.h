@@ -27,9 +27,17 @@ void install_fake_camera_genicam();
 // The device clock of a simulated camera: its time at a host instant (CLOCK_MONOTONIC ns).
 using DeviceClock = std::function<std::int64_t(std::int64_t host_ns)>;
 
-// Serves `fake`'s latch with `clock`, and its trigger line pulsing at `line_hz`, until
-// stop_serving(owner); after stop_serving returns, neither `fake` nor `clock` is touched again.
-void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, double line_hz);
+// A trigger line: the index of its latest pulse at a host instant (non-decreasing; each increase
+// is one pulse). Null: the camera is on no line.
+using TriggerLine = std::function<std::int64_t(std::int64_t host_ns)>;
+// A line pulsing at `hz` at whole periods of CLOCK_MONOTONIC (every camera on it together).
+TriggerLine periodic_line(double hz);
+
+// Serves `fake`'s latch with `clock`, and its trigger line, until stop_serving(owner); after
+// stop_serving returns, neither `fake` nor `clock` nor `line` is touched again. A pulse reaches the
+// camera only while it is set to be triggered by its line (TriggerMode On, TriggerSource Line0);
+// until then the line waits for it.
+void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line);
 void stop_serving(const void* owner);
 
 }  // namespace pvcap::sim

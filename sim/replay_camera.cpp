@@ -3,6 +3,7 @@
 #include <pthread.h>
 #include <sched.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 
@@ -62,9 +63,13 @@ Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& c
   raw->reader_ = std::thread([raw] { raw->read_ahead(); });
   ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(raw->fake_.get());
   arv_fake_camera_set_fill_pattern(fake, &ReplayCamera::fill, raw);
-  // No trigger line: a replayed camera sends its recorded frames at their recorded times.
+  // Triggered (a session recorded with hardware triggers), the engine looks for a trigger once per
+  // 1/trigger_frequency: paced like the free-running engine's frame period (plan_next_tick), it wakes
+  // just before each frame is due, after the line's pulse (10 ms ahead); the fill waits the rest.
+  arv_fake_camera_set_trigger_frequency(fake, 100.0);
   serve_features(
-      raw, fake, [raw](std::int64_t host_ns) { return raw->replay_->camera_device_time(raw->index_, host_ns); }, 0.0);
+      raw, fake, [raw](std::int64_t host_ns) { return raw->replay_->camera_device_time(raw->index_, host_ns); },
+      [raw](std::int64_t host_ns) { return raw->line_pulse(host_ns); });
   spdlog::info("replay: {} re-serves {} recorded frames on {}", camera.name,
                raw->replay_->camera_frames(raw->index_).size(), camera.address);
   return self;
@@ -80,6 +85,20 @@ ReplayCamera::~ReplayCamera() {
   fake_.reset();  // joins the engine's thread: no fill runs after this
   if (reader_.joinable()) reader_.join();
   log_.flush();
+}
+
+std::int64_t ReplayCamera::line_pulse(std::int64_t host_ns) const {
+  // Well ahead of the engine's wake (0.2-0.5 ms before the frame is due): this runs on an ordinary
+  // thread, which a busy machine may hold back by milliseconds, and a wake that finds no trigger
+  // sleeps a whole period. Early is harmless: the trigger waits for the wake.
+  constexpr std::int64_t kLeadNs = 10'000'000;
+  if (!streaming_.load()) return 0;  // pending until the camera acquires: its first fill starts it
+  // Pulse k + 1 once frame k (the next to send) is due, less the lead.
+  const std::size_t next = next_.load();
+  const auto& frames = replay_->camera_frames(index_);
+  // (A frame not yet due gives no pulse: frames skipped at the start are not pulses either.)
+  if (next >= frames.size() || replay_->due_ns(frames[next].t_ns) - kLeadNs > host_ns) return INT64_MIN;
+  return std::int64_t(next) + 1;
 }
 
 void ReplayCamera::read_ahead() {
@@ -145,10 +164,10 @@ void ReplayCamera::fill(ArvBuffer* buffer, void* self, guint32, guint32, ArvPixe
 void ReplayCamera::fill_buffer(ArvBuffer* buffer) {
   const auto& frames = replay_->camera_frames(index_);
   const std::int64_t now = host_now().ns;
-  if (!streaming_) {
+  const bool first = !streaming_;
+  if (first) {
     // Acquisition has started: the first device to stream fixes the replay's shift. Frames due
     // before this camera started are not sent (the recorder was not listening yet).
-    streaming_ = true;
     replay_->start(now);
     // The frames' timing is what is replayed: where allowed (root, or an rtprio limit), the engine's
     // thread wakes at a real-time priority, so a busy recorder beside it does not delay its frames.
@@ -164,9 +183,11 @@ void ReplayCamera::fill_buffer(ArvBuffer* buffer) {
     // whatever happens; then it sleeps for good.
     arv_fake_camera_write_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US, 0xFFFFFFFFu);
     arv_buffer_set_frame_id(buffer, frames.empty() ? 1 : frames.back().frame_id);
+    streaming_ = true;
     return;
   }
   const ReplayCameraFrame& f = frames[next_++];
+  if (first) streaming_ = true;  // only now: the trigger line's next pulse is for the frame after this one
   const std::int64_t due = replay_->due_ns(f.t_ns);
   cv::Mat image = f.sample >= 0 ? stored_image(f.sample) : cv::Mat();
   const std::int64_t image_ns = host_now().ns;
@@ -203,8 +224,10 @@ void ReplayCamera::plan_next_tick() {
   const std::int64_t mono = host_now().ns;
   const std::int64_t real_us = g_get_real_time();
   const std::int64_t due_us = real_us + (replay_->due_ns(frames[next_].t_ns) - mono) / 1000;
-  arv_fake_camera_write_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US,
-                                 period_waking_at(real_us, due_us - 200, 300));
+  const std::uint32_t period_us = period_waking_at(real_us, due_us - 200, 300);
+  arv_fake_camera_write_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US, period_us);
+  // The same wake when triggered (the engine truncates 1e6 / frequency to whole microseconds).
+  arv_fake_camera_set_trigger_frequency(fake, 1e6 / (double(period_us) + 0.5));
 }
 
 }  // namespace pvcap::sim

@@ -4,7 +4,9 @@
 // timestamp, leaving at its recorded instant (shifted), with the stored mosaic of the frames the
 // session kept (read ahead on a thread of its own; a colour store's image is sampled back into the
 // sensor's pattern) and the last stored one for the others. Its timestamp latch reads the recorded
-// clock.
+// clock. Free-running, the engine is paced to each frame; set to a trigger line, it is triggered as
+// each frame falls due.
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -38,6 +40,9 @@ class ReplayCamera {
   static void fill(ArvBuffer* buffer, void* self, guint32 exposure_us, guint32 gain, ArvPixelFormat format);
   void fill_buffer(ArvBuffer* buffer);
   void plan_next_tick();
+  // Its trigger line (a session recorded with `trigger: hardware`): one pulse as each recorded frame
+  // falls due, 10 ms ahead; the first, before this camera streams, starts it.
+  std::int64_t line_pulse(std::int64_t host_ns) const;
   void read_ahead();
   cv::Mat stored_image(std::int64_t sample);
 
@@ -45,8 +50,9 @@ class ReplayCamera {
   std::string pixel_format_;  // what it sends (a colour store's images are sampled back into it)
   std::shared_ptr<SessionReplay> replay_;
   std::size_t index_ = 0;    // the camera's index in the replay
-  std::size_t next_ = 0;     // the next frame to send
-  bool streaming_ = false;   // the first frame after acquisition start has been sent
+  // Written by the engine's fill, read by the trigger line's thread.
+  std::atomic<std::size_t> next_{0};   // the next frame to send
+  std::atomic<bool> streaming_{false};  // the first frame after acquisition start has been sent
   cv::Mat last_;             // the last stored mosaic sent (frames the session did not keep reuse it)
   arv::GPtr<ArvGvFakeCamera> fake_;
   std::ofstream log_;

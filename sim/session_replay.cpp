@@ -135,6 +135,11 @@ std::int64_t SessionReplay::start(std::int64_t now_ns) {
   return *origin_;
 }
 
+bool SessionReplay::started() const {
+  std::lock_guard lock(mu_);
+  return origin_.has_value();
+}
+
 std::int64_t SessionReplay::origin() const {
   {
     std::lock_guard lock(mu_);

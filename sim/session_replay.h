@@ -53,6 +53,7 @@ class SessionReplay {
   // A device starts streaming at `now_ns`: the first call fixes the shift, so that the session's
   // first frame leaves 0.2 s later; every call returns it.
   std::int64_t start(std::int64_t now_ns);
+  bool started() const;
   // When a frame recorded at session time `t_ns` leaves (host CLOCK_MONOTONIC); before start(),
   // as if it were starting now.
   std::int64_t due_ns(std::int64_t t_ns) const;

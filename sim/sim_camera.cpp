@@ -56,11 +56,13 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
                              "simulated rig runs in its own network namespace)",
                              camera.name, camera.address)};
   if (clock.packet_loss > 0) g_object_set(self->fake_.get(), "gvsp-lost-ratio", clock.packet_loss, nullptr);
-  // The engine looks for a pending software trigger once per 1/trigger_frequency: keep that well
-  // above the camera's rate so triggered frames are not delayed by the simulator (2 ms at most:
-  // cameras on one trigger line expose together).
+  // The engine looks for a pending software trigger once per 1/trigger_frequency, at whole periods
+  // of the real-time clock: keep that well above the camera's rate so triggered frames are not
+  // delayed much by the simulator. (Every engine wakes at the same instants, so cameras on one
+  // trigger line expose together. A higher rate costs a core: the engine's poll spins through the
+  // last millisecond before each wake.)
   arv_fake_camera_set_trigger_frequency(arv_gv_fake_camera_get_fake_camera(self->fake_.get()),
-                                        std::max(500.0, 4 * camera.frame_rate));
+                                        std::max(100.0, 4 * camera.frame_rate));
   // Render the scene now for the configured format: the first frame must not stall the stream.
   if (const std::uint32_t pf = pixel_format_code(camera.pixel_format)) {
     (void)self->base_image(camera.width, camera.height, ArvPixelFormat(pf));
@@ -73,7 +75,7 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   // the rig's simulator says its cable is off.
   serve_features(raw, arv_gv_fake_camera_get_fake_camera(raw->fake_.get()),
                  [raw](std::int64_t host_ns) { return raw->clock_.device_time(host_ns); },
-                 clock.trigger_line ? camera.frame_rate : 0.0);
+                 clock.trigger_line ? periodic_line(camera.frame_rate) : TriggerLine());
   return self;
 }
 

@@ -368,3 +368,53 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
   EXPECT_GT(grey_difference, 20.0) << "the scene is not grey: the comparison means something";
   fs::remove_all(work);
 }
+
+// A session recorded with hardware triggers replays with them: the printed rig keeps `trigger:
+// hardware`, the replay's trigger line pulses as each recorded frame falls due, and the re-recording
+// receives the same frames (ids and device times) at the recorded intervals.
+TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
+  const fs::path work = work_dir("replay-hardware");
+  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000}, {}}, 640, 480, 30, 15,
+                                                   "hardware");
+  const auto first = run_pvcap(fmt::format("session --rig {} --root {} --duration 3 --no-web",
+                                           (work / "rig.yaml").string(), (work / "recorded").string()));
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const fs::path recorded = only_session(work / "recorded");
+  ASSERT_FALSE(recorded.empty()) << first.output;
+  const auto rig = run_pvcap(fmt::format("replay {} --as-devices --rig-out {}", recorded.string(),
+                                         (work / "replay.yaml").string()));
+  ASSERT_EQ(rig.exit_code, 0) << rig.output;
+  std::stringstream printed;
+  printed << std::ifstream(work / "replay.yaml").rdbuf();
+  EXPECT_NE(printed.str().find("trigger: hardware"), std::string::npos) << printed.str();
+  const auto again = run_pvcap(fmt::format("session --rig {} --root {} --duration 3.5 --no-web",
+                                           (work / "replay.yaml").string(), (work / "replayed").string()));
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_EQ(again.output.find("camera lost"), std::string::npos) << again.output;
+  EXPECT_EQ(again.output.find("no trigger reaches it"), std::string::npos) << again.output;
+  const fs::path replayed = only_session(work / "replayed");
+  ASSERT_FALSE(replayed.empty()) << again.output;
+
+  // Every camera frame recorded (after the replay's first moments) is received again, same id and
+  // device time.
+  const Recorded ra = read_recorded(recorded), rb = read_recorded(replayed);
+  for (const char* cam : {"cam0", "cam1"}) {
+    std::size_t recorded_frames = 0, again_frames = 0;
+    for (const auto& [key, t] : ra.mapped_ns)
+      if (key.first == cam) {
+        ++recorded_frames;
+        again_frames += rb.mapped_ns.count(key);
+      }
+    std::printf("%s: %zu of %zu recorded frames received again on the replay's trigger line\n", cam, again_frames,
+                recorded_frames);
+    EXPECT_GT(recorded_frames, 60u) << cam;
+    EXPECT_GE(double(again_frames), 0.9 * double(recorded_frames)) << cam;
+    const auto e = replay_interval_errors_ms(replayed / "sim-truth" / (std::string(cam) + "_replay.csv"), false);
+    ASSERT_GT(e.size(), 50u) << cam;
+    std::vector<double> sorted = e;
+    std::sort(sorted.begin(), sorted.end());
+    std::printf("%s: |interval sent - recorded| p50 %.3f ms\n", cam, sorted[sorted.size() / 2]);
+    EXPECT_LT(sorted[sorted.size() / 2], 4.0) << cam;
+  }
+  fs::remove_all(work);
+}
