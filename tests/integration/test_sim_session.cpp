@@ -294,7 +294,8 @@ TEST(SimSession, AHardwareTriggeredCameraThatVanishesIsReportedWithinTwoSeconds)
     EXPECT_EQ(events("camera_no_trigger", s.cameras[i].device_id).first, 0);
     EXPECT_EQ(account(s.cameras[i]).unaccounted, 0u);
   }
-  // (The engine notices a pending trigger within 2 ms; a loaded machine adds its own delays.)
+  // (Every camera's engine looks for the pending trigger at the same instants, within 1/120 s of
+  // the pulse; a loaded machine adds its own delays. Measured: 97-98 of 99-100 under 5 ms.)
   auto q = db.prepare("SELECT count(*), sum(span_ns < 5000000) FROM samples WHERE cameras >= 2");
   ASSERT_TRUE(q.step());
   EXPECT_GT(q.column_int(0), 60);
