@@ -295,7 +295,7 @@ void AravisCamera::control_loop() {
   bool connected = true;
   HostNs next_attempt{0};
   // A camera on a trigger line may rightly be silent; once it has been for the stall time, it is
-  // asked every 250 ms whether it is there: three unanswered asks (~0.8 s) and it is lost.
+  // asked every 250 ms whether it is there: three unanswered asks (~0.75 s more) and it is lost.
   HostNs last_ask{0};
   int unanswered = 0;
   bool said_no_trigger = false;
@@ -318,12 +318,17 @@ void AravisCamera::control_loop() {
       const auto limit = first_frame_pending ? first_frame_timeout() : stall_timeout();
       bool stalled = silent_ms > limit.count();
       if (config_.trigger == TriggerMode::Hardware) {
-        if (!stalled) {
+        // Asked over GVCP, so only a camera with an IPv4 address; another is left to Aravis'
+        // control-lost signal.
+        const std::string address = settings().address;
+        if (!is_ipv4(address)) {
+          unanswered = 0;
+        } else if (!stalled) {
           unanswered = 0;
           said_no_trigger = false;
         } else if (now.ns - last_ask.ns >= 250'000'000) {
           last_ask = now;
-          if (gvcp_answers(settings().address, 250ms)) {
+          if (gvcp_answers(address, 250ms)) {
             unanswered = 0;
             if (!said_no_trigger)
               emit(CameraEvent::Kind::NoTrigger,
@@ -338,16 +343,13 @@ void AravisCamera::control_loop() {
         stalled = unanswered >= 3;
       }
       if (stalled || control_lost_.load()) {
+        std::string why = fmt::format("no frame for {} ms", silent_ms);
+        if (control_lost_.load()) why = "control channel lost";
+        else if (config_.trigger == TriggerMode::Hardware) why += ", and no answer when asked";
         emit(CameraEvent::Kind::Lost,
              fmt::format("{}: camera lost ({}) -- unplugged, powered off, or its link is down; the other "
                          "cameras keep recording, reconnecting every second",
-                         label(),
-                         control_lost_.load()                         ? "control channel lost"
-                         : config_.trigger == TriggerMode::Hardware ? fmt::format(
-                                                                          "no frame for {} ms, and no answer when "
-                                                                          "asked",
-                                                                          silent_ms)
-                                                                    : fmt::format("no frame for {} ms", silent_ms)));
+                         label(), why));
         teardown_connection(false);
         connected = false;
         next_attempt = now;

@@ -36,6 +36,11 @@ std::uint16_t next_request_id() {
 
 }  // namespace
 
+bool is_ipv4(const std::string& address) {
+  in_addr a{};
+  return inet_pton(AF_INET, address.c_str(), &a) == 1;
+}
+
 bool gvcp_answers(const std::string& ipv4, std::chrono::milliseconds timeout) {
   sockaddr_in to{};
   to.sin_family = AF_INET;

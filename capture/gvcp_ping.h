@@ -11,5 +11,7 @@ namespace pvcap {
 
 // True when the camera at `ipv4` acknowledged the read within `timeout`.
 bool gvcp_answers(const std::string& ipv4, std::chrono::milliseconds timeout);
+// Whether `address` is a dotted IPv4 address (a GigE Vision camera's; a USB3 Vision one has none).
+bool is_ipv4(const std::string& address);
 
 }  // namespace pvcap

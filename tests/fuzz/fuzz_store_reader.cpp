@@ -18,13 +18,18 @@
 #include "storage/video_reader.h"
 
 namespace {
+// The fuzzer's scratch folder, removed when the process exits (libFuzzer ends with exit()).
+struct Scratch {
+  std::filesystem::path dir = std::filesystem::temp_directory_path() / ("pvcap-fuzz-store-" + std::to_string(getpid()));
+  Scratch() { std::filesystem::create_directories(dir); }
+  ~Scratch() {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  }
+};
 const std::filesystem::path& scratch() {
-  static const auto dir = [] {
-    auto d = std::filesystem::temp_directory_path() / ("pvcap-fuzz-store-" + std::to_string(getpid()));
-    std::filesystem::create_directories(d);
-    return d;
-  }();
-  return dir;
+  static const Scratch s;
+  return s.dir;
 }
 
 void write_file(const std::filesystem::path& p, const std::uint8_t* data, std::size_t size) {

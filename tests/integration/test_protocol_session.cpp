@@ -7,6 +7,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdio>
+
 #include <fstream>
 #include <map>
 #include <regex>
@@ -150,9 +152,12 @@ TEST(ProtocolSession, AKilledSessionResumesAndTogetherTheFoldersCoverTheProtocol
 
 namespace {
 std::string tmux(const std::string& args) {
-  const auto r = std::system(("tmux -L pvcap-test " + args + " > /tmp/pvcap-tmux-out 2>&1").c_str());
+  const std::string out = fmt::format("/tmp/pvcap-tmux-out-{}", getpid());
+  const auto r = std::system(("tmux -L pvcap-test " + args + " > " + out + " 2>&1").c_str());
   (void)r;
-  return read_all("/tmp/pvcap-tmux-out");
+  std::string text = read_all(out);
+  std::remove(out.c_str());
+  return text;
 }
 
 // Waits until the console pane shows `needle` (`times` times).

@@ -159,10 +159,14 @@ TEST(StoreDiskFull, AFullDiskStopsTheSessionAndWhatWasWrittenVerifies) {
   const fs::path small = work / "small";
   fs::create_directories(small);
   ASSERT_EQ(mount("tmpfs", small.c_str(), "tmpfs", MS_NOSUID | MS_NODEV, "size=24m"), 0) << std::strerror(errno);
-  struct Unmount {
-    fs::path p;
-    ~Unmount() { umount2(p.c_str(), MNT_DETACH); }
-  } unmount{small};
+  struct Unmount {  // and the folder it was mounted in, once empty
+    fs::path p, work;
+    ~Unmount() {
+      umount2(p.c_str(), MNT_DETACH);
+      std::error_code ec;
+      fs::remove_all(work, ec);
+    }
+  } unmount{small, work};
 
   // 1: no free-space margin: the disk really fills, writes fail with ENOSPC, the space reserve
   //    lets the store finish. 2: the free-space watch stops the session before anything fails.
