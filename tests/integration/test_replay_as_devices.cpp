@@ -107,6 +107,40 @@ std::vector<double> replay_interval_errors_ms(const fs::path& log, bool sensel) 
   return errors;
 }
 
+// Records `rig_yaml` for `seconds`, writes its replay rig, and records that for `again_seconds`:
+// the two sessions and the re-recording's output (empty paths, with the failure said, on an error).
+struct RoundTrip {
+  fs::path recorded, replayed, replay_rig;
+  std::string again_output;
+};
+RoundTrip record_twice(const fs::path& work, const std::string& rig_yaml, double seconds, double again_seconds) {
+  RoundTrip r;
+  std::ofstream(work / "rig.yaml") << rig_yaml;
+  const auto first = run_pvcap(fmt::format("session --rig {} --root {} --duration {} --no-web",
+                                           (work / "rig.yaml").string(), (work / "recorded").string(), seconds));
+  r.recorded = only_session(work / "recorded");
+  if (first.exit_code != 0 || r.recorded.empty()) {
+    ADD_FAILURE() << first.output;
+    return {};
+  }
+  r.replay_rig = work / "replay.yaml";
+  const auto rig = run_pvcap(fmt::format("replay {} --as-devices --rig-out {}", r.recorded.string(),
+                                         r.replay_rig.string()));
+  if (rig.exit_code != 0) {
+    ADD_FAILURE() << rig.output;
+    return {};
+  }
+  const auto again = run_pvcap(fmt::format("session --rig {} --root {} --duration {} --no-web",
+                                           r.replay_rig.string(), (work / "replayed").string(), again_seconds));
+  r.again_output = again.output;
+  r.replayed = only_session(work / "replayed");
+  if (again.exit_code != 0 || r.replayed.empty()) {
+    ADD_FAILURE() << again.output;
+    return {};
+  }
+  return r;
+}
+
 }  // namespace
 
 TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
@@ -321,21 +355,10 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
   std::string yaml = sim_rig_yaml({{}}, 640, 480, 30, 15);
   const std::string preset = "  preset: ultrafast\n";
   yaml.replace(yaml.find(preset), preset.size(), preset + "  video_mode: color\n");
-  std::ofstream(work / "rig.yaml") << yaml;
-  const auto first = run_pvcap(fmt::format("session --rig {} --root {} --duration 3 --no-web",
-                                           (work / "rig.yaml").string(), (work / "recorded").string()));
-  ASSERT_EQ(first.exit_code, 0) << first.output;
-  const fs::path recorded = only_session(work / "recorded");
-  ASSERT_FALSE(recorded.empty()) << first.output;
-  const auto rig = run_pvcap(fmt::format("replay {} --as-devices --rig-out {}", recorded.string(),
-                                         (work / "replay.yaml").string()));
-  ASSERT_EQ(rig.exit_code, 0) << rig.output;
-  const auto again = run_pvcap(fmt::format("session --rig {} --root {} --duration 3.5 --no-web",
-                                           (work / "replay.yaml").string(), (work / "replayed").string()));
-  ASSERT_EQ(again.exit_code, 0) << again.output;
-  EXPECT_NE(again.output.find("sampled back into BayerRG8"), std::string::npos) << again.output;
-  const fs::path replayed = only_session(work / "replayed");
-  ASSERT_FALSE(replayed.empty()) << again.output;
+  const RoundTrip trip = record_twice(work, yaml, 3, 3.5);
+  ASSERT_FALSE(trip.replayed.empty());
+  EXPECT_NE(trip.again_output.find("sampled back into BayerRG8"), std::string::npos) << trip.again_output;
+  const fs::path &recorded = trip.recorded, &replayed = trip.replayed;
 
   // Samples found in both by the camera frame's device time: their images agree.
   const Recorded ra = read_recorded(recorded), rb = read_recorded(replayed);
@@ -374,26 +397,15 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
 // receives the same frames (ids and device times) at the recorded intervals.
 TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
   const fs::path work = work_dir("replay-hardware");
-  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000}, {}}, 640, 480, 30, 15,
-                                                   "hardware");
-  const auto first = run_pvcap(fmt::format("session --rig {} --root {} --duration 3 --no-web",
-                                           (work / "rig.yaml").string(), (work / "recorded").string()));
-  ASSERT_EQ(first.exit_code, 0) << first.output;
-  const fs::path recorded = only_session(work / "recorded");
-  ASSERT_FALSE(recorded.empty()) << first.output;
-  const auto rig = run_pvcap(fmt::format("replay {} --as-devices --rig-out {}", recorded.string(),
-                                         (work / "replay.yaml").string()));
-  ASSERT_EQ(rig.exit_code, 0) << rig.output;
+  const RoundTrip trip = record_twice(
+      work, sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000}, {}}, 640, 480, 30, 15, "hardware"), 3, 3.5);
+  ASSERT_FALSE(trip.replayed.empty());
   std::stringstream printed;
-  printed << std::ifstream(work / "replay.yaml").rdbuf();
+  printed << std::ifstream(trip.replay_rig).rdbuf();
   EXPECT_NE(printed.str().find("trigger: hardware"), std::string::npos) << printed.str();
-  const auto again = run_pvcap(fmt::format("session --rig {} --root {} --duration 3.5 --no-web",
-                                           (work / "replay.yaml").string(), (work / "replayed").string()));
-  ASSERT_EQ(again.exit_code, 0) << again.output;
-  EXPECT_EQ(again.output.find("camera lost"), std::string::npos) << again.output;
-  EXPECT_EQ(again.output.find("no trigger reaches it"), std::string::npos) << again.output;
-  const fs::path replayed = only_session(work / "replayed");
-  ASSERT_FALSE(replayed.empty()) << again.output;
+  EXPECT_EQ(trip.again_output.find("camera lost"), std::string::npos) << trip.again_output;
+  EXPECT_EQ(trip.again_output.find("no trigger reaches it"), std::string::npos) << trip.again_output;
+  const fs::path &recorded = trip.recorded, &replayed = trip.replayed;
 
   // Every camera frame recorded (after the replay's first moments) is received again, same id and
   // device time.
