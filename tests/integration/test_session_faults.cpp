@@ -110,6 +110,29 @@ std::int64_t scalar(pvcap::sqlite::Database& db, const std::string& sql) {
   EXPECT_TRUE(q.step()) << sql;
   return q.column_null(0) ? -1 : q.column_int(0);
 }
+
+// Records `seconds` on the replug rig (`replug` as for write_replug_rig): what pvcap said and the
+// session folder (empty, with the failure said, when it did not record).
+struct ReplugRun {
+  fs::path work, session;
+  std::string output;
+};
+ReplugRun record_replug(const std::string& name, const std::string& replug, double seconds) {
+  ReplugRun r;
+  r.work = work_dir(name);
+  const fs::path rig = write_replug_rig(r.work, replug);
+  if (rig.empty()) {
+    ADD_FAILURE() << "the replug rig could not be written";
+    return r;
+  }
+  const auto run = run_pvcap(fmt::format("session --rig {} --root {} --duration {} --no-web", rig.string(),
+                                         (r.work / "sessions").string(), seconds));
+  r.output = run.output;
+  if (run.exit_code == 0) r.session = only_session(r.work / "sessions");
+  if (r.session.empty()) ADD_FAILURE() << "exit " << run.exit_code << "\n" << run.output;
+  return r;
+}
+
 }  // namespace
 
 // The Morph unplugged and plugged back during a session: the operator is told both, the frames
@@ -117,17 +140,13 @@ std::int64_t scalar(pvcap::sqlite::Database& db, const std::string& sql) {
 // connection's), the time away is recorded as lost frames with the reason, and every sample still
 // reads its own pressure frame.
 TEST(SessionFaults, ASenselPluggedBackIsANewConnectionAndItsAbsenceIsRecordedAsLost) {
-  const fs::path work = work_dir("replug");
-  const fs::path rig = write_replug_rig(work, "");
-  ASSERT_FALSE(rig.empty());
-  const auto run = run_pvcap(fmt::format("session --rig {} --root {} --duration 9 --no-web", rig.string(),
-                                         (work / "sessions").string()));
-  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const auto run = record_replug("replug", "", 9);
+  ASSERT_FALSE(run.session.empty());
+  const fs::path& work = run.work;
+  const fs::path& session = run.session;
   EXPECT_NE(run.output.find("Sensel reconnected (serial SM01164910368), streaming again as connection 1"),
             std::string::npos)
       << run.output;
-  const fs::path session = only_session(work / "sessions");
-  ASSERT_FALSE(session.empty());
   pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
   EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_unplugged'"), 1);
   EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_reconnected'"), 1);
@@ -162,20 +181,16 @@ TEST(SessionFaults, ASenselPluggedBackIsANewConnectionAndItsAbsenceIsRecordedAsL
 // /dev/ttyACM1): the driver finds it by its serial among the ports a Morph may be behind, says
 // where, and records it as the next connection.
 TEST(SessionFaults, ASenselBackUnderAnotherNameIsFoundByItsSerial) {
-  const fs::path work = work_dir("renamed-morph");
-  const fs::path rig = write_replug_rig(work, ", replug_renamed: true");
-  ASSERT_FALSE(rig.empty());
-  const auto run = run_pvcap(fmt::format("session --rig {} --root {} --duration 8 --no-web", rig.string(),
-                                         (work / "sessions").string()));
-  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const auto run = record_replug("renamed-morph", ", replug_renamed: true", 8);
+  ASSERT_FALSE(run.session.empty());
+  const fs::path& work = run.work;
+  const fs::path& session = run.session;
   EXPECT_NE(run.output.find("is gone; the session's Morph (serial SM01164910368) is back on "), std::string::npos)
       << run.output;
   EXPECT_NE(run.output.find("morph-replugged"), std::string::npos) << run.output;
   EXPECT_NE(run.output.find("Sensel reconnected (serial SM01164910368), streaming again as connection 1"),
             std::string::npos)
       << run.output;
-  const fs::path session = only_session(work / "sessions");
-  ASSERT_FALSE(session.empty());
   pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
   EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_reconnected'"), 1);
   EXPECT_GT(scalar(db, "SELECT count(*) FROM pressure_frames WHERE connection = 1"), 200);
@@ -184,18 +199,14 @@ TEST(SessionFaults, ASenselBackUnderAnotherNameIsFoundByItsSerial) {
 
 // Another Morph plugged in where the session's was unplugged is refused, loudly, and not recorded.
 TEST(SessionFaults, ADifferentSenselPluggedInIsRefusedAndNotRecorded) {
-  const fs::path work = work_dir("other-morph");
-  const fs::path rig = write_replug_rig(work, ", replug_serial: SM99999999999");
-  ASSERT_FALSE(rig.empty());
-  const auto run = run_pvcap(fmt::format("session --rig {} --root {} --duration 7 --no-web", rig.string(),
-                                         (work / "sessions").string()));
-  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const auto run = record_replug("other-morph", ", replug_serial: SM99999999999", 7);
+  ASSERT_FALSE(run.session.empty());
+  const fs::path& work = run.work;
+  const fs::path& session = run.session;
   EXPECT_NE(run.output.find("a different Sensel Morph (serial SM99999999999) answered where the session's (serial "
                             "SM01164910368) was unplugged; it is NOT recorded"),
             std::string::npos)
       << run.output;
-  const fs::path session = only_session(work / "sessions");
-  ASSERT_FALSE(session.empty());
   pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
   EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_wrong_device'"), 1)
       << "said once, not at every retry";
