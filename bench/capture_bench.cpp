@@ -23,7 +23,6 @@
 
 #include "capture/aravis_camera.h"
 #include "capture/aravis_handles.h"
-#include "core/sequence_unwrap.h"
 #include "sim/netns.h"
 
 extern char** environ;
@@ -148,15 +147,14 @@ PathResult pvcap_path(const std::vector<CameraConfig>& configs, double seconds) 
   std::vector<std::thread> consumers;
   for (auto& cam : cams)
     consumers.emplace_back([&, c = cam.get()] {
-      SequenceUnwrapper unwrap(16, true);
       while (!c->frames().closed_and_empty()) {
         auto f = c->frames().pop_for(100ms);
+        while (c->losses().pop_for(0ms)) {}  // counted from lost_before below
         if (!f) continue;
-        const auto step = unwrap.next(f->frame_id);
         if (!counting.load()) continue;
         if (f->status == FrameStatus::Good) good.fetch_add(1);
         else lost.fetch_add(1);
-        lost.fetch_add(step.missing);
+        lost.fetch_add(f->lost_before);
       }
     });
   for (auto& cam : cams) (void)cam->start();

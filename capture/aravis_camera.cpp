@@ -204,7 +204,7 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
     return s;
   }
   auto stream = AravisStream::create(link_->camera.get(), index_, connection, settings_.payload, settings_.buffer_count,
-                                     config_.packet_resend, config_.socket_buffer_bytes, queue_);
+                                     config_.packet_resend, config_.socket_buffer_bytes, queue_, losses_);
   if (!stream) {
     link_->camera.reset();
     return Error{fmt::format("{}: {}", label(), stream.error().message)};
@@ -311,6 +311,7 @@ void AravisCamera::control_loop() {
       {
         std::lock_guard lock(mu_);
         last = link_->stream ? link_->stream->last_arrival() : HostNs{0};
+        if (link_->stream) link_->stream->settle_losses(now);  // a silent camera's gaps too
       }
       const bool first_frame_pending = last.ns == 0 || last < started_at_;
       if (first_frame_pending) last = started_at_;
@@ -447,6 +448,7 @@ void AravisCamera::stop() {
   if (control_thread_.joinable()) control_thread_.join();  // its loop tears the connection down
   else teardown_connection(true);                          // opened but never started
   queue_.close();
+  losses_.close();
   probes_.close();
 }
 

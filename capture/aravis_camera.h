@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "capture/camera_frame.h"
+#include "capture/frame_sequencer.h"
 #include "core/bounded_queue.h"
 #include "core/result.h"
 #include "core/rig_config.h"
@@ -91,7 +92,10 @@ class AravisCamera {
   // consumer drains it).
   void stop();
 
+  // Each frame numbered in the camera's own sequence (frame_sequencer.h), and the frames lost,
+  // with their reasons. Both close after stop().
   BoundedQueue<CameraFrame>& frames() { return queue_; }
+  BoundedQueue<FrameLoss>& losses() { return losses_; }
   // Timestamp-latch probes, four a second while streaming, from cameras that have the
   // SFNC TimestampControlLatch/TimestampLatchValue or GevTimestampControlLatch/GevTimestampValue.
   BoundedQueue<ClockProbe>& clock_probes() { return probes_; }
@@ -119,6 +123,7 @@ class AravisCamera {
   const CameraConfig config_;
   EventHandler on_event_;
   BoundedQueue<CameraFrame> queue_;
+  BoundedQueue<FrameLoss> losses_{4096};
 
   // The connection to the device (Aravis' camera, its stream, the control-lost signal): defined in
   // the .cpp, so no Aravis or GLib type reaches the code that records.

@@ -20,8 +20,9 @@ Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, in
                                                            std::uint32_t connection, std::size_t payload,
                                                            std::size_t buffer_count, bool packet_resend,
                                                            int socket_buffer_bytes,
-                                                           BoundedQueue<CameraFrame>& queue) {
-  std::shared_ptr<AravisStream> self(new AravisStream(queue, camera_index, connection));
+                                                           BoundedQueue<CameraFrame>& queue,
+                                                           BoundedQueue<FrameLoss>& losses) {
+  std::shared_ptr<AravisStream> self(new AravisStream(queue, losses, camera_index, connection));
   arv::GErrorSlot err;
   self->stream_.reset(arv_camera_create_stream(camera, nullptr, nullptr, err.out()));
   if (!self->stream_) return Error{fmt::format("cannot create the video stream: {}", err.message())};
@@ -52,6 +53,19 @@ AravisStream::~AravisStream() {
 void AravisStream::quiesce() {
   accepting_.store(false);
   while (in_callback_.load() > 0) std::this_thread::yield();
+  settle_losses(host_now(), /*all=*/true);
+}
+
+void AravisStream::settle_losses(HostNs now, bool all) {
+  if (!all && !sequencer_.has_due(now)) return;
+  std::lock_guard lock(settle_mu_);
+  guint64 underruns = 0;
+  arv_stream_get_statistics(stream_.get(), nullptr, nullptr, &underruns);
+  sequencer_.settle(now, underruns, unreported_, all);
+  // A full losses queue keeps them here until the consumer makes room: none is dropped.
+  std::size_t sent = 0;
+  while (sent < unreported_.size() && losses_.try_push(unreported_[sent])) ++sent;
+  unreported_.erase(unreported_.begin(), unreported_.begin() + std::ptrdiff_t(sent));
 }
 
 void AravisStream::on_new_buffer(ArvStream* stream, void* self_ptr) {
@@ -105,13 +119,12 @@ void AravisStream::handle(ArvBuffer* buffer) {
     frame.detail = name;
     arv_stream_push_buffer(stream_.get(), buffer);
   }
-  frame.dropped_before = dropped_since_push_;
-  if (queue_.try_push(frame)) {
-    dropped_since_push_ = 0;
-  } else {  // `frame` releases its buffer; the next frame pushed tells the pipeline
+  sequencer_.identify(frame);
+  if (!queue_.try_push(frame)) {  // `frame` releases its buffer; the frame is a loss
     overflows_.fetch_add(1, std::memory_order_relaxed);
-    ++dropped_since_push_;
+    sequencer_.dropped(frame);
   }
+  settle_losses(arrival);
 }
 
 StreamCounters AravisStream::counters() const {

@@ -18,6 +18,14 @@ enum class FrameStatus : std::uint8_t {
 };
 const char* to_string(FrameStatus status);
 
+// Whether a buffer is the frame its id and timestamp name.
+enum class FrameIdentity : std::uint8_t {
+  Own = 0,            // a new frame, or one that arrived late into a gap
+  NoFrameId = 1,      // no leader packet: no id, no timestamp (GigE Vision never sends id 0)
+  Duplicate = 2,      // a complete frame with an id already received
+  StaleMetadata = 3,  // incomplete, carrying its buffer's previous frame's id and timestamp
+};
+
 // Returns a borrowed buffer to its pool when destroyed. Move-only. Built on the capture thread
 // once per frame, so it allocates nothing: a plain function, the pool (kept alive) and the buffer.
 class BufferLease {
@@ -61,9 +69,12 @@ struct CameraFrame {
   HostNs host_ts;                 // pvcap's arrival stamp (CLOCK_MONOTONIC)
   std::int64_t aravis_system_ns = 0;  // Aravis' own wall-clock arrival stamp, kept for diagnosis
   FrameStatus status = FrameStatus::Good;
-  // Frames the driver received just before this one and dropped, pvcap's queue being full (their
-  // ids are the ones right before this frame's): lost with that reason, not "not received".
-  std::uint32_t dropped_before = 0;
+  // The frame's place in the camera's numbering (set by the driver, see frame_sequencer.h):
+  // its id unwrapped within the connection (0: unknown), and how many ids were skipped just
+  // before it (what became of them is reported separately, as losses with their reason).
+  std::uint64_t sequence = 0;
+  std::uint64_t lost_before = 0;
+  FrameIdentity identity = FrameIdentity::Own;
   std::string detail;             // why, when status is not Good
   std::uint32_t pixel_format = 0; // PFNC code
   int width = 0;

@@ -5,6 +5,7 @@
 // of the gap and only what is still missing when the grace ends is reported.
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <vector>
 
 namespace pvcap {
@@ -48,6 +49,13 @@ class GapTracker {
   }
 
   std::size_t open_gaps() const { return open_.size(); }
+  // When the oldest open gap was noticed (none open: empty).
+  std::optional<std::int64_t> oldest_noticed_ns() const {
+    std::optional<std::int64_t> oldest;
+    for (const Gap& g : open_)
+      if (!oldest || g.noticed_ns < *oldest) oldest = g.noticed_ns;
+    return oldest;
+  }
 
  private:
   std::int64_t grace_ns_;

@@ -2,6 +2,7 @@
 
 #include <cstring>
 #include <map>
+#include <string_view>
 #include <thread>
 
 #include <fmt/format.h>
@@ -9,8 +10,6 @@
 
 #include "capture/pixel_format.h"
 #include "core/frame_pool.h"
-#include "core/gap_tracker.h"
-#include "core/sequence_unwrap.h"
 #include "core/time.h"
 
 namespace pvcap::session {
@@ -58,7 +57,6 @@ void run_camera_pipeline(const CameraPipeline& p) {
   const std::size_t encoder_queue = p.encoder_queue;
   const bool raw_video = writer.stores_raw(device_id);
   std::int64_t next_preview_ns = 0;
-  SequenceUnwrapper unwrap(16, /*zero_is_skipped=*/true);
   std::uint32_t connection = UINT32_MAX;
   std::map<std::pair<std::uint32_t, std::uint64_t>, HeldFrame> held;
   // Pixel buffers are reused: a fresh 2 MB allocation per frame costs page faults by the thousand.
@@ -69,23 +67,13 @@ void run_camera_pipeline(const CameraPipeline& p) {
   // So are the images for the encoder (mosaics or debayered): one for each it can hold, and the one
   // being filled.
   FramePool images(encoder_queue + 2);
-  // A frame that times out incomplete is delivered after its successor: hold gaps open for a
-  // second so such a frame is counted once, as what it is. A gap that stays is frames that never
-  // reached pvcap: those Aravis had no free buffer for (its underrun counter grew meanwhile; a slow
-  // consumer holds the buffers), the others not received (lost on the link, or never sent).
-  std::uint64_t underruns_seen = camera.counters().underruns, underrun_credit = 0;
-  auto report_gap = [&](const GapTracker::Gap& g) {
-    tally.not_received.fetch_add(g.count, std::memory_order_relaxed);
-    const std::uint64_t underruns = camera.counters().underruns;
-    underrun_credit += underruns - std::min(underruns, underruns_seen);
-    underruns_seen = underruns;
-    const std::uint64_t by_underrun = std::min(g.count, underrun_credit);
-    underrun_credit -= by_underrun;
-    if (by_underrun > 0)
-      writer.record(DropRecord{device_id, connection, g.first, by_underrun, "buffer_underrun", g.noticed_ns});
-    if (g.count > by_underrun)
-      writer.record(DropRecord{device_id, connection, g.first + by_underrun, g.count - by_underrun, "not_received",
-                               g.noticed_ns});
+  // The frames the driver knows were lost, each run with its reason: a row in the store at once.
+  auto record_losses = [&] {
+    while (auto loss = camera.losses().pop_for(0ms)) {
+      auto& counter = std::string_view(loss->reason) == "queue_overflow" ? tally.queue_overflow : tally.not_received;
+      counter.fetch_add(loss->count, std::memory_order_relaxed);
+      writer.record(DropRecord{device_id, loss->connection, loss->first, loss->count, loss->reason, loss->noticed.ns});
+    }
   };
   // The timeline's verdicts: the kept frame of a sample goes to the video, the others to the index.
   auto apply_decisions = [&] {
@@ -125,11 +113,10 @@ void run_camera_pipeline(const CameraPipeline& p) {
       writer.record(std::move(h.rec));
     }
   };
-  GapTracker gaps(1'000'000'000, report_gap);
   auto& queue = camera.frames();
-  while (!queue.closed_and_empty()) {
+  while (!queue.closed_and_empty() || !camera.losses().closed_and_empty()) {
     auto frame = queue.pop_for(100ms);
-    gaps.settle(host_now().ns);
+    record_losses();
     apply_decisions();
     // The timeline decides within a quarter second; a frame held far longer means it never will:
     // record it rather than hold its pixels without bound.
@@ -148,38 +135,16 @@ void run_camera_pipeline(const CameraPipeline& p) {
         timeline.camera_probe(index, probe->device, probe->host_lo, probe->host_hi);
     if (!frame) continue;
     tally.received.fetch_add(1, std::memory_order_relaxed);
-    if (frame->connection != connection) {  // frame ids restart with each connection
-      gaps.settle(0, /*flush_all=*/true);
-      unwrap = SequenceUnwrapper(16, true);
-      connection = frame->connection;
-    }
-    if (frame->frame_id == 0) {
-      // GigE Vision never sends id 0: this buffer got no leader packet, so it has no identity.
-      // The frame it was is counted in a gap; record the buffer, sequence 0 = unknown.
-      tally.unidentified.fetch_add(1, std::memory_order_relaxed);
-      writer.record(FrameRecord{device_id, frame->connection, 0, 0, frame->device_ts.ns, frame->host_ts.ns,
-                                frame->aravis_system_ns, to_string(frame->status), false,
-                                "no_frame_id_" + frame->detail, {}, {}, {}, {}});
-      continue;
-    }
-    const auto step = unwrap.next(frame->frame_id);
-    FrameRecord rec{device_id, frame->connection, step.sequence, frame->frame_id, frame->device_ts.ns,
+    connection = frame->connection;
+    FrameRecord rec{device_id, frame->connection, frame->sequence, frame->frame_id, frame->device_ts.ns,
                     frame->host_ts.ns, frame->aravis_system_ns, to_string(frame->status), false, "", {}, {}, {}, {}};
-    // The frames just before this one that the driver dropped (its queue full) are lost with that
-    // reason; the rest of a gap may still arrive late (an incomplete frame), so it waits.
-    const std::uint64_t by_queue = std::min<std::uint64_t>(frame->dropped_before, step.missing);
-    if (by_queue > 0) {
-      tally.queue_overflow.fetch_add(by_queue, std::memory_order_relaxed);
-      writer.record(DropRecord{device_id, frame->connection, step.sequence - by_queue, by_queue, "queue_overflow",
-                               frame->host_ts.ns});
-    }
-    gaps.missing(step.sequence - step.missing, step.missing - by_queue, frame->host_ts.ns);
-    if (step.out_of_order && !gaps.arrived_late(step.sequence)) {
-      // Not a frame we were missing. An incomplete buffer whose leader packet was lost still
-      // carries the id and timestamp of the buffer's previous frame (seen with Aravis 0.8):
-      // the frame it really was is already counted in a gap, so it is recorded, not counted.
+    if (frame->identity != FrameIdentity::Own) {
+      // A buffer that is not the frame it names (the frame it was is counted in a gap): recorded,
+      // never used. Without a frame id it has sequence 0, unknown.
       tally.unidentified.fetch_add(1, std::memory_order_relaxed);
-      rec.reason = frame->status == FrameStatus::Good ? "duplicate_frame_id" : "stale_metadata_" + frame->detail;
+      rec.reason = frame->identity == FrameIdentity::NoFrameId ? "no_frame_id_" + frame->detail
+                   : frame->identity == FrameIdentity::Duplicate ? std::string("duplicate_frame_id")
+                                                                 : "stale_metadata_" + frame->detail;
     } else if (frame->status != FrameStatus::Good) {
       tally.incomplete.fetch_add(1, std::memory_order_relaxed);
       rec.reason = frame->detail;
@@ -192,7 +157,7 @@ void run_camera_pipeline(const CameraPipeline& p) {
       const bool leader_usable = frame->aravis_system_ns > 0 && leader_ns <= frame->host_ts.ns &&
                                  frame->host_ts.ns - leader_ns < 1'000'000'000;
       rec.mapped_ns = timeline
-                          .camera_frame(index, frame->connection, step.sequence, frame->device_ts,
+                          .camera_frame(index, frame->connection, frame->sequence, frame->device_ts,
                                         leader_usable ? HostNs{leader_ns} : frame->host_ts)
                           .ns;
       std::vector<std::uint8_t> pixels;
@@ -223,7 +188,7 @@ void run_camera_pipeline(const CameraPipeline& p) {
     }
     writer.record(std::move(rec));
   }
-  gaps.settle(0, /*flush_all=*/true);
+  record_losses();
   // The last worker to finish feeding makes the timeline decide what is pending.
   if (end.feeding.fetch_sub(1) == 1) {
     timeline.flush();

@@ -1,9 +1,9 @@
 #pragma once
 // One camera's part of a recording: a worker thread that takes the driver's
-// frames, numbers them (frame ids unwrapped per connection, gaps counted as
-// drops), feeds the good ones to the timeline, and sends each to the store as
-// the timeline decides: the kept frame of a sample to its video, every other
-// frame to the index with its reason. Never waits on the store.
+// frames (numbered by the driver, see capture/frame_sequencer.h) and losses,
+// feeds the good frames to the timeline, and sends each to the store as the
+// timeline decides: the kept frame of a sample to its video, every other frame
+// to the index with its reason, every loss as a drop row. Never waits on the store.
 #include <atomic>
 #include <cstdint>
 #include <mutex>
