@@ -3,6 +3,7 @@
 #include "capture/aravis_handles.h"
 #include "capture/aravis_stream.h"
 #include "capture/gvcp_ping.h"
+#include "core/fault_injection.h"
 
 #include <cmath>
 #include <fstream>
@@ -62,8 +63,9 @@ AravisCamera::AravisCamera(int index, CameraConfig config, EventHandler on_event
     : index_(index),
       config_(std::move(config)),
       on_event_(std::move(on_event)),
-      // Good frames are bounded by the buffer pool; the slack carries failed-frame records.
-      queue_(buffer_count_for(config_) + 256),
+      // Good frames are bounded by the buffer pool; the slack carries failed-frame records. A test
+      // may shrink it (core/fault_injection.h) to meet a queue that overflows.
+      queue_(std::size_t(fault::value("camera.queue_frames").value_or(double(buffer_count_for(config_) + 256)))),
       link_(std::make_unique<Link>()) {
   arv::route_glib_logs_to_spdlog();
 }
@@ -298,6 +300,9 @@ void AravisCamera::control_loop() {
   // asked every 250 ms whether it is there: three unanswered asks (~0.75 s more) and it is lost.
   HostNs last_ask{0};
   int unanswered = 0;
+  // A camera whose frames find no free buffer (pvcap holds them all) is sending: it is alive.
+  std::uint64_t underruns_seen = 0;
+  HostNs underrun_at{0};
   bool said_no_trigger = false;
   while (running_.load()) {
     {
@@ -311,8 +316,14 @@ void AravisCamera::control_loop() {
       {
         std::lock_guard lock(mu_);
         last = link_->stream ? link_->stream->last_arrival() : HostNs{0};
-        if (link_->stream) link_->stream->settle_losses(now);  // a silent camera's gaps too
+        if (link_->stream) {
+          link_->stream->settle_losses(now);  // a silent camera's gaps too
+          const std::uint64_t underruns = link_->stream->counters().underruns;
+          if (underruns > underruns_seen) underrun_at = now;
+          underruns_seen = underruns;
+        }
       }
+      if (underrun_at > last) last = underrun_at;
       const bool first_frame_pending = last.ns == 0 || last < started_at_;
       if (first_frame_pending) last = started_at_;
       const auto silent_ms = (now.ns - last.ns) / 1'000'000;
@@ -369,6 +380,7 @@ void AravisCamera::control_loop() {
         if (!err) {
           started_at_ = host_now();
           connected = true;
+          underruns_seen = 0;  // a new stream counts from zero
           emit(CameraEvent::Kind::Reconnected, fmt::format("{}: reconnected, recording again", label()));
         } else {
           teardown_connection(false);

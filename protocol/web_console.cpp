@@ -66,6 +66,7 @@ nlohmann::json stream_json(const session::StreamStatus& s) {
           {"incomplete", s.incomplete},
           {"not_received", s.not_received},
           {"queue_overflow", s.queue_overflow},
+          {"buffer_underrun", s.buffer_underrun},
           {"encoder_behind", s.encoder_behind},
           {"connection_losses", s.connection_losses},
           {"encoder_backlog", s.encoder_backlog},

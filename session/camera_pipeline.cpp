@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "capture/pixel_format.h"
+#include "core/fault_injection.h"
 #include "core/frame_pool.h"
 #include "core/time.h"
 
@@ -70,7 +71,10 @@ void run_camera_pipeline(const CameraPipeline& p) {
   // The frames the driver knows were lost, each run with its reason: a row in the store at once.
   auto record_losses = [&] {
     while (auto loss = camera.losses().pop_for(0ms)) {
-      auto& counter = std::string_view(loss->reason) == "queue_overflow" ? tally.queue_overflow : tally.not_received;
+      const std::string_view reason = loss->reason;
+      auto& counter = reason == "queue_overflow"    ? tally.queue_overflow
+                      : reason == "buffer_underrun" ? tally.buffer_underrun
+                                                    : tally.not_received;
       counter.fetch_add(loss->count, std::memory_order_relaxed);
       writer.record(DropRecord{device_id, loss->connection, loss->first, loss->count, loss->reason, loss->noticed.ns});
     }
@@ -113,6 +117,12 @@ void run_camera_pipeline(const CameraPipeline& p) {
       writer.record(std::move(h.rec));
     }
   };
+  // A worker that falls behind, on purpose (core/fault_injection.h): tests meet buffer underruns
+  // and queue overflows through the real session.
+  std::optional<double> stall_s = fault::value("camera_pipeline.stall_s");
+  if (index != int(fault::value("camera_pipeline.stall_camera").value_or(0))) stall_s.reset();
+  const double stall_after_s = fault::value("camera_pipeline.stall_after_s").value_or(2.0);
+  std::int64_t first_frame_ns = 0;
   auto& queue = camera.frames();
   while (!queue.closed_and_empty() || !camera.losses().closed_and_empty()) {
     auto frame = queue.pop_for(100ms);
@@ -134,6 +144,11 @@ void run_camera_pipeline(const CameraPipeline& p) {
       if (probe->connection == connection)
         timeline.camera_probe(index, probe->device, probe->host_lo, probe->host_hi);
     if (!frame) continue;
+    if (first_frame_ns == 0) first_frame_ns = frame->host_ts.ns;
+    if (stall_s && frame->host_ts.ns - first_frame_ns >= std::int64_t(stall_after_s * 1e9)) {
+      std::this_thread::sleep_for(std::chrono::duration<double>(*stall_s));
+      stall_s.reset();
+    }
     tally.received.fetch_add(1, std::memory_order_relaxed);
     connection = frame->connection;
     FrameRecord rec{device_id, frame->connection, frame->sequence, frame->frame_id, frame->device_ts.ns,

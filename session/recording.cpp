@@ -113,6 +113,7 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
   r->device_ids_.assign(n, 0);
   r->warned_encoder_.assign(n, false);
   r->warned_spill_.assign(n, false);
+  r->warned_behind_.assign(n, false);
   Recording* self = r.get();
   for (std::size_t i = 0; i < n; ++i) {
     r->tallies_.push_back(std::make_unique<CameraTally>());
@@ -309,6 +310,17 @@ std::string Recording::wait(const std::atomic<bool>& interrupt, std::optional<do
                          "Nothing is lost; the session may take longer to close",
                          rig_.cameras[i].name));
       }
+      // Frames pvcap itself was too slow to take from the camera: its worker fell behind.
+      if (const auto behind = tallies_[i]->queue_overflow.load() + tallies_[i]->buffer_underrun.load();
+          !warned_behind_[i] && behind > 0) {
+        warned_behind_[i] = true;
+        warn(fmt::format("{}: {} frame{} lost because pvcap did not take {} from the camera in time ({}): this PC is "
+                         "too busy for the rig. Close other programs, or lower frame_rate or the resolution in the "
+                         "rig file; raising the camera's buffer_count rides out short stalls",
+                         rig_.cameras[i].name, behind, behind == 1 ? "" : "s", behind == 1 ? "it" : "them",
+                         tallies_[i]->queue_overflow.load() > 0 ? "its frame queue was full"
+                                                                : "the camera's stream had no free buffer"));
+      }
       if (!warned_encoder_[i] && tallies_[i]->encoder_behind.load() > 0) {
         warned_encoder_[i] = true;
         warn(fmt::format("{}: frames are being dropped (encoder_behind): neither the video encoder nor its spill to "
@@ -334,7 +346,8 @@ void Recording::log_progress(double elapsed_s) {
     const auto& t = *tallies_[i];
     line += fmt::format(" | {} {} rx, {} video, {} lost", rig_.cameras[i].name, t.received.load(),
                         writer_->camera_stats(device_ids_[i]).frames_in_video,
-                        t.not_received.load() + t.queue_overflow.load() + t.incomplete.load() + t.encoder_behind.load());
+                        t.not_received.load() + t.queue_overflow.load() + t.buffer_underrun.load() +
+                            t.incomplete.load() + t.encoder_behind.load());
   }
   if (sensel_) line += fmt::format(" | sensel {} frames", sensel_->stored());
   line += fmt::format(" | {} samples", samples_.load());
@@ -393,6 +406,7 @@ RecordingStatus Recording::status() const {
     s.incomplete = t.incomplete.load();
     s.not_received = t.not_received.load();
     s.queue_overflow = t.queue_overflow.load();
+    s.buffer_underrun = t.buffer_underrun.load();
     s.encoder_behind = t.encoder_behind.load();
     s.connection_losses = t.lost_events.load();
     if (writer_) {

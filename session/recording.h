@@ -64,6 +64,7 @@ struct StreamStatus {
   std::uint64_t received = 0, good = 0, in_video = 0, incomplete = 0, not_received = 0, encoder_behind = 0,
                 connection_losses = 0;
   std::uint64_t queue_overflow = 0;  // received by the driver and dropped, its queue full (pvcap too slow)
+  std::uint64_t buffer_underrun = 0;  // sent while the camera's stream had no free buffer (pvcap too slow)
   std::size_t encoder_backlog = 0;  // kept frames waiting for the encoder (memory and spill)
   std::size_t spill_backlog = 0;    // of which on disk
   std::uint64_t spilled = 0;        // frames that went through the spill so far
@@ -156,7 +157,7 @@ class Recording {
   std::atomic<int> state_{0};  // index into kStates
   std::string stop_reason_;
   std::optional<std::string> start_failure_;
-  std::vector<bool> warned_encoder_, warned_spill_;
+  std::vector<bool> warned_encoder_, warned_spill_, warned_behind_;
 
   mutable std::mutex mu_;  // what follows
   std::deque<std::string> warnings_;

@@ -31,8 +31,8 @@ Result<std::string> session_report(const std::filesystem::path& dir, std::option
   fmt::format_to(out, "session: {}\n", dir.string());
   fmt::format_to(out, "ended: {} after {:.1f} s\n", info.end_reason.empty() ? "(did not end cleanly)" : info.end_reason,
                  recorded_s.value_or(0.0));
-  fmt::format_to(out, "{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>10} {:>9}\n", "camera", "received", "good",
-                 "in video", "incomplete", "not received", "enc. behind", "lost conn");
+  fmt::format_to(out, "{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>12} {:>11} {:>9}\n", "camera", "received", "good",
+                 "in video", "incomplete", "not received", "pvcap behind", "enc. behind", "lost conn");
   bool any_loss = false;
   std::string notes;
   for (const auto& s : streams.value()) {
@@ -50,8 +50,12 @@ Result<std::string> session_report(const std::filesystem::path& dir, std::option
       const std::uint64_t good = s.by_status.count("good") ? s.by_status.at("good") - duplicates : 0;
       const std::uint64_t incomplete = not_good - std::min(not_good, unidentified);
       const std::uint64_t behind = s.not_kept.count("encoder_behind") ? s.not_kept.at("encoder_behind") : 0;
-      fmt::format_to(out, "{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>10} {:>9}\n", s.name, s.frames, good, s.in_video,
-                     incomplete, s.dropped, behind, s.connection_losses);
+      // Lost because pvcap did not take them in time (its queue full, no free stream buffer).
+      std::uint64_t pvcap_behind = 0;
+      for (const char* why : {"queue_overflow", "buffer_underrun"})
+        if (s.dropped_by_reason.count(why)) pvcap_behind += s.dropped_by_reason.at(why);
+      fmt::format_to(out, "{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>12} {:>11} {:>9}\n", s.name, s.frames, good,
+                     s.in_video, incomplete, s.dropped - pvcap_behind, pvcap_behind, behind, s.connection_losses);
       any_loss |= incomplete + s.dropped + behind + s.connection_losses > 0;
       if (unidentified + duplicates)
         notes += fmt::format("{}: {} buffers arrived without their own frame id (reasons no_frame_id_*, "

@@ -373,6 +373,63 @@ TEST(SimSession, AnEncoderFallingBehindIsWarnedOnceAndItsFramesWaitOnDisk) {
   fs::remove_all(s.dir.parent_path().parent_path());
 }
 
+// A camera worker that falls behind (stalled 1.5 s on purpose, core/fault_injection.h) loses frames
+// with their true reason, says so once, and every frame stays accounted for.
+struct BehindOutcome {
+  std::map<std::string, std::uint64_t> lost_by_reason;  // camera 0's drop rows
+  Accounting accounting;
+  std::uint64_t other_camera_lost_by_pvcap = 0;
+};
+
+BehindOutcome record_with_a_stalled_worker(const std::string& name, const std::string& faults) {
+  setenv("PVCAP_FAULTS", faults.c_str(), 1);
+  const auto s = record(name, sim_rig_yaml({{}, {}}, 320, 240, 30, 15), 5);
+  unsetenv("PVCAP_FAULTS");
+  BehindOutcome o;
+  EXPECT_EQ(s.result.exit_code, 0) << s.result.output;
+  EXPECT_NE(s.result.output.find("PVCAP_FAULTS is set"), std::string::npos) << "an injected fault is never silent";
+  const std::string warning = "lost because pvcap did not take";
+  const auto first = s.result.output.find(warning);
+  EXPECT_NE(first, std::string::npos) << s.result.output;
+  EXPECT_EQ(s.result.output.find(warning, first + 1), std::string::npos) << "warned more than once: "
+                                                                         << s.result.output;
+  EXPECT_EQ(s.result.output.find("camera lost"), std::string::npos)
+      << "a camera pvcap starved of buffers is not a lost camera: " << s.result.output;
+  if (s.cameras.size() != 2) {
+    ADD_FAILURE() << "expected 2 cameras: " << s.result.output;
+    return o;
+  }
+  for (const auto& d : s.cameras[0].drops) o.lost_by_reason[d.reason] += d.count;
+  for (const auto& d : s.cameras[1].drops)
+    if (d.reason == "queue_overflow" || d.reason == "buffer_underrun") o.other_camera_lost_by_pvcap += d.count;
+  o.accounting = account(s.cameras[0]);
+  for (const auto& [why, n] : o.lost_by_reason) std::printf("%s: cam0 lost %llu frames: %s\n", name.c_str(), (unsigned long long)n, why.c_str());
+  if (first != std::string::npos)
+    std::printf("%s\n", s.result.output.substr(first, s.result.output.find('\n', first) - first).c_str());
+  EXPECT_EQ(o.accounting.unaccounted, 0u) << "frames neither stored nor in a drop row";
+  fs::remove_all(s.dir.parent_path().parent_path());
+  return o;
+}
+
+TEST(SimSession, FramesSentWhileTheStreamHadNoFreeBufferAreRecordedAsBufferUnderrun) {
+  // The driver's queue is larger than the buffer pool: the stalled worker holds every buffer, and
+  // the frames the camera sends meanwhile find none (1.5 s at 30 Hz, less the 15 buffers: ~30).
+  const auto o = record_with_a_stalled_worker("underrun", "camera_pipeline.stall_s=1.5,camera_pipeline.stall_after_s=1.5");
+  EXPECT_GE(o.lost_by_reason.count("buffer_underrun") ? o.lost_by_reason.at("buffer_underrun") : 0, 20u);
+  EXPECT_EQ(o.lost_by_reason.count("queue_overflow"), 0u);
+  EXPECT_EQ(o.other_camera_lost_by_pvcap, 0u) << "the other camera's worker never stalled";
+}
+
+TEST(SimSession, FramesTheDriversQueueHadNoRoomForAreRecordedAsQueueOverflow) {
+  // A queue of 4, smaller than the pool: the driver drops what it cannot queue and returns the
+  // buffer at once, so the camera never runs out of buffers (1.5 s at 30 Hz, less 4 queued: ~40).
+  const auto o = record_with_a_stalled_worker(
+      "queue-overflow", "camera_pipeline.stall_s=1.5,camera_pipeline.stall_after_s=1.5,camera.queue_frames=4");
+  EXPECT_GE(o.lost_by_reason.count("queue_overflow") ? o.lost_by_reason.at("queue_overflow") : 0, 30u);
+  EXPECT_EQ(o.lost_by_reason.count("buffer_underrun"), 0u);
+  EXPECT_EQ(o.other_camera_lost_by_pvcap, 0u);
+}
+
 TEST(SimSession, SenselIsStoredAtFullRateWithItsDeviceAndArrivalTimes) {
   const double duration = 5;
   const auto s = record("sensel", sim_rig_yaml({{}}, kWidth, kHeight, 30, 15, "free-run", /*sensel=*/true), duration);
