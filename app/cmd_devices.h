@@ -4,9 +4,13 @@
 #include <string>
 #include <vector>
 
+#include "core/rig_config.h"
+
 namespace pvcap {
 
 // `extra_ttys`: serial ports to try besides /dev/ttyACM* and /dev/morph* (a simulated rig's).
 int cmd_devices(bool json, const std::vector<std::string>& extra_ttys);
+// The same, with the simulated `rig` started first (in this process' network, already made).
+int cmd_devices_of_sim(bool json, const RigConfig& rig);
 
 }  // namespace pvcap

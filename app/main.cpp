@@ -6,7 +6,6 @@
 #include <atomic>
 #include <filesystem>
 #include <iostream>
-#include <thread>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -27,7 +26,6 @@
 #include "core/rig_config.h"
 #include "core/version.h"
 #include "protocol/takes.h"
-#include "sim/netns.h"
 #include "sim/sim_rig.h"
 #include "session/realign.h"
 #include "storage/recover.h"
@@ -56,13 +54,9 @@ std::filesystem::path self_exe() {
   return ec ? std::filesystem::path("pvcap") : p;
 }
 
-// A simulated rig's cameras need their 127.0.0.x addresses; unless this process
-// already sees them (e.g. started by a test inside a namespace), make a private
-// network namespace that has them. Must run before any thread starts.
+// The simulated rig's network namespace (sim/sim_rig.h). Must run before any thread starts.
 void ensure_sim_network(const pvcap::RigConfig& rig) {
-  const auto addresses = pvcap::sim::sim_addresses(rig);
-  if (pvcap::sim::addresses_present(addresses)) return;
-  if (pvcap::Status s = pvcap::sim::enter_private_network(addresses); !s.ok()) throw pvcap::UserError(s.error().message);
+  if (pvcap::Status s = pvcap::sim::ensure_network(rig); !s.ok()) throw pvcap::UserError(s.error().message);
 }
 
 }  // namespace
@@ -277,24 +271,14 @@ int main(int argc, char** argv) {
   install_stop_handlers();
   try {
     if (*devices) {
-      if (!devices_sim.empty()) {
-        const auto rig = pvcap::load_rig_config(devices_sim);
-        ensure_sim_network(rig);
-        auto tmp = std::filesystem::temp_directory_path() / fmt::format("pvcap-devices-{}", getpid());
-        auto made = pvcap::sim::SimRig::create(rig, tmp);
-        if (!made) throw pvcap::UserError(made.error().message);
-        std::vector<std::string> extra;
-        if (std::filesystem::exists(tmp / "sensel.tty")) extra.push_back((tmp / "sensel.tty").string());
-        const int rc = pvcap::cmd_devices(devices_json, extra);
-        made.value().reset();
-        std::filesystem::remove_all(tmp);
-        return rc;
-      }
-      return pvcap::cmd_devices(devices_json, {});
+      if (devices_sim.empty()) return pvcap::cmd_devices(devices_json, {});
+      const auto rig = pvcap::load_rig_config(devices_sim);
+      ensure_sim_network(rig);
+      return pvcap::cmd_devices_of_sim(devices_json, rig);
     }
     if (*session) {
       const auto rig = pvcap::load_rig_config(rig_path);
-      pvcap::SessionCommand command;
+      pvcap::protocol::SessionSetup command;
       if (!no_web) {
         // Bound here, before a simulated rig's private network namespace: the pages stay reachable
         // from this machine's own browser.
@@ -316,31 +300,16 @@ int main(int argc, char** argv) {
         if (session->count("--root") == 0) opts.root.clear();  // beside the session it continues
       }
       command.auto_participant = auto_participant;
-      if (board_session && (!protocol_path.empty() || !resume_dir.empty()))
-        throw pvcap::UserError("--board records a calibration board session: it runs no protocol (leave out "
-                               "--protocol/--resume)");
       opts.board_session = board_session;
       command.fast = fast;
-      if (!participant.pseudonym.empty()) {
-        if (!pvcap::is_pseudonymous_code(participant.pseudonym))
-          throw pvcap::UserError(fmt::format("--participant '{}' does not look like a pseudonymous code: use 1 to 32 "
-                                             "letters, digits, '-' or '_' (e.g. P017), never a name",
-                                             participant.pseudonym));
-        if (participant.skin_tone.empty()) participant.skin_tone = "unrecorded";
-        if (participant.hand_order.empty()) participant.hand_order = "unrecorded";
-        opts.participant = participant;
-      } else if (!participant.skin_tone.empty() || !participant.hand_order.empty()) {
+      if (!participant.pseudonym.empty()) opts.participant = participant;
+      else if (!participant.skin_tone.empty() || !participant.hand_order.empty())
         throw pvcap::UserError("--skin-tone and --hand-order describe a participant: give --participant too");
-      }
-      if (!conditions.lighting.empty() || !conditions.sensor_overlay.empty()) {
-        if (conditions.lighting.empty()) conditions.lighting = "unrecorded";
-        if (conditions.sensor_overlay.empty()) conditions.sensor_overlay = "unrecorded";
-        opts.conditions = conditions;
-      }
-      pvcap::prepare_session(rig, command);
+      if (!conditions.lighting.empty() || !conditions.sensor_overlay.empty()) opts.conditions = conditions;
+      pvcap::protocol::prepare_session(rig, command);
       if ((command.protocol || command.continuation) && !command.auto_participant && isatty(STDIN_FILENO) == 1)
-        pvcap::ask_for_participant(command, std::cin, std::cout);
-      return pvcap::run_session(rig, command, g_stop);
+        pvcap::protocol::ask_for_participant(command, std::cin, std::cout);
+      return pvcap::cmd_session(rig, command, g_stop);
     }
     if (*eval) {
       eval_opts.root = eval_root.empty()
@@ -389,24 +358,14 @@ int main(int argc, char** argv) {
       return report.exit_code();
     }
     if (*recover) {
-      auto r = pvcap::recover_session(recover_dir, [](const std::string& step) { spdlog::info("{}", step); });
-      if (!r) {
-        spdlog::error("{}", r.error().message);
+      auto done = pvcap::recover_and_realign(recover_dir, [](const std::string& step) { spdlog::info("{}", step); });
+      if (!done) {
+        spdlog::error("{}", done.error().message);
         return 1;
       }
-      // The timeline re-mapped with the final fits the store holds, as a finished session's was.
-      auto realigned = pvcap::realign_if_needed(recover_dir, r.value().was_interrupted,
-                                                [](const std::string& step) { spdlog::info("{}", step); });
-      if (!realigned) {
-        spdlog::error("{}", realigned.error().message);
-        return 1;
-      }
-      if (const auto& done = realigned.value())
-        r.value().done.push_back(fmt::format("timeline re-mapped with the stored clock fits: {} samples re-paired",
-                                             done->samples));
       fmt::print("session {}\n", recover_dir);
-      for (const auto& d : r.value().done) fmt::print("  {}\n", d);
-      if (r.value().done.empty()) fmt::print("nothing to recover: the session ended cleanly\n");
+      for (const auto& d : done.value()) fmt::print("  {}\n", d);
+      if (done.value().empty()) fmt::print("nothing to recover: the session ended cleanly\n");
       else fmt::print("recovered: 'pvcap verify {}' says what is there\n", recover_dir);
       return 0;
     }
@@ -429,7 +388,7 @@ int main(int argc, char** argv) {
     if (*sensel_decode) {
       int rc = 0;
       for (const auto& f : decode_files) {
-        auto summary = pvcap::decode_sensel_capture(f);
+        auto summary = pvcap::sensel::summarise_capture_file(f);
         if (!summary) throw pvcap::UserError(summary.error().message);
         rc = std::max(rc, pvcap::print_sensel_summary(f, summary.value()));
       }

@@ -1,9 +1,14 @@
 #include "capture/sensel_capture_file.h"
 
+#include <algorithm>
 #include <fstream>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
+
+#include "capture/sensel_frame.h"
+#include "capture/sensel_units.h"
+#include "core/sequence_unwrap.h"
 
 namespace pvcap::sensel {
 
@@ -87,6 +92,53 @@ Result<CaptureFile> load_capture_file(const std::filesystem::path& path) {
     return Error{fmt::format("{}: not valid JSON: {}", path.string(), e.what())};
   }
   return file;
+}
+
+Result<CaptureSummary> summarise_capture_file(const std::filesystem::path& path) {
+  auto file = load_capture_file(path);
+  if (!file) return file.error();
+  auto grid = grid_from_metadata(file.value().metadata);
+  if (!grid) return Error{fmt::format("{}: {}", path.string(), grid.error().message)};
+  CaptureSummary s;
+  s.grid = grid.value();
+  SequenceUnwrapper counter(8, /*zero_is_skipped=*/false);
+  SequenceUnwrapper clock(32, false);  // µs timestamps wrap every ~71.6 min
+  std::uint64_t first_us = 0, last_us = 0;
+  auto reject = [&](const CapturedFrame& cf, const std::string& why) {
+    ++s.rejected[why];
+    if (s.first_rejection.empty()) s.first_rejection = fmt::format("frame at {}: {}", cf.line, why);
+  };
+  for (const auto& cf : file.value().frames) {
+    ++s.frames;
+    if (cf.checksum >= 0 && checksum(cf.payload) != cf.checksum) {
+      reject(cf, "checksum mismatch");
+      continue;
+    }
+    auto f = parse_frame(cf.payload, s.grid);
+    if (!f) {
+      reject(cf, f.error().message);
+      continue;
+    }
+    ++s.decoded;
+    s.counter_gaps += counter.next(f.value().counter).missing;
+    const std::uint64_t t = clock.next(f.value().timestamp_us).sequence;
+    if (s.decoded == 1) first_us = t;
+    last_us = t;
+    if (f.value().pressure) {
+      double total = 0;
+      for (std::uint16_t c : f.value().pressure->counts) {
+        const double g = counts_to_grams(c);
+        total += g;
+        if (g > s.peak_cell_g) {
+          s.peak_cell_g = g;
+          s.peak_cell_kpa = native_cell_kpa(c, s.grid);
+        }
+      }
+      s.peak_total_g = std::max(s.peak_total_g, total);
+    }
+  }
+  s.span_s = double(last_us - first_us) / 1e6;
+  return s;
 }
 
 }  // namespace pvcap::sensel

@@ -5,6 +5,7 @@
 // shape; decoding the frames is the codec's job.
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -26,5 +27,18 @@ struct CaptureFile {
 };
 
 Result<CaptureFile> load_capture_file(const std::filesystem::path& path);
+
+// What a capture file holds, every frame decoded (what `pvcap sensel decode` prints).
+struct CaptureSummary {
+  std::size_t frames = 0, decoded = 0;
+  std::map<std::string, std::size_t> rejected;  // reason -> count
+  std::string first_rejection;                  // "frame at N: reason", for the message
+  Grid grid;
+  std::uint64_t counter_gaps = 0;               // frames missing by the rolling counter
+  double span_s = 0;                            // device timestamp span (unwrapped)
+  double peak_cell_g = 0, peak_cell_kpa = 0;    // heaviest native cell of any frame
+  double peak_total_g = 0;                      // largest per-frame sum
+};
+Result<CaptureSummary> summarise_capture_file(const std::filesystem::path& path);
 
 }  // namespace pvcap::sensel

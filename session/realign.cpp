@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "core/time.h"
+#include "storage/recover.h"
 #include "sync/timeline.h"
 
 namespace pvcap {
@@ -182,6 +183,18 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
   }
   result.seconds = double(host_now().ns - t0) / 1e9;
   return result;
+}
+
+Result<std::vector<std::string>> recover_and_realign(const std::filesystem::path& dir,
+                                                     const std::function<void(const std::string&)>& progress) {
+  auto recovered = recover_session(dir, progress);
+  if (!recovered) return recovered.error();
+  auto realigned = realign_if_needed(dir, recovered.value().was_interrupted, progress);
+  if (!realigned) return realigned.error();
+  auto done = recovered.value().done;
+  if (const auto& r = realigned.value())
+    done.push_back(fmt::format("timeline re-mapped with the stored clock fits: {} samples re-paired", r->samples));
+  return done;
 }
 
 }  // namespace pvcap

@@ -47,4 +47,10 @@ bool realign_pending(sqlite::Database& db);
 Result<std::optional<RealignResult>> realign_if_needed(const std::filesystem::path& dir, bool interrupted,
                                                       const std::function<void(const std::string&)>& progress);
 
+// `pvcap recover`: storage's recover_session (videos closed, losses marked; storage/recover.h), then
+// the timeline re-mapped with the stored clock fits as a finished session's was. What was done, one
+// line each (none: the session had ended cleanly).
+Result<std::vector<std::string>> recover_and_realign(const std::filesystem::path& dir,
+                                                     const std::function<void(const std::string&)>& progress);
+
 }  // namespace pvcap

@@ -1,5 +1,7 @@
 #include "sim/sim_rig.h"
 
+#include "sim/netns.h"
+
 #include <fstream>
 #include <thread>
 
@@ -235,6 +237,12 @@ void SimRig::run(const std::atomic<bool>& stop) {
       }
     }
   }
+}
+
+Status ensure_network(const RigConfig& rig) {
+  const auto addresses = sim_addresses(rig);
+  if (addresses_present(addresses)) return {};
+  return enter_private_network(addresses);
 }
 
 }  // namespace pvcap::sim

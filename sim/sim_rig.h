@@ -64,4 +64,9 @@ class SimRig {
 // The camera addresses of a simulated rig (for the network namespace).
 std::vector<std::string> sim_addresses(const RigConfig& rig);
 
+// A simulated rig's cameras need their 127.0.0.x addresses: unless this process already sees them
+// (e.g. started by a test inside a namespace), enters a private network namespace that has them
+// (sim/netns.h). Call before any thread starts.
+Status ensure_network(const RigConfig& rig);
+
 }  // namespace pvcap::sim

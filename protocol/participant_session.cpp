@@ -1,0 +1,226 @@
+#include "protocol/participant_session.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <fstream>
+#include <istream>
+#include <ostream>
+#include <thread>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "protocol/recording_env.h"
+#include "protocol/runner.h"
+#include "protocol/takes.h"
+#include "protocol/terminal_console.h"
+#include "storage/session_reader.h"
+
+namespace pvcap::protocol {
+
+void prepare_session(const RigConfig& rig, SessionSetup& c) {
+  if (c.recording.board_session && (c.protocol || c.resume))
+    throw UserError("--board records a calibration board session: it runs no protocol (leave out --protocol/--resume)");
+  if (auto& p = c.recording.participant) {
+    if (!is_pseudonymous_code(p->pseudonym))
+      throw UserError(fmt::format("--participant '{}' does not look like a pseudonymous code: use 1 to 32 letters, "
+                                  "digits, '-' or '_' (e.g. P017), never a name",
+                                  p->pseudonym));
+    if (p->skin_tone.empty()) p->skin_tone = "unrecorded";
+    if (p->hand_order.empty()) p->hand_order = "unrecorded";
+  }
+  if (auto& k = c.recording.conditions) {
+    if (k->lighting.empty()) k->lighting = "unrecorded";
+    if (k->sensor_overlay.empty()) k->sensor_overlay = "unrecorded";
+  }
+  if (c.auto_participant && !rig.sim)
+    throw UserError(fmt::format("--auto needs a simulated rig ({} has no sim: section): on a real rig a participant "
+                                "performs the takes",
+                                rig.source.string()));
+  if (c.auto_participant && !c.protocol && !c.resume) throw UserError("--auto performs a protocol: give --protocol FILE");
+  if (!c.resume) return;
+  // The resumed session's protocol, participant and conditions carry over, unless given again.
+  auto takes = read_takes(*c.resume);
+  if (!takes) throw UserError(fmt::format("--resume {}: {}", c.resume->string(), takes.error().message));
+  auto reader = SessionReader::open(*c.resume);
+  if (!reader) throw UserError(fmt::format("--resume {}: {}", c.resume->string(), reader.error().message));
+  const auto& start = takes.value().protocol_start;
+  Continuation k;
+  k.previous = std::filesystem::absolute(*c.resume);
+  k.first_step = first_incomplete_step(takes.value());
+  k.protocol_text = start.value("text", "");
+  k.protocol_file = start.value("file", "");
+  k.hand_order = start.value("hand_order", "right_first");
+  if (k.first_step >= takes.value().plan_steps)
+    throw UserError(fmt::format("--resume {}: every take of its protocol is done; nothing to resume",
+                                c.resume->string()));
+  if (!c.recording.participant && reader.value()->info().participant)
+    c.recording.participant = reader.value()->info().participant;
+  if (!c.recording.conditions && reader.value()->info().conditions)
+    c.recording.conditions = reader.value()->info().conditions;
+  if (c.recording.root.empty()) c.recording.root = k.previous.parent_path();
+  c.fast = c.fast || start.value("fast", false);
+  c.auto_participant = c.auto_participant || (start.value("auto", false) && rig.sim);
+  c.continuation = k;
+}
+
+namespace {
+
+// Asks until the answer is accepted: one of `choices`, or (without choices) what `valid` accepts.
+// Enter gives `fallback` when there is one. Throws when the input ends.
+std::string ask(std::istream& in, std::ostream& out, const std::string& question, const std::vector<std::string>& choices,
+                const std::string& fallback, bool (*valid)(const std::string&) = nullptr) {
+  for (;;) {
+    out << question;
+    if (!choices.empty()) out << " [" << fmt::format("{}", fmt::join(choices, ", ")) << "]";
+    if (!fallback.empty()) out << " (Enter: " << fallback << ")";
+    out << ": " << std::flush;
+    std::string answer;
+    if (!std::getline(in, answer)) throw UserError("the participant's details were not given (the input ended)");
+    answer.erase(0, answer.find_first_not_of(" \t"));
+    answer.erase(answer.find_last_not_of(" \t\r") + 1);
+    if (answer.empty() && !fallback.empty()) return fallback;
+    if (std::find(choices.begin(), choices.end(), answer) != choices.end()) return answer;
+    if (choices.empty() && valid && valid(answer)) return answer;
+    out << "  not accepted: "
+        << (choices.empty() ? "use 1 to 32 letters, digits, '-' or '_', no spaces (a participant: a code, never a name)"
+                            : "answer one of the words in brackets")
+        << "\n";
+  }
+}
+
+}  // namespace
+
+void ask_for_participant(SessionSetup& c, std::istream& in, std::ostream& out) {
+  if (c.recording.participant && c.recording.conditions) return;
+  out << "Before the protocol starts: the participant and the conditions of this session.\n";
+  if (!c.recording.participant) {
+    ParticipantRecord p;
+    p.pseudonym = ask(in, out, "Participant code (pseudonymous, e.g. P017)", {}, "", is_pseudonymous_code);
+    p.skin_tone = ask(in, out, "Skin tone", {"light", "medium", "dark", "unrecorded"}, "unrecorded");
+    p.hand_order = ask(in, out, "Hand order", {"right_first", "left_first"}, "right_first");
+    c.recording.participant = p;
+  }
+  if (!c.recording.conditions) {
+    ConditionsRecord k;
+    k.lighting = ask(in, out, "Lighting (which lights are on, e.g. LCR)", {}, "unrecorded", is_pseudonymous_code);
+    k.sensor_overlay = ask(in, out, "Sensor overlay (e.g. white_vinyl)", {}, "unrecorded", is_pseudonymous_code);
+    c.recording.conditions = k;
+  }
+}
+
+SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, const std::atomic<bool>& interrupt) {
+  // The protocol loads before any device is touched: a bad file costs no session.
+  std::optional<Protocol> proto;
+  if (command.continuation) proto = parse_protocol(command.continuation->protocol_text, command.continuation->protocol_file);
+  else if (command.protocol) proto = load_protocol(*command.protocol);
+  std::string hand_order = "right_first";
+  if (command.continuation) hand_order = command.continuation->hand_order;
+  else if (command.recording.participant && command.recording.participant->hand_order == "left_first")
+    hand_order = "left_first";
+
+  session::RecordingOptions options = command.recording;
+  options.steer_sim_hand = command.auto_participant;
+  SessionOutcome outcome;
+  outcome.recording.exit_code = 1;
+  auto opened = session::Recording::open(rig, options, interrupt);
+  if (!opened) {
+    spdlog::error("{}", opened.error().message);
+    return outcome;
+  }
+  session::Recording& recording = *opened.value();
+  if (Status s = recording.start(); !s.ok()) {
+    spdlog::error("{}", s.error().message);
+    return outcome;
+  }
+
+  std::unique_ptr<RecordingEnv> env;
+  std::unique_ptr<Runner> runner;
+  std::thread ticker;
+  std::atomic<bool> ticking{true};
+  if (proto) {
+    nlohmann::json detail = {{"protocol", proto->name}, {"file", proto->source.string()}, {"hand_order", hand_order},
+                             {"fast", command.fast}, {"auto", command.auto_participant},
+                             {"takes", 2 * proto->actions.size()}, {"text", proto->text}};
+    RunnerOptions ro;
+    ro.auto_start = command.auto_participant;
+    ro.auto_advance = command.auto_participant;
+    ro.fast = command.fast;
+    if (command.continuation) {
+      ro.first_step = command.continuation->first_step;
+      detail["continues"] = command.continuation->previous.string();
+      detail["first_step"] = command.continuation->first_step;
+      spdlog::info("resuming {} at take {} of {}", command.continuation->previous.string(), command.continuation->first_step + 1,
+                   2 * proto->actions.size());
+    }
+    ro.protocol_detail = detail.dump();
+    env = std::make_unique<RecordingEnv>(recording, command.auto_participant);
+    runner = std::make_unique<Runner>(*proto, hand_order, *env, ro);
+    ticker = std::thread([&] {
+      std::string last_message;
+      while (ticking.load()) {
+        runner->tick();
+        const auto v = runner->view();
+        if (v.message != last_message && !v.message.empty()) {
+          spdlog::info("protocol: {}", v.message);
+          last_message = v.message;
+        }
+        if (runner->finished()) {
+          recording.request_stop(v.phase == Phase::Done ? "protocol complete" : "protocol aborted");
+          break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      }
+    });
+  }
+
+  if (command.web) {
+    command.web->serve(recording, runner.get());
+    spdlog::info("participant display: {}", command.web->url("participant"));
+    spdlog::info("operator console:    {}", command.web->url("operator"));
+  }
+
+  // The operator's keyboard, when pvcap runs in a terminal.
+  std::unique_ptr<TerminalConsole> console;
+  std::thread console_thread;
+  std::atomic<bool> console_stop{false};
+  if (runner && TerminalConsole::available()) {
+    console = std::make_unique<TerminalConsole>(*runner);
+    console_thread = std::thread([&] { console->run(console_stop); });
+  } else if (runner && !command.auto_participant) {
+    spdlog::warn("no terminal to read the operator's keys from: the protocol waits for a start that cannot come "
+                 "(run pvcap in a terminal, or with --auto on a simulated rig)");
+  }
+
+  const std::string reason = recording.wait(interrupt, command.duration_s);
+  ticking.store(false);
+  if (ticker.joinable()) ticker.join();
+  console_stop.store(true);
+  if (console_thread.joinable()) console_thread.join();
+  console.reset();
+  if (command.web) command.web->stop();  // the pages end before what they show
+  if (runner && !runner->finished()) {
+    // Stopped before the protocol's end: the take being recorded is closed as interrupted.
+    (void)runner->command(Command::Abort, reason);
+  }
+  outcome.recording = recording.finish(reason);
+  const auto& dir = outcome.recording.dir;
+  if (runner && !dir.empty()) {
+    if (auto takes = read_takes(dir)) {
+      // Every take in report.txt (and report.html); the console keeps to the totals.
+      const std::string table = format_takes(takes.value());
+      std::ofstream(dir / "report.txt", std::ios::app) << "\n" << table;
+      const auto totals = table.find(" takes done of ");
+      const auto line = table.rfind('\n', totals);
+      outcome.takes_totals = totals == std::string::npos ? table : table.substr(line + 1);
+    } else {
+      spdlog::error("the takes could not be read back: {}", takes.error().message);
+    }
+  }
+  return outcome;
+}
+
+}  // namespace pvcap::protocol

@@ -1,0 +1,58 @@
+#pragma once
+// A participant session: a session::Recording of the rig, with (when a protocol
+// is given) the protocol's Runner prompting the participant, the operator's
+// terminal console and the session's web pages attached, until the duration
+// ends, the protocol is done, or the operator stops it. What `pvcap session`
+// runs; the command line only fills a SessionSetup.
+#include <atomic>
+#include <filesystem>
+#include <iosfwd>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "core/rig_config.h"
+#include "protocol/web_console.h"
+#include "session/recording.h"
+
+namespace pvcap::protocol {
+
+// What a resumed session takes over from the folder it continues (filled by prepare_session).
+struct Continuation {
+  std::filesystem::path previous;
+  int first_step = 0;
+  std::string protocol_text, protocol_file, hand_order;
+};
+
+struct SessionSetup {
+  session::RecordingOptions recording;
+  std::optional<double> duration_s;            // stop after this long; otherwise on stop request
+  std::optional<std::filesystem::path> protocol;  // run this protocol (rig-configs/protocols/*.yaml)
+  bool auto_participant = false;               // the simulated hand performs each take (simulated rigs)
+  bool fast = false;                           // the protocol's fast timings
+  std::optional<std::filesystem::path> resume;  // continue this interrupted session's protocol
+  std::optional<Continuation> continuation;     // set by prepare_session from `resume`
+  // The session's pages (bound by main before a simulated rig's network namespace); none: --no-web.
+  std::unique_ptr<protocol::WebConsole> web;
+};
+
+// Checks and completes the setup before any device is opened (throws UserError): the participant
+// code is pseudonymous, --auto is on a simulated rig, a board session runs no protocol, a resumed
+// session's protocol and participant are taken over.
+void prepare_session(const RigConfig& rig, SessionSetup& setup);
+
+// At the start of a protocol session whose participant or conditions were not given on the
+// command line: asks the operator for them (a participant code is required; the rest may stay
+// "unrecorded"). Throws UserError when the input ends first.
+void ask_for_participant(SessionSetup& setup, std::istream& in, std::ostream& out);
+
+struct SessionOutcome {
+  session::RecordingResult recording;  // exit_code 0 recorded, 1 failed (the message was logged)
+  std::string takes_totals;            // a protocol session's totals line (every take is in report.txt)
+};
+
+// Records until the duration ends, the protocol is done, `interrupt` is set or the recording stops
+// itself; then closes the session and appends its takes to report.txt.
+SessionOutcome run_session(const RigConfig& rig, const SessionSetup& setup, const std::atomic<bool>& interrupt);
+
+}  // namespace pvcap::protocol
