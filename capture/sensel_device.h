@@ -21,6 +21,7 @@
 #include "capture/sensel_protocol.h"
 #include "capture/sensel_transport.h"
 #include "core/bounded_queue.h"
+#include "core/fault_injection.h"
 #include "core/result.h"
 #include "core/sequence_unwrap.h"
 #include "core/time.h"
@@ -117,7 +118,8 @@ class SenselDevice {
   HostNs first_byte_;                // when the last transact()'s answer began to arrive
   SenselInfo info_;
   SenselConfig config_;
-  BoundedQueue<PressureSample> queue_{512};
+  // About 4 s of frames; a test may shrink it (core/fault_injection.h) to meet one that overflows.
+  BoundedQueue<PressureSample> queue_{std::size_t(fault::value("sensel.queue_frames").value_or(512))};
   std::vector<std::uint64_t> dropped_;  // sequences dropped since the last sample queued (this connection's)
   std::uint32_t connection_ = 0;
   std::string session_serial_;   // the Morph the session streams from: a reconnect must find this one

@@ -11,6 +11,12 @@
 //   camera_pipeline.stall_camera   (default 0) `stall_after_s` (default 2) after its first frame
 //   camera_pipeline.stall_after_s
 //   camera.queue_frames            each camera driver's frame queue holds this many frames
+//   sensel_pipeline.stall_s        the Sensel's worker sleeps this long, once, `stall_after_s`
+//   sensel_pipeline.stall_after_s  (default 2) after its first frame
+//   sensel.queue_frames            the Sensel driver's frame queue holds this many frames
+//   index_writer.stall_s           the index thread sleeps this long, once, `stall_after_s`
+//   index_writer.stall_after_s     (default 2) after it starts
+//   index_writer.queue_records     the index queue holds this many records
 #include <optional>
 #include <string_view>
 

@@ -331,6 +331,19 @@ std::string Recording::wait(const std::atomic<bool>& interrupt, std::optional<do
                          cameras_.size() == 1 ? "" : "s", rig_.store.video_mode));
       }
     }
+    if (const auto n = sensel_ ? sensel_->queue_overflows() : 0; !warned_sensel_behind_ && n > 0) {
+      warned_sensel_behind_ = true;
+      warn(fmt::format("sensel: {} frame{} lost because pvcap did not take {} from the device in time (its frame "
+                       "queue was full): this PC is too busy for the rig; close other programs",
+                       n, n == 1 ? "" : "s", n == 1 ? "it" : "them"));
+    }
+    if (const auto n = writer_->index_records_lost(); !warned_index_ && n > 0) {
+      warned_index_ = true;
+      warn(fmt::format("session index: {} record{} could not be queued for session.db (the index queue was full; "
+                       "{}): the disk or this PC is too slow for the rig. session.db's index_overflow events say "
+                       "how many of each kind",
+                       n, n == 1 ? "" : "s", writer_->index_records_lost_by_kind()));
+    }
     if (std::chrono::steady_clock::now() - last_progress >= 2s) {
       last_progress = std::chrono::steady_clock::now();
       log_progress(elapsed);
@@ -526,7 +539,8 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   result.report = report ? report.value() : fmt::format("session: {}\nthe report could not be made: {}\n",
                                                         writer.dir().string(), report.error().message);
   if (writer.index_records_lost() > 0)
-    result.report += fmt::format("WARNING: {} index records were lost\n", writer.index_records_lost());
+    result.report += fmt::format("WARNING: {} index records were lost ({})\n", writer.index_records_lost(),
+                                 writer.index_records_lost_by_kind());
   std::ofstream(writer.dir() / "report.txt") << result.report;
   log::remove_session_file();
   if (start_failure_) result.exit_code = 1;

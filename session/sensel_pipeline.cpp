@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "core/fault_injection.h"
 #include "core/loss_runs.h"
 
 namespace pvcap::session {
@@ -153,9 +154,18 @@ void SenselPipeline::record_losses(SessionWriter& writer, std::uint32_t connecti
 void SenselPipeline::run() {
   auto& q = device_->samples();
   SessionWriter& writer = *writer_.load();
+  // A worker that falls behind, on purpose (core/fault_injection.h): tests meet a full queue.
+  std::optional<double> stall_s = fault::value("sensel_pipeline.stall_s");
+  const double stall_after_s = fault::value("sensel_pipeline.stall_after_s").value_or(2.0);
+  std::int64_t first_ns = 0;
   while (!q.closed_and_empty()) {
     auto s = q.pop_for(100ms);
     if (!s) continue;
+    if (first_ns == 0) first_ns = s->host_ts.ns;
+    if (stall_s && s->host_ts.ns - first_ns >= std::int64_t(stall_after_s * 1e9)) {
+      std::this_thread::sleep_for(std::chrono::duration<double>(*stall_s));
+      stall_s.reset();
+    }
     // Every sequence between the previous frame of this connection and this one is lost: dropped
     // by the driver for want of room in its queue, or never received (the device's counter says).
     std::uint64_t from = s->sequence - s->lost_before;

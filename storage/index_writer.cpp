@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "core/fault_injection.h"
 #include "core/time.h"
 
 namespace pvcap {
@@ -17,6 +18,7 @@ void IndexWriter::start() { thread_ = std::thread([this] { run(); }); }
 bool IndexWriter::push(Record record) {
   if ((failed_.load(std::memory_order_relaxed) && !disk_full_.load(std::memory_order_relaxed)) ||
       !queue_.try_push(record)) {
+    lost_by_kind_[record.index()].fetch_add(1, std::memory_order_relaxed);
     lost_.fetch_add(1, std::memory_order_relaxed);
     return false;
   }
@@ -103,11 +105,30 @@ void IndexWriter::write_batch(std::vector<Record>& batch) {
   batch.clear();
 }
 
+std::string IndexWriter::lost_records_by_kind() const {
+  static constexpr const char* kKinds[] = {"frames",         "pressure frames",   "drop ranges", "events",
+                                           "samples",        "clock models",      "video files", "video file closes",
+                                           "protocol events", "operator notes",   "commit barriers"};
+  static_assert(std::size(kKinds) == std::variant_size_v<Record>);
+  std::string out;
+  for (std::size_t i = 0; i < lost_by_kind_.size(); ++i)
+    if (const auto n = lost_by_kind_[i].load(); n > 0) out += fmt::format("{}{} {}", out.empty() ? "" : ", ", kKinds[i], n);
+  return out;
+}
+
 void IndexWriter::run() {
+  // An index thread that falls behind, on purpose (core/fault_injection.h): tests meet a full queue.
+  std::optional<double> stall_s = fault::value("index_writer.stall_s");
+  const auto stall_at = std::chrono::steady_clock::now() +
+                        std::chrono::duration<double>(fault::value("index_writer.stall_after_s").value_or(2.0));
   std::vector<Record> batch;
   auto batch_started = std::chrono::steady_clock::now();
   std::uint64_t lost_reported = 0;
   while (!queue_.closed_and_empty()) {
+    if (stall_s && std::chrono::steady_clock::now() >= stall_at) {
+      std::this_thread::sleep_for(std::chrono::duration<double>(*stall_s));
+      stall_s.reset();
+    }
     if (auto r = queue_.pop_for(std::chrono::milliseconds(50))) {
       if (auto* barrier = std::get_if<CommitBarrier>(&*r)) {
         write_batch(batch);
@@ -119,7 +140,8 @@ void IndexWriter::run() {
     }
     if (const std::uint64_t lost = lost_.load(); lost > lost_reported && !failed_.load()) {
       batch.push_back(EventRecord{host_now().ns, "index_overflow", std::nullopt,
-                                  fmt::format("{} index records were lost: the index queue was full", lost - lost_reported)});
+                                  fmt::format("{} index records were lost: the index queue was full (so far: {})",
+                                              lost - lost_reported, lost_records_by_kind())});
       lost_reported = lost;
     }
     if (!batch.empty() && std::chrono::steady_clock::now() - batch_started >= batch_period_) write_batch(batch);

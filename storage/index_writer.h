@@ -2,11 +2,12 @@
 // Writes index records on its own thread, in transactions of at most
 // `batch_period` (default 250 ms): producers push without waiting; a crash loses
 // at most the open batch. Records are held in a bounded queue sized for many
-// seconds of every stream; if it ever fills, the overflow is counted and
-// written as a drop record when there is room again. A batch that fails because
+// seconds of every stream; if it ever fills, the overflow is counted by kind
+// and written as an index_overflow event when there is room again. A batch that fails because
 // the disk is full is held, and written once more at stop(): the session writer
 // frees its space reserve first, so what was captured before the disk filled is
 // not lost with it.
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <future>
@@ -48,6 +49,8 @@ class IndexWriter {
   std::optional<std::string> failure() const;
   std::uint64_t records_written() const { return written_.load(); }
   std::uint64_t records_lost() const { return lost_.load(); }
+  // "frames 12, pressure frames 40": what the lost records were (empty when none was lost).
+  std::string lost_records_by_kind() const;
 
  private:
   void run();
@@ -60,6 +63,7 @@ class IndexWriter {
   const std::chrono::milliseconds batch_period_;
   std::thread thread_;
   std::atomic<std::uint64_t> written_{0}, lost_{0};
+  std::array<std::atomic<std::uint64_t>, std::variant_size_v<Record>> lost_by_kind_{};
   std::atomic<bool> failed_{false}, disk_full_{false};
   mutable std::mutex failure_mu_;
   std::optional<std::string> failure_;

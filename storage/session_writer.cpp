@@ -16,8 +16,9 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "core/time.h"
 #include "capture/pixel_format.h"
+#include "core/fault_injection.h"
+#include "core/time.h"
 #include "core/version.h"
 #include "storage/bayer_planes.h"
 #include "storage/frame_spill.h"
@@ -136,7 +137,9 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
   } catch (const sqlite::SqliteError& e) {
     return abandon(Error{e.what()});
   }
-  w->index_writer_ = std::make_unique<IndexWriter>(*w->index_);
+  // A test may shrink the index queue (core/fault_injection.h) to meet one that overflows.
+  w->index_writer_ = std::make_unique<IndexWriter>(
+      *w->index_, std::size_t(fault::value("index_writer.queue_records").value_or(200'000)));
   return w;
 }
 

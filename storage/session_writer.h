@@ -109,6 +109,7 @@ class SessionWriter {
   const std::filesystem::path& dir() const { return dir_; }
   CameraStoreStats camera_stats(std::int64_t device_id) const;
   std::uint64_t index_records_lost() const { return index_writer_->records_lost(); }
+  std::string index_records_lost_by_kind() const { return index_writer_->lost_records_by_kind(); }
 
  private:
   SessionWriter() = default;

@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
+#include <set>
 
 #include <fmt/format.h>
 
@@ -212,5 +213,89 @@ TEST(SessionFaults, ADifferentSenselPluggedInIsRefusedAndNotRecorded) {
       << "said once, not at every retry";
   EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_reconnected'"), 0);
   EXPECT_EQ(scalar(db, "SELECT count(*) FROM pressure_frames WHERE connection <> 0"), 0);
+  fs::remove_all(work);
+}
+
+// pvcap's own side falling behind (core/fault_injection.h): the Sensel's worker stalls with a small
+// queue, later the index thread stalls with a small queue. Every pressure frame the device sent is
+// a row, in a drop row with its reason, or counted in the index's overflow events; the operator is
+// told of each once, while recording.
+TEST(SessionFaults, PressureFramesAndIndexRowsLostToASlowPvcapAreCountedWithTheirReason) {
+  const fs::path work = work_dir("pvcap-behind");
+  const fs::path rig = write_rig(work);
+  setenv("PVCAP_FAULTS",
+         "sensel_pipeline.stall_s=1,sensel_pipeline.stall_after_s=1,sensel.queue_frames=16,"
+         "index_writer.stall_s=1.5,index_writer.stall_after_s=3.5,index_writer.queue_records=100",
+         1);
+  const auto run = run_pvcap(fmt::format("session --rig {} --root {} --duration 6 --no-web", rig.string(),
+                                         (work / "sessions").string()));
+  unsetenv("PVCAP_FAULTS");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  for (const std::string warning : {"frames lost because pvcap did not take them from the device",
+                                     "could not be queued for session.db"}) {
+    const auto first = run.output.find(warning);
+    EXPECT_NE(first, std::string::npos) << run.output;
+    EXPECT_EQ(run.output.find(warning, first + 1), std::string::npos) << "said more than once: " << run.output;
+  }
+  const fs::path session = only_session(work / "sessions");
+  ASSERT_FALSE(session.empty());
+  pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  const std::int64_t sensel = scalar(db, "SELECT id FROM devices WHERE kind = 'sensel'");
+  // Frames the Sensel's queue had no room for: drop rows of their own, never also stored.
+  std::set<std::int64_t> stored;
+  auto p = db.prepare("SELECT sequence FROM pressure_frames WHERE device_id = ? AND connection = 0");
+  p.bind(1, sensel);
+  while (p.step()) stored.insert(p.column_int(0));
+  ASSERT_GT(stored.size(), 300u);
+  std::uint64_t overflowed = 0, dropped = 0;
+  auto d = db.prepare("SELECT first_sequence, count, reason FROM drops WHERE device_id = ? AND connection = 0");
+  d.bind(1, sensel);
+  while (d.step()) {
+    for (std::int64_t q = d.column_int(0); q < d.column_int(0) + d.column_int(1); ++q)
+      EXPECT_EQ(stored.count(q), 0u) << "sequence " << q << " is both stored and dropped";
+    dropped += std::uint64_t(d.column_int(1));
+    if (d.column_text(2) == "queue_overflow") overflowed += std::uint64_t(d.column_int(1));
+  }
+  EXPECT_GE(overflowed, 80u) << "a 1 s stall at ~125 Hz with a queue of 16";
+  // Rows the index queue had no room for: counted by kind in index_overflow events (cumulative).
+  auto e = db.prepare("SELECT message FROM events WHERE kind = 'index_overflow' ORDER BY host_ns DESC LIMIT 1");
+  ASSERT_TRUE(e.step()) << "no index_overflow event";
+  const std::string last = e.column_text(0);
+  std::printf("%s\nsensel: %llu frames lost to its queue\n", last.c_str(), (unsigned long long)overflowed);
+  const auto at = last.find("pressure frames ");
+  const std::uint64_t lost_in_index = at == std::string::npos ? 0 : std::stoull(last.substr(at + 16));
+  EXPECT_GT(lost_in_index, 0u) << last;
+  EXPECT_EQ(last.find("drop ranges"), std::string::npos) << "a lost drop row would make the count below inexact";
+  const auto span = std::uint64_t(*stored.rbegin() - *stored.begin() + 1);
+  EXPECT_EQ(stored.size() + dropped + lost_in_index, span)
+      << "every pressure frame from the first to the last stored is a row, a drop, or counted as lost to the index";
+  fs::remove_all(work);
+}
+
+// An ssh connection that drops (SIGHUP) and a service manager's stop (SIGTERM) end the session like
+// Ctrl-C: stopped by the operator, everything closed, exit 0.
+TEST(SessionFaults, SighupAndSigtermStopTheSessionCleanly) {
+  const fs::path work = work_dir("signals");
+  const fs::path rig = write_rig(work);
+  for (const int sig : {SIGHUP, SIGTERM}) {
+    const fs::path root = work / fmt::format("sig{}", sig);
+    const fs::path log = work / fmt::format("sig{}.log", sig);
+    const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 60 --no-web", rig.string(),
+                                              root.string()),
+                                  log);
+    ASSERT_TRUE(wait_for_text(log, "2.0 s |", std::chrono::seconds(60))) << read_all(log);
+    ASSERT_EQ(kill(pid, sig), 0);
+    int status = 0;
+    ASSERT_EQ(waitpid(pid, &status, 0), pid);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << strsignal(sig) << ": " << read_all(log);
+    const fs::path session = only_session(root);
+    ASSERT_FALSE(session.empty());
+    pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+    auto q = db.prepare("SELECT coalesce(end_reason, '') FROM session");
+    ASSERT_TRUE(q.step());
+    EXPECT_EQ(q.column_text(0), "stopped by operator") << strsignal(sig);
+    const auto v = run_pvcap("verify " + session.string());
+    EXPECT_EQ(v.exit_code, 0) << strsignal(sig) << ": " << v.output;
+  }
   fs::remove_all(work);
 }
