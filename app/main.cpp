@@ -73,6 +73,8 @@ int main(int argc, char** argv) {
   bool devices_json = false;
   std::string devices_sim;
   devices->add_flag("--json", devices_json, "one JSON object per device");
+  std::vector<std::string> devices_ttys;
+  devices->add_option("--tty", devices_ttys, "also ask the Sensel on these serial ports (e.g. /dev/serial/by-id/...)");
   devices->add_option("--sim", devices_sim, "first start this simulated rig (a rig file with a sim: section)")
       ->check(CLI::ExistingFile);
 
@@ -271,7 +273,7 @@ int main(int argc, char** argv) {
   install_stop_handlers();
   try {
     if (*devices) {
-      if (devices_sim.empty()) return pvcap::cmd_devices(devices_json, {});
+      if (devices_sim.empty()) return pvcap::cmd_devices(devices_json, devices_ttys);
       const auto rig = pvcap::load_rig_config(devices_sim);
       ensure_sim_network(rig);
       return pvcap::cmd_devices_of_sim(devices_json, rig);

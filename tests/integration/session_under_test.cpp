@@ -42,9 +42,9 @@ std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, i
   return y;
 }
 
-CommandResult run_pvcap(const std::string& args) {
+CommandResult run_pvcap(const std::string& args, const std::string& prefix) {
   CommandResult r;
-  const std::string cmd = std::string(PVCAP_BIN) + " " + args + " 2>&1";
+  const std::string cmd = prefix + (prefix.empty() ? "" : " ") + PVCAP_BIN + " " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
   std::array<char, 4096> buf{};

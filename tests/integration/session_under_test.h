@@ -41,7 +41,8 @@ struct CommandResult {
   int exit_code = -1;
   std::string output;  // stdout and stderr
 };
-CommandResult run_pvcap(const std::string& args);
+// `prefix` runs pvcap through another command (e.g. nsenter into a session's network namespace).
+CommandResult run_pvcap(const std::string& args, const std::string& prefix = "");
 // Starts `pvcap ARGS` in the background with its output going to `log`; returns its pid.
 // `prefix` runs it through another command that execs it (e.g. "ip netns exec NAME").
 pid_t spawn_pvcap(const std::string& args, const std::filesystem::path& log, const std::string& prefix = "");

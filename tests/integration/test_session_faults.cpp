@@ -273,7 +273,8 @@ TEST(SessionFaults, PressureFramesAndIndexRowsLostToASlowPvcapAreCountedWithThei
 }
 
 // An ssh connection that drops (SIGHUP) and a service manager's stop (SIGTERM) end the session like
-// Ctrl-C: stopped by the operator, everything closed, exit 0.
+// Ctrl-C: stopped by the operator, everything closed, exit 0. (And `pvcap devices` run beside a
+// session does not touch its Morph.)
 TEST(SessionFaults, SighupAndSigtermStopTheSessionCleanly) {
   const fs::path work = work_dir("signals");
   const fs::path rig = write_rig(work);
@@ -284,6 +285,16 @@ TEST(SessionFaults, SighupAndSigtermStopTheSessionCleanly) {
                                               root.string()),
                                   log);
     ASSERT_TRUE(wait_for_text(log, "2.0 s |", std::chrono::seconds(60))) << read_all(log);
+    if (sig == SIGHUP) {
+      // Meanwhile `pvcap devices` asked about the Morph the session streams from leaves it alone.
+      const fs::path tty = root / fmt::format(".sim-truth-{}", pid) / "sensel.tty";
+      ASSERT_TRUE(fs::exists(tty)) << tty;
+      // In the session's own network namespace: its camera discovery stays off the host's network.
+      const auto listed = run_pvcap("devices --tty " + tty.string(), fmt::format("nsenter --net=/proc/{}/ns/net", pid));
+      EXPECT_EQ(listed.exit_code, 0) << listed.output;
+      EXPECT_NE(listed.output.find("in use by a running pvcap session (not touched)"), std::string::npos)
+          << listed.output;
+    }
     ASSERT_EQ(kill(pid, sig), 0);
     int status = 0;
     ASSERT_EQ(waitpid(pid, &status, 0), pid);
@@ -296,6 +307,8 @@ TEST(SessionFaults, SighupAndSigtermStopTheSessionCleanly) {
     EXPECT_EQ(q.column_text(0), "stopped by operator") << strsignal(sig);
     const auto v = run_pvcap("verify " + session.string());
     EXPECT_EQ(v.exit_code, 0) << strsignal(sig) << ": " << v.output;
+    EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind LIKE 'sensel_%'"), 0)
+        << "the Morph streamed on, untouched by the listing";
   }
   fs::remove_all(work);
 }
