@@ -61,6 +61,14 @@ Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& c
                              camera.name, camera.address)};
   ReplayCamera* raw = self.get();
   raw->reader_ = std::thread([raw] { raw->read_ahead(); });
+  // A frame not begun 0.15 ms after it is due has met the engine's stall (sim/engine_kicker.h): it
+  // begins 0-0.15 ms before.
+  raw->kicker_ = std::make_unique<EngineKicker>(camera.address, [raw] {
+    const auto& frames = raw->replay_->camera_frames(raw->index_);
+    const std::size_t n = raw->next_.load();
+    if (!raw->streaming_.load() || n >= frames.size()) return INT64_MAX;
+    return raw->replay_->due_ns(frames[n].t_ns) + 150'000;
+  });
   ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(raw->fake_.get());
   arv_fake_camera_set_fill_pattern(fake, &ReplayCamera::fill, raw);
   // Triggered (a session recorded with hardware triggers), the engine looks for a trigger once per
@@ -82,6 +90,7 @@ ReplayCamera::~ReplayCamera() {
     stop_ = true;
   }
   changed_.notify_all();
+  kicker_.reset();
   fake_.reset();  // joins the engine's thread: no fill runs after this
   if (reader_.joinable()) reader_.join();
   log_.flush();
@@ -193,8 +202,13 @@ void ReplayCamera::fill_buffer(ArvBuffer* buffer) {
   const std::int64_t image_ns = host_now().ns;
   if (!image.empty()) last_ = image;
   else image = last_;
-  if (const std::int64_t wait = due - host_now().ns; wait > 0)
+  // The engine woke just before the frame is due: the rest is waited here, without giving up the
+  // core (a thread that sleeps this long may find it taken by another camera's engine at the same
+  // real-time priority, and send milliseconds late).
+  if (const std::int64_t wait = due - host_now().ns; wait > 1'000'000)
     std::this_thread::sleep_for(std::chrono::nanoseconds(wait));
+  while (host_now().ns < due) {
+  }
   size_t size = 0;
   auto* data = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &size)));
   const std::size_t payload = arv_fake_camera_get_payload(fake);
@@ -219,12 +233,12 @@ void ReplayCamera::plan_next_tick() {
     arv_fake_camera_write_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US, 0xFFFFFFFFu);
     return;
   }
-  // Wake 0.2-0.5 ms before the next frame is due; the fill waits the rest (the engine answers no
+  // Wake 0-0.15 ms before the next frame is due; the fill waits the rest (the engine answers no
   // control packet while a fill waits, so the wait is kept short).
   const std::int64_t mono = host_now().ns;
   const std::int64_t real_us = g_get_real_time();
   const std::int64_t due_us = real_us + (replay_->due_ns(frames[next_].t_ns) - mono) / 1000;
-  const std::uint32_t period_us = period_waking_at(real_us, due_us - 200, 300);
+  const std::uint32_t period_us = period_waking_at(real_us, due_us, 150);
   arv_fake_camera_write_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US, period_us);
   // The same wake when triggered (the engine truncates 1e6 / frequency to whole microseconds).
   arv_fake_camera_set_trigger_frequency(fake, 1e6 / (double(period_us) + 0.5));

@@ -21,6 +21,7 @@
 #include "capture/aravis_handles.h"
 #include "core/result.h"
 #include "core/rig_config.h"
+#include "sim/engine_kicker.h"
 #include "sim/session_replay.h"
 
 namespace pvcap::sim {
@@ -64,6 +65,7 @@ class ReplayCamera {
   std::deque<std::pair<std::int64_t, cv::Mat>> ready_;
   bool stop_ = false;
   std::thread reader_;
+  std::unique_ptr<EngineKicker> kicker_;  // sim/engine_kicker.h
 };
 
 }  // namespace pvcap::sim

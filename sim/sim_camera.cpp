@@ -76,11 +76,24 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   serve_features(raw, arv_gv_fake_camera_get_fake_camera(raw->fake_.get()),
                  [raw](std::int64_t host_ns) { return raw->clock_.device_time(host_ns); },
                  clock.trigger_line ? periodic_line(camera.frame_rate) : TriggerLine());
+  // Free-running, the engine is late once a frame period and 0.3 ms have passed since it began the
+  // last frame. (Triggered frames are not watched.)
+  raw->kicker_ = std::make_unique<EngineKicker>(camera.address, [raw] {
+    ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(raw->fake_.get());
+    guint32 acquiring = 0, triggered = 0, period_us = 0;
+    arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION, &acquiring);
+    arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_TRIGGER_MODE, &triggered);
+    arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US, &period_us);
+    const std::int64_t last = raw->last_fill_ns_.load();
+    if (!acquiring || triggered || period_us == 0 || last == 0) return INT64_MAX;
+    return last + std::int64_t(period_us) * 1000 + 300'000;
+  });
   return self;
 }
 
 
 SimCamera::~SimCamera() {
+  kicker_.reset();
   stop_serving(this);
   fake_.reset();  // joins the fake camera's thread: no fill runs after this
   std::lock_guard lock(mu_);
@@ -136,6 +149,7 @@ const cv::Mat& SimCamera::board_image(int width, int height, ArvPixelFormat form
 // Runs on the fake camera's thread, once per frame, at the frame's capture instant.
 void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format) {
   const std::int64_t true_ns = host_now().ns;
+  last_fill_ns_.store(true_ns);
   fill_at(buffer, format, true_ns);
   // A real camera's frame leaves a constant time after its exposure (exposure, readout: the
   // latency its datasheet states), whatever our rendering took, if it fit in that time.

@@ -25,6 +25,8 @@
 #include "core/result.h"
 #include "core/rig_config.h"
 
+#include "sim/engine_kicker.h"
+
 namespace pvcap::sim {
 
 class Hand;
@@ -73,6 +75,8 @@ class SimCamera {
   std::int64_t exposure_latency_ns_ = 0;
   std::int64_t undeclared_latency_ns_ = 0;  // the hand is drawn where it was this long before true_ns
   arv::GPtr<ArvGvFakeCamera> fake_;
+  std::atomic<std::int64_t> last_fill_ns_{0};  // when the engine last began a frame
+  std::unique_ptr<EngineKicker> kicker_;       // its stall, worked around (sim/engine_kicker.h)
   std::mutex mu_;  // fill runs on the fake camera's thread; truth is read from others
   std::mt19937_64 rng_;
   std::normal_distribution<double> noise_{0.0, 1.0};
