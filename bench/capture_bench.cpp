@@ -4,10 +4,7 @@
 //     pvcap's capture path (AravisCamera + a consumer that unwraps ids and releases buffers,
 //     as the recorder's worker does before debayering), on the same simulated stream; the ratio.
 //  2. The highest cameras x fps the capture path sustains here with zero drops.
-#include <signal.h>
-#include <spawn.h>
 #include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -24,8 +21,8 @@
 #include "capture/aravis_camera.h"
 #include "capture/aravis_handles.h"
 #include "sim/netns.h"
+#include "sim/sim_process.h"
 
-extern char** environ;
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using namespace pvcap;
@@ -49,28 +46,25 @@ std::string rig_yaml(int cameras, int width, int height, double fps) {
   return y;
 }
 
+// The simulated rig in a child process (sim/sim_process.h, what a recording starts), in a folder
+// of its own that goes with it.
 class Simulator {
  public:
   Simulator(int cameras, int width, int height, double fps) {
     dir_ = fs::temp_directory_path() / fmt::format("pvcap-bench-{}", getpid());
     fs::create_directories(dir_);
     std::ofstream(dir_ / "rig.yaml") << rig_yaml(cameras, width, height, fps);
-    std::vector<std::string> args = {PVCAP_BIN, "--log-level", "error", "sim", "--rig", (dir_ / "rig.yaml").string(),
-                                     "--truth", (dir_ / "truth").string()};
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    posix_spawn(&pid_, PVCAP_BIN, nullptr, nullptr, argv.data(), environ);
+    auto started = sim::SimProcess::start(PVCAP_BIN, dir_ / "rig.yaml", dir_ / "truth", /*steerable=*/false);
+    if (started) process_ = std::move(started.value());
+    else fmt::print(stderr, "the simulator did not start: {}\n", started.error().message);
   }
   ~Simulator() {
-    kill(pid_, SIGTERM);
-    int st = 0;
-    waitpid(pid_, &st, 0);
+    process_.reset();  // stops it
     fs::remove_all(dir_);
   }
 
  private:
-  pid_t pid_ = -1;
+  std::unique_ptr<sim::SimProcess> process_;
   fs::path dir_;
 };
 
