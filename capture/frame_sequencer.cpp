@@ -71,7 +71,7 @@ bool FrameSequencer::overflow_run_settled(HostNs now) const {
 
 bool FrameSequencer::has_due(HostNs now) const {
   std::lock_guard lock(mu_);
-  return !settled_.empty() || (overflow_run_ && overflow_run_settled(now)) ||
+  return !settled_.empty() || overflow_run_settled(now) ||
          gaps_.oldest_noticed_ns().value_or(now.ns) <= now.ns - grace_ns_;
 }
 
