@@ -4,7 +4,8 @@
 // wake instant passes between the loop's check and that computation the difference wraps and the
 // engine sleeps its 100 ms maximum, missing up to three frames. It happens when the engine spins
 // through its last millisecond before a wake: measured in 1 of 8-12 frames of four replayed cameras
-// (33-100 ms late each time), and as 100-133 ms gaps in a live simulated camera's frames. Any
+// (33-100 ms late each time), as 100-133 ms gaps in a live simulated camera's frames, and as
+// triggers lost outright on a simulated trigger line. Any
 // control packet ends the sleep, and the engine then serves the overdue frame at once; so a thread
 // watches when the next frame is due and, once it is late, sends the engine a register read (what
 // any GVCP client may send).

@@ -77,15 +77,23 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
                  [raw](std::int64_t host_ns) { return raw->clock_.device_time(host_ns); },
                  clock.trigger_line ? periodic_line(camera.frame_rate) : TriggerLine());
   // Free-running, the engine is late once a frame period and 0.3 ms have passed since it began the
-  // last frame. (Triggered frames are not watched.)
-  raw->kicker_ = std::make_unique<EngineKicker>(camera.address, [raw] {
+  // last frame; triggered, once a trigger has been pending for a look-for-triggers period and 0.3 ms.
+  const std::int64_t trigger_period_ns = std::int64_t(1e9 / std::max(100.0, 4 * camera.frame_rate));
+  raw->kicker_ = std::make_unique<EngineKicker>(camera.address, [raw, trigger_period_ns] {
     ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(raw->fake_.get());
-    guint32 acquiring = 0, triggered = 0, period_us = 0;
+    guint32 acquiring = 0, triggered = 0, pending = 0, period_us = 0;
     arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION, &acquiring);
     arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_TRIGGER_MODE, &triggered);
+    arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_TRIGGER_SOFTWARE, &pending);
     arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US, &period_us);
+    if (!acquiring) return INT64_MAX;
+    if (triggered) {  // the kicker's thread alone keeps when it first saw the trigger pending
+      if (!pending) return raw->trigger_pending_since_ns_ = 0, INT64_MAX;
+      if (raw->trigger_pending_since_ns_ == 0) raw->trigger_pending_since_ns_ = host_now().ns;
+      return raw->trigger_pending_since_ns_ + trigger_period_ns + 300'000;
+    }
     const std::int64_t last = raw->last_fill_ns_.load();
-    if (!acquiring || triggered || period_us == 0 || last == 0) return INT64_MAX;
+    if (period_us == 0 || last == 0) return INT64_MAX;
     return last + std::int64_t(period_us) * 1000 + 300'000;
   });
   return self;

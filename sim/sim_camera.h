@@ -76,6 +76,7 @@ class SimCamera {
   std::int64_t undeclared_latency_ns_ = 0;  // the hand is drawn where it was this long before true_ns
   arv::GPtr<ArvGvFakeCamera> fake_;
   std::atomic<std::int64_t> last_fill_ns_{0};  // when the engine last began a frame
+  std::int64_t trigger_pending_since_ns_ = 0;  // the kicker's: when it saw a trigger pending
   std::unique_ptr<EngineKicker> kicker_;       // its stall, worked around (sim/engine_kicker.h)
   std::mutex mu_;  // fill runs on the fake camera's thread; truth is read from others
   std::mt19937_64 rng_;
