@@ -88,7 +88,10 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
     arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US, &period_us);
     if (!acquiring) return INT64_MAX;
     if (triggered) {  // the kicker's thread alone keeps when it first saw the trigger pending
-      if (!pending) return raw->trigger_pending_since_ns_ = 0, INT64_MAX;
+      if (!pending) {
+        raw->trigger_pending_since_ns_ = 0;
+        return INT64_MAX;
+      }
       if (raw->trigger_pending_since_ns_ == 0) raw->trigger_pending_since_ns_ = host_now().ns;
       return raw->trigger_pending_since_ns_ + trigger_period_ns + 300'000;
     }
