@@ -131,15 +131,34 @@ std::filesystem::path calibration_file(const SessionCalibrationOptions& o) {
 
 std::string fmt_point(cv::Point2d p) { return fmt::format("({:.1f}, {:.1f})", p.x, p.y); }
 
-// The end of intrinsics and pad: what succeeded is saved whatever failed; the failures are named;
-// exit 1 when any camera failed or missed its ground-truth target.
-int save_and_report(const std::filesystem::path& file, const calib::RigCalibration& cal,
-                    const std::vector<std::string>& failed, bool within_targets, const std::string& next) {
-  if (Status s = calib::save_rig_calibration(file, cal); !s.ok()) throw UserError(s.error().message);
-  fmt::print("wrote {}{}\n", file.string(), next);
-  for (const auto& f : failed) fmt::print(stderr, "pvcap: {}\n", f);
-  return failed.empty() && within_targets ? 0 : 1;
-}
+// What intrinsics and pad work on, camera by camera: the session, its calibration file (loaded, or
+// new), the samples to look at, a simulated run's truth when given, and the outcome so far.
+struct CalibrationRun {
+  std::unique_ptr<SessionReader> session;
+  std::filesystem::path file;
+  calib::RigCalibration cal;
+  std::vector<std::size_t> samples;
+  std::optional<sim::RigTruth> truth;
+  std::vector<std::string> failed;
+  bool within_targets = true;
+
+  CalibrationRun(const SessionCalibrationOptions& o, std::size_t frames_by_default)
+      : session(open_session(o.session)),
+        file(calibration_file(o)),
+        cal(load_or_new(file, *session)),
+        samples(samples_to_read(*session, o, frames_by_default)) {
+    if (!o.ground_truth.empty()) truth = read_truth(o.ground_truth);
+  }
+
+  // What succeeded is saved whatever failed; the failures are named; exit 1 when any camera failed
+  // or missed its ground-truth target.
+  int save_and_report(const std::string& next) const {
+    if (Status s = calib::save_rig_calibration(file, cal); !s.ok()) throw UserError(s.error().message);
+    fmt::print("wrote {}{}\n", file.string(), next);
+    for (const auto& f : failed) fmt::print(stderr, "pvcap: {}\n", f);
+    return failed.empty() && within_targets ? 0 : 1;
+  }
+};
 
 }  // namespace
 
@@ -164,28 +183,21 @@ int write_board(const std::filesystem::path& out) {
 }
 
 int intrinsics_from_session(const SessionCalibrationOptions& o) {
-  auto session = open_session(o.session);
+  CalibrationRun run(o, 150);
   const calib::BoardSpec spec;
-  const std::filesystem::path file = calibration_file(o);
-  calib::RigCalibration cal = load_or_new(file, *session);
-  const auto samples = samples_to_read(*session, o, 150);
-  std::optional<sim::RigTruth> truth;
-  if (!o.ground_truth.empty()) truth = read_truth(o.ground_truth);
-  bool within_targets = true;
-  std::vector<std::string> failed;
-  for (std::size_t c = 0; c < session->cameras().size(); ++c) {
-    const CameraInfo& camera = session->cameras()[c];
+  for (std::size_t c = 0; c < run.session->cameras().size(); ++c) {
+    const CameraInfo& camera = run.session->cameras()[c];
     std::vector<calib::BoardView> views;
-    for_each_image(*session, c, samples, "finding the board",
+    for_each_image(*run.session, c, run.samples, "finding the board",
                    [&](const cv::Mat& image) { views.push_back(calib::detect_board(image, spec)); });
     auto got = calib::calibrate_intrinsics(views, {camera.width, camera.height}, spec);
     if (!got) {  // the other cameras' results are still kept
-      failed.push_back(fmt::format("{}: {}", camera.name, got.error().message));
+      run.failed.push_back(fmt::format("{}: {}", camera.name, got.error().message));
       continue;
     }
     const calib::Intrinsics& in = got.value();
-    calib::CameraCalibration* entry = cal.camera(camera.name);
-    if (!entry) entry = &cal.cameras.emplace_back();
+    calib::CameraCalibration* entry = run.cal.camera(camera.name);
+    if (!entry) entry = &run.cal.cameras.emplace_back();
     entry->name = camera.name;
     entry->serial = camera.serial;
     entry->model = in.model;
@@ -220,59 +232,51 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
       fmt::print("  no corners yet in: {}. Record more board views there: the lens is not known where the board "
                  "has not been\n",
                  fmt::join(in.empty_regions, ", "));
-    if (truth) {
-      const calib::CameraModel& tm = truth_camera(*truth, o.ground_truth, camera.name).model;
+    if (run.truth) {
+      const calib::CameraModel& tm = truth_camera(*run.truth, o.ground_truth, camera.name).model;
       const double efx = in.model.K(0, 0) / tm.K(0, 0) - 1, efy = in.model.K(1, 1) / tm.K(1, 1) - 1;
       const double ecx = in.model.K(0, 2) - tm.K(0, 2), ecy = in.model.K(1, 2) - tm.K(1, 2);
       const bool ok = std::abs(efx) <= kFocalTolerance && std::abs(efy) <= kFocalTolerance &&
                       std::abs(ecx) <= kPrincipalTolerancePx && std::abs(ecy) <= kPrincipalTolerancePx;
-      within_targets = within_targets && ok;
+      run.within_targets = run.within_targets && ok;
       fmt::print("  against the truth: focal {:+.3f} % / {:+.3f} %, principal point {:+.2f} / {:+.2f} px ({})\n",
                  100 * efx, 100 * efy, ecx, ecy,
                  ok ? "within targets" : fmt::format("OUTSIDE the targets {} % and {} px", 100 * kFocalTolerance,
                                                      kPrincipalTolerancePx));
     }
-    add_to_session(o.session, camera, *entry, m, file);
+    add_to_session(o.session, camera, *entry, m, run.file);
   }
-  return save_and_report(file, cal, failed, within_targets,
-                         fmt::format("; next: pvcap calibrate pad SESSION --calibration {}", file.string()));
+  return run.save_and_report(fmt::format("; next: pvcap calibrate pad SESSION --calibration {}", run.file.string()));
 }
 
 int pad_from_session(const SessionCalibrationOptions& o) {
-  auto session = open_session(o.session);
-  const std::filesystem::path file = calibration_file(o);
-  if (!std::filesystem::exists(file))
+  if (const auto file = calibration_file(o); !std::filesystem::exists(file))
     throw UserError(fmt::format("{}: no calibration file with the cameras' intrinsics; make one first with `pvcap "
                                 "calibrate intrinsics BOARD_SESSION --out {}` (or give --calibration)",
                                 file.string(), file.string()));
-  calib::RigCalibration cal = load_or_new(file, *session);
-  const auto samples = samples_to_read(*session, o, 15);
-  std::optional<sim::RigTruth> truth;
-  if (!o.ground_truth.empty()) truth = read_truth(o.ground_truth);
-  bool within_targets = true;
-  std::vector<std::string> failed;
-  for (std::size_t c = 0; c < session->cameras().size(); ++c) {
-    const CameraInfo& camera = session->cameras()[c];
-    calib::CameraCalibration* entry = cal.camera(camera.name);
+  CalibrationRun run(o, 15);
+  for (std::size_t c = 0; c < run.session->cameras().size(); ++c) {
+    const CameraInfo& camera = run.session->cameras()[c];
+    calib::CameraCalibration* entry = run.cal.camera(camera.name);
     if (!entry || !entry->intrinsics) {
-      failed.push_back(fmt::format("{}: {} has no intrinsics for this camera; run `pvcap calibrate intrinsics` on a "
-                                   "board session first",
-                                   camera.name, file.string()));
+      run.failed.push_back(fmt::format("{}: {} has no intrinsics for this camera; run `pvcap calibrate intrinsics` "
+                                       "on a board session first",
+                                       camera.name, run.file.string()));
       continue;
     }
     if (entry->model.image_size != cv::Size(camera.width, camera.height)) {
-      failed.push_back(fmt::format("{}: its intrinsics are for {}x{} images but this session recorded {}x{}; "
-                                   "calibrate the intrinsics at this size",
-                                   camera.name, entry->model.image_size.width, entry->model.image_size.height,
-                                   camera.width, camera.height));
+      run.failed.push_back(fmt::format("{}: its intrinsics are for {}x{} images but this session recorded {}x{}; "
+                                       "calibrate the intrinsics at this size",
+                                       camera.name, entry->model.image_size.width, entry->model.image_size.height,
+                                       camera.width, camera.height));
       continue;
     }
-    calib::MarkerAccumulator markers(cal.pad);
-    for_each_image(*session, c, samples, "finding the mat's markers",
+    calib::MarkerAccumulator markers(run.cal.pad);
+    for_each_image(*run.session, c, run.samples, "finding the mat's markers",
                    [&](const cv::Mat& image) { markers.add(image); });
-    auto got = calib::calibrate_pad(markers.median(), entry->model, cal.pad);
+    auto got = calib::calibrate_pad(markers.median(), entry->model, run.cal.pad);
     if (!got) {
-      failed.push_back(fmt::format("{}: {}", camera.name, got.error().message));
+      run.failed.push_back(fmt::format("{}: {}", camera.name, got.error().message));
       continue;
     }
     const calib::PadCalibration& p = got.value();
@@ -288,20 +292,20 @@ int pad_from_session(const SessionCalibrationOptions& o) {
                camera.name, p.marker_ids.size(), markers.frames(), p.rms_px, p.rms_mm, centre.x, centre.y, -centre.z,
                fmt_point(p.pad_corners_px[0]), fmt_point(p.pad_corners_px[1]), fmt_point(p.pad_corners_px[2]),
                fmt_point(p.pad_corners_px[3]));
-    if (truth) {
-      const sim::CameraTruth& t = truth_camera(*truth, o.ground_truth, camera.name);
+    if (run.truth) {
+      const sim::CameraTruth& t = truth_camera(*run.truth, o.ground_truth, camera.name);
       std::vector<double> errors;
       for (std::size_t k = 0; k < 4; ++k) errors.push_back(cv::norm(p.pad_corners_px[k] - t.pad_corners_px[k]));
       std::sort(errors.begin(), errors.end());
       const double median = (errors[1] + errors[2]) / 2, max = errors[3];
       const bool ok = median <= kCornerMedianPx && max <= kCornerMaxPx;
-      within_targets = within_targets && ok;
+      run.within_targets = run.within_targets && ok;
       fmt::print("  against the truth: pad corners median {:.3f} px, max {:.3f} px ({})\n", median, max,
                  ok ? "within targets" : fmt::format("OUTSIDE the targets {} / {} px", kCornerMedianPx, kCornerMaxPx));
     }
-    add_to_session(o.session, camera, *entry, m, file);
+    add_to_session(o.session, camera, *entry, m, run.file);
   }
-  return save_and_report(file, cal, failed, within_targets, "");
+  return run.save_and_report("");
 }
 
 int check_against_presses(const SessionCalibrationOptions& o) {
