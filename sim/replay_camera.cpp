@@ -1,9 +1,13 @@
 #include "sim/replay_camera.h"
 
 #include <pthread.h>
+#include <sys/prctl.h>
+#include <unistd.h>
 #include <sched.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <ctime>
 #include <chrono>
 #include <cstring>
 
@@ -19,6 +23,9 @@ namespace pvcap::sim {
 
 namespace {
 constexpr std::size_t kReadAhead = 12;  // stored mosaics decoded ahead of their frames
+constexpr int kEnginePriority = 10;     // SCHED_FIFO, around each frame (the kicker's is 11)
+constexpr int kSendPriority = 9;        // SCHED_FIFO, while the engine sends a frame's packets
+constexpr std::int64_t kSpinNs = 80'000;  // the end of the wait for a frame's instant, spun
 
 // Aravis' fake camera sends its next frame at the next multiple of its frame period (CLOCK_REALTIME,
 // microseconds) after it has sent this one. The period returned puts that multiple in
@@ -63,12 +70,20 @@ Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& c
   raw->reader_ = std::thread([raw] { raw->read_ahead(); });
   // A frame not begun 0.15 ms after it is due has met the engine's stall (sim/engine_kicker.h): it
   // begins 0-0.15 ms before.
-  raw->kicker_ = std::make_unique<EngineKicker>(camera.address, [raw] {
+  // The engine's thread holds its real-time priority only around its frames (sim/engine_kicker.h).
+  auto next_due = [raw] {
     const auto& frames = raw->replay_->camera_frames(raw->index_);
     const std::size_t n = raw->next_.load();
     if (!raw->streaming_.load() || n >= frames.size()) return INT64_MAX;
-    return raw->replay_->due_ns(frames[n].t_ns) + 150'000;
-  });
+    return raw->replay_->due_ns(frames[n].t_ns);
+  };
+  raw->kicker_ = std::make_unique<EngineKicker>(
+      camera.address,
+      [next_due] {
+        const std::int64_t due = next_due();
+        return due == INT64_MAX ? due : due + 150'000;
+      },
+      EngineKicker::LentPriority{next_due, [raw] { return raw->engine_thread_.load(); }, kEnginePriority});
   ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(raw->fake_.get());
   arv_fake_camera_set_fill_pattern(fake, &ReplayCamera::fill, raw);
   // Triggered (a session recorded with hardware triggers), the engine looks for a trigger once per
@@ -180,10 +195,14 @@ void ReplayCamera::fill_buffer(ArvBuffer* buffer) {
     replay_->start(now);
     // The frames' timing is what is replayed: where allowed (root, or an rtprio limit), the engine's
     // thread wakes at a real-time priority, so a busy recorder beside it does not delay its frames.
+    // From the next frame on, the kicker lends it only around each frame (sim/engine_kicker.h).
     sched_param rt{};
-    rt.sched_priority = 10;
+    rt.sched_priority = kEnginePriority;
     if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &rt) != 0)
       spdlog::debug("replay: {}: sending at normal priority (no permission for SCHED_FIFO)", name_);
+    // Its poll then wakes when asked, not up to 50 us later (the default timer slack).
+    prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
+    engine_thread_ = gettid();
     while (next_ < frames.size() && replay_->due_ns(frames[next_].t_ns) < now) ++next_;
   }
   ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(fake_.get());
@@ -202,11 +221,14 @@ void ReplayCamera::fill_buffer(ArvBuffer* buffer) {
   const std::int64_t image_ns = host_now().ns;
   if (!image.empty()) last_ = image;
   else image = last_;
-  // The engine woke just before the frame is due: the rest is waited here, without giving up the
-  // core (a thread that sleeps this long may find it taken by another camera's engine at the same
-  // real-time priority, and send milliseconds late).
-  if (const std::int64_t wait = due - host_now().ns; wait > 1'000'000)
-    std::this_thread::sleep_for(std::chrono::nanoseconds(wait));
+  // The engine woke just before the frame is due: the rest is slept, but for the last moment
+  // (a sleeping thread wakes 30-80 us late here), which is waited without giving up the core.
+  if (due - host_now().ns > kSpinNs) {
+    const std::int64_t until = due - kSpinNs;
+    const timespec at{time_t(until / 1'000'000'000), long(until % 1'000'000'000)};
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &at, nullptr) == EINTR) {
+    }
+  }
   while (host_now().ns < due) {
   }
   size_t size = 0;
@@ -224,6 +246,12 @@ void ReplayCamera::fill_buffer(ArvBuffer* buffer) {
        << '\n';  // leaves now
   if (++logged_ % 32 == 0) log_.flush();
   plan_next_tick();
+  // The engine sends the frame's packets after this returns: at a priority under the frames'
+  // instants, so another camera whose frame falls due meanwhile leaves on time (on 2 cores, four
+  // cameras due together would otherwise wait for each other's packets: ~0.45 ms per 640 x 480 frame).
+  sched_param send{};
+  send.sched_priority = kSendPriority;
+  (void)pthread_setschedparam(pthread_self(), SCHED_FIFO, &send);
 }
 
 void ReplayCamera::plan_next_tick() {

@@ -54,6 +54,7 @@ class ReplayCamera {
   // Written by the engine's fill, read by the trigger line's thread.
   std::atomic<std::size_t> next_{0};   // the next frame to send
   std::atomic<bool> streaming_{false};  // the first frame after acquisition start has been sent
+  std::atomic<pid_t> engine_thread_{0};  // the engine's thread, known from its first fill
   cv::Mat last_;             // the last stored mosaic sent (frames the session did not keep reuse it)
   arv::GPtr<ArvGvFakeCamera> fake_;
   std::ofstream log_;

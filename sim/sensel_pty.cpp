@@ -74,16 +74,17 @@ void SenselPty::serve() {
     send(emu_.async_frames_due(host_now().ns));  // async scanning pushes frames unasked
     if (ready <= 0 || !(p.revents & POLLIN)) continue;
     const ssize_t n = ::read(master_, buf, sizeof buf);
+    const std::int64_t asked_ns = host_now().ns;
     if (n <= 0) continue;
     if (const int stall = stall_ms_.exchange(0); stall > 0) {
       std::this_thread::sleep_for(std::chrono::milliseconds(stall));
       continue;  // the request is lost, as on a hung device
     }
-    const auto answer = pacer.answer(std::span<const std::uint8_t>(buf, std::size_t(n)), host_now().ns);
+    const auto answer = pacer.answer(std::span<const std::uint8_t>(buf, std::size_t(n)), asked_ns);
     if (const std::int64_t wait_ns = answer.deliver_at_ns - host_now().ns; wait_ns > 0)
       std::this_thread::sleep_for(std::chrono::nanoseconds(wait_ns));
     send(answer.bytes);
-    if (answer.replayed) emu_.replay_sent(host_now().ns);
+    if (answer.replayed) emu_.replay_sent(asked_ns, host_now().ns);
   }
 }
 

@@ -336,14 +336,16 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
               "(%zu intervals); Sensel p50 %.3f p95 %.3f p99 %.3f ms (%zu)\n",
               pct(cam_errors, 0.5), pct(cam_errors, 0.95), pct(cam_errors, 0.99), cam_errors.size(),
               pct(sensel_errors, 0.5), pct(sensel_errors, 0.95), pct(sensel_errors, 0.99), sensel_errors.size());
-  // Frames leave on time as a rule: p50 0.05-0.2 ms on an idle machine. The tail (p99 several ms
-  // here, the goal 1 ms) comes from the recorder beside the replay on the same 2 cores: the
-  // fake camera engine waits for its socket and the Sensel for the driver's next request
-  // (docs/replay.md). A busy host moves even the median (1.9 ms once, with the VM's neighbours
-  // busy), so the bound is what "at the recorded intervals" cannot do without: under half a
-  // Sensel scan period.
-  EXPECT_LT(pct(cam_errors, 0.5), 4.0);
-  EXPECT_LT(pct(sensel_errors, 0.5), 4.0);
+  // Frames leave on time: p50 10-60 us, cameras p99 0.3-0.9 ms and the Sensel's 0.1-0.25 ms on
+  // these 2 cores beside the recorder (docs/replay.md). The bounds leave room for this shared
+  // machine's hiccups (one moves a few intervals of every stream by milliseconds) and for the
+  // kernel's pseudo-terminal, which can hold a Sensel request back by tens of milliseconds when
+  // the cores are saturated; the engine's stall (33 ms p99) or engines keeping each other from
+  // the cores (1-3 ms) would fail them.
+  EXPECT_LT(pct(cam_errors, 0.99), 2.0);
+  EXPECT_LT(pct(cam_errors, 0.5), 0.5);
+  EXPECT_LT(pct(sensel_errors, 0.95), 2.0);
+  EXPECT_LT(pct(sensel_errors, 0.5), 0.5);
   fs::remove_all(work);
 }
 
