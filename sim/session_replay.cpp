@@ -22,6 +22,48 @@ bool plausible(std::int64_t t) { return t > -kMaxTimeNs && t < kMaxTimeNs; }
 // The first frame leaves this long after the first device starts: time for the others to start.
 // Short enough that a Sensel asked for its first frame answers before the driver gives up (0.5 s).
 constexpr std::int64_t kLeadNs = 200'000'000;
+
+// At a replay rate r the recorded device times are compressed (r > 1) or stretched about each
+// clock's start, so the device clocks still tick one second a second while the frames come r times
+// as often; a clock that went back (a device restarted) starts a new stretch there.
+class DeviceClockScale {
+ public:
+  explicit DeviceClockScale(double rate) : rate_(rate) {}
+  std::int64_t operator()(std::int64_t device) {
+    if (!started_ || device < last_) start_ = device, started_ = true;
+    last_ = device;
+    return start_ + std::int64_t(std::llround(double(device - start_) / rate_));
+  }
+
+ private:
+  double rate_;
+  bool started_ = false;
+  std::int64_t start_ = 0, last_ = 0;
+};
+
+// The same for the Sensel's 32-bit microsecond clock in a frame's payload (bytes 2-5, little
+// endian), rewritten in place; it wraps every 71 minutes.
+class SenselClockScale {
+ public:
+  explicit SenselClockScale(double rate) : rate_(rate) {}
+  void operator()(std::vector<std::uint8_t>& payload) {
+    if (payload.size() < 6) return;
+    std::uint32_t us = 0;
+    for (int i = 0; i < 4; ++i) us |= std::uint32_t(payload[2 + std::size_t(i)]) << (8 * i);
+    const auto step = std::int32_t(us - last_);  // a wrap is a small step forward
+    if (!started_ || step < 0) start_ = us, elapsed_ = 0, started_ = true;
+    else elapsed_ += std::uint32_t(step);
+    last_ = us;
+    const auto scaled = std::uint32_t(start_ + std::uint64_t(std::llround(double(elapsed_) / rate_)));
+    for (int i = 0; i < 4; ++i) payload[2 + std::size_t(i)] = std::uint8_t(scaled >> (8 * i));
+  }
+
+ private:
+  double rate_;
+  bool started_ = false;
+  std::uint32_t start_ = 0, last_ = 0;
+  std::uint64_t elapsed_ = 0;
+};
 }  // namespace
 
 Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem::path& session_dir, double rate) {
@@ -67,6 +109,7 @@ Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem
     while (cams.step()) {
       Camera c;
       c.name = cams.column_text(1);
+      DeviceClockScale scale(rate);
       frames.reset();
       frames.bind_all(cams.column_int(0));
       while (frames.step()) {
@@ -74,6 +117,7 @@ Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem
         if (!plausible(f.device_ns) || !plausible(f.t_ns))
           return Error{fmt::format("{}: camera {} has a frame at an impossible time (a damaged index)",
                                    db_path.string(), c.name)};
+        if (rate != 1.0) f.device_ns = scale(f.device_ns);
         if (frames.column_int(5) != 0) {
           const auto it = stored.find({cams.column_int(0), frames.column_int(0), frames.column_int(1)});
           if (it != stored.end()) f.sample = it->second;
@@ -95,10 +139,12 @@ Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem
           "SELECT payload, mapped_ns FROM pressure_frames WHERE device_id = ? AND mapped_ns IS NOT NULL "
           "ORDER BY connection, sequence");
       p.bind_all(sensel.column_int(0));
+      SenselClockScale scale(rate);
       while (p.step()) {
         if (!plausible(p.column_int(1)))
           return Error{fmt::format("{}: a pressure frame at an impossible time (a damaged index)", db_path.string())};
         r->pressure_.push_back({p.column_blob(0), p.column_int(1) + sensel_latency_ns});
+        if (rate != 1.0) scale(r->pressure_.back().payload);
       }
       if (!r->pressure_.empty()) first = std::min(first, r->pressure_.front().t_ns);
     }
@@ -160,10 +206,12 @@ std::int64_t SessionReplay::camera_device_time(std::size_t c, std::int64_t host_
   const auto& clock = cameras_[c].clock;
   const std::int64_t t = session_time(host_ns);
   if (clock.empty()) return t;
-  // Between two recorded frames: on the line through them; outside: at the device's nominal rate.
+  // Between two recorded frames: on the line through them; outside: at the device's nominal rate
+  // (its recorded times are scaled by the rate: one second of the replay's host clock a second).
   const auto hi = std::lower_bound(clock.begin(), clock.end(), std::make_pair(t, INT64_MIN));
-  if (hi == clock.begin()) return clock.front().second + (t - clock.front().first);
-  if (hi == clock.end()) return clock.back().second + (t - clock.back().first);
+  auto beyond = [&](std::int64_t session_ns) { return std::int64_t(std::llround(double(session_ns) / rate_)); };
+  if (hi == clock.begin()) return clock.front().second + beyond(t - clock.front().first);
+  if (hi == clock.end()) return clock.back().second + beyond(t - clock.back().first);
   const auto lo = std::prev(hi);
   if (hi->first == lo->first) return lo->second;
   const double f = double(t - lo->first) / double(hi->first - lo->first);

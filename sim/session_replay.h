@@ -10,8 +10,10 @@
 //
 // The cameras' timestamp latches read the recorded clocks: device time interpolated between the
 // recorded frames' (session time, device time) pairs, so the new session maps the frames onto its
-// clock as the old one did. With `rate` != 1 the frames leave that much faster or slower, with
-// their recorded timestamps: the device clocks then run at that rate (a stress test, not a copy).
+// clock as the old one did. With `rate` != 1 the frames leave that much faster or slower, and their
+// device timestamps (a camera's, the Sensel's in its payload) are scaled by it about each clock's
+// start, so the device clocks still tick at their own rate: the same session at r times its frame
+// rates, for a stress test (not a copy: the timestamps and the Sensel's payloads differ).
 #include <cstdint>
 #include <filesystem>
 #include <memory>

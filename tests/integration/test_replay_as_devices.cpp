@@ -83,6 +83,12 @@ Recorded read_recorded(const fs::path& session) {
 // |interval between two frames leaving the replay - their recorded device interval| (ms), from the
 // replay's own log of what it sent (sim-truth/*_replay.csv in the re-recorded session): cameras
 // (frame_id,device_ns,due_ns,sent_ns) or the Sensel (counter,device_us,due_ns,sent_ns).
+// The q-quantile of v (0 when empty).
+double pct(std::vector<double> v, double q) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[std::min(v.size() - 1, std::size_t(double(v.size()) * q))];
+}
+
 std::vector<double> replay_interval_errors_ms(const fs::path& log, bool sensel) {
   std::ifstream in(log);
   std::string line;
@@ -111,9 +117,10 @@ std::vector<double> replay_interval_errors_ms(const fs::path& log, bool sensel) 
 // the two sessions and the re-recording's output (empty paths, with the failure said, on an error).
 struct RoundTrip {
   fs::path recorded, replayed, replay_rig;
-  std::string again_output;
+  std::string rig_output, again_output;
 };
-RoundTrip record_twice(const fs::path& work, const std::string& rig_yaml, double seconds, double again_seconds) {
+RoundTrip record_twice(const fs::path& work, const std::string& rig_yaml, double seconds, double again_seconds,
+                       const std::string& replay_options = "") {
   RoundTrip r;
   std::ofstream(work / "rig.yaml") << rig_yaml;
   const auto first = run_pvcap(fmt::format("session --rig {} --root {} --duration {} --no-web",
@@ -124,8 +131,9 @@ RoundTrip record_twice(const fs::path& work, const std::string& rig_yaml, double
     return {};
   }
   r.replay_rig = work / "replay.yaml";
-  const auto rig = run_pvcap(fmt::format("replay {} --as-devices --rig-out {}", r.recorded.string(),
-                                         r.replay_rig.string()));
+  const auto rig = run_pvcap(fmt::format("replay {} --as-devices --rig-out {} {}", r.recorded.string(),
+                                         r.replay_rig.string(), replay_options));
+  r.rig_output = rig.output;
   if (rig.exit_code != 0) {
     ADD_FAILURE() << rig.output;
     return {};
@@ -199,10 +207,6 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   for (const auto& [key, t] : ra_.mapped_ns)
     if (auto it = rb_.mapped_ns.find(key); it != rb_.mapped_ns.end())
       moved_us[key.first].push_back(std::fabs(double(it->second - shift - t)) / 1e3);
-  auto pct = [](std::vector<double> v, double q) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0.0 : v[std::min(v.size() - 1, std::size_t(double(v.size()) * q))];
-  };
   // How far apart a re-recording puts a frame: tens to a few hundred microseconds (a camera's clock
   // is fitted to its latch probes afresh; the Sensel's pseudo-terminal adds its floor again, 60-80
   // us). Printed: it is the replay's precision, and a loaded machine moves it. Beyond half the
@@ -430,5 +434,92 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
     std::printf("%s: |interval sent - recorded| p50 %.3f ms\n", cam, sorted[sorted.size() / 2]);
     EXPECT_LT(sorted[sorted.size() / 2], 4.0) << cam;
   }
+  fs::remove_all(work);
+}
+
+// `--rate 2`: the same frames (ids, pixels, pressure) come twice as often, their device timestamps
+// compressed so the device clocks still tick at their own rate; the printed command records for
+// half the time.
+TEST(ReplayAsDevices, AtRateTwoTheSameFramesComeTwiceAsOften) {
+  const fs::path work = work_dir("replay-rate");
+  const RoundTrip trip = record_twice(work, sim_rig_yaml({{.drift_ppm = 40}}, 640, 480, 30, 15, "free-run", true),
+                                      5, 3.1, "--rate 2");
+  ASSERT_FALSE(trip.replayed.empty());
+  const std::string printed = "pvcap session --rig " + trip.replay_rig.string() + " --duration ";
+  const auto at = trip.rig_output.find(printed);
+  ASSERT_NE(at, std::string::npos) << trip.rig_output;
+  const double duration = std::stod(trip.rig_output.substr(at + printed.size()));
+  EXPECT_GT(duration, 2.5);
+  EXPECT_LT(duration, 3.2);
+  // The clocks tick as devices' do: the recorder sees no clock reset and no odd rate.
+  EXPECT_EQ(trip.again_output.find("clock was reset"), std::string::npos) << trip.again_output;
+
+  struct Frames {
+    std::map<std::int64_t, std::int64_t> camera_device_ns;  // cam0: frame id -> device time
+    std::vector<std::int64_t> camera_mapped_ns;
+    std::map<int, std::vector<std::vector<std::uint8_t>>> pressure_by_counter;  // payloads, timestamp zeroed
+    std::size_t pressure_frames = 0;
+  };
+  auto read = [](const fs::path& session) {
+    sqlite::Database db(session / "session.db", sqlite::Database::Mode::ReadOnly);
+    Frames f;
+    auto c = db.prepare(
+        "SELECT f.frame_id, f.device_ns, f.mapped_ns FROM frames f JOIN devices d ON d.id = f.device_id WHERE d.name "
+        "= 'cam0' AND f.status = 'good' AND f.mapped_ns IS NOT NULL ORDER BY f.mapped_ns");
+    while (c.step()) {
+      f.camera_device_ns[c.column_int(0)] = c.column_int(1);
+      f.camera_mapped_ns.push_back(c.column_int(2));
+    }
+    auto p = db.prepare("SELECT payload FROM pressure_frames");
+    while (p.step()) {
+      auto payload = p.column_blob(0);
+      if (payload.size() < 6) continue;
+      std::fill(payload.begin() + 2, payload.begin() + 6, 0);  // the device's timestamp
+      f.pressure_by_counter[payload[1]].push_back(std::move(payload));
+      ++f.pressure_frames;
+    }
+    return f;
+  };
+  const Frames a = read(trip.recorded), b = read(trip.replayed);
+
+  // Every camera frame is received again with its id; its device time moved half as far from the
+  // first frame's.
+  std::size_t again = 0, halved = 0;
+  const auto first_a = a.camera_device_ns.begin(), first_b = b.camera_device_ns.find(first_a->first);
+  for (const auto& [id, device_ns] : a.camera_device_ns) {
+    const auto it = b.camera_device_ns.find(id);
+    if (it == b.camera_device_ns.end()) continue;
+    ++again;
+    if (first_b != b.camera_device_ns.end())
+      halved += std::llabs((it->second - first_b->second) - (device_ns - first_a->second) / 2) < 2'000;
+  }
+  std::printf("cam0 at rate 2: %zu of %zu recorded frames received again, %zu at half the device time apart\n",
+              again, a.camera_device_ns.size(), halved);
+  EXPECT_GT(a.camera_device_ns.size(), 130u);
+  EXPECT_GE(double(again), 0.9 * double(a.camera_device_ns.size()));
+  EXPECT_EQ(halved, again);
+  // The pressure frames come again with the same contents (all but the timestamp).
+  std::size_t same = 0;
+  for (const auto& [counter, payloads] : b.pressure_by_counter)
+    for (const auto& payload : payloads) {
+      const auto it = a.pressure_by_counter.find(counter);
+      same += it != a.pressure_by_counter.end() &&
+              std::find(it->second.begin(), it->second.end(), payload) != it->second.end();
+    }
+  std::printf("pressure at rate 2: %zu of %zu recorded frames received again, the same but for the timestamp\n",
+              same, a.pressure_frames);
+  EXPECT_GE(double(same), 0.9 * double(a.pressure_frames));
+  // On the new session's clock the camera runs at 60 frames a second, and the frames left on time.
+  ASSERT_GT(b.camera_mapped_ns.size(), 100u);
+  const double fps = double(b.camera_mapped_ns.size() - 1) /
+                     (double(b.camera_mapped_ns.back() - b.camera_mapped_ns.front()) / 1e9);
+  const auto cam = replay_interval_errors_ms(trip.replayed / "sim-truth" / "cam0_replay.csv", false);
+  const auto sensel = replay_interval_errors_ms(trip.replayed / "sim-truth" / "sensel_replay.csv", true);
+  std::printf("re-recorded at rate 2: %.1f camera frames a second; |interval sent - timestamped| camera p50 %.3f "
+              "p95 %.3f ms, Sensel p50 %.3f p95 %.3f ms\n",
+              fps, pct(cam, 0.5), pct(cam, 0.95), pct(sensel, 0.5), pct(sensel, 0.95));
+  EXPECT_NEAR(fps, 60.0, 1.0);
+  EXPECT_LT(pct(cam, 0.5), 0.5);
+  EXPECT_LT(pct(sensel, 0.5), 0.5);
   fs::remove_all(work);
 }
