@@ -1,15 +1,15 @@
 #include "sim/replay_camera.h"
 
 #include <pthread.h>
+#include <sched.h>
 #include <sys/prctl.h>
 #include <unistd.h>
-#include <sched.h>
 
 #include <algorithm>
 #include <cerrno>
-#include <ctime>
 #include <chrono>
 #include <cstring>
+#include <ctime>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -69,8 +69,8 @@ Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& c
   ReplayCamera* raw = self.get();
   raw->reader_ = std::thread([raw] { raw->read_ahead(); });
   // A frame not begun 0.15 ms after it is due has met the engine's stall (sim/engine_kicker.h): it
-  // begins 0-0.15 ms before.
-  // The engine's thread holds its real-time priority only around its frames (sim/engine_kicker.h).
+  // begins 0-0.15 ms before. And the engine's thread holds its real-time priority only around its
+  // frames (the same file says why).
   auto next_due = [raw] {
     const auto& frames = raw->replay_->camera_frames(raw->index_);
     const std::size_t n = raw->next_.load();

@@ -192,7 +192,8 @@ void SenselEmulator::replay_sent(std::int64_t asked_ns, std::int64_t host_ns) {
   if (f.payload.size() < 6) return;
   std::uint32_t device_us = 0;
   for (int i = 0; i < 4; ++i) device_us |= std::uint32_t(f.payload[2 + std::size_t(i)]) << (8 * i);
-  *truth_ << int(f.payload[1]) << ',' << device_us << ',' << replay_->due_ns(f.t_ns) << ',' << host_ns << ',' << asked_ns << '\n';
+  *truth_ << int(f.payload[1]) << ',' << device_us << ',' << replay_->due_ns(f.t_ns) << ',' << host_ns << ','
+          << asked_ns << '\n';
   if (++replay_logged_ % 32 == 0) truth_->flush();
 }
 
