@@ -144,8 +144,9 @@ int main(int argc, char** argv) {
   replay_cmd->add_flag("--as-devices", replay_opts.as_devices,
                        "write a rig file whose simulated devices re-serve the session through the cameras' and the "
                        "Sensel's own protocols; `pvcap session` on it records the session again");
-  replay_cmd->add_option("--rate", replay_opts.rate, "--as-devices: play this much faster (default 1: the original "
-                                                     "timing; the round trip is exact only at 1)")
+  replay_cmd->add_option("--rate", replay_opts.rate,
+                         "--as-devices: play this much faster (default 1: the original timing; the round trip is "
+                         "exact only at 1, as the device timestamps are scaled so the clocks keep their own rate)")
       ->check(CLI::Range(0.1, 10.0));
   replay_cmd->add_option("--keys", replay_opts.window.keys, "the window: press these keys first (space, right, "
                                                            "left, n, p, +, -, q, ...; for demos and tests)")
