@@ -341,14 +341,14 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
               pct(cam_errors, 0.5), pct(cam_errors, 0.95), pct(cam_errors, 0.99), cam_errors.size(),
               pct(sensel_errors, 0.5), pct(sensel_errors, 0.95), pct(sensel_errors, 0.99), sensel_errors.size());
   // Frames leave on time: p50 10-60 us, cameras p99 0.3-0.9 ms and the Sensel's 0.1-0.25 ms on
-  // these 2 cores beside the recorder (docs/replay.md). The bounds leave room for this shared
-  // machine's hiccups (one moves a few intervals of every stream by milliseconds) and for the
-  // kernel's pseudo-terminal, which can hold a Sensel request back by tens of milliseconds when
-  // the cores are saturated; the engine's stall (33 ms p99) or engines keeping each other from
-  // the cores (1-3 ms) would fail them.
-  EXPECT_LT(pct(cam_errors, 0.99), 2.0);
+  // these 2 cores beside the recorder (docs/replay.md). The bounds are on p95, which this shared
+  // machine's hiccups do not reach (one moves ~8 intervals by milliseconds, and two in a run took
+  // the cameras' p99 to 2.9 ms), nor the kernel's pseudo-terminal (it can hold a Sensel request
+  // back by tens of milliseconds when the cores are saturated); the engine's stall (1 frame in
+  // 8-12 late by 33-100 ms) would fail them.
+  EXPECT_LT(pct(cam_errors, 0.95), 1.0);
   EXPECT_LT(pct(cam_errors, 0.5), 0.5);
-  EXPECT_LT(pct(sensel_errors, 0.95), 2.0);
+  EXPECT_LT(pct(sensel_errors, 0.95), 1.0);
   EXPECT_LT(pct(sensel_errors, 0.5), 0.5);
   fs::remove_all(work);
 }
