@@ -157,8 +157,26 @@ const cv::Mat& SimCamera::board_image(int width, int height, ArvPixelFormat form
   return v.frame;
 }
 
+// Aravis' engine sends an acquisition's first frame when its idle wait ends, then the others at
+// whole multiples of the frame period (of the real-time clock): the first interval came out
+// anywhere from 0 to a period (2.8 ms seen), which no free-running camera does, and a recorder
+// then has two frames of one camera for one instant. The first frame waits here (at most a period,
+// once per acquisition) for the grid's next multiple: the frames after it come a period apart.
+void SimCamera::align_first_frame() {
+  ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(fake_.get());
+  guint32 triggered = 0, period_us = 0;
+  arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_TRIGGER_MODE, &triggered);
+  arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US, &period_us);
+  if (triggered || period_us == 0) return;
+  const std::int64_t last = last_fill_ns_.load();
+  if (last != 0 && host_now().ns - last < 2 * std::int64_t(period_us) * 1000) return;  // streaming
+  const std::int64_t real_us = g_get_real_time();
+  std::this_thread::sleep_for(std::chrono::microseconds(period_us - real_us % period_us));
+}
+
 // Runs on the fake camera's thread, once per frame, at the frame's capture instant.
 void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format) {
+  align_first_frame();
   const std::int64_t true_ns = host_now().ns;
   last_fill_ns_.store(true_ns);
   fill_at(buffer, format, true_ns);

@@ -64,6 +64,9 @@ class SimCamera {
   SimCamera() = default;
   static void fill(ArvBuffer* buffer, void* self, guint32 exposure_us, guint32 gain, ArvPixelFormat format);
   void fill_buffer(ArvBuffer* buffer, ArvPixelFormat format);
+  // A free-running camera's first frame of an acquisition waits for the engine's period grid, so
+  // the next comes a whole period later (see the definition).
+  void align_first_frame();
   void fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns);
   const cv::Mat& base_image(int width, int height, ArvPixelFormat format);
 
