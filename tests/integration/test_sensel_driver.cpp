@@ -201,13 +201,17 @@ TEST(SenselDriver, UnplugIsReportedAndNothingCapturedIsLost) {
   std::this_thread::sleep_for(500ms);
   const auto t_unplug = host_now();
   rig.link->unplug();
-  std::this_thread::sleep_for(600ms);
+  // Reported within a second: a read in flight gives up after the driver's timeout (0.5 s) at the
+  // latest, and a loaded machine adds its scheduling (672 ms seen beside a CPU-heavy test).
+  for (auto deadline = std::chrono::steady_clock::now() + 2s;
+       !rig.saw(sensel::SenselEvent::Kind::Unplugged) && std::chrono::steady_clock::now() < deadline;)
+    std::this_thread::sleep_for(20ms);
   EXPECT_TRUE(rig.saw(sensel::SenselEvent::Kind::Unplugged));
   {
     std::lock_guard lock(rig.mu);
     for (const auto& e : rig.events)
       if (e.kind == sensel::SenselEvent::Kind::Unplugged) {
-        EXPECT_LT(e.at.ns - t_unplug.ns, 600'000'000);
+        EXPECT_LT(e.at.ns - t_unplug.ns, 1'000'000'000);
       }
   }
   const auto frames = rig.device->frames();
