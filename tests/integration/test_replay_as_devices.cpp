@@ -80,15 +80,16 @@ Recorded read_recorded(const fs::path& session) {
   return r;
 }
 
-// |interval between two frames leaving the replay - their recorded device interval| (ms), from the
-// replay's own log of what it sent (sim-truth/*_replay.csv in the re-recorded session): cameras
-// (frame_id,device_ns,due_ns,sent_ns) or the Sensel (counter,device_us,due_ns,sent_ns).
 // The q-quantile of v (0 when empty).
 double pct(std::vector<double> v, double q) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0.0 : v[std::min(v.size() - 1, std::size_t(double(v.size()) * q))];
 }
 
+// |interval between two frames leaving the replay - their recorded device interval| (ms), from the
+// replay's own log of what it sent (sim-truth/*_replay.csv in the re-recorded session): its first
+// four columns, cameras (frame_id,device_ns,due_ns,sent_ns) or the Sensel (counter,device_us,
+// due_ns,sent_ns).
 std::vector<double> replay_interval_errors_ms(const fs::path& log, bool sensel) {
   std::ifstream in(log);
   std::string line;
