@@ -169,7 +169,9 @@ void SimCamera::align_first_frame() {
   arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US, &period_us);
   if (triggered || period_us == 0) return;
   const std::int64_t last = last_fill_ns_.load();
-  if (last != 0 && host_now().ns - last < 2 * std::int64_t(period_us) * 1000) return;  // streaming
+  const std::int64_t now = host_now().ns;
+  if (last != 0 && now - last < 2 * std::int64_t(period_us) * 1000) return;  // streaming
+  last_fill_ns_.store(now);  // begun: the kicker does not take this wait for the engine's stall
   const std::int64_t real_us = g_get_real_time();
   std::this_thread::sleep_for(std::chrono::microseconds(period_us - real_us % period_us));
 }
