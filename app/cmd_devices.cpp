@@ -1,4 +1,6 @@
 #include "app/cmd_devices.h"
+#include "app/rig_launcher.h"
+#include "app/command.h"
 
 #include <unistd.h>
 
@@ -60,6 +62,27 @@ int cmd_devices_of_sim(bool json, const RigConfig& rig) {
   made.value().reset();
   std::filesystem::remove_all(tmp);
   return rc;
+}
+
+Registered add_devices_command(CLI::App& app, AppContext&) {
+  struct Args {
+    bool json = false;
+    std::string sim;
+    std::vector<std::string> ttys;
+  };
+  auto a = std::make_shared<Args>();
+  auto* d = app.add_subcommand("devices", "list the cameras (and sensors) this machine can reach");
+  d->add_flag("--json", a->json, "one JSON object per device");
+  d->add_option("--tty", a->ttys, "also ask the Sensel on these serial ports (e.g. /dev/serial/by-id/...)");
+  d->add_option("--sim", a->sim, "first start this simulated rig (a rig file with a sim: section)")
+      ->check(CLI::ExistingFile);
+  return {d, [a] {
+            if (a->sim.empty()) return cmd_devices(a->json, a->ttys);
+            const auto rig = load_rig_config(a->sim);
+            if (!rig.simulated) throw UserError(fmt::format("{}: has no sim: section", a->sim));
+            prepare_rig_network(rig);
+            return cmd_devices_of_sim(a->json, rig);
+          }};
 }
 
 }  // namespace pvcap

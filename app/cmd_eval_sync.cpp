@@ -1,37 +1,74 @@
 #include "app/cmd_eval_sync.h"
 
+#include <unistd.h>
+
 #include <fstream>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "app/cmd_report.h"
-#include "protocol/participant_session.h"
+#include "app/cmd_session.h"
+#include "app/command.h"
+#include "app/rig_launcher.h"
 #include "core/rig_config.h"
 
 namespace pvcap {
 
-int eval_sync(const std::filesystem::path& scenario, const EvalSyncOptions& o, const std::atomic<bool>& stop) {
+namespace {
+
+int eval_sync(const EvalSyncOptions& o, AppContext& ctx) {
+  const bool temporary = o.root.empty();
+  const std::filesystem::path root =
+      temporary ? std::filesystem::temp_directory_path() / fmt::format("pvcap-eval-sync-{}", getpid()) : o.root;
+  const auto scenario = sim::write_eval_scenario(o.scenario, root);
   const RigConfig rig = load_rig_config(scenario);
-  const auto sessions = o.root / "sessions";
-  protocol::SessionSetup setup;
-  setup.recording.root = sessions;
-  setup.recording.device_wait_s = 15.0;
-  setup.recording.self_exe = o.self_exe;
+  prepare_rig_network(rig);
+  spdlog::info("eval-sync: scenario {}, {:g} s, recorded into {}{}", scenario.string(), o.scenario.seconds,
+               root.string(), temporary ? " (removed at the end; give --root to keep it)" : "");
+  console::SessionSetup setup;
+  setup.recording.root = root / "sessions";
   setup.duration_s = o.scenario.seconds;
-  const auto outcome = protocol::run_session(rig, setup, stop);
+  const auto outcome = record_session(rig, setup, ctx);
+  int rc = 1;
   const auto& dir = outcome.recording.dir;
-  fmt::print("\n{}", outcome.recording.report);
   if (outcome.recording.exit_code != 0 || dir.empty()) {
     spdlog::error("the evaluation session failed; nothing to evaluate");
-    return 1;
+  } else {
+    (void)report_recorded_session(outcome);
+    const sim::SyncEvaluation e = sim::evaluate_sync(dir, o.warmup_s);
+    const std::string text = sim::format_evaluation(e);
+    fmt::print("\n{}", text);
+    std::ofstream(dir / "eval-sync.txt") << text;
+    rc = e.missed.empty() ? 0 : 1;
   }
-  write_session_report(dir);
-  const sim::SyncEvaluation e = sim::evaluate_sync(dir, o.warmup_s);
-  const std::string text = sim::format_evaluation(e);
-  fmt::print("\n{}", text);
-  std::ofstream(dir / "eval-sync.txt") << text;
-  return e.missed.empty() ? 0 : 1;
+  if (temporary) {
+    std::error_code ec;
+    std::filesystem::remove_all(root, ec);
+    fmt::print("eval-sync: removed {} (give --root to keep its session)\n", root.string());
+  }
+  return rc;
+}
+
+}  // namespace
+
+Registered add_eval_sync_command(CLI::App& app, AppContext& ctx) {
+  auto o = std::make_shared<EvalSyncOptions>();
+  auto* e = app.add_subcommand(
+      "eval-sync", "record a simulated session with a hard timing scenario and measure the timeline against its truth");
+  e->add_option("--seconds", o->scenario.seconds, "length of the recording")->capture_default_str()
+      ->check(CLI::Range(5.0, 3600.0));
+  e->add_option("--drift-ppm", o->scenario.drift_ppm, "camera clock drift (+- this; the Sensel half of it)")
+      ->capture_default_str()->check(CLI::Range(0.0, 1000.0));
+  e->add_option("--jitter-ms", o->scenario.jitter_ms, "Sensel USB arrival jitter cap (long tail; mean a quarter)")
+      ->capture_default_str()->check(CLI::Range(0.0, 50.0));
+  e->add_option("--loss", o->scenario.loss, "fraction of pressure frames the device loses")->capture_default_str()
+      ->check(CLI::Range(0.0, 0.5));
+  e->add_option("--seed", o->scenario.seed, "scenario seed")->capture_default_str();
+  e->add_option("--warmup", o->warmup_s, "seconds at the start left out of the timing errors")->capture_default_str()
+      ->check(CLI::Range(0.0, 60.0));
+  e->add_option("--root", o->root, "folder for the scenario and its session (default: a temporary one, removed at "
+                                   "the end)");
+  return {e, [o, &ctx] { return eval_sync(*o, ctx); }};
 }
 
 }  // namespace pvcap

@@ -1,7 +1,7 @@
 #pragma once
 // `pvcap eval-sync`: records a simulated session with a hard timing scenario and measures it
-// against the simulator's ground truth (sim/sync_evaluation.h).
-#include <atomic>
+// against the simulator's ground truth (sim/sync_evaluation.h). Without --root it records into a
+// temporary folder, says so, and removes it at the end.
 #include <filesystem>
 
 #include "sim/sync_evaluation.h"
@@ -11,11 +11,7 @@ namespace pvcap {
 struct EvalSyncOptions {
   sim::EvalScenario scenario;
   double warmup_s = 3;
-  std::filesystem::path root;  // where the scenario and its session go
-  std::filesystem::path self_exe;
+  std::filesystem::path root;  // where the scenario and its session go (empty: a temporary folder, removed)
 };
-
-// Records the scenario (already loaded; the caller has made its network) and evaluates it.
-int eval_sync(const std::filesystem::path& scenario, const EvalSyncOptions& options, const std::atomic<bool>& stop);
 
 }  // namespace pvcap

@@ -1,4 +1,5 @@
 #include "app/cmd_export.h"
+#include "app/command.h"
 
 #include "app/progress_line.h"
 
@@ -55,6 +56,46 @@ int cmd_export(const ExportCommand& c, const std::atomic<bool>& stop) {
     }
   }
   return rc;
+}
+
+Registered add_export_command(CLI::App& app, AppContext& ctx) {
+  struct Args {
+    ExportCommand c;
+    std::string layout = "pressurevision", force_format = "pkl", take;
+    std::vector<std::size_t> cameras;
+    double from = -1, to = -1;
+  };
+  auto a = std::make_shared<Args>();
+  auto* e = app.add_subcommand("export", "write sessions in the PressureVisionDB layout (the released loaders read "
+                                         "them unchanged); one independent job per session");
+  e->add_option("SESSION", a->c.sessions, "session folders")->required()->check(CLI::ExistingDirectory);
+  e->add_option("--layout", a->layout, "pressurevision (metadata.json) or pressurevision-plus (meta.json, a "
+                                       "homography per frame)")
+      ->check(CLI::IsMember({"pressurevision", "pressurevision-plus"}));
+  e->add_option("--out", a->c.options.out, "the dataset folder (shared by many sessions)")->required();
+  e->add_option("--take", a->take, "only this take (its sequence name, as `pvcap takes` lists it)");
+  e->add_option("--from", a->from, "only samples from this many seconds after the session's start");
+  e->add_option("--to", a->to, "only samples before this many seconds after the session's start");
+  e->add_option("--cameras", a->cameras, "only these cameras (0-based indices, e.g. --cameras 0 2)");
+  e->add_option("--jpeg-quality", a->c.options.jpeg_quality, "JPEG quality, 1..100 (default 95)")
+      ->check(CLI::Range(1, 100));
+  e->add_option("--force-format", a->force_format, "pkl (what the loaders read, default) or npy")
+      ->check(CLI::IsMember({"pkl", "npy"}));
+  e->add_flag("--crop-paper", a->c.options.paper_crop,
+              "the paper's crop: each frame cut to the pad + 50 px, 480 x 384 (intrinsics adjusted)");
+  e->add_flag("--include-all", a->c.options.include_all,
+              "also superseded, bad and interrupted takes (done takes only by default)");
+  return {e, [a, &ctx] {
+            auto& o = a->c.options;
+            o.layout = a->layout == "pressurevision" ? exporting::Layout::PressureVision
+                                                     : exporting::Layout::PressureVisionPlus;
+            o.npy = a->force_format == "npy";
+            o.cameras = a->cameras;
+            if (!a->take.empty()) o.take = a->take;
+            if (a->from >= 0) o.from_s = a->from;
+            if (a->to >= 0) o.to_s = a->to;
+            return cmd_export(a->c, ctx.stop);
+          }};
 }
 
 }  // namespace pvcap

@@ -1,4 +1,5 @@
 #include "app/cmd_replay.h"
+#include "app/command.h"
 
 #include "app/progress_line.h"
 
@@ -9,7 +10,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "replay/as_devices.h"
+#include "sim/replay_rig.h"
 
 namespace pvcap {
 
@@ -19,7 +20,7 @@ namespace {
 constexpr double kReplayStartS = 0.5;
 
 int replay_as_devices(const ReplayCommand& c) {
-  auto r = replay::write_replay_rig(c.session, c.rig_out, c.rate);
+  auto r = sim::write_replay_rig(c.session, c.rig_out, c.rate);
   if (!r) {
     spdlog::error("{}", r.error().message);
     return 1;
@@ -82,6 +83,47 @@ int cmd_replay(const ReplayCommand& c, const std::atomic<bool>& stop) {
              c.options.out.string(), v.frames, v.video_seconds, v.session_seconds, v.seconds_taken,
              v.seconds_taken > 0 ? v.session_seconds / v.seconds_taken : 0);
   return 0;
+}
+
+Registered add_replay_command(CLI::App& app, AppContext& ctx) {
+  struct Args {
+    ReplayCommand c;
+    std::string take;
+    double from = -1, to = -1;
+  };
+  auto a = std::make_shared<Args>();
+  auto* r = app.add_subcommand("replay", "render a recorded session into a video (the camera views with the pressure "
+                                         "overlaid through each calibration, the pressure image, the take, hand, force "
+                                         "and time), or re-serve it through the simulated devices (--as-devices); "
+                                         "without either, in a window (keys: space, arrows, [ ], p n, - +, q)");
+  r->add_option("SESSION", a->c.session, "a session folder")->required()->check(CLI::ExistingDirectory);
+  r->add_option("--out", a->c.options.out, "the video to write (.mp4, or .mkv)");
+  r->add_flag("--as-devices", a->c.as_devices,
+              "write a rig file whose simulated devices re-serve the session through the cameras' and the Sensel's "
+              "own protocols; `pvcap session` on it records the session again");
+  r->add_option("--rate", a->c.rate,
+                "--as-devices: play this much faster (default 1: the original timing; the round trip is exact only "
+                "at 1, as the device timestamps are scaled so the clocks keep their own rate)")
+      ->check(CLI::Range(0.1, 10.0));
+  r->add_option("--keys", a->c.window.keys, "the window: press these keys first (space, right, left, n, p, +, -, q, "
+                                            "...; for demos and tests)")
+      ->delimiter(',');
+  r->add_option("--snapshot", a->c.window.snapshot, "the window: write its last picture here (PNG)");
+  r->add_option("--rig-out", a->c.rig_out, "--as-devices: the rig file to write (default ./SESSION-replay.yaml)");
+  r->add_option("--take", a->take, "only this take (its name, as `pvcap takes` lists it)");
+  r->add_option("--from", a->from, "from this many seconds after the session's start");
+  r->add_option("--to", a->to, "up to this many seconds after the session's start");
+  r->add_option("--speed", a->c.options.speed, "playback speed (2: twice as fast; default 1)")
+      ->check(CLI::PositiveNumber);
+  r->add_option("--pressure-max", a->c.options.pressure_full_scale_kpa, "pressure at the colour map's top, kPa "
+                                                                       "(default 60)")
+      ->check(CLI::PositiveNumber);
+  return {r, [a, &ctx] {
+            if (!a->take.empty()) a->c.options.take = a->take;
+            if (a->from >= 0) a->c.options.from_s = a->from;
+            if (a->to >= 0) a->c.options.to_s = a->to;
+            return cmd_replay(a->c, ctx.stop);
+          }};
 }
 
 }  // namespace pvcap

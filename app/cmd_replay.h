@@ -4,7 +4,7 @@
 // four views with the pressure overlaid, the pressure image and the take's labels, rendered into a
 // video without a display (replay/render_video.h), with progress and the time left.
 // `pvcap replay SESSION --as-devices [--rate X] [--rig-out FILE]`: the rig file under which the
-// simulated devices re-serve the session (replay/as_devices.h), and the command that records it again.
+// simulated devices re-serve the session (sim/replay_rig.h), and the command that records it again.
 #include <atomic>
 #include <filesystem>
 
@@ -16,7 +16,7 @@ namespace pvcap {
 struct ReplayCommand {
   std::filesystem::path session;
   replay::RenderOptions options;
-  bool as_devices = false;  // write the rig file that re-serves the session (replay/as_devices.h)
+  bool as_devices = false;  // write the rig file that re-serves the session (sim/replay_rig.h)
   replay::WindowOptions window;  // neither --out nor --as-devices: the window (replay/replay_window.h)
   double rate = 1.0;
   std::filesystem::path rig_out;

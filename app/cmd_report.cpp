@@ -1,4 +1,5 @@
 #include "app/cmd_report.h"
+#include "app/command.h"
 
 #include <unistd.h>
 
@@ -62,6 +63,20 @@ void write_session_report(const std::filesystem::path& session) {
     return;
   }
   fmt::print("full report (plots, sync self-check, calibration): {}\n", written.value().string());
+}
+
+Registered add_report_command(CLI::App& app, AppContext&) {
+  auto c = std::make_shared<ReportCommand>();
+  auto no_self_check = std::make_shared<bool>(false);
+  auto* r = app.add_subcommand("report", "the session report: report.html in the session folder (captured and lost, "
+                                         "intervals, clocks, pairing, takes, calibration, sync self-check)");
+  r->add_option("SESSION", c->session, "the session folder")->required()->check(CLI::ExistingDirectory);
+  r->add_flag("--json", c->json, "print the report's figures as JSON instead of writing the page");
+  r->add_flag("--no-self-check", *no_self_check, "leave out the sync self-check (it decodes frames around presses)");
+  return {r, [c, no_self_check] {
+            c->self_check = !*no_self_check;
+            return cmd_report(*c);
+          }};
 }
 
 }  // namespace pvcap

@@ -1,4 +1,5 @@
 #include "app/cmd_sensel_decode.h"
+#include "app/command.h"
 
 #include <fmt/format.h>
 
@@ -20,6 +21,23 @@ int print_sensel_summary(const std::filesystem::path& path, const sensel::Captur
     return 1;
   }
   return 0;
+}
+
+Registered add_sensel_command(CLI::App& app, AppContext&) {
+  auto files = std::make_shared<std::vector<std::string>>();
+  auto* sensel = app.add_subcommand("sensel", "Sensel Morph tools");
+  sensel->require_subcommand(1);
+  auto* decode = sensel->add_subcommand("decode", "decode a Sensel wire dump (.json or .jsonl) and summarise it");
+  decode->add_option("FILE", *files, "capture files")->required()->check(CLI::ExistingFile);
+  return {sensel, [files] {
+            int rc = 0;
+            for (const auto& f : *files) {
+              auto summary = sensel::summarise_capture_file(f);
+              if (!summary) throw UserError(summary.error().message);
+              rc = std::max(rc, print_sensel_summary(f, summary.value()));
+            }
+            return rc;
+          }};
 }
 
 }  // namespace pvcap

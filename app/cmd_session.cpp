@@ -1,17 +1,183 @@
 #include "app/cmd_session.h"
 
-#include <fmt/format.h>
+#include <unistd.h>
 
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "app/auto_participant.h"
 #include "app/cmd_report.h"
+#include "app/command.h"
+#include "app/rig_launcher.h"
+#include "protocol/takes.h"
+#include "report/session_text.h"
+#include "storage/session_reader.h"
 
 namespace pvcap {
 
-int cmd_session(const RigConfig& rig, const protocol::SessionSetup& setup, const std::atomic<bool>& interrupt) {
-  const auto outcome = protocol::run_session(rig, setup, interrupt);
-  if (!outcome.recording.report.empty()) fmt::print("\n{}", outcome.recording.report);
-  if (!outcome.takes_totals.empty()) fmt::print("\n{}", outcome.takes_totals);
-  if (!outcome.recording.dir.empty()) write_session_report(outcome.recording.dir);
-  return outcome.recording.exit_code;
+namespace {
+
+struct SessionArgs {
+  std::string rig_path, root = "sessions", protocol, resume;
+  std::optional<double> duration;
+  ParticipantRecord participant;
+  ConditionsRecord conditions;
+  bool auto_participant = false, fast = false, board = false, no_web = false;
+  console::WebOptions web;
+  bool root_given = false;
+};
+
+// `--resume SESSION` without `--rig`: the rig the session recorded (its file when unchanged).
+RigConfig rig_of_resumed_session(const std::filesystem::path& session) {
+  auto reader = SessionReader::open(session);
+  if (!reader) throw UserError(fmt::format("--resume {}: {}", session.string(), reader.error().message));
+  const SessionInfo& info = reader.value()->info();
+  std::error_code ec;
+  if (!info.rig_path.empty() && std::filesystem::exists(info.rig_path, ec)) {
+    RigConfig current = load_rig_config(info.rig_path);
+    if (current.text == info.rig_config) return current;
+    spdlog::warn("{} changed since {} was recorded: the session continues with the rig it recorded (give --rig to "
+                 "use the file as it is now)",
+                 info.rig_path, session.string());
+  }
+  return parse_rig_config(info.rig_config,
+                          info.rig_path.empty() ? session / "rig.yaml" : std::filesystem::path(info.rig_path));
+}
+
+console::SessionSetup setup_from(const SessionArgs& a, const RigConfig& rig) {
+  console::SessionSetup setup;
+  if (!a.no_web) {
+    // Bound here, before a simulated rig's private network namespace: the pages stay reachable
+    // from this machine's own browser.
+    if (!a.web.token.empty() && a.web.token.size() < 8) throw UserError("--web-token must be at least 8 characters");
+    auto bound = console::WebConsole::bind(a.web);
+    if (!bound) throw UserError(bound.error().message);
+    setup.web = std::move(bound.value());
+  }
+  prepare_rig_network(rig);
+  auto& opts = setup.recording;
+  opts.root = a.root;
+  setup.duration_s = a.duration;
+  if (!a.protocol.empty()) setup.protocol = a.protocol;
+  if (!a.resume.empty()) {
+    setup.resume = a.resume;
+    if (!a.root_given) opts.root.clear();  // beside the session it continues
+  }
+  setup.auto_participant = a.auto_participant;
+  opts.board_session = a.board;
+  setup.fast = a.fast;
+  if (!a.participant.pseudonym.empty()) opts.participant = a.participant;
+  else if (!a.participant.skin_tone.empty() || !a.participant.hand_order.empty())
+    throw UserError("--skin-tone and --hand-order describe a participant: give --participant too");
+  if (!a.conditions.lighting.empty() || !a.conditions.sensor_overlay.empty()) opts.conditions = a.conditions;
+  console::prepare_session(rig, setup);
+  if ((setup.protocol || setup.continuation) && !setup.auto_participant && isatty(STDIN_FILENO) == 1)
+    console::ask_for_participant(setup, std::cin, std::cout);
+  return setup;
+}
+
+int run_session_command(const SessionArgs& a, AppContext& ctx) {
+  if (a.rig_path.empty() && a.resume.empty())
+    throw UserError("pvcap session needs a rig: --rig RIG.yaml (or --resume SESSION, which records on the rig "
+                    "that session recorded)");
+  const RigConfig rig = a.rig_path.empty() ? rig_of_resumed_session(a.resume) : load_rig_config(a.rig_path);
+  console::SessionSetup setup = setup_from(a, rig);
+  return report_recorded_session(record_session(rig, setup, ctx));
+}
+
+}  // namespace
+
+console::SessionOutcome record_session(const RigConfig& rig, console::SessionSetup& setup, AppContext& ctx) {
+  console::SessionOutcome failed;
+  failed.recording.exit_code = 1;
+  setup.recording.faults = ctx.faults;
+  if (Status s = session::check_sessions_root(setup.recording.root); !s.ok()) {
+    spdlog::error("{}", s.error().message);
+    return failed;
+  }
+  auto launched =
+      launch_rig(rig, {ctx.self_exe, setup.recording.root, setup.auto_participant, setup.recording.board_session});
+  if (!launched) {
+    spdlog::error("{}", launched.error().message);
+    return failed;
+  }
+  LaunchedRig& devices = *launched.value();
+  setup.recording.device_wait_s = devices.device_wait_s;
+  setup.recording.sensel_ports_dir = devices.sensel_ports_dir;
+  setup.recording.on_devices_stopped = [&devices] { devices.stop_devices(); };
+  if (setup.auto_participant)
+    setup.decorate_env = [&devices](std::unique_ptr<protocol::RunnerEnv> env) -> std::unique_ptr<protocol::RunnerEnv> {
+      return std::make_unique<AutoParticipant>(std::move(env),
+                                               [&devices](const sim::HandCommand& c) { return devices.steer(c); });
+    };
+  auto outcome = console::run_session(devices.rig, setup, ctx.stop);
+  devices.file_truth(outcome.recording.dir);
+  return outcome;
+}
+
+int report_recorded_session(const console::SessionOutcome& outcome) {
+  const auto& rec = outcome.recording;
+  if (rec.dir.empty()) return rec.exit_code;
+  // The report the operator reads, from what the store holds (also kept as report.txt).
+  auto text = report::session_text(rec.dir, rec.recorded_s);
+  std::string report = text ? text.value()
+                            : fmt::format("session: {}\nthe report could not be made: {}\n", rec.dir.string(),
+                                          text.error().message);
+  for (const auto& note : rec.notes) report += note + "\n";
+  fmt::print("\n{}", report);
+  if (outcome.protocol) {
+    if (auto takes = protocol::read_takes(rec.dir)) {
+      // Every take in report.txt (and report.html); the console keeps to the totals.
+      const std::string table = protocol::format_takes(takes.value());
+      report += "\n" + table;
+      const auto at = table.find(" takes done of ");
+      fmt::print("\n{}", at == std::string::npos ? table : table.substr(table.rfind('\n', at) + 1));
+    } else {
+      spdlog::error("the takes could not be read back: {}", takes.error().message);
+    }
+  }
+  std::ofstream(rec.dir / "report.txt") << report;
+  write_session_report(rec.dir);
+  return rec.exit_code;
+}
+
+Registered add_session_command(CLI::App& app, AppContext& ctx) {
+  auto a = std::make_shared<SessionArgs>();
+  auto* s = app.add_subcommand("session", "record a session into a new session folder");
+  s->add_option("--rig", a->rig_path, "rig description (rig-configs/*.yaml); with --resume, the session's own by "
+                                      "default")->check(CLI::ExistingFile);
+  s->add_option("--root", a->root, "folder that receives the new session folder")->capture_default_str();
+  s->add_option("--duration", a->duration, "stop after this many seconds (otherwise Ctrl-C stops)")
+      ->check(CLI::PositiveNumber);
+  s->add_option("--participant", a->participant.pseudonym, "the participant's pseudonymous code (never a name)");
+  s->add_option("--skin-tone", a->participant.skin_tone, "skin-tone category")
+      ->check(CLI::IsMember({"light", "medium", "dark", "unrecorded"}));
+  s->add_option("--hand-order", a->participant.hand_order, "which hand does the protocol first")
+      ->check(CLI::IsMember({"right_first", "left_first"}));
+  s->add_option("--lighting", a->conditions.lighting, "lighting condition (which lights are on, e.g. LCR)");
+  s->add_option("--overlay", a->conditions.sensor_overlay, "what covers the sensor (e.g. white_vinyl, wood)");
+  s->add_option("--protocol", a->protocol, "run this action protocol (rig-configs/protocols/*.yaml)")
+      ->check(CLI::ExistingFile);
+  s->add_flag("--auto", a->auto_participant, "simulated rig: the simulated hand performs every prompted take");
+  s->add_flag("--fast", a->fast, "the protocol's short timings (a few seconds a take), for demos and tests");
+  s->add_flag("--board", a->board, "record a calibration board session (for `pvcap calibrate intrinsics`; a "
+                                   "simulated rig moves its own board)");
+  s->add_option("--resume", a->resume, "continue the protocol of this interrupted session in a new folder")
+      ->check(CLI::ExistingDirectory);
+  s->add_option("--web-bind", a->web.bind, "address the session's pages listen on (another than loopback needs a "
+                                           "token)")->capture_default_str();
+  s->add_option("--web-port", a->web.port, "port of the session's pages (busy: another is taken and printed; 0: any)")
+      ->capture_default_str()->check(CLI::Range(0, 65535));
+  s->add_option("--web-token", a->web.token, "token the pages require (generated when binding off loopback)");
+  s->add_flag("--no-web", a->no_web, "serve no pages (the terminal console still works)");
+  return {s, [a, s, &ctx] {
+            a->root_given = s->count("--root") > 0;
+            return run_session_command(*a, ctx);
+          }};
 }
 
 }  // namespace pvcap

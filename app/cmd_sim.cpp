@@ -1,4 +1,6 @@
 #include "app/cmd_sim.h"
+#include "app/rig_launcher.h"
+#include "app/command.h"
 
 #include <sys/prctl.h>
 #include <unistd.h>
@@ -49,6 +51,27 @@ int cmd_sim(const RigConfig& rig, const std::filesystem::path& truth, std::optio
   made.value()->run(stop);
   if (timer.joinable()) timer.join();
   return 0;
+}
+
+Registered add_sim_command(CLI::App& app, AppContext& ctx) {
+  struct Args {
+    std::string rig, truth = "sim-truth";
+    std::optional<double> duration;
+    bool hand_commands = false, board = false;
+  };
+  auto a = std::make_shared<Args>();
+  auto* s = app.add_subcommand("sim", "serve a simulated rig (GigE Vision cameras over loopback)");
+  s->add_option("--rig", a->rig, "rig file with a sim: section")->required()->check(CLI::ExistingFile);
+  s->add_option("--truth", a->truth, "folder for the ground truth of the run")->capture_default_str();
+  s->add_option("--duration", a->duration, "stop after this many seconds")->check(CLI::PositiveNumber);
+  s->add_flag("--hand-commands", a->hand_commands, "steer the simulated hand by commands on stdin (one a line)");
+  s->add_flag("--board", a->board, "the cameras see the calibration board moving through its poses");
+  return {s, [a, &ctx] {
+            const auto rig = load_rig_config(a->rig);
+            if (!rig.simulated) throw UserError(fmt::format("{}: has no sim: section", a->rig));
+            prepare_rig_network(rig);
+            return cmd_sim(rig, a->truth, a->duration, a->hand_commands, a->board, ctx.stop);
+          }};
 }
 
 }  // namespace pvcap

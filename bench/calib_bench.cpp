@@ -29,7 +29,7 @@ int main(int argc, char** argv) {
   std::printf("pad calibration, one 1080p frame, one core, %d iterations per camera\n", iterations);
   double worst_ms = 0;
   for (int cam = 0; cam < 4; ++cam) {
-    calib::CameraModel truth = sim::sim_camera_model(cam, SimCameraClock{}, size, size);
+    calib::CameraModel truth = sim::sim_camera_model(cam, sim::SimCameraClock{}, size, size);
     const cv::Mat mosaic = sim::to_sensor_format(sim::render_scene_bgr(pad, truth), "BayerRG8");
     cv::Mat image;
     if (!to_bgr(mosaic.data, mosaic.total(), mosaic.cols, mosaic.rows, ARV_PIXEL_FORMAT_BAYER_RG_8, image).ok())

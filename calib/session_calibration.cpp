@@ -17,14 +17,13 @@
 #include "calib/press_check.h"
 #include "calib/rig_calibration.h"
 #include "core/result.h"
-#include "sim/truth.h"
 #include "storage/session_index.h"
 #include "storage/session_reader.h"
 
 namespace pvcap::calib {
 namespace {
 
-// Targets the ground-truth check holds a simulated run's calibration to (issue: calibration).
+// Targets the reference check holds a calibration to (issue: calibration).
 constexpr double kFocalTolerance = 0.005, kPrincipalTolerancePx = 2.0;
 constexpr double kCornerMedianPx = 0.3, kCornerMaxPx = 1.0;
 
@@ -77,16 +76,9 @@ void for_each_image(SessionReader& session, std::size_t c, const std::vector<std
   }
 }
 
-sim::RigTruth read_truth(const std::filesystem::path& dir) {
-  auto truth = sim::read_rig_truth(dir);
-  if (!truth) throw UserError(truth.error().message);
-  return std::move(truth.value());
-}
-
-const sim::CameraTruth& truth_camera(const sim::RigTruth& truth, const std::filesystem::path& dir,
-                                     const std::string& name) {
-  const sim::CameraTruth* t = truth.camera(name);
-  if (!t) throw UserError(fmt::format("{}: camera {} is not in the ground truth", dir.string(), name));
+const ReferenceCamera& reference_camera(const ReferenceCalibration& reference, const std::string& name) {
+  const ReferenceCamera* t = reference.camera(name);
+  if (!t) throw UserError(fmt::format("camera {} is not in {}", name, reference.label));
   return *t;
 }
 
@@ -132,13 +124,13 @@ std::filesystem::path calibration_file(const SessionCalibrationOptions& o) {
 std::string fmt_point(cv::Point2d p) { return fmt::format("({:.1f}, {:.1f})", p.x, p.y); }
 
 // What intrinsics and pad work on, camera by camera: the session, its calibration file (loaded, or
-// new), the samples to look at, a simulated run's truth when given, and the outcome so far.
+// new), the samples to look at, the reference when given, and the outcome so far.
 struct CalibrationRun {
   std::unique_ptr<SessionReader> session;
   std::filesystem::path file;
   calib::RigCalibration cal;
   std::vector<std::size_t> samples;
-  std::optional<sim::RigTruth> truth;
+  const std::optional<ReferenceCalibration>& reference;
   std::vector<std::string> failed;
   bool within_targets = true;
 
@@ -146,12 +138,11 @@ struct CalibrationRun {
       : session(open_session(o.session)),
         file(calibration_file(o)),
         cal(load_or_new(file, *session)),
-        samples(samples_to_read(*session, o, frames_by_default)) {
-    if (!o.ground_truth.empty()) truth = read_truth(o.ground_truth);
-  }
+        samples(samples_to_read(*session, o, frames_by_default)),
+        reference(o.reference) {}
 
   // What succeeded is saved whatever failed; the failures are named; exit 1 when any camera failed
-  // or missed its ground-truth target.
+  // or missed its target against the reference.
   int save_and_report(const std::string& next) const {
     if (Status s = calib::save_rig_calibration(file, cal); !s.ok()) throw UserError(s.error().message);
     fmt::print("wrote {}{}\n", file.string(), next);
@@ -161,6 +152,22 @@ struct CalibrationRun {
 };
 
 }  // namespace
+
+const ReferenceCamera* ReferenceCalibration::camera(const std::string& name) const {
+  for (const auto& c : cameras)
+    if (c.name == name) return &c;
+  return nullptr;
+}
+
+ReferenceCalibration reference_from(const RigCalibration& calibration, std::string label) {
+  ReferenceCalibration r;
+  r.label = std::move(label);
+  for (const auto& c : calibration.cameras) {
+    if (!c.intrinsics) continue;
+    r.cameras.push_back({c.name, c.model, c.pad_corners_px.value_or(pad_corners_px(c.model, calibration.pad))});
+  }
+  return r;
+}
 
 int write_board(const std::filesystem::path& out) {
   const calib::BoardSpec spec;
@@ -232,15 +239,15 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
       fmt::print("  no corners yet in: {}. Record more board views there: the lens is not known where the board "
                  "has not been\n",
                  fmt::join(in.empty_regions, ", "));
-    if (run.truth) {
-      const calib::CameraModel& tm = truth_camera(*run.truth, o.ground_truth, camera.name).model;
+    if (run.reference) {
+      const calib::CameraModel& tm = reference_camera(*run.reference, camera.name).model;
       const double efx = in.model.K(0, 0) / tm.K(0, 0) - 1, efy = in.model.K(1, 1) / tm.K(1, 1) - 1;
       const double ecx = in.model.K(0, 2) - tm.K(0, 2), ecy = in.model.K(1, 2) - tm.K(1, 2);
       const bool ok = std::abs(efx) <= kFocalTolerance && std::abs(efy) <= kFocalTolerance &&
                       std::abs(ecx) <= kPrincipalTolerancePx && std::abs(ecy) <= kPrincipalTolerancePx;
       run.within_targets = run.within_targets && ok;
-      fmt::print("  against the truth: focal {:+.3f} % / {:+.3f} %, principal point {:+.2f} / {:+.2f} px ({})\n",
-                 100 * efx, 100 * efy, ecx, ecy,
+      fmt::print("  against {}: focal {:+.3f} % / {:+.3f} %, principal point {:+.2f} / {:+.2f} px ({})\n",
+                 run.reference->label, 100 * efx, 100 * efy, ecx, ecy,
                  ok ? "within targets" : fmt::format("OUTSIDE the targets {} % and {} px", 100 * kFocalTolerance,
                                                      kPrincipalTolerancePx));
     }
@@ -292,15 +299,15 @@ int pad_from_session(const SessionCalibrationOptions& o) {
                camera.name, p.marker_ids.size(), markers.frames(), p.rms_px, p.rms_mm, centre.x, centre.y, -centre.z,
                fmt_point(p.pad_corners_px[0]), fmt_point(p.pad_corners_px[1]), fmt_point(p.pad_corners_px[2]),
                fmt_point(p.pad_corners_px[3]));
-    if (run.truth) {
-      const sim::CameraTruth& t = truth_camera(*run.truth, o.ground_truth, camera.name);
+    if (run.reference) {
+      const ReferenceCamera& t = reference_camera(*run.reference, camera.name);
       std::vector<double> errors;
       for (std::size_t k = 0; k < 4; ++k) errors.push_back(cv::norm(p.pad_corners_px[k] - t.pad_corners_px[k]));
       std::sort(errors.begin(), errors.end());
       const double median = (errors[1] + errors[2]) / 2, max = errors[3];
       const bool ok = median <= kCornerMedianPx && max <= kCornerMaxPx;
       run.within_targets = run.within_targets && ok;
-      fmt::print("  against the truth: pad corners median {:.3f} px, max {:.3f} px ({})\n", median, max,
+      fmt::print("  against {}: pad corners median {:.3f} px, max {:.3f} px ({})\n", run.reference->label, median, max,
                  ok ? "within targets" : fmt::format("OUTSIDE the targets {} / {} px", kCornerMedianPx, kCornerMaxPx));
     }
     add_to_session(o.session, camera, *entry, m, run.file);
@@ -308,62 +315,58 @@ int pad_from_session(const SessionCalibrationOptions& o) {
   return run.save_and_report("");
 }
 
-int check_against_presses(const SessionCalibrationOptions& o) {
-  auto session = open_session(o.session);
-  const std::filesystem::path file = calibration_file(o);
-  if (!std::filesystem::exists(file))
-    throw UserError(fmt::format("{}: no calibration file; calibrate the pad first (`pvcap calibrate pad`)",
-                                file.string()));
-  calib::RigCalibration cal = load_or_new(file, *session);
-  if (!session->pressure_device())
-    throw UserError(fmt::format("{}: the session has no pressure frames to check against", o.session.string()));
+namespace {
 
-  // The presses: runs of samples whose total pressure is above 30 % of the session's highest, each
-  // represented by its peak sample.
+// The presses: runs of samples whose total pressure is above 30 % of the session's highest, each
+// represented by its peak sample; at most `most` of them, spread over the session.
+struct Presses {
+  std::vector<std::size_t> samples;
+  double highest = 0;  // the session's highest total pressure (counts)
+};
+
+Presses find_presses(SessionReader& session, std::size_t most) {
   std::vector<std::pair<std::size_t, double>> totals;
-  double highest = 0;
-  for (std::size_t i = 0; i < session->sample_count(); ++i) {
-    auto info = session->sample_info(i);
+  Presses found;
+  for (std::size_t i = 0; i < session.sample_count(); ++i) {
+    auto info = session.sample_info(i);
     if (!info) throw UserError(info.error().message);
     if (!info.value().pressure) continue;
-    auto frame = session->pressure_frame(info.value().pressure->sequence, info.value().pressure->connection);
+    auto frame = session.pressure_frame(info.value().pressure->sequence, info.value().pressure->connection);
     if (!frame) continue;
     double total = 0;
     for (auto c : frame.value().counts) total += c;
     totals.emplace_back(i, total);
-    highest = std::max(highest, total);
-    if (i % 64 == 0) progress("finding presses", i, session->sample_count());
+    found.highest = std::max(found.highest, total);
+    if (i % 64 == 0) progress("finding presses", i, session.sample_count());
   }
-  progress("finding presses", session->sample_count(), session->sample_count());
-  std::vector<std::size_t> presses;
+  progress("finding presses", session.sample_count(), session.sample_count());
   std::optional<std::pair<std::size_t, double>> peak;
   for (const auto& [i, total] : totals) {
-    if (total > 0.3 * highest) {
+    if (total > 0.3 * found.highest) {
       if (!peak || total > peak->second) peak = {i, total};
     } else if (peak) {
-      presses.push_back(peak->first);
+      found.samples.push_back(peak->first);
       peak.reset();
     }
   }
-  if (peak) presses.push_back(peak->first);
-  const std::size_t most = std::size_t(o.frames > 0 ? o.frames : 40);
-  if (presses.size() > most) {
+  if (peak) found.samples.push_back(peak->first);
+  if (found.samples.size() > most) {
     std::vector<std::size_t> some;
-    for (std::size_t k : spread(presses.size(), most)) some.push_back(presses[k]);
-    presses = std::move(some);
+    for (std::size_t k : spread(found.samples.size(), most)) some.push_back(found.samples[k]);
+    found.samples = std::move(some);
   }
-  if (presses.empty())
-    throw UserError(fmt::format("{}: no presses found; record a few presses on the pad (the protocol's calibration "
-                                "routine, or any pressing) and check again",
-                                o.session.string()));
+  return found;
+}
 
-  // Fingertips the operator marked on the operator page (a real rig's way), by camera name.
-  struct Mark {
-    double x, y;
-    std::int64_t frame_ns;
-  };
+// Fingertips the operator marked on the operator page (a real rig's way), by camera name.
+struct Mark {
+  double x, y;
+  std::int64_t frame_ns;
+};
+
+std::map<std::string, std::vector<Mark>> fingertip_marks(SessionReader& session) {
   std::map<std::string, std::vector<Mark>> marks;
-  auto events = session->protocol_events();
+  auto events = session.protocol_events();
   if (!events) throw UserError(events.error().message);
   for (const auto& e : events.value()) {
     if (e.kind != "fingertip_marked") continue;
@@ -375,6 +378,101 @@ int check_against_presses(const SessionCalibrationOptions& o) {
       fmt::print(stderr, "pvcap: a fingertip mark at {} ns is unreadable; left out\n", e.host_ns);
     }
   }
+  return marks;
+}
+
+// One camera's disagreements between each press's pressure centroid and the fingertip, px and mm.
+struct Disagreements {
+  std::vector<double> px, mm;
+  void add(const calib::PressDisagreement& d) {
+    px.push_back(d.px);
+    mm.push_back(d.mm);
+  }
+};
+
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
+}
+
+double rms_of(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x * x;
+  return std::sqrt(s / double(v.size()));
+}
+
+void print_disagreements(const std::string& camera, const char* what, const Disagreements& d) {
+  if (d.px.empty()) return;
+  fmt::print("{}: {} {}presses; pressure vs {}fingertip: median {:.2f} px / {:.2f} mm, max {:.2f} px / {:.2f} mm\n",
+             camera, d.px.size(), what, what, median_of(d.px), median_of(d.mm),
+             *std::max_element(d.px.begin(), d.px.end()), *std::max_element(d.mm.begin(), d.mm.end()));
+}
+
+// The fingertip found in the image at each press, against that press's pressure centroid.
+Disagreements check_found_fingertips(SessionReader& session, std::size_t c, const calib::CameraCalibration& entry,
+                                     const calib::PadLayout& pad, const Presses& presses, nlohmann::json& each) {
+  Disagreements out;
+  for (std::size_t i : presses.samples) {
+    auto s = session.sample(i, PressureMode::Nearest);
+    if (!s) throw UserError(s.error().message);
+    const auto& pf = s.value().pressure;
+    if (!pf || s.value().images.size() <= c || s.value().images[c].empty()) continue;
+    const auto centroid = calib::pressure_centroid(s.value().pressure_image, pf->grid_xscale, pf->grid_yscale);
+    const auto tip = calib::find_fingertip(s.value().images[c], *entry.pad_corners_px);
+    if (!centroid || !tip) continue;
+    const auto d = calib::press_disagreement(entry.model, pad, *centroid, *tip);
+    out.add(d);
+    each.push_back({{"sample", i}, {"centroid_cells", {centroid->x, centroid->y}}, {"fingertip_px", {tip->x, tip->y}},
+                    {"px", d.px}, {"mm", d.mm}});
+  }
+  return out;
+}
+
+// The operator's marks: each against the pressure of the sample nearest the marked frame.
+Disagreements check_marked_fingertips(SessionReader& session, const std::string& camera,
+                                      const std::vector<Mark>& marks, const calib::CameraCalibration& entry,
+                                      const calib::PadLayout& pad, double highest, nlohmann::json& each) {
+  Disagreements out;
+  for (const Mark& mark : marks) {
+    auto i = session.sample_at(mark.frame_ns);
+    if (!i) continue;
+    auto s = session.sample(i.value(), PressureMode::Nearest);
+    if (!s || !s.value().pressure) continue;
+    double total = 0;
+    for (auto v : s.value().pressure->counts) total += v;
+    if (total <= 0.3 * highest) {
+      fmt::print("{}: the fingertip marked at ({:.1f}, {:.1f}) was not during a press; left out\n", camera, mark.x,
+                 mark.y);
+      continue;
+    }
+    const auto centroid = calib::pressure_centroid(s.value().pressure_image, s.value().pressure->grid_xscale,
+                                                   s.value().pressure->grid_yscale);
+    if (!centroid) continue;
+    const auto d = calib::press_disagreement(entry.model, pad, *centroid, {mark.x, mark.y});
+    out.add(d);
+    each.push_back({{"sample", i.value()}, {"centroid_cells", {centroid->x, centroid->y}},
+                    {"fingertip_px", {mark.x, mark.y}}, {"marked", true}, {"px", d.px}, {"mm", d.mm}});
+  }
+  return out;
+}
+
+}  // namespace
+
+int check_against_presses(const SessionCalibrationOptions& o) {
+  auto session = open_session(o.session);
+  const std::filesystem::path file = calibration_file(o);
+  if (!std::filesystem::exists(file))
+    throw UserError(fmt::format("{}: no calibration file; calibrate the pad first (`pvcap calibrate pad`)",
+                                file.string()));
+  calib::RigCalibration cal = load_or_new(file, *session);
+  if (!session->pressure_device())
+    throw UserError(fmt::format("{}: the session has no pressure frames to check against", o.session.string()));
+  const Presses presses = find_presses(*session, std::size_t(o.frames > 0 ? o.frames : 40));
+  if (presses.samples.empty())
+    throw UserError(fmt::format("{}: no presses found; record a few presses on the pad (the protocol's calibration "
+                                "routine, or any pressing) and check again",
+                                o.session.string()));
+  auto marks = fingertip_marks(*session);
 
   int rc = 0;
   for (std::size_t c = 0; c < session->cameras().size(); ++c) {
@@ -386,76 +484,24 @@ int check_against_presses(const SessionCalibrationOptions& o) {
       rc = 1;
       continue;
     }
-    std::vector<double> px, mm;
     nlohmann::json each = nlohmann::json::array();
-    for (std::size_t i : presses) {
-      auto s = session->sample(i, PressureMode::Nearest);
-      if (!s) throw UserError(s.error().message);
-      const auto& pf = s.value().pressure;
-      if (!pf || s.value().images.size() <= c || s.value().images[c].empty()) continue;
-      const auto centroid = calib::pressure_centroid(s.value().pressure_image, pf->grid_xscale, pf->grid_yscale);
-      const auto tip = calib::find_fingertip(s.value().images[c], *entry->pad_corners_px);
-      if (!centroid || !tip) continue;
-      const auto d = calib::press_disagreement(entry->model, cal.pad, *centroid, *tip);
-      px.push_back(d.px);
-      mm.push_back(d.mm);
-      each.push_back({{"sample", i}, {"centroid_cells", {centroid->x, centroid->y}}, {"fingertip_px", {tip->x, tip->y}},
-                      {"px", d.px}, {"mm", d.mm}});
-    }
-    // The operator's marks: each against the pressure of the sample nearest the marked frame.
-    std::vector<double> marked_px, marked_mm;
-    for (const Mark& mark : marks[camera.name]) {
-      auto i = session->sample_at(mark.frame_ns);
-      if (!i) continue;
-      auto s = session->sample(i.value(), PressureMode::Nearest);
-      if (!s || !s.value().pressure) continue;
-      double total = 0;
-      for (auto v : s.value().pressure->counts) total += v;
-      if (total <= 0.3 * highest) {
-        fmt::print("{}: the fingertip marked at ({:.1f}, {:.1f}) was not during a press; left out\n", camera.name,
-                   mark.x, mark.y);
-        continue;
-      }
-      const auto centroid = calib::pressure_centroid(s.value().pressure_image, s.value().pressure->grid_xscale,
-                                                     s.value().pressure->grid_yscale);
-      if (!centroid) continue;
-      const auto d = calib::press_disagreement(entry->model, cal.pad, *centroid, {mark.x, mark.y});
-      marked_px.push_back(d.px);
-      marked_mm.push_back(d.mm);
-      each.push_back({{"sample", i.value()}, {"centroid_cells", {centroid->x, centroid->y}},
-                      {"fingertip_px", {mark.x, mark.y}}, {"marked", true}, {"px", d.px}, {"mm", d.mm}});
-    }
-    if (px.empty() && marked_px.empty()) {
+    const Disagreements found = check_found_fingertips(*session, c, *entry, cal.pad, presses, each);
+    const Disagreements marked =
+        check_marked_fingertips(*session, camera.name, marks[camera.name], *entry, cal.pad, presses.highest, each);
+    if (found.px.empty() && marked.px.empty()) {
       fmt::print(stderr, "pvcap: {}: the fingertip was not seen in any of the {} presses and none was marked (click "
                  "it on the operator page's camera view during a press)\n",
-                 camera.name, presses.size());
+                 camera.name, presses.samples.size());
       rc = 1;
       continue;
     }
-    auto median = [](std::vector<double> v) {
-      std::sort(v.begin(), v.end());
-      return v.size() % 2 ? v[v.size() / 2] : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
-    };
-    auto rms = [](const std::vector<double>& v) {
-      double s = 0;
-      for (double x : v) s += x * x;
-      return std::sqrt(s / double(v.size()));
-    };
-    if (!px.empty())
-      fmt::print("{}: {} presses; pressure vs fingertip: median {:.2f} px / {:.2f} mm, max {:.2f} px / {:.2f} mm\n",
-                 camera.name, px.size(), median(px), median(mm), *std::max_element(px.begin(), px.end()),
-                 *std::max_element(mm.begin(), mm.end()));
-    if (!marked_px.empty())
-      fmt::print("{}: {} marked presses; pressure vs marked fingertip: median {:.2f} px / {:.2f} mm, max {:.2f} px / "
-                 "{:.2f} mm\n",
-                 camera.name, marked_px.size(), median(marked_px), median(marked_mm),
-                 *std::max_element(marked_px.begin(), marked_px.end()),
-                 *std::max_element(marked_mm.begin(), marked_mm.end()));
-    std::vector<double> all_px = px, all_mm = mm;
-    all_px.insert(all_px.end(), marked_px.begin(), marked_px.end());
-    all_mm.insert(all_mm.end(), marked_mm.begin(), marked_mm.end());
-    calib::MeasuredBy m{"press_check", std::filesystem::absolute(o.session).string(), wall_now_ns(), rms(all_px),
-                        rms(all_mm), {{"presses", each}}};
+    print_disagreements(camera.name, "", found);
+    print_disagreements(camera.name, "marked ", marked);
+    Disagreements all = found;
+    all.px.insert(all.px.end(), marked.px.begin(), marked.px.end());
+    all.mm.insert(all.mm.end(), marked.mm.begin(), marked.mm.end());
+    calib::MeasuredBy m{"press_check", std::filesystem::absolute(o.session).string(), wall_now_ns(), rms_of(all.px),
+                        rms_of(all.mm), {{"presses", each}}};
     add_to_session(o.session, camera, *entry, m, file);
   }
   return rc;

@@ -3,7 +3,7 @@
 #include "capture/aravis_handles.h"
 #include "capture/aravis_stream.h"
 #include "capture/gvcp_ping.h"
-#include "core/fault_injection.h"
+#include "capture/pixel_format.h"
 
 #include <cmath>
 #include <fstream>
@@ -12,6 +12,13 @@
 #include <spdlog/spdlog.h>
 
 namespace pvcap {
+
+// The codec target names pixel formats by their PFNC codes without Aravis: the same numbers.
+static_assert(pfnc::kMono8 == ARV_PIXEL_FORMAT_MONO_8 && pfnc::kRGB8 == ARV_PIXEL_FORMAT_RGB_8_PACKED &&
+              pfnc::kBayerGR8 == ARV_PIXEL_FORMAT_BAYER_GR_8 && pfnc::kBayerRG8 == ARV_PIXEL_FORMAT_BAYER_RG_8 &&
+              pfnc::kBayerGB8 == ARV_PIXEL_FORMAT_BAYER_GB_8 && pfnc::kBayerBG8 == ARV_PIXEL_FORMAT_BAYER_BG_8 &&
+              pfnc::kBayerGR12 == ARV_PIXEL_FORMAT_BAYER_GR_12 && pfnc::kBayerRG12 == ARV_PIXEL_FORMAT_BAYER_RG_12 &&
+              pfnc::kBayerGB12 == ARV_PIXEL_FORMAT_BAYER_GB_12 && pfnc::kBayerBG12 == ARV_PIXEL_FORMAT_BAYER_BG_12);
 
 using namespace std::chrono_literals;
 
@@ -59,13 +66,11 @@ struct AravisCamera::Link {
   }
 };
 
-AravisCamera::AravisCamera(int index, CameraConfig config, EventHandler on_event)
+AravisCamera::AravisCamera(int index, CameraConfig config, EventHandler on_event, std::size_t queue_frames)
     : index_(index),
       config_(std::move(config)),
       on_event_(std::move(on_event)),
-      // Good frames are bounded by the buffer pool; the slack carries failed-frame records. A test
-      // may shrink it (core/fault_injection.h) to meet a queue that overflows.
-      queue_(std::size_t(fault::value("camera.queue_frames").value_or(double(buffer_count_for(config_) + 256)))),
+      queue_(queue_frames ? queue_frames : buffer_count_for(config_) + kQueueFramesBeyondBuffers),
       link_(std::make_unique<Link>()) {
   arv::route_glib_logs_to_spdlog();
 }

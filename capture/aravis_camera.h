@@ -75,7 +75,13 @@ class AravisCamera {
  public:
   using EventHandler = std::function<void(const CameraEvent&)>;
 
-  AravisCamera(int index, CameraConfig config, EventHandler on_event);
+  // Frames the queue holds beyond the buffer pool (a good frame holds a buffer, so those are bounded
+  // by the pool; the slack carries records of failed frames).
+  static constexpr std::size_t kQueueFramesBeyondBuffers = 256;
+
+  // `queue_frames`: the frame queue's size; 0 for the buffer count plus kQueueFramesBeyondBuffers
+  // (a test shrinks it to meet a queue that overflows).
+  AravisCamera(int index, CameraConfig config, EventHandler on_event, std::size_t queue_frames = 0);
   ~AravisCamera();
   AravisCamera(const AravisCamera&) = delete;
   AravisCamera& operator=(const AravisCamera&) = delete;

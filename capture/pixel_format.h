@@ -1,5 +1,6 @@
 #pragma once
-// Camera pixel formats (PFNC codes as Aravis reports them) to BGR images.
+// Camera pixel formats (PFNC codes, as GigE Vision cameras and Aravis report them) to BGR images.
+// Part of the codec-only target (pvcap_codec): the store's readers use it without opening a device.
 #include <cstdint>
 #include <string>
 
@@ -9,6 +10,21 @@
 #include "core/result.h"
 
 namespace pvcap {
+
+// The GenICam Pixel Format Naming Convention's codes (PFNC 2.x; Aravis' ARV_PIXEL_FORMAT_* have the
+// same values, which capture/aravis_camera.cpp checks at compile time).
+namespace pfnc {
+inline constexpr std::uint32_t kMono8 = 0x01080001;
+inline constexpr std::uint32_t kBayerGR8 = 0x01080008;
+inline constexpr std::uint32_t kBayerRG8 = 0x01080009;
+inline constexpr std::uint32_t kBayerGB8 = 0x0108000A;
+inline constexpr std::uint32_t kBayerBG8 = 0x0108000B;
+inline constexpr std::uint32_t kBayerGR12 = 0x01100010;
+inline constexpr std::uint32_t kBayerRG12 = 0x01100011;
+inline constexpr std::uint32_t kBayerGB12 = 0x01100012;
+inline constexpr std::uint32_t kBayerBG12 = 0x01100013;
+inline constexpr std::uint32_t kRGB8 = 0x02180014;
+}  // namespace pfnc
 
 // Debayers / converts `data` (width x height, PFNC `pixel_format`) into `bgr` (CV_8UC3).
 Status to_bgr(const std::uint8_t* data, std::size_t size, int width, int height, std::uint32_t pixel_format,

@@ -25,13 +25,14 @@ auto stamped(F&& f) {
 }
 }  // namespace
 
-SenselDevice::SenselDevice(TransportFactory factory, EventHandler on_event)
-    : factory_(std::move(factory)), on_event_(std::move(on_event)) {}
+SenselDevice::SenselDevice(TransportFactory factory, EventHandler on_event, std::size_t queue_frames)
+    : factory_(std::move(factory)), on_event_(std::move(on_event)), queue_(queue_frames) {}
 
 SenselDevice::~SenselDevice() { stop(); }
 
-Result<std::unique_ptr<SenselDevice>> SenselDevice::open(TransportFactory factory, EventHandler on_event) {
-  std::unique_ptr<SenselDevice> d(new SenselDevice(std::move(factory), std::move(on_event)));
+Result<std::unique_ptr<SenselDevice>> SenselDevice::open(TransportFactory factory, EventHandler on_event,
+                                                         std::size_t queue_frames) {
+  std::unique_ptr<SenselDevice> d(new SenselDevice(std::move(factory), std::move(on_event), queue_frames));
   auto t = d->factory_("");
   if (!t) return t.error();
   d->transport_ = std::move(t.value());
@@ -118,7 +119,7 @@ Status SenselDevice::write_variable(std::uint8_t reg, std::span<const std::uint8
 }
 
 Result<SenselInfo> SenselDevice::probe(std::unique_ptr<Transport> transport) {
-  SenselDevice d(nullptr, nullptr);
+  SenselDevice d(nullptr, nullptr, 1);  // a probe streams nothing
   d.transport_ = std::move(transport);
   if (Status s = d.open_sequence(/*soft_reset=*/false); !s.ok()) return s.error();
   SenselInfo info = d.info_;

@@ -21,7 +21,6 @@
 #include "capture/sensel_protocol.h"
 #include "capture/sensel_transport.h"
 #include "core/bounded_queue.h"
-#include "core/fault_injection.h"
 #include "core/result.h"
 #include "core/sequence_unwrap.h"
 #include "core/time.h"
@@ -78,8 +77,13 @@ class SenselDevice {
   using TransportFactory = std::function<Result<std::unique_ptr<Transport>>(const std::string& session_serial)>;
   using EventHandler = std::function<void(const SenselEvent&)>;
 
-  // Opens through `factory` (called again to reconnect) and runs the open sequence.
-  static Result<std::unique_ptr<SenselDevice>> open(TransportFactory factory, EventHandler on_event = nullptr);
+  // About 4 s of frames at medium detail.
+  static constexpr std::size_t kQueueFrames = 512;
+
+  // Opens through `factory` (called again to reconnect) and runs the open sequence. `queue_frames`:
+  // the frame queue's size (a test shrinks it to meet a queue that overflows).
+  static Result<std::unique_ptr<SenselDevice>> open(TransportFactory factory, EventHandler on_event = nullptr,
+                                                    std::size_t queue_frames = kQueueFrames);
   // Reads serial, firmware and grid without resetting or configuring anything (for listings).
   static Result<SenselInfo> probe(std::unique_ptr<Transport> transport);
   ~SenselDevice();
@@ -99,7 +103,7 @@ class SenselDevice {
   std::map<std::string, std::uint64_t> rejected() const;  // reason -> count
 
  private:
-  SenselDevice(TransportFactory factory, EventHandler on_event);
+  SenselDevice(TransportFactory factory, EventHandler on_event, std::size_t queue_frames);
   Status open_sequence(bool soft_reset = true);
   Status apply_config();
   Result<Response> transact(const std::vector<std::uint8_t>& command, Expect expect, std::uint8_t reg,
@@ -118,8 +122,7 @@ class SenselDevice {
   HostNs first_byte_;                // when the last transact()'s answer began to arrive
   SenselInfo info_;
   SenselConfig config_;
-  // About 4 s of frames; a test may shrink it (core/fault_injection.h) to meet one that overflows.
-  BoundedQueue<PressureSample> queue_{std::size_t(fault::value("sensel.queue_frames").value_or(512))};
+  BoundedQueue<PressureSample> queue_;
   std::vector<std::uint64_t> dropped_;  // sequences dropped since the last sample queued (this connection's)
   std::uint32_t connection_ = 0;
   std::string session_serial_;   // the Morph the session streams from: a reconnect must find this one

@@ -2,56 +2,60 @@
 
 #include <cstdlib>
 #include <map>
-#include <mutex>
 #include <sstream>
-#include <string>
 
-#include <spdlog/spdlog.h>
+#include <fmt/format.h>
 
-namespace pvcap::fault {
+namespace pvcap {
 
-namespace {
-
-std::map<std::string, double, std::less<>> parse(const char* spec) {
-  std::map<std::string, double, std::less<>> out;
-  std::stringstream in(spec);
+FaultPlan parse_faults(std::string_view spec, std::vector<std::string>& problems) {
+  std::map<std::string, double, std::less<>> values;
+  std::stringstream in{std::string(spec)};
   std::string item;
   while (std::getline(in, item, ',')) {
     const auto eq = item.find('=');
     if (eq == std::string::npos) {
-      spdlog::warn("PVCAP_FAULTS: '{}' is not name=value; ignored", item);
+      problems.push_back(fmt::format("PVCAP_FAULTS: '{}' is not name=value; ignored", item));
       continue;
     }
     char* end = nullptr;
     const std::string number = item.substr(eq + 1);
     const double v = std::strtod(number.c_str(), &end);
     if (end == number.c_str() || *end != '\0') {
-      spdlog::warn("PVCAP_FAULTS: '{}' has no number after '='; ignored", item);
+      problems.push_back(fmt::format("PVCAP_FAULTS: '{}' has no number after '='; ignored", item));
       continue;
     }
-    out[item.substr(0, eq)] = v;
+    values[item.substr(0, eq)] = v;
   }
-  return out;
+  FaultPlan plan;
+  plan.spec = std::string(spec);
+  auto take = [&](const char* name) -> std::optional<double> {
+    auto it = values.find(name);
+    if (it == values.end()) return std::nullopt;
+    const double v = it->second;
+    values.erase(it);
+    return v;
+  };
+  auto stall = [&](const char* seconds, const char* after) -> std::optional<Stall> {
+    const auto s = take(seconds);
+    const auto a = take(after);
+    if (!s) return std::nullopt;
+    return Stall{*s, a.value_or(2.0)};
+  };
+  auto count = [&](const char* name) -> std::optional<std::size_t> {
+    const auto v = take(name);
+    if (!v) return std::nullopt;
+    return std::size_t(std::max(1.0, *v));
+  };
+  plan.camera_pipeline_stall = stall("camera_pipeline.stall_s", "camera_pipeline.stall_after_s");
+  plan.stall_camera = int(take("camera_pipeline.stall_camera").value_or(0));
+  plan.sensel_pipeline_stall = stall("sensel_pipeline.stall_s", "sensel_pipeline.stall_after_s");
+  plan.index_writer_stall = stall("index_writer.stall_s", "index_writer.stall_after_s");
+  plan.camera_queue_frames = count("camera.queue_frames");
+  plan.sensel_queue_frames = count("sensel.queue_frames");
+  plan.index_queue_records = count("index_writer.queue_records");
+  for (const auto& [name, v] : values) problems.push_back(fmt::format("PVCAP_FAULTS: '{}' is not a fault; ignored", name));
+  return plan;
 }
 
-const std::map<std::string, double, std::less<>>& faults() {
-  static const auto parsed = [] {
-    const char* spec = std::getenv("PVCAP_FAULTS");
-    if (!spec || !*spec) return std::map<std::string, double, std::less<>>{};
-    spdlog::warn("PVCAP_FAULTS is set ({}): faults are injected on purpose, for tests; never on a real session",
-                 spec);
-    return parse(spec);
-  }();
-  return parsed;
-}
-
-}  // namespace
-
-std::optional<double> value(std::string_view name) {
-  const auto& f = faults();
-  auto it = f.find(name);
-  if (it == f.end()) return std::nullopt;
-  return it->second;
-}
-
-}  // namespace pvcap::fault
+}  // namespace pvcap

@@ -1,10 +1,11 @@
 #pragma once
-// Faults a test can switch on in a real `pvcap session`, to meet the failures a
-// lab meets rarely (a consumer thread that falls behind, a queue that fills)
-// through the code that would run on the rig. Set by the environment:
+// Faults a test can switch on in a real `pvcap session`, to meet the failures a lab meets rarely (a
+// consumer thread that falls behind, a queue that fills) through the code that would run on the rig.
+// A test sets them in the environment:
 //   PVCAP_FAULTS="camera_pipeline.stall_s=1.5,camera.queue_frames=4"
-// Unset, every lookup is empty and nothing changes. A process that sees the
-// variable says so once, at warning level, so it is never on unnoticed.
+// app/ reads the variable once (parse_faults) and passes the plan down as a plain value, like any
+// other setting; no module below app/ reads the environment. Empty, nothing changes; a process
+// given a plan says so once, at warning level, so it is never on unnoticed.
 //
 // The faults (docs/testing.md lists them with the tests that use them):
 //   camera_pipeline.stall_s        the worker of camera `stall_camera` sleeps this long, once,
@@ -17,12 +18,32 @@
 //   index_writer.stall_s           the index thread sleeps this long, once, `stall_after_s`
 //   index_writer.stall_after_s     (default 2) after it starts
 //   index_writer.queue_records     the index queue holds this many records
+#include <cstddef>
 #include <optional>
+#include <string>
 #include <string_view>
+#include <vector>
 
-namespace pvcap::fault {
+namespace pvcap {
 
-// The value of fault `name` in PVCAP_FAULTS, when given.
-std::optional<double> value(std::string_view name);
+// A thread that sleeps `seconds`, once, `after_s` after it starts (or its first frame).
+struct Stall {
+  double seconds = 0;
+  double after_s = 2;
+};
 
-}  // namespace pvcap::fault
+struct FaultPlan {
+  std::optional<Stall> camera_pipeline_stall;
+  int stall_camera = 0;  // which camera's worker stalls
+  std::optional<Stall> sensel_pipeline_stall;
+  std::optional<Stall> index_writer_stall;
+  std::optional<std::size_t> camera_queue_frames, sensel_queue_frames, index_queue_records;
+  std::string spec;  // as given, for the warning and the log
+  bool empty() const { return spec.empty(); }
+};
+
+// Reads a PVCAP_FAULTS value. What cannot be read (not name=value, no number, an unknown name) is
+// named in `problems` and ignored.
+FaultPlan parse_faults(std::string_view spec, std::vector<std::string>& problems);
+
+}  // namespace pvcap

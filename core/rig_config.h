@@ -1,6 +1,7 @@
 #pragma once
 // The rig description (rig-configs/*.yaml): which cameras, how to set them up,
-// how to store, and, for the simulated rig, how the simulated devices behave.
+// how to store. A simulated rig's `sim:` section (how its simulated devices behave)
+// is the simulator's own: sim/sim_config.h reads it; here it only marks the rig simulated.
 // Parsing rejects unknown keys and names file:line and key in every error.
 #include <array>
 #include <cstdint>
@@ -41,30 +42,13 @@ struct CameraConfig {
 struct SenselRigConfig {
   // Where the Morph is: exactly one of
   std::string tty;              // /dev/ttyACM0 (or a udev name such as /dev/morph0); "sim": the simulator's
+                                // (resolved to its pseudo-terminal before a recording opens it)
   std::optional<std::string> usb_serial;  // over libusb, by USB serial string; "" = the only Morph on the bus
   int scan_detail = 1;          // 0 high (93x53, ~50 Hz), 1 medium (47x27, ~125 Hz)
   bool dynamic_baseline = false;  // off: a resting hand must not fade away
   int frame_rate_cap = 0;       // Hz, 0 = the device's default
   std::int64_t latency_ns = 0;  // known constant scan-to-answer latency
   int line = 0;
-};
-
-struct SimSenselConfig {
-  double press_x_mm = 115, press_y_mm = 65;  // where the simulated fingertip presses (sensor mm)
-  double peak_grams = 300;                   // on its centre cell
-  double period_s = 2.0;                     // one press and release per period
-  double clock_start_us = 4294967295.0 - 3e6;  // device clock at start: wraps 3 s in
-  double drift_ppm = 30;
-  double usb_jitter_mean_ms = 0.5;  // arrival delay after the scan (exponential)...
-  double usb_jitter_max_ms = 4.0;   // ...with a tail up to this
-  double drop_fraction = 0;         // frames the device scans but loses (its counter skips them)
-  std::optional<double> clock_reset_at_s;  // the device clock restarts at 0 this long after start
-  // Unplugged this long after start, and plugged back (power-cycled: counter and clock restart) after
-  // `replug_after_s` on a new pseudo-terminal, as `replug_serial` if given (another Morph), and under
-  // another name if `replug_renamed` (its first name is gone, as ttyACM0 coming back as ttyACM1).
-  std::optional<double> unplug_at_s, replug_after_s;
-  std::optional<std::string> replug_serial;
-  bool replug_renamed = false;
 };
 
 struct StoreConfig {
@@ -87,36 +71,6 @@ struct StoreConfig {
   int reserve_mb = 32;       // space set aside at start, freed to finish the store if the disk fills anyway
 };
 
-struct SimCameraClock {
-  double offset_ms = 0;   // device clock minus true time at t = 0
-  double drift_ppm = 0;   // device clock rate error
-  double jitter_us = 0;   // std-dev of device timestamp noise
-  double packet_loss = 0;  // fraction of GVSP packets not sent
-  double exposure_latency_ms = 0;  // the instant a frame shows lies this long before it leaves (its "datasheet" latency)
-  // A latency nobody declared: each frame shows the scene this long before the instant its timestamp
-  // says (negative: after), so the sessions's clocks agree while the pixels lag; the report's sync
-  // self-check must find it from the data alone.
-  double undeclared_latency_ms = 0;
-  std::optional<double> stop_after_s;    // camera vanishes after this many seconds (from sim start)
-  std::optional<double> return_after_s;  // and comes back (power-cycled: frame ids restart) after this many
-  bool trigger_line = true;              // wired to the rig's trigger line (used with trigger: hardware)
-  // Its lens and where it stands (pad coordinates in mm, z = height above the pad); any left out
-  // take the default of the camera's position in the rig (see sim/camera_views.cpp).
-  std::optional<std::array<double, 3>> position_mm, look_at_mm;
-  std::optional<double> focal_px;                      // at the configured image width
-  std::optional<std::array<double, 5>> distortion;     // k1, k2, p1, p2, k3 (OpenCV's order)
-};
-
-struct SimConfig {
-  std::vector<SimCameraClock> cameras;  // one per rig camera, same order
-  SimSenselConfig sensel;
-  std::uint64_t seed = 1;
-  // Set: the simulated devices re-serve this recorded session instead of a scene (`pvcap replay
-  // SESSION --as-devices` writes such a rig file); `replay_rate` > 1 plays it faster.
-  std::optional<std::filesystem::path> replay;
-  double replay_rate = 1.0;
-};
-
 struct RigConfig {
   std::filesystem::path source;  // the file it came from
   std::string text;              // the file's text, stored with each session
@@ -124,7 +78,9 @@ struct RigConfig {
   std::vector<CameraConfig> cameras;
   std::optional<SenselRigConfig> sensel;
   StoreConfig store;
-  std::optional<SimConfig> sim;  // present for a simulated rig
+  // The file has a `sim:` section: its devices are served by the simulator (sim/sim_config.h reads
+  // the section; app/'s rig launcher starts it).
+  bool simulated = false;
 };
 
 // The rate of the session's sample grid: the store's video_fps, or the fastest camera's rate when

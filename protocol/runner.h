@@ -18,7 +18,7 @@
 
 #include "protocol/protocol.h"
 #include "protocol/take_check.h"
-#include "storage/session_index.h"
+#include "storage/records.h"
 
 namespace pvcap::protocol {
 

@@ -119,9 +119,7 @@ void run_camera_pipeline(const CameraPipeline& p) {
   };
   // A worker that falls behind, on purpose (core/fault_injection.h): tests meet buffer underruns
   // and queue overflows through the real session.
-  std::optional<double> stall_s = fault::value("camera_pipeline.stall_s");
-  if (index != int(fault::value("camera_pipeline.stall_camera").value_or(0))) stall_s.reset();
-  const double stall_after_s = fault::value("camera_pipeline.stall_after_s").value_or(2.0);
+  std::optional<Stall> stall = p.stall;
   std::int64_t first_frame_ns = 0;
   auto& queue = camera.frames();
   while (!queue.closed_and_empty() || !camera.losses().closed_and_empty()) {
@@ -145,9 +143,9 @@ void run_camera_pipeline(const CameraPipeline& p) {
         timeline.camera_probe(index, probe->device, probe->host_lo, probe->host_hi);
     if (!frame) continue;
     if (first_frame_ns == 0) first_frame_ns = frame->host_ts.ns;
-    if (stall_s && frame->host_ts.ns - first_frame_ns >= std::int64_t(stall_after_s * 1e9)) {
-      std::this_thread::sleep_for(std::chrono::duration<double>(*stall_s));
-      stall_s.reset();
+    if (stall && frame->host_ts.ns - first_frame_ns >= std::int64_t(stall->after_s * 1e9)) {
+      std::this_thread::sleep_for(std::chrono::duration<double>(stall->seconds));
+      stall.reset();
     }
     tally.received.fetch_add(1, std::memory_order_relaxed);
     connection = frame->connection;

@@ -56,6 +56,7 @@ struct CameraPipeline {
   TimelineEnd& end;
   std::size_t encoder_queue;  // the store's queue_frames: how many images the encoder can hold
   Preview& preview;
+  std::optional<Stall> stall;  // a test's fault (core/fault_injection.h): the worker sleeps once
 };
 
 // Runs until the camera's frame queue is closed and drained (after the camera stopped).

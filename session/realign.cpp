@@ -15,66 +15,19 @@ namespace pvcap {
 
 namespace {
 
-struct StoredSegment {
-  std::int64_t first_arrival_ns = 0;
-  std::int64_t x0 = 0, latency_ns = 0;
-  double offset_ns = 0, skew = 0;
-};
-
-struct StoredClocks {
-  std::int64_t device_id = 0;
-  bool pressure = false;
-  std::vector<StoredSegment> segments;  // in order
-};
-
-// Each stream's segments as the store holds them: begun at the segment's first row, fitted as its
-// last row says.
-std::vector<StoredClocks> stored_clocks(sqlite::Database& db) {
-  std::vector<StoredClocks> out;
-  auto q = db.prepare(
-      "SELECT m.device_id, d.kind = 'sensel', m.segment, m.host_ns, m.x0_device_ns, m.offset_ns, m.skew, m.latency_ns "
-      "FROM clock_models m JOIN devices d ON d.id = m.device_id ORDER BY m.device_id, m.segment, m.host_ns");
-  int segment = -1;
-  while (q.step()) {
-    const std::int64_t device = q.column_int(0);
-    if (out.empty() || out.back().device_id != device) {
-      out.push_back({device, q.column_int(1) != 0, {}});
-      segment = -1;
-    }
-    auto& segments = out.back().segments;
-    const int s = int(q.column_int(2));
-    if (s != segment) {
-      segments.push_back({q.column_int(3), 0, 0, 0, 0});
-      segment = s;
-    }
-    StoredSegment& seg = segments.back();
-    seg.x0 = q.column_int(4);
-    seg.offset_ns = q.column_double(5);
-    seg.skew = q.column_double(6);
-    seg.latency_ns = q.column_int(7);
-  }
-  return out;
-}
-
 void add_event(SessionIndex& index, const char* kind, std::string message) {
   index.add_event(EventRecord{host_now().ns, kind, std::nullopt, std::move(message)});
 }
 
 }  // namespace
 
-bool realign_pending(sqlite::Database& db) {
-  auto q = db.prepare(
-      "SELECT (SELECT max(rowid) FROM events WHERE kind = 'realign_started'), (SELECT max(rowid) FROM events WHERE "
-      "kind = 'realign_done')");
-  if (!q.step() || q.column_null(0)) return false;
-  return q.column_null(1) || q.column_int(1) < q.column_int(0);
-}
+bool realign_pending(SessionIndex& index) { return index.realign_pending(); }
 
 Result<std::optional<RealignResult>> realign_if_needed(const std::filesystem::path& dir, bool interrupted,
                                                       const std::function<void(const std::string&)>& progress) {
   try {
     SessionIndex index = SessionIndex::open_for_update(dir / "session.db");
-    if (!interrupted && !realign_pending(index.db())) return std::optional<RealignResult>{};
+    if (!interrupted && !index.realign_pending()) return std::optional<RealignResult>{};
     RealignOptions o;
     o.progress = progress;
     return std::optional<RealignResult>{realign(index, o)};
@@ -103,7 +56,7 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
   std::int64_t pressure_device_id = 0;
   {
     sqlite::Transaction tx(db);
-    for (const auto& sc : stored_clocks(db)) {
+    for (const auto& sc : index.stored_clocks()) {
       const Stream kind = sc.pressure ? Stream::Pressure : Stream::Camera;
       for (std::size_t k = 0; k < sc.segments.size(); ++k) {
         const std::int64_t from = k == 0 ? INT64_MIN : sc.segments[k].first_arrival_ns;

@@ -20,7 +20,6 @@
 
 #include "core/result.h"
 #include "storage/session_index.h"
-#include "storage/sqlite/database.h"
 
 namespace pvcap {
 
@@ -40,7 +39,7 @@ RealignResult realign(SessionIndex& index, const RealignOptions& options = {});
 
 // The store's re-mapping was started and not finished (interrupted), or a session recorded with
 // the re-mapping in steps never got to it (killed while recording).
-bool realign_pending(sqlite::Database& db);
+bool realign_pending(SessionIndex& index);
 
 // `pvcap recover`'s last step: re-maps the session in `dir` when it was interrupted (`interrupted`:
 // recover found it so) or its re-mapping is pending; nullopt when neither.

@@ -18,8 +18,6 @@
 #include "session/camera_pipeline.h"
 #include "session/realign.h"
 #include "session/rig_lock.h"
-#include "session/session_report.h"
-#include "sim/sim_process.h"
 #include "storage/session_writer.h"
 #include "sync/session_timeline.h"
 
@@ -54,6 +52,15 @@ Status open_with_wait(AravisCamera& camera, double wait_s, const std::atomic<boo
 
 }  // namespace
 
+Status check_sessions_root(const std::filesystem::path& root) {
+  std::error_code ec;
+  std::filesystem::create_directories(root, ec);
+  if (ec) return Error{fmt::format("the sessions folder {} cannot be made: {}", root.string(), ec.message())};
+  if (access(root.c_str(), W_OK) != 0)
+    return Error{fmt::format("the sessions folder {} cannot be written: {}", root.string(), std::strerror(errno))};
+  return {};
+}
+
 bool RecordingStatus::all_live(double window_ms) const {
   if (streams.empty()) return false;
   for (const auto& s : streams)
@@ -66,10 +73,6 @@ Recording::Recording() = default;
 Recording::~Recording() {
   // A recording dropped without finish() (an exception in its owner) still stops its devices.
   if (state_.load() == kRecording || state_.load() == kStopping) (void)finish("ended abnormally");
-  if (!truth_tmp_.empty() && std::filesystem::exists(truth_tmp_) && !writer_) {
-    std::error_code ec;
-    std::filesystem::remove_all(truth_tmp_, ec);
-  }
 }
 
 Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const RecordingOptions& options,
@@ -82,31 +85,12 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
   const std::int64_t now_host = host_now().ns;
   r->host0_ = sync::grid_lattice_floor(now_host, sample_rate_hz(rig));
   r->wall0_ = wall_now_ns() - (now_host - r->host0_);
-  // One rig, one recorder: before any device (or the simulator) is touched.
+  // One rig, one recorder: before any device is touched.
   auto lock = RigLock::acquire(rig.source);
   if (!lock) return lock.error();
   r->rig_lock_ = std::move(lock.value());
   // The sessions folder can take a session: said before any device is opened.
-  {
-    std::error_code ec;
-    std::filesystem::create_directories(options.root, ec);
-    if (ec) return Error{fmt::format("the sessions folder {} cannot be made: {}", options.root.string(), ec.message())};
-    if (access(options.root.c_str(), W_OK) != 0)
-      return Error{fmt::format("the sessions folder {} cannot be written: {}", options.root.string(), std::strerror(errno))};
-  }
-
-  // The simulator writes its ground truth beside the sessions while it runs; once it has stopped,
-  // the truth is moved into the session folder.
-  if (rig.sim) {
-    r->truth_tmp_ = options.root / fmt::format(".sim-truth-{}", getpid());
-    std::error_code ec;
-    std::filesystem::create_directories(r->truth_tmp_, ec);
-    if (ec) return Error{fmt::format("cannot create {}: {}", r->truth_tmp_.string(), ec.message())};
-    auto sim = sim::SimProcess::start(options.self_exe, rig.source, r->truth_tmp_, options.steer_sim_hand,
-                                         options.board_session);
-    if (!sim) return sim.error();
-    r->sim_ = std::move(sim.value());
-  }
+  if (Status s = check_sessions_root(options.root); !s.ok()) return s.error();
 
   // Every camera opened before anything is on disk: a rig that is not ready leaves no empty session.
   const std::size_t n = rig.cameras.size();
@@ -118,7 +102,7 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
   for (std::size_t i = 0; i < n; ++i) {
     r->tallies_.push_back(std::make_unique<CameraTally>());
     r->previews_.push_back(std::make_unique<Preview>());
-    r->cameras_.push_back(std::make_unique<AravisCamera>(int(i), rig.cameras[i], [self, i](const CameraEvent& e) {
+    auto on_event = [self, i](const CameraEvent& e) {
       const bool lost = e.kind == CameraEvent::Kind::Lost;
       if (lost) {
         spdlog::error("{}", e.message);
@@ -131,14 +115,21 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
                                                                   : "camera_reconnected";
       if (SessionWriter* w = self->events_writer_.load())
         w->record(EventRecord{e.at.ns, kind, self->device_ids_[i], e.message});
-    }));
+    };
+    r->cameras_.push_back(std::make_unique<AravisCamera>(int(i), rig.cameras[i], on_event,
+                                                         options.faults.camera_queue_frames.value_or(0)));
   }
   for (auto& cam : r->cameras_)
     if (Status s = open_with_wait(*cam, options.device_wait_s, cancel); !s.ok())
       return Error{fmt::format("{}\nno session was recorded: every camera of {} must be ready", s.error().message,
                                rig.source.string())};
   if (rig.sensel) {
-    auto opened = SenselPipeline::open(*rig.sensel, r->truth_tmp_, rig.sim ? 10.0 : 2.0, cancel);
+    SenselPipelineOptions so;
+    so.ports_dir = options.sensel_ports_dir;
+    so.wait_s = std::max(2.0, options.device_wait_s);
+    if (options.faults.sensel_queue_frames) so.queue_frames = *options.faults.sensel_queue_frames;
+    so.stall = options.faults.sensel_pipeline_stall;
+    auto opened = SenselPipeline::open(*rig.sensel, so, cancel);
     if (!opened)
       return Error{fmt::format("{}\nno session was recorded: the Sensel of {} must be ready", opened.error().message,
                                rig.source.string())};
@@ -176,7 +167,10 @@ void Recording::record_rig_calibration(SessionWriter& writer) {
 }
 
 Status Recording::start() {
-  auto created = SessionWriter::create(options_.root, rig_, wall0_, host0_);
+  IndexFeedOptions index;
+  if (options_.faults.index_queue_records) index.queue_records = *options_.faults.index_queue_records;
+  index.stall = options_.faults.index_writer_stall;
+  auto created = SessionWriter::create(options_.root, rig_, wall0_, host0_, index);
   if (!created) return created.error();
   writer_ = std::move(created.value());
   SessionWriter& writer = *writer_;
@@ -261,7 +255,9 @@ Status Recording::start() {
   for (std::size_t i = 0; i < cameras_.size(); ++i)
     workers_.emplace_back(run_camera_pipeline,
                           CameraPipeline{*cameras_[i], int(i), device_ids_[i], writer, *tallies_[i], *timeline_,
-                                         *timeline_end_, std::size_t(rig_.store.queue_frames), *previews_[i]});
+                                         *timeline_end_, std::size_t(rig_.store.queue_frames), *previews_[i],
+                                         int(i) == options_.faults.stall_camera ? options_.faults.camera_pipeline_stall
+                                                                                : std::nullopt});
   state_.store(kRecording);
   rec_start_ = host_now().ns;
   for (auto& cam : cameras_)
@@ -480,8 +476,6 @@ std::vector<PressurePoint> Recording::pressure_history(std::int64_t from_ns, std
   return sensel_->history(from_ns, to_ns);
 }
 
-bool Recording::steer_sim_hand(const sim::HandCommand& c) { return sim_ && sim_->steer(c); }
-
 RecordingResult Recording::finish(const std::string& end_reason) {
   RecordingResult result;
   if (state_.load() != kRecording) {
@@ -490,11 +484,12 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   }
   state_.store(kStopping);
   SessionWriter& writer = *writer_;
-  const double recorded_s = double(host_now().ns - rec_start_) / 1e9;
+  result.recorded_s = double(host_now().ns - rec_start_) / 1e9;
   // All cameras stop at once; one blocked on a reconnect attempt must not keep the others recording.
   for (auto& cam : cameras_) cam->request_stop();
   if (sensel_) sensel_->stop();
   for (auto& cam : cameras_) cam->stop();
+  if (options_.on_devices_stopped) options_.on_devices_stopped();
   for (auto& w : workers_) w.join();
   workers_.clear();
   // At close: every frame re-mapped with its stream's final clock fit, every sample re-paired,
@@ -522,26 +517,14 @@ RecordingResult Recording::finish(const std::string& end_reason) {
     writer.add_stream_stats({device_ids_[i], c.completed, c.failures, c.underruns, c.resent_packets,
                              c.missing_packets, c.queue_overflows});
   }
-  sim_.reset();
-  if (!truth_tmp_.empty()) {
-    std::error_code ec;
-    std::filesystem::rename(truth_tmp_, writer.dir() / "sim-truth", ec);
-    if (ec) spdlog::warn("simulator ground truth stays in {}: {}", truth_tmp_.string(), ec.message());
-    else truth_tmp_.clear();
-  }
   events_writer_.store(nullptr);
   const Status closed = writer.close(end_reason);
   state_.store(kEnded);
   result.dir = writer.dir();
 
-  // The report the operator reads, from what the store holds (also kept as report.txt).
-  auto report = session_report(writer.dir(), recorded_s);
-  result.report = report ? report.value() : fmt::format("session: {}\nthe report could not be made: {}\n",
-                                                        writer.dir().string(), report.error().message);
   if (writer.index_records_lost() > 0)
-    result.report += fmt::format("WARNING: {} index records were lost ({})\n", writer.index_records_lost(),
-                                 writer.index_records_lost_by_kind());
-  std::ofstream(writer.dir() / "report.txt") << result.report;
+    result.notes.push_back(fmt::format("WARNING: {} index records were lost ({})", writer.index_records_lost(),
+                                       writer.index_records_lost_by_kind()));
   log::remove_session_file();
   if (start_failure_) result.exit_code = 1;
   if (!closed.ok()) {

@@ -7,7 +7,7 @@
 //   ... rec->status(), rec->post(event), rec->note(text) from any thread ...
 //   rec->request_stop("protocol complete");            // or Ctrl-C, the duration, a failure
 //   auto reason = rec->wait(interrupt, duration);      // returns once a stop is due
-//   auto result = rec->finish(reason);                 // drain, re-map, close, report
+//   auto result = rec->finish(reason);                 // drain, re-map, close (the report is report/'s)
 //
 // One error channel: a failure that ends the session (storage, a device that
 // cannot start) becomes the stop reason returned by wait(); warnings for the
@@ -15,6 +15,7 @@
 #include <atomic>
 #include <chrono>
 #include <deque>
+#include <functional>
 #include <filesystem>
 #include <memory>
 #include <mutex>
@@ -25,18 +26,15 @@
 
 #include <opencv2/core.hpp>
 
+#include "core/fault_injection.h"
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "session/sensel_pipeline.h"
-#include "sim/hand.h"
-#include "storage/session_index.h"
+#include "storage/records.h"
 
 namespace pvcap {
 class AravisCamera;
 class SessionWriter;
-namespace sim {
-class SimProcess;
-}
 namespace sync {
 class SessionTimeline;
 }
@@ -51,13 +49,20 @@ struct TimelineEnd;
 
 struct RecordingOptions {
   std::filesystem::path root;    // the session folder is made under it
-  double device_wait_s = 0;      // keep trying to open cameras this long (the simulator needs a moment)
-  std::filesystem::path self_exe;  // to start the simulator as a child process
+  double device_wait_s = 0;      // keep trying to open the devices this long (cameras still booting)
+  // Where a Morph that comes back under another tty name is looked for by its serial.
+  std::filesystem::path sensel_ports_dir = "/dev";
   std::optional<ParticipantRecord> participant;
   std::optional<ConditionsRecord> conditions;
-  bool steer_sim_hand = false;   // a simulated rig's hand follows steer_sim_hand() (protocol --auto)
-  bool board_session = false;    // recording a calibration board (a simulated rig moves its board)
+  bool board_session = false;    // recording a calibration board session
+  FaultPlan faults;              // a test's faults (core/fault_injection.h); empty on a real session
+  // Called once every device has stopped streaming, before the store is drained and closed (what
+  // served the devices may stop then).
+  std::function<void()> on_devices_stopped;
 };
+
+// The sessions folder can take a session (made if missing, writable); an Error names it and why.
+Status check_sessions_root(const std::filesystem::path& root);
 
 struct StreamStatus {
   std::string name, kind;  // kind: camera | sensel
@@ -88,7 +93,8 @@ struct RecordingStatus {
 struct RecordingResult {
   int exit_code = 0;  // 0 recorded, 1 failed (the message was logged)
   std::filesystem::path dir;
-  std::string report;  // the end-of-session report (also in dir/report.txt)
+  double recorded_s = 0;           // from the devices' start to the stop
+  std::vector<std::string> notes;  // for the end-of-session report: what went wrong in feeding the store
 };
 
 class Recording {
@@ -124,8 +130,6 @@ class Recording {
   std::optional<PressureSnapshot> pressure_now() const;
   std::vector<PressurePoint> pressure_history(std::int64_t from_ns, std::int64_t to_ns) const;
   bool has_sensel() const { return bool(sensel_); }
-  // Simulated rig opened with steer_sim_hand: where the simulated hand goes next. False otherwise.
-  bool steer_sim_hand(const sim::HandCommand& c);
 
  private:
   Recording();
@@ -137,8 +141,6 @@ class Recording {
   RecordingOptions options_;
   std::unique_ptr<RigLock> rig_lock_;
   std::int64_t wall0_ = 0, host0_ = 0, rec_start_ = 0;
-  std::unique_ptr<sim::SimProcess> sim_;
-  std::filesystem::path truth_tmp_;
   std::vector<std::unique_ptr<AravisCamera>> cameras_;
   std::vector<std::unique_ptr<CameraTally>> tallies_;
   std::vector<std::unique_ptr<Preview>> previews_;

@@ -19,19 +19,20 @@ constexpr std::size_t kHistoryFrames = 16'000;  // ~2 minutes at medium detail's
 }
 
 Result<std::unique_ptr<SenselPipeline>> SenselPipeline::open(const SenselRigConfig& cfg,
-                                                             const std::filesystem::path& sim_dir, double wait_s,
+                                                             const SenselPipelineOptions& options,
                                                              const std::atomic<bool>& cancel) {
   std::unique_ptr<SenselPipeline> r(new SenselPipeline());
   r->config_ = cfg;
-  const std::string path = cfg.tty == "sim" ? (sim_dir / "sensel.tty").string() : cfg.tty;
+  r->stall_ = options.stall;
+  const std::string path = cfg.tty;
   sensel::SenselDevice::TransportFactory factory;
   if (cfg.usb_serial) {
     factory = [serial = *cfg.usb_serial](const std::string&) { return sensel::open_usb(serial); };
   } else {
     // A Morph plugged back in may come back under another name (ttyACM0 -> ttyACM1 while the old
     // node is still held): when its tty is gone, the session's Morph is looked for by its serial
-    // among the ports where a Morph may be (the simulated rig publishes its own in sim_dir).
-    const std::filesystem::path ports = cfg.tty == "sim" ? sim_dir : std::filesystem::path("/dev");
+    // among the ports where a Morph may be (a simulated rig publishes its own in a folder of its own).
+    const std::filesystem::path ports = options.ports_dir;
     factory = [ports, current = std::make_shared<std::string>(path)](
                   const std::string& session_serial) -> Result<std::unique_ptr<sensel::Transport>> {
       auto t = sensel::open_tty(*current);
@@ -50,9 +51,10 @@ Result<std::unique_ptr<SenselPipeline>> SenselPipeline::open(const SenselRigConf
     };
   }
   const char* key = cfg.usb_serial ? "sensel.usb" : "sensel.tty";
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(options.wait_s);
   for (;;) {
-    auto d = sensel::SenselDevice::open(factory, [raw = r.get()](const sensel::SenselEvent& e) { raw->on_event(e); });
+    auto d = sensel::SenselDevice::open(
+        factory, [raw = r.get()](const sensel::SenselEvent& e) { raw->on_event(e); }, options.queue_frames);
     if (d) {
       r->device_ = std::move(d.value());
       break;
@@ -155,16 +157,15 @@ void SenselPipeline::run() {
   auto& q = device_->samples();
   SessionWriter& writer = *writer_.load();
   // A worker that falls behind, on purpose (core/fault_injection.h): tests meet a full queue.
-  std::optional<double> stall_s = fault::value("sensel_pipeline.stall_s");
-  const double stall_after_s = fault::value("sensel_pipeline.stall_after_s").value_or(2.0);
+  std::optional<Stall> stall = stall_;
   std::int64_t first_ns = 0;
   while (!q.closed_and_empty()) {
     auto s = q.pop_for(100ms);
     if (!s) continue;
     if (first_ns == 0) first_ns = s->host_ts.ns;
-    if (stall_s && s->host_ts.ns - first_ns >= std::int64_t(stall_after_s * 1e9)) {
-      std::this_thread::sleep_for(std::chrono::duration<double>(*stall_s));
-      stall_s.reset();
+    if (stall && s->host_ts.ns - first_ns >= std::int64_t(stall->after_s * 1e9)) {
+      std::this_thread::sleep_for(std::chrono::duration<double>(stall->seconds));
+      stall.reset();
     }
     // Every sequence between the previous frame of this connection and this one is lost: dropped
     // by the driver for want of room in its queue, or never received (the device's counter says).

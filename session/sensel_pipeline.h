@@ -14,6 +14,7 @@
 
 #include "capture/sensel_device.h"
 #include "capture/sensel_units.h"
+#include "core/fault_injection.h"
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "storage/session_writer.h"
@@ -34,12 +35,19 @@ struct PressureSnapshot {
   std::int64_t mapped_ns = 0;
 };
 
+struct SenselPipelineOptions {
+  // Where a Morph that comes back under another tty name is looked for by its serial.
+  std::filesystem::path ports_dir = "/dev";
+  double wait_s = 2;  // keep trying to open it this long
+  std::size_t queue_frames = sensel::SenselDevice::kQueueFrames;
+  std::optional<Stall> stall;  // a test's fault (core/fault_injection.h): the worker sleeps once
+};
+
 class SenselPipeline {
  public:
-  // Over USB by serial, or over a tty: a device path, or "sim" with `sim_dir` holding the
-  // simulator's sensel.tty link. Keeps trying for `wait_s`.
-  static Result<std::unique_ptr<SenselPipeline>> open(const SenselRigConfig& cfg, const std::filesystem::path& sim_dir,
-                                                      double wait_s, const std::atomic<bool>& cancel);
+  // Over USB by serial, or over a tty (a device path). Keeps trying for `options.wait_s`.
+  static Result<std::unique_ptr<SenselPipeline>> open(const SenselRigConfig& cfg, const SenselPipelineOptions& options,
+                                                      const std::atomic<bool>& cancel);
   ~SenselPipeline();
 
   DeviceRecord device_record() const;
@@ -69,6 +77,7 @@ class SenselPipeline {
   void run();
 
   SenselRigConfig config_;
+  std::optional<Stall> stall_;
   std::unique_ptr<sensel::SenselDevice> device_;
   std::atomic<SessionWriter*> writer_{nullptr};
   std::int64_t device_id_ = 0;

@@ -6,6 +6,7 @@
 
 #include "calib/camera_model.h"
 #include "core/rig_config.h"
+#include "sim/sim_config.h"
 
 namespace pvcap::sim {
 

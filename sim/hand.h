@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/rig_config.h"
+#include "sim/sim_config.h"
 
 namespace pvcap::sim {
 

@@ -3,12 +3,13 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <tuple>
 
 #include <fmt/format.h>
 
 #include "core/rig_config.h"
 #include "core/time.h"
-#include "storage/sqlite/database.h"
+#include "storage/session_reader.h"
 #include "sync/timeline.h"
 
 namespace pvcap::sim {
@@ -70,90 +71,82 @@ Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem
   const auto db_path = session_dir / "session.db";
   if (!std::filesystem::exists(db_path))
     return Error{fmt::format("{}: not a pvcap session (no session.db) - nothing to replay", session_dir.string())};
+  auto opened = SessionReader::open(session_dir);
+  if (!opened) return opened.error();
+  SessionReader& reader = *opened.value();
   std::shared_ptr<SessionReplay> r(new SessionReplay());
   r->dir_ = session_dir;
   r->rate_ = rate;
+  r->anchor_ns_ = reader.info().started_host_ns;
+  if (!plausible(r->anchor_ns_))
+    return Error{fmt::format("{}: the session's start is an impossible time (a damaged index)", db_path.string())};
+  std::int64_t sensel_latency_ns = 0;
   try {
-    sqlite::Database db(db_path, sqlite::Database::Mode::ReadOnly);
-    auto s = db.prepare("SELECT started_host_ns, rig_config, rig_path FROM session");
-    if (!s.step()) return Error{fmt::format("{}: the session table is empty", db_path.string())};
-    r->anchor_ns_ = s.column_int(0);
-    if (!plausible(r->anchor_ns_))
-      return Error{fmt::format("{}: the session's start is an impossible time (a damaged index)", db_path.string())};
-    std::int64_t sensel_latency_ns = 0;
-    try {
-      const RigConfig rig = parse_rig_config(s.column_text(1), s.column_text(2));
-      r->grid_hz_ = sample_rate_hz(rig);
-      if (rig.sensel) sensel_latency_ns = rig.sensel->latency_ns;
-    } catch (const UserError& e) {
-      return Error{fmt::format("{}: the rig file stored with the session cannot be read: {}", db_path.string(),
-                               e.what())};
-    }
-
-    // Which sample stores which camera frame (samples by id, as SessionReader numbers them).
-    std::map<std::int64_t, std::int64_t> sample_index;
-    auto ids = db.prepare("SELECT id FROM samples ORDER BY id");
-    while (ids.step()) sample_index.emplace(ids.column_int(0), std::int64_t(sample_index.size()));
-    std::map<std::tuple<std::int64_t, std::int64_t, std::int64_t>, std::int64_t> stored;
-    auto members = db.prepare("SELECT sample_id, device_id, connection, sequence FROM sample_frames");
-    while (members.step())
-      if (const auto it = sample_index.find(members.column_int(0)); it != sample_index.end())
-        stored[{members.column_int(1), members.column_int(2), members.column_int(3)}] = it->second;
-
-    // Every camera frame that arrived whole and was put on the session clock, in the order sent.
-    std::int64_t first = INT64_MAX;
-    auto cams = db.prepare("SELECT id, name FROM devices WHERE kind = 'camera' ORDER BY id");
-    auto frames = db.prepare(
-        "SELECT connection, sequence, frame_id, device_ns, mapped_ns, kept FROM frames WHERE device_id = ? AND "
-        "mapped_ns IS NOT NULL AND frame_id <> 0 AND status = 'good' ORDER BY connection, sequence");
-    while (cams.step()) {
-      Camera c;
-      c.name = cams.column_text(1);
-      DeviceClockScale scale(rate);
-      frames.reset();
-      frames.bind_all(cams.column_int(0));
-      while (frames.step()) {
-        ReplayCameraFrame f{std::uint64_t(frames.column_int(2)), frames.column_int(3), frames.column_int(4), -1};
-        if (!plausible(f.device_ns) || !plausible(f.t_ns))
-          return Error{fmt::format("{}: camera {} has a frame at an impossible time (a damaged index)",
-                                   db_path.string(), c.name)};
-        if (rate != 1.0) f.device_ns = scale(f.device_ns);
-        if (frames.column_int(5) != 0) {
-          const auto it = stored.find({cams.column_int(0), frames.column_int(0), frames.column_int(1)});
-          if (it != stored.end()) f.sample = it->second;
-        }
-        c.clock.emplace_back(f.t_ns, f.device_ns);
-        c.frames.push_back(f);
-      }
-      std::sort(c.clock.begin(), c.clock.end());
-      if (!c.frames.empty()) first = std::min(first, c.frames.front().t_ns);
-      r->cameras_.push_back(std::move(c));
-    }
-
-    // The Sensel's frames as they came, each due when it reached the host (its mapped time plus the
-    // latency the rig declared, which the recorder subtracts again).
-    auto sensel = db.prepare("SELECT id, serial FROM devices WHERE kind = 'sensel' ORDER BY id LIMIT 1");
-    if (sensel.step()) {
-      r->sensel_serial_ = sensel.column_text(1);
-      auto p = db.prepare(
-          "SELECT payload, mapped_ns FROM pressure_frames WHERE device_id = ? AND mapped_ns IS NOT NULL "
-          "ORDER BY connection, sequence");
-      p.bind_all(sensel.column_int(0));
-      SenselClockScale scale(rate);
-      while (p.step()) {
-        if (!plausible(p.column_int(1)))
-          return Error{fmt::format("{}: a pressure frame at an impossible time (a damaged index)", db_path.string())};
-        r->pressure_.push_back({p.column_blob(0), p.column_int(1) + sensel_latency_ns});
-        if (rate != 1.0) scale(r->pressure_.back().payload);
-      }
-      if (!r->pressure_.empty()) first = std::min(first, r->pressure_.front().t_ns);
-    }
-    if (first == INT64_MAX)
-      return Error{fmt::format("{}: the session holds no frame on its clock - nothing to replay", session_dir.string())};
-    r->first_t_ns_ = first;
-  } catch (const sqlite::SqliteError& e) {
-    return Error{fmt::format("{}: cannot be read: {}", db_path.string(), e.what())};
+    const RigConfig rig = parse_rig_config(reader.info().rig_config, reader.info().rig_path);
+    r->grid_hz_ = sample_rate_hz(rig);
+    if (rig.sensel) sensel_latency_ns = rig.sensel->latency_ns;
+  } catch (const UserError& e) {
+    return Error{fmt::format("{}: the rig file stored with the session cannot be read: {}", db_path.string(),
+                             e.what())};
   }
+
+  // Which sample stores which camera frame (samples by position, as SessionReader numbers them).
+  auto samples = reader.sample_infos();
+  if (!samples) return samples.error();
+  std::map<std::tuple<std::int64_t, std::int64_t, std::int64_t>, std::int64_t> stored;
+  for (std::size_t i = 0; i < samples.value().size(); ++i)
+    for (const auto& c : samples.value()[i].cameras)
+      stored[{c.device_id, std::int64_t(c.connection), std::int64_t(c.sequence)}] = std::int64_t(i);
+
+  // Every camera frame that arrived whole and was put on the session clock, in the order sent.
+  std::int64_t first = INT64_MAX;
+  for (const CameraInfo& info : reader.cameras()) {
+    auto timing = reader.frame_timing(info.device_id);
+    if (!timing) return timing.error();
+    auto rows = std::move(timing.value());
+    std::sort(rows.begin(), rows.end(),
+              [](const FrameTiming& a, const FrameTiming& b) { return std::tie(a.connection, a.sequence) <
+                                                                      std::tie(b.connection, b.sequence); });
+    Camera c;
+    c.name = info.name;
+    DeviceClockScale scale(rate);
+    for (const FrameTiming& row : rows) {
+      if (!row.mapped_ns || row.frame_id == 0 || !row.good) continue;
+      ReplayCameraFrame f{row.frame_id, row.device_ns, *row.mapped_ns, -1};
+      if (!plausible(f.device_ns) || !plausible(f.t_ns))
+        return Error{fmt::format("{}: camera {} has a frame at an impossible time (a damaged index)", db_path.string(),
+                                 c.name)};
+      if (rate != 1.0) f.device_ns = scale(f.device_ns);
+      if (row.kept) {
+        const auto it = stored.find({info.device_id, std::int64_t(row.connection), std::int64_t(row.sequence)});
+        if (it != stored.end()) f.sample = it->second;
+      }
+      c.clock.emplace_back(f.t_ns, f.device_ns);
+      c.frames.push_back(f);
+    }
+    std::sort(c.clock.begin(), c.clock.end());
+    if (!c.frames.empty()) first = std::min(first, c.frames.front().t_ns);
+    r->cameras_.push_back(std::move(c));
+  }
+
+  // The Sensel's frames as they came, each due when it reached the host (its mapped time plus the
+  // latency the rig declared, which the recorder subtracts again).
+  if (const auto& sensel = reader.pressure_device()) {
+    r->sensel_serial_ = sensel->serial;
+    auto payloads = reader.pressure_payloads();
+    if (!payloads) return payloads.error();
+    SenselClockScale scale(rate);
+    for (auto& p : payloads.value()) {
+      if (!plausible(p.mapped_ns))
+        return Error{fmt::format("{}: a pressure frame at an impossible time (a damaged index)", db_path.string())};
+      r->pressure_.push_back({std::move(p.payload), p.mapped_ns + sensel_latency_ns});
+      if (rate != 1.0) scale(r->pressure_.back().payload);
+    }
+    if (!r->pressure_.empty()) first = std::min(first, r->pressure_.front().t_ns);
+  }
+  if (first == INT64_MAX)
+    return Error{fmt::format("{}: the session holds no frame on its clock - nothing to replay", session_dir.string())};
+  r->first_t_ns_ = first;
   return r;
 }
 

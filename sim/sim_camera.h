@@ -24,6 +24,7 @@
 #include "capture/aravis_handles.h"
 #include "core/result.h"
 #include "core/rig_config.h"
+#include "sim/sim_config.h"
 #include "sim/engine_kicker.h"
 
 namespace pvcap::sim {

@@ -25,16 +25,23 @@ std::vector<std::string> sim_addresses(const RigConfig& rig) {
 
 Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::filesystem::path& truth_dir,
                                                bool board) {
-  if (!rig.sim) return Error{fmt::format("{}: no 'sim:' section: this is not a simulated rig", rig.source.string())};
+  std::optional<SimConfig> sim;
+  try {
+    sim = load_sim_config(rig);
+  } catch (const UserError& e) {
+    return Error{e.what()};
+  }
+  if (!sim) return Error{fmt::format("{}: no 'sim:' section: this is not a simulated rig", rig.source.string())};
   std::error_code ec;
   std::filesystem::create_directories(truth_dir, ec);
   if (ec) return Error{fmt::format("cannot create {}: {}", truth_dir.string(), ec.message())};
-  if (rig.sim->replay) return create_replay(rig, truth_dir);
+  if (sim->replay) return create_replay(rig, *sim, truth_dir);
   std::unique_ptr<SimRig> self(new SimRig());
   self->rig_ = rig;
+  self->sim_ = *sim;
   self->truth_dir_ = truth_dir;
   self->t0_ns_ = host_now().ns;
-  self->hand_ = std::make_shared<Hand>(rig.sim->sensel);
+  self->hand_ = std::make_shared<Hand>(self->sim_.sensel);
   self->returned_.assign(rig.cameras.size(), false);
 
   nlohmann::json truth;
@@ -52,9 +59,9 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
   }
   for (std::size_t i = 0; i < rig.cameras.size(); ++i) {
     const CameraConfig& cam = rig.cameras[i];
-    const SimCameraClock& clk = rig.sim->cameras[i];
+    const SimCameraClock& clk = self->sim_.cameras[i];
     const bool sensel_sim = rig.sensel && rig.sensel->tty == "sim";
-    auto made = SimCamera::create(int(i), cam, clk, self->t0_ns_, rig.sim->seed, truth_dir,
+    auto made = SimCamera::create(int(i), cam, clk, self->t0_ns_, self->sim_.seed, truth_dir,
                                   sensel_sim ? self->hand_ : nullptr, board);
     if (!made) return made.error();
     const calib::CameraModel model = made.value()->model({cam.width, cam.height});
@@ -81,16 +88,16 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
     self->cameras_.push_back(std::move(made.value()));
   }
   if (rig.sensel && rig.sensel->tty == "sim") {
-    const SimSenselConfig& ss = rig.sim->sensel;
+    const SimSenselConfig& ss = self->sim_.sensel;
     self->sensel_truth_.open(truth_dir / "sensel_frames.csv");
     self->sensel_truth_ << "counter,true_ns,device_us\n";
     self->sensel_ = std::make_unique<SenselEmulator>(
         hand_scene(self->hand_),
         SenselClock{self->t0_ns_, ss.clock_start_us, ss.drift_ppm,
                     ss.clock_reset_at_s ? self->t0_ns_ + std::int64_t(*ss.clock_reset_at_s * 1e9) : INT64_MAX});
-    if (ss.drop_fraction > 0) self->sensel_->set_drop_fraction(ss.drop_fraction, rig.sim->seed + 17);
+    if (ss.drop_fraction > 0) self->sensel_->set_drop_fraction(ss.drop_fraction, self->sim_.seed + 17);
     self->sensel_->set_truth_log(&self->sensel_truth_);
-    if (Status s = self->serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, rig.sim->seed}); !s.ok())
+    if (Status s = self->serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, self->sim_.seed}); !s.ok())
       return s.error();
     truth["sensel"] = {{"tty", self->sensel_pty_->slave_path()}, {"press_x_mm", ss.press_x_mm},
                        {"press_y_mm", ss.press_y_mm}, {"peak_grams", ss.peak_grams}, {"period_s", ss.period_s},
@@ -105,14 +112,16 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
   return self;
 }
 
-Result<std::unique_ptr<SimRig>> SimRig::create_replay(const RigConfig& rig, const std::filesystem::path& truth_dir) {
-  auto opened = SessionReplay::open(*rig.sim->replay, rig.sim->replay_rate);
+Result<std::unique_ptr<SimRig>> SimRig::create_replay(const RigConfig& rig, const SimConfig& sim,
+                                                      const std::filesystem::path& truth_dir) {
+  auto opened = SessionReplay::open(*sim.replay, sim.replay_rate);
   if (!opened) return opened.error();
   std::unique_ptr<SimRig> self(new SimRig());
   self->rig_ = rig;
+  self->sim_ = sim;
   self->truth_dir_ = truth_dir;
   self->t0_ns_ = host_now().ns;
-  self->hand_ = std::make_shared<Hand>(rig.sim->sensel);
+  self->hand_ = std::make_shared<Hand>(self->sim_.sensel);
   self->replay_ = opened.value();
   nlohmann::json truth = {{"t0_ns", self->t0_ns_},
                           {"clock", "CLOCK_MONOTONIC"},
@@ -181,7 +190,7 @@ Status SimRig::serve_sensel(SenselLink link, const std::string& name) {
 // The Morph comes back power-cycled (its counter and clock restart) on a new pseudo-terminal, which
 // the published link now names; as another Morph when the rig says so.
 void SimRig::replug_sensel() {
-  const SimSenselConfig& ss = rig_.sim->sensel;
+  const SimSenselConfig& ss = sim_.sensel;
   const std::int64_t now = host_now().ns;
   sensel_ = std::make_unique<SenselEmulator>(hand_scene(hand_), SenselClock{now, 0.0, ss.drift_ppm},
                                              ss.replug_serial.value_or(SenselEmulator::kDefaultSerial));
@@ -194,7 +203,7 @@ void SimRig::replug_sensel() {
     std::filesystem::remove(truth_dir_ / name, ec);
     name = "morph-replugged";
   }
-  if (Status s = serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, rig_.sim->seed + 1}, name);
+  if (Status s = serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, sim_.seed + 1}, name);
       !s.ok()) {
     spdlog::error("sim: the Sensel cannot come back: {}", s.error().message);
     return;
@@ -207,7 +216,7 @@ void SimRig::run(const std::atomic<bool>& stop) {
   while (!stop.load()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     const double elapsed_s = double(host_now().ns - t0_ns_) / 1e9;
-    const SimSenselConfig& ss = rig_.sim->sensel;
+    const SimSenselConfig& ss = sim_.sensel;
     if (sensel_pty_ && ss.unplug_at_s && !sensel_unplugged_ && elapsed_s >= *ss.unplug_at_s) {
       sensel_unplugged_ = true;
       spdlog::warn("sim: the Sensel is unplugged now (unplug_at_s = {})", *ss.unplug_at_s);
@@ -218,7 +227,7 @@ void SimRig::run(const std::atomic<bool>& stop) {
       replug_sensel();
     }
     for (std::size_t i = 0; i < cameras_.size(); ++i) {
-      const SimCameraClock& clk = rig_.sim->cameras[i];
+      const SimCameraClock& clk = sim_.cameras[i];
       if (cameras_[i] && clk.stop_after_s && !returned_[i] && elapsed_s >= *clk.stop_after_s) {
         spdlog::warn("sim: camera {} vanishes now (stop_after_s = {})", rig_.cameras[i].name, *clk.stop_after_s);
         cameras_[i].reset();
@@ -226,7 +235,7 @@ void SimRig::run(const std::atomic<bool>& stop) {
       if (!cameras_[i] && clk.return_after_s && !returned_[i] && elapsed_s >= *clk.return_after_s) {
         returned_[i] = true;
         const bool sensel_sim = rig_.sensel && rig_.sensel->tty == "sim";
-        auto made = SimCamera::create(int(i), rig_.cameras[i], clk, t0_ns_, rig_.sim->seed + 1, truth_dir_,
+        auto made = SimCamera::create(int(i), rig_.cameras[i], clk, t0_ns_, sim_.seed + 1, truth_dir_,
                                       sensel_sim ? hand_ : nullptr);
         if (made) {
           cameras_[i] = std::move(made.value());

@@ -18,6 +18,7 @@
 #include "sim/hand.h"
 #include "sim/sensel_emulator.h"
 #include "sim/sensel_pty.h"
+#include "sim/sim_config.h"
 #include "sim/replay_camera.h"
 #include "sim/session_replay.h"
 #include "sim/sim_camera.h"
@@ -41,6 +42,7 @@ class SimRig {
  private:
   SimRig() = default;
   RigConfig rig_;
+  SimConfig sim_;  // the rig's sim: section
   std::filesystem::path truth_dir_;
   std::int64_t t0_ns_ = 0;
   std::vector<bool> returned_;
@@ -58,7 +60,8 @@ class SimRig {
   std::shared_ptr<SessionReplay> replay_;
   std::vector<std::unique_ptr<ReplayCamera>> replay_cameras_;
 
-  static Result<std::unique_ptr<SimRig>> create_replay(const RigConfig& rig, const std::filesystem::path& truth_dir);
+  static Result<std::unique_ptr<SimRig>> create_replay(const RigConfig& rig, const SimConfig& sim,
+                                                      const std::filesystem::path& truth_dir);
 };
 
 // The camera addresses of a simulated rig (for the network namespace).

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -12,7 +13,7 @@
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "sim/truth.h"
-#include "storage/sqlite/database.h"
+#include "storage/session_reader.h"
 
 namespace pvcap::sim {
 namespace {
@@ -64,90 +65,82 @@ const T* nearest(const std::vector<T>& v, std::int64_t t, Key key) {
 
 }  // namespace
 
-SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, const SyncTargets& targets) {
-  const auto truth_dir = dir / "sim-truth";
-  const double tie_ms = targets.tie_ms;
-  sqlite::Database db(dir / "session.db", sqlite::Database::Mode::ReadOnly);
-  SyncEvaluation e;
-  e.warmup_s = warmup_s;
-  std::int64_t start_ns = 0;
-  {
-    auto q = db.prepare("SELECT started_host_ns FROM session");
-    if (!q.step()) throw UserError(fmt::format("{}: no session row", (dir / "session.db").string()));
-    start_ns = q.column_int(0);
-  }
-  const std::int64_t from_ns = start_ns + std::int64_t(warmup_s * 1e9);
+namespace {
 
-  // Camera frames: true time by device timestamp.
-  std::map<std::tuple<std::int64_t, std::int64_t, std::int64_t>, std::pair<std::int64_t, std::int64_t>> frame_times;
-  std::int64_t sensel_id = -1;
-  std::string sensel_name;
-  auto devices = db.prepare("SELECT id, kind, name FROM devices ORDER BY id");
-  std::vector<std::tuple<std::int64_t, std::string, std::string>> device_list;
-  while (devices.step()) device_list.emplace_back(devices.column_int(0), devices.column_text(1), devices.column_text(2));
-  for (const auto& [id, kind, name] : device_list) {
-    if (kind != "camera") {
-      sensel_id = id;
-      sensel_name = name;
-      continue;
-    }
-    const auto truth = read_truth(truth_dir / (name + "_frames.csv"), "device_ns", "true_ns");
+SessionReader& checked(Result<std::unique_ptr<SessionReader>>& r) {
+  if (!r) throw UserError(r.error().message);
+  return *r.value();
+}
+
+template <class T>
+T value_of(Result<T> r) {
+  if (!r) throw UserError(r.error().message);
+  return std::move(r.value());
+}
+
+// Each camera frame's true and arrival time, by (device, connection, sequence); the cameras' errors
+// from `from_ns` on go into `e`.
+using FrameTimes = std::map<std::tuple<std::int64_t, std::int64_t, std::int64_t>, std::pair<std::int64_t, std::int64_t>>;
+
+FrameTimes evaluate_cameras(SessionReader& reader, const std::filesystem::path& truth_dir, std::int64_t from_ns,
+                            SyncEvaluation& e) {
+  FrameTimes frame_times;
+  for (const CameraInfo& cam : reader.cameras()) {
+    const auto truth = read_truth(truth_dir / (cam.name + "_frames.csv"), "device_ns", "true_ns");
     std::vector<double> mapped_err, arrival_err;
-    auto q = db.prepare(
-        "SELECT connection, sequence, device_ns, host_ns, mapped_ns FROM frames WHERE device_id = ? AND mapped_ns IS "
-        "NOT NULL");
-    q.bind_all(id);
-    while (q.step()) {
-      const auto it = truth.find(q.column_int(2));
+    for (const FrameTiming& f : value_of(reader.frame_timing(cam.device_id))) {
+      if (!f.mapped_ns) continue;
+      const auto it = truth.find(f.device_ns);
       if (it == truth.end()) continue;
-      const std::int64_t host = q.column_int(3), mapped = q.column_int(4);
-      frame_times[{id, q.column_int(0), q.column_int(1)}] = {it->second, host};
-      if (host < from_ns) continue;
-      mapped_err.push_back(double(mapped - it->second) / 1e6);
-      arrival_err.push_back(double(host - it->second) / 1e6);
+      frame_times[{cam.device_id, f.connection, std::int64_t(f.sequence)}] = {it->second, f.host_ns};
+      if (f.host_ns < from_ns) continue;
+      mapped_err.push_back(double(*f.mapped_ns - it->second) / 1e6);
+      arrival_err.push_back(double(f.host_ns - it->second) / 1e6);
     }
-    e.streams.push_back(timing(name, mapped_err, arrival_err));
+    e.streams.push_back(timing(cam.name, mapped_err, arrival_err));
   }
+  return frame_times;
+}
 
-  // Pressure frames: true time by the device's raw microsecond stamp.
+// Pressure frames: true time by the device's raw microsecond stamp.
+std::vector<PressureTruth> evaluate_pressure(SessionReader& reader, const std::filesystem::path& truth_dir,
+                                             std::int64_t from_ns, SyncEvaluation& e) {
   std::vector<PressureTruth> pressure;
-  if (sensel_id >= 0) {
-    const auto truth = read_truth(truth_dir / "sensel_frames.csv", "device_us", "true_ns");
-    std::vector<double> mapped_err, arrival_err;
-    auto q = db.prepare(
-        "SELECT sequence, device_ns, host_ns, host_wait_ns, mapped_ns FROM pressure_frames WHERE device_id = ? "
-        "ORDER BY sequence");
-    q.bind_all(sensel_id);
-    while (q.step()) {
-      const auto it = truth.find((q.column_int(1) / 1000) & 0xFFFFFFFF);
-      if (it == truth.end() || q.column_null(4)) continue;
-      const std::int64_t host = q.column_int(2), arrival = host + q.column_int(3) / 2, mapped = q.column_int(4);
-      pressure.push_back({q.column_int(0), it->second, host});
-      if (host < from_ns) continue;
-      mapped_err.push_back(double(mapped - it->second) / 1e6);
-      arrival_err.push_back(double(arrival - it->second) / 1e6);
-    }
-    StreamTiming t = timing(sensel_name, mapped_err, arrival_err);
-    t.is_camera = false;
-    e.streams.push_back(t);
+  const auto& sensel = reader.pressure_device();
+  if (!sensel) return pressure;
+  const auto truth = read_truth(truth_dir / "sensel_frames.csv", "device_us", "true_ns");
+  std::vector<double> mapped_err, arrival_err;
+  auto frames = value_of(reader.frame_timing(sensel->device_id));
+  std::sort(frames.begin(), frames.end(), [](const FrameTiming& a, const FrameTiming& b) { return a.sequence < b.sequence; });
+  for (const FrameTiming& f : frames) {
+    const auto it = truth.find((f.device_ns / 1000) & 0xFFFFFFFF);
+    if (it == truth.end() || !f.mapped_ns) continue;
+    const std::int64_t arrival = f.host_ns + f.host_wait_ns / 2;
+    pressure.push_back({std::int64_t(f.sequence), it->second, f.host_ns});
+    if (f.host_ns < from_ns) continue;
+    mapped_err.push_back(double(*f.mapped_ns - it->second) / 1e6);
+    arrival_err.push_back(double(arrival - it->second) / 1e6);
   }
+  StreamTiming t = timing(sensel->name, mapped_err, arrival_err);
+  t.is_camera = false;
+  e.streams.push_back(t);
+  return pressure;
+}
 
-  // Samples: which pressure frame each was paired with, against the truly nearest one.
+// Samples: which pressure frame each was paired with, against the truly nearest one.
+void evaluate_pairing(SessionReader& reader, const FrameTimes& frame_times, const std::vector<PressureTruth>& pressure,
+                      std::int64_t from_ns, const SyncTargets& targets, SyncEvaluation& e) {
   std::vector<PressureTruth> by_true = pressure, by_host = pressure;
   std::sort(by_true.begin(), by_true.end(), [](auto& a, auto& b) { return a.true_ns < b.true_ns; });
   std::sort(by_host.begin(), by_host.end(), [](auto& a, auto& b) { return a.host_ns < b.host_ns; });
   std::map<std::int64_t, std::int64_t> true_of_sequence;
   for (const auto& p : pressure) true_of_sequence[p.sequence] = p.true_ns;
-  const std::size_t cameras = e.streams.size() - (sensel_id >= 0 ? 1 : 0);
-  auto samples = db.prepare("SELECT id, cameras, pressure_sequence FROM samples ORDER BY id");
-  auto members = db.prepare("SELECT device_id, connection, sequence FROM sample_frames WHERE sample_id = ?");
-  while (samples.step()) {
-    members.reset();
-    members.bind_all(samples.column_int(0));
+  const std::size_t cameras = reader.cameras().size();
+  for (const SampleInfo& sample : value_of(reader.sample_infos())) {
     double true_sum = 0, host_sum = 0;
     int n = 0;
-    while (members.step()) {
-      const auto it = frame_times.find({members.column_int(0), members.column_int(1), members.column_int(2)});
+    for (const SampleCamera& m : sample.cameras) {
+      const auto it = frame_times.find({m.device_id, m.connection, std::int64_t(m.sequence)});
       if (it == frame_times.end()) continue;
       true_sum += double(it->second.first);
       host_sum += double(it->second.second);
@@ -155,7 +148,7 @@ SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, 
     }
     if (n == 0 || true_sum / n < double(from_ns)) continue;
     ++e.samples;
-    if (std::size_t(samples.column_int(1)) == cameras) ++e.samples_complete;
+    if (sample.cameras.size() == cameras) ++e.samples_complete;
     if (by_true.empty()) continue;
     const auto sample_true = std::int64_t(true_sum / n);
     const auto* truly = nearest(by_true, sample_true, [](const PressureTruth& p) { return p.true_ns; });
@@ -163,18 +156,33 @@ SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, 
     const auto tie = [&](std::int64_t sequence) {  // as near as the nearest, within the tolerance
       const auto it = true_of_sequence.find(sequence);
       return it != true_of_sequence.end() &&
-             double(std::llabs(it->second - sample_true) - std::llabs(truly->true_ns - sample_true)) / 1e6 < tie_ms;
+             double(std::llabs(it->second - sample_true) - std::llabs(truly->true_ns - sample_true)) / 1e6 <
+                 targets.tie_ms;
     };
-    if (!samples.column_null(2)) {
+    if (sample.pressure) {
       ++e.paired;
-      if (samples.column_int(2) == truly->sequence) ++e.paired_nearest;
-      else e.paired_tie += tie(samples.column_int(2));
+      if (std::int64_t(sample.pressure->sequence) == truly->sequence) ++e.paired_nearest;
+      else e.paired_tie += tie(std::int64_t(sample.pressure->sequence));
     } else if (double(std::llabs(truly->true_ns - sample_true)) / 1e6 > targets.max_offset_ms) {
       ++e.rightly_unpaired;
     }
     if (naive->sequence == truly->sequence) ++e.naive_nearest;
     else e.naive_tie += tie(naive->sequence);
   }
+}
+
+}  // namespace
+
+SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, const SyncTargets& targets) {
+  auto opened = SessionReader::open(dir);
+  SessionReader& reader = checked(opened);
+  SyncEvaluation e;
+  e.warmup_s = warmup_s;
+  e.tie_ms = targets.tie_ms;
+  const std::int64_t from_ns = reader.info().started_host_ns + std::int64_t(warmup_s * 1e9);
+  const auto frame_times = evaluate_cameras(reader, dir / "sim-truth", from_ns, e);
+  const auto pressure = evaluate_pressure(reader, dir / "sim-truth", from_ns, e);
+  evaluate_pairing(reader, frame_times, pressure, from_ns, targets, e);
 
   for (const auto& s : e.streams) {
     const double limit = s.is_camera ? targets.camera_p99_ms : targets.sensel_p99_ms;
@@ -182,14 +190,13 @@ SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, 
     if (std::fabs(s.bias_ms) >= targets.bias_ms)
       e.missed.push_back(fmt::format("{}: bias {:.3f} ms, not < {:g} ms", s.name, s.bias_ms, targets.bias_ms));
   }
-  e.tie_ms = tie_ms;
-  if (sensel_id >= 0) {
+  if (reader.pressure_device()) {
     const double frac =
         e.samples ? double(e.paired_nearest + e.paired_tie + e.rightly_unpaired) / double(e.samples) : 0;
     if (frac < targets.nearest_fraction)
       e.missed.push_back(fmt::format("paired with the truly nearest pressure frame or rightly unpaired (ties within {:g} ms either way): "
                                      "{:.2f} % < {:.1f} %",
-                                     tie_ms, 100 * frac, 100 * targets.nearest_fraction));
+                                     targets.tie_ms, 100 * frac, 100 * targets.nearest_fraction));
   }
   return e;
 }

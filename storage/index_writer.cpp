@@ -3,13 +3,13 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "core/fault_injection.h"
 #include "core/time.h"
 
 namespace pvcap {
 
-IndexWriter::IndexWriter(SessionIndex& index, std::size_t capacity, std::chrono::milliseconds batch_period)
-    : index_(index), queue_(capacity), queue_capacity_(capacity), batch_period_(batch_period) {}
+IndexWriter::IndexWriter(SessionIndex& index, std::size_t capacity, std::chrono::milliseconds batch_period,
+                         std::optional<Stall> stall)
+    : index_(index), queue_(capacity), queue_capacity_(capacity), batch_period_(batch_period), stall_(stall) {}
 
 IndexWriter::~IndexWriter() { stop(); }
 
@@ -118,16 +118,15 @@ std::string IndexWriter::lost_records_by_kind() const {
 
 void IndexWriter::run() {
   // An index thread that falls behind, on purpose (core/fault_injection.h): tests meet a full queue.
-  std::optional<double> stall_s = fault::value("index_writer.stall_s");
-  const auto stall_at = std::chrono::steady_clock::now() +
-                        std::chrono::duration<double>(fault::value("index_writer.stall_after_s").value_or(2.0));
+  std::optional<Stall> stall = stall_;
+  const auto stall_at = std::chrono::steady_clock::now() + std::chrono::duration<double>(stall ? stall->after_s : 0.0);
   std::vector<Record> batch;
   auto batch_started = std::chrono::steady_clock::now();
   std::uint64_t lost_reported = 0;
   while (!queue_.closed_and_empty()) {
-    if (stall_s && std::chrono::steady_clock::now() >= stall_at) {
-      std::this_thread::sleep_for(std::chrono::duration<double>(*stall_s));
-      stall_s.reset();
+    if (stall && std::chrono::steady_clock::now() >= stall_at) {
+      std::this_thread::sleep_for(std::chrono::duration<double>(stall->seconds));
+      stall.reset();
     }
     if (auto r = queue_.pop_for(std::chrono::milliseconds(50))) {
       if (auto* barrier = std::get_if<CommitBarrier>(&*r)) {

@@ -19,6 +19,7 @@
 #include <variant>
 
 #include "core/bounded_queue.h"
+#include "core/fault_injection.h"
 #include "storage/session_index.h"
 
 namespace pvcap {
@@ -33,8 +34,11 @@ class IndexWriter {
   using Record = std::variant<FrameRecord, PressureRecord, DropRecord, EventRecord, SampleRecord, ClockModelRecord,
                               VideoFileRecord, VideoFileClosed, ProtocolEventRecord, OperatorNoteRecord, CommitBarrier>;
 
-  IndexWriter(SessionIndex& index, std::size_t capacity = 200'000,
-              std::chrono::milliseconds batch_period = std::chrono::milliseconds(250));
+  static constexpr std::size_t kQueueRecords = 200'000;
+
+  // `stall`: a test's fault (core/fault_injection.h), the index thread sleeps once.
+  IndexWriter(SessionIndex& index, std::size_t capacity = kQueueRecords,
+              std::chrono::milliseconds batch_period = std::chrono::milliseconds(250), std::optional<Stall> stall = {});
   ~IndexWriter();
 
   void start();
@@ -61,6 +65,7 @@ class IndexWriter {
   BoundedQueue<Record> queue_;
   const std::size_t queue_capacity_;
   const std::chrono::milliseconds batch_period_;
+  const std::optional<Stall> stall_;
   std::thread thread_;
   std::atomic<std::uint64_t> written_{0}, lost_{0};
   std::array<std::atomic<std::uint64_t>, std::variant_size_v<Record>> lost_by_kind_{};

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "storage/pressure_blob.h"
+#include "sync/clock_fit.h"
 
 namespace pvcap {
 
@@ -196,13 +197,50 @@ void SessionIndex::finish_session(std::int64_t ended_host_ns, const std::string&
 void SessionIndex::remap(Stream stream, std::int64_t device_id, std::int64_t from_arrival_ns,
                          std::int64_t to_arrival_ns, std::int64_t x0, double offset_ns, double skew,
                          std::int64_t latency_ns) {
+  // The clock model's one mapping function (sync/clock_fit.h), applied by SQLite row by row.
+  db_->define_function("pvcap_map", &sync::map_device_time);
   const char* sql = stream == Stream::Camera
-                        ? "UPDATE frames SET mapped_ns = device_ns + CAST(round(?1 + ?2 * (device_ns - ?3)) AS INTEGER) "
-                          "- ?4 WHERE device_id = ?5 AND mapped_ns IS NOT NULL AND host_ns >= ?6 AND host_ns < ?7"
-                        : "UPDATE pressure_frames SET mapped_ns = device_ns + CAST(round(?1 + ?2 * (device_ns - ?3)) AS "
-                          "INTEGER) - ?4 WHERE device_id = ?5 AND mapped_ns IS NOT NULL AND host_ns + host_wait_ns / 2 "
-                          ">= ?6 AND host_ns + host_wait_ns / 2 < ?7";
+                        ? "UPDATE frames SET mapped_ns = pvcap_map(device_ns, ?3, ?1, ?2, ?4) WHERE device_id = ?5 AND "
+                          "mapped_ns IS NOT NULL AND host_ns >= ?6 AND host_ns < ?7"
+                        : "UPDATE pressure_frames SET mapped_ns = pvcap_map(device_ns, ?3, ?1, ?2, ?4) WHERE device_id "
+                          "= ?5 AND mapped_ns IS NOT NULL AND host_ns + host_wait_ns / 2 >= ?6 AND host_ns + "
+                          "host_wait_ns / 2 < ?7";
   db_->prepare(sql).bind_all(offset_ns, skew, x0, latency_ns, device_id, from_arrival_ns, to_arrival_ns).run();
+}
+
+std::vector<SessionIndex::StoredClocks> SessionIndex::stored_clocks() {
+  std::vector<StoredClocks> out;
+  auto q = db_->prepare(
+      "SELECT m.device_id, d.kind = 'sensel', m.segment, m.host_ns, m.x0_device_ns, m.offset_ns, m.skew, m.latency_ns "
+      "FROM clock_models m JOIN devices d ON d.id = m.device_id ORDER BY m.device_id, m.segment, m.host_ns");
+  int segment = -1;
+  while (q.step()) {
+    const std::int64_t device = q.column_int(0);
+    if (out.empty() || out.back().device_id != device) {
+      out.push_back({device, q.column_int(1) != 0, {}});
+      segment = -1;
+    }
+    auto& segments = out.back().segments;
+    const int s = int(q.column_int(2));
+    if (s != segment) {
+      segments.push_back({q.column_int(3), 0, 0, 0, 0});
+      segment = s;
+    }
+    StoredSegment& seg = segments.back();
+    seg.x0 = q.column_int(4);
+    seg.offset_ns = q.column_double(5);
+    seg.skew = q.column_double(6);
+    seg.latency_ns = q.column_int(7);
+  }
+  return out;
+}
+
+bool SessionIndex::realign_pending() {
+  auto q = db_->prepare(
+      "SELECT (SELECT max(rowid) FROM events WHERE kind = 'realign_started'), (SELECT max(rowid) FROM events WHERE "
+      "kind = 'realign_done')");
+  if (!q.step() || q.column_null(0)) return false;
+  return q.column_null(1) || q.column_int(1) < q.column_int(0);
 }
 
 std::vector<SessionIndex::MappedRef> SessionIndex::mapped(Stream stream, std::int64_t device_id) {

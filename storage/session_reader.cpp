@@ -83,7 +83,7 @@ Result<std::unique_ptr<SessionReader>> SessionReader::open(const std::filesystem
     SessionInfo& in = r->info_;
     in.schema_version = version;
     auto s = db.prepare("SELECT started_wall_ns, started_host_ns, ended_host_ns, end_reason, pvcap_version, rig_name, "
-                        "rig_config, simulated FROM session");
+                        "rig_config, simulated, rig_path FROM session");
     if (!s.step()) return Error{fmt::format("{}: holds no session", db_path.string())};
     in.started_wall_ns = s.column_int(0);
     in.started_host_ns = s.column_int(1);
@@ -93,6 +93,7 @@ Result<std::unique_ptr<SessionReader>> SessionReader::open(const std::filesystem
     in.rig_name = text_or_empty(s, 5);
     in.rig_config = text_or_empty(s, 6);
     in.simulated = s.column_int(7) != 0;
+    in.rig_path = text_or_empty(s, 8);
     if (auto p = db.prepare("SELECT pseudonym, skin_tone, hand_order FROM participant"); p.step())
       in.participant = ParticipantRecord{p.column_text(0), p.column_text(1), p.column_text(2)};
     if (auto c = db.prepare("SELECT lighting, sensor_overlay FROM conditions"); c.step())
@@ -417,15 +418,29 @@ Result<std::vector<FrameTiming>> SessionReader::frame_timing(std::int64_t device
     const bool camera = std::any_of(cameras_.begin(), cameras_.end(), [&](const CameraInfo& c) {
       return c.device_id == device_id;
     });
-    auto q = db_->prepare(camera ? "SELECT connection, sequence, host_ns, device_ns, mapped_ns, status = 'good', kept "
-                                   "FROM frames WHERE device_id = ? ORDER BY host_ns"
-                                 : "SELECT connection, sequence, host_ns, device_ns, mapped_ns, 1, 0 FROM "
-                                   "pressure_frames WHERE device_id = ? ORDER BY host_ns");
+    auto q = db_->prepare(camera ? "SELECT connection, sequence, host_ns, device_ns, mapped_ns, status = 'good', kept, "
+                                   "frame_id, 0 FROM frames WHERE device_id = ? ORDER BY host_ns"
+                                 : "SELECT connection, sequence, host_ns, device_ns, mapped_ns, 1, 0, 0, host_wait_ns "
+                                   "FROM pressure_frames WHERE device_id = ? ORDER BY host_ns");
     q.bind_all(device_id);
     std::vector<FrameTiming> out;
     while (q.step())
       out.push_back({std::uint32_t(q.column_int(0)), std::uint64_t(q.column_int(1)), q.column_int(2), q.column_int(3),
-                     opt_int(q, 4), q.column_int(5) != 0, q.column_int(6) != 0});
+                     opt_int(q, 4), q.column_int(5) != 0, q.column_int(6) != 0, std::uint64_t(q.column_int(7)),
+                     q.column_int(8)});
+    return out;
+  });
+}
+
+Result<std::vector<PressurePayload>> SessionReader::pressure_payloads() {
+  if (!pressure_device_) return std::vector<PressurePayload>{};
+  return guarded(dir_, [&]() -> Result<std::vector<PressurePayload>> {
+    auto q = db_->prepare("SELECT connection, sequence, mapped_ns, payload FROM pressure_frames WHERE device_id = ? "
+                          "AND mapped_ns IS NOT NULL ORDER BY connection, sequence");
+    q.bind_all(pressure_device_->device_id);
+    std::vector<PressurePayload> out;
+    while (q.step())
+      out.push_back({std::uint32_t(q.column_int(0)), std::uint64_t(q.column_int(1)), q.column_int(2), q.column_blob(3)});
     return out;
   });
 }

@@ -36,6 +36,7 @@ struct SessionInfo {
   std::int64_t started_wall_ns = 0, started_host_ns = 0;
   std::optional<std::int64_t> ended_host_ns;  // empty: the recording did not end cleanly
   std::string end_reason, pvcap_version, rig_name, rig_config;
+  std::string rig_path;  // the rig file it was recorded with, where it was then
   bool simulated = false;
   std::optional<ParticipantRecord> participant;
   std::optional<ConditionsRecord> conditions;
@@ -125,6 +126,16 @@ struct FrameTiming {
   std::optional<std::int64_t> mapped_ns;
   bool good = true;   // camera: status 'good'
   bool kept = false;  // camera: in a video
+  std::uint64_t frame_id = 0;     // camera: the id the camera sent it with
+  std::int64_t host_wait_ns = 0;  // Sensel: request-to-answer time (host_ns is their midpoint)
+};
+
+// One pressure frame as the device sent it (the wire frame), on the session clock.
+struct PressurePayload {
+  std::uint32_t connection = 0;
+  std::uint64_t sequence = 0;
+  std::int64_t mapped_ns = 0;
+  std::vector<std::uint8_t> payload;
 };
 
 // One pressure frame reduced to its instant and its sum of raw counts.
@@ -173,6 +184,8 @@ class SessionReader {
   Result<std::vector<StreamStatistics>> stream_statistics();
   // Every frame of one device (camera or Sensel), by arrival.
   Result<std::vector<FrameTiming>> frame_timing(std::int64_t device_id);
+  // Every pressure frame on the session clock as the device sent it, by connection and sequence.
+  Result<std::vector<PressurePayload>> pressure_payloads();
   // Every pressure frame with a pressure image (connection 0), in order of its session-clock time.
   Result<std::vector<PressureTotal>> pressure_totals();
   // Every sample's references and offsets, in order (one query, for whole-session statistics).

@@ -17,7 +17,6 @@
 #include <spdlog/spdlog.h>
 
 #include "capture/pixel_format.h"
-#include "core/fault_injection.h"
 #include "core/time.h"
 #include "core/version.h"
 #include "storage/bayer_planes.h"
@@ -81,7 +80,7 @@ auto index_write(F&& write) {
 
 Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesystem::path& root, const RigConfig& rig,
                                                              std::int64_t started_wall_ns,
-                                                             std::int64_t started_host_ns) {
+                                                             std::int64_t started_host_ns, const IndexFeedOptions& index) {
   std::error_code ec;
   std::filesystem::create_directories(root, ec);
   if (ec) return Error{fmt::format("{}: cannot create the sessions folder: {}", root.string(), ec.message())};
@@ -132,14 +131,13 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
   try {
     w->index_.emplace(SessionIndex::create(w->dir_ / "session.db"));
     SessionRecord s{started_wall_ns, started_host_ns, kVersion, rig.name, rig.source.string(), rig.text,
-                    rig.sim.has_value()};
+                    rig.simulated};
     w->index_->add_session(s);
   } catch (const sqlite::SqliteError& e) {
     return abandon(Error{e.what()});
   }
-  // A test may shrink the index queue (core/fault_injection.h) to meet one that overflows.
-  w->index_writer_ = std::make_unique<IndexWriter>(
-      *w->index_, std::size_t(fault::value("index_writer.queue_records").value_or(200'000)));
+  w->index_writer_ = std::make_unique<IndexWriter>(*w->index_, index.queue_records, std::chrono::milliseconds(250),
+                                                   index.stall);
   return w;
 }
 

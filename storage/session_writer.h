@@ -47,11 +47,18 @@ struct CameraStoreStats {
 // (PFNC name) when store.video_mode is raw, colour otherwise. Used by the writer and by recover.
 VideoSettings camera_video_settings(const StoreConfig& store, int width, int height, const std::string& pixel_format);
 
+// How the index is fed: its queue's size, and a test's fault (core/fault_injection.h).
+struct IndexFeedOptions {
+  std::size_t queue_records = IndexWriter::kQueueRecords;
+  std::optional<Stall> stall;
+};
+
 class SessionWriter {
  public:
   // Makes `<root>/<UTC date-time>_<rig name>` (suffixing -2, -3... if taken).
   static Result<std::unique_ptr<SessionWriter>> create(const std::filesystem::path& root, const RigConfig& rig,
-                                                       std::int64_t started_wall_ns, std::int64_t started_host_ns);
+                                                       std::int64_t started_wall_ns, std::int64_t started_host_ns,
+                                                       const IndexFeedOptions& index = {});
   ~SessionWriter();
 
   // Registers a camera and opens its first video segment; returns its device id in the index.

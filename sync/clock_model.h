@@ -37,17 +37,9 @@
 #include <cstdint>
 #include <vector>
 
-namespace pvcap::sync {
+#include "sync/clock_fit.h"
 
-struct ClockFit {
-  std::int64_t x0 = 0;   // device time the fit is expressed around
-  double offset_ns = 0;  // host - device at x0 (earliest arrival)
-  double skew = 0;       // d(host - device)/d(device): +1e-6 = device runs 1 ppm slow
-  std::int64_t map(std::int64_t device_ns) const {
-    const double dx = double(device_ns - x0);
-    return device_ns + std::int64_t(offset_ns + skew * dx);
-  }
-};
+namespace pvcap::sync {
 
 struct ClockModelOptions {
   std::int64_t latency_ns = 0;                 // constant latency known from the rig file / datasheet

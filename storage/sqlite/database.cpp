@@ -115,4 +115,17 @@ void Database::set_user_version(int v) { exec(fmt::format("PRAGMA user_version={
 std::int64_t Database::last_insert_rowid() const { return sqlite3_last_insert_rowid(db_); }
 std::int64_t Database::changes() const { return sqlite3_changes64(db_); }
 
+void Database::define_function(const char* name, IntIntRealRealIntFunction fn) {
+  auto call = [](sqlite3_context* ctx, int, sqlite3_value** v) {
+    for (int i = 0; i < 5; ++i)
+      if (sqlite3_value_type(v[i]) == SQLITE_NULL) return sqlite3_result_null(ctx);
+    auto f = reinterpret_cast<IntIntRealRealIntFunction>(sqlite3_user_data(ctx));
+    sqlite3_result_int64(ctx, f(sqlite3_value_int64(v[0]), sqlite3_value_int64(v[1]), sqlite3_value_double(v[2]),
+                                sqlite3_value_double(v[3]), sqlite3_value_int64(v[4])));
+  };
+  const int rc = sqlite3_create_function_v2(db_, name, 5, SQLITE_UTF8 | SQLITE_DETERMINISTIC,
+                                            reinterpret_cast<void*>(fn), call, nullptr, nullptr, nullptr);
+  if (rc != SQLITE_OK) throw SqliteError(rc, fmt::format("{}: cannot define {}: {}", path_.string(), name, sqlite3_errstr(rc)));
+}
+
 }  // namespace pvcap::sqlite

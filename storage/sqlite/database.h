@@ -86,6 +86,10 @@ class Database {
   void set_user_version(int v);
   std::int64_t last_insert_rowid() const;
   std::int64_t changes() const;  // rows changed by the last statement
+  // Makes `name(int, int, real, real, int) -> int` callable in this connection's SQL (NULL in, NULL
+  // out): how a C++ rule, such as the clock model's mapping, is applied by one UPDATE.
+  using IntIntRealRealIntFunction = std::int64_t (*)(std::int64_t, std::int64_t, double, double, std::int64_t);
+  void define_function(const char* name, IntIntRealRealIntFunction fn);
   const std::filesystem::path& path() const { return path_; }
 
  private:

@@ -12,7 +12,7 @@
 #include <fstream>
 #include <string>
 
-#include "replay/as_devices.h"
+#include "sim/replay_rig.h"
 #include "sim/session_replay.h"
 #include "storage/session_reader.h"
 #include "storage/video_reader.h"
@@ -78,7 +78,7 @@ void read_replay(const std::filesystem::path& dir) {
     if (!i) break;
     for (const auto& f : replay.camera_frames(i.value())) (void)replay.camera_device_time(i.value(), replay.due_ns(f.t_ns));
   }
-  auto rig = pvcap::replay::write_replay_rig(dir, dir / "replay.yaml", 1.0);
+  auto rig = pvcap::sim::write_replay_rig(dir, dir / "replay.yaml", 1.0);
   if (!rig && rig.error().message.empty()) __builtin_trap();
 }
 

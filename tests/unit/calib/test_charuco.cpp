@@ -28,7 +28,7 @@ TEST(Charuco, BoardViewsOfTheSimulatedRigRecoverEachLens) {
                                 cv::Matx33d(6.0, 0, -0.5, 0, 6.0, -0.5, 0, 0, 1)};
   for (int cam : {0, 1, 2, 3}) {
     SCOPED_TRACE("camera " + std::to_string(cam));
-    const CameraModel truth = sim::sim_camera_model(cam, SimCameraClock{}, k1080p, k1080p);
+    const CameraModel truth = sim::sim_camera_model(cam, sim::SimCameraClock{}, k1080p, k1080p);
     const cv::Mat rays = truth.normalised_rays();
     const cv::Mat scene = sim::render_scene_bgr(default_pad_layout(), truth, rays);
     std::vector<BoardView> views;

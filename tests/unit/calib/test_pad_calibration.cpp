@@ -25,7 +25,7 @@ using namespace pvcap::calib;
 namespace {
 const cv::Size k1080p(1920, 1080);
 
-CameraModel truth(int camera) { return sim::sim_camera_model(camera, SimCameraClock{}, k1080p, k1080p); }
+CameraModel truth(int camera) { return sim::sim_camera_model(camera, sim::SimCameraClock{}, k1080p, k1080p); }
 
 // What the store gives back for camera `camera`: the scene as its Bayer sensor sends it, debayered.
 cv::Mat camera_image(int camera) {

@@ -60,7 +60,7 @@ TEST(Projection, PaperCropMatchesTheOriginalsArithmetic) {
 TEST(Projection, ProjectorFollowsTheLens) {
   const PadLayout pad = default_pad_layout();
   const cv::Size size(960, 540);
-  const CameraModel m = sim::sim_camera_model(1, SimCameraClock{}, size, size);
+  const CameraModel m = sim::sim_camera_model(1, sim::SimCameraClock{}, size, size);
   cv::Mat p(105, 185, CV_32F, cv::Scalar(0));
   cv::circle(p, {20, 90}, 4, cv::Scalar(50), cv::FILLED);  // a press near a corner, where the lens bends most
   const cv::Mat img = PressureProjector(m, pad).project(p);

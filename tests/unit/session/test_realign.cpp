@@ -90,7 +90,7 @@ TEST(Realign, EachSegmentIsMappedWithItsLastStoredFitAndEverySampleRePaired) {
   const auto r = realign(index, {20 * kMs, 4, [&](const std::string& s) { said.push_back(s); }});
   EXPECT_EQ(r.samples, f.samples);
   EXPECT_EQ(r.segments, 3u);
-  EXPECT_FALSE(realign_pending(index.db()));
+  EXPECT_FALSE(realign_pending(index));
   // Camera frames on both sides of the restart land on their true host time.
   auto q = index.db().prepare("SELECT sequence, mapped_ns, device_ns FROM frames ORDER BY sequence");
   while (q.step()) {
@@ -131,7 +131,7 @@ TEST(Realign, AnInterruptedReMappingIsPendingAndRunningItAgainFinishesIt) {
                                    if (++steps == 3) throw std::runtime_error("killed");
                                  }}),
                  std::runtime_error);
-    EXPECT_TRUE(realign_pending(index.db()));
+    EXPECT_TRUE(realign_pending(index));
     const auto partial = sample_rows(index.db());
     std::size_t done = 0;
     for (std::size_t i = 0; i < partial.size(); ++i) done += partial[i].t_ns == reference[i].t_ns;
@@ -141,7 +141,7 @@ TEST(Realign, AnInterruptedReMappingIsPendingAndRunningItAgainFinishesIt) {
   ASSERT_TRUE(again) << again.error().message;
   ASSERT_TRUE(again.value().has_value()) << "a pending re-mapping is run again";
   SessionIndex index = SessionIndex::open_for_update(f.dir / "session.db");
-  EXPECT_FALSE(realign_pending(index.db()));
+  EXPECT_FALSE(realign_pending(index));
   const auto finished = sample_rows(index.db());
   ASSERT_EQ(finished.size(), reference.size());
   for (std::size_t i = 0; i < finished.size(); ++i) {

@@ -6,13 +6,13 @@
 
 #include "protocol/runner.h"
 
-namespace pvcap::protocol {
+namespace pvcap::console {
 
 class TerminalConsole {
  public:
   // True when stdin is a terminal (otherwise there is no keyboard to read).
   static bool available();
-  explicit TerminalConsole(Runner& runner);
+  explicit TerminalConsole(protocol::Runner& runner);
   ~TerminalConsole();  // the terminal's settings restored
   TerminalConsole(const TerminalConsole&) = delete;
   TerminalConsole& operator=(const TerminalConsole&) = delete;
@@ -23,9 +23,9 @@ class TerminalConsole {
 
  private:
   void raw(bool on);
-  Runner& runner_;
+  protocol::Runner& runner_;
   bool saved_ = false;
   unsigned char saved_termios_[64] = {};  // struct termios, kept opaque here
 };
 
-}  // namespace pvcap::protocol
+}  // namespace pvcap::console

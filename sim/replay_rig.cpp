@@ -1,4 +1,4 @@
-#include "replay/as_devices.h"
+#include "sim/replay_rig.h"
 
 #include <fstream>
 
@@ -7,22 +7,17 @@
 
 #include "core/rig_config.h"
 #include "sim/session_replay.h"
-#include "storage/sqlite/database.h"
+#include "storage/session_reader.h"
 
-namespace pvcap::replay {
+namespace pvcap::sim {
 
 Result<ReplayRig> write_replay_rig(const std::filesystem::path& session_dir, std::filesystem::path out, double rate) {
   const std::filesystem::path dir = std::filesystem::absolute(session_dir).lexically_normal();
-  auto replay = sim::SessionReplay::open(dir, rate);  // what the devices will read: readable now, or said now
+  auto replay = SessionReplay::open(dir, rate);  // what the devices will read: readable now, or said now
   if (!replay) return replay.error();
-  std::string text;
-  try {
-    sqlite::Database db(dir / "session.db", sqlite::Database::Mode::ReadOnly);
-    auto q = db.prepare("SELECT rig_config FROM session");
-    if (q.step()) text = q.column_text(0);
-  } catch (const sqlite::SqliteError& e) {
-    return Error{fmt::format("{}: cannot be read: {}", (dir / "session.db").string(), e.what())};
-  }
+  auto reader = SessionReader::open(dir);
+  if (!reader) return reader.error();
+  const std::string text = reader.value()->info().rig_config;
   YAML::Node rig;
   try {
     rig = YAML::Load(text);
@@ -92,4 +87,4 @@ Result<ReplayRig> write_replay_rig(const std::filesystem::path& session_dir, std
   return r;
 }
 
-}  // namespace pvcap::replay
+}  // namespace pvcap::sim

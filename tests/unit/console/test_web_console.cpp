@@ -2,8 +2,9 @@
 // printed for the operator. (Served pages are tested end to end in integration/test_session_pages.)
 #include <gtest/gtest.h>
 
-#include "protocol/web_console.h"
+#include "console/web_console.h"
 
+using namespace pvcap::console;
 using namespace pvcap::protocol;
 
 TEST(WebConsole, OnlyLoopbackAddressesServeWithoutAToken) {

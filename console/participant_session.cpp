@@ -1,4 +1,4 @@
-#include "protocol/participant_session.h"
+#include "console/participant_session.h"
 
 #include <unistd.h>
 
@@ -13,13 +13,13 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
-#include "protocol/recording_env.h"
+#include "console/recording_env.h"
 #include "protocol/runner.h"
 #include "protocol/takes.h"
-#include "protocol/terminal_console.h"
+#include "console/terminal_console.h"
 #include "storage/session_reader.h"
 
-namespace pvcap::protocol {
+namespace pvcap::console {
 
 void prepare_session(const RigConfig& rig, SessionSetup& c) {
   if (c.recording.board_session && (c.protocol || c.resume))
@@ -36,21 +36,21 @@ void prepare_session(const RigConfig& rig, SessionSetup& c) {
     if (k->lighting.empty()) k->lighting = "unrecorded";
     if (k->sensor_overlay.empty()) k->sensor_overlay = "unrecorded";
   }
-  if (c.auto_participant && !rig.sim)
+  if (c.auto_participant && !rig.simulated)
     throw UserError(fmt::format("--auto needs a simulated rig ({} has no sim: section): on a real rig a participant "
                                 "performs the takes",
                                 rig.source.string()));
   if (c.auto_participant && !c.protocol && !c.resume) throw UserError("--auto performs a protocol: give --protocol FILE");
   if (!c.resume) return;
   // The resumed session's protocol, participant and conditions carry over, unless given again.
-  auto takes = read_takes(*c.resume);
+  auto takes = protocol::read_takes(*c.resume);
   if (!takes) throw UserError(fmt::format("--resume {}: {}", c.resume->string(), takes.error().message));
   auto reader = SessionReader::open(*c.resume);
   if (!reader) throw UserError(fmt::format("--resume {}: {}", c.resume->string(), reader.error().message));
   const auto& start = takes.value().protocol_start;
   Continuation k;
   k.previous = std::filesystem::absolute(*c.resume);
-  k.first_step = first_incomplete_step(takes.value());
+  k.first_step = protocol::first_incomplete_step(takes.value());
   k.protocol_text = start.value("text", "");
   k.protocol_file = start.value("file", "");
   k.hand_order = start.value("hand_order", "right_first");
@@ -63,7 +63,7 @@ void prepare_session(const RigConfig& rig, SessionSetup& c) {
     c.recording.conditions = reader.value()->info().conditions;
   if (c.recording.root.empty()) c.recording.root = k.previous.parent_path();
   c.fast = c.fast || start.value("fast", false);
-  c.auto_participant = c.auto_participant || (start.value("auto", false) && rig.sim);
+  c.auto_participant = c.auto_participant || (start.value("auto", false) && rig.simulated);
   c.continuation = k;
 }
 
@@ -114,16 +114,15 @@ void ask_for_participant(SessionSetup& c, std::istream& in, std::ostream& out) {
 
 SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, const std::atomic<bool>& interrupt) {
   // The protocol loads before any device is touched: a bad file costs no session.
-  std::optional<Protocol> proto;
-  if (command.continuation) proto = parse_protocol(command.continuation->protocol_text, command.continuation->protocol_file);
-  else if (command.protocol) proto = load_protocol(*command.protocol);
+  std::optional<protocol::Protocol> proto;
+  if (command.continuation) proto = protocol::parse_protocol(command.continuation->protocol_text, command.continuation->protocol_file);
+  else if (command.protocol) proto = protocol::load_protocol(*command.protocol);
   std::string hand_order = "right_first";
   if (command.continuation) hand_order = command.continuation->hand_order;
   else if (command.recording.participant && command.recording.participant->hand_order == "left_first")
     hand_order = "left_first";
 
-  session::RecordingOptions options = command.recording;
-  options.steer_sim_hand = command.auto_participant;
+  const session::RecordingOptions& options = command.recording;
   SessionOutcome outcome;
   outcome.recording.exit_code = 1;
   auto opened = session::Recording::open(rig, options, interrupt);
@@ -137,15 +136,15 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
     return outcome;
   }
 
-  std::unique_ptr<RecordingEnv> env;
-  std::unique_ptr<Runner> runner;
+  std::unique_ptr<protocol::RunnerEnv> env;
+  std::unique_ptr<protocol::Runner> runner;
   std::thread ticker;
   std::atomic<bool> ticking{true};
   if (proto) {
     nlohmann::json detail = {{"protocol", proto->name}, {"file", proto->source.string()}, {"hand_order", hand_order},
                              {"fast", command.fast}, {"auto", command.auto_participant},
                              {"takes", 2 * proto->actions.size()}, {"text", proto->text}};
-    RunnerOptions ro;
+    protocol::RunnerOptions ro;
     ro.auto_start = command.auto_participant;
     ro.auto_advance = command.auto_participant;
     ro.fast = command.fast;
@@ -157,8 +156,9 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
                    2 * proto->actions.size());
     }
     ro.protocol_detail = detail.dump();
-    env = std::make_unique<RecordingEnv>(recording, command.auto_participant);
-    runner = std::make_unique<Runner>(*proto, hand_order, *env, ro);
+    env = std::make_unique<RecordingEnv>(recording);
+    if (command.decorate_env) env = command.decorate_env(std::move(env));
+    runner = std::make_unique<protocol::Runner>(*proto, hand_order, *env, ro);
     ticker = std::thread([&] {
       std::string last_message;
       while (ticking.load()) {
@@ -169,7 +169,7 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
           last_message = v.message;
         }
         if (runner->finished()) {
-          recording.request_stop(v.phase == Phase::Done ? "protocol complete" : "protocol aborted");
+          recording.request_stop(v.phase == protocol::Phase::Done ? "protocol complete" : "protocol aborted");
           break;
         }
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -204,23 +204,11 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
   if (command.web) command.web->stop();  // the pages end before what they show
   if (runner && !runner->finished()) {
     // Stopped before the protocol's end: the take being recorded is closed as interrupted.
-    (void)runner->command(Command::Abort, reason);
+    (void)runner->command(protocol::Command::Abort, reason);
   }
   outcome.recording = recording.finish(reason);
-  const auto& dir = outcome.recording.dir;
-  if (runner && !dir.empty()) {
-    if (auto takes = read_takes(dir)) {
-      // Every take in report.txt (and report.html); the console keeps to the totals.
-      const std::string table = format_takes(takes.value());
-      std::ofstream(dir / "report.txt", std::ios::app) << "\n" << table;
-      const auto totals = table.find(" takes done of ");
-      const auto line = table.rfind('\n', totals);
-      outcome.takes_totals = totals == std::string::npos ? table : table.substr(line + 1);
-    } else {
-      spdlog::error("the takes could not be read back: {}", takes.error().message);
-    }
-  }
+  outcome.protocol = bool(runner);
   return outcome;
 }
 
-}  // namespace pvcap::protocol
+}  // namespace pvcap::console

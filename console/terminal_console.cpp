@@ -1,4 +1,4 @@
-#include "protocol/terminal_console.h"
+#include "console/terminal_console.h"
 
 #include <poll.h>
 #include <termios.h>
@@ -10,7 +10,11 @@
 
 #include <spdlog/spdlog.h>
 
-namespace pvcap::protocol {
+namespace pvcap::console {
+
+using protocol::Command;
+using protocol::Phase;
+using protocol::Runner;
 
 static_assert(sizeof(termios) <= 64, "termios must fit the saved bytes");
 
@@ -77,4 +81,4 @@ void TerminalConsole::run(const std::atomic<bool>& stop) {
   }
 }
 
-}  // namespace pvcap::protocol
+}  // namespace pvcap::console

@@ -7,7 +7,7 @@
 
 #include "core/result.h"
 
-namespace pvcap::replay {
+namespace pvcap::sim {
 
 struct ReplayRig {
   std::filesystem::path rig_file;
@@ -19,4 +19,4 @@ struct ReplayRig {
 // loopback addresses, its Sensel (if any) on the emulator, and `sim: {replay: SESSION, replay_rate}`.
 Result<ReplayRig> write_replay_rig(const std::filesystem::path& session_dir, std::filesystem::path out, double rate);
 
-}  // namespace pvcap::replay
+}  // namespace pvcap::sim

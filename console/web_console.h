@@ -27,10 +27,11 @@ class Server;
 namespace pvcap::session {
 class Recording;
 }
-
 namespace pvcap::protocol {
-
 class Runner;
+}
+
+namespace pvcap::console {
 
 struct WebOptions {
   std::string bind = "127.0.0.1";
@@ -50,7 +51,7 @@ class WebConsole {
   WebConsole& operator=(const WebConsole&) = delete;
 
   // Starts serving the running recording, and its protocol when `runner` is set. Both must outlive stop().
-  void serve(session::Recording& recording, Runner* runner);
+  void serve(session::Recording& recording, protocol::Runner* runner);
   // Ends the event streams and the server (idempotent).
   void stop();
 
@@ -72,7 +73,7 @@ class WebConsole {
   std::atomic<int> streams_{0};  // event streams open
   std::atomic<int> participant_pages_{0}, operator_pages_{0};
   session::Recording* recording_ = nullptr;
-  Runner* runner_ = nullptr;
+  protocol::Runner* runner_ = nullptr;
 };
 
-}  // namespace pvcap::protocol
+}  // namespace pvcap::console

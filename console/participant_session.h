@@ -6,16 +6,18 @@
 // runs; the command line only fills a SessionSetup.
 #include <atomic>
 #include <filesystem>
+#include <functional>
 #include <iosfwd>
 #include <memory>
 #include <optional>
 #include <string>
 
 #include "core/rig_config.h"
-#include "protocol/web_console.h"
+#include "protocol/runner.h"
+#include "console/web_console.h"
 #include "session/recording.h"
 
-namespace pvcap::protocol {
+namespace pvcap::console {
 
 // What a resumed session takes over from the folder it continues (filled by prepare_session).
 struct Continuation {
@@ -28,12 +30,17 @@ struct SessionSetup {
   session::RecordingOptions recording;
   std::optional<double> duration_s;            // stop after this long; otherwise on stop request
   std::optional<std::filesystem::path> protocol;  // run this protocol (rig-configs/protocols/*.yaml)
-  bool auto_participant = false;               // the simulated hand performs each take (simulated rigs)
+  // An automatic participant performs the takes (a simulated rig's hand): the runner starts and
+  // advances by itself. What performs them is `decorate_env`'s (app/ steers the simulator).
+  bool auto_participant = false;
   bool fast = false;                           // the protocol's fast timings
   std::optional<std::filesystem::path> resume;  // continue this interrupted session's protocol
   std::optional<Continuation> continuation;     // set by prepare_session from `resume`
   // The session's pages (bound by main before a simulated rig's network namespace); none: --no-web.
-  std::unique_ptr<protocol::WebConsole> web;
+  std::unique_ptr<WebConsole> web;
+  // Wraps the runner's environment (the recording's) before the runner gets it: how an automatic
+  // participant learns when each take is due. None: the environment as it is.
+  std::function<std::unique_ptr<protocol::RunnerEnv>(std::unique_ptr<protocol::RunnerEnv>)> decorate_env;
 };
 
 // Checks and completes the setup before any device is opened (throws UserError): the participant
@@ -48,11 +55,11 @@ void ask_for_participant(SessionSetup& setup, std::istream& in, std::ostream& ou
 
 struct SessionOutcome {
   session::RecordingResult recording;  // exit_code 0 recorded, 1 failed (the message was logged)
-  std::string takes_totals;            // a protocol session's totals line (every take is in report.txt)
+  bool protocol = false;               // a protocol ran (its takes are in the store)
 };
 
 // Records until the duration ends, the protocol is done, `interrupt` is set or the recording stops
-// itself; then closes the session and appends its takes to report.txt.
+// itself; then closes the session (its report is the caller's: report/).
 SessionOutcome run_session(const RigConfig& rig, const SessionSetup& setup, const std::atomic<bool>& interrupt);
 
-}  // namespace pvcap::protocol
+}  // namespace pvcap::console

@@ -8,10 +8,10 @@
 
 #include "core/result.h"
 
-namespace pvcap::session {
+namespace pvcap::report {
 
 // `recorded_s`: how long the devices streamed, when known (otherwise the session's span).
-Result<std::string> session_report(const std::filesystem::path& session_dir,
+Result<std::string> session_text(const std::filesystem::path& session_dir,
                                    std::optional<double> recorded_s = std::nullopt);
 
-}  // namespace pvcap::session
+}  // namespace pvcap::report

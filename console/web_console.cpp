@@ -1,4 +1,4 @@
-#include "protocol/web_console.h"
+#include "console/web_console.h"
 
 #include <arpa/inet.h>
 #include <sys/socket.h>
@@ -18,10 +18,15 @@
 
 #include "capture/sensel_units.h"
 #include "protocol/runner.h"
-#include "protocol/web_assets.h"
+#include "console/web_assets.h"
 #include "session/recording.h"
 
-namespace pvcap::protocol {
+namespace pvcap::console {
+
+using protocol::Command;
+using protocol::Phase;
+using protocol::Runner;
+using protocol::RunnerView;
 
 namespace {
 
@@ -411,7 +416,7 @@ void WebConsole::routes() {
   // The operator's commands, the same as the terminal's keys. Acknowledged only once committed.
   s.Post("/command", [this](const httplib::Request& req, httplib::Response& res) {
     nlohmann::json reply;
-    const auto c = parse_command(req.get_param_value("command"));
+    const auto c = protocol::parse_command(req.get_param_value("command"));
     if (!runner_) {
       res.status = 409;
       reply = {{"ok", false}, {"message", "this session runs no protocol"}};
@@ -460,4 +465,4 @@ void WebConsole::routes() {
   });
 }
 
-}  // namespace pvcap::protocol
+}  // namespace pvcap::console

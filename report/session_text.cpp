@@ -1,16 +1,16 @@
-#include "session/session_report.h"
+#include "report/session_text.h"
 
 #include <fmt/format.h>
 
 #include "storage/session_reader.h"
 
-namespace pvcap::session {
+namespace pvcap::report {
 
 namespace {
 bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
 }  // namespace
 
-Result<std::string> session_report(const std::filesystem::path& dir, std::optional<double> recorded_s) {
+Result<std::string> session_text(const std::filesystem::path& dir, std::optional<double> recorded_s) {
   auto opened = SessionReader::open(dir);
   if (!opened) return opened.error();
   SessionReader& r = *opened.value();
@@ -93,4 +93,4 @@ Result<std::string> session_report(const std::filesystem::path& dir, std::option
   return fmt::to_string(buf);
 }
 
-}  // namespace pvcap::session
+}  // namespace pvcap::report

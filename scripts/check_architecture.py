@@ -1,0 +1,178 @@
+#!/usr/bin/python3
+"""The rules of docs/architecture.md, checked on the tree (a ctest test runs this).
+
+- Below app/, no folder includes the simulator: `#include "sim/..."` only in sim/, app/, tests/, bench/.
+- No SQL statement outside storage/ (tests and bench aside).
+- The include graph between folders has no cycle and is at most 7 levels deep.
+- No function of the product is longer than 120 lines.
+
+`--graph` prints the folder graph (what docs/architecture.md draws) and each folder's depth.
+"""
+import os
+import re
+import sys
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
+PRODUCT = ["core", "capture", "sync", "calib", "storage", "session", "protocol", "console", "report", "export",
+           "dataset", "replay", "sim", "app"]
+NOT_PRODUCT = {"tests", "bench", "build", "scripts", "docs", "rig-configs", ".git"}
+MAX_DEPTH = 7
+MAX_FUNCTION_LINES = 120
+INCLUDE = re.compile(r'^\s*#\s*include\s+"([a-z_]+)/[^"]+"', re.M)
+# A statement of SQL: a string literal that starts with a statement keyword and names a table.
+SQL = re.compile(r'"\s*(SELECT\s|INSERT\s+INTO|UPDATE\s+\w+\s+SET|DELETE\s+FROM|CREATE\s+(TABLE|INDEX)|'
+                 r'PRAGMA\s+\w+|ALTER\s+TABLE|DROP\s+TABLE|BEGIN\b|COMMIT\b)')
+
+
+def sources(folder):
+    for dirpath, _, files in os.walk(os.path.join(ROOT, folder)):
+        for f in files:
+            if f.endswith((".cpp", ".h")):
+                yield os.path.join(dirpath, f)
+
+
+def read(path):
+    with open(path, encoding="utf-8", errors="replace") as f:
+        return f.read()
+
+
+def folder_graph():
+    graph = {f: set() for f in PRODUCT if os.path.isdir(os.path.join(ROOT, f))}
+    for folder in graph:
+        for path in sources(folder):
+            for dep in INCLUDE.findall(read(path)):
+                if dep != folder and dep in graph:
+                    graph[folder].add(dep)
+    return graph
+
+
+def depths(graph):
+    """Levels of each folder (a folder that includes nothing of ours is level 1); None on a cycle."""
+    memo, visiting = {}, set()
+
+    def level(f):
+        if f in memo:
+            return memo[f]
+        if f in visiting:
+            raise ValueError(f)
+        visiting.add(f)
+        memo[f] = 1 + max((level(d) for d in graph[f]), default=0)
+        visiting.discard(f)
+        return memo[f]
+
+    try:
+        return {f: level(f) for f in graph}
+    except ValueError as cycle:
+        return {"cycle": str(cycle)}
+
+
+def strip_comments_and_strings(text):
+    """The text with comments, string and character literals blanked (newlines kept), in one pass."""
+    out, i, n = [], 0, len(text)
+    while i < n:
+        c = text[i]
+        if text.startswith("//", i):
+            j = text.find("\n", i)
+            i = n if j < 0 else j
+        elif text.startswith("/*", i):
+            j = text.find("*/", i + 2)
+            j = n if j < 0 else j + 2
+            out.append("\n" * text.count("\n", i, j))
+            i = j
+        elif c == "R" and text.startswith('R"', i) and (i == 0 or not (text[i - 1].isalnum() or text[i - 1] == "_")):
+            m = re.match(r'R"([^(\s]*)\(', text[i:])
+            end = text.find(")" + m.group(1) + '"', i) if m else -1
+            j = n if end < 0 else end + len(m.group(1)) + 2
+            out.append('""' + "\n" * text.count("\n", i, j))
+            i = j
+        elif c == "'" and i > 0 and text[i - 1].isalnum():  # a digit separator: 200'000
+            out.append(c)
+            i += 1
+        elif c in "\"'":
+            j = i + 1
+            while j < n and text[j] != c and text[j] != "\n":
+                j += 2 if text[j] == "\\" else 1
+            out.append(c + c)
+            i = j + 1 if j < n and text[j] == c else j
+        else:
+            out.append(c)
+            i += 1
+    return "".join(out)
+
+
+def long_functions(path):
+    """(name, lines) of every function body longer than the limit: a brace block opened after a ')' (and
+    qualifiers) at namespace or class level."""
+    text = strip_comments_and_strings(read(path))
+    found, depth, stack = [], 0, []
+    i = 0
+    while i < len(text):
+        c = text[i]
+        if c == "{":
+            head = text[max(0, i - 300):i]
+            is_function = re.search(r"\)\s*(const|noexcept|override|final|mutable|->\s*[\w:<>,\s*&]+|\s)*$", head) \
+                and not re.search(r"\b(if|for|while|switch|catch)\s*\(.*\)\s*$", head.split("\n")[-1]) \
+                and not re.search(r"(=|return|\(|,)\s*\[[^\]]*\]\s*\([^)]*\)\s*(mutable\s*)?(->\s*[\w:<>]+\s*)?$", head)
+            inside_function = any(s[0] for s in stack)
+            name = ""
+            if is_function and not inside_function:
+                m = re.search(r"([\w:~]+)\s*\([^()]*(\([^()]*\)[^()]*)*\)[^)]*$", head)
+                name = m.group(1) if m else "?"
+            stack.append((bool(is_function and not inside_function), text.count("\n", 0, i), name))
+            depth += 1
+        elif c == "}" and stack:
+            is_function, start, name = stack.pop()
+            depth -= 1
+            if is_function:
+                lines = text.count("\n", 0, i) - start + 1
+                if lines > MAX_FUNCTION_LINES:
+                    found.append((name, lines, start + 1))
+        i += 1
+    return found
+
+
+def main():
+    problems = []
+    for folder in PRODUCT:
+        if folder in ("sim", "app"):
+            continue
+        for path in sources(folder):
+            if re.search(r'#\s*include\s+"sim/', read(path)):
+                problems.append(f"{os.path.relpath(path, ROOT)}: includes the simulator (only sim/, app/, tests/ and "
+                                f"bench/ may)")
+    for folder in PRODUCT:
+        if folder == "storage":
+            continue
+        for path in sources(folder):
+            for n, line in enumerate(read(path).split("\n"), 1):
+                if SQL.search(line):
+                    problems.append(f"{os.path.relpath(path, ROOT)}:{n}: an SQL statement outside storage/")
+    graph = folder_graph()
+    d = depths(graph)
+    if "cycle" in d:
+        problems.append(f"the include graph between folders has a cycle through {d['cycle']}/")
+    else:
+        for f, level in d.items():
+            if level > MAX_DEPTH:
+                problems.append(f"{f}/ is {level} levels deep (at most {MAX_DEPTH})")
+    for folder in PRODUCT:
+        for path in sources(folder):
+            for name, lines, line in long_functions(path):
+                problems.append(f"{os.path.relpath(path, ROOT)}:{line}: {name} is {lines} lines (at most "
+                                f"{MAX_FUNCTION_LINES})")
+    if "--graph" in sys.argv:
+        for f in sorted(graph, key=lambda f: (d.get(f, 0), f)):
+            print(f"{f:9} level {d.get(f, '?')}: {', '.join(sorted(graph[f])) or '-'}")
+    for p in problems:
+        print(p)
+    if problems:
+        print(f"{len(problems)} problem{'s' if len(problems) != 1 else ''} with the architecture's rules "
+              f"(docs/architecture.md)")
+        return 1
+    print("architecture: no simulator below app/, no SQL outside storage/, no folder cycle, at most "
+          f"{max(d.values())} levels, no function over {MAX_FUNCTION_LINES} lines")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

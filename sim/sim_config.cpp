@@ -1,0 +1,123 @@
+#include "sim/sim_config.h"
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "core/result.h"
+#include "core/yaml_map_reader.h"
+
+namespace pvcap::sim {
+
+namespace {
+
+SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, std::size_t n_cameras) {
+  SimConfig s;
+  MapReader r(node, file, "sim");
+  r.get("seed", s.seed);
+  if (r.has("replay")) {
+    std::string dir;
+    r.get("replay", dir);
+    if (dir.empty()) r.fail(node["replay"], "replay", "expected the folder of a recorded session");
+    // Relative to the rig file, like every other path in it.
+    s.replay = std::filesystem::path(dir).is_absolute() ? std::filesystem::path(dir) : file.parent_path() / dir;
+    r.get_in_range("replay_rate", s.replay_rate, 0.1, 10.0);
+  }
+  const YAML::Node cams = r.child("cameras");
+  if (cams) {
+    if (!cams.IsSequence()) r.fail(cams, "cameras", "expected a list, one entry per rig camera");
+    if (cams.size() != n_cameras)
+      r.fail(cams, "cameras", fmt::format("has {} entries but the rig has {} cameras", cams.size(), n_cameras));
+    for (std::size_t i = 0; i < cams.size(); ++i) {
+      SimCameraClock c;
+      MapReader cr(cams[i], file, fmt::format("sim.cameras[{}]", i));
+      cr.get_in_range("clock_offset_ms", c.offset_ms, 0.0, 1e9);  // device time at power-on; >= 0
+      cr.get_in_range("exposure_latency_ms", c.exposure_latency_ms, 0.0, 1000.0);
+      cr.get_in_range("undeclared_latency_ms", c.undeclared_latency_ms, -1000.0, 1000.0);
+      cr.get_in_range("drift_ppm", c.drift_ppm, -10000.0, 10000.0);
+      cr.get_in_range("jitter_us", c.jitter_us, 0.0, 1e6);
+      cr.get_in_range("packet_loss", c.packet_loss, 0.0, 1.0);
+      if (cr.has("stop_after_s")) {
+        double v = 0;
+        cr.get_in_range("stop_after_s", v, 0.0, 1e7);
+        c.stop_after_s = v;
+      }
+      if (cr.has("return_after_s")) {
+        double v = 0;
+        cr.get_in_range("return_after_s", v, 0.0, 1e7);
+        if (!c.stop_after_s || v <= *c.stop_after_s)
+          cr.fail(cams[i]["return_after_s"], "return_after_s", "needs a stop_after_s before it");
+        c.return_after_s = v;
+      }
+      cr.get("trigger_line", c.trigger_line);
+      cr.get_numbers("position_mm", c.position_mm);
+      cr.get_numbers("look_at_mm", c.look_at_mm);
+      if (cr.has("focal_px")) {
+        double v = 0;
+        cr.get_in_range("focal_px", v, 50.0, 100000.0);
+        c.focal_px = v;
+      }
+      cr.get_numbers("distortion", c.distortion);
+      if (c.position_mm && (*c.position_mm)[2] <= 0)
+        cr.fail(cams[i]["position_mm"], "position_mm", "the camera must stand above the pad (z > 0 mm)");
+      cr.finish();
+      s.cameras.push_back(c);
+    }
+  } else {
+    s.cameras.resize(n_cameras);
+  }
+  if (const YAML::Node sn = r.child("sensel")) {
+    MapReader sr(sn, file, "sim.sensel");
+    sr.get_in_range("press_x_mm", s.sensel.press_x_mm, 0.0, 230.0);
+    sr.get_in_range("press_y_mm", s.sensel.press_y_mm, 0.0, 130.0);
+    sr.get_in_range("peak_grams", s.sensel.peak_grams, 0.0, 4000.0);
+    sr.get_in_range("period_s", s.sensel.period_s, 0.1, 1000.0);
+    sr.get_in_range("clock_start_us", s.sensel.clock_start_us, 0.0, 4294967295.0);
+    sr.get_in_range("drift_ppm", s.sensel.drift_ppm, -10000.0, 10000.0);
+    sr.get_in_range("usb_jitter_mean_ms", s.sensel.usb_jitter_mean_ms, 0.0, 100.0);
+    sr.get_in_range("usb_jitter_max_ms", s.sensel.usb_jitter_max_ms, 0.0, 1000.0);
+    sr.get_in_range("drop_fraction", s.sensel.drop_fraction, 0.0, 0.5);
+    if (sr.has("clock_reset_at_s")) {
+      double v = 0;
+      sr.get_in_range("clock_reset_at_s", v, 0.0, 1e7);
+      s.sensel.clock_reset_at_s = v;
+    }
+    if (sr.has("unplug_at_s")) {
+      double v = 0;
+      sr.get_in_range("unplug_at_s", v, 0.0, 1e7);
+      s.sensel.unplug_at_s = v;
+    }
+    if (sr.has("replug_after_s")) {
+      double v = 0;
+      sr.get_in_range("replug_after_s", v, 0.0, 1e7);
+      if (!s.sensel.unplug_at_s) sr.fail(sn["replug_after_s"], "replug_after_s", "needs an unplug_at_s before it");
+      s.sensel.replug_after_s = v;
+    }
+    if (sr.has("replug_serial")) {
+      std::string v;
+      sr.get("replug_serial", v);
+      s.sensel.replug_serial = v;
+    }
+    if (sr.has("replug_renamed")) {
+      sr.get("replug_renamed", s.sensel.replug_renamed);
+      if (!s.sensel.replug_after_s)
+        sr.fail(sn["replug_renamed"], "replug_renamed", "needs a replug_after_s before it");
+    }
+    sr.finish();
+  }
+  r.finish();
+  return s;
+}
+
+}  // namespace
+
+std::optional<SimConfig> load_sim_config(const RigConfig& rig) {
+  if (!rig.simulated) return std::nullopt;
+  const YAML::Node root = load_yaml(rig.text, rig.source);
+  try {
+    return parse_sim(root["sim"], rig.source, rig.cameras.size());
+  } catch (const YAML::Exception& e) {
+    throw UserError(fmt::format("{}:{}: {}", rig.source.string(), e.mark.line + 1, e.msg));
+  }
+}
+
+}  // namespace pvcap::sim
