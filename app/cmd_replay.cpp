@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -15,6 +16,13 @@
 namespace pvcap {
 
 namespace {
+// Whether there is a display to open a window on (DISPLAY, WAYLAND_DISPLAY or QT_QPA_PLATFORM set).
+bool display_available() {
+  for (const char* var : {"DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM"})
+    if (const char* v = std::getenv(var); v && *v) return true;
+  return false;
+}
+
 // The devices start re-serving 0.2-0.3 s after the recording starts them (sim/session_replay.h):
 // a session this much longer than the replay records all of it and stops before they fall silent.
 constexpr double kReplayStartS = 0.5;
@@ -46,7 +54,7 @@ int cmd_replay(const ReplayCommand& c, const std::atomic<bool>& stop) {
   if (c.options.out.empty()) {
     replay::WindowOptions w = c.window;
     w.pressure_full_scale_kpa = c.options.pressure_full_scale_kpa;
-    if (!replay::display_available()) {
+    if (!display_available()) {
       spdlog::error("pvcap replay: no display to open the window on (DISPLAY is not set); render the session with "
                     "--out FILE.mp4, or re-serve it with --as-devices");
       return 2;

@@ -2,6 +2,7 @@
 
 #include "capture/aravis_handles.h"
 #include "capture/aravis_stream.h"
+#include "capture/camera_watchdog.h"
 #include "capture/gvcp_ping.h"
 #include "capture/pixel_format.h"
 
@@ -299,16 +300,16 @@ void AravisCamera::teardown_connection(bool camera_reachable) {
 }
 
 void AravisCamera::control_loop() {
+  CameraWatchdog::Config wc;
+  wc.stall_timeout = stall_timeout();
+  wc.first_frame_timeout = first_frame_timeout();
+  wc.on_trigger_line = config_.trigger == TriggerMode::Hardware;
+  // Asked over GVCP, so only a camera with an IPv4 address; another is left to Aravis' control-lost signal.
+  wc.can_ask = is_ipv4(settings().address);
+  CameraWatchdog watchdog(wc);
+  watchdog.started(started_at_);
   bool connected = true;
   HostNs next_attempt{0};
-  // A camera on a trigger line may rightly be silent; once it has been for the stall time, it is
-  // asked every 250 ms whether it is there: three unanswered asks (~0.75 s more) and it is lost.
-  HostNs last_ask{0};
-  int unanswered = 0;
-  // A camera whose frames find no free buffer (pvcap holds them all) is sending: it is alive.
-  std::uint64_t underruns_seen = 0;
-  HostNs underrun_at{0};
-  bool said_no_trigger = false;
   while (running_.load()) {
     {
       std::unique_lock lock(wake_mu_);
@@ -316,86 +317,61 @@ void AravisCamera::control_loop() {
     }
     if (!running_.load()) break;
     const HostNs now = host_now();
-    if (connected) {
-      HostNs last;
-      {
-        std::lock_guard lock(mu_);
-        last = link_->stream ? link_->stream->last_arrival() : HostNs{0};
-        if (link_->stream) {
-          link_->stream->settle_losses(now);  // a silent camera's gaps too
-          const std::uint64_t underruns = link_->stream->counters().underruns;
-          if (underruns > underruns_seen) underrun_at = now;
-          underruns_seen = underruns;
-        }
+    if (!connected) {
+      if (now >= next_attempt) {
+        next_attempt = HostNs{now.ns + 1'000'000'000};
+        connected = reconnect();
+        if (connected) watchdog.started(started_at_);
       }
-      if (underrun_at > last) last = underrun_at;
-      const bool first_frame_pending = last.ns == 0 || last < started_at_;
-      if (first_frame_pending) last = started_at_;
-      const auto silent_ms = (now.ns - last.ns) / 1'000'000;
-      const auto limit = first_frame_pending ? first_frame_timeout() : stall_timeout();
-      bool stalled = silent_ms > limit.count();
-      if (config_.trigger == TriggerMode::Hardware) {
-        // Asked over GVCP, so only a camera with an IPv4 address; another is left to Aravis'
-        // control-lost signal.
-        const std::string address = settings().address;
-        if (!is_ipv4(address)) {
-          unanswered = 0;
-        } else if (!stalled) {
-          unanswered = 0;
-          said_no_trigger = false;
-        } else if (now.ns - last_ask.ns >= 250'000'000) {
-          last_ask = now;
-          if (gvcp_answers(address, 250ms)) {
-            unanswered = 0;
-            if (!said_no_trigger)
-              emit(CameraEvent::Kind::NoTrigger,
-                   fmt::format("{}: no frame for {} ms, but the camera answers: no trigger reaches it (check its "
-                               "trigger cable and that the trigger source runs)",
-                               label(), silent_ms));
-            said_no_trigger = true;
-          } else {
-            ++unanswered;
-          }
-        }
-        stalled = unanswered >= 3;
+      continue;
+    }
+    HostNs last{0};
+    std::uint64_t underruns = 0;
+    {
+      std::lock_guard lock(mu_);
+      if (link_->stream) {
+        last = link_->stream->last_arrival();
+        link_->stream->settle_losses(now);  // a silent camera's gaps too
+        underruns = link_->stream->counters().underruns;
       }
-      if (stalled || control_lost_.load()) {
-        std::string why = fmt::format("no frame for {} ms", silent_ms);
-        if (control_lost_.load()) why = "control channel lost";
-        else if (config_.trigger == TriggerMode::Hardware) why += ", and no answer when asked";
-        emit(CameraEvent::Kind::Lost,
-             fmt::format("{}: camera lost ({}) -- unplugged, powered off, or its link is down; the other "
-                         "cameras keep recording, reconnecting every second",
-                         label(), why));
-        teardown_connection(false);
-        connected = false;
-        next_attempt = now;
-        unanswered = 0;
-        said_no_trigger = false;
-      }
-    } else if (now >= next_attempt) {
-      next_attempt = HostNs{now.ns + 1'000'000'000};
-      Status s = connect_and_configure(++connection_);
-      if (s.ok()) {
-        arv::GErrorSlot err;
-        {
-          std::lock_guard lock(mu_);
-          arv_camera_start_acquisition(link_->camera.get(), err.out());
-        }
-        if (!err) {
-          started_at_ = host_now();
-          connected = true;
-          underruns_seen = 0;  // a new stream counts from zero
-          emit(CameraEvent::Kind::Reconnected, fmt::format("{}: reconnected, recording again", label()));
-        } else {
-          teardown_connection(false);
-        }
-      } else {
-        spdlog::debug("{}: reconnect attempt failed: {}", label(), s.error().message);
-      }
+    }
+    const auto look = watchdog.look(now, last, underruns, control_lost_.load());
+    if (look.verdict == CameraWatchdog::Verdict::Ask && watchdog.answered(gvcp_answers(settings().address, 250ms)))
+      emit(CameraEvent::Kind::NoTrigger,
+           fmt::format("{}: no frame for {} ms, but the camera answers: no trigger reaches it (check its trigger "
+                       "cable and that the trigger source runs)",
+                       label(), look.silent_ms));
+    if (look.verdict == CameraWatchdog::Verdict::Lost) {
+      emit(CameraEvent::Kind::Lost,
+           fmt::format("{}: camera lost ({}) -- unplugged, powered off, or its link is down; the other cameras keep "
+                       "recording, reconnecting every second",
+                       label(), look.why));
+      teardown_connection(false);
+      connected = false;
+      next_attempt = now;
     }
   }
   if (connected) teardown_connection(true);
+}
+
+bool AravisCamera::reconnect() {
+  Status s = connect_and_configure(++connection_);
+  if (!s.ok()) {
+    spdlog::debug("{}: reconnect attempt failed: {}", label(), s.error().message);
+    return false;
+  }
+  arv::GErrorSlot err;
+  {
+    std::lock_guard lock(mu_);
+    arv_camera_start_acquisition(link_->camera.get(), err.out());
+  }
+  if (err) {
+    teardown_connection(false);
+    return false;
+  }
+  started_at_ = host_now();
+  emit(CameraEvent::Kind::Reconnected, fmt::format("{}: reconnected, recording again", label()));
+  return true;
 }
 
 bool AravisCamera::has_timestamp_latch() const {

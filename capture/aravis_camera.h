@@ -120,6 +120,8 @@ class AravisCamera {
   Status apply_features();
   void teardown_connection(bool camera_reachable);
   void control_loop();
+  // One attempt to connect again and restart acquisition (the watchdog found the camera lost).
+  bool reconnect();
   void trigger_loop();  // TriggerMode::Software: one AcquisitionSoftwareTrigger per frame period
   bool probe_clock();   // false when the camera did not answer
   void probe_loop();    // its own thread: four probes a second while streaming

@@ -207,6 +207,53 @@ void SenselDevice::stop() {
   queue_.close();
 }
 
+void SenselDevice::reopen() {
+  auto t = factory_(session_serial_);
+  if (!t) return;
+  transport_ = std::move(t.value());
+  const std::uint8_t sync[] = {1};
+  if (!open_sequence().ok()) {
+    transport_.reset();
+    return;
+  }
+  // Only the session's own Morph is recorded again: another one (a swapped cable, a second sensor on
+  // the bench) would mix two sensors' data in one stream.
+  if (info_.serial != session_serial_) {
+    if (info_.serial != refused_serial_)  // said once per Morph, not at every retry
+      emit(SenselEvent::Kind::WrongDevice,
+           fmt::format("{}: a different Sensel Morph (serial {}) answered where the session's (serial {}) was "
+                       "unplugged; it is NOT recorded - plug the session's Morph back in",
+                       transport_->describe(), info_.serial, session_serial_));
+    refused_serial_ = info_.serial;
+    transport_.reset();
+    return;
+  }
+  if (!apply_config().ok() || !write_reg(reg::kScanEnabled, sync).ok()) {
+    transport_.reset();
+    return;
+  }
+  if (!(info_.grid == session_grid_)) {
+    emit(SenselEvent::Kind::WrongDevice,
+         fmt::format("{}: the Morph came back scanning a {}x{} grid, not the session's {}x{}; it is NOT recorded",
+                     transport_->describe(), info_.grid.cols, info_.grid.rows, session_grid_.cols, session_grid_.rows));
+    transport_.reset();
+    return;
+  }
+  counter_ = SequenceUnwrapper(8, false);  // a power-cycled device restarts its counter
+  clock_ = SequenceUnwrapper(32, false);   // and its clock
+  ++connection_;  // so sequences never repeat within a connection
+  first_device_ns_ = -1, connection_frames_ = 0;
+  SenselEvent e{SenselEvent::Kind::Reconnected, host_now(),
+                fmt::format("{}: Sensel reconnected (serial {}), streaming again as connection {}",
+                            transport_->describe(), info_.serial, connection_)};
+  e.connection = connection_;
+  e.dropped = std::move(dropped_);
+  dropped_.clear();
+  e.away_ns = e.at.ns - unplugged_at_.ns;
+  e.missed = std::uint64_t(std::max<std::int64_t>(0, e.away_ns) / std::max<std::int64_t>(1, frame_period_ns_));
+  emit(std::move(e));
+}
+
 void SenselDevice::stream_loop() {
   // The stamps are only as good as this thread's wake-ups: where allowed (root, or an rtprio
   // limit), it runs at a real-time priority. It blocks on the device nearly all the time.
@@ -221,52 +268,7 @@ void SenselDevice::stream_loop() {
   while (running_.load()) {
     if (!transport_) {  // unplugged: reopen every second (stop() does not wait for the second to pass)
       for (int i = 0; i < 20 && running_.load(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
-      if (!running_.load()) break;
-      auto t = factory_(session_serial_);
-      if (!t) continue;
-      transport_ = std::move(t.value());
-      const std::uint8_t sync[] = {1};
-      if (!open_sequence().ok()) {
-        transport_.reset();
-        continue;
-      }
-      // Only the session's own Morph is recorded again: another one (a swapped cable, a second
-      // sensor on the bench) would mix two sensors' data in one stream.
-      if (info_.serial != session_serial_) {
-        if (info_.serial != refused_serial_)  // said once per Morph, not at every retry
-          emit(SenselEvent::Kind::WrongDevice,
-               fmt::format("{}: a different Sensel Morph (serial {}) answered where the session's (serial {}) was "
-                           "unplugged; it is NOT recorded - plug the session's Morph back in",
-                           transport_->describe(), info_.serial, session_serial_));
-        refused_serial_ = info_.serial;
-        transport_.reset();
-        continue;
-      }
-      if (!apply_config().ok() || !write_reg(reg::kScanEnabled, sync).ok()) {
-        transport_.reset();
-        continue;
-      }
-      if (!(info_.grid == session_grid_)) {
-        emit(SenselEvent::Kind::WrongDevice,
-             fmt::format("{}: the Morph came back scanning a {}x{} grid, not the session's {}x{}; it is NOT recorded",
-                         transport_->describe(), info_.grid.cols, info_.grid.rows, session_grid_.cols,
-                         session_grid_.rows));
-        transport_.reset();
-        continue;
-      }
-      counter_ = SequenceUnwrapper(8, false);  // a power-cycled device restarts its counter
-      clock_ = SequenceUnwrapper(32, false);   // and its clock
-      ++connection_;  // so sequences never repeat within a connection
-      first_device_ns_ = -1, connection_frames_ = 0;
-      SenselEvent e{SenselEvent::Kind::Reconnected, host_now(),
-                    fmt::format("{}: Sensel reconnected (serial {}), streaming again as connection {}",
-                                transport_->describe(), info_.serial, connection_)};
-      e.connection = connection_;
-      e.dropped = std::move(dropped_);
-      dropped_.clear();
-      e.away_ns = e.at.ns - unplugged_at_.ns;
-      e.missed = std::uint64_t(std::max<std::int64_t>(0, e.away_ns) / std::max<std::int64_t>(1, frame_period_ns_));
-      emit(std::move(e));
+      if (running_.load()) reopen();
       continue;
     }
     auto [host, wait_ns, r] = stamped([&] { return transact(command_read_variable(reg::kReadFrame), Expect::ReadVariable, reg::kReadFrame); });

@@ -111,6 +111,7 @@ class SenselDevice {
   Status write_reg(std::uint8_t reg, std::span<const std::uint8_t> data);
   void flush_input();
   void stream_loop();
+  void reopen();  // after an unplug: the session's Morph opened and configured again, or nothing
   void emit(SenselEvent::Kind kind, std::string message);
   void emit(SenselEvent e);
 

@@ -19,6 +19,8 @@
 #include "capture/sensel_units.h"
 #include "protocol/runner.h"
 #include "console/web_assets.h"
+#include "console/web_images.h"
+#include "console/web_status.h"
 #include "session/recording.h"
 
 namespace pvcap::console {
@@ -31,8 +33,6 @@ using protocol::RunnerView;
 namespace {
 
 constexpr auto kEventInterval = std::chrono::milliseconds(200);  // pushes: the countdown reads smoothly
-constexpr double kLiveWindowMs = 250;                             // the recording indicator's window
-constexpr double kHeatMapMaxKpa = 60;                             // the heat map's top colour
 
 std::string random_token() {
   std::random_device rd;  // /dev/urandom on Linux
@@ -60,25 +60,6 @@ std::string cookie_value(const std::string& cookies, const std::string& name) {
     pos = end + 1;
   }
   return {};
-}
-
-nlohmann::json stream_json(const session::StreamStatus& s) {
-  return {{"name", s.name},
-          {"kind", s.kind},
-          {"received", s.received},
-          {"good", s.good},
-          {"in_video", s.in_video},
-          {"incomplete", s.incomplete},
-          {"not_received", s.not_received},
-          {"queue_overflow", s.queue_overflow},
-          {"buffer_underrun", s.buffer_underrun},
-          {"encoder_behind", s.encoder_behind},
-          {"connection_losses", s.connection_losses},
-          {"encoder_backlog", s.encoder_backlog},
-          {"spill_backlog", s.spill_backlog},
-          {"spilled", s.spilled},
-          {"rate_hz", std::round(s.rate_hz * 10) / 10},
-          {"since_last_frame_ms", std::round(s.since_last_frame_ms)}};
 }
 
 }  // namespace
@@ -164,69 +145,23 @@ void WebConsole::stop() {
 }
 
 std::string WebConsole::state_json() const {
-  nlohmann::json j;
-  const auto st = recording_->status();
-  const bool live = st.all_live(kLiveWindowMs);
-  nlohmann::json streams = nlohmann::json::array();
-  for (const auto& s : st.streams) streams.push_back(stream_json(s));
-  j["session"] = {{"state", st.state},
-                  {"dir", st.session_dir},
-                  {"elapsed_s", std::round(st.elapsed_s * 10) / 10},
-                  {"samples", st.samples},
-                  {"pressure_offset_mean_ms", std::round(st.pressure_offset_mean_ms * 100) / 100},
-                  {"pressure_offset_max_ms", std::round(st.pressure_offset_max_ms * 100) / 100},
-                  {"free_disk_gb", st.free_disk_bytes < 0 ? -1.0 : std::round(double(st.free_disk_bytes) / 1e8) / 10},
-                  {"warnings", st.warnings},
-                  {"streams", streams},
-                  {"cameras", recording_->rig().cameras.size()},
-                  {"devices_live", live}};
-  j["pages"] = {{"participant", participant_pages_.load()}, {"operator", operator_pages_.load()}};
-  if (auto p = recording_->pressure_now(); p && !p->counts.empty()) {
-    const auto sum = sensel::summarize_pressure(p->counts, p->grid);
-    j["pressure"] = {{"total_newtons", std::round(sum.total_newtons * 100) / 100},
-                     {"contact_mm2", std::round(sum.contact_area_mm2)}};
-  }
-  if (!runner_) {
-    j["protocol"] = false;
-    j["recording_indicator"] = st.state == "recording" && live;
-    return j.dump();
-  }
-  const RunnerView v = runner_->view();
-  j["protocol"] = true;
-  j["phase"] = to_string(v.phase);
-  j["paused_in"] = to_string(v.paused_in);
-  j["step"] = v.step;
-  j["steps"] = v.steps;
-  j["takes_done"] = v.takes_done;
-  j["sequence"] = v.sequence;
-  j["action"] = v.action_name;
-  j["text"] = v.action_text;
-  j["pictogram"] = v.pictogram.empty() ? "" : fmt::format("/pictogram/{}", v.step);
-  j["force"] = v.force;
-  j["hand"] = v.hand;
-  j["repetition"] = v.repetition;
-  j["repetitions"] = v.repetitions;
-  j["seconds_left"] = std::round(v.seconds_left * 10) / 10;
-  j["waiting_for_devices"] = v.waiting_for_devices;
-  j["holding"] = v.holding;
-  j["message"] = v.message;
-  j["step_status"] = v.step_status;
-  // "Recording" is shown only while every device delivers: the participant never performs into a gap.
-  j["recording_indicator"] = v.phase == Phase::Recording && live;
-  if (v.last) {
-    nlohmann::json last = {{"sequence", v.last->sequence}, {"status", v.last->status}};
-    if (v.last->check) {
-      last["check_ok"] = v.last->check->ok;
-      last["problems"] = v.last->check->problems;
-      last["mean_newtons"] = std::round(v.last->check->measures.mean_newtons * 100) / 100;
-      last["peak_newtons"] = std::round(v.last->check->measures.peak_newtons * 100) / 100;
-    }
-    j["last"] = last;
-  }
-  return j.dump();
+  std::optional<RunnerView> view;
+  if (runner_) view = runner_->view();
+  return status_model(recording_->status(), recording_->rig().cameras.size(), recording_->pressure_now(),
+                      {participant_pages_.load(), operator_pages_.load()}, view ? &*view : nullptr)
+      .dump();
 }
 
 void WebConsole::routes() {
+  route_guard();
+  route_pages();
+  route_state();
+  route_images();
+  route_commands();
+}
+
+// Every request passes the checks first; an exception in a handler is answered, never fatal.
+void WebConsole::route_guard() {
   auto& s = *server_;
   // Every request passes the token check first; the pages keep the token in a cookie so that
   // their images and event stream need not repeat it.
@@ -247,6 +182,23 @@ void WebConsole::routes() {
                     "text/plain; charset=utf-8");
     return httplib::Server::HandlerResponse::Handled;
   });
+  s.set_exception_handler([](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
+    std::string what = "unknown error";
+    try {
+      std::rethrow_exception(ep);
+    } catch (const std::exception& e) {
+      what = e.what();
+    } catch (...) {
+    }
+    spdlog::warn("the session's pages: {} {}: {}", req.method, req.path, what);
+    res.status = 500;
+    res.set_content(what + "\n", "text/plain");
+  });
+}
+
+// The pages themselves, and the pictograms they show.
+void WebConsole::route_pages() {
+  auto& s = *server_;
   auto page = [this](const char* html) {
     return [this, html](const httplib::Request&, httplib::Response& res) {
       if (!options_.token.empty())
@@ -259,6 +211,28 @@ void WebConsole::routes() {
   s.Get("/participant", page(web_assets::kParticipantHtml));
   s.Get("/operator", page(web_assets::kOperatorHtml));
 
+  s.Get(R"(/pictogram/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
+    const std::size_t step = std::stoul(req.matches[1]);
+    if (!runner_ || step >= runner_->plan().size()) {
+      res.status = 404;
+      return;
+    }
+    std::ifstream in(runner_->plan()[step].action->pictogram, std::ios::binary);
+    if (!in) {
+      res.status = 404;
+      return;
+    }
+    std::ostringstream svg;
+    svg << in.rdbuf();
+    res.set_header("Cache-Control", "max-age=3600");
+    res.set_content(svg.str(), "image/svg+xml");
+  });
+
+}
+
+// The status model as JSON (console/web_status.h), polled or pushed as server-sent events.
+void WebConsole::route_state() {
+  auto& s = *server_;
   s.Get("/state", [this](const httplib::Request&, httplib::Response& res) {
     res.set_header("Cache-Control", "no-store");
     res.set_content(state_json(), "application/json");
@@ -305,23 +279,10 @@ void WebConsole::routes() {
         });
   });
 
-  s.Get(R"(/pictogram/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
-    const std::size_t step = std::stoul(req.matches[1]);
-    if (!runner_ || step >= runner_->plan().size()) {
-      res.status = 404;
-      return;
-    }
-    std::ifstream in(runner_->plan()[step].action->pictogram, std::ios::binary);
-    if (!in) {
-      res.status = 404;
-      return;
-    }
-    std::ostringstream svg;
-    svg << in.rdbuf();
-    res.set_header("Cache-Control", "max-age=3600");
-    res.set_content(svg.str(), "image/svg+xml");
-  });
+}
 
+void WebConsole::route_images() {
+  auto& s = *server_;
   // A camera's latest preview: the thumbnail, or (full) the whole frame for marking the fingertip.
   // X-Frame-Ns: when that frame arrived (host clock), which /fingertip sends back.
   auto camera_image = [this](const httplib::Request& req, httplib::Response& res, bool full) {
@@ -331,15 +292,15 @@ void WebConsole::routes() {
     }
     const std::size_t camera = std::stoul(req.matches[1]);
     const auto [image, at] = full ? recording_->preview_full(camera) : recording_->preview(camera);
-    std::vector<unsigned char> jpg;
-    if (image.empty() || !cv::imencode(".jpg", image, jpg, {cv::IMWRITE_JPEG_QUALITY, full ? 92 : 80})) {
+    const auto jpg = camera_jpeg(image, full);
+    if (!jpg) {
       res.status = 404;
       res.set_content("no image from this camera yet\n", "text/plain");
       return;
     }
     res.set_header("Cache-Control", "no-store");
     res.set_header("X-Frame-Ns", std::to_string(at));
-    res.set_content(std::string(jpg.begin(), jpg.end()), "image/jpeg");
+    res.set_content(*jpg, "image/jpeg");
   };
   s.Get(R"(/camera/(\d+)\.jpg)", [camera_image](const httplib::Request& req, httplib::Response& res) {
     camera_image(req, res, false);
@@ -348,6 +309,23 @@ void WebConsole::routes() {
     camera_image(req, res, true);
   });
 
+  // The latest pressure frame as a heat map (console/web_images.h).
+  s.Get("/pressure.png", [this](const httplib::Request&, httplib::Response& res) {
+    const auto p = recording_->pressure_now();
+    const auto png = p ? pressure_png(*p) : std::nullopt;
+    if (!png) {
+      res.status = 404;
+      res.set_content("no pressure frame yet\n", "text/plain");
+      return;
+    }
+    res.set_header("Cache-Control", "no-store");
+    res.set_content(*png, "image/png");
+  });
+}
+
+// What the pages send: the operator's commands and fingertip marks, the participant page's prompts.
+void WebConsole::route_commands() {
+  auto& s = *server_;
   // The operator marked the fingertip on a camera's frame (for the press check on a real rig):
   // logged on the capture clock with the frame's arrival time, the camera and the pixel.
   s.Post("/fingertip", [this](const httplib::Request& req, httplib::Response& res) {
@@ -388,30 +366,6 @@ void WebConsole::routes() {
     res.set_content(ok ? "marked\n" : "not logged: the store did not commit it\n", "text/plain");
   });
 
-  // The latest pressure frame as a heat map: black no pressure, then a perceptual colour map
-  // (inferno) up to kHeatMapMaxKpa, on the device's native grid scaled up.
-  s.Get("/pressure.png", [this](const httplib::Request&, httplib::Response& res) {
-    const auto p = recording_->pressure_now();
-    if (!p || p->counts.empty() || int(p->counts.size()) != p->grid.cells()) {
-      res.status = 404;
-      res.set_content("no pressure frame yet\n", "text/plain");
-      return;
-    }
-    cv::Mat level(p->grid.rows, p->grid.cols, CV_8U);
-    for (int r = 0; r < p->grid.rows; ++r)
-      for (int c = 0; c < p->grid.cols; ++c) {
-        const double kpa = sensel::native_cell_kpa(p->counts[std::size_t(r * p->grid.cols + c)], p->grid);
-        level.at<std::uint8_t>(r, c) = static_cast<std::uint8_t>(std::clamp(kpa / kHeatMapMaxKpa, 0.0, 1.0) * 255);
-      }
-    cv::Mat colour;
-    cv::applyColorMap(level, colour, cv::COLORMAP_INFERNO);
-    colour.setTo(cv::Scalar(0, 0, 0), level == 0);
-    cv::resize(colour, colour, {}, 4, 4, cv::INTER_NEAREST);
-    std::vector<unsigned char> png;
-    cv::imencode(".png", colour, png);
-    res.set_header("Cache-Control", "no-store");
-    res.set_content(std::string(png.begin(), png.end()), "image/png");
-  });
 
   // The operator's commands, the same as the terminal's keys. Acknowledged only once committed.
   s.Post("/command", [this](const httplib::Request& req, httplib::Response& res) {
@@ -451,18 +405,6 @@ void WebConsole::routes() {
     res.set_content(ok ? "logged\n" : "not logged: the store did not commit it\n", "text/plain");
   });
 
-  s.set_exception_handler([](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
-    std::string what = "unknown error";
-    try {
-      std::rethrow_exception(ep);
-    } catch (const std::exception& e) {
-      what = e.what();
-    } catch (...) {
-    }
-    spdlog::warn("the session's pages: {} {}: {}", req.method, req.path, what);
-    res.status = 500;
-    res.set_content(what + "\n", "text/plain");
-  });
 }
 
 }  // namespace pvcap::console

@@ -62,6 +62,11 @@ class WebConsole {
  private:
   explicit WebConsole(WebOptions options);
   void routes();
+  void route_guard();
+  void route_pages();
+  void route_state();
+  void route_images();
+  void route_commands();
   std::string state_json() const;
   bool authorized(const std::string& query_token, const std::string& cookie) const;
 

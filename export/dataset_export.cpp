@@ -139,178 +139,221 @@ std::string light_direction_words(const std::string& lighting) {
   return out.empty() ? "none" : out;
 }
 
-Result<ExportResult> export_session(const fs::path& session, const ExportOptions& o, const std::atomic<bool>& stop) {
-  auto opened = SessionReader::open(session);
-  if (!opened) return opened.error();
-  SessionReader& r = *opened.value();
-  const SessionInfo& info = r.info();
-  if (!r.pressure_device())
-    return Error{fmt::format("{}: the session has no pressure frames; the layout needs force for every frame",
-                             session.string())};
-  if (o.jpeg_quality < 1 || o.jpeg_quality > 100)
-    return Error{fmt::format("--jpeg-quality {} is not in 1..100", o.jpeg_quality)};
+namespace {
 
-  // Cameras, each with the pad calibration the loaders' geometry is made from.
-  std::vector<std::size_t> cameras = o.cameras;
-  if (cameras.empty())
-    for (std::size_t c = 0; c < r.cameras().size(); ++c) cameras.push_back(c);
-  for (std::size_t c : cameras)
-    if (c >= r.cameras().size())
-      return Error{fmt::format("{}: there is no camera {} (the session has {}: 0..{})", session.string(), c,
-                               r.cameras().size(), r.cameras().size() - 1)};
-  auto calibrations = report::pad_calibrations(r);
-  if (!calibrations) return calibrations.error();
-  ExportResult result;
-  json pv_cameras = json::object();
-  std::vector<std::array<cv::Point2d, 4>> measured_pv_order;
-  std::vector<cv::Rect> crops;  // with --crop paper: each camera's box in the recorded frame
-  for (std::size_t k = 0; k < cameras.size(); ++k) {
-    const CameraInfo& camera = r.cameras()[cameras[k]];
-    const auto& cal = calibrations.value()[cameras[k]];
-    if (!cal)
-      return Error{fmt::format("{}: camera {} has no pad calibration in the session; the layout needs each camera's "
-                               "pose: run `pvcap calibrate pad {}` (or leave the camera out with --cameras)",
-                               session.string(), camera.name, session.string())};
-    // pvcap's corners run (0,0), (185,0), (185,105), (0,105); the loaders' (185,0), (185,105), (0,105), (0,0).
-    const auto& c = *cal->pad_corners_px;
-    std::array<cv::Point2d, 4> measured{c[1], c[2], c[3], c[0]};
-    cv::Matx33d K = cal->model.K;
-    if (o.paper_crop) {
-      // cv::resize maps a pixel centre x of the box to (x - x0 + 0.5) * s - 0.5: an affine map A,
-      // which the intrinsics absorb (fx' = s fx, cx' = (cx - x0 + 0.5) s - 0.5) and the corners follow.
-      const cv::Rect box = calib::paper_crop_box(c, {camera.width, camera.height});
-      const double sx = 480.0 / box.width, sy = 384.0 / box.height;
-      const cv::Matx33d A(sx, 0, (0.5 - box.x) * sx - 0.5, 0, sy, (0.5 - box.y) * sy - 0.5, 0, 0, 1);
-      K = A * K;
-      for (auto& q : measured) {
-        const cv::Vec3d v = A * cv::Vec3d(q.x, q.y, 1);
-        q = {v[0], v[1]};
-      }
-      crops.push_back(box);
+// One session's export, step by step: validate, geometry, select, folders, then each sequence's
+// frames and force, manifest and metadata.
+class SessionExport {
+ public:
+  SessionExport(const fs::path& session, const ExportOptions& o, const std::atomic<bool>& stop)
+      : session_(session), o_(o), stop_(stop), here_(fs::absolute(session).lexically_normal().string()) {}
+
+  Result<ExportResult> run() {
+    for (Status (SessionExport::*step)() : {&SessionExport::validate, &SessionExport::geometry, &SessionExport::select,
+                                            &SessionExport::folders})
+      if (Status s = (this->*step)(); !s.ok()) return s.error();
+    for (const auto& p : plan_) {
+      if (Status s = write_sequence(p); !s.ok()) return s.error();
+      if (result_.interrupted) break;
     }
-    measured_pv_order.push_back(measured);
-    const PvPose pose = fit_pv_pose(K, measured_pv_order.back());
-    std::vector<double> d = cal->model.distortion;
-    d.resize(8, 0.0);  // k1 k2 p1 p2 k3, then the rational model's k4 k5 k6 (unused: 0)
-    pv_cameras[std::to_string(k)] = {{"ModelViewMatrix", matrix(pose.model_view)},
-                                     {"fx", K(0, 0)}, {"fy", K(1, 1)}, {"cx", K(0, 2)}, {"cy", K(1, 2)},
-                                     {"k1", d[0]}, {"k2", d[1]}, {"p1", d[2]}, {"p2", d[3]},
-                                     {"k3", d[4]}, {"k4", d[5]}, {"k5", d[6]}, {"k6", d[7]}};
-    result.cameras.push_back({camera.name, pose.rms_px, pose.max_px});
+    return result_;
   }
 
-  // The takes of this folder to export.
-  auto takes = protocol::read_takes(session);
-  if (!takes) return takes.error();
-  const std::string here = fs::absolute(session).lexically_normal().string();
-  std::vector<const protocol::TakeRow*> chosen;
-  std::set<std::string> names;
-  for (const auto& t : takes.value().takes) {
-    if (fs::absolute(t.session).lexically_normal().string() != here) continue;  // an earlier folder's
-    names.insert(t.sequence);
-    if (o.take && t.sequence != *o.take) continue;
-    if (!t.first_sample || !t.end_sample || *t.end_sample <= *t.first_sample) continue;  // nothing recorded
-    const bool wanted = t.status == "done" || o.include_all;
-    if (wanted) chosen.push_back(&t);
-  }
-  if (takes.value().takes.empty())
-    return Error{fmt::format("{}: the session ran no protocol, so it has no takes to export as sequences",
-                             session.string())};
-  if (o.take && !names.count(*o.take)) {
-    std::string list;
-    for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
-    return Error{fmt::format("{}: no take named '{}' (takes: {})", session.string(), *o.take, list)};
+ private:
+  Status validate() {
+    auto opened = SessionReader::open(session_);
+    if (!opened) return opened.error();
+    reader_ = std::move(opened.value());
+    if (!reader_->pressure_device())
+      return Error{fmt::format("{}: the session has no pressure frames; the layout needs force for every frame",
+                               session_.string())};
+    if (o_.jpeg_quality < 1 || o_.jpeg_quality > 100)
+      return Error{fmt::format("--jpeg-quality {} is not in 1..100", o_.jpeg_quality)};
+    cameras_ = o_.cameras;
+    if (cameras_.empty())
+      for (std::size_t c = 0; c < reader_->cameras().size(); ++c) cameras_.push_back(c);
+    for (std::size_t c : cameras_)
+      if (c >= reader_->cameras().size())
+        return Error{fmt::format("{}: there is no camera {} (the session has {}: 0..{})", session_.string(), c,
+                                 reader_->cameras().size(), reader_->cameras().size() - 1)};
+    return {};
   }
 
-  // Participant folder.
-  std::error_code ec;
-  fs::create_directories(o.out, ec);
-  if (ec) return Error{fmt::format("{}: cannot be made: {}", o.out.string(), ec.message())};
-  const std::string pseudonym = info.participant ? info.participant->pseudonym : "unrecorded";
-  auto folder = participant_folder(o.out, pseudonym);
-  if (!folder) return folder.error();
-  result.participant_folder = o.out / folder.value();
-
-  // Which samples each take keeps: every selected camera's frame stored and a pressure frame paired.
-  auto samples = r.sample_infos();
-  if (!samples) return samples.error();
-  std::vector<PlannedSequence> plan;
-  std::size_t total = 0;
-  for (const protocol::TakeRow* t : chosen) {
-    PlannedSequence p;
-    p.take = t;
-    for (std::size_t i = *t->first_sample; i < *t->end_sample && i < samples.value().size(); ++i) {
-      const SampleInfo& s = samples.value()[i];
-      const double at_s = double(s.t_ns - info.started_host_ns) / 1e9;
-      if ((o.from_s && at_s < *o.from_s) || (o.to_s && at_s >= *o.to_s)) continue;
-      bool complete = s.pressure.has_value();
-      for (std::size_t c : cameras) {
-        const auto f = std::find_if(s.cameras.begin(), s.cameras.end(), [&](const SampleCamera& sc) {
-          return sc.device_id == r.cameras()[c].device_id;
-        });
-        complete &= f != s.cameras.end() && f->in_video;
+  // Each camera with the pad calibration the loaders' geometry is made from.
+  Status geometry() {
+    auto calibrations = report::pad_calibrations(*reader_);
+    if (!calibrations) return calibrations.error();
+    for (std::size_t k = 0; k < cameras_.size(); ++k) {
+      const CameraInfo& camera = reader_->cameras()[cameras_[k]];
+      const auto& cal = calibrations.value()[cameras_[k]];
+      if (!cal)
+        return Error{fmt::format("{}: camera {} has no pad calibration in the session; the layout needs each camera's "
+                                 "pose: run `pvcap calibrate pad {}` (or leave the camera out with --cameras)",
+                                 session_.string(), camera.name, session_.string())};
+      // pvcap's corners run (0,0), (185,0), (185,105), (0,105); the loaders' (185,0), (185,105), (0,105), (0,0).
+      const auto& c = *cal->pad_corners_px;
+      std::array<cv::Point2d, 4> measured{c[1], c[2], c[3], c[0]};
+      cv::Matx33d K = cal->model.K;
+      if (o_.paper_crop) {
+        // cv::resize maps a pixel centre x of the box to (x - x0 + 0.5) * s - 0.5: an affine map A,
+        // which the intrinsics absorb (fx' = s fx, cx' = (cx - x0 + 0.5) s - 0.5) and the corners follow.
+        const cv::Rect box = calib::paper_crop_box(c, {camera.width, camera.height});
+        const double sx = 480.0 / box.width, sy = 384.0 / box.height;
+        const cv::Matx33d A(sx, 0, (0.5 - box.x) * sx - 0.5, 0, sy, (0.5 - box.y) * sy - 0.5, 0, 0, 1);
+        K = A * K;
+        for (auto& q : measured) {
+          const cv::Vec3d v = A * cv::Vec3d(q.x, q.y, 1);
+          q = {v[0], v[1]};
+        }
+        crops_.push_back(box);
       }
-      if (complete) p.samples.push_back(i);
-      else ++p.left_out;
+      measured_pv_order_.push_back(measured);
+      const PvPose pose = fit_pv_pose(K, measured_pv_order_.back());
+      std::vector<double> d = cal->model.distortion;
+      d.resize(8, 0.0);  // k1 k2 p1 p2 k3, then the rational model's k4 k5 k6 (unused: 0)
+      pv_cameras_[std::to_string(k)] = {{"ModelViewMatrix", matrix(pose.model_view)},
+                                        {"fx", K(0, 0)}, {"fy", K(1, 1)}, {"cx", K(0, 2)}, {"cy", K(1, 2)},
+                                        {"k1", d[0]}, {"k2", d[1]}, {"p1", d[2]}, {"p2", d[3]},
+                                        {"k3", d[4]}, {"k4", d[5]}, {"k5", d[6]}, {"k6", d[7]}};
+      result_.cameras.push_back({camera.name, pose.rms_px, pose.max_px});
     }
-    if (p.samples.empty()) continue;  // a time range that misses the take
-    total += p.samples.size();
-    plan.push_back(std::move(p));
+    return {};
   }
 
-  // Sequence folders: the take's name; a folder already holding another take gets "(2)", "(3)"...
-  std::set<std::string> taken;
-  for (auto& p : plan) {
-    const json source = {{"session", here}, {"step", p.take->step}, {"start_ns", p.take->start_ns.value_or(0)}};
-    if (!safe_name(p.take->sequence))
-      return Error{fmt::format("{}: take name '{}' cannot be a folder name", session.string(), p.take->sequence)};
-    for (int n = 1;; ++n) {
-      const std::string name = n == 1 ? p.take->sequence : fmt::format("{}({})", p.take->sequence, n);
-      if (taken.count(name)) continue;
-      const fs::path dir = result.participant_folder / name, marker = dir / "pvcap_source.json";
-      if (fs::exists(marker)) {
-        std::ifstream in(marker);
-        const json there = json::parse(in, nullptr, false);
-        if (there != source) continue;  // another take's folder (another session, or a retake)
-      } else if (fs::exists(dir) && !fs::is_empty(dir)) {
-        continue;  // something not ours
+  // The takes of this folder to export, and which samples each keeps: every selected camera's
+  // frame stored and a pressure frame paired.
+  Status select() {
+    auto takes = protocol::read_takes(session_);
+    if (!takes) return takes.error();
+    takes_ = std::move(takes.value());
+    std::vector<const protocol::TakeRow*> chosen;
+    std::set<std::string> names;
+    for (const auto& t : takes_.takes) {
+      if (fs::absolute(t.session).lexically_normal().string() != here_) continue;  // an earlier folder's
+      names.insert(t.sequence);
+      if (o_.take && t.sequence != *o_.take) continue;
+      if (!t.first_sample || !t.end_sample || *t.end_sample <= *t.first_sample) continue;  // nothing recorded
+      if (t.status == "done" || o_.include_all) chosen.push_back(&t);
+    }
+    if (takes_.takes.empty())
+      return Error{fmt::format("{}: the session ran no protocol, so it has no takes to export as sequences",
+                               session_.string())};
+    if (o_.take && !names.count(*o_.take)) {
+      std::string list;
+      for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+      return Error{fmt::format("{}: no take named '{}' (takes: {})", session_.string(), *o_.take, list)};
+    }
+    auto samples = reader_->sample_infos();
+    if (!samples) return samples.error();
+    samples_ = std::move(samples.value());
+    for (const protocol::TakeRow* t : chosen) {
+      PlannedSequence p;
+      p.take = t;
+      for (std::size_t i = *t->first_sample; i < *t->end_sample && i < samples_.size(); ++i) {
+        if (wanted(samples_[i])) p.samples.push_back(i);
+        else ++p.left_out;
       }
-      fs::create_directories(dir, ec);
-      if (ec) return Error{fmt::format("{}: cannot be made: {}", dir.string(), ec.message())};
-      if (!fs::exists(marker))
-        if (auto w = write_atomically(marker, source.dump(2) + "\n"); !w.ok()) return w.error();
-      p.folder = name;
-      taken.insert(name);
-      break;
+      if (p.samples.empty()) continue;  // a time range that misses the take
+      total_ += p.samples.size();
+      plan_.push_back(std::move(p));
     }
+    return {};
   }
 
-  const std::string meta_name = o.layout == Layout::PressureVision ? "metadata.json" : "meta.json";
-  const std::string force_ext = o.npy ? "npy" : "pkl";
-  std::size_t done = 0;
-  for (const auto& p : plan) {
-    const fs::path dir = result.participant_folder / p.folder;
-    SequenceResult seq{(fs::path(folder.value()) / p.folder).string(), p.take->status, p.samples.size(), p.left_out};
-    if (fs::exists(dir / meta_name)) {  // finished by an earlier run
+  bool wanted(const SampleInfo& s) const {
+    const double at_s = double(s.t_ns - reader_->info().started_host_ns) / 1e9;
+    if ((o_.from_s && at_s < *o_.from_s) || (o_.to_s && at_s >= *o_.to_s)) return false;
+    bool complete = s.pressure.has_value();
+    for (std::size_t c : cameras_) {
+      const auto f = std::find_if(s.cameras.begin(), s.cameras.end(), [&](const SampleCamera& sc) {
+        return sc.device_id == reader_->cameras()[c].device_id;
+      });
+      complete &= f != s.cameras.end() && f->in_video;
+    }
+    return complete;
+  }
+
+  // The participant's folder, and each sequence's: the take's name; a folder already holding
+  // another take gets "(2)", "(3)"...
+  Status folders() {
+    std::error_code ec;
+    fs::create_directories(o_.out, ec);
+    if (ec) return Error{fmt::format("{}: cannot be made: {}", o_.out.string(), ec.message())};
+    const auto& info = reader_->info();
+    pseudonym_ = info.participant ? info.participant->pseudonym : "unrecorded";
+    auto folder = participant_folder(o_.out, pseudonym_);
+    if (!folder) return folder.error();
+    participant_folder_ = folder.value();
+    result_.participant_folder = o_.out / participant_folder_;
+    std::set<std::string> taken;
+    for (auto& p : plan_) {
+      const json source = {{"session", here_}, {"step", p.take->step}, {"start_ns", p.take->start_ns.value_or(0)}};
+      if (!safe_name(p.take->sequence))
+        return Error{fmt::format("{}: take name '{}' cannot be a folder name", session_.string(), p.take->sequence)};
+      for (int n = 1;; ++n) {
+        const std::string name = n == 1 ? p.take->sequence : fmt::format("{}({})", p.take->sequence, n);
+        if (taken.count(name)) continue;
+        const fs::path dir = result_.participant_folder / name, marker = dir / "pvcap_source.json";
+        if (fs::exists(marker)) {
+          std::ifstream in(marker);
+          const json there = json::parse(in, nullptr, false);
+          if (there != source) continue;  // another take's folder (another session, or a retake)
+        } else if (fs::exists(dir) && !fs::is_empty(dir)) {
+          continue;  // something not ours
+        }
+        fs::create_directories(dir, ec);
+        if (ec) return Error{fmt::format("{}: cannot be made: {}", dir.string(), ec.message())};
+        if (!fs::exists(marker))
+          if (auto w = write_atomically(marker, source.dump(2) + "\n"); !w.ok()) return w;
+        p.folder = name;
+        taken.insert(name);
+        break;
+      }
+    }
+    return {};
+  }
+
+  std::string meta_name() const { return o_.layout == Layout::PressureVision ? "metadata.json" : "meta.json"; }
+
+  Status write_sequence(const PlannedSequence& p) {
+    const fs::path dir = result_.participant_folder / p.folder;
+    SequenceResult seq{(fs::path(participant_folder_) / p.folder).string(), p.take->status, p.samples.size(),
+                       p.left_out};
+    if (fs::exists(dir / meta_name())) {  // finished by an earlier run
       seq.was_complete = true;
-      done += p.samples.size();
-      result.frames_found += p.samples.size();
-      if (o.progress) o.progress(done, total);
-      result.sequences.push_back(seq);
-      continue;
+      done_ += p.samples.size();
+      result_.frames_found += p.samples.size();
+      if (o_.progress) o_.progress(done_, total_);
+      result_.sequences.push_back(seq);
+      return {};
     }
     // A killed run's half-written files (never renamed into place) are of no use.
+    std::error_code ec;
     for (const auto& e : fs::recursive_directory_iterator(dir, ec))
       if (e.is_regular_file() && e.path().filename().string().find(".tmp-") != std::string::npos) fs::remove(e.path(), ec);
-    for (std::size_t k = 0; k < cameras.size(); ++k) fs::create_directories(dir / fmt::format("camera_{}", k), ec);
+    for (std::size_t k = 0; k < cameras_.size(); ++k) fs::create_directories(dir / fmt::format("camera_{}", k), ec);
     fs::create_directories(dir / "force", ec);
     if (ec) return Error{fmt::format("{}: cannot be made: {}", dir.string(), ec.message())};
+    Sums sums;
     json timesteps = json::array();
-    // Checksums of what this run wrote, taken from memory; files an earlier run wrote are read back.
-    std::map<std::string, std::pair<std::size_t, std::string>> sums;
-    // A sample's frames are decoded here (the reader is one thread's) while the previous sample's
-    // are encoded, written and hashed in the background (one camera per worker of OpenCV's pool):
-    // decoding and JPEG encoding cost about the same, and overlap.
+    if (Status s = write_frames(p, dir, sums, timesteps); !s.ok()) return s;
+    if (result_.interrupted) {
+      result_.sequences.push_back(seq);
+      return {};
+    }
+    if (Status s = write_manifest(dir, sums); !s.ok()) return s;
+    if (auto w = write_atomically(dir / meta_name(), metadata(p, timesteps).dump(1) + "\n"); !w.ok()) return w;
+    result_.sequences.push_back(seq);
+    return {};
+  }
+
+  // Checksums of what this run wrote (name in the sequence -> bytes, SHA-256), taken from memory.
+  using Sums = std::map<std::string, std::pair<std::size_t, std::string>>;
+
+  // A sample's frames are decoded here (the reader is one thread's) while the previous sample's are
+  // encoded, written and hashed in the background (one camera per worker of OpenCV's pool): decoding
+  // and JPEG encoding cost about the same, and overlap.
+  Status write_frames(const PlannedSequence& p, const fs::path& dir, Sums& sums, json& timesteps) {
     struct Encoded {
       Status status;
       std::vector<std::pair<std::string, std::pair<std::size_t, std::string>>> sums;
@@ -322,31 +365,30 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
       for (auto& [name, sum] : e.sums) sums[name] = std::move(sum);
       return e.status;
     };
+    const std::string force_ext = o_.npy ? "npy" : "pkl";
     for (std::size_t t = 0; t < p.samples.size(); ++t) {
-      if (stop.load()) {
+      if (stop_.load()) {
         (void)collect();
-        result.interrupted = true;
-        result.sequences.push_back(seq);
-        return result;
+        result_.interrupted = true;
+        return {};
       }
-      const std::size_t i = p.samples[t];
-      const SampleInfo& s = samples.value()[i];
-      timesteps.push_back(double(s.t_ns - info.started_host_ns) / 1e9);
+      const SampleInfo& s = samples_[p.samples[t]];
+      timesteps.push_back(double(s.t_ns - reader_->info().started_host_ns) / 1e9);
       bool wrote = false;
       std::vector<fs::path> jpgs;
       std::vector<cv::Mat> frames;
-      for (std::size_t k = 0; k < cameras.size(); ++k) {
+      for (std::size_t k = 0; k < cameras_.size(); ++k) {
         const fs::path jpg = dir / fmt::format("camera_{}", k) / fmt::format("{:05d}.jpg", t);
         if (fs::exists(jpg)) continue;
-        auto image = r.image(i, cameras[k]);
+        auto image = reader_->image(p.samples[t], cameras_[k]);
         if (!image) return image.error();
-        frames.push_back(o.paper_crop ? calib::apply_crop(image.value(), crops[k]) : image.value());
+        frames.push_back(o_.paper_crop ? calib::apply_crop(image.value(), crops_[k]) : image.value());
         jpgs.push_back(jpg);
       }
-      if (auto c = collect(); !c.ok()) return c.error();
+      if (auto c = collect(); !c.ok()) return c;
       if (!jpgs.empty()) {
         wrote = true;
-        in_flight = std::async(std::launch::async, [&dir, quality = o.jpeg_quality, jpgs = std::move(jpgs),
+        in_flight = std::async(std::launch::async, [&dir, quality = o_.jpeg_quality, jpgs = std::move(jpgs),
                                                     frames = std::move(frames)]() {
           Encoded e;
           std::vector<std::string> encoded(frames.size());
@@ -375,23 +417,26 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
       }
       const fs::path force = dir / "force" / fmt::format("{:05d}.{}", t, force_ext);
       if (!fs::exists(force)) {
-        auto f = loader_force(r, *s.pressure);
+        auto f = loader_force(*reader_, *s.pressure);
         if (!f) return f.error();
-        const std::string bytes = o.npy ? numpy_npy(f.value()) : numpy_pickle(f.value());
-        if (auto w = write_atomically(force, bytes); !w.ok()) return w.error();
+        const std::string bytes = o_.npy ? numpy_npy(f.value()) : numpy_pickle(f.value());
+        if (auto w = write_atomically(force, bytes); !w.ok()) return w;
         sums[fs::relative(force, dir).string()] = {bytes.size(), sha256_hex(bytes)};
         wrote = true;
       }
-      ++(wrote ? result.frames_written : result.frames_found);
-      if (o.progress) o.progress(++done, total);
+      ++(wrote ? result_.frames_written : result_.frames_found);
+      if (o_.progress) o_.progress(++done_, total_);
     }
-    if (auto c = collect(); !c.ok()) return c.error();
+    return collect();
+  }
 
-    // The manifest, then the metadata: the sequence is complete once its metadata exists.
+  // The manifest (written before the metadata: a sequence is complete once its metadata exists).
+  // Files an earlier run wrote are read back for their checksums.
+  Status write_manifest(const fs::path& dir, const Sums& sums) {
     json manifest = {{"algorithm", "sha256"}, {"files", json::object()}};
     std::vector<fs::path> files;
     for (const auto& e : fs::recursive_directory_iterator(dir))
-      if (e.is_regular_file() && e.path().filename() != "manifest.json" && e.path().filename() != meta_name &&
+      if (e.is_regular_file() && e.path().filename() != "manifest.json" && e.path().filename() != meta_name() &&
           e.path().string().find(".tmp-") == std::string::npos)
         files.push_back(e.path());
     std::sort(files.begin(), files.end());
@@ -405,39 +450,44 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
       if (!sum) return sum.error();
       manifest["files"][name] = {{"bytes", fs::file_size(f)}, {"sha256", sum.value()}};
     }
+    return write_atomically(dir / "manifest.json", manifest.dump(1) + "\n");
+  }
+
+  json metadata(const PlannedSequence& p, const json& timesteps) const {
+    const auto& info = reader_->info();
     json meta;
-    meta["num_cameras"] = cameras.size();
+    meta["num_cameras"] = cameras_.size();
     meta["num_frames"] = p.samples.size();
     meta["timesteps"] = timesteps;
-    json participant = {{"Skintone", info.participant ? info.participant->skin_tone : "unrecorded"},
-                        {"Light Direction", light_direction_words(info.conditions ? info.conditions->lighting : "")}};
-    meta["participant"] = participant;
-    if (o.layout == Layout::PressureVision) {
-      meta["camera_calibrations"] = pv_cameras;
+    meta["participant"] = {{"Skintone", info.participant ? info.participant->skin_tone : "unrecorded"},
+                           {"Light Direction", light_direction_words(info.conditions ? info.conditions->lighting : "")}};
+    if (o_.layout == Layout::PressureVision) {
+      meta["camera_calibrations"] = pv_cameras_;
     } else {
       meta["camera_ids"] = json::array();
       meta["is_weak"] = false;
-      for (std::size_t k = 0; k < cameras.size(); ++k) {
+      for (std::size_t k = 0; k < cameras_.size(); ++k) {
         meta["camera_ids"].push_back(k);
         json per_frame = json::object();
-        const cv::Matx33d h = corner_homography(measured_pv_order[k]);
+        const cv::Matx33d h = corner_homography(measured_pv_order_[k]);
         json imgpts = json::array();
-        for (const auto& q : measured_pv_order[k]) imgpts.push_back({q.x, q.y});
+        for (const auto& q : measured_pv_order_[k]) imgpts.push_back({q.x, q.y});
         for (std::size_t t = 0; t < p.samples.size(); ++t)
           per_frame[std::to_string(t)] = {{"homography", matrix(h)}, {"imgpts", imgpts}};
         meta["camera_calibrations"][std::to_string(k)] = per_frame;
       }
     }
     json cams = json::array();
-    for (std::size_t k = 0; k < cameras.size(); ++k)
+    for (std::size_t k = 0; k < cameras_.size(); ++k)
       cams.push_back({{"camera", k},
-                      {"crop_box", o.paper_crop ? json{crops[k].x, crops[k].y, crops[k].width, crops[k].height} : json()},
-                      {"name", r.cameras()[cameras[k]].name},
-                      {"serial", r.cameras()[cameras[k]].serial},
-                      {"loader_corner_rms_px", result.cameras[k].loader_corner_rms_px},
-                      {"loader_corner_max_px", result.cameras[k].loader_corner_max_px}});
-    meta["pvcap"] = {{"session", here},
-                     {"participant_code", pseudonym},
+                      {"crop_box", o_.paper_crop ? json{crops_[k].x, crops_[k].y, crops_[k].width, crops_[k].height}
+                                                 : json()},
+                      {"name", reader_->cameras()[cameras_[k]].name},
+                      {"serial", reader_->cameras()[cameras_[k]].serial},
+                      {"loader_corner_rms_px", result_.cameras[k].loader_corner_rms_px},
+                      {"loader_corner_max_px", result_.cameras[k].loader_corner_max_px}});
+    meta["pvcap"] = {{"session", here_},
+                     {"participant_code", pseudonym_},
                      {"take", {{"step", p.take->step}, {"sequence", p.take->sequence}, {"status", p.take->status},
                                {"action", p.take->action}, {"hand", p.take->hand}, {"force", p.take->force},
                                {"repetitions", p.take->repetitions}}},
@@ -445,13 +495,32 @@ Result<ExportResult> export_session(const fs::path& session, const ExportOptions
                      {"samples_left_out", p.left_out},
                      {"cameras", cams},
                      {"force_units", "loader counts: kPa = value / 2.7125 (1736 per newton on a 1.25 mm sensel)"},
-                     {"paper_crop", o.paper_crop},
+                     {"paper_crop", o_.paper_crop},
                      {"timesteps", "seconds from the session's start on its one clock (CLOCK_MONOTONIC)"}};
-    if (auto w = write_atomically(dir / "manifest.json", manifest.dump(1) + "\n"); !w.ok()) return w.error();
-    if (auto w = write_atomically(dir / meta_name, meta.dump(1) + "\n"); !w.ok()) return w.error();
-    result.sequences.push_back(seq);
+    return meta;
   }
-  return result;
+
+  const fs::path session_;
+  const ExportOptions& o_;
+  const std::atomic<bool>& stop_;
+  const std::string here_;
+  std::unique_ptr<SessionReader> reader_;
+  std::vector<std::size_t> cameras_;
+  json pv_cameras_ = json::object();
+  std::vector<std::array<cv::Point2d, 4>> measured_pv_order_;
+  std::vector<cv::Rect> crops_;  // with --crop-paper: each camera's box in the recorded frame
+  protocol::SessionTakes takes_;
+  std::vector<SampleInfo> samples_;
+  std::vector<PlannedSequence> plan_;
+  std::size_t total_ = 0, done_ = 0;
+  std::string pseudonym_, participant_folder_;
+  ExportResult result_;
+};
+
+}  // namespace
+
+Result<ExportResult> export_session(const fs::path& session, const ExportOptions& o, const std::atomic<bool>& stop) {
+  return SessionExport(session, o, stop).run();
 }
 
 }  // namespace pvcap::exporting

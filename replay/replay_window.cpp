@@ -34,17 +34,8 @@ cv::Mat with_status(const cv::Mat& picture, const ReplayPlayer& player, std::int
 }
 }  // namespace
 
-bool display_available() {
-  for (const char* var : {"DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM"})
-    if (const char* v = std::getenv(var); v && *v) return true;
-  return false;
-}
-
 Result<WindowSummary> run_replay_window(const std::filesystem::path& session, const WindowOptions& options,
                                         const std::atomic<bool>* stop) {
-  if (!display_available())
-    return Error{"no display to open the replay window on (DISPLAY is not set): render the session with --out "
-                 "FILE.mp4 instead"};
   auto reader = SessionReader::open(session);
   if (!reader) return reader.error();
   auto composer = ReplayComposer::open(*reader.value(), session, options.pressure_full_scale_kpa);

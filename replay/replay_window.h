@@ -27,9 +27,6 @@ struct WindowSummary {
   std::size_t last_sample = 0;
 };
 
-// Whether there is a display to open a window on (DISPLAY, WAYLAND_DISPLAY or QT_QPA_PLATFORM set).
-bool display_available();
-
 Result<WindowSummary> run_replay_window(const std::filesystem::path& session, const WindowOptions& options,
                                         const std::atomic<bool>* stop = nullptr);
 

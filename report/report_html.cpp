@@ -161,11 +161,9 @@ std::string takes_timeline(const json& takes, double duration_s) {
 
 const char* kPalette[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b"};
 
-}  // namespace
-
-std::string render_html(const json& r) {
+// The page's head (style) and the session's summary table.
+void add_summary(std::string& h, const json& r) {
   const json& session = r.at("session");
-  std::string h;
   h += "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>pvcap report: " +
        esc(session.value("folder", "")) + "</title><style>"
        "body{font-family:system-ui,sans-serif;margin:24px auto;max-width:1100px;padding:0 16px;color:#222;"
@@ -196,8 +194,9 @@ std::string render_html(const json& r) {
                           esc(session["conditions"].value("sensor_overlay", "")));
   row("pvcap", esc(session.value("pvcap_version", "")));
   h += "</table>";
+}
 
-  // Captured and lost.
+void add_captured_and_lost(std::string& h, const json& r) {
   std::uint64_t lost = 0;
   bool reconciles = true;
   for (const auto& s : r.at("streams")) {
@@ -238,8 +237,9 @@ std::string render_html(const json& r) {
                     "in video + not kept (by reason); never received is the drops table (frames the device numbered "
                     "that never came).</p>"
                   : "<p class='bad'>Counts do not reconcile with the store: run `pvcap verify` on the session.</p>";
+}
 
-  // Sync self-check.
+void add_self_check(std::string& h, const json& r) {
   if (r.contains("self_check")) {
     const json& sc = r["self_check"];
     h += "<h2>Sync self-check</h2>";
@@ -260,8 +260,9 @@ std::string render_html(const json& r) {
     }
     h += "</table><p class='note'>" + esc(sc.value("method", "")) + "</p>";
   }
+}
 
-  // Intervals.
+void add_intervals(std::string& h, const json& r) {
   h += "<h2>Frame intervals</h2><p class='note'>Time between consecutive frames of each stream on the session clock; "
        "red lines: frames the device numbered that never arrived.</p>";
   for (const auto& s : r.at("intervals")) {
@@ -277,8 +278,9 @@ std::string render_html(const json& r) {
          line_plot({se}, "session time (s)", "interval (ms)", marks, std::make_pair(0.0, std::max(3 * med, 1.0))) +
          bar_plot(s["histogram"], "interval (ms)") + "</div>";
   }
+}
 
-  // Clocks.
+void add_clocks(std::string& h, const json& r) {
   h += "<h2>Clock models</h2><p class='note'>Each device's clock against the host's: how its offset moved (drift), "
        "and the 99th percentile of arrival latency above the fitted line (residuals). A reset starts a new segment."
        "</p><table><tr><th>stream</th><th>source</th><th>segments</th><th>resets</th><th>device clock fast by (ppm)"
@@ -311,8 +313,9 @@ std::string render_html(const json& r) {
       h += fmt::format("<span style='color:{}'>&#9632;</span> {} &nbsp; ", kPalette[k++ % 6], esc(c.value("name", "")));
     h += "</p>";
   }
+}
 
-  // Pairing.
+void add_pairing(std::string& h, const json& r) {
   {
     const json& p = r.at("pairing");
     h += "<h2>Pairing</h2>";
@@ -331,8 +334,10 @@ std::string render_html(const json& r) {
       h += "</table>";
     }
   }
+}
 
-  // Protocol.
+void add_protocol(std::string& h, const json& r) {
+  const json& session = r.at("session");
   {
     const json& p = r.at("protocol");
     h += "<h2>Protocol</h2>";
@@ -361,8 +366,9 @@ std::string render_html(const json& r) {
       h += "</table>";
     }
   }
+}
 
-  // Calibration.
+void add_calibration(std::string& h, const json& r) {
   h += "<h2>Calibration</h2><table><tr><th>camera</th><th>measured</th><th>RMS (px)</th><th>RMS (mm on the pad)</th>"
        "</tr>";
   for (const auto& c : r.at("calibration")) {
@@ -382,8 +388,9 @@ std::string render_html(const json& r) {
                        c.value("thumbnail_overlay", false) ? ", the pressure overlaid through its calibration"
                                                            : " (no pad calibration: no overlay)");
   h += "</div>";
+}
 
-  // Events.
+void add_events(std::string& h, const json& r) {
   h += "<h2>Events</h2>";
   if (r.at("events").empty()) h += "<p class='note'>none</p>";
   else {
@@ -393,6 +400,21 @@ std::string render_html(const json& r) {
                        esc(e.value("kind", "")), esc(e.value("message", "")));
     h += "</table>";
   }
+}
+
+}  // namespace
+
+std::string render_html(const json& r) {
+  std::string h;
+  add_summary(h, r);
+  add_captured_and_lost(h, r);
+  add_self_check(h, r);
+  add_intervals(h, r);
+  add_clocks(h, r);
+  add_pairing(h, r);
+  add_protocol(h, r);
+  add_calibration(h, r);
+  add_events(h, r);
   h += "<p class='note'>Made by pvcap report from the session's store; `pvcap report SESSION --json` prints the same "
        "figures.</p></body></html>\n";
   return h;

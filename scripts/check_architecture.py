@@ -5,6 +5,11 @@
 - No SQL statement outside storage/ (tests and bench aside).
 - The include graph between folders has no cycle and is at most 7 levels deep.
 - No function of the product is longer than 120 lines.
+- No module below app/ reads the environment (settings and test faults come down as values).
+
+- With `--graphviz FILE` (CMake's `--graphviz` output): the offline libraries (report, export, replay,
+  protocol, storage, the calibration commands) link neither the recording, the drivers, the simulator,
+  Aravis nor libusb; only the app, tests and benchmarks link the simulator.
 
 `--graph` prints the folder graph (what docs/architecture.md draws) and each folder's depth.
 """
@@ -131,8 +136,58 @@ def long_functions(path):
     return found
 
 
+OFFLINE = ["pvcap_storage", "pvcap_protocol", "pvcap_report", "pvcap_export", "pvcap_replay", "pvcap_calib_session",
+           "pvcap_codec"]
+NOT_OFFLINE = ["pvcap_session", "pvcap_console", "pvcap_capture", "pvcap_sim", "pvcap_sim_usb", "PkgConfig::ARAVIS",
+               "PkgConfig::LIBUSB", "PkgConfig::UMOCKDEV"]
+MAY_LINK_SIM = {"pvcap_sim", "pvcap_sim_usb", "pvcap_app_lib", "pvcap"}
+
+
+def link_graph(dot_file):
+    """target -> the targets it links, from CMake's --graphviz output."""
+    names, edges = {}, {}
+    with open(dot_file) as f:
+        for line in f:
+            m = re.match(r'\s*"(node\d+)" \[ label = "([^"]+)"', line)
+            if m:
+                names[m.group(1)] = m.group(2)
+            m = re.match(r'\s*"(node\d+)" -> "(node\d+)"', line)
+            if m:
+                edges.setdefault(m.group(1), set()).add(m.group(2))
+    return {names[a]: {names[b] for b in bs} for a, bs in edges.items() if a in names}
+
+
+def links_transitively(graph, target):
+    seen, todo = set(), [target]
+    while todo:
+        for d in graph.get(todo.pop(), ()):
+            if d not in seen:
+                seen.add(d)
+                todo.append(d)
+    return seen
+
+
+def check_links(dot_file, problems):
+    graph = link_graph(dot_file)
+    for target in OFFLINE:
+        if target not in graph and not any(target in v for v in graph.values()):
+            problems.append(f"{target}: not in {dot_file}")
+            continue
+        bad = sorted(links_transitively(graph, target) & set(NOT_OFFLINE))
+        if bad:
+            problems.append(f"{target} (an offline library) links {', '.join(bad)}")
+    for target in graph:
+        if target in MAY_LINK_SIM or target.endswith("_tests") or target.endswith("_bench") or \
+                target.startswith("fuzz") or target in ("make_store_seeds", "extract_sensel_seeds"):
+            continue
+        if "pvcap_sim" in links_transitively(graph, target):
+            problems.append(f"{target} links the simulator (only app/, tests/ and bench/ may)")
+
+
 def main():
     problems = []
+    if "--graphviz" in sys.argv:
+        check_links(sys.argv[sys.argv.index("--graphviz") + 1], problems)
     for folder in PRODUCT:
         if folder in ("sim", "app"):
             continue
@@ -140,6 +195,13 @@ def main():
             if re.search(r'#\s*include\s+"sim/', read(path)):
                 problems.append(f"{os.path.relpath(path, ROOT)}: includes the simulator (only sim/, app/, tests/ and "
                                 f"bench/ may)")
+    for folder in PRODUCT:
+        if folder in ("app", "sim"):
+            continue
+        for path in sources(folder):
+            if re.search(r"\bgetenv\s*\(", strip_comments_and_strings(read(path))):
+                problems.append(f"{os.path.relpath(path, ROOT)}: reads the environment (settings come from app/ as "
+                                f"values)")
     for folder in PRODUCT:
         if folder == "storage":
             continue

@@ -1,5 +1,6 @@
 #include "session/camera_pipeline.h"
 
+#include <climits>
 #include <cstring>
 #include <map>
 #include <string_view>
@@ -9,7 +10,6 @@
 #include <opencv2/imgproc.hpp>
 
 #include "capture/pixel_format.h"
-#include "core/fault_injection.h"
 #include "core/frame_pool.h"
 #include "core/time.h"
 
@@ -47,172 +47,202 @@ std::pair<cv::Mat, std::int64_t> Preview::get() const {
   return {bgr_.clone(), host_ns_};
 }
 
-void run_camera_pipeline(const CameraPipeline& p) {
-  AravisCamera& camera = p.camera;
-  const int index = p.index;
-  const std::int64_t device_id = p.device_id;
-  SessionWriter& writer = p.writer;
-  CameraTally& tally = p.tally;
-  sync::SessionTimeline& timeline = p.timeline;
-  TimelineEnd& end = p.end;
-  const std::size_t encoder_queue = p.encoder_queue;
-  const bool raw_video = writer.stores_raw(device_id);
-  std::int64_t next_preview_ns = 0;
-  std::uint32_t connection = UINT32_MAX;
-  std::map<std::pair<std::uint32_t, std::uint64_t>, HeldFrame> held;
-  // Pixel buffers are reused: a fresh 2 MB allocation per frame costs page faults by the thousand.
-  std::vector<std::vector<std::uint8_t>> spare;
-  auto recycle = [&](std::vector<std::uint8_t>&& pixels) {
-    if (spare.size() < 32) spare.push_back(std::move(pixels));
-  };
-  // So are the images for the encoder (mosaics or debayered): one for each it can hold, and the one
-  // being filled.
-  FramePool images(encoder_queue + 2);
-  // The frames the driver knows were lost, each run with its reason: a row in the store at once.
-  auto record_losses = [&] {
-    while (auto loss = camera.losses().pop_for(0ms)) {
-      const std::string_view reason = loss->reason;
-      auto& counter = reason == "queue_overflow"    ? tally.queue_overflow
-                      : reason == "buffer_underrun" ? tally.buffer_underrun
-                                                    : tally.not_received;
-      counter.fetch_add(loss->count, std::memory_order_relaxed);
-      writer.record(DropRecord{device_id, loss->connection, loss->first, loss->count, loss->reason, loss->noticed.ns});
+namespace {
+
+// One camera's worker: its frames from the driver to the timeline and the store. Holds each good
+// frame's pixels until the timeline says whether it is in a sample.
+class CameraWorker {
+ public:
+  explicit CameraWorker(const CameraPipeline& p)
+      : p_(p), raw_video_(p.writer.stores_raw(p.device_id)), images_(p.encoder_queue + 2), stall_(p.stall) {}
+
+  void run() {
+    auto& queue = p_.camera.frames();
+    while (!queue.closed_and_empty() || !p_.camera.losses().closed_and_empty()) {
+      auto frame = queue.pop_for(100ms);
+      record_losses();
+      apply_decisions();
+      give_up_undecided(host_now().ns - 5'000'000'000);
+      take_clock_probes();
+      if (frame) take(*frame);
     }
-  };
+    record_losses();
+    // The last worker to finish feeding makes the timeline decide what is pending.
+    if (p_.end.feeding.fetch_sub(1) == 1) {
+      p_.timeline.flush();
+      p_.end.flushed.store(true);
+    }
+    while (!p_.end.flushed.load()) std::this_thread::sleep_for(5ms);
+    apply_decisions();
+    give_up_undecided(INT64_MAX);  // nothing should be left; if it is, it is still recorded
+  }
+
+ private:
+  // The frames the driver knows were lost, each run with its reason: a row in the store at once.
+  void record_losses() {
+    while (auto loss = p_.camera.losses().pop_for(0ms)) {
+      const std::string_view reason = loss->reason;
+      auto& counter = reason == "queue_overflow"    ? p_.tally.queue_overflow
+                      : reason == "buffer_underrun" ? p_.tally.buffer_underrun
+                                                    : p_.tally.not_received;
+      counter.fetch_add(loss->count, std::memory_order_relaxed);
+      p_.writer.record(
+          DropRecord{p_.device_id, loss->connection, loss->first, loss->count, loss->reason, loss->noticed.ns});
+    }
+  }
+
   // The timeline's verdicts: the kept frame of a sample goes to the video, the others to the index.
-  auto apply_decisions = [&] {
-    for (const auto& d : timeline.take_decisions(index)) {
-      auto it = held.find({d.connection, d.sequence});
-      if (it == held.end()) continue;
+  void apply_decisions() {
+    for (const auto& d : p_.timeline.take_decisions(p_.index)) {
+      auto it = held_.find({d.connection, d.sequence});
+      if (it == held_.end()) continue;
       HeldFrame h = std::move(it->second);
-      held.erase(it);
+      held_.erase(it);
       if (!d.kept) {
         h.rec.reason = d.reason;
-        writer.record(std::move(h.rec));
+        p_.writer.record(std::move(h.rec));
         recycle(std::move(h.pixels));
         continue;
       }
-      // Raw video takes the sensor's own mosaic (no demosaicing here); colour video a BGR image.
-      const bool raw = raw_video && is_bayer(h.pixel_format);
-      const int raw_type = bayer_bit_depth(h.pixel_format) > 8 ? CV_16UC1 : CV_8UC1;
-      cv::Mat image = images.acquire(h.height, h.width, raw ? raw_type : CV_8UC3);
-      const std::size_t bytes = image.total() * image.elemSize();
-      Status converted;
-      if (!raw) {
-        converted = to_bgr(h.pixels.data(), h.pixels.size(), h.width, h.height, h.pixel_format, image);
-      } else if (h.pixels.size() < bytes) {
-        converted = Error{fmt::format("frame has {} bytes, a {}x{} mosaic needs {}", h.pixels.size(), h.width,
-                                      h.height, bytes)};
-      } else {
-        std::memcpy(image.data, h.pixels.data(), bytes);
-      }
-      recycle(std::move(h.pixels));
-      if (!converted) {
-        h.rec.reason = "unsupported_pixels: " + converted.error().message;
-      } else {
-        if (writer.submit_video(device_id, std::move(image), h.rec)) continue;  // the encoder records it
-        tally.encoder_behind.fetch_add(1, std::memory_order_relaxed);
-        h.rec.reason = "encoder_behind";
-      }
-      writer.record(std::move(h.rec));
+      encode(std::move(h));
     }
-  };
-  // A worker that falls behind, on purpose (core/fault_injection.h): tests meet buffer underruns
-  // and queue overflows through the real session.
-  std::optional<Stall> stall = p.stall;
-  std::int64_t first_frame_ns = 0;
-  auto& queue = camera.frames();
-  while (!queue.closed_and_empty() || !camera.losses().closed_and_empty()) {
-    auto frame = queue.pop_for(100ms);
-    record_losses();
-    apply_decisions();
-    // The timeline decides within a quarter second; a frame held far longer means it never will:
-    // record it rather than hold its pixels without bound.
-    const std::int64_t give_up_before = host_now().ns - 5'000'000'000;
-    for (auto it = held.begin(); it != held.end();)
-      if (it->second.rec.host_ns < give_up_before) {
+  }
+
+  // A kept frame to its encoder: raw video takes the sensor's own mosaic (no demosaicing here),
+  // colour video a BGR image.
+  void encode(HeldFrame h) {
+    const bool raw = raw_video_ && is_bayer(h.pixel_format);
+    const int raw_type = bayer_bit_depth(h.pixel_format) > 8 ? CV_16UC1 : CV_8UC1;
+    cv::Mat image = images_.acquire(h.height, h.width, raw ? raw_type : CV_8UC3);
+    const std::size_t bytes = image.total() * image.elemSize();
+    Status converted;
+    if (!raw) {
+      converted = to_bgr(h.pixels.data(), h.pixels.size(), h.width, h.height, h.pixel_format, image);
+    } else if (h.pixels.size() < bytes) {
+      converted = Error{fmt::format("frame has {} bytes, a {}x{} mosaic needs {}", h.pixels.size(), h.width, h.height,
+                                    bytes)};
+    } else {
+      std::memcpy(image.data, h.pixels.data(), bytes);
+    }
+    recycle(std::move(h.pixels));
+    if (!converted) {
+      h.rec.reason = "unsupported_pixels: " + converted.error().message;
+    } else {
+      if (p_.writer.submit_video(p_.device_id, std::move(image), h.rec)) return;  // the encoder records it
+      p_.tally.encoder_behind.fetch_add(1, std::memory_order_relaxed);
+      h.rec.reason = "encoder_behind";
+    }
+    p_.writer.record(std::move(h.rec));
+  }
+
+  // The timeline decides within a quarter second; a frame held far longer means it never will:
+  // recorded rather than its pixels held without bound.
+  void give_up_undecided(std::int64_t arrived_before_ns) {
+    for (auto it = held_.begin(); it != held_.end();)
+      if (it->second.rec.host_ns < arrived_before_ns) {
         it->second.rec.reason = "undecided";
-        writer.record(std::move(it->second.rec));
-        it = held.erase(it);
+        p_.writer.record(std::move(it->second.rec));
+        it = held_.erase(it);
       } else {
         ++it;
       }
-    // Timestamp-latch probes of this camera's clock (cameras that have the latch).
-    while (auto probe = camera.clock_probes().pop_for(0ms))
-      if (probe->connection == connection)
-        timeline.camera_probe(index, probe->device, probe->host_lo, probe->host_hi);
-    if (!frame) continue;
-    if (first_frame_ns == 0) first_frame_ns = frame->host_ts.ns;
-    if (stall && frame->host_ts.ns - first_frame_ns >= std::int64_t(stall->after_s * 1e9)) {
-      std::this_thread::sleep_for(std::chrono::duration<double>(stall->seconds));
-      stall.reset();
+  }
+
+  // Timestamp-latch probes of this camera's clock (cameras that have the latch).
+  void take_clock_probes() {
+    while (auto probe = p_.camera.clock_probes().pop_for(0ms))
+      if (probe->connection == connection_)
+        p_.timeline.camera_probe(p_.index, probe->device, probe->host_lo, probe->host_hi);
+  }
+
+  void take(CameraFrame& frame) {
+    if (first_frame_ns_ == 0) first_frame_ns_ = frame.host_ts.ns;
+    // A worker that falls behind, on purpose (core/fault_injection.h): tests meet buffer underruns
+    // and queue overflows through the real session.
+    if (stall_ && frame.host_ts.ns - first_frame_ns_ >= std::int64_t(stall_->after_s * 1e9)) {
+      std::this_thread::sleep_for(std::chrono::duration<double>(stall_->seconds));
+      stall_.reset();
     }
-    tally.received.fetch_add(1, std::memory_order_relaxed);
-    connection = frame->connection;
-    FrameRecord rec{device_id, frame->connection, frame->sequence, frame->frame_id, frame->device_ts.ns,
-                    frame->host_ts.ns, frame->aravis_system_ns, to_string(frame->status), false, "", {}, {}, {}, {}};
-    if (frame->identity != FrameIdentity::Own) {
+    p_.tally.received.fetch_add(1, std::memory_order_relaxed);
+    connection_ = frame.connection;
+    FrameRecord rec{p_.device_id, frame.connection, frame.sequence, frame.frame_id, frame.device_ts.ns,
+                    frame.host_ts.ns, frame.aravis_system_ns, to_string(frame.status), false, "", {}, {}, {}, {}};
+    if (frame.identity != FrameIdentity::Own) {
       // A buffer that is not the frame it names (the frame it was is counted in a gap): recorded,
       // never used. Without a frame id it has sequence 0, unknown.
-      tally.unidentified.fetch_add(1, std::memory_order_relaxed);
-      rec.reason = frame->identity == FrameIdentity::NoFrameId ? "no_frame_id_" + frame->detail
-                   : frame->identity == FrameIdentity::Duplicate ? std::string("duplicate_frame_id")
-                                                                 : "stale_metadata_" + frame->detail;
-    } else if (frame->status != FrameStatus::Good) {
-      tally.incomplete.fetch_add(1, std::memory_order_relaxed);
-      rec.reason = frame->detail;
+      p_.tally.unidentified.fetch_add(1, std::memory_order_relaxed);
+      rec.reason = frame.identity == FrameIdentity::NoFrameId ? "no_frame_id_" + frame.detail
+                   : frame.identity == FrameIdentity::Duplicate ? std::string("duplicate_frame_id")
+                                                                : "stale_metadata_" + frame.detail;
+    } else if (frame.status != FrameStatus::Good) {
+      p_.tally.incomplete.fetch_add(1, std::memory_order_relaxed);
+      rec.reason = frame.detail;
     } else {
-      tally.good.fetch_add(1, std::memory_order_relaxed);
-      // Only complete frames with their own id and timestamp feed the clock model and the samples.
-      // The arrival it fits is the leader packet's, which Aravis stamps (CLOCK_REALTIME, us): the
-      // frame's first sign of life, without its payload's transfer time, which grows with load.
-      const std::int64_t leader_ns = frame->aravis_system_ns + (host_now().ns - wall_now_ns());
-      const bool leader_usable = frame->aravis_system_ns > 0 && leader_ns <= frame->host_ts.ns &&
-                                 frame->host_ts.ns - leader_ns < 1'000'000'000;
-      rec.mapped_ns = timeline
-                          .camera_frame(index, frame->connection, frame->sequence, frame->device_ts,
-                                        leader_usable ? HostNs{leader_ns} : frame->host_ts)
-                          .ns;
-      std::vector<std::uint8_t> pixels;
-      if (!spare.empty()) {
-        pixels = std::move(spare.back());
-        spare.pop_back();
-      }
-      pixels.assign(frame->data, frame->data + frame->size);  // reuses the capacity
-      tally.last_good_host_ns.store(frame->host_ts.ns, std::memory_order_relaxed);
-      // A preview every 0.7 s: a 1080p conversion costs ~10 ms, and a period that is no round number
-      // does not lock onto a rhythm of the participant (a press every second would otherwise show
-      // the same phase in every preview, and the operator could never mark a fingertip mid-press).
-      if (frame->host_ts.ns >= next_preview_ns) {
-        next_preview_ns = frame->host_ts.ns + 700'000'000;
-        cv::Mat full;
-        if (to_bgr(pixels.data(), pixels.size(), frame->width, frame->height, frame->pixel_format, full).ok()) {
-          cv::Mat small;
-          const double scale = 320.0 / std::max(1, frame->width);
-          cv::resize(full, small, {}, scale, scale, cv::INTER_AREA);
-          p.preview.set(std::move(small), std::move(full), frame->host_ts.ns);
-        }
-      }
-      HeldFrame h{std::move(rec), std::move(pixels), frame->pixel_format, frame->width, frame->height};
-      frame->lease.reset();  // the camera gets its buffer back before we encode
-      held.emplace(std::make_pair(h.rec.connection, h.rec.sequence), std::move(h));
-      apply_decisions();
-      continue;
+      take_good(frame, std::move(rec));
+      return;
     }
-    writer.record(std::move(rec));
+    p_.writer.record(std::move(rec));
   }
-  record_losses();
-  // The last worker to finish feeding makes the timeline decide what is pending.
-  if (end.feeding.fetch_sub(1) == 1) {
-    timeline.flush();
-    end.flushed.store(true);
+
+  // Only complete frames with their own id and timestamp feed the clock model and the samples.
+  void take_good(CameraFrame& frame, FrameRecord rec) {
+    p_.tally.good.fetch_add(1, std::memory_order_relaxed);
+    // The arrival it fits is the leader packet's, which Aravis stamps (CLOCK_REALTIME, us): the
+    // frame's first sign of life, without its payload's transfer time, which grows with load.
+    const std::int64_t leader_ns = frame.aravis_system_ns + (host_now().ns - wall_now_ns());
+    const bool leader_usable = frame.aravis_system_ns > 0 && leader_ns <= frame.host_ts.ns &&
+                               frame.host_ts.ns - leader_ns < 1'000'000'000;
+    rec.mapped_ns = p_.timeline
+                        .camera_frame(p_.index, frame.connection, frame.sequence, frame.device_ts,
+                                      leader_usable ? HostNs{leader_ns} : frame.host_ts)
+                        .ns;
+    std::vector<std::uint8_t> pixels;
+    if (!spare_.empty()) {
+      pixels = std::move(spare_.back());
+      spare_.pop_back();
+    }
+    pixels.assign(frame.data, frame.data + frame.size);  // reuses the capacity
+    p_.tally.last_good_host_ns.store(frame.host_ts.ns, std::memory_order_relaxed);
+    update_preview(frame, pixels);
+    HeldFrame h{std::move(rec), std::move(pixels), frame.pixel_format, frame.width, frame.height};
+    frame.lease.reset();  // the camera gets its buffer back before we encode
+    held_.emplace(std::make_pair(h.rec.connection, h.rec.sequence), std::move(h));
+    apply_decisions();
   }
-  while (!end.flushed.load()) std::this_thread::sleep_for(5ms);
-  apply_decisions();
-  for (auto& [key, h] : held) {  // nothing should be left; if it is, it is still recorded
-    h.rec.reason = "undecided";
-    writer.record(std::move(h.rec));
+
+  // A preview every 0.7 s: a 1080p conversion costs ~10 ms, and a period that is no round number does
+  // not lock onto a rhythm of the participant (a press every second would otherwise show the same
+  // phase in every preview, and the operator could never mark a fingertip mid-press).
+  void update_preview(const CameraFrame& frame, const std::vector<std::uint8_t>& pixels) {
+    if (frame.host_ts.ns < next_preview_ns_) return;
+    next_preview_ns_ = frame.host_ts.ns + 700'000'000;
+    cv::Mat full;
+    if (!to_bgr(pixels.data(), pixels.size(), frame.width, frame.height, frame.pixel_format, full).ok()) return;
+    cv::Mat small;
+    const double scale = 320.0 / std::max(1, frame.width);
+    cv::resize(full, small, {}, scale, scale, cv::INTER_AREA);
+    p_.preview.set(std::move(small), std::move(full), frame.host_ts.ns);
   }
-}
+
+  // Pixel buffers are reused: a fresh 2 MB allocation per frame costs page faults by the thousand.
+  void recycle(std::vector<std::uint8_t>&& pixels) {
+    if (spare_.size() < 32) spare_.push_back(std::move(pixels));
+  }
+
+  const CameraPipeline& p_;
+  const bool raw_video_;
+  // So are the images for the encoder (mosaics or debayered): one for each it can hold, and the one
+  // being filled.
+  FramePool images_;
+  std::optional<Stall> stall_;
+  std::map<std::pair<std::uint32_t, std::uint64_t>, HeldFrame> held_;
+  std::vector<std::vector<std::uint8_t>> spare_;
+  std::int64_t next_preview_ns_ = 0, first_frame_ns_ = 0;
+  std::uint32_t connection_ = UINT32_MAX;
+};
+
+}  // namespace
+
+void run_camera_pipeline(const CameraPipeline& p) { CameraWorker(p).run(); }
 
 }  // namespace pvcap::session

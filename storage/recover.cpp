@@ -35,7 +35,124 @@ std::string describe_migration(const std::vector<int>& passed, const std::filesy
   return fmt::format("index upgraded{} (the old index is kept as {}.v{}.bak)", versions, db.string(),
                      passed.front() - 1);
 }
-// Frames a spill file holds that no video does (the encoder was behind when the recording was cut):
+// A camera's video segment opened by recover, for the frames of a spill.
+struct SpillSegment {
+  std::unique_ptr<VideoWriter> video;
+  std::int64_t file_id = 0;
+  std::string path;
+};
+
+// The camera's next segment, with the settings its other segments were written with.
+Result<SpillSegment> open_next_segment(SessionIndex& index, const std::filesystem::path& dir, const StoreConfig& store,
+                                       std::int64_t device_id) {
+  auto& db = index.db();
+  auto q = db.prepare(
+      "SELECT path, width, height, bayer_format, segment FROM video_files WHERE device_id = ? ORDER BY segment DESC "
+      "LIMIT 1");
+  q.bind_all(device_id);
+  if (!q.step()) return Error{fmt::format("device {} has no video file to follow", device_id)};
+  const std::string last = q.column_text(0);
+  const std::string bayer = q.column_null(3) ? "" : q.column_text(3);
+  VideoSettings vs = camera_video_settings(store, int(q.column_int(1)), int(q.column_int(2)), bayer);
+  if (bayer.empty()) vs.bayer_format.clear();
+  const int segment = int(q.column_int(4)) + 1;
+  q.reset();
+  SpillSegment o;
+  o.path = fmt::format("{}-{:03}.mkv", last.substr(0, last.rfind('-')), segment);
+  auto opened = VideoWriter::open(dir / o.path, vs);
+  if (!opened) return opened.error();
+  o.video = std::move(opened.value());
+  VideoFileRecord rec{0, device_id, o.path, vs.stored_codec(), vs.stored_pixel_format(), vs.width, vs.height, segment};
+  if (vs.raw()) {
+    rec.layout = kBayerPlanesLayout;
+    rec.bayer_format = vs.bayer_format;
+    rec.bit_depth = vs.bit_depth;
+  }
+  auto next_id = db.prepare("SELECT coalesce(max(id), 0) + 1 FROM video_files");
+  next_id.step();
+  rec.id = next_id.column_int(0);
+  next_id.reset();
+  index.add_video_file(rec);
+  o.file_id = rec.id;
+  return o;
+}
+
+// One spill file's frames that no video holds, encoded into new segments in one transaction: all of
+// them committed and the spill deleted, or none and the spill kept for another try.
+void drain_spill(SessionIndex& index, const std::filesystem::path& dir, const std::filesystem::path& file,
+                 const StoreConfig& store, std::int64_t started_host_ns,
+                 const std::function<void(const std::string&)>& progress, RecoverReport& report) {
+  auto& db = index.db();
+  std::map<std::int64_t, SpillSegment> writers;  // by device
+  std::size_t encoded = 0, already = 0;
+  std::optional<std::string> failure;
+  sqlite::Transaction tx(db);
+  auto read = read_spill_file(file, [&](SpillRecord&& r) {
+    if (failure) return;
+    {
+      auto q = db.prepare("SELECT kept FROM frames WHERE device_id = ? AND connection = ? AND sequence = ?");
+      q.bind_all(r.rec.device_id, std::int64_t(r.rec.connection), std::int64_t(r.rec.sequence));
+      if (q.step() && q.column_int(0) == 1) {
+        ++already;
+        return;
+      }
+    }
+    auto it = writers.find(r.rec.device_id);
+    if (it == writers.end()) {
+      auto opened = open_next_segment(index, dir, store, r.rec.device_id);
+      if (!opened) {
+        failure = opened.error().message;
+        return;
+      }
+      it = writers.emplace(r.rec.device_id, std::move(opened.value())).first;
+    }
+    const std::int64_t pts_us = (r.rec.mapped_ns.value_or(r.rec.host_ns) - started_host_ns) / 1000;
+    auto at = it->second.video->write(r.image, pts_us);
+    if (!at) {
+      failure = at.error().message;
+      return;
+    }
+    FrameRecord row = r.rec;
+    row.kept = true;
+    row.reason.clear();
+    row.video_file_id = it->second.file_id;
+    row.video_index = at.value();
+    row.video_pts_ms = it->second.video->last_pts_ms();
+    auto update = db.prepare(
+        "UPDATE frames SET kept = 1, reason = NULL, video_file_id = ?, video_index = ?, video_pts_ms = ? WHERE "
+        "device_id = ? AND connection = ? AND sequence = ?");
+    update.bind_all(row.video_file_id, row.video_index, row.video_pts_ms, row.device_id, std::int64_t(row.connection),
+                    std::int64_t(row.sequence))
+        .run();
+    if (db.changes() == 0) index.add_frame(row);
+    ++encoded;
+    if (progress && encoded % 50 == 0)
+      progress(fmt::format("{}: {} spilled frames encoded", file.filename().string(), encoded));
+  });
+  for (auto& [device, o] : writers) {
+    const std::int64_t frames = o.video->frames_written();
+    if (Status c = o.video->close(); !c.ok() && !failure) failure = c.error().message;
+    index.close_video_file(VideoFileClosed{o.file_id, frames});
+  }
+  if (!read) failure = read.error().message;
+  std::error_code ec;
+  if (failure) {
+    // Nothing of this file is committed; the spill stays for another try.
+    tx.rollback();
+    for (auto& [device, o] : writers) std::filesystem::remove(dir / o.path, ec);
+    report.done.push_back(fmt::format("{}: could not be encoded ({}); kept for another recover",
+                                      file.filename().string(), *failure));
+    return;
+  }
+  tx.commit();
+  std::filesystem::remove(file, ec);
+  std::string line = fmt::format("{}: {} spilled frames encoded", file.filename().string(), encoded);
+  for (const auto& [device, o] : writers) line += fmt::format(" into {}", o.path);
+  if (already) line += fmt::format(" ({} were already in a video)", already);
+  report.done.push_back(line);
+}
+
+// Frames spill files hold that no video does (the encoder was behind when the recording was cut):
 // encoded into a new segment of their camera, and their rows made to say where they are. A spill
 // is deleted once all its frames are in a committed video; a second run finds nothing to do.
 void drain_spills(SessionIndex& index, const std::filesystem::path& dir,
@@ -48,11 +165,10 @@ void drain_spills(SessionIndex& index, const std::filesystem::path& dir,
   for (const auto& e : fs::directory_iterator(folder))
     if (e.path().extension() == ".spill") files.push_back(e.path());
   std::sort(files.begin(), files.end());  // <camera>-<n>: each camera's episodes in order
-  auto& db = index.db();
   std::int64_t started_host_ns = 0;
   StoreConfig store;
   {
-    auto q = db.prepare("SELECT started_host_ns, rig_config, rig_path FROM session");
+    auto q = index.db().prepare("SELECT started_host_ns, rig_config, rig_path FROM session");
     if (q.step()) {
       started_host_ns = q.column_int(0);
       try {
@@ -62,111 +178,7 @@ void drain_spills(SessionIndex& index, const std::filesystem::path& dir,
       }
     }
   }
-  for (const fs::path& file : files) {
-    struct Open {
-      std::unique_ptr<VideoWriter> video;
-      std::int64_t file_id = 0;
-      std::string path;
-    };
-    std::map<std::int64_t, Open> writers;  // by device
-    std::size_t encoded = 0, already = 0;
-    std::optional<std::string> failure;
-    sqlite::Transaction tx(db);
-    auto read = read_spill_file(file, [&](SpillRecord&& r) {
-      if (failure) return;
-      {
-        auto q = db.prepare("SELECT kept FROM frames WHERE device_id = ? AND connection = ? AND sequence = ?");
-        q.bind_all(r.rec.device_id, std::int64_t(r.rec.connection), std::int64_t(r.rec.sequence));
-        if (q.step() && q.column_int(0) == 1) {
-          ++already;
-          return;
-        }
-      }
-      auto it = writers.find(r.rec.device_id);
-      if (it == writers.end()) {
-        // The camera's next segment, with the settings its other segments were written with.
-        auto q = db.prepare(
-            "SELECT path, width, height, bayer_format, segment FROM video_files WHERE device_id = ? ORDER BY segment "
-            "DESC LIMIT 1");
-        q.bind_all(r.rec.device_id);
-        if (!q.step()) {
-          failure = fmt::format("device {} has no video file to follow", r.rec.device_id);
-          return;
-        }
-        const std::string last = q.column_text(0);
-        const std::string bayer = q.column_null(3) ? "" : q.column_text(3);
-        VideoSettings vs = camera_video_settings(store, int(q.column_int(1)), int(q.column_int(2)), bayer);
-        if (bayer.empty()) vs.bayer_format.clear();
-        const int segment = int(q.column_int(4)) + 1;
-        q.reset();
-        const std::string stem = last.substr(0, last.rfind('-'));
-        Open o;
-        o.path = fmt::format("{}-{:03}.mkv", stem, segment);
-        auto opened = VideoWriter::open(dir / o.path, vs);
-        if (!opened) {
-          failure = opened.error().message;
-          return;
-        }
-        o.video = std::move(opened.value());
-        VideoFileRecord rec{0, r.rec.device_id, o.path, vs.stored_codec(), vs.stored_pixel_format(), vs.width,
-                            vs.height, segment};
-        if (vs.raw()) {
-          rec.layout = kBayerPlanesLayout;
-          rec.bayer_format = vs.bayer_format;
-          rec.bit_depth = vs.bit_depth;
-        }
-        auto next_id = db.prepare("SELECT coalesce(max(id), 0) + 1 FROM video_files");
-        next_id.step();
-        rec.id = next_id.column_int(0);
-        next_id.reset();
-        index.add_video_file(rec);
-        o.file_id = rec.id;
-        it = writers.emplace(r.rec.device_id, std::move(o)).first;
-      }
-      const std::int64_t pts_us = (r.rec.mapped_ns.value_or(r.rec.host_ns) - started_host_ns) / 1000;
-      auto at = it->second.video->write(r.image, pts_us);
-      if (!at) {
-        failure = at.error().message;
-        return;
-      }
-      FrameRecord row = r.rec;
-      row.kept = true;
-      row.reason.clear();
-      row.video_file_id = it->second.file_id;
-      row.video_index = at.value();
-      row.video_pts_ms = it->second.video->last_pts_ms();
-      auto update = db.prepare(
-          "UPDATE frames SET kept = 1, reason = NULL, video_file_id = ?, video_index = ?, video_pts_ms = ? WHERE "
-          "device_id = ? AND connection = ? AND sequence = ?");
-      update.bind_all(row.video_file_id, row.video_index, row.video_pts_ms, row.device_id,
-                      std::int64_t(row.connection), std::int64_t(row.sequence))
-          .run();
-      if (db.changes() == 0) index.add_frame(row);
-      ++encoded;
-      if (progress && encoded % 50 == 0)
-        progress(fmt::format("{}: {} spilled frames encoded", file.filename().string(), encoded));
-    });
-    for (auto& [device, o] : writers) {
-      const std::int64_t frames = o.video->frames_written();
-      if (Status c = o.video->close(); !c.ok() && !failure) failure = c.error().message;
-      index.close_video_file(VideoFileClosed{o.file_id, frames});
-    }
-    if (!read) failure = read.error().message;
-    if (failure) {
-      // Nothing of this file is committed; the spill stays for another try.
-      tx.rollback();
-      for (auto& [device, o] : writers) fs::remove(dir / o.path, ec);
-      report.done.push_back(fmt::format("{}: could not be encoded ({}); kept for another recover",
-                                        file.filename().string(), *failure));
-      continue;
-    }
-    tx.commit();
-    fs::remove(file, ec);
-    std::string line = fmt::format("{}: {} spilled frames encoded", file.filename().string(), encoded);
-    for (const auto& [device, o] : writers) line += fmt::format(" into {}", o.path);
-    if (already) line += fmt::format(" ({} were already in a video)", already);
-    report.done.push_back(line);
-  }
+  for (const fs::path& file : files) drain_spill(index, dir, file, store, started_host_ns, progress, report);
   fs::remove(folder, ec);  // when empty
 }
 }  // namespace

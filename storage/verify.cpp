@@ -12,195 +12,230 @@
 #include "storage/video_reader.h"
 
 namespace pvcap {
+
 namespace {
 
-std::int64_t scalar(sqlite::Database& db, const std::string& sql) {
-  auto q = db.prepare(sql);
-  return q.step() && !q.column_null(0) ? q.column_int(0) : 0;
-}
+// The checks of one session folder, step by step, each adding to the report.
+class Verifier {
+ public:
+  Verifier(const std::filesystem::path& dir, const std::function<void(const std::string&)>& progress, VerifyReport& r)
+      : dir_(dir), db_path_(dir / "session.db"), progress_(progress), r_(r), db_(db_path_, sqlite::Database::Mode::ReadOnly) {}
+
+  void run() {
+    if (!check_format() || !check_session_row()) return;
+    check_videos();
+    check_pressure();
+    check_samples();
+    check_recorded_losses();
+  }
+
+ private:
+  void say(const std::string& step) const {
+    if (progress_) progress_(step);
+  }
+
+  // A store this pvcap reads, and not damaged as a database.
+  bool check_format() {
+    const int version = db_.user_version();
+    if (version != kSchemaVersion) {
+      r_.errors.push_back(
+          version < kSchemaVersion && version >= 1
+              ? fmt::format("{}: written by an older pvcap (store version {}); 'pvcap migrate {}' upgrades it to "
+                            "version {} (keeping a copy of the old index)",
+                            db_path_.string(), version, dir_.string(), kSchemaVersion)
+              : fmt::format("{}: store format version {}; this pvcap reads version {}", db_path_.string(), version,
+                            kSchemaVersion));
+      return false;
+    }
+    auto q = db_.prepare("PRAGMA quick_check");  // "ok", or what is damaged
+    if (q.step() && q.column_text(0) != "ok")
+      r_.errors.push_back(fmt::format("{}: damaged: {}", db_path_.string(), q.column_text(0)));
+    return true;
+  }
+
+  // How the recording ended.
+  bool check_session_row() {
+    auto q = db_.prepare("SELECT started_host_ns, ended_host_ns, end_reason FROM session");
+    if (!q.step()) {
+      r_.errors.push_back(fmt::format("{}: no session row", db_path_.string()));
+      return false;
+    }
+    started_ = q.column_int(0);
+    clean_end_ = !q.column_null(1);
+    const std::string reason = q.column_null(2) ? "" : q.column_text(2);
+    if (!clean_end_)
+      r_.losses.push_back("the recording did not end cleanly (crash, kill or power loss): 'pvcap recover' makes it "
+                          "readable");
+    else if (reason.rfind("interrupted", 0) == 0)
+      r_.losses.push_back(fmt::format("the recording was interrupted ({}): its last moments are lost", reason));
+    else r_.facts.push_back(fmt::format("ended: {}", reason));
+    return true;
+  }
+
+  // Videos against the index.
+  void check_videos() {
+    auto files = db_.prepare(
+        "SELECT v.id, v.path, d.name, v.state FROM video_files v JOIN devices d ON d.id = v.device_id ORDER BY v.id");
+    std::vector<std::tuple<std::int64_t, std::string, std::string>> videos;
+    while (files.step()) videos.emplace_back(files.column_int(0), files.column_text(1), files.column_text(3));
+    for (const auto& [id, path, state] : videos) check_video(id, path, state);
+  }
+
+  void check_video(std::int64_t id, const std::string& path, const std::string& state) {
+    // A segment left open by a crash, or cut by a failed write, may hold frames whose rows were
+    // never committed, or miss frames whose rows were: losses, not damage. A closed one may not.
+    const bool finished = state == "closed" || state == "recovered";
+    if (state == "open" && !clean_end_)
+      r_.losses.push_back(fmt::format("{}: was being written when the recording stopped; 'pvcap recover' closes it",
+                                      path));
+    say(fmt::format("checking {}", path));
+    auto rows = db_.prepare("SELECT video_index, host_ns, video_pts_ms FROM frames WHERE video_file_id = ? AND "
+                            "kept = 1 ORDER BY video_index");
+    rows.bind_all(id);
+    std::vector<std::pair<std::int64_t, VideoTimestamp>> kept;
+    while (rows.step())
+      kept.emplace_back(rows.column_int(0),
+                        video_timestamp(rows.column_null(2) ? std::nullopt : std::optional(rows.column_int(2)),
+                                        rows.column_int(1), started_));
+    auto reader = VideoReader::open(dir_ / path);
+    if (!reader) {
+      // Cut before its first frame reached the disk: a loss when the recording was interrupted
+      // (recover marks its rows lost), damage otherwise.
+      const bool cut_early = (state == "open" && !clean_end_) || state == "unreadable";
+      if (cut_early && kept.empty())
+        r_.losses.push_back(fmt::format("{}: holds no readable frame (cut before its first frame was written)", path));
+      else
+        ((cut_early ? r_.losses : r_.errors))
+            .push_back(fmt::format("{}: {}; {} indexed frames cannot be read", path, reader.error().message,
+                                   kept.size()));
+      return;
+    }
+    std::size_t n = 0, wrong_time = 0, key_frames = 0;
+    std::int64_t pts_ms = 0;
+    bool key = false;
+    std::string read_error;
+    for (;;) {
+      auto more = reader.value()->next_packet(pts_ms, key);
+      if (!more) {
+        read_error = more.error().message;
+        break;
+      }
+      if (!more.value()) break;
+      if (n < kept.size() && std::llabs(pts_ms - kept[n].second.ms) > kept[n].second.tolerance_ms) ++wrong_time;
+      key_frames += key;
+      ++n;
+    }
+    bool contiguous = true;
+    for (std::size_t i = 0; i < kept.size(); ++i) contiguous &= kept[i].first == std::int64_t(i);
+    r_.facts.push_back(fmt::format("{}: {} frames in the video, {} kept in the index, {} key frames", path, n,
+                                   kept.size(), key_frames));
+    if (!read_error.empty()) r_.errors.push_back(read_error);
+    if (!contiguous) r_.errors.push_back(fmt::format("{}: the index's video positions are not 0, 1, 2, ...", path));
+    // A session that did not end cleanly may lose the open part of a video; one that did, may not.
+    auto& missing = clean_end_ && finished ? r_.errors : r_.losses;
+    if (n < kept.size())
+      missing.push_back(fmt::format("{}: {} indexed frames are missing from the video (it ends at frame {})", path,
+                                    kept.size() - n, n));
+    if (n > kept.size())
+      missing.push_back(fmt::format("{}: {} frames in the video have no index row", path, n - kept.size()));
+    if (wrong_time)
+      r_.errors.push_back(fmt::format("{}: {} frames carry another timestamp than their index row", path, wrong_time));
+  }
+
+  // The device payload parses on its grid, and the portable counts beside it hold the same image.
+  void check_pressure() {
+    say("checking pressure frames");
+    auto q = db_.prepare(
+        "SELECT payload, grid_cols, grid_rows, grid_xscale, grid_yscale, sequence, base, counts FROM pressure_frames");
+    std::size_t total = 0, bad = 0;
+    std::string first_bad;
+    auto fail = [&](std::int64_t seq, const std::string& why) {
+      if (!bad++) first_bad = fmt::format("sequence {}: {}", seq, why);
+    };
+    while (q.step()) {
+      ++total;
+      const auto payload = q.column_blob(0);
+      const sensel::Grid grid{int(q.column_int(1)), int(q.column_int(2)), int(q.column_int(3)), int(q.column_int(4))};
+      auto f = sensel::parse_frame(payload, grid);
+      if (!f) {
+        fail(q.column_int(5), f.error().message);
+        continue;
+      }
+      const auto& image = f.value().pressure;
+      if (image.has_value() != !q.column_null(7)) {
+        fail(q.column_int(5), image ? "its counts are missing" : "counts stored for a frame without pressure");
+        continue;
+      }
+      if (!image) continue;
+      auto counts = decompress_counts(q.column_blob(7), std::size_t(grid.cells()));
+      if (!counts) fail(q.column_int(5), counts.error().message);
+      else if (counts.value() != image->counts || q.column_int(6) != image->base)
+        fail(q.column_int(5), "its counts differ from its device payload");
+    }
+    r_.facts.push_back(fmt::format("pressure frames: {} stored, {} decode", total, total - bad));
+    if (bad) r_.errors.push_back(fmt::format("{} pressure frames do not decode (first: {})", bad, first_bad));
+  }
+
+  // Samples name frames that are in the videos.
+  void check_samples() {
+    const auto samples = scalar("SELECT count(*) FROM samples");
+    const auto dangling = scalar("SELECT count(*) FROM sample_frames sf LEFT JOIN frames f USING (device_id, "
+                                 "connection, sequence) WHERE f.kept IS NOT 1 OR f.video_index IS NULL");
+    const auto unpaired = scalar("SELECT count(*) FROM samples WHERE pressure_sequence IS NULL");
+    const bool has_sensel = scalar("SELECT count(*) FROM devices WHERE kind = 'sensel'") > 0;
+    r_.facts.push_back(fmt::format("samples: {}", samples));
+    if (dangling)
+      r_.losses.push_back(fmt::format("{} sample frames are not in a video (frames.reason says why)", dangling));
+    if (has_sensel && unpaired) r_.losses.push_back(fmt::format("{} samples have no pressure frame", unpaired));
+  }
+
+  // Losses recorded during capture.
+  void check_recorded_losses() {
+    if (const auto n = scalar("SELECT sum(count) FROM drops"))
+      r_.losses.push_back(fmt::format("{} frames never arrived (drops table)", n));
+    if (const auto n = scalar("SELECT count(*) FROM frames WHERE status <> 'good'"))
+      r_.losses.push_back(fmt::format("{} frames arrived incomplete (frames.status)", n));
+    if (const auto n = scalar("SELECT count(*) FROM frames WHERE reason = 'encoder_behind'"))
+      r_.losses.push_back(fmt::format("{} kept frames were not encoded in time (reason encoder_behind)", n));
+    for (const char* why : {"lost_at_interruption", "video_write_failed", "spill_write_failed"})
+      if (const auto n = scalar(fmt::format("SELECT count(*) FROM frames WHERE reason = '{}'", why)))
+        r_.losses.push_back(fmt::format("{} frames meant for a video are not in it (reason {})", n, why));
+    // Frames still waiting in a spill (a crash caught the encoder behind): recover encodes them.
+    std::error_code ec;
+    std::size_t spills = 0;
+    for (std::filesystem::directory_iterator it(dir_ / kSpillFolder, ec), end; !ec && it != end; it.increment(ec))
+      spills += it->path().extension() == ".spill";
+    if (spills)
+      r_.losses.push_back(fmt::format("{}: {} spill file(s) hold frames that may not be in a video yet; 'pvcap "
+                                      "recover' encodes them",
+                                      (dir_ / kSpillFolder).string(), spills));
+  }
+
+  std::int64_t scalar(const std::string& sql) {
+    auto q = db_.prepare(sql);
+    return q.step() && !q.column_null(0) ? q.column_int(0) : 0;
+  }
+
+  const std::filesystem::path dir_, db_path_;
+  const std::function<void(const std::string&)>& progress_;
+  VerifyReport& r_;
+  sqlite::Database db_;
+  std::int64_t started_ = 0;
+  bool clean_end_ = true;
+};
 
 }  // namespace
 
 VerifyReport verify_session(const std::filesystem::path& dir, const std::function<void(const std::string&)>& progress) {
   VerifyReport r;
-  const auto db_path = dir / "session.db";
-  if (!std::filesystem::exists(db_path)) {
+  if (!std::filesystem::exists(dir / "session.db")) {
     r.errors.push_back(fmt::format("{}: not a session folder (no session.db)", dir.string()));
     return r;
   }
   try {
-    sqlite::Database db(db_path, sqlite::Database::Mode::ReadOnly);
-    const int version = db.user_version();
-    if (version != kSchemaVersion) {
-      r.errors.push_back(
-          version < kSchemaVersion && version >= 1
-              ? fmt::format("{}: written by an older pvcap (store version {}); 'pvcap migrate {}' upgrades it to "
-                            "version {} (keeping a copy of the old index)",
-                            db_path.string(), version, dir.string(), kSchemaVersion)
-              : fmt::format("{}: store format version {}; this pvcap reads version {}", db_path.string(), version,
-                            kSchemaVersion));
-      return r;
-    }
-    {
-      auto q = db.prepare("PRAGMA quick_check");  // "ok", or what is damaged
-      if (q.step() && q.column_text(0) != "ok")
-        r.errors.push_back(fmt::format("{}: damaged: {}", db_path.string(), q.column_text(0)));
-    }
-    std::int64_t started = 0;
-    bool clean_end = true;
-    {
-      auto q = db.prepare("SELECT started_host_ns, ended_host_ns, end_reason FROM session");
-      if (!q.step()) {
-        r.errors.push_back(fmt::format("{}: no session row", db_path.string()));
-        return r;
-      }
-      started = q.column_int(0);
-      clean_end = !q.column_null(1);
-      const std::string reason = q.column_null(2) ? "" : q.column_text(2);
-      if (!clean_end)
-        r.losses.push_back("the recording did not end cleanly (crash, kill or power loss): 'pvcap recover' makes it "
-                           "readable");
-      else if (reason.rfind("interrupted", 0) == 0)
-        r.losses.push_back(fmt::format("the recording was interrupted ({}): its last moments are lost", reason));
-      else r.facts.push_back(fmt::format("ended: {}", reason));
-    }
-
-    // Videos against the index.
-    auto files = db.prepare(
-        "SELECT v.id, v.path, d.name, v.state FROM video_files v JOIN devices d ON d.id = v.device_id ORDER BY v.id");
-    std::vector<std::tuple<std::int64_t, std::string, std::string, std::string>> videos;
-    while (files.step())
-      videos.emplace_back(files.column_int(0), files.column_text(1), files.column_text(2), files.column_text(3));
-    for (const auto& [id, path, camera, state] : videos) {
-      // A segment left open by a crash, or cut by a failed write, may hold frames whose rows were
-      // never committed, or miss frames whose rows were: losses, not damage. A closed one may not.
-      const bool finished = state == "closed" || state == "recovered";
-      if (state == "open" && !clean_end)
-        r.losses.push_back(fmt::format("{}: was being written when the recording stopped; 'pvcap recover' closes it",
-                                       path));
-      if (progress) progress(fmt::format("checking {}", path));
-      auto rows = db.prepare("SELECT video_index, host_ns, video_pts_ms FROM frames WHERE video_file_id = ? AND "
-                             "kept = 1 ORDER BY video_index");
-      rows.bind_all(id);
-      std::vector<std::pair<std::int64_t, VideoTimestamp>> kept;
-      while (rows.step())
-        kept.emplace_back(rows.column_int(0),
-                          video_timestamp(rows.column_null(2) ? std::nullopt : std::optional(rows.column_int(2)),
-                                          rows.column_int(1), started));
-      auto reader = VideoReader::open(dir / path);
-      if (!reader) {
-        // Cut before its first frame reached the disk: a loss when the recording was interrupted
-        // (recover marks its rows lost), damage otherwise.
-        const bool cut_early = (state == "open" && !clean_end) || state == "unreadable";
-        if (cut_early && kept.empty())
-          r.losses.push_back(fmt::format("{}: holds no readable frame (cut before its first frame was written)", path));
-        else
-          ((cut_early ? r.losses : r.errors))
-              .push_back(fmt::format("{}: {}; {} indexed frames cannot be read", path, reader.error().message,
-                                     kept.size()));
-        continue;
-      }
-      std::size_t n = 0, wrong_time = 0, key_frames = 0;
-      std::int64_t pts_ms = 0;
-      bool key = false;
-      std::string read_error;
-      for (;;) {
-        auto more = reader.value()->next_packet(pts_ms, key);
-        if (!more) {
-          read_error = more.error().message;
-          break;
-        }
-        if (!more.value()) break;
-        if (n < kept.size() && std::llabs(pts_ms - kept[n].second.ms) > kept[n].second.tolerance_ms) ++wrong_time;
-        key_frames += key;
-        ++n;
-      }
-      bool contiguous = true;
-      for (std::size_t i = 0; i < kept.size(); ++i) contiguous &= kept[i].first == std::int64_t(i);
-      r.facts.push_back(fmt::format("{}: {} frames in the video, {} kept in the index, {} key frames", path, n,
-                                    kept.size(), key_frames));
-      if (!read_error.empty()) r.errors.push_back(read_error);
-      if (!contiguous) r.errors.push_back(fmt::format("{}: the index's video positions are not 0, 1, 2, ...", path));
-      if (n < kept.size()) {
-        // A session that did not end cleanly may lose the open part of a video; one that did, may not.
-        (clean_end && finished ? r.errors : r.losses)
-            .push_back(fmt::format("{}: {} indexed frames are missing from the video (it ends at frame {})", path,
-                                   kept.size() - n, n));
-      }
-      if (n > kept.size())
-        (clean_end && finished ? r.errors : r.losses)
-            .push_back(fmt::format("{}: {} frames in the video have no index row", path, n - kept.size()));
-      if (wrong_time)
-        r.errors.push_back(fmt::format("{}: {} frames carry another timestamp than their index row", path, wrong_time));
-    }
-
-    // Pressure frames decode on their grid.
-    if (progress) progress("checking pressure frames");
-    {
-      // The device payload parses on its grid, and the portable counts beside it hold the same image.
-      auto q = db.prepare(
-          "SELECT payload, grid_cols, grid_rows, grid_xscale, grid_yscale, sequence, base, counts FROM pressure_frames");
-      std::size_t total = 0, bad = 0;
-      std::string first_bad;
-      auto fail = [&](std::int64_t seq, const std::string& why) {
-        if (!bad++) first_bad = fmt::format("sequence {}: {}", seq, why);
-      };
-      while (q.step()) {
-        ++total;
-        const auto payload = q.column_blob(0);
-        const sensel::Grid grid{int(q.column_int(1)), int(q.column_int(2)), int(q.column_int(3)), int(q.column_int(4))};
-        auto f = sensel::parse_frame(payload, grid);
-        if (!f) {
-          fail(q.column_int(5), f.error().message);
-          continue;
-        }
-        const auto& image = f.value().pressure;
-        if (image.has_value() != !q.column_null(7)) {
-          fail(q.column_int(5), image ? "its counts are missing" : "counts stored for a frame without pressure");
-          continue;
-        }
-        if (!image) continue;
-        auto counts = decompress_counts(q.column_blob(7), std::size_t(grid.cells()));
-        if (!counts) fail(q.column_int(5), counts.error().message);
-        else if (counts.value() != image->counts || q.column_int(6) != image->base)
-          fail(q.column_int(5), "its counts differ from its device payload");
-      }
-      r.facts.push_back(fmt::format("pressure frames: {} stored, {} decode", total, total - bad));
-      if (bad) r.errors.push_back(fmt::format("{} pressure frames do not decode (first: {})", bad, first_bad));
-    }
-
-    // Samples name frames that are in the videos.
-    const auto samples = scalar(db, "SELECT count(*) FROM samples");
-    const auto dangling = scalar(db, "SELECT count(*) FROM sample_frames sf LEFT JOIN frames f USING (device_id, "
-                                     "connection, sequence) WHERE f.kept IS NOT 1 OR f.video_index IS NULL");
-    const auto unpaired = scalar(db, "SELECT count(*) FROM samples WHERE pressure_sequence IS NULL");
-    const bool has_sensel = scalar(db, "SELECT count(*) FROM devices WHERE kind = 'sensel'") > 0;
-    r.facts.push_back(fmt::format("samples: {}", samples));
-    if (dangling)
-      r.losses.push_back(fmt::format("{} sample frames are not in a video (frames.reason says why)", dangling));
-    if (has_sensel && unpaired) r.losses.push_back(fmt::format("{} samples have no pressure frame", unpaired));
-
-    // Losses recorded during capture.
-    if (const auto n = scalar(db, "SELECT sum(count) FROM drops"))
-      r.losses.push_back(fmt::format("{} frames never arrived (drops table)", n));
-    if (const auto n = scalar(db, "SELECT count(*) FROM frames WHERE status <> 'good'"))
-      r.losses.push_back(fmt::format("{} frames arrived incomplete (frames.status)", n));
-    if (const auto n = scalar(db, "SELECT count(*) FROM frames WHERE reason = 'encoder_behind'"))
-      r.losses.push_back(fmt::format("{} kept frames were not encoded in time (reason encoder_behind)", n));
-    for (const char* why : {"lost_at_interruption", "video_write_failed", "spill_write_failed"})
-      if (const auto n = scalar(db, fmt::format("SELECT count(*) FROM frames WHERE reason = '{}'", why)))
-        r.losses.push_back(fmt::format("{} frames meant for a video are not in it (reason {})", n, why));
-    // Frames still waiting in a spill (a crash caught the encoder behind): recover encodes them.
-    std::error_code ec;
-    std::size_t spills = 0;
-    for (std::filesystem::directory_iterator it(dir / kSpillFolder, ec), end; !ec && it != end; it.increment(ec))
-      spills += it->path().extension() == ".spill";
-    if (spills)
-      r.losses.push_back(fmt::format("{}: {} spill file(s) hold frames that may not be in a video yet; 'pvcap "
-                                     "recover' encodes them",
-                                     (dir / kSpillFolder).string(), spills));
+    Verifier(dir, progress, r).run();
   } catch (const sqlite::SqliteError& e) {
-    r.errors.push_back(fmt::format("{}: {}", db_path.string(), e.what()));
+    r.errors.push_back(fmt::format("{}: {}", (dir / "session.db").string(), e.what()));
   }
   return r;
 }

@@ -1,0 +1,36 @@
+#include "console/web_images.h"
+
+#include <algorithm>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "capture/sensel_units.h"
+
+namespace pvcap::console {
+
+std::optional<std::string> camera_jpeg(const cv::Mat& image, bool full) {
+  std::vector<unsigned char> jpg;
+  if (image.empty() || !cv::imencode(".jpg", image, jpg, {cv::IMWRITE_JPEG_QUALITY, full ? 92 : 80})) return {};
+  return std::string(jpg.begin(), jpg.end());
+}
+
+std::optional<std::string> pressure_png(const session::PressureSnapshot& p) {
+  if (p.counts.empty() || int(p.counts.size()) != p.grid.cells()) return {};
+  cv::Mat level(p.grid.rows, p.grid.cols, CV_8U);
+  for (int r = 0; r < p.grid.rows; ++r)
+    for (int c = 0; c < p.grid.cols; ++c) {
+      const double kpa = sensel::native_cell_kpa(p.counts[std::size_t(r * p.grid.cols + c)], p.grid);
+      level.at<std::uint8_t>(r, c) = static_cast<std::uint8_t>(std::clamp(kpa / kHeatMapMaxKpa, 0.0, 1.0) * 255);
+    }
+  cv::Mat colour;
+  cv::applyColorMap(level, colour, cv::COLORMAP_INFERNO);
+  colour.setTo(cv::Scalar(0, 0, 0), level == 0);
+  cv::resize(colour, colour, {}, 4, 4, cv::INTER_NEAREST);
+  std::vector<unsigned char> png;
+  if (!cv::imencode(".png", colour, png)) return {};
+  return std::string(png.begin(), png.end());
+}
+
+}  // namespace pvcap::console
