@@ -14,10 +14,18 @@ sim::HandCommand auto_hand_command(const protocol::PlannedTake& take, std::int64
   c.y_mm = 65.0;
   c.period_s = record_s / take.action->repetitions;
   switch (take.action->force) {
-    case Force::Low: c.peak_grams = 120; break;
-    case Force::High: c.peak_grams = 450; break;
-    case Force::Any: c.peak_grams = 250; break;
-    case Force::NoContact: c.peak_grams = 0; break;
+    case Force::Low:
+      c.peak_grams = 120;
+      break;
+    case Force::High:
+      c.peak_grams = 450;
+      break;
+    case Force::Any:
+      c.peak_grams = 250;
+      break;
+    case Force::NoContact:
+      c.peak_grams = 0;
+      break;
   }
   c.mode = take.action->force == Force::NoContact ? sim::HandCommand::Mode::Hover : sim::HandCommand::Mode::Press;
   return c;

@@ -35,40 +35,49 @@ Registered add_calibrate_command(CLI::App& app, AppContext&) {
     std::string rig, ground_truth, reference, board_out;
   };
   auto a = std::make_shared<Args>();
-  auto* calibrate = app.add_subcommand("calibrate", "camera intrinsics from a board session, the pad's pose and "
-                                                    "homography from any session showing the mat");
+  auto* calibrate = app.add_subcommand("calibrate",
+                                       "camera intrinsics from a board session, the pad's pose and "
+                                       "homography from any session showing the mat");
   calibrate->require_subcommand(1);
   auto* board = calibrate->add_subcommand("board", "write the ChArUco board to print (.pdf or .png)");
   board->add_option("--out", a->board_out, "board.pdf or board.png")->required();
-  auto* intrinsics = calibrate->add_subcommand("intrinsics", "each camera's lens from a board session "
-                                                             "(pvcap session --board)");
-  auto* pad = calibrate->add_subcommand("pad", "the pad's pose and homography in each camera from the mat's markers, "
-                                               "with the intrinsics of a calibration file");
-  auto* check = calibrate->add_subcommand("check", "the press check: each press's pressure centroid against the "
-                                                   "fingertip seen in each camera, through the calibration");
+  auto* intrinsics = calibrate->add_subcommand("intrinsics",
+                                               "each camera's lens from a board session "
+                                               "(pvcap session --board)");
+  auto* pad = calibrate->add_subcommand("pad",
+                                        "the pad's pose and homography in each camera from the mat's markers, "
+                                        "with the intrinsics of a calibration file");
+  auto* check = calibrate->add_subcommand("check",
+                                          "the press check: each press's pressure centroid against the "
+                                          "fingertip seen in each camera, through the calibration");
   for (auto* c : {intrinsics, pad, check}) {
     c->add_option("SESSION", a->o.session, "the session folder")->required()->check(CLI::ExistingDirectory);
-    c->add_option("--rig", a->rig, "the rig file: the calibration file defaults to <rig>.calibration.yaml beside it "
-                                   "(otherwise SESSION/calibration.yaml)")->check(CLI::ExistingFile);
+    c->add_option("--rig", a->rig,
+                  "the rig file: the calibration file defaults to <rig>.calibration.yaml beside it "
+                  "(otherwise SESSION/calibration.yaml)")
+        ->check(CLI::ExistingFile);
     c->add_option("--frames", a->o.frames, "frames per camera to look at, spread over the session")
         ->check(CLI::Range(1, 100000));
   }
   for (auto* c : {intrinsics, pad}) {
-    auto* truth = c->add_option("--ground-truth", a->ground_truth, "a simulated run's sim-truth folder: print the "
-                                                                   "errors against it and exit 1 above target")
+    auto* truth = c->add_option("--ground-truth", a->ground_truth,
+                                "a simulated run's sim-truth folder: print the "
+                                "errors against it and exit 1 above target")
                       ->check(CLI::ExistingDirectory);
-    c->add_option("--reference", a->reference, "an earlier rig calibration file: print the errors against it and "
-                                               "exit 1 above target")
-        ->check(CLI::ExistingFile)->excludes(truth);
+    c->add_option("--reference", a->reference,
+                  "an earlier rig calibration file: print the errors against it and "
+                  "exit 1 above target")
+        ->check(CLI::ExistingFile)
+        ->excludes(truth);
   }
   intrinsics->add_option("--out", a->o.calibration, "the calibration file to write (updated if it exists)");
-  pad->add_option("--calibration", a->o.calibration, "the calibration file with the intrinsics (updated with the "
-                                                     "pose)");
+  pad->add_option("--calibration", a->o.calibration,
+                  "the calibration file with the intrinsics (updated with the "
+                  "pose)");
   check->add_option("--calibration", a->o.calibration, "the calibration file to check");
   return {calibrate, [a, board, intrinsics, pad, check] {
             if (*board) return calib::write_board(a->board_out);
-            if (a->o.calibration.empty() && !a->rig.empty())
-              a->o.calibration = calib::default_calibration_path(a->rig);
+            if (a->o.calibration.empty() && !a->rig.empty()) a->o.calibration = calib::default_calibration_path(a->rig);
             if (!a->ground_truth.empty()) a->o.reference = reference_from_truth(a->ground_truth);
             if (!a->reference.empty()) a->o.reference = reference_from_file(a->reference);
             if (*check) return calib::check_against_presses(a->o);

@@ -1,6 +1,6 @@
 #include "app/cmd_devices.h"
-#include "app/rig_launcher.h"
 #include "app/command.h"
+#include "app/rig_launcher.h"
 
 #include <unistd.h>
 
@@ -21,18 +21,21 @@ int cmd_devices(bool json, const std::vector<std::string>& extra_ttys) {
   const auto& sensels = listing.found;
   if (json) {
     for (const auto& c : cams)
-      fmt::print("{{\"kind\":\"camera\",\"vendor\":\"{}\",\"model\":\"{}\",\"serial\":\"{}\",\"address\":\"{}\","
-                 "\"interface\":\"{}\",\"mac\":\"{}\",\"id\":\"{}\"}}\n",
-                 c.vendor, c.model, c.serial, c.address, c.protocol, c.physical_id, c.device_id);
+      fmt::print(
+          "{{\"kind\":\"camera\",\"vendor\":\"{}\",\"model\":\"{}\",\"serial\":\"{}\",\"address\":\"{}\","
+          "\"interface\":\"{}\",\"mac\":\"{}\",\"id\":\"{}\"}}\n",
+          c.vendor, c.model, c.serial, c.address, c.protocol, c.physical_id, c.device_id);
     for (const auto& s : sensels)
-      fmt::print("{{\"kind\":\"sensel\",\"serial\":\"{}\",\"firmware\":\"{}\",\"tty\":\"{}\",\"usb_serial\":\"{}\","
-                 "\"grid\":[{},{}]}}\n",
-                 s.info.serial, s.info.firmware, s.tty, s.usb_serial, s.info.grid.cols, s.info.grid.rows);
+      fmt::print(
+          "{{\"kind\":\"sensel\",\"serial\":\"{}\",\"firmware\":\"{}\",\"tty\":\"{}\",\"usb_serial\":\"{}\","
+          "\"grid\":[{},{}]}}\n",
+          s.info.serial, s.info.firmware, s.tty, s.usb_serial, s.info.grid.cols, s.info.grid.rows);
     return 0;
   }
   if (cams.empty())
-    fmt::print("no GigE Vision camera answered discovery (check power, cabling, and that the cameras are on a "
-               "subnet of one of this machine's interfaces)\n");
+    fmt::print(
+        "no GigE Vision camera answered discovery (check power, cabling, and that the cameras are on a "
+        "subnet of one of this machine's interfaces)\n");
   else {
     fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} {}\n", "interface", "vendor", "model", "serial", "address", "mac");
     for (const auto& c : cams)
@@ -40,8 +43,9 @@ int cmd_devices(bool json, const std::vector<std::string>& extra_ttys) {
                  c.physical_id);
   }
   if (sensels.empty())
-    fmt::print("no Sensel Morph answered on /dev/ttyACM*, /dev/morph* or USB 2c2f:0003 (check the cable; the "
-               "user needs the dialout group or a udev rule)\n");
+    fmt::print(
+        "no Sensel Morph answered on /dev/ttyACM*, /dev/morph* or USB 2c2f:0003 (check the cable; the "
+        "user needs the dialout group or a udev rule)\n");
   else
     for (const auto& s : sensels) {
       std::string where = s.tty;

@@ -55,19 +55,25 @@ Registered add_eval_sync_command(CLI::App& app, AppContext& ctx) {
   auto o = std::make_shared<EvalSyncOptions>();
   auto* e = app.add_subcommand(
       "eval-sync", "record a simulated session with a hard timing scenario and measure the timeline against its truth");
-  e->add_option("--seconds", o->scenario.seconds, "length of the recording")->capture_default_str()
+  e->add_option("--seconds", o->scenario.seconds, "length of the recording")
+      ->capture_default_str()
       ->check(CLI::Range(5.0, 3600.0));
   e->add_option("--drift-ppm", o->scenario.drift_ppm, "camera clock drift (+- this; the Sensel half of it)")
-      ->capture_default_str()->check(CLI::Range(0.0, 1000.0));
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1000.0));
   e->add_option("--jitter-ms", o->scenario.jitter_ms, "Sensel USB arrival jitter cap (long tail; mean a quarter)")
-      ->capture_default_str()->check(CLI::Range(0.0, 50.0));
-  e->add_option("--loss", o->scenario.loss, "fraction of pressure frames the device loses")->capture_default_str()
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 50.0));
+  e->add_option("--loss", o->scenario.loss, "fraction of pressure frames the device loses")
+      ->capture_default_str()
       ->check(CLI::Range(0.0, 0.5));
   e->add_option("--seed", o->scenario.seed, "scenario seed")->capture_default_str();
-  e->add_option("--warmup", o->warmup_s, "seconds at the start left out of the timing errors")->capture_default_str()
+  e->add_option("--warmup", o->warmup_s, "seconds at the start left out of the timing errors")
+      ->capture_default_str()
       ->check(CLI::Range(0.0, 60.0));
-  e->add_option("--root", o->root, "folder for the scenario and its session (default: a temporary one, removed at "
-                                   "the end)");
+  e->add_option("--root", o->root,
+                "folder for the scenario and its session (default: a temporary one, removed at "
+                "the end)");
   return {e, [o, &ctx] { return eval_sync(*o, ctx); }};
 }
 

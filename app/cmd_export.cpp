@@ -3,7 +3,6 @@
 
 #include "app/progress_line.h"
 
-
 #include <chrono>
 #include <cstdio>
 
@@ -22,8 +21,8 @@ int cmd_export(const ExportCommand& c, const std::atomic<bool>& stop) {
       const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       const double rate = s > 0 ? double(done) / s : 0;
       const double left = rate > 0 ? double(total - done) / rate : 0;
-      bar.show(fmt::format("{}: {}/{} frames, {:.1f} frames/s, {:.0f} s left", session.filename().string(), done,
-                           total, rate, left),
+      bar.show(fmt::format("{}: {}/{} frames, {:.1f} frames/s, {:.0f} s left", session.filename().string(), done, total,
+                           rate, left),
                done, total);
     };
     auto r = exporting::export_session(session, o, stop);
@@ -36,9 +35,10 @@ int cmd_export(const ExportCommand& c, const std::atomic<bool>& stop) {
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     fmt::print("{} -> {}\n", session.string(), e.participant_folder.string());
     for (const auto& cam : e.cameras)
-      fmt::print("  camera {}: the loaders' pad corners lie {:.2f} px RMS ({:.2f} px at most) from the measured ones "
-                 "(their 235 x 135 mm pad against the real 231.25 x 131.25 mm grid)\n",
-                 cam.name, cam.loader_corner_rms_px, cam.loader_corner_max_px);
+      fmt::print(
+          "  camera {}: the loaders' pad corners lie {:.2f} px RMS ({:.2f} px at most) from the measured ones "
+          "(their 235 x 135 mm pad against the real 231.25 x 131.25 mm grid)\n",
+          cam.name, cam.loader_corner_rms_px, cam.loader_corner_max_px);
     std::size_t frames = 0, left_out = 0;
     for (const auto& q : e.sequences) {
       frames += q.frames;
@@ -46,10 +46,10 @@ int cmd_export(const ExportCommand& c, const std::atomic<bool>& stop) {
       fmt::print("  {:<48} {:>5} frames{}{}\n", q.folder, q.frames, q.status == "done" ? "" : " (" + q.status + ")",
                  q.was_complete ? ", already exported" : "");
     }
-    fmt::print("  {} sequences, {} frames ({} written now, {} found from an earlier run) in {:.1f} s{}\n",
-               e.sequences.size(), frames, e.frames_written, e.frames_found, s,
-               left_out ? fmt::format("; {} samples left out (a camera's frame or the pressure missing)", left_out)
-                        : "");
+    fmt::print(
+        "  {} sequences, {} frames ({} written now, {} found from an earlier run) in {:.1f} s{}\n", e.sequences.size(),
+        frames, e.frames_written, e.frames_found, s,
+        left_out ? fmt::format("; {} samples left out (a camera's frame or the pressure missing)", left_out) : "");
     if (e.interrupted) {
       fmt::print("  interrupted: run the same command again to finish (whole files are kept)\n");
       return 130;
@@ -66,11 +66,13 @@ Registered add_export_command(CLI::App& app, AppContext& ctx) {
     double from = -1, to = -1;
   };
   auto a = std::make_shared<Args>();
-  auto* e = app.add_subcommand("export", "write sessions in the PressureVisionDB layout (the released loaders read "
-                                         "them unchanged); one independent job per session");
+  auto* e = app.add_subcommand("export",
+                               "write sessions in the PressureVisionDB layout (the released loaders read "
+                               "them unchanged); one independent job per session");
   e->add_option("SESSION", a->c.sessions, "session folders")->required()->check(CLI::ExistingDirectory);
-  e->add_option("--layout", a->layout, "pressurevision (metadata.json) or pressurevision-plus (meta.json, a "
-                                       "homography per frame)")
+  e->add_option("--layout", a->layout,
+                "pressurevision (metadata.json) or pressurevision-plus (meta.json, a "
+                "homography per frame)")
       ->check(CLI::IsMember({"pressurevision", "pressurevision-plus"}));
   e->add_option("--out", a->c.options.out, "the dataset folder (shared by many sessions)")->required();
   e->add_option("--take", a->take, "only this take (its sequence name, as `pvcap takes` lists it)");

@@ -34,11 +34,12 @@ int replay_as_devices(const ReplayCommand& c) {
     return 1;
   }
   const auto& v = r.value();
-  fmt::print("replay rig: {}\n"
-             "its simulated devices re-serve {:.1f} s of {} ({:.1f} s at rate {:g}) through the GigE Vision and "
-             "Sensel protocols.\nrecord it again with:\n  pvcap session --rig {} --duration {:.1f}\n",
-             v.rig_file.string(), v.session_seconds, c.session.string(), v.replay_seconds, c.rate,
-             v.rig_file.string(), std::ceil(10 * (v.replay_seconds + kReplayStartS)) / 10);
+  fmt::print(
+      "replay rig: {}\n"
+      "its simulated devices re-serve {:.1f} s of {} ({:.1f} s at rate {:g}) through the GigE Vision and "
+      "Sensel protocols.\nrecord it again with:\n  pvcap session --rig {} --duration {:.1f}\n",
+      v.rig_file.string(), v.session_seconds, c.session.string(), v.replay_seconds, c.rate, v.rig_file.string(),
+      std::ceil(10 * (v.replay_seconds + kReplayStartS)) / 10);
   return 0;
 }
 }  // namespace
@@ -55,8 +56,9 @@ int cmd_replay(const ReplayCommand& c, const std::atomic<bool>& stop) {
     replay::WindowOptions w = c.window;
     w.pressure_full_scale_kpa = c.options.pressure_full_scale_kpa;
     if (!display_available()) {
-      spdlog::error("pvcap replay: no display to open the window on (DISPLAY is not set); render the session with "
-                    "--out FILE.mp4, or re-serve it with --as-devices");
+      spdlog::error(
+          "pvcap replay: no display to open the window on (DISPLAY is not set); render the session with "
+          "--out FILE.mp4, or re-serve it with --as-devices");
       return 2;
     }
     auto shown = replay::run_replay_window(c.session, w, &stop);
@@ -86,10 +88,11 @@ int cmd_replay(const ReplayCommand& c, const std::atomic<bool>& stop) {
     return 1;
   }
   const auto& v = r.value();
-  fmt::print("{}: {} frames, {:.1f} s of video showing {:.1f} s of the session, rendered in {:.1f} s ({:.2f} x real "
-             "time)\n",
-             c.options.out.string(), v.frames, v.video_seconds, v.session_seconds, v.seconds_taken,
-             v.seconds_taken > 0 ? v.session_seconds / v.seconds_taken : 0);
+  fmt::print(
+      "{}: {} frames, {:.1f} s of video showing {:.1f} s of the session, rendered in {:.1f} s ({:.2f} x real "
+      "time)\n",
+      c.options.out.string(), v.frames, v.video_seconds, v.session_seconds, v.seconds_taken,
+      v.seconds_taken > 0 ? v.session_seconds / v.seconds_taken : 0);
   return 0;
 }
 
@@ -100,10 +103,11 @@ Registered add_replay_command(CLI::App& app, AppContext& ctx) {
     double from = -1, to = -1;
   };
   auto a = std::make_shared<Args>();
-  auto* r = app.add_subcommand("replay", "render a recorded session into a video (the camera views with the pressure "
-                                         "overlaid through each calibration, the pressure image, the take, hand, force "
-                                         "and time), or re-serve it through the simulated devices (--as-devices); "
-                                         "without either, in a window (keys: space, arrows, [ ], p n, - +, q)");
+  auto* r = app.add_subcommand("replay",
+                               "render a recorded session into a video (the camera views with the pressure "
+                               "overlaid through each calibration, the pressure image, the take, hand, force "
+                               "and time), or re-serve it through the simulated devices (--as-devices); "
+                               "without either, in a window (keys: space, arrows, [ ], p n, - +, q)");
   r->add_option("SESSION", a->c.session, "a session folder")->required()->check(CLI::ExistingDirectory);
   r->add_option("--out", a->c.options.out, "the video to write (.mp4, or .mkv)");
   r->add_flag("--as-devices", a->c.as_devices,
@@ -113,8 +117,9 @@ Registered add_replay_command(CLI::App& app, AppContext& ctx) {
                 "--as-devices: play this much faster (default 1: the original timing; the round trip is exact only "
                 "at 1, as the device timestamps are scaled so the clocks keep their own rate)")
       ->check(CLI::Range(0.1, 10.0));
-  r->add_option("--keys", a->c.window.keys, "the window: press these keys first (space, right, left, n, p, +, -, q, "
-                                            "...; for demos and tests)")
+  r->add_option("--keys", a->c.window.keys,
+                "the window: press these keys first (space, right, left, n, p, +, -, q, "
+                "...; for demos and tests)")
       ->delimiter(',');
   r->add_option("--snapshot", a->c.window.snapshot, "the window: write its last picture here (PNG)");
   r->add_option("--rig-out", a->c.rig_out, "--as-devices: the rig file to write (default ./SESSION-replay.yaml)");
@@ -123,8 +128,9 @@ Registered add_replay_command(CLI::App& app, AppContext& ctx) {
   r->add_option("--to", a->to, "up to this many seconds after the session's start");
   r->add_option("--speed", a->c.options.speed, "playback speed (2: twice as fast; default 1)")
       ->check(CLI::PositiveNumber);
-  r->add_option("--pressure-max", a->c.options.pressure_full_scale_kpa, "pressure at the colour map's top, kPa "
-                                                                       "(default 60)")
+  r->add_option("--pressure-max", a->c.options.pressure_full_scale_kpa,
+                "pressure at the colour map's top, kPa "
+                "(default 60)")
       ->check(CLI::PositiveNumber);
   return {r, [a, &ctx] {
             if (!a->take.empty()) a->c.options.take = a->take;

@@ -16,7 +16,7 @@ namespace pvcap {
 struct ReplayCommand {
   std::filesystem::path session;
   replay::RenderOptions options;
-  bool as_devices = false;  // write the rig file that re-serves the session (sim/replay_rig.h)
+  bool as_devices = false;       // write the rig file that re-serves the session (sim/replay_rig.h)
   replay::WindowOptions window;  // neither --out nor --as-devices: the window (replay/replay_window.h)
   double rate = 1.0;
   std::filesystem::path rig_out;

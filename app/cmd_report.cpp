@@ -68,8 +68,9 @@ void write_session_report(const std::filesystem::path& session) {
 Registered add_report_command(CLI::App& app, AppContext&) {
   auto c = std::make_shared<ReportCommand>();
   auto no_self_check = std::make_shared<bool>(false);
-  auto* r = app.add_subcommand("report", "the session report: report.html in the session folder (captured and lost, "
-                                         "intervals, clocks, pairing, takes, calibration, sync self-check)");
+  auto* r = app.add_subcommand("report",
+                               "the session report: report.html in the session folder (captured and lost, "
+                               "intervals, clocks, pairing, takes, calibration, sync self-check)");
   r->add_option("SESSION", c->session, "the session folder")->required()->check(CLI::ExistingDirectory);
   r->add_flag("--json", c->json, "print the report's figures as JSON instead of writing the page");
   r->add_flag("--no-self-check", *no_self_check, "leave out the sync self-check (it decodes frames around presses)");

@@ -40,9 +40,10 @@ RigConfig rig_of_resumed_session(const std::filesystem::path& session) {
   if (!info.rig_path.empty() && std::filesystem::exists(info.rig_path, ec)) {
     RigConfig current = load_rig_config(info.rig_path);
     if (current.text == info.rig_config) return current;
-    spdlog::warn("{} changed since {} was recorded: the session continues with the rig it recorded (give --rig to "
-                 "use the file as it is now)",
-                 info.rig_path, session.string());
+    spdlog::warn(
+        "{} changed since {} was recorded: the session continues with the rig it recorded (give --rig to "
+        "use the file as it is now)",
+        info.rig_path, session.string());
   }
   return parse_rig_config(info.rig_config,
                           info.rig_path.empty() ? session / "rig.yaml" : std::filesystem::path(info.rig_path));
@@ -70,7 +71,8 @@ console::SessionSetup setup_from(const SessionArgs& a, const RigConfig& rig) {
   setup.auto_participant = a.auto_participant;
   opts.board_session = a.board;
   setup.fast = a.fast;
-  if (!a.participant.pseudonym.empty()) opts.participant = a.participant;
+  if (!a.participant.pseudonym.empty())
+    opts.participant = a.participant;
   else if (!a.participant.skin_tone.empty() || !a.participant.hand_order.empty())
     throw UserError("--skin-tone and --hand-order describe a participant: give --participant too");
   if (!a.conditions.lighting.empty() || !a.conditions.sensor_overlay.empty()) opts.conditions = a.conditions;
@@ -82,8 +84,9 @@ console::SessionSetup setup_from(const SessionArgs& a, const RigConfig& rig) {
 
 int run_session_command(const SessionArgs& a, AppContext& ctx) {
   if (a.rig_path.empty() && a.resume.empty())
-    throw UserError("pvcap session needs a rig: --rig RIG.yaml (or --resume SESSION, which records on the rig "
-                    "that session recorded)");
+    throw UserError(
+        "pvcap session needs a rig: --rig RIG.yaml (or --resume SESSION, which records on the rig "
+        "that session recorded)");
   const RigConfig rig = a.rig_path.empty() ? rig_of_resumed_session(a.resume) : load_rig_config(a.rig_path);
   console::SessionSetup setup = setup_from(a, rig);
   return report_recorded_session(record_session(rig, setup, ctx));
@@ -124,9 +127,9 @@ int report_recorded_session(const console::SessionOutcome& outcome) {
   if (rec.dir.empty()) return rec.exit_code;
   // The report the operator reads, from what the store holds (also kept as report.txt).
   auto text = report::session_text(rec.dir, rec.recorded_s);
-  std::string report = text ? text.value()
-                            : fmt::format("session: {}\nthe report could not be made: {}\n", rec.dir.string(),
-                                          text.error().message);
+  std::string report =
+      text ? text.value()
+           : fmt::format("session: {}\nthe report could not be made: {}\n", rec.dir.string(), text.error().message);
   for (const auto& note : rec.notes) report += note + "\n";
   fmt::print("\n{}", report);
   if (outcome.protocol) {
@@ -148,8 +151,10 @@ int report_recorded_session(const console::SessionOutcome& outcome) {
 Registered add_session_command(CLI::App& app, AppContext& ctx) {
   auto a = std::make_shared<SessionArgs>();
   auto* s = app.add_subcommand("session", "record a session into a new session folder");
-  s->add_option("--rig", a->rig_path, "rig description (rig-configs/*.yaml); with --resume, the session's own by "
-                                      "default")->check(CLI::ExistingFile);
+  s->add_option("--rig", a->rig_path,
+                "rig description (rig-configs/*.yaml); with --resume, the session's own by "
+                "default")
+      ->check(CLI::ExistingFile);
   s->add_option("--root", a->root, "folder that receives the new session folder")->capture_default_str();
   s->add_option("--duration", a->duration, "stop after this many seconds (otherwise Ctrl-C stops)")
       ->check(CLI::PositiveNumber);
@@ -164,14 +169,18 @@ Registered add_session_command(CLI::App& app, AppContext& ctx) {
       ->check(CLI::ExistingFile);
   s->add_flag("--auto", a->auto_participant, "simulated rig: the simulated hand performs every prompted take");
   s->add_flag("--fast", a->fast, "the protocol's short timings (a few seconds a take), for demos and tests");
-  s->add_flag("--board", a->board, "record a calibration board session (for `pvcap calibrate intrinsics`; a "
-                                   "simulated rig moves its own board)");
+  s->add_flag("--board", a->board,
+              "record a calibration board session (for `pvcap calibrate intrinsics`; a "
+              "simulated rig moves its own board)");
   s->add_option("--resume", a->resume, "continue the protocol of this interrupted session in a new folder")
       ->check(CLI::ExistingDirectory);
-  s->add_option("--web-bind", a->web.bind, "address the session's pages listen on (another than loopback needs a "
-                                           "token)")->capture_default_str();
+  s->add_option("--web-bind", a->web.bind,
+                "address the session's pages listen on (another than loopback needs a "
+                "token)")
+      ->capture_default_str();
   s->add_option("--web-port", a->web.port, "port of the session's pages (busy: another is taken and printed; 0: any)")
-      ->capture_default_str()->check(CLI::Range(0, 65535));
+      ->capture_default_str()
+      ->check(CLI::Range(0, 65535));
   s->add_option("--web-token", a->web.token, "token the pages require (generated when binding off loopback)");
   s->add_flag("--no-web", a->no_web, "serve no pages (the terminal console still works)");
   return {s, [a, s, &ctx] {

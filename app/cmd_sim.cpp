@@ -1,6 +1,6 @@
 #include "app/cmd_sim.h"
-#include "app/rig_launcher.h"
 #include "app/command.h"
+#include "app/rig_launcher.h"
 
 #include <sys/prctl.h>
 #include <unistd.h>
@@ -17,8 +17,8 @@
 
 namespace pvcap {
 
-int cmd_sim(const RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration, bool hand_commands,
-            bool board, std::atomic<bool>& stop) {
+int cmd_sim(const RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration,
+            bool hand_commands, bool board, std::atomic<bool>& stop) {
   // Started by a recording: end with it, even when it is killed (no orphaned simulator holding the rig).
   if (getppid() != 1) {
     const pid_t parent = getppid();
@@ -27,8 +27,9 @@ int cmd_sim(const RigConfig& rig, const std::filesystem::path& truth, std::optio
   }
   auto made = sim::SimRig::create(rig, truth, board);
   if (!made) throw UserError(made.error().message);
-  fmt::print(stderr, "pvcap sim: serving {} cameras; pid {} (inspect with: nsenter --net=/proc/{}/ns/net "
-                     "arv-tool-0.8)\n",
+  fmt::print(stderr,
+             "pvcap sim: serving {} cameras; pid {} (inspect with: nsenter --net=/proc/{}/ns/net "
+             "arv-tool-0.8)\n",
              made.value()->camera_count(), getpid(), getpid());
   std::thread timer;
   if (duration)
@@ -44,8 +45,10 @@ int cmd_sim(const RigConfig& rig, const std::filesystem::path& truth, std::optio
     std::thread([rig = made.value().get()] {
       std::string line;
       while (std::getline(std::cin, line)) {
-        if (auto c = sim::HandCommand::parse(line)) rig->steer(*c);
-        else spdlog::warn("sim: not a hand command: {}", line);
+        if (auto c = sim::HandCommand::parse(line))
+          rig->steer(*c);
+        else
+          spdlog::warn("sim: not a hand command: {}", line);
       }
     }).detach();
   made.value()->run(stop);

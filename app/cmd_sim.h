@@ -11,7 +11,7 @@
 
 namespace pvcap {
 
-int cmd_sim(const RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration, bool hand_commands,
-            bool board, std::atomic<bool>& stop);
+int cmd_sim(const RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration,
+            bool hand_commands, bool board, std::atomic<bool>& stop);
 
 }  // namespace pvcap

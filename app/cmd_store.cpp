@@ -26,16 +26,19 @@ Registered add_takes_command(CLI::App& app, AppContext&) {
               spdlog::error("{}", takes.error().message);
               return 1;
             }
-            if (*json) fmt::print("{}\n", protocol::takes_json(takes.value()).dump(2));
-            else fmt::print("{}", protocol::format_takes(takes.value()));
+            if (*json)
+              fmt::print("{}\n", protocol::takes_json(takes.value()).dump(2));
+            else
+              fmt::print("{}", protocol::format_takes(takes.value()));
             return 0;
           }};
 }
 
 Registered add_verify_command(CLI::App& app, AppContext&) {
   auto dir = std::make_shared<std::string>();
-  auto* v = app.add_subcommand("verify", "check a session folder: index against videos, pressure frames, samples; "
-                                         "exit 0 clean, 3 lossy but readable, 1 failed");
+  auto* v = app.add_subcommand("verify",
+                               "check a session folder: index against videos, pressure frames, samples; "
+                               "exit 0 clean, 3 lossy but readable, 1 failed");
   v->add_option("SESSION", *dir, "the session folder")->required()->check(CLI::ExistingDirectory);
   return {v, [dir] {
             const auto report = verify_session(*dir, log_step);
@@ -46,8 +49,9 @@ Registered add_verify_command(CLI::App& app, AppContext&) {
 
 Registered add_recover_command(CLI::App& app, AppContext&) {
   auto dir = std::make_shared<std::string>();
-  auto* r = app.add_subcommand("recover", "make a session interrupted by a crash or kill readable (closes its videos, "
-                                          "marks what was lost; never deletes anything)");
+  auto* r = app.add_subcommand("recover",
+                               "make a session interrupted by a crash or kill readable (closes its videos, "
+                               "marks what was lost; never deletes anything)");
   r->add_option("SESSION", *dir, "the session folder")->required()->check(CLI::ExistingDirectory);
   return {r, [dir] {
             auto done = recover_and_realign(*dir, log_step);
@@ -57,16 +61,19 @@ Registered add_recover_command(CLI::App& app, AppContext&) {
             }
             fmt::print("session {}\n", *dir);
             for (const auto& d : done.value()) fmt::print("  {}\n", d);
-            if (done.value().empty()) fmt::print("nothing to recover: the session ended cleanly\n");
-            else fmt::print("recovered: 'pvcap verify {}' says what is there\n", *dir);
+            if (done.value().empty())
+              fmt::print("nothing to recover: the session ended cleanly\n");
+            else
+              fmt::print("recovered: 'pvcap verify {}' says what is there\n", *dir);
             return 0;
           }};
 }
 
 Registered add_migrate_command(CLI::App& app, AppContext&) {
   auto dir = std::make_shared<std::string>();
-  auto* m = app.add_subcommand("migrate", "upgrade a session written by an older pvcap (keeps a copy of the old "
-                                          "index)");
+  auto* m = app.add_subcommand("migrate",
+                               "upgrade a session written by an older pvcap (keeps a copy of the old "
+                               "index)");
   m->add_option("SESSION", *dir, "the session folder")->required()->check(CLI::ExistingDirectory);
   return {m, [dir] {
             auto r = migrate_session(*dir, log_step);

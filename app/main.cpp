@@ -9,8 +9,8 @@
 #include <filesystem>
 #include <vector>
 
-#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
 
 #include "app/command.h"
 #include "core/log.h"
@@ -62,12 +62,12 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
   pvcap::AppContext ctx{g_stop, self_exe(), {}};
   const std::vector<pvcap::Registered> commands = {
-      pvcap::add_devices_command(app, ctx),   pvcap::add_session_command(app, ctx),
-      pvcap::add_takes_command(app, ctx),     pvcap::add_report_command(app, ctx),
-      pvcap::add_replay_command(app, ctx),    pvcap::add_export_command(app, ctx),
-      pvcap::add_sim_command(app, ctx),       pvcap::add_calibrate_command(app, ctx),
-      pvcap::add_sensel_command(app, ctx),    pvcap::add_eval_sync_command(app, ctx),
-      pvcap::add_verify_command(app, ctx),    pvcap::add_recover_command(app, ctx),
+      pvcap::add_devices_command(app, ctx), pvcap::add_session_command(app, ctx),
+      pvcap::add_takes_command(app, ctx),   pvcap::add_report_command(app, ctx),
+      pvcap::add_replay_command(app, ctx),  pvcap::add_export_command(app, ctx),
+      pvcap::add_sim_command(app, ctx),     pvcap::add_calibrate_command(app, ctx),
+      pvcap::add_sensel_command(app, ctx),  pvcap::add_eval_sync_command(app, ctx),
+      pvcap::add_verify_command(app, ctx),  pvcap::add_recover_command(app, ctx),
       pvcap::add_migrate_command(app, ctx)};
   try {
     app.parse(argc, argv);

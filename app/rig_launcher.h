@@ -42,8 +42,8 @@ class LaunchedRig {
   LaunchedRig(const LaunchedRig&) = delete;
   LaunchedRig& operator=(const LaunchedRig&) = delete;
 
-  RigConfig rig;                  // resolved: a simulated Sensel's tty is the simulator's pty
-  double device_wait_s = 0;       // how long opening the devices may keep trying
+  RigConfig rig;                                    // resolved: a simulated Sensel's tty is the simulator's pty
+  double device_wait_s = 0;                         // how long opening the devices may keep trying
   std::filesystem::path sensel_ports_dir = "/dev";  // where a Morph back under another name is looked for
 
   bool simulated() const { return bool(sim_); }

@@ -18,7 +18,7 @@ namespace {
 
 struct Synthetic {
   std::mt19937_64 rng{42};
-  std::exponential_distribution<double> jitter{1.0 / 1e6};  // 1 ms mean USB delay
+  std::exponential_distribution<double> jitter{1.0 / 1e6};                              // 1 ms mean USB delay
   std::int64_t device(std::int64_t t) const { return 5'000'000'000 + t + t / 20'000; }  // +50 ppm
   std::int64_t arrival(std::int64_t t) { return t + 300'000 + std::int64_t(std::min(jitter(rng), 4e6)); }
 };
@@ -49,7 +49,8 @@ Result run_pressure(double session_s, bool with_timeline) {
     model.add(dev, arr);
     aligner.add_pressure({0, std::uint64_t(i), model.map(dev)});
     // Samples reach the aligner ~300 ms behind the pressure stream, as in a recording.
-    while (next_sample * 66'666'667 + 300'000'000 < t) aligner.add_sample(next_sample++ * 66'666'667, std::uint64_t(key++));
+    while (next_sample * 66'666'667 + 300'000'000 < t)
+      aligner.add_sample(next_sample++ * 66'666'667, std::uint64_t(key++));
     for (auto& p : aligner.take()) r.paired += p.second.nearest ? 1 : 0;
     r.max_buffered = std::max(r.max_buffered, aligner.buffered());
   }
@@ -87,15 +88,17 @@ int main() {
   const Result pressure = run_pressure(session_s, true);
   const double frames = session_s * 125;
   std::printf("aligner_bench: synthetic streams, 1 core, no I/O\n");
-  std::printf("  pressure: clock model + aligner: %.0f frames/s (%.0f ns/frame; generating the stream alone: %.0f ns/frame); "
-              "%llu samples paired\n",
-              frames / (pressure.seconds - bare.seconds), (pressure.seconds - bare.seconds) / frames * 1e9,
-              bare.seconds / frames * 1e9, static_cast<unsigned long long>(pressure.paired));
+  std::printf(
+      "  pressure: clock model + aligner: %.0f frames/s (%.0f ns/frame; generating the stream alone: %.0f ns/frame); "
+      "%llu samples paired\n",
+      frames / (pressure.seconds - bare.seconds), (pressure.seconds - bare.seconds) / frames * 1e9,
+      bare.seconds / frames * 1e9, static_cast<unsigned long long>(pressure.paired));
   const Result minute = run_pressure(60, true);
-  std::printf("  aligner buffer: at most %zu frames (%zu bytes) over 1 min, %zu frames (%zu bytes) over 1 h: "
-              "bounded by the window, not the session\n",
-              minute.max_buffered, minute.max_buffered * sizeof(FrameRef), pressure.max_buffered,
-              pressure.max_buffered * sizeof(FrameRef));
+  std::printf(
+      "  aligner buffer: at most %zu frames (%zu bytes) over 1 min, %zu frames (%zu bytes) over 1 h: "
+      "bounded by the window, not the session\n",
+      minute.max_buffered, minute.max_buffered * sizeof(FrameRef), pressure.max_buffered,
+      pressure.max_buffered * sizeof(FrameRef));
   const Result cams = run_cameras(session_s);
   const double cam_frames = session_s * 60 * 4;
   std::printf("  cameras: 4 clock models + grouper + subsampler: %.0f frames/s (%.0f ns/frame), %llu samples\n",

@@ -58,9 +58,10 @@ int main(int argc, char** argv) {
     }
     const double ref_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / iterations;
     worst_ms = std::max(worst_ms, ours_ms);
-    std::printf("cam%d: detection + pose %.1f ms (target <= 10 ms), reprojection %.3f px; reference "
-                "detectMarkers(defaults) %.1f ms; ratio %.2f\n",
-                cam, ours_ms, rms, ref_ms, ours_ms / ref_ms);
+    std::printf(
+        "cam%d: detection + pose %.1f ms (target <= 10 ms), reprojection %.3f px; reference "
+        "detectMarkers(defaults) %.1f ms; ratio %.2f\n",
+        cam, ours_ms, rms, ref_ms, ours_ms / ref_ms);
   }
   std::printf("worst camera: %.1f ms per frame (%s)\n", worst_ms, worst_ms <= 10.0 ? "within target" : "OVER target");
   return 0;

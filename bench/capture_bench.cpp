@@ -38,9 +38,10 @@ double cpu_seconds() {
 std::string rig_yaml(int cameras, int width, int height, double fps) {
   std::string y = "name: bench\ncameras:\n";
   for (int i = 0; i < cameras; ++i)
-    y += fmt::format("  - {{name: cam{0}, serial: PVSIM{0}, address: 127.0.0.{1}, width: {2}, height: {3}, "
-                     "frame_rate: {4}, packet_size: 8192}}\n",
-                     i, i + 2, width, height, fps);
+    y += fmt::format(
+        "  - {{name: cam{0}, serial: PVSIM{0}, address: 127.0.0.{1}, width: {2}, height: {3}, "
+        "frame_rate: {4}, packet_size: 8192}}\n",
+        i, i + 2, width, height, fps);
   y += "sim:\n  cameras:\n";
   for (int i = 0; i < cameras; ++i) y += "    - {}\n";
   return y;
@@ -55,8 +56,10 @@ class Simulator {
     fs::create_directories(dir_);
     std::ofstream(dir_ / "rig.yaml") << rig_yaml(cameras, width, height, fps);
     auto started = sim::SimProcess::start(PVCAP_BIN, dir_ / "rig.yaml", dir_ / "truth", /*steerable=*/false);
-    if (started) process_ = std::move(started.value());
-    else fmt::print(stderr, "the simulator did not start: {}\n", started.error().message);
+    if (started)
+      process_ = std::move(started.value());
+    else
+      fmt::print(stderr, "the simulator did not start: {}\n", started.error().message);
   }
   ~Simulator() {
     process_.reset();  // stops it
@@ -98,7 +101,8 @@ std::pair<double, std::uint64_t> bare_aravis(const CameraConfig& c, double secon
   arv_camera_gv_set_packet_size(cam.get(), c.packet_size, nullptr);
   const std::size_t payload = arv_camera_get_payload(cam.get(), nullptr);
   arv::GPtr<ArvStream> stream(arv_camera_create_stream(cam.get(), nullptr, nullptr, nullptr));
-  for (std::size_t i = 0; i < buffer_count_for(c); ++i) arv_stream_push_buffer(stream.get(), arv_buffer_new(payload, nullptr));
+  for (std::size_t i = 0; i < buffer_count_for(c); ++i)
+    arv_stream_push_buffer(stream.get(), arv_buffer_new(payload, nullptr));
   arv_camera_start_acquisition(cam.get(), nullptr);
   std::this_thread::sleep_for(500ms);  // warm-up
   std::uint64_t frames = 0;
@@ -143,17 +147,24 @@ PathResult pvcap_path(const std::vector<CameraConfig>& configs, double seconds) 
     consumers.emplace_back([&, c = cam.get()] {
       while (!c->frames().closed_and_empty()) {
         auto f = c->frames().pop_for(100ms);
-        while (c->losses().pop_for(0ms)) {}  // counted from lost_before below
+        while (c->losses().pop_for(0ms)) {
+        }  // counted from lost_before below
         if (!f) continue;
         if (!counting.load()) continue;
-        if (f->status == FrameStatus::Good) good.fetch_add(1);
-        else lost.fetch_add(1);
+        if (f->status == FrameStatus::Good)
+          good.fetch_add(1);
+        else
+          lost.fetch_add(1);
         lost.fetch_add(f->lost_before);
       }
     });
   for (auto& cam : cams) (void)cam->start();
   std::this_thread::sleep_for(500ms);  // warm-up
-  const std::uint64_t overflow0 = [&] { std::uint64_t n = 0; for (auto& c : cams) n += c->counters().queue_overflows + c->counters().underruns; return n; }();
+  const std::uint64_t overflow0 = [&] {
+    std::uint64_t n = 0;
+    for (auto& c : cams) n += c->counters().queue_overflows + c->counters().underruns;
+    return n;
+  }();
   counting.store(true);
   const double cpu0 = cpu_seconds();
   std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
@@ -205,10 +216,11 @@ int main(int argc, char** argv) {
     }
     std::sort(bare_us.begin(), bare_us.end());
     std::sort(ours_us.begin(), ours_us.end());
-    fmt::print("cpu per 1080p frame @ {:.0f} fps (median of 3, [min..max]): bare aravis loop {:.0f} us [{:.0f}..{:.0f}] "
-               "({} frames), pvcap capture path {:.0f} us [{:.0f}..{:.0f}] ({} frames), ratio pvcap/bare {:.2f}\n",
-               fps, bare_us[1], bare_us[0], bare_us[2], bare_frames, ours_us[1], ours_us[0], ours_us[2], ours_frames,
-               bare_us[1] > 0 ? ours_us[1] / bare_us[1] : 0.0);
+    fmt::print(
+        "cpu per 1080p frame @ {:.0f} fps (median of 3, [min..max]): bare aravis loop {:.0f} us [{:.0f}..{:.0f}] "
+        "({} frames), pvcap capture path {:.0f} us [{:.0f}..{:.0f}] ({} frames), ratio pvcap/bare {:.2f}\n",
+        fps, bare_us[1], bare_us[0], bare_us[2], bare_frames, ours_us[1], ours_us[0], ours_us[2], ours_frames,
+        bare_us[1] > 0 ? ours_us[1] / bare_us[1] : 0.0);
   }
 
   // 2. Highest cameras x fps with zero drops (1080p BayerRG8, capture path).

@@ -19,7 +19,8 @@ struct Corpus {
 const Corpus& corpus() {
   static const Corpus c = [] {
     Corpus c;
-    const std::filesystem::path dir = std::filesystem::path(PVCAP_SOURCE_DIR) / ".." / "shared" / "data" / "sensel-captures";
+    const std::filesystem::path dir =
+        std::filesystem::path(PVCAP_SOURCE_DIR) / ".." / "shared" / "data" / "sensel-captures";
     for (const auto& e : std::filesystem::directory_iterator(dir)) {
       if (e.path().extension() != ".json" && e.path().extension() != ".jsonl") continue;
       auto f = pvcap::sensel::load_capture_file(e.path());

@@ -19,8 +19,8 @@
 #include <thread>
 
 #include <fmt/format.h>
-#include <opencv2/core.hpp>
 #include <spdlog/spdlog.h>
+#include <opencv2/core.hpp>
 
 #include "capture/pixel_format.h"
 #include "core/frame_pool.h"
@@ -91,8 +91,10 @@ double run_pipeline(const fs::path& root, const std::vector<std::vector<cv::Mat>
       const bool raw = writer.stores_raw(ids[c]);
       for (std::size_t i = 0; i < frames[c].size(); ++i) {
         cv::Mat image = images.acquire(kH, kW, raw ? CV_8UC1 : CV_8UC3);
-        if (raw) frames[c][i].copyTo(image);  // the mosaic, as the camera worker copies it
-        else (void)to_bgr(frames[c][i].data, frames[c][i].total(), kW, kH, kBayer, image);
+        if (raw)
+          frames[c][i].copyTo(image);  // the mosaic, as the camera worker copies it
+        else
+          (void)to_bgr(frames[c][i].data, frames[c][i].total(), kW, kH, kBayer, image);
         const std::int64_t t = t0 + std::int64_t(i) * 66'666'667;
         FrameRecord f{ids[c], 0, i, i, std::int64_t(i), t, 0, "good", false, "", {}, {}, t};
         // Full speed, but through memory only: waiting while the encoder's queue is full measures the
@@ -150,9 +152,10 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
     const std::string output = (dir / fmt::format("ffmpeg{}.mkv", c)).string();
     if (raw) {
       const std::string x264 = store.raw_codec == "libx264" ? " -preset " + store.preset + " -qp 0" : "";
-      return fmt::format("ffmpeg -hide_banner -loglevel error -y -f rawvideo -pix_fmt gray -s {}x{} -framerate 15 "
-                         "-i {} -c:v {}{} -pix_fmt gray -threads 1 {}",
-                         kW / 2, kH * 2, raw_path.string(), store.raw_codec, x264, output);
+      return fmt::format(
+          "ffmpeg -hide_banner -loglevel error -y -f rawvideo -pix_fmt gray -s {}x{} -framerate 15 "
+          "-i {} -c:v {}{} -pix_fmt gray -threads 1 {}",
+          kW / 2, kH * 2, raw_path.string(), store.raw_codec, x264, output);
     }
     return fmt::format(
         "ffmpeg -hide_banner -loglevel error -y -f rawvideo -pix_fmt bayer_rggb8 -s {}x{} -framerate 15 -i {} "
@@ -168,9 +171,10 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
     return seconds_since(t);
   };
   const double ffmpeg_fps = n / run_timed(ffmpeg_cmd(0));
-  std::printf("pipeline, 1 camera (%s + index): %.1f fps; ffmpeg command line, same frames and settings: %.1f fps; "
-              "ratio %.2f (goal >= 1.0)\n",
-              raw ? "plane split + encode" : "debayer + encode", pipeline_fps, ffmpeg_fps, pipeline_fps / ffmpeg_fps);
+  std::printf(
+      "pipeline, 1 camera (%s + index): %.1f fps; ffmpeg command line, same frames and settings: %.1f fps; "
+      "ratio %.2f (goal >= 1.0)\n",
+      raw ? "plane split + encode" : "debayer + encode", pipeline_fps, ffmpeg_fps, pipeline_fps / ffmpeg_fps);
 
   // 2. Four cameras at once: how many times faster than 4 x 15 Hz, and the same for four ffmpeg
   // command lines run side by side (what the machine allows at these settings).
@@ -181,9 +185,10 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
   for (int c = 0; c < 4; ++c) all += ffmpeg_cmd(c) + " & ";
   all += "wait)";
   const double ffmpeg_four_fps = 4.0 * n / run_timed(all);
-  std::printf("pipeline, 4 cameras: %.1f frames/s in all = real-time factor %.2f for 4 x 1080p at 15 Hz (goal >= "
-              "1.5); 4 ffmpeg command lines at once: real-time factor %.2f; ratio %.2f\n",
-              four_fps, four_fps / 60.0, ffmpeg_four_fps / 60.0, four_fps / ffmpeg_four_fps);
+  std::printf(
+      "pipeline, 4 cameras: %.1f frames/s in all = real-time factor %.2f for 4 x 1080p at 15 Hz (goal >= "
+      "1.5); 4 ffmpeg command lines at once: real-time factor %.2f; ratio %.2f\n",
+      four_fps, four_fps / 60.0, ffmpeg_four_fps / 60.0, four_fps / ffmpeg_four_fps);
 
   // 3. Random access and 4. sequential reading, on the four-camera store.
   auto reader = SessionReader::open(session);
@@ -198,9 +203,10 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
     ms.push_back(seconds_since(t) * 1e3);
     if (!img || img.value().empty()) std::printf("sample %zu camera %zu did not read\n", i, c);
   }
-  std::printf("random access, one camera image of a random sample%s: p50 %.1f ms, p95 %.1f ms, max %.1f ms (goal < "
-              "30 ms)\n",
-              raw ? " (decoded and demosaiced)" : "", percentile(ms, 0.5), percentile(ms, 0.95), percentile(ms, 1.0));
+  std::printf(
+      "random access, one camera image of a random sample%s: p50 %.1f ms, p95 %.1f ms, max %.1f ms (goal < "
+      "30 ms)\n",
+      raw ? " (decoded and demosaiced)" : "", percentile(ms, 0.5), percentile(ms, 0.95), percentile(ms, 1.0));
   const auto t_seq = Clock::now();
   for (std::size_t i = 0; i < r.sample_count(); ++i)
     if (!r.sample(i)) std::printf("sample %zu did not read\n", i);
@@ -241,9 +247,10 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
         worst_clean = std::min(worst_clean, cv::PSNR(img.value(), source));
       }
     }
-    std::printf("exactness, camera 0: lossy, worst frame PSNR %.1f dB, mean %.1f dB against the debayered source "
-                "(goal >= 45)",
-                worst, sum / double(std::min(r.sample_count(), frames[0].size())));
+    std::printf(
+        "exactness, camera 0: lossy, worst frame PSNR %.1f dB, mean %.1f dB against the debayered source "
+        "(goal >= 45)",
+        worst, sum / double(std::min(r.sample_count(), frames[0].size())));
     if (!clean.empty()) std::printf("; worst %.1f dB against the noise-free scene", worst_clean);
     std::printf("\n");
   }
@@ -256,11 +263,11 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
 
 int main(int argc, char** argv) {
   const int n = argc > 1 ? std::max(15, std::atoi(argv[1])) : 90;  // frames per camera (90 = 6 s at 15 Hz)
-  const double noise = argc > 2 ? std::atof(argv[2]) : 2.0;           // sensor noise, DN
+  const double noise = argc > 2 ? std::atof(argv[2]) : 2.0;        // sensor noise, DN
   const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-store-bench-{}", getpid());
   fs::remove_all(work);
   fs::create_directories(work);
-  spdlog::set_level(spdlog::level::warn);  // the writer's progress lines would interleave with the figures
+  spdlog::set_level(spdlog::level::warn);              // the writer's progress lines would interleave with the figures
   const std::string fields = argc > 3 ? argv[3] : "";  // store settings other than the defaults
   auto with = [&](const std::string& mode) { return fields.empty() ? mode : mode + ", " + fields; };
   try {
@@ -280,7 +287,9 @@ int main(int argc, char** argv) {
     std::printf("%s\n", e.what());
     return 1;
   }
-  if (!std::getenv("PVCAP_BENCH_KEEP")) fs::remove_all(work);
-  else std::printf("kept %s\n", work.c_str());
+  if (!std::getenv("PVCAP_BENCH_KEEP"))
+    fs::remove_all(work);
+  else
+    std::printf("kept %s\n", work.c_str());
   return 0;
 }

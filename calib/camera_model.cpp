@@ -15,7 +15,7 @@ CameraModel CameraModel::looking_at(cv::Size size, double focal_px, cv::Point2d 
   m.K = cv::Matx33d(focal_px, 0, principal.x, 0, focal_px, principal.y, 0, 0, 1);
   m.distortion = std::move(distortion);
   const cv::Vec3d z = cv::normalize(cv::Vec3d(target - position));
-  cv::Vec3d down(0, 1, 0);  // image rows follow +y...
+  cv::Vec3d down(0, 1, 0);                                       // image rows follow +y...
   if (std::abs(z.dot(down)) > 0.99) down = cv::Vec3d(-1, 0, 0);  // ...unless looking along it
   const cv::Vec3d y = cv::normalize(down - z * z.dot(down));
   const cv::Vec3d x = y.cross(z);

@@ -15,9 +15,9 @@ namespace pvcap::calib {
 struct CameraModel {
   cv::Size image_size;
   cv::Matx33d K = cv::Matx33d::eye();
-  std::vector<double> distortion;  // k1, k2, p1, p2[, k3[, k4, k5, k6]] (OpenCV's order); empty = none
+  std::vector<double> distortion;      // k1, k2, p1, p2[, k3[, k4, k5, k6]] (OpenCV's order); empty = none
   cv::Matx33d R = cv::Matx33d::eye();  // pad frame -> camera frame
-  cv::Vec3d t;                          // mm
+  cv::Vec3d t;                         // mm
 
   // A camera at `position` looking at `target` (pad frame), image rows running along +y of the
   // pad as far as the view allows (the participant's side at the bottom).

@@ -116,23 +116,26 @@ Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::S
         out.empty_regions.push_back(fmt::format("{} {}", rows[r], cols[c]));
   out.views = int(corners.size());
   if (corners.size() < kMinBoardViews)
-    return Error{fmt::format("the board was seen well (at least {} corners) in only {} frames; at least {} are needed. "
-                             "Hold the board still in more places and angles, filling the view",
-                             kMinBoardCorners, corners.size(), kMinBoardViews)};
+    return Error{
+        fmt::format("the board was seen well (at least {} corners) in only {} frames; at least {} are needed. "
+                    "Hold the board still in more places and angles, filling the view",
+                    kMinBoardCorners, corners.size(), kMinBoardViews)};
   // Square pixels (every machine-vision sensor pvcap drives): fx = fy, one unknown less. OpenCV
   // keeps the ratio of the initial K's focal lengths, which it starts at 1.
   cv::Mat K = cv::Mat::eye(3, 3, CV_64F), dist, per_view, deviations;
   std::vector<cv::Mat> rvecs, tvecs;
   const cv::TermCriteria until(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-9);
   auto calibrate = [&] {
-    return cv::aruco::calibrateCameraCharuco(corners, ids, make_board(spec), size, K, dist, rvecs, tvecs,
-                                             deviations, cv::noArray(), per_view, cv::CALIB_FIX_ASPECT_RATIO, until);
+    return cv::aruco::calibrateCameraCharuco(corners, ids, make_board(spec), size, K, dist, rvecs, tvecs, deviations,
+                                             cv::noArray(), per_view, cv::CALIB_FIX_ASPECT_RATIO, until);
   };
   try {
     out.rms_px = calibrate();
   } catch (const cv::Exception& e) {
-    return Error{fmt::format("the lens could not be fitted to the board views ({}); record the board in more "
-                             "places and angles", e.err)};
+    return Error{
+        fmt::format("the lens could not be fitted to the board views ({}); record the board in more "
+                    "places and angles",
+                    e.err)};
   }
   // A view at a grazing angle or with a misread corner pulls the whole fit: views whose error is
   // well above the others' are left out and the fit made again, once.

@@ -17,7 +17,7 @@ namespace pvcap::calib {
 struct BoardSpec {
   int squares_x = 10, squares_y = 7;  // fits an A4 page (landscape) at 100 % with room to hold it
   double square_mm = 25.0, marker_mm = 18.0;
-  double margin_mm = 12.0;            // white around the squares
+  double margin_mm = 12.0;                   // white around the squares
   int dictionary = cv::aruco::DICT_5X5_100;  // never confused with the mat's 4x4 markers
   double width_mm() const { return squares_x * square_mm + 2 * margin_mm; }
   double height_mm() const { return squares_y * square_mm + 2 * margin_mm; }
@@ -36,11 +36,11 @@ struct BoardView {
 BoardView detect_board(const cv::Mat& image, const BoardSpec& spec);
 
 struct Intrinsics {
-  CameraModel model;       // K and distortion (k1, k2, p1, p2, k3); no pose
-  double rms_px = 0;       // OpenCV's reprojection RMS over every corner used
-  int views = 0;           // board views used
-  int rejected_views = 0;  // left out: their error was far above the others' 
-  int corners = 0;         // corners used
+  CameraModel model;                  // K and distortion (k1, k2, p1, p2, k3); no pose
+  double rms_px = 0;                  // OpenCV's reprojection RMS over every corner used
+  int views = 0;                      // board views used
+  int rejected_views = 0;             // left out: their error was far above the others'
+  int corners = 0;                    // corners used
   std::array<double, 4> deviation{};  // the fit's own standard deviation of fx, fy, cx, cy (px)
   // Corners per image region (coverage_rows x coverage_cols, row-major), and the regions with none.
   static constexpr int coverage_cols = 4, coverage_rows = 3;

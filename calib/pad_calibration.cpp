@@ -79,9 +79,10 @@ Result<PadCalibration> calibrate_pad(const std::map<int, MarkerCorners>& markers
   if (markers.size() < kMinPadMarkers) {
     std::string seen;
     for (const auto& [id, c] : markers) seen += (seen.empty() ? "" : ", ") + std::to_string(id);
-    return Error{fmt::format("only {} of the mat's {} markers are visible (seen: {}); at least {} are needed. Check "
-                             "that the mat is in view, lit, in focus, and not covered by a hand",
-                             markers.size(), pad.markers.size(), seen.empty() ? "none" : seen, kMinPadMarkers)};
+    return Error{
+        fmt::format("only {} of the mat's {} markers are visible (seen: {}); at least {} are needed. Check "
+                    "that the mat is in view, lit, in focus, and not covered by a hand",
+                    markers.size(), pad.markers.size(), seen.empty() ? "none" : seen, kMinPadMarkers)};
   }
   std::vector<cv::Point3d> object;
   std::vector<cv::Point2d> image;

@@ -36,12 +36,12 @@ class MarkerAccumulator {
 };
 
 struct PadCalibration {
-  CameraModel model;                        // the intrinsics given, with the measured pose
-  cv::Matx33d cells_to_ideal;               // pressure-image pixels -> undistorted image pixels
+  CameraModel model;                          // the intrinsics given, with the measured pose
+  cv::Matx33d cells_to_ideal;                 // pressure-image pixels -> undistorted image pixels
   std::array<cv::Point2d, 4> pad_corners_px;  // grid edges (0,0),(185,0),(185,105),(0,105), as imaged
-  double rms_px = 0;                        // marker corners: reprojection error
-  double rms_mm = 0;                        // the same, measured on the pad
-  std::vector<int> marker_ids;              // the markers used
+  double rms_px = 0;                          // marker corners: reprojection error
+  double rms_mm = 0;                          // the same, measured on the pad
+  std::vector<int> marker_ids;                // the markers used
 };
 
 // The fewest markers a pose is solved from: three keep one badly detected marker from tilting it.

@@ -31,9 +31,9 @@ PadLayout default_pad_layout() {
   PadLayout p;
   p.dictionary = cv::aruco::DICT_4X4_50;
   const double s = 28.0, left = -27.0, right = 257.0, top = -27.0, bottom = 157.0;
-  p.markers = {{0, {left, top}, s},      {1, {77.0, top}, s},    {2, {153.0, top}, s},   {3, {right, top}, s},
-               {4, {right, 65.0}, s},    {5, {right, bottom}, s}, {6, {153.0, bottom}, s}, {7, {77.0, bottom}, s},
-               {8, {left, bottom}, s},   {9, {left, 65.0}, s}};
+  p.markers = {{0, {left, top}, s},    {1, {77.0, top}, s},     {2, {153.0, top}, s},    {3, {right, top}, s},
+               {4, {right, 65.0}, s},  {5, {right, bottom}, s}, {6, {153.0, bottom}, s}, {7, {77.0, bottom}, s},
+               {8, {left, bottom}, s}, {9, {left, 65.0}, s}};
   return p;
 }
 

@@ -23,18 +23,18 @@
 namespace pvcap::calib {
 
 struct PadMarker {
-  int id = 0;                 // in PadLayout::dictionary
-  cv::Point2d centre_mm;      // pad frame
-  double size_mm = 0;         // outer black square's side
+  int id = 0;             // in PadLayout::dictionary
+  cv::Point2d centre_mm;  // pad frame
+  double size_mm = 0;     // outer black square's side
 };
 
 struct PadLayout {
   std::string name = "pvcap-mat-v1";
-  int cols = 185, rows = 105;   // the Morph's sensor grid
+  int cols = 185, rows = 105;  // the Morph's sensor grid
   double pitch_mm = 1.25;
-  double body_margin_mm = 6.0;  // black sensor body around the active area
+  double body_margin_mm = 6.0;                    // black sensor body around the active area
   cv::Rect2d mat_mm{-52.0, -52.0, 334.0, 236.0};  // the white mat that carries the markers
-  int dictionary = 0;           // cv::aruco::PREDEFINED_DICTIONARY_NAME (DICT_4X4_50)
+  int dictionary = 0;                             // cv::aruco::PREDEFINED_DICTIONARY_NAME (DICT_4X4_50)
   std::vector<PadMarker> markers;
 
   // Pad-frame position of a pressure-image pixel coordinate (cell centres at integers).

@@ -115,8 +115,10 @@ cv::Rect paper_crop_box(const std::array<cv::Point2d, 4>& corners, cv::Size imag
   const cv::Point2d centre(std::nearbyint((lo.x + hi.x) / 2), std::nearbyint((lo.y + hi.y) / 2));
   double span_x = (hi.x - lo.x) / 2, span_y = (hi.y - lo.y) / 2;
   const double aspect = double(network.height) / network.width;
-  if (span_x * aspect > span_y) span_y = span_x * aspect;
-  else span_x = span_y / aspect;
+  if (span_x * aspect > span_y)
+    span_y = span_x * aspect;
+  else
+    span_x = span_y / aspect;
   // Python's int() truncates toward zero.
   const int x0 = std::max(int(std::trunc(centre.x - span_x)), 0);
   const int x1 = std::min(int(std::trunc(centre.x + span_x)), image.width);

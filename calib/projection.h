@@ -30,7 +30,7 @@ class PressureProjector {
 
  private:
   PressureProjector() = default;
-  cv::Mat map_;  // CV_32FC2: image pixel -> pressure-image coordinates (outside: -1e6)
+  cv::Mat map_;                         // CV_32FC2: image pixel -> pressure-image coordinates (outside: -1e6)
   cv::Mat fixed_map_, fixed_fraction_;  // scaled(): map_ as cv::convertMaps makes it, CV_16SC2 + CV_16UC1
 };
 

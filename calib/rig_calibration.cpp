@@ -22,7 +22,10 @@ std::filesystem::path default_calibration_path(const std::filesystem::path& rig_
 }
 
 void to_json(nlohmann::json& j, const MeasuredBy& m) {
-  j = {{"method", m.method}, {"session", m.session}, {"created_wall_ns", m.created_wall_ns}, {"rms_px", m.rms_px},
+  j = {{"method", m.method},
+       {"session", m.session},
+       {"created_wall_ns", m.created_wall_ns},
+       {"rms_px", m.rms_px},
        {"details", m.details}};
   if (m.rms_mm) j["rms_mm"] = *m.rms_mm;
 }

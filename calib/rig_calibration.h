@@ -17,8 +17,8 @@
 namespace pvcap::calib {
 
 struct MeasuredBy {
-  std::string method;           // charuco_intrinsics | pad_markers
-  std::string session;          // the session folder it was measured from
+  std::string method;   // charuco_intrinsics | pad_markers
+  std::string session;  // the session folder it was measured from
   std::int64_t created_wall_ns = 0;
   double rms_px = 0;
   std::optional<double> rms_mm;
@@ -27,9 +27,9 @@ struct MeasuredBy {
 
 struct CameraCalibration {
   std::string name, serial;
-  CameraModel model;                 // intrinsics; the pose holds once `pad` is set
+  CameraModel model;  // intrinsics; the pose holds once `pad` is set
   std::optional<MeasuredBy> intrinsics, pad;
-  std::optional<cv::Matx33d> cells_to_ideal;             // with `pad`
+  std::optional<cv::Matx33d> cells_to_ideal;                 // with `pad`
   std::optional<std::array<cv::Point2d, 4>> pad_corners_px;  // with `pad`
 };
 

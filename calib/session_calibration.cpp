@@ -100,9 +100,10 @@ void add_to_session(const std::filesystem::path& session, const CameraInfo& came
     auto index = SessionIndex::open_for_update(session / "session.db");
     index.add_calibration(r);
   } catch (const std::exception& e) {
-    throw UserError(fmt::format("{}: could not add the calibration to the session: {} (the calibration file {} has "
-                                "it)",
-                                session.string(), e.what(), file.string()));
+    throw UserError(
+        fmt::format("{}: could not add the calibration to the session: {} (the calibration file {} has "
+                    "it)",
+                    session.string(), e.what(), file.string()));
   }
 }
 
@@ -182,10 +183,10 @@ int write_board(const std::filesystem::path& out) {
   } else {
     throw UserError(fmt::format("{}: the board is written as .pdf or .png", out.string()));
   }
-  fmt::print("wrote {}: ChArUco board {} x {} squares of {} mm, markers {} mm ({}). Print at 100 % (\"actual "
-             "size\"), check one square measures {} mm, and mount it flat and rigid.\n",
-             out.string(), spec.squares_x, spec.squares_y, spec.square_mm, spec.marker_mm, "DICT_5X5_100",
-             spec.square_mm);
+  fmt::print(
+      "wrote {}: ChArUco board {} x {} squares of {} mm, markers {} mm ({}). Print at 100 % (\"actual "
+      "size\"), check one square measures {} mm, and mount it flat and rigid.\n",
+      out.string(), spec.squares_x, spec.squares_y, spec.square_mm, spec.marker_mm, "DICT_5X5_100", spec.square_mm);
   return 0;
 }
 
@@ -211,7 +212,10 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
     entry->pad.reset();  // a pose belongs to the intrinsics it was solved with
     entry->cells_to_ideal.reset();
     entry->pad_corners_px.reset();
-    calib::MeasuredBy m{"charuco_intrinsics", std::filesystem::absolute(o.session).string(), wall_now_ns(), in.rms_px,
+    calib::MeasuredBy m{"charuco_intrinsics",
+                        std::filesystem::absolute(o.session).string(),
+                        wall_now_ns(),
+                        in.rms_px,
                         std::nullopt,
                         {{"views", in.views},
                          {"rejected_views", in.rejected_views},
@@ -221,12 +225,13 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
                          {"coverage_grid", {calib::Intrinsics::coverage_cols, calib::Intrinsics::coverage_rows}},
                          {"empty_regions", in.empty_regions}}};
     entry->intrinsics = m;
-    fmt::print("{}: {} views ({} left out), {} corners, RMS {:.3f} px; fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f} "
-               "(the fit's standard deviation: focal {:.1f}, cx {:.1f}, cy {:.1f} px)\n",
-               camera.name, in.views, in.rejected_views, in.corners, in.rms_px, in.model.K(0, 0), in.model.K(1, 1),
-               in.model.K(0, 2), in.model.K(1, 2),
-               // with fx = fy fixed, OpenCV reports the focal length's deviation under one of the two
-               std::max(in.deviation[0], in.deviation[1]), in.deviation[2], in.deviation[3]);
+    fmt::print(
+        "{}: {} views ({} left out), {} corners, RMS {:.3f} px; fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f} "
+        "(the fit's standard deviation: focal {:.1f}, cx {:.1f}, cy {:.1f} px)\n",
+        camera.name, in.views, in.rejected_views, in.corners, in.rms_px, in.model.K(0, 0), in.model.K(1, 1),
+        in.model.K(0, 2), in.model.K(1, 2),
+        // with fx = fy fixed, OpenCV reports the focal length's deviation under one of the two
+        std::max(in.deviation[0], in.deviation[1]), in.deviation[2], in.deviation[3]);
     std::string grid;
     for (int r = 0; r < calib::Intrinsics::coverage_rows; ++r) {
       grid += "    ";
@@ -236,9 +241,10 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
     }
     fmt::print("  corners per image region:\n{}", grid);
     if (!in.empty_regions.empty())
-      fmt::print("  no corners yet in: {}. Record more board views there: the lens is not known where the board "
-                 "has not been\n",
-                 fmt::join(in.empty_regions, ", "));
+      fmt::print(
+          "  no corners yet in: {}. Record more board views there: the lens is not known where the board "
+          "has not been\n",
+          fmt::join(in.empty_regions, ", "));
     if (run.reference) {
       const calib::CameraModel& tm = reference_camera(*run.reference, camera.name).model;
       const double efx = in.model.K(0, 0) / tm.K(0, 0) - 1, efy = in.model.K(1, 1) / tm.K(1, 1) - 1;
@@ -248,8 +254,8 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
       run.within_targets = run.within_targets && ok;
       fmt::print("  against {}: focal {:+.3f} % / {:+.3f} %, principal point {:+.2f} / {:+.2f} px ({})\n",
                  run.reference->label, 100 * efx, 100 * efy, ecx, ecy,
-                 ok ? "within targets" : fmt::format("OUTSIDE the targets {} % and {} px", 100 * kFocalTolerance,
-                                                     kPrincipalTolerancePx));
+                 ok ? "within targets"
+                    : fmt::format("OUTSIDE the targets {} % and {} px", 100 * kFocalTolerance, kPrincipalTolerancePx));
     }
     add_to_session(o.session, camera, *entry, m, run.file);
   }
@@ -258,24 +264,26 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
 
 int pad_from_session(const SessionCalibrationOptions& o) {
   if (const auto file = calibration_file(o); !std::filesystem::exists(file))
-    throw UserError(fmt::format("{}: no calibration file with the cameras' intrinsics; make one first with `pvcap "
-                                "calibrate intrinsics BOARD_SESSION --out {}` (or give --calibration)",
-                                file.string(), file.string()));
+    throw UserError(
+        fmt::format("{}: no calibration file with the cameras' intrinsics; make one first with `pvcap "
+                    "calibrate intrinsics BOARD_SESSION --out {}` (or give --calibration)",
+                    file.string(), file.string()));
   CalibrationRun run(o, 15);
   for (std::size_t c = 0; c < run.session->cameras().size(); ++c) {
     const CameraInfo& camera = run.session->cameras()[c];
     calib::CameraCalibration* entry = run.cal.camera(camera.name);
     if (!entry || !entry->intrinsics) {
-      run.failed.push_back(fmt::format("{}: {} has no intrinsics for this camera; run `pvcap calibrate intrinsics` "
-                                       "on a board session first",
-                                       camera.name, run.file.string()));
+      run.failed.push_back(
+          fmt::format("{}: {} has no intrinsics for this camera; run `pvcap calibrate intrinsics` "
+                      "on a board session first",
+                      camera.name, run.file.string()));
       continue;
     }
     if (entry->model.image_size != cv::Size(camera.width, camera.height)) {
-      run.failed.push_back(fmt::format("{}: its intrinsics are for {}x{} images but this session recorded {}x{}; "
-                                       "calibrate the intrinsics at this size",
-                                       camera.name, entry->model.image_size.width, entry->model.image_size.height,
-                                       camera.width, camera.height));
+      run.failed.push_back(fmt::format(
+          "{}: its intrinsics are for {}x{} images but this session recorded {}x{}; "
+          "calibrate the intrinsics at this size",
+          camera.name, entry->model.image_size.width, entry->model.image_size.height, camera.width, camera.height));
       continue;
     }
     calib::MarkerAccumulator markers(run.cal.pad);
@@ -290,15 +298,17 @@ int pad_from_session(const SessionCalibrationOptions& o) {
     entry->model = p.model;
     entry->cells_to_ideal = p.cells_to_ideal;
     entry->pad_corners_px = p.pad_corners_px;
-    calib::MeasuredBy m{"pad_markers", std::filesystem::absolute(o.session).string(), wall_now_ns(), p.rms_px, p.rms_mm,
-                        {{"markers", p.marker_ids}, {"frames", markers.frames()}}};
+    calib::MeasuredBy m{"pad_markers", std::filesystem::absolute(o.session).string(),
+                        wall_now_ns(), p.rms_px,
+                        p.rms_mm,      {{"markers", p.marker_ids}, {"frames", markers.frames()}}};
     entry->pad = m;
     const cv::Point3d centre = p.model.centre_mm();
-    fmt::print("{}: {} markers over {} frames, RMS {:.3f} px / {:.3f} mm on the pad; camera at ({:.0f}, {:.0f}) mm, "
-               "{:.0f} mm above the pad; grid corners {} {} {} {}\n",
-               camera.name, p.marker_ids.size(), markers.frames(), p.rms_px, p.rms_mm, centre.x, centre.y, -centre.z,
-               fmt_point(p.pad_corners_px[0]), fmt_point(p.pad_corners_px[1]), fmt_point(p.pad_corners_px[2]),
-               fmt_point(p.pad_corners_px[3]));
+    fmt::print(
+        "{}: {} markers over {} frames, RMS {:.3f} px / {:.3f} mm on the pad; camera at ({:.0f}, {:.0f}) mm, "
+        "{:.0f} mm above the pad; grid corners {} {} {} {}\n",
+        camera.name, p.marker_ids.size(), markers.frames(), p.rms_px, p.rms_mm, centre.x, centre.y, -centre.z,
+        fmt_point(p.pad_corners_px[0]), fmt_point(p.pad_corners_px[1]), fmt_point(p.pad_corners_px[2]),
+        fmt_point(p.pad_corners_px[3]));
     if (run.reference) {
       const ReferenceCamera& t = reference_camera(*run.reference, camera.name);
       std::vector<double> errors;
@@ -422,16 +432,19 @@ Disagreements check_found_fingertips(SessionReader& session, std::size_t c, cons
     if (!centroid || !tip) continue;
     const auto d = calib::press_disagreement(entry.model, pad, *centroid, *tip);
     out.add(d);
-    each.push_back({{"sample", i}, {"centroid_cells", {centroid->x, centroid->y}}, {"fingertip_px", {tip->x, tip->y}},
-                    {"px", d.px}, {"mm", d.mm}});
+    each.push_back({{"sample", i},
+                    {"centroid_cells", {centroid->x, centroid->y}},
+                    {"fingertip_px", {tip->x, tip->y}},
+                    {"px", d.px},
+                    {"mm", d.mm}});
   }
   return out;
 }
 
 // The operator's marks: each against the pressure of the sample nearest the marked frame.
-Disagreements check_marked_fingertips(SessionReader& session, const std::string& camera,
-                                      const std::vector<Mark>& marks, const calib::CameraCalibration& entry,
-                                      const calib::PadLayout& pad, double highest, nlohmann::json& each) {
+Disagreements check_marked_fingertips(SessionReader& session, const std::string& camera, const std::vector<Mark>& marks,
+                                      const calib::CameraCalibration& entry, const calib::PadLayout& pad,
+                                      double highest, nlohmann::json& each) {
   Disagreements out;
   for (const Mark& mark : marks) {
     auto i = session.sample_at(mark.frame_ns);
@@ -450,8 +463,12 @@ Disagreements check_marked_fingertips(SessionReader& session, const std::string&
     if (!centroid) continue;
     const auto d = calib::press_disagreement(entry.model, pad, *centroid, {mark.x, mark.y});
     out.add(d);
-    each.push_back({{"sample", i.value()}, {"centroid_cells", {centroid->x, centroid->y}},
-                    {"fingertip_px", {mark.x, mark.y}}, {"marked", true}, {"px", d.px}, {"mm", d.mm}});
+    each.push_back({{"sample", i.value()},
+                    {"centroid_cells", {centroid->x, centroid->y}},
+                    {"fingertip_px", {mark.x, mark.y}},
+                    {"marked", true},
+                    {"px", d.px},
+                    {"mm", d.mm}});
   }
   return out;
 }
@@ -462,16 +479,17 @@ int check_against_presses(const SessionCalibrationOptions& o) {
   auto session = open_session(o.session);
   const std::filesystem::path file = calibration_file(o);
   if (!std::filesystem::exists(file))
-    throw UserError(fmt::format("{}: no calibration file; calibrate the pad first (`pvcap calibrate pad`)",
-                                file.string()));
+    throw UserError(
+        fmt::format("{}: no calibration file; calibrate the pad first (`pvcap calibrate pad`)", file.string()));
   calib::RigCalibration cal = load_or_new(file, *session);
   if (!session->pressure_device())
     throw UserError(fmt::format("{}: the session has no pressure frames to check against", o.session.string()));
   const Presses presses = find_presses(*session, std::size_t(o.frames > 0 ? o.frames : 40));
   if (presses.samples.empty())
-    throw UserError(fmt::format("{}: no presses found; record a few presses on the pad (the protocol's calibration "
-                                "routine, or any pressing) and check again",
-                                o.session.string()));
+    throw UserError(
+        fmt::format("{}: no presses found; record a few presses on the pad (the protocol's calibration "
+                    "routine, or any pressing) and check again",
+                    o.session.string()));
   auto marks = fingertip_marks(*session);
 
   int rc = 0;
@@ -489,7 +507,8 @@ int check_against_presses(const SessionCalibrationOptions& o) {
     const Disagreements marked =
         check_marked_fingertips(*session, camera.name, marks[camera.name], *entry, cal.pad, presses.highest, each);
     if (found.px.empty() && marked.px.empty()) {
-      fmt::print(stderr, "pvcap: {}: the fingertip was not seen in any of the {} presses and none was marked (click "
+      fmt::print(stderr,
+                 "pvcap: {}: the fingertip was not seen in any of the {} presses and none was marked (click "
                  "it on the operator page's camera view during a press)\n",
                  camera.name, presses.samples.size());
       rc = 1;
@@ -500,7 +519,8 @@ int check_against_presses(const SessionCalibrationOptions& o) {
     Disagreements all = found;
     all.px.insert(all.px.end(), marked.px.begin(), marked.px.end());
     all.mm.insert(all.mm.end(), marked.mm.begin(), marked.mm.end());
-    calib::MeasuredBy m{"press_check", std::filesystem::absolute(o.session).string(), wall_now_ns(), rms_of(all.px),
+    calib::MeasuredBy m{"press_check",  std::filesystem::absolute(o.session).string(),
+                        wall_now_ns(),  rms_of(all.px),
                         rms_of(all.mm), {{"presses", each}}};
     add_to_session(o.session, camera, *entry, m, file);
   }

@@ -39,9 +39,9 @@ ReferenceCalibration reference_from(const RigCalibration& calibration, std::stri
 
 struct SessionCalibrationOptions {
   std::filesystem::path session;
-  std::filesystem::path calibration;          // the rig calibration file to read/update
+  std::filesystem::path calibration;              // the rig calibration file to read/update
   std::optional<ReferenceCalibration> reference;  // compare against it and hold the targets (none: no comparison)
-  int frames = 0;                             // frames per camera to use (0: the command's default)
+  int frames = 0;                                 // frames per camera to use (0: the command's default)
 };
 
 int write_board(const std::filesystem::path& out);  // .pdf or .png

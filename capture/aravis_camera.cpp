@@ -43,15 +43,15 @@ std::size_t buffer_count_for(const CameraConfig& config) {
 Status preflight(const std::string& label, const LinkBudget& b) {
   const double mbps = double(b.payload_bytes) * 8.0 * b.frame_rate * kProtocolOverhead / 1e6;
   if (mbps > b.link_mbps)
-    return Error{fmt::format(
-        "{}: {} bytes per frame at {:.1f} fps needs {:.0f} Mbit/s, more than its {:.0f} Mbit/s link: lower "
-        "frame_rate, crop width/height, or set link_mbps if the link is faster",
-        label, b.payload_bytes, b.frame_rate, mbps, b.link_mbps)};
+    return Error{
+        fmt::format("{}: {} bytes per frame at {:.1f} fps needs {:.0f} Mbit/s, more than its {:.0f} Mbit/s link: lower "
+                    "frame_rate, crop width/height, or set link_mbps if the link is faster",
+                    label, b.payload_bytes, b.frame_rate, mbps, b.link_mbps)};
   if (b.socket_buffer_bytes > 0 && b.rmem_max > 0 && b.socket_buffer_bytes > b.rmem_max)
-    return Error{fmt::format(
-        "{}: socket_buffer_bytes {} is above the kernel limit net.core.rmem_max = {}; raise the limit "
-        "(sysctl -w net.core.rmem_max={}) or lower socket_buffer_bytes",
-        label, b.socket_buffer_bytes, b.rmem_max, b.socket_buffer_bytes)};
+    return Error{
+        fmt::format("{}: socket_buffer_bytes {} is above the kernel limit net.core.rmem_max = {}; raise the limit "
+                    "(sysctl -w net.core.rmem_max={}) or lower socket_buffer_bytes",
+                    label, b.socket_buffer_bytes, b.rmem_max, b.socket_buffer_bytes)};
   return {};
 }
 
@@ -106,7 +106,6 @@ void AravisCamera::emit(CameraEvent::Kind kind, std::string message) {
   if (on_event_) on_event_(CameraEvent{index_, kind, host_now(), std::move(message)});
 }
 
-
 Status AravisCamera::apply_features() {
   ArvCamera* cam = link_->camera.get();
   arv::GErrorSlot err;
@@ -124,8 +123,8 @@ Status AravisCamera::apply_features() {
   arv_camera_set_pixel_format_from_string(cam, config_.pixel_format.c_str(), err.out());
   PVCAP_TRY(check(fmt::format("PixelFormat to {}", config_.pixel_format)));
   arv_camera_set_region(cam, config_.offset_x, config_.offset_y, config_.width, config_.height, err.out());
-  PVCAP_TRY(check(fmt::format("the region (OffsetX/OffsetY/Width/Height) to {}x{}+{}+{}", config_.width,
-                              config_.height, config_.offset_x, config_.offset_y)));
+  PVCAP_TRY(check(fmt::format("the region (OffsetX/OffsetY/Width/Height) to {}x{}+{}+{}", config_.width, config_.height,
+                              config_.offset_x, config_.offset_y)));
   if (config_.trigger == TriggerMode::FreeRun) {
     arv_camera_clear_triggers(cam, err.out());
     PVCAP_TRY(check("TriggerMode to Off"));
@@ -188,9 +187,10 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
   arv::GErrorSlot err;
   arv::GPtr<ArvCamera> cam(arv_camera_new(id.c_str(), err.out()));
   if (!cam)
-    return Error{fmt::format("{}: no camera answers ({}); check power, cabling and that it is on this subnet "
-                             "(`pvcap devices` lists what answers)",
-                             label(), err.message().empty() ? "not found" : err.message())};
+    return Error{
+        fmt::format("{}: no camera answers ({}); check power, cabling and that it is on this subnet "
+                    "(`pvcap devices` lists what answers)",
+                    label(), err.message().empty() ? "not found" : err.message())};
   std::lock_guard lock(mu_);
   link_->camera = std::move(cam);
   if (!config_.serial.empty()) {
@@ -237,14 +237,16 @@ Status AravisCamera::open() {
   Status s = connect_and_configure(connection_);
   if (s.ok()) {
     const CameraSettings st = settings();
-    spdlog::info("{}: {} {} serial {} at {}, {} {}x{}+{}+{} @ {:.2f} fps, packet {} B, {} buffers of {} B",
-                 label(), st.vendor, st.model, st.serial, st.address, st.pixel_format, st.width, st.height, st.x,
-                 st.y, st.frame_rate, st.packet_size, st.buffer_count, st.payload);
+    spdlog::info("{}: {} {} serial {} at {}, {} {}x{}+{}+{} @ {:.2f} fps, packet {} B, {} buffers of {} B", label(),
+                 st.vendor, st.model, st.serial, st.address, st.pixel_format, st.width, st.height, st.x, st.y,
+                 st.frame_rate, st.packet_size, st.buffer_count, st.payload);
     if (has_timestamp_latch())
       spdlog::info("{}: has a timestamp latch: its clock is read directly, four times a second", label());
     else
-      spdlog::info("{}: no timestamp latch: its clock is mapped from frame arrivals (set latency_ns in the rig "
-                   "file to its exposure-to-leader latency)", label());
+      spdlog::info(
+          "{}: no timestamp latch: its clock is mapped from frame arrivals (set latency_ns in the rig "
+          "file to its exposure-to-leader latency)",
+          label());
   }
   return s;
 }
@@ -438,8 +440,10 @@ void AravisCamera::stop() {
   request_stop();
   if (trigger_thread_.joinable()) trigger_thread_.join();
   if (probe_thread_.joinable()) probe_thread_.join();
-  if (control_thread_.joinable()) control_thread_.join();  // its loop tears the connection down
-  else teardown_connection(true);                          // opened but never started
+  if (control_thread_.joinable())
+    control_thread_.join();  // its loop tears the connection down
+  else
+    teardown_connection(true);  // opened but never started
   queue_.close();
   losses_.close();
   probes_.close();

@@ -53,8 +53,8 @@ struct LinkBudget {
   std::size_t payload_bytes = 0;  // one frame
   double frame_rate = 0;
   double link_mbps = 1000;
-  int socket_buffer_bytes = 0;    // requested (0 = auto)
-  long rmem_max = 0;              // net.core.rmem_max
+  int socket_buffer_bytes = 0;  // requested (0 = auto)
+  long rmem_max = 0;            // net.core.rmem_max
 };
 // Refuses a configuration the link or kernel cannot carry; the message says what to change.
 Status preflight(const std::string& camera_label, const LinkBudget& budget);

@@ -10,9 +10,9 @@ struct DiscoveredCamera {
   std::string vendor;
   std::string model;
   std::string serial;
-  std::string address;    // IPv4 of the camera
+  std::string address;      // IPv4 of the camera
   std::string physical_id;  // MAC address
-  std::string protocol;   // "GigEVision"
+  std::string protocol;     // "GigEVision"
 };
 
 std::vector<DiscoveredCamera> discover_gige_cameras();

@@ -19,8 +19,7 @@ StreamCounters& StreamCounters::operator+=(const StreamCounters& o) {
 Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, int camera_index,
                                                            std::uint32_t connection, std::size_t payload,
                                                            std::size_t buffer_count, bool packet_resend,
-                                                           int socket_buffer_bytes,
-                                                           BoundedQueue<CameraFrame>& queue,
+                                                           int socket_buffer_bytes, BoundedQueue<CameraFrame>& queue,
                                                            BoundedQueue<FrameLoss>& losses) {
   std::shared_ptr<AravisStream> self(new AravisStream(queue, losses, camera_index, connection));
   arv::GErrorSlot err;
@@ -35,8 +34,8 @@ Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, in
   }
   for (std::size_t i = 0; i < buffer_count; ++i)
     arv_stream_push_buffer(self->stream_.get(), arv_buffer_new_allocate(payload));
-  self->signal_id_ = g_signal_connect(self->stream_.get(), "new-buffer", G_CALLBACK(&AravisStream::on_new_buffer),
-                                      self.get());
+  self->signal_id_ =
+      g_signal_connect(self->stream_.get(), "new-buffer", G_CALLBACK(&AravisStream::on_new_buffer), self.get());
   arv_stream_set_emit_signals(self->stream_.get(), TRUE);
   return self;
 }
@@ -107,14 +106,30 @@ void AravisStream::handle(ArvBuffer* buffer) {
     frame.status = FrameStatus::Incomplete;
     const char* name = nullptr;
     switch (status) {
-      case ARV_BUFFER_STATUS_MISSING_PACKETS: name = "missing_packets"; break;
-      case ARV_BUFFER_STATUS_TIMEOUT: name = "timeout"; break;
-      case ARV_BUFFER_STATUS_SIZE_MISMATCH: name = "size_mismatch"; break;
-      case ARV_BUFFER_STATUS_ABORTED: name = "aborted"; break;
-      case ARV_BUFFER_STATUS_WRONG_PACKET_ID: name = "wrong_packet_id"; break;
-      case ARV_BUFFER_STATUS_CLEARED: name = "cleared"; break;
-      case ARV_BUFFER_STATUS_SUCCESS: name = "stream_closing"; break;
-      default: name = "failed"; break;
+      case ARV_BUFFER_STATUS_MISSING_PACKETS:
+        name = "missing_packets";
+        break;
+      case ARV_BUFFER_STATUS_TIMEOUT:
+        name = "timeout";
+        break;
+      case ARV_BUFFER_STATUS_SIZE_MISMATCH:
+        name = "size_mismatch";
+        break;
+      case ARV_BUFFER_STATUS_ABORTED:
+        name = "aborted";
+        break;
+      case ARV_BUFFER_STATUS_WRONG_PACKET_ID:
+        name = "wrong_packet_id";
+        break;
+      case ARV_BUFFER_STATUS_CLEARED:
+        name = "cleared";
+        break;
+      case ARV_BUFFER_STATUS_SUCCESS:
+        name = "stream_closing";
+        break;
+      default:
+        name = "failed";
+        break;
     }
     frame.detail = name;
     arv_stream_push_buffer(stream_.get(), buffer);

@@ -31,9 +31,8 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   // to `queue` stamped with `camera_index` and `connection`; frames lost, with their reason,
   // to `losses`.
   static Result<std::shared_ptr<AravisStream>> create(ArvCamera* camera, int camera_index, std::uint32_t connection,
-                                                      std::size_t payload, std::size_t buffer_count,
-                                                      bool packet_resend, int socket_buffer_bytes,
-                                                      BoundedQueue<CameraFrame>& queue,
+                                                      std::size_t payload, std::size_t buffer_count, bool packet_resend,
+                                                      int socket_buffer_bytes, BoundedQueue<CameraFrame>& queue,
                                                       BoundedQueue<FrameLoss>& losses);
   ~AravisStream();
   AravisStream(const AravisStream&) = delete;
@@ -66,7 +65,7 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   std::atomic<std::int64_t> last_arrival_ns_{0};
   std::atomic<std::uint64_t> overflows_{0};
   FrameSequencer sequencer_;
-  std::mutex settle_mu_;              // settle_losses() runs on the stream and the control thread
+  std::mutex settle_mu_;               // settle_losses() runs on the stream and the control thread
   std::vector<FrameLoss> unreported_;  // settled, not yet taken by the losses queue
   gulong signal_id_ = 0;
 };

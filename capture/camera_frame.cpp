@@ -4,9 +4,12 @@ namespace pvcap {
 
 const char* to_string(FrameStatus status) {
   switch (status) {
-    case FrameStatus::Good: return "good";
-    case FrameStatus::Incomplete: return "incomplete";
-    case FrameStatus::QueueFull: return "queue_full";
+    case FrameStatus::Good:
+      return "good";
+    case FrameStatus::Incomplete:
+      return "incomplete";
+    case FrameStatus::QueueFull:
+      return "queue_full";
   }
   return "?";
 }

@@ -4,17 +4,17 @@
 // the pixels, borrowed from the driver's buffer pool until the lease is dropped.
 #include <cstdint>
 #include <memory>
-#include <utility>
 #include <string>
+#include <utility>
 
 #include "core/time.h"
 
 namespace pvcap {
 
 enum class FrameStatus : std::uint8_t {
-  Good = 0,         // complete, stored when kept
-  Incomplete = 1,   // missing packets, timeout, size mismatch: never stored as good
-  QueueFull = 2,    // complete, but pvcap's queue was full: pixels released unseen
+  Good = 0,        // complete, stored when kept
+  Incomplete = 1,  // missing packets, timeout, size mismatch: never stored as good
+  QueueFull = 2,   // complete, but pvcap's queue was full: pixels released unseen
 };
 const char* to_string(FrameStatus status);
 
@@ -62,11 +62,11 @@ class BufferLease {
 };
 
 struct CameraFrame {
-  int camera = 0;                 // index in the rig config
-  std::uint32_t connection = 0;   // increments on each (re)connection: frame ids restart
-  std::uint64_t frame_id = 0;     // as the camera sent it (16-bit on GigE Vision 1.x)
-  DeviceNs device_ts;             // the camera's timestamp, as converted by Aravis to ns
-  HostNs host_ts;                 // pvcap's arrival stamp (CLOCK_MONOTONIC)
+  int camera = 0;                     // index in the rig config
+  std::uint32_t connection = 0;       // increments on each (re)connection: frame ids restart
+  std::uint64_t frame_id = 0;         // as the camera sent it (16-bit on GigE Vision 1.x)
+  DeviceNs device_ts;                 // the camera's timestamp, as converted by Aravis to ns
+  HostNs host_ts;                     // pvcap's arrival stamp (CLOCK_MONOTONIC)
   std::int64_t aravis_system_ns = 0;  // Aravis' own wall-clock arrival stamp, kept for diagnosis
   FrameStatus status = FrameStatus::Good;
   // The frame's place in the camera's numbering (set by the driver, see frame_sequencer.h):
@@ -75,8 +75,8 @@ struct CameraFrame {
   std::uint64_t sequence = 0;
   std::uint64_t lost_before = 0;
   FrameIdentity identity = FrameIdentity::Own;
-  std::string detail;             // why, when status is not Good
-  std::uint32_t pixel_format = 0; // PFNC code
+  std::string detail;              // why, when status is not Good
+  std::uint32_t pixel_format = 0;  // PFNC code
   int width = 0;
   int height = 0;
   const std::uint8_t* data = nullptr;  // valid while `lease` is held
@@ -86,9 +86,9 @@ struct CameraFrame {
 
 // A camera stream's tallies (Aravis' own counters and pvcap's queue drops), summed over connections.
 struct StreamCounters {
-  std::uint64_t completed = 0;   // Aravis: buffers completed
-  std::uint64_t failures = 0;    // Aravis: buffers failed (missing packets, timeouts)
-  std::uint64_t underruns = 0;   // Aravis: frames arriving with no free buffer
+  std::uint64_t completed = 0;  // Aravis: buffers completed
+  std::uint64_t failures = 0;   // Aravis: buffers failed (missing packets, timeouts)
+  std::uint64_t underruns = 0;  // Aravis: frames arriving with no free buffer
   std::uint64_t resent_packets = 0;
   std::uint64_t missing_packets = 0;
   std::uint64_t queue_overflows = 0;  // pvcap: frames dropped because the queue was full

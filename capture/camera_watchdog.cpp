@@ -37,8 +37,8 @@ CameraWatchdog::Look CameraWatchdog::look(HostNs now, HostNs last_frame, std::ui
     out.why = "control channel lost";
   } else if (stalled) {
     out.verdict = Verdict::Lost;
-    out.why = fmt::format("no frame for {} ms{}", out.silent_ms,
-                          config_.on_trigger_line ? ", and no answer when asked" : "");
+    out.why =
+        fmt::format("no frame for {} ms{}", out.silent_ms, config_.on_trigger_line ? ", and no answer when asked" : "");
   }
   if (out.verdict == Verdict::Lost) {
     unanswered_ = 0;

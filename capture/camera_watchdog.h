@@ -25,7 +25,7 @@ class CameraWatchdog {
     bool on_trigger_line = false;  // hardware-triggered: silence alone is no loss, the camera is asked
     bool can_ask = false;          // it can be asked (an IPv4 address); otherwise only control_lost says lost
     std::chrono::milliseconds ask_every{250};
-    int unanswered_limit = 3;      // asks without an answer before it is lost (~0.75 s)
+    int unanswered_limit = 3;  // asks without an answer before it is lost (~0.75 s)
   };
   enum class Verdict { Fine, Ask, Lost };
   struct Look {

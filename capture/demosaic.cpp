@@ -10,10 +10,14 @@ namespace pvcap {
 
 const char* to_string(Demosaic d) {
   switch (d) {
-    case Demosaic::Bilinear: return "bilinear";
-    case Demosaic::EdgeAware: return "edge-aware";
-    case Demosaic::Vng: return "vng";
-    case Demosaic::HalfSize: return "half-size";
+    case Demosaic::Bilinear:
+      return "bilinear";
+    case Demosaic::EdgeAware:
+      return "edge-aware";
+    case Demosaic::Vng:
+      return "vng";
+    case Demosaic::HalfSize:
+      return "half-size";
   }
   return "?";
 }
@@ -42,13 +46,19 @@ int opencv_bayer_code(const std::string& pattern, Demosaic method) {
 
 Status half_size_from_planes(const cv::Mat planes[4], const std::string& bayer_format, cv::Mat& bgr) {
   // Where R and B sit in the 2x2 cell (the G are the other two), by PFNC's pattern name.
-  const std::string pattern = bayer_format.rfind("Bayer", 0) == 0 && bayer_format.size() >= 7 ? bayer_format.substr(5, 2) : "";
+  const std::string pattern =
+      bayer_format.rfind("Bayer", 0) == 0 && bayer_format.size() >= 7 ? bayer_format.substr(5, 2) : "";
   int r = -1, b = -1;
-  if (pattern == "RG") r = 0, b = 3;
-  else if (pattern == "BG") r = 3, b = 0;
-  else if (pattern == "GR") r = 1, b = 2;
-  else if (pattern == "GB") r = 2, b = 1;
-  else return Error{fmt::format("'{}' is not a Bayer pattern pvcap knows", bayer_format)};
+  if (pattern == "RG")
+    r = 0, b = 3;
+  else if (pattern == "BG")
+    r = 3, b = 0;
+  else if (pattern == "GR")
+    r = 1, b = 2;
+  else if (pattern == "GB")
+    r = 2, b = 1;
+  else
+    return Error{fmt::format("'{}' is not a Bayer pattern pvcap knows", bayer_format)};
   int g[2], n = 0;
   for (int k = 0; k < 4; ++k)
     if (k != r && k != b) g[n++] = k;
@@ -65,7 +75,8 @@ Status debayer(const cv::Mat& mosaic, const std::string& bayer_format, Demosaic 
       return Error{fmt::format("a {} mosaic has one channel and an even size", bayer_format)};
     cv::Mat planes[4], top[2], bottom[2];
     const int pair = CV_MAKETYPE(mosaic.depth(), 2);
-    cv::split(cv::Mat(mosaic.rows / 2, mosaic.cols / 2, pair, const_cast<uchar*>(mosaic.ptr(0)), mosaic.step[0] * 2), top);
+    cv::split(cv::Mat(mosaic.rows / 2, mosaic.cols / 2, pair, const_cast<uchar*>(mosaic.ptr(0)), mosaic.step[0] * 2),
+              top);
     cv::split(cv::Mat(mosaic.rows / 2, mosaic.cols / 2, pair, const_cast<uchar*>(mosaic.ptr(1)), mosaic.step[0] * 2),
               bottom);
     planes[0] = top[0], planes[1] = top[1], planes[2] = bottom[0], planes[3] = bottom[1];

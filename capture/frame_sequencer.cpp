@@ -5,7 +5,9 @@
 namespace pvcap {
 
 FrameSequencer::FrameSequencer(std::uint32_t connection, std::int64_t grace_ns)
-    : connection_(connection), grace_ns_(grace_ns), gaps_(grace_ns, [this](const GapTracker::Gap& g) { report_gap(g); }) {
+    : connection_(connection),
+      grace_ns_(grace_ns),
+      gaps_(grace_ns, [this](const GapTracker::Gap& g) { report_gap(g); }) {
   settled_.reserve(64);  // the stream thread rarely allocates
 }
 

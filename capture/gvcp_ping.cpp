@@ -50,8 +50,18 @@ bool gvcp_answers(const std::string& ipv4, std::chrono::milliseconds timeout) {
   if (s.fd < 0) return false;
   const std::uint16_t id = next_request_id();
   // Header: key, flags, command, payload length, request id; then the address (big-endian).
-  const std::array<std::uint8_t, 12> request{kKey, kAckRequired, kReadRegCmd >> 8, kReadRegCmd & 0xFF, 0, 4,
-                                             std::uint8_t(id >> 8), std::uint8_t(id & 0xFF), 0, 0, 0, 0};
+  const std::array<std::uint8_t, 12> request{kKey,
+                                             kAckRequired,
+                                             kReadRegCmd >> 8,
+                                             kReadRegCmd & 0xFF,
+                                             0,
+                                             4,
+                                             std::uint8_t(id >> 8),
+                                             std::uint8_t(id & 0xFF),
+                                             0,
+                                             0,
+                                             0,
+                                             0};
   if (sendto(s.fd, request.data(), request.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) !=
       ssize_t(request.size()))
     return false;

@@ -22,10 +22,14 @@ Result<std::vector<std::uint8_t>> from_hex(const std::string& hex) {
     for (int k = 0; k < 2; ++k) {
       const char c = hex[2 * i + std::size_t(k)];
       v <<= 4;
-      if (c >= '0' && c <= '9') v |= unsigned(c - '0');
-      else if (c >= 'a' && c <= 'f') v |= unsigned(c - 'a' + 10);
-      else if (c >= 'A' && c <= 'F') v |= unsigned(c - 'A' + 10);
-      else return Error{fmt::format("'{}' is not a hex digit", c)};
+      if (c >= '0' && c <= '9')
+        v |= unsigned(c - '0');
+      else if (c >= 'a' && c <= 'f')
+        v |= unsigned(c - 'a' + 10);
+      else if (c >= 'A' && c <= 'F')
+        v |= unsigned(c - 'A' + 10);
+      else
+        return Error{fmt::format("'{}' is not a hex digit", c)};
     }
     out[i] = std::uint8_t(v);
   }
@@ -82,8 +86,10 @@ Result<CaptureFile> load_capture_file(const std::filesystem::path& path) {
       if (!have_header) return Error{fmt::format("{}: no header line", path.string())};
     } else {
       const auto j = nlohmann::json::parse(in);
-      if (Status s = read_metadata(j, file); !s.ok()) return Error{fmt::format("{}: {}", path.string(), s.error().message)};
-      if (!j.contains("frames") || !j["frames"].is_array()) return Error{fmt::format("{}: no frames array", path.string())};
+      if (Status s = read_metadata(j, file); !s.ok())
+        return Error{fmt::format("{}: {}", path.string(), s.error().message)};
+      if (!j.contains("frames") || !j["frames"].is_array())
+        return Error{fmt::format("{}: no frames array", path.string())};
       for (std::size_t i = 0; i < j["frames"].size(); ++i)
         if (Status s = read_frame(j["frames"][i], i, file); !s.ok())
           return Error{fmt::format("{}: frames[{}]: {}", path.string(), i, s.error().message)};

@@ -17,7 +17,7 @@ namespace pvcap::sensel {
 struct CapturedFrame {
   std::size_t line = 0;  // .jsonl line (1-based) or .json frame index
   std::vector<std::uint8_t> payload;
-  int checksum = -1;     // as recorded (-1: none recorded)
+  int checksum = -1;  // as recorded (-1: none recorded)
 };
 
 struct CaptureFile {
@@ -34,10 +34,10 @@ struct CaptureSummary {
   std::map<std::string, std::size_t> rejected;  // reason -> count
   std::string first_rejection;                  // "frame at N: reason", for the message
   Grid grid;
-  std::uint64_t counter_gaps = 0;               // frames missing by the rolling counter
-  double span_s = 0;                            // device timestamp span (unwrapped)
-  double peak_cell_g = 0, peak_cell_kpa = 0;    // heaviest native cell of any frame
-  double peak_total_g = 0;                      // largest per-frame sum
+  std::uint64_t counter_gaps = 0;             // frames missing by the rolling counter
+  double span_s = 0;                          // device timestamp span (unwrapped)
+  double peak_cell_g = 0, peak_cell_kpa = 0;  // heaviest native cell of any frame
+  double peak_total_g = 0;                    // largest per-frame sum
 };
 Result<CaptureSummary> summarise_capture_file(const std::filesystem::path& path);
 

@@ -13,7 +13,7 @@ namespace pvcap::sensel {
 
 namespace {
 constexpr std::size_t kMaxDroppedKept = 100'000;  // sequences of frames dropped while the queue stays full
-constexpr int kReadTimeoutMs = 500;  // the official library's single-attempt limit: longer is a stall
+constexpr int kReadTimeoutMs = 500;               // the official library's single-attempt limit: longer is a stall
 
 // Runs `f` and stamps it with the midpoint of CLOCK_MONOTONIC before and after.
 template <typename F>
@@ -76,7 +76,8 @@ Result<Response> SenselDevice::transact(const std::vector<std::uint8_t>& command
       if (r.state == Response::State::Ok && r.ack == kAsyncData) continue;  // not ours in sync mode
       return r;
     }
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) {
       timed_out_ = true;
       return Error{fmt::format("{}: no complete answer to register 0x{:02x} within {} ms ({} bytes)",
@@ -103,8 +104,8 @@ Status SenselDevice::write_variable(std::uint8_t reg, std::span<const std::uint8
     auto r = transact(command, expect, reg);
     if (!r) return r.error();
     if (r.value().state != Response::State::Ok)
-      return Error{fmt::format("{}: writing register 0x{:02x} ({} bytes): {}", transport_->describe(), reg,
-                               data.size(), r.value().error)};
+      return Error{fmt::format("{}: writing register 0x{:02x} ({} bytes): {}", transport_->describe(), reg, data.size(),
+                               r.value().error)};
     return {};
   };
   if (Status s = step(command_write_variable_header(reg, std::uint32_t(data.size())), Expect::WriteVariableHeader);
@@ -241,7 +242,7 @@ void SenselDevice::reopen() {
   }
   counter_ = SequenceUnwrapper(8, false);  // a power-cycled device restarts its counter
   clock_ = SequenceUnwrapper(32, false);   // and its clock
-  ++connection_;  // so sequences never repeat within a connection
+  ++connection_;                           // so sequences never repeat within a connection
   first_device_ns_ = -1, connection_frames_ = 0;
   SenselEvent e{SenselEvent::Kind::Reconnected, host_now(),
                 fmt::format("{}: Sensel reconnected (serial {}), streaming again as connection {}",
@@ -271,7 +272,8 @@ void SenselDevice::stream_loop() {
       if (running_.load()) reopen();
       continue;
     }
-    auto [host, wait_ns, r] = stamped([&] { return transact(command_read_variable(reg::kReadFrame), Expect::ReadVariable, reg::kReadFrame); });
+    auto [host, wait_ns, r] = stamped(
+        [&] { return transact(command_read_variable(reg::kReadFrame), Expect::ReadVariable, reg::kReadFrame); });
     if (!r) {
       const std::string msg = r.error().message;
       if (timed_out_) {  // stall: the device answered nothing whole in time
@@ -279,7 +281,8 @@ void SenselDevice::stream_loop() {
         emit(SenselEvent::Kind::Stall, msg);
         flush_input();
       } else {
-        emit(SenselEvent::Kind::Unplugged, fmt::format("{}; everything captured so far is kept, reopening every second", msg));
+        emit(SenselEvent::Kind::Unplugged,
+             fmt::format("{}; everything captured so far is kept, reopening every second", msg));
         unplugged_at_ = host_now();
         if (connection_frames_ > 1 && last_device_ns_ > first_device_ns_)  // its rate until now
           frame_period_ns_ = (last_device_ns_ - first_device_ns_) / std::int64_t(connection_frames_ - 1);
@@ -296,7 +299,8 @@ void SenselDevice::stream_loop() {
     auto frame = parse_frame(r.value().data, info_.grid);
     if (!frame) {
       reject("undecodable frame");
-      emit(SenselEvent::Kind::Garbage, fmt::format("{}: frame rejected: {}", transport_->describe(), frame.error().message));
+      emit(SenselEvent::Kind::Garbage,
+           fmt::format("{}: frame rejected: {}", transport_->describe(), frame.error().message));
       continue;
     }
     PressureSample s;
@@ -308,7 +312,7 @@ void SenselDevice::stream_loop() {
     s.lost_before = step.missing;
     lost_.fetch_add(step.missing);
     auto tick = clock_.next(frame.value().timestamp_us);
-    if (tick.out_of_order) {  // the device clock went back: it restarted. Unwrap afresh; the
+    if (tick.out_of_order) {                  // the device clock went back: it restarted. Unwrap afresh; the
       clock_ = SequenceUnwrapper(32, false);  // timeline's clock model starts a new segment.
       tick = clock_.next(frame.value().timestamp_us);
     }

@@ -54,7 +54,7 @@ struct PressureSample {
   // want of room in the driver's queue (their sequences): lost with that reason.
   std::vector<std::uint64_t> dropped_before;
   Grid grid;
-  Frame frame;                    // contacts, accelerometer, pressure counts, labels
+  Frame frame;                        // contacts, accelerometer, pressure counts, labels
   std::vector<std::uint8_t> payload;  // the frame exactly as the device sent it (checksum verified)
 };
 
@@ -64,9 +64,9 @@ struct SenselEvent {
   enum class Kind { Stall, Garbage, Unplugged, Reconnected, WrongDevice } kind;
   HostNs at;
   std::string message;
-  std::uint32_t connection = 0;  // Reconnected: the new connection's number
-  std::int64_t away_ns = 0;      // Reconnected: how long the device was gone
-  std::uint64_t missed = 0;      // Reconnected: frames it would have sent meanwhile, at its rate before
+  std::uint32_t connection = 0;        // Reconnected: the new connection's number
+  std::int64_t away_ns = 0;            // Reconnected: how long the device was gone
+  std::uint64_t missed = 0;            // Reconnected: frames it would have sent meanwhile, at its rate before
   std::vector<std::uint64_t> dropped;  // Reconnected: the previous connection's last frames the queue had no room for
 };
 
@@ -126,8 +126,8 @@ class SenselDevice {
   BoundedQueue<PressureSample> queue_;
   std::vector<std::uint64_t> dropped_;  // sequences dropped since the last sample queued (this connection's)
   std::uint32_t connection_ = 0;
-  std::string session_serial_;   // the Morph the session streams from: a reconnect must find this one
-  std::string refused_serial_;   // the other Morph last refused (its message is given once)
+  std::string session_serial_;  // the Morph the session streams from: a reconnect must find this one
+  std::string refused_serial_;  // the other Morph last refused (its message is given once)
   Grid session_grid_;
   HostNs unplugged_at_;
   std::int64_t first_device_ns_ = -1, last_device_ns_ = 0;  // this connection's, for its frame rate

@@ -34,8 +34,10 @@ SenselListing list_sensels(const std::vector<std::string>& extra_ttys) {
     if (!info) continue;
     auto same = std::find_if(out.found.begin(), out.found.end(),
                              [&](const FoundSensel& s) { return s.info.serial == info.value().serial; });
-    if (same != out.found.end()) same->usb_serial = serial;
-    else out.found.push_back({"", serial, info.value()});
+    if (same != out.found.end())
+      same->usb_serial = serial;
+    else
+      out.found.push_back({"", serial, info.value()});
   }
   return out;
 }

@@ -73,7 +73,8 @@ Response parse_sized(std::span<const std::uint8_t> b, std::uint8_t reg, int head
   const auto payload = b.subspan(head, len);
   const std::uint8_t chk = b[head + len];
   if (checksum(payload) != chk)
-    return bad(head + len + 1, fmt::format("checksum 0x{:02x}, the {} bytes sum to 0x{:02x}", chk, len, checksum(payload)));
+    return bad(head + len + 1,
+               fmt::format("checksum 0x{:02x}, the {} bytes sum to 0x{:02x}", chk, len, checksum(payload)));
   Response r = ok(head + len + 1, b[0], b[1]);
   r.data.assign(payload.begin(), payload.end());
   return r;
@@ -107,11 +108,13 @@ Response parse_response(std::span<const std::uint8_t> b, Expect expect, std::uin
     }
     case Expect::WriteVariableHeader:
     case Expect::WriteVariableChunk: {
-      if (ack == kWvsNack) return bad(1, fmt::format("the device refused the variable write to register 0x{:02x} (NACK)", reg));
+      if (ack == kWvsNack)
+        return bad(1, fmt::format("the device refused the variable write to register 0x{:02x} (NACK)", reg));
       if (ack != kWvsAck) return bad(1, fmt::format("ack 0x{:02x} where a variable-write ack (7) was expected", ack));
       if (expect == Expect::WriteVariableChunk) return ok(1, ack, reg);
       if (b.size() < 2) return {};
-      if (b[1] != reg) return bad(1, fmt::format("variable-write ack for register 0x{:02x}, expected 0x{:02x}", b[1], reg));
+      if (b[1] != reg)
+        return bad(1, fmt::format("variable-write ack for register 0x{:02x}, expected 0x{:02x}", b[1], reg));
       return ok(2, ack, reg);
     }
   }

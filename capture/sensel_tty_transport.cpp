@@ -1,7 +1,7 @@
 #include <fcntl.h>
+#include <poll.h>
 #include <sys/file.h>
 #include <sys/ioctl.h>
-#include <poll.h>
 #include <termios.h>
 #include <unistd.h>
 

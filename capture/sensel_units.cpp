@@ -63,7 +63,8 @@ std::vector<float> upsample(const std::vector<std::uint16_t>& counts, const Grid
       double acc = 0;
       for (int k = 0; k < 4; ++k) {
         const int c = px.first[std::size_t(o)] + k;
-        if (c >= 0 && c < g.cols) acc += px.weights[std::size_t(o)][std::size_t(k)] * counts[std::size_t(r * g.cols + c)];
+        if (c >= 0 && c < g.cols)
+          acc += px.weights[std::size_t(o)][std::size_t(k)] * counts[std::size_t(r * g.cols + c)];
       }
       tmp[std::size_t(r * out_w + o)] = acc;
     }

@@ -34,8 +34,8 @@ constexpr double native_cell_kpa(double counts, const Grid& g, int unit_shift = 
 }
 // Pressure (kPa) on one sensel of the upsampled image holding `counts` (interpolated).
 constexpr double upsampled_sensel_kpa(double counts, const Grid& g, int unit_shift = kMorphForceUnitShift) {
-  return grams_to_newtons(counts_to_grams(counts, unit_shift)) /
-         ((kSenselPitchMm * 1e-3) * (kSenselPitchMm * 1e-3)) / double(g.xscale * g.yscale) / 1000.0;
+  return grams_to_newtons(counts_to_grams(counts, unit_shift)) / ((kSenselPitchMm * 1e-3) * (kSenselPitchMm * 1e-3)) /
+         double(g.xscale * g.yscale) / 1000.0;
 }
 
 // What a pressure frame amounts to: total force, contact (cells above `contact_kpa`, the

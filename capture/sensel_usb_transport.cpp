@@ -69,10 +69,10 @@ std::vector<Candidate> morphs(libusb_device** list) {
     Candidate c{*d, {}, {}};
     libusb_device_handle* h = nullptr;
     if (const int rc = libusb_open(*d, &h); rc != 0) {
-      c.problem = rc == LIBUSB_ERROR_ACCESS
-                      ? fmt::format("{}: permission denied (add the udev rule in docs/sensel.md, or run as root)",
-                                    where(*d))
-                      : fmt::format("{}: cannot open: {}", where(*d), libusb_strerror(rc));
+      c.problem =
+          rc == LIBUSB_ERROR_ACCESS
+              ? fmt::format("{}: permission denied (add the udev rule in docs/sensel.md, or run as root)", where(*d))
+              : fmt::format("{}: cannot open: {}", where(*d), libusb_strerror(rc));
     } else {
       unsigned char buf[128];
       const int n = desc.iSerialNumber ? libusb_get_string_descriptor_ascii(h, desc.iSerialNumber, buf, sizeof buf) : 0;
@@ -87,8 +87,12 @@ std::vector<Candidate> morphs(libusb_device** list) {
 class UsbTransport : public Transport {
  public:
   UsbTransport(Context ctx, Handle handle, std::string serial, std::string node, std::vector<int> detached)
-      : ctx_(std::move(ctx)), handle_(std::move(handle)), serial_(std::move(serial)), node_(std::move(node)),
-        detached_(std::move(detached)), in_(16384) {}
+      : ctx_(std::move(ctx)),
+        handle_(std::move(handle)),
+        serial_(std::move(serial)),
+        node_(std::move(node)),
+        detached_(std::move(detached)),
+        in_(16384) {}
 
   ~UsbTransport() override {
     libusb_release_interface(handle_.get(), kDataInterface);
@@ -166,7 +170,8 @@ Result<std::unique_ptr<Transport>> open_usb(const std::string& usb_serial) {
     return Error{fmt::format("no Sensel Morph with USB serial '{}'; found: {}", usb_serial, seen)};
   }
   if (n_wanted > 1)
-    return Error{fmt::format("{} Sensel Morphs on the USB bus ({}): name one with sensel.usb in the rig file", n_wanted, seen)};
+    return Error{
+        fmt::format("{} Sensel Morphs on the USB bus ({}): name one with sensel.usb in the rig file", n_wanted, seen)};
   const Candidate& pick = *std::find_if(found.begin(), found.end(), wanted);
   if (!pick.problem.empty()) return Error{fmt::format("Sensel Morph {}", pick.problem)};
 
@@ -185,9 +190,9 @@ Result<std::unique_ptr<Transport>> open_usb(const std::string& usb_serial) {
   }
   if (const int rc = libusb_claim_interface(h, kDataInterface); rc != 0) {
     for (int i : detached) libusb_attach_kernel_driver(h, i);
-    return Error{fmt::format("Sensel Morph {}: cannot claim its data interface: {}{}", node, libusb_strerror(rc),
-                             rc == LIBUSB_ERROR_BUSY ? " (another program has it open: another pvcap, the Sensel app?)"
-                                                     : "")};
+    return Error{
+        fmt::format("Sensel Morph {}: cannot claim its data interface: {}{}", node, libusb_strerror(rc),
+                    rc == LIBUSB_ERROR_BUSY ? " (another program has it open: another pvcap, the Sensel app?)" : "")};
   }
   list.reset();  // the handle keeps its device referenced
   return std::unique_ptr<Transport>(

@@ -10,13 +10,13 @@
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 #include "console/recording_env.h"
+#include "console/terminal_console.h"
 #include "protocol/runner.h"
 #include "protocol/takes.h"
-#include "console/terminal_console.h"
 #include "storage/session_reader.h"
 
 namespace pvcap::console {
@@ -26,9 +26,10 @@ void prepare_session(const RigConfig& rig, SessionSetup& c) {
     throw UserError("--board records a calibration board session: it runs no protocol (leave out --protocol/--resume)");
   if (auto& p = c.recording.participant) {
     if (!is_pseudonymous_code(p->pseudonym))
-      throw UserError(fmt::format("--participant '{}' does not look like a pseudonymous code: use 1 to 32 letters, "
-                                  "digits, '-' or '_' (e.g. P017), never a name",
-                                  p->pseudonym));
+      throw UserError(
+          fmt::format("--participant '{}' does not look like a pseudonymous code: use 1 to 32 letters, "
+                      "digits, '-' or '_' (e.g. P017), never a name",
+                      p->pseudonym));
     if (p->skin_tone.empty()) p->skin_tone = "unrecorded";
     if (p->hand_order.empty()) p->hand_order = "unrecorded";
   }
@@ -37,10 +38,12 @@ void prepare_session(const RigConfig& rig, SessionSetup& c) {
     if (k->sensor_overlay.empty()) k->sensor_overlay = "unrecorded";
   }
   if (c.auto_participant && !rig.simulated)
-    throw UserError(fmt::format("--auto needs a simulated rig ({} has no sim: section): on a real rig a participant "
-                                "performs the takes",
-                                rig.source.string()));
-  if (c.auto_participant && !c.protocol && !c.resume) throw UserError("--auto performs a protocol: give --protocol FILE");
+    throw UserError(
+        fmt::format("--auto needs a simulated rig ({} has no sim: section): on a real rig a participant "
+                    "performs the takes",
+                    rig.source.string()));
+  if (c.auto_participant && !c.protocol && !c.resume)
+    throw UserError("--auto performs a protocol: give --protocol FILE");
   if (!c.resume) return;
   // The resumed session's protocol, participant and conditions carry over, unless given again.
   auto takes = protocol::read_takes(*c.resume);
@@ -55,8 +58,8 @@ void prepare_session(const RigConfig& rig, SessionSetup& c) {
   k.protocol_file = start.value("file", "");
   k.hand_order = start.value("hand_order", "right_first");
   if (k.first_step >= takes.value().plan_steps)
-    throw UserError(fmt::format("--resume {}: every take of its protocol is done; nothing to resume",
-                                c.resume->string()));
+    throw UserError(
+        fmt::format("--resume {}: every take of its protocol is done; nothing to resume", c.resume->string()));
   if (!c.recording.participant && reader.value()->info().participant)
     c.recording.participant = reader.value()->info().participant;
   if (!c.recording.conditions && reader.value()->info().conditions)
@@ -71,8 +74,9 @@ namespace {
 
 // Asks until the answer is accepted: one of `choices`, or (without choices) what `valid` accepts.
 // Enter gives `fallback` when there is one. Throws when the input ends.
-std::string ask(std::istream& in, std::ostream& out, const std::string& question, const std::vector<std::string>& choices,
-                const std::string& fallback, bool (*valid)(const std::string&) = nullptr) {
+std::string ask(std::istream& in, std::ostream& out, const std::string& question,
+                const std::vector<std::string>& choices, const std::string& fallback,
+                bool (*valid)(const std::string&) = nullptr) {
   for (;;) {
     out << question;
     if (!choices.empty()) out << " [" << fmt::format("{}", fmt::join(choices, ", ")) << "]";
@@ -115,10 +119,13 @@ void ask_for_participant(SessionSetup& c, std::istream& in, std::ostream& out) {
 SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, const std::atomic<bool>& interrupt) {
   // The protocol loads before any device is touched: a bad file costs no session.
   std::optional<protocol::Protocol> proto;
-  if (command.continuation) proto = protocol::parse_protocol(command.continuation->protocol_text, command.continuation->protocol_file);
-  else if (command.protocol) proto = protocol::load_protocol(*command.protocol);
+  if (command.continuation)
+    proto = protocol::parse_protocol(command.continuation->protocol_text, command.continuation->protocol_file);
+  else if (command.protocol)
+    proto = protocol::load_protocol(*command.protocol);
   std::string hand_order = "right_first";
-  if (command.continuation) hand_order = command.continuation->hand_order;
+  if (command.continuation)
+    hand_order = command.continuation->hand_order;
   else if (command.recording.participant && command.recording.participant->hand_order == "left_first")
     hand_order = "left_first";
 
@@ -141,9 +148,10 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
   std::thread ticker;
   std::atomic<bool> ticking{true};
   if (proto) {
-    nlohmann::json detail = {{"protocol", proto->name}, {"file", proto->source.string()}, {"hand_order", hand_order},
-                             {"fast", command.fast}, {"auto", command.auto_participant},
-                             {"takes", 2 * proto->actions.size()}, {"text", proto->text}};
+    nlohmann::json detail = {
+        {"protocol", proto->name}, {"file", proto->source.string()},   {"hand_order", hand_order},
+        {"fast", command.fast},    {"auto", command.auto_participant}, {"takes", 2 * proto->actions.size()},
+        {"text", proto->text}};
     protocol::RunnerOptions ro;
     ro.auto_start = command.auto_participant;
     ro.auto_advance = command.auto_participant;
@@ -152,8 +160,8 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
       ro.first_step = command.continuation->first_step;
       detail["continues"] = command.continuation->previous.string();
       detail["first_step"] = command.continuation->first_step;
-      spdlog::info("resuming {} at take {} of {}", command.continuation->previous.string(), command.continuation->first_step + 1,
-                   2 * proto->actions.size());
+      spdlog::info("resuming {} at take {} of {}", command.continuation->previous.string(),
+                   command.continuation->first_step + 1, 2 * proto->actions.size());
     }
     ro.protocol_detail = detail.dump();
     env = std::make_unique<RecordingEnv>(recording);
@@ -191,8 +199,9 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
     console = std::make_unique<TerminalConsole>(*runner);
     console_thread = std::thread([&] { console->run(console_stop); });
   } else if (runner && !command.auto_participant) {
-    spdlog::warn("no terminal to read the operator's keys from: the protocol waits for a start that cannot come "
-                 "(run pvcap in a terminal, or with --auto on a simulated rig)");
+    spdlog::warn(
+        "no terminal to read the operator's keys from: the protocol waits for a start that cannot come "
+        "(run pvcap in a terminal, or with --auto on a simulated rig)");
   }
 
   const std::string reason = recording.wait(interrupt, command.duration_s);

@@ -12,9 +12,9 @@
 #include <optional>
 #include <string>
 
+#include "console/web_console.h"
 #include "core/rig_config.h"
 #include "protocol/runner.h"
-#include "console/web_console.h"
 #include "session/recording.h"
 
 namespace pvcap::console {
@@ -28,12 +28,12 @@ struct Continuation {
 
 struct SessionSetup {
   session::RecordingOptions recording;
-  std::optional<double> duration_s;            // stop after this long; otherwise on stop request
+  std::optional<double> duration_s;               // stop after this long; otherwise on stop request
   std::optional<std::filesystem::path> protocol;  // run this protocol (rig-configs/protocols/*.yaml)
   // An automatic participant performs the takes (a simulated rig's hand): the runner starts and
   // advances by itself. What performs them is `decorate_env`'s (app/ steers the simulator).
   bool auto_participant = false;
-  bool fast = false;                           // the protocol's fast timings
+  bool fast = false;                            // the protocol's fast timings
   std::optional<std::filesystem::path> resume;  // continue this interrupted session's protocol
   std::optional<Continuation> continuation;     // set by prepare_session from `resume`
   // The session's pages (bound by main before a simulated rig's network namespace); none: --no-web.

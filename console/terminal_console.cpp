@@ -57,13 +57,28 @@ void TerminalConsole::run(const std::atomic<bool>& stop) {
     std::string argument;
     Command c;
     switch (key) {
-      case 's': c = Command::Start; break;
-      case 'n': c = Command::Next; break;
-      case 'r': c = Command::Redo; break;
-      case 'k': c = Command::Skip; break;
-      case 'p': c = runner_.view().phase == Phase::Paused ? Command::Resume : Command::Pause; break;
-      case 'b': c = Command::Bad; break;
-      case 'q': c = Command::Abort; argument = "operator"; break;
+      case 's':
+        c = Command::Start;
+        break;
+      case 'n':
+        c = Command::Next;
+        break;
+      case 'r':
+        c = Command::Redo;
+        break;
+      case 'k':
+        c = Command::Skip;
+        break;
+      case 'p':
+        c = runner_.view().phase == Phase::Paused ? Command::Resume : Command::Pause;
+        break;
+      case 'b':
+        c = Command::Bad;
+        break;
+      case 'q':
+        c = Command::Abort;
+        argument = "operator";
+        break;
       case 't': {
         c = Command::Note;
         raw(false);
@@ -72,12 +87,18 @@ void TerminalConsole::run(const std::atomic<bool>& stop) {
         raw(true);
         break;
       }
-      case '?': case 'h': spdlog::info("operator: {}", help()); continue;
-      default: continue;
+      case '?':
+      case 'h':
+        spdlog::info("operator: {}", help());
+        continue;
+      default:
+        continue;
     }
     const auto reply = runner_.command(c, argument);
-    if (reply.ok) spdlog::info("operator: {}", reply.message);
-    else spdlog::warn("operator: refused: {}", reply.message);
+    if (reply.ok)
+      spdlog::info("operator: {}", reply.message);
+    else
+      spdlog::warn("operator: refused: {}", reply.message);
   }
 }
 

@@ -11,16 +11,16 @@
 
 #include <fmt/format.h>
 #include <httplib.h>
+#include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <spdlog/spdlog.h>
 
 #include "capture/sensel_units.h"
-#include "protocol/runner.h"
 #include "console/web_assets.h"
 #include "console/web_images.h"
 #include "console/web_status.h"
+#include "protocol/runner.h"
 #include "session/recording.h"
 
 namespace pvcap::console {
@@ -71,7 +71,8 @@ bool is_loopback_address(const std::string& address) {
   return (ntohl(a.s_addr) >> 24) == 127;
 }
 
-WebConsole::WebConsole(WebOptions options) : options_(std::move(options)), server_(std::make_unique<httplib::Server>()) {}
+WebConsole::WebConsole(WebOptions options)
+    : options_(std::move(options)), server_(std::make_unique<httplib::Server>()) {}
 
 WebConsole::~WebConsole() { stop(); }
 
@@ -80,9 +81,10 @@ Result<std::unique_ptr<WebConsole>> WebConsole::bind(WebOptions options) {
   in6_addr a6{};
   if (options.bind != "localhost" && inet_pton(AF_INET, options.bind.c_str(), &a4) != 1 &&
       inet_pton(AF_INET6, options.bind.c_str(), &a6) != 1)
-    return Error{fmt::format("--web-bind '{}' is not an IP address (e.g. 127.0.0.1, or this machine's address on "
-                             "the lab network)",
-                             options.bind)};
+    return Error{
+        fmt::format("--web-bind '{}' is not an IP address (e.g. 127.0.0.1, or this machine's address on "
+                    "the lab network)",
+                    options.bind)};
   if (options.port < 0 || options.port > 65535)
     return Error{fmt::format("--web-port {} is not a port (1-65535, or 0 for any free one)", options.port)};
   if (!is_loopback_address(options.bind) && options.token.empty()) options.token = random_token();
@@ -177,9 +179,10 @@ void WebConsole::route_guard() {
     if (authorized(req.get_param_value("token"), cookie_value(req.get_header_value("Cookie"), "pvcap_token")))
       return httplib::Server::HandlerResponse::Unhandled;
     res.status = 401;
-    res.set_content("This pvcap session's pages need its token: open the address pvcap printed at the start "
-                    "(it ends in ?token=...).\n",
-                    "text/plain; charset=utf-8");
+    res.set_content(
+        "This pvcap session's pages need its token: open the address pvcap printed at the start "
+        "(it ends in ?token=...).\n",
+        "text/plain; charset=utf-8");
     return httplib::Server::HandlerResponse::Handled;
   });
   s.set_exception_handler([](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
@@ -227,7 +230,6 @@ void WebConsole::route_pages() {
     res.set_header("Cache-Control", "max-age=3600");
     res.set_content(svg.str(), "image/svg+xml");
   });
-
 }
 
 // The status model as JSON (console/web_status.h), polled or pushed as server-sent events.
@@ -278,7 +280,6 @@ void WebConsole::route_state() {
           streams_.fetch_sub(1);
         });
   });
-
 }
 
 void WebConsole::route_images() {
@@ -302,12 +303,10 @@ void WebConsole::route_images() {
     res.set_header("X-Frame-Ns", std::to_string(at));
     res.set_content(*jpg, "image/jpeg");
   };
-  s.Get(R"(/camera/(\d+)\.jpg)", [camera_image](const httplib::Request& req, httplib::Response& res) {
-    camera_image(req, res, false);
-  });
-  s.Get(R"(/camera/(\d+)/full\.jpg)", [camera_image](const httplib::Request& req, httplib::Response& res) {
-    camera_image(req, res, true);
-  });
+  s.Get(R"(/camera/(\d+)\.jpg)",
+        [camera_image](const httplib::Request& req, httplib::Response& res) { camera_image(req, res, false); });
+  s.Get(R"(/camera/(\d+)/full\.jpg)",
+        [camera_image](const httplib::Request& req, httplib::Response& res) { camera_image(req, res, true); });
 
   // The latest pressure frame as a heat map (console/web_images.h).
   s.Get("/pressure.png", [this](const httplib::Request&, httplib::Response& res) {
@@ -345,8 +344,8 @@ void WebConsole::route_commands() {
     const auto cameras = recording_->status().streams;
     std::size_t n_cameras = 0;
     for (const auto& st : cameras) n_cameras += st.kind == "camera";
-    if (!camera || !x || !y || !frame_ns || *camera < 0 || *camera >= double(n_cameras) || *camera != std::floor(*camera) ||
-        *x < 0 || *y < 0 || *x > 100000 || *y > 100000 || *frame_ns <= 0) {
+    if (!camera || !x || !y || !frame_ns || *camera < 0 || *camera >= double(n_cameras) ||
+        *camera != std::floor(*camera) || *x < 0 || *y < 0 || *x > 100000 || *y > 100000 || *frame_ns <= 0) {
       res.status = 400;
       res.set_content("expected camera (an index), x, y (pixels) and frame_ns\n", "text/plain");
       return;
@@ -366,7 +365,6 @@ void WebConsole::route_commands() {
     res.set_content(ok ? "marked\n" : "not logged: the store did not commit it\n", "text/plain");
   });
 
-
   // The operator's commands, the same as the terminal's keys. Acknowledged only once committed.
   s.Post("/command", [this](const httplib::Request& req, httplib::Response& res) {
     nlohmann::json reply;
@@ -376,8 +374,7 @@ void WebConsole::route_commands() {
       reply = {{"ok", false}, {"message", "this session runs no protocol"}};
     } else if (!c) {
       res.status = 400;
-      reply = {{"ok", false},
-               {"message", fmt::format("unknown command '{}'", req.get_param_value("command"))}};
+      reply = {{"ok", false}, {"message", fmt::format("unknown command '{}'", req.get_param_value("command"))}};
     } else {
       const auto r = runner_->command(*c, req.get_param_value("argument"));
       spdlog::info("operator page: {} -> {}{}", req.get_param_value("command"), r.ok ? "" : "refused: ", r.message);
@@ -404,7 +401,6 @@ void WebConsole::route_commands() {
     res.status = ok ? 200 : 503;
     res.set_content(ok ? "logged\n" : "not logged: the store did not commit it\n", "text/plain");
   });
-
 }
 
 }  // namespace pvcap::console

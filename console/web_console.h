@@ -35,8 +35,8 @@ namespace pvcap::console {
 
 struct WebOptions {
   std::string bind = "127.0.0.1";
-  int port = 8090;       // busy: another free port is taken (and printed); 0: any free port
-  std::string token;     // required of every request when set; generated when binding off loopback
+  int port = 8090;    // busy: another free port is taken (and printed); 0: any free port
+  std::string token;  // required of every request when set; generated when binding off loopback
 };
 
 bool is_loopback_address(const std::string& address);

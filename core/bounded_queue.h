@@ -35,8 +35,8 @@ class BoundedQueue {
     std::unique_lock lock(mu_);
     cv_.wait_for(lock, timeout, [&] { return !items_.empty() || closed_; });
     if (items_.empty()) return std::nullopt;
-    // GCC 12 reports moving a nested optional<vector> out of a deque as "used uninitialized"
-    // (a known false positive at -O2); the element is fully constructed.
+      // GCC 12 reports moving a nested optional<vector> out of a deque as "used uninitialized"
+      // (a known false positive at -O2); the element is fully constructed.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wuninitialized"
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"

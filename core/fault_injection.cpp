@@ -54,7 +54,8 @@ FaultPlan parse_faults(std::string_view spec, std::vector<std::string>& problems
   plan.camera_queue_frames = count("camera.queue_frames");
   plan.sensel_queue_frames = count("sensel.queue_frames");
   plan.index_queue_records = count("index_writer.queue_records");
-  for (const auto& [name, v] : values) problems.push_back(fmt::format("PVCAP_FAULTS: '{}' is not a fault; ignored", name));
+  for (const auto& [name, v] : values)
+    problems.push_back(fmt::format("PVCAP_FAULTS: '{}' is not a fault; ignored", name));
   return plan;
 }
 

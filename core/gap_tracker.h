@@ -42,8 +42,10 @@ class GapTracker {
   void settle(std::int64_t now_ns, bool flush_all = false) {
     std::vector<Gap> keep;
     for (const Gap& g : open_) {
-      if (flush_all || now_ns - g.noticed_ns >= grace_ns_) report_(g);
-      else keep.push_back(g);
+      if (flush_all || now_ns - g.noticed_ns >= grace_ns_)
+        report_(g);
+      else
+        keep.push_back(g);
     }
     open_.swap(keep);
   }

@@ -15,9 +15,12 @@ namespace pvcap {
 
 const char* to_string(TriggerMode mode) {
   switch (mode) {
-    case TriggerMode::FreeRun: return "free-run";
-    case TriggerMode::Software: return "software";
-    case TriggerMode::Hardware: return "hardware";
+    case TriggerMode::FreeRun:
+      return "free-run";
+    case TriggerMode::Software:
+      return "software";
+    case TriggerMode::Hardware:
+      return "hardware";
   }
   return "?";
 }
@@ -48,13 +51,18 @@ CameraConfig parse_camera(const YAML::Node& node, const std::filesystem::path& f
   r.get_in_range("gain", c.gain, 0.0, 1000.0);
   std::string trigger = "free-run";
   r.get("trigger", trigger);
-  if (trigger == "free-run") c.trigger = TriggerMode::FreeRun;
-  else if (trigger == "software") c.trigger = TriggerMode::Software;
-  else if (trigger == "hardware") c.trigger = TriggerMode::Hardware;
-  else r.fail(node["trigger"], "trigger", fmt::format("'{}' is not one of free-run, software, hardware", trigger));
+  if (trigger == "free-run")
+    c.trigger = TriggerMode::FreeRun;
+  else if (trigger == "software")
+    c.trigger = TriggerMode::Software;
+  else if (trigger == "hardware")
+    c.trigger = TriggerMode::Hardware;
+  else
+    r.fail(node["trigger"], "trigger", fmt::format("'{}' is not one of free-run, software, hardware", trigger));
   r.get("trigger_source", c.trigger_source);
   r.get_in_range("packet_size", c.packet_size, 0, 65000);
-  if (c.packet_size != 0 && c.packet_size < 576) r.fail(node["packet_size"], "packet_size", "must be 0 (auto) or >= 576");
+  if (c.packet_size != 0 && c.packet_size < 576)
+    r.fail(node["packet_size"], "packet_size", "must be 0 (auto) or >= 576");
   r.get_in_range("socket_buffer_bytes", c.socket_buffer_bytes, 0, 1 << 30);
   r.get("packet_resend", c.packet_resend);
   r.get_in_range("buffer_count", c.buffer_count, 0, 10000);
@@ -82,9 +90,12 @@ SenselRigConfig parse_sensel(const YAML::Node& node, const std::filesystem::path
     r.fail(node["usb"], "usb", "empty: give the Morph's USB serial string (pvcap devices lists it) or 'any'");
   std::string detail = "medium";
   r.get("scan_detail", detail);
-  if (detail == "high") c.scan_detail = 0;
-  else if (detail == "medium") c.scan_detail = 1;
-  else r.fail(node["scan_detail"], "scan_detail", fmt::format("'{}' is not one of high, medium", detail));
+  if (detail == "high")
+    c.scan_detail = 0;
+  else if (detail == "medium")
+    c.scan_detail = 1;
+  else
+    r.fail(node["scan_detail"], "scan_detail", fmt::format("'{}' is not one of high, medium", detail));
   r.get("dynamic_baseline", c.dynamic_baseline);
   r.get_in_range("frame_rate_cap", c.frame_rate_cap, 0, 2000);
   r.get_in_range("latency_ns", c.latency_ns, std::int64_t{0}, std::int64_t{1'000'000'000});

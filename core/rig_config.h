@@ -32,22 +32,22 @@ struct CameraConfig {
   int packet_size = 0;                   // bytes; 0 = negotiate the largest that works
   int socket_buffer_bytes = 0;           // 0 = let Aravis size it from the payload
   bool packet_resend = true;
-  int buffer_count = 0;   // 0 = about half a second of frames, at least 8
-  double link_mbps = 1000;  // the camera's link: preflight refuses a payload x rate above it
+  int buffer_count = 0;         // 0 = about half a second of frames, at least 8
+  double link_mbps = 1000;      // the camera's link: preflight refuses a payload x rate above it
   std::int64_t latency_ns = 0;  // known constant exposure-to-timestamp latency (datasheet)
-  int line = 0;           // where in the file this camera is described
+  int line = 0;                 // where in the file this camera is described
   std::string id() const { return !serial.empty() ? serial : address; }
 };
 
 struct SenselRigConfig {
   // Where the Morph is: exactly one of
-  std::string tty;              // /dev/ttyACM0 (or a udev name such as /dev/morph0); "sim": the simulator's
-                                // (resolved to its pseudo-terminal before a recording opens it)
+  std::string tty;                        // /dev/ttyACM0 (or a udev name such as /dev/morph0); "sim": the simulator's
+                                          // (resolved to its pseudo-terminal before a recording opens it)
   std::optional<std::string> usb_serial;  // over libusb, by USB serial string; "" = the only Morph on the bus
-  int scan_detail = 1;          // 0 high (93x53, ~50 Hz), 1 medium (47x27, ~125 Hz)
-  bool dynamic_baseline = false;  // off: a resting hand must not fade away
-  int frame_rate_cap = 0;       // Hz, 0 = the device's default
-  std::int64_t latency_ns = 0;  // known constant scan-to-answer latency
+  int scan_detail = 1;                    // 0 high (93x53, ~50 Hz), 1 medium (47x27, ~125 Hz)
+  bool dynamic_baseline = false;          // off: a resting hand must not fade away
+  int frame_rate_cap = 0;                 // Hz, 0 = the device's default
+  std::int64_t latency_ns = 0;            // known constant scan-to-answer latency
   int line = 0;
 };
 
@@ -56,19 +56,19 @@ struct StoreConfig {
   // read; "color": debayered on the capture path and stored with `video_codec` (lossy by default).
   // Cameras that send colour or grey pixels always take the colour path.
   std::string video_mode = "raw";
-  std::string raw_codec = "ffvhuff";    // lossless, intra-only: ffvhuff (fastest here), ffv1, libx264 (qp 0)
-  std::string video_codec = "libx264";  // colour mode: any FFmpeg encoder; "ffv1" for lossless
-  int crf = 10;                         // libx264 quality (lower is better; 0 = lossless)
-  std::string preset = "ultrafast";     // libx264 speed preset: real time for 4 x 1080p at 15 Hz on 2 cores
+  std::string raw_codec = "ffvhuff";           // lossless, intra-only: ffvhuff (fastest here), ffv1, libx264 (qp 0)
+  std::string video_codec = "libx264";         // colour mode: any FFmpeg encoder; "ffv1" for lossless
+  int crf = 10;                                // libx264 quality (lower is better; 0 = lossless)
+  std::string preset = "ultrafast";            // libx264 speed preset: real time for 4 x 1080p at 15 Hz on 2 cores
   std::string video_pixel_format = "yuv444p";  // keep full chroma: skin colour is the signal
-  double video_fps = 15.0;  // frames kept in video per second per camera; 0 = every frame
+  double video_fps = 15.0;                     // frames kept in video per second per camera; 0 = every frame
   // Key frame interval in tenths of a second (<= 1 s). Half a second: a random access decodes half as
   // many frames, and on a real (noisy) sensor key frames cost little more than the others (+5 % size).
   int gop_seconds_x10 = 5;
-  int queue_frames = 24;     // per-camera frames waiting for the encoder in memory; beyond them, the spill on disk
+  int queue_frames = 24;        // per-camera frames waiting for the encoder in memory; beyond them, the spill on disk
   double segment_seconds = 60;  // a camera's video is cut into files this long; 0 = one file
-  int min_free_mb = 512;     // stop the session cleanly when the disk's free space drops below this
-  int reserve_mb = 32;       // space set aside at start, freed to finish the store if the disk fills anyway
+  int min_free_mb = 512;        // stop the session cleanly when the disk's free space drops below this
+  int reserve_mb = 32;          // space set aside at start, freed to finish the store if the disk fills anyway
 };
 
 struct RigConfig {

@@ -11,8 +11,7 @@ class SequenceUnwrapper {
  public:
   // `bits`: counter width. `zero_is_skipped`: GigE Vision 1.x never uses block id 0,
   // so 65535 is followed by 1.
-  SequenceUnwrapper(int bits, bool zero_is_skipped)
-      : modulus_(std::uint64_t{1} << bits), skip_zero_(zero_is_skipped) {}
+  SequenceUnwrapper(int bits, bool zero_is_skipped) : modulus_(std::uint64_t{1} << bits), skip_zero_(zero_is_skipped) {}
 
   struct Step {
     std::uint64_t sequence = 0;  // unwrapped value (the first raw value is its own sequence)

@@ -4,8 +4,8 @@
 // errors, each failure a UserError naming file:line and the key's path.
 #include <array>
 #include <cmath>
-#include <optional>
 #include <filesystem>
+#include <optional>
 #include <set>
 #include <string>
 #include <type_traits>
@@ -36,8 +36,8 @@ class MapReader {
 
   [[noreturn]] void fail(const YAML::Node& at, const std::string& key, const std::string& what) const {
     const std::string path = key.empty() ? where_ : (where_.empty() ? key : where_ + "." + key);
-    throw UserError(fmt::format("{}:{}: {}{}{}", file_.string(), at.Mark().line + 1, path,
-                                path.empty() ? "" : ": ", what));
+    throw UserError(
+        fmt::format("{}:{}: {}{}{}", file_.string(), at.Mark().line + 1, path, path.empty() ? "" : ": ", what));
   }
 
   bool has(const char* key) const { return bool(node_[key]); }
@@ -109,10 +109,14 @@ class MapReader {
  private:
   template <typename T>
   static const char* type_name() {
-    if constexpr (std::is_same_v<T, bool>) return "boolean (true/false)";
-    else if constexpr (std::is_integral_v<T>) return "integer";
-    else if constexpr (std::is_floating_point_v<T>) return "number";
-    else return "string";
+    if constexpr (std::is_same_v<T, bool>)
+      return "boolean (true/false)";
+    else if constexpr (std::is_integral_v<T>)
+      return "integer";
+    else if constexpr (std::is_floating_point_v<T>)
+      return "number";
+    else
+      return "string";
   }
 
   YAML::Node node_;

@@ -67,7 +67,8 @@ Result<std::string> participant_folder(const fs::path& out, const std::string& p
     int fd;
     ~Unlock() { ::close(fd); }  // closing drops the lock
   } unlock{fd};
-  if (flock(fd, LOCK_EX) != 0) return Error{fmt::format("{}: cannot be locked: {}", lock_path.string(), std::strerror(errno))};
+  if (flock(fd, LOCK_EX) != 0)
+    return Error{fmt::format("{}: cannot be locked: {}", lock_path.string(), std::strerror(errno))};
   const fs::path map_path = out / "participants.json";
   json map = json::object();
   if (fs::exists(map_path)) {
@@ -133,7 +134,10 @@ std::string light_direction_words(const std::string& lighting) {
   if (!code) return lighting.empty() ? "unrecorded" : lighting;
   std::string out;
   for (char c : lighting) {
-    const char* word = c == 'L' || c == 'l' ? "left" : c == 'C' || c == 'c' ? "center" : c == 'R' || c == 'r' ? "right" : nullptr;
+    const char* word = c == 'L' || c == 'l'   ? "left"
+                       : c == 'C' || c == 'c' ? "center"
+                       : c == 'R' || c == 'r' ? "right"
+                                              : nullptr;
     if (word) out += (out.empty() ? "" : " ") + std::string(word);
   }
   return out.empty() ? "none" : out;
@@ -149,8 +153,8 @@ class SessionExport {
       : session_(session), o_(o), stop_(stop), here_(fs::absolute(session).lexically_normal().string()) {}
 
   Result<ExportResult> run() {
-    for (Status (SessionExport::*step)() : {&SessionExport::validate, &SessionExport::geometry, &SessionExport::select,
-                                            &SessionExport::folders})
+    for (Status (SessionExport::*step)() :
+         {&SessionExport::validate, &SessionExport::geometry, &SessionExport::select, &SessionExport::folders})
       if (Status s = (this->*step)(); !s.ok()) return s.error();
     for (const auto& p : plan_) {
       if (Status s = write_sequence(p); !s.ok()) return s.error();
@@ -187,9 +191,10 @@ class SessionExport {
       const CameraInfo& camera = reader_->cameras()[cameras_[k]];
       const auto& cal = calibrations.value()[cameras_[k]];
       if (!cal)
-        return Error{fmt::format("{}: camera {} has no pad calibration in the session; the layout needs each camera's "
-                                 "pose: run `pvcap calibrate pad {}` (or leave the camera out with --cameras)",
-                                 session_.string(), camera.name, session_.string())};
+        return Error{
+            fmt::format("{}: camera {} has no pad calibration in the session; the layout needs each camera's "
+                        "pose: run `pvcap calibrate pad {}` (or leave the camera out with --cameras)",
+                        session_.string(), camera.name, session_.string())};
       // pvcap's corners run (0,0), (185,0), (185,105), (0,105); the loaders' (185,0), (185,105), (0,105), (0,0).
       const auto& c = *cal->pad_corners_px;
       std::array<cv::Point2d, 4> measured{c[1], c[2], c[3], c[0]};
@@ -212,9 +217,18 @@ class SessionExport {
       std::vector<double> d = cal->model.distortion;
       d.resize(8, 0.0);  // k1 k2 p1 p2 k3, then the rational model's k4 k5 k6 (unused: 0)
       pv_cameras_[std::to_string(k)] = {{"ModelViewMatrix", matrix(pose.model_view)},
-                                        {"fx", K(0, 0)}, {"fy", K(1, 1)}, {"cx", K(0, 2)}, {"cy", K(1, 2)},
-                                        {"k1", d[0]}, {"k2", d[1]}, {"p1", d[2]}, {"p2", d[3]},
-                                        {"k3", d[4]}, {"k4", d[5]}, {"k5", d[6]}, {"k6", d[7]}};
+                                        {"fx", K(0, 0)},
+                                        {"fy", K(1, 1)},
+                                        {"cx", K(0, 2)},
+                                        {"cy", K(1, 2)},
+                                        {"k1", d[0]},
+                                        {"k2", d[1]},
+                                        {"p1", d[2]},
+                                        {"p2", d[3]},
+                                        {"k3", d[4]},
+                                        {"k4", d[5]},
+                                        {"k5", d[6]},
+                                        {"k6", d[7]}};
       result_.cameras.push_back({camera.name, pose.rms_px, pose.max_px});
     }
     return {};
@@ -236,8 +250,8 @@ class SessionExport {
       if (t.status == "done" || o_.include_all) chosen.push_back(&t);
     }
     if (takes_.takes.empty())
-      return Error{fmt::format("{}: the session ran no protocol, so it has no takes to export as sequences",
-                               session_.string())};
+      return Error{
+          fmt::format("{}: the session ran no protocol, so it has no takes to export as sequences", session_.string())};
     if (o_.take && !names.count(*o_.take)) {
       std::string list;
       for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
@@ -250,8 +264,10 @@ class SessionExport {
       PlannedSequence p;
       p.take = t;
       for (std::size_t i = *t->first_sample; i < *t->end_sample && i < samples_.size(); ++i) {
-        if (wanted(samples_[i])) p.samples.push_back(i);
-        else ++p.left_out;
+        if (wanted(samples_[i]))
+          p.samples.push_back(i);
+        else
+          ++p.left_out;
       }
       if (p.samples.empty()) continue;  // a time range that misses the take
       total_ += p.samples.size();
@@ -330,7 +346,8 @@ class SessionExport {
     // A killed run's half-written files (never renamed into place) are of no use.
     std::error_code ec;
     for (const auto& e : fs::recursive_directory_iterator(dir, ec))
-      if (e.is_regular_file() && e.path().filename().string().find(".tmp-") != std::string::npos) fs::remove(e.path(), ec);
+      if (e.is_regular_file() && e.path().filename().string().find(".tmp-") != std::string::npos)
+        fs::remove(e.path(), ec);
     for (std::size_t k = 0; k < cameras_.size(); ++k) fs::create_directories(dir / fmt::format("camera_{}", k), ec);
     fs::create_directories(dir / "force", ec);
     if (ec) return Error{fmt::format("{}: cannot be made: {}", dir.string(), ec.message())};
@@ -459,8 +476,9 @@ class SessionExport {
     meta["num_cameras"] = cameras_.size();
     meta["num_frames"] = p.samples.size();
     meta["timesteps"] = timesteps;
-    meta["participant"] = {{"Skintone", info.participant ? info.participant->skin_tone : "unrecorded"},
-                           {"Light Direction", light_direction_words(info.conditions ? info.conditions->lighting : "")}};
+    meta["participant"] = {
+        {"Skintone", info.participant ? info.participant->skin_tone : "unrecorded"},
+        {"Light Direction", light_direction_words(info.conditions ? info.conditions->lighting : "")}};
     if (o_.layout == Layout::PressureVision) {
       meta["camera_calibrations"] = pv_cameras_;
     } else {
@@ -479,18 +497,23 @@ class SessionExport {
     }
     json cams = json::array();
     for (std::size_t k = 0; k < cameras_.size(); ++k)
-      cams.push_back({{"camera", k},
-                      {"crop_box", o_.paper_crop ? json{crops_[k].x, crops_[k].y, crops_[k].width, crops_[k].height}
-                                                 : json()},
-                      {"name", reader_->cameras()[cameras_[k]].name},
-                      {"serial", reader_->cameras()[cameras_[k]].serial},
-                      {"loader_corner_rms_px", result_.cameras[k].loader_corner_rms_px},
-                      {"loader_corner_max_px", result_.cameras[k].loader_corner_max_px}});
+      cams.push_back(
+          {{"camera", k},
+           {"crop_box", o_.paper_crop ? json{crops_[k].x, crops_[k].y, crops_[k].width, crops_[k].height} : json()},
+           {"name", reader_->cameras()[cameras_[k]].name},
+           {"serial", reader_->cameras()[cameras_[k]].serial},
+           {"loader_corner_rms_px", result_.cameras[k].loader_corner_rms_px},
+           {"loader_corner_max_px", result_.cameras[k].loader_corner_max_px}});
     meta["pvcap"] = {{"session", here_},
                      {"participant_code", pseudonym_},
-                     {"take", {{"step", p.take->step}, {"sequence", p.take->sequence}, {"status", p.take->status},
-                               {"action", p.take->action}, {"hand", p.take->hand}, {"force", p.take->force},
-                               {"repetitions", p.take->repetitions}}},
+                     {"take",
+                      {{"step", p.take->step},
+                       {"sequence", p.take->sequence},
+                       {"status", p.take->status},
+                       {"action", p.take->action},
+                       {"hand", p.take->hand},
+                       {"force", p.take->force},
+                       {"repetitions", p.take->repetitions}}},
                      {"samples", p.samples},
                      {"samples_left_out", p.left_out},
                      {"cameras", cams},

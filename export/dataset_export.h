@@ -32,12 +32,12 @@ enum class Layout { PressureVision, PressureVisionPlus };
 struct ExportOptions {
   std::filesystem::path out;
   Layout layout = Layout::PressureVision;
-  std::optional<std::string> take;          // only this sequence (e.g. press_palm_high_5x_left)
-  std::optional<double> from_s, to_s;       // only samples in [from, to) s from the session's start
-  std::vector<std::size_t> cameras;         // indices of the session's cameras; empty: all
+  std::optional<std::string> take;     // only this sequence (e.g. press_palm_high_5x_left)
+  std::optional<double> from_s, to_s;  // only samples in [from, to) s from the session's start
+  std::vector<std::size_t> cameras;    // indices of the session's cameras; empty: all
   int jpeg_quality = 95;
-  bool npy = false;                         // force frames as .npy instead of .pkl
-  bool include_all = false;                 // superseded, bad and interrupted takes too
+  bool npy = false;          // force frames as .npy instead of .pkl
+  bool include_all = false;  // superseded, bad and interrupted takes too
   // The paper's crop (spec 2.2): each camera's frames cut to the pad with a 50 px border, grown to
   // 480:384 and resized to 480 x 384; the intrinsics and homographies follow, so the loaders' own
   // geometry lands on the cropped frames (train with CROP_IMAGES off: they are cropped already).
@@ -47,8 +47,8 @@ struct ExportOptions {
 };
 
 struct SequenceResult {
-  std::string folder;       // relative to the output folder
-  std::string status;       // the take's status
+  std::string folder;  // relative to the output folder
+  std::string status;  // the take's status
   std::size_t frames = 0;
   std::size_t samples_left_out = 0;  // samples missing a camera's frame or the pressure
   bool was_complete = false;         // found finished by an earlier run

@@ -56,7 +56,10 @@ std::string numpy_pickle(const cv::Mat& a) {
   put();
   s += std::string("K\x00\x85", 3);
   put();
-  s += std::string("C\x01" "b", 3);
+  s += std::string(
+      "C\x01"
+      "b",
+      3);
   put();
   s += '\x87';
   put();

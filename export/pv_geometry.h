@@ -19,9 +19,9 @@ std::array<cv::Point2d, 4> pv_sensor_corners();
 std::array<cv::Point3d, 4> pv_world_corners_mm();
 
 struct PvPose {
-  cv::Matx44d model_view;               // world (mm) -> camera (mm)
-  std::array<cv::Point2d, 4> corners;   // the loaders' corners in the image, pv_sensor_corners() order
-  double rms_px = 0, max_px = 0;        // against the measured corners
+  cv::Matx44d model_view;              // world (mm) -> camera (mm)
+  std::array<cv::Point2d, 4> corners;  // the loaders' corners in the image, pv_sensor_corners() order
+  double rms_px = 0, max_px = 0;       // against the measured corners
 };
 
 // The pose that best puts the loaders' corners on `measured` (image px, pv_sensor_corners() order),

@@ -14,20 +14,28 @@ namespace pvcap::protocol {
 
 const char* to_string(Force f) {
   switch (f) {
-    case Force::Low: return "low";
-    case Force::High: return "high";
-    case Force::NoContact: return "no_contact";
-    case Force::Any: return "any";
+    case Force::Low:
+      return "low";
+    case Force::High:
+      return "high";
+    case Force::NoContact:
+      return "no_contact";
+    case Force::Any:
+      return "any";
   }
   return "any";
 }
 
 const char* display_name(Force f) {
   switch (f) {
-    case Force::Low: return "Low";
-    case Force::High: return "High";
-    case Force::NoContact: return "No contact";
-    case Force::Any: return "Any force";
+    case Force::Low:
+      return "Low";
+    case Force::High:
+      return "High";
+    case Force::NoContact:
+      return "No contact";
+    case Force::Any:
+      return "Any force";
   }
   return "Any force";
 }
@@ -107,11 +115,16 @@ Protocol parse_protocol(const std::string& text, const std::filesystem::path& so
       if (!f.IsSequence() || f.size() == 0) ar.fail(f, "forces", "expected a list: [low, high, no_contact] or [any]");
       for (const auto& v : f) {
         const std::string s = v.Scalar();
-        if (s == "low") forces.push_back(Force::Low);
-        else if (s == "high") forces.push_back(Force::High);
-        else if (s == "no_contact") forces.push_back(Force::NoContact);
-        else if (s == "any") forces.push_back(Force::Any);
-        else ar.fail(v, "forces", fmt::format("'{}' is not one of low, high, no_contact, any", s));
+        if (s == "low")
+          forces.push_back(Force::Low);
+        else if (s == "high")
+          forces.push_back(Force::High);
+        else if (s == "no_contact")
+          forces.push_back(Force::NoContact);
+        else if (s == "any")
+          forces.push_back(Force::Any);
+        else
+          ar.fail(v, "forces", fmt::format("'{}' is not one of low, high, no_contact, any", s));
       }
     } else {
       forces.push_back(Force::Any);

@@ -12,8 +12,8 @@
 namespace pvcap::protocol {
 
 enum class Force { Low, High, NoContact, Any };
-const char* to_string(Force f);         // low | high | no_contact | any
-const char* display_name(Force f);      // Low | High | No contact | Any force
+const char* to_string(Force f);     // low | high | no_contact | any
+const char* display_name(Force f);  // Low | High | No contact | Any force
 
 struct Timings {
   double prompt_s = 4;     // the action shown before the countdown
@@ -24,10 +24,10 @@ struct Timings {
 
 // What the take check calls matching its prompt (units of the paper: N).
 struct TakeCheckConfig {
-  double contact_newtons = 0.5;      // Low/High/Any: the take's peak total force above this
-  double no_contact_newtons = 0.3;   // No contact: the take's peak total force below this
-  double high_over_low = 1.3;        // High's mean force at least this times Low's (same action, hand)
-  double max_gap_ms = 250;           // no stream silent longer than this (the recording indicator's window)
+  double contact_newtons = 0.5;     // Low/High/Any: the take's peak total force above this
+  double no_contact_newtons = 0.3;  // No contact: the take's peak total force below this
+  double high_over_low = 1.3;       // High's mean force at least this times Low's (same action, hand)
+  double max_gap_ms = 250;          // no stream silent longer than this (the recording indicator's window)
 };
 
 // One row of the plan's action list (an action at one force level).
@@ -40,7 +40,7 @@ struct Action {
   int repetitions = 1;
   bool check_side = true;  // the hand is expected on its own half of the pad
   Timings timings;
-  int line = 0;            // in the protocol file
+  int line = 0;  // in the protocol file
 };
 
 struct Protocol {

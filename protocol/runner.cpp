@@ -4,21 +4,29 @@
 #include <cmath>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 namespace pvcap::protocol {
 
 const char* to_string(Phase p) {
   switch (p) {
-    case Phase::Idle: return "idle";
-    case Phase::Prompt: return "prompt";
-    case Phase::Countdown: return "countdown";
-    case Phase::Recording: return "recording";
-    case Phase::Rest: return "rest";
-    case Phase::Paused: return "paused";
-    case Phase::Done: return "done";
-    case Phase::Aborted: return "aborted";
+    case Phase::Idle:
+      return "idle";
+    case Phase::Prompt:
+      return "prompt";
+    case Phase::Countdown:
+      return "countdown";
+    case Phase::Recording:
+      return "recording";
+    case Phase::Rest:
+      return "rest";
+    case Phase::Paused:
+      return "paused";
+    case Phase::Done:
+      return "done";
+    case Phase::Aborted:
+      return "aborted";
   }
   return "?";
 }
@@ -158,9 +166,13 @@ bool Runner::finish_take(std::int64_t now, const std::string& status) {
     in.has_pressure = env_.has_pressure();
     check = check_take(in, protocol_.check);
     const auto& m = check->measures;
-    d["check"] = {{"ok", check->ok}, {"problems", check->problems}, {"mean_newtons", m.mean_newtons},
-                  {"peak_newtons", m.peak_newtons}, {"mean_contact_mm2", m.mean_contact_mm2},
-                  {"peak_contact_mm2", m.peak_contact_mm2}, {"pressure_frames", m.frames}};
+    d["check"] = {{"ok", check->ok},
+                  {"problems", check->problems},
+                  {"mean_newtons", m.mean_newtons},
+                  {"peak_newtons", m.peak_newtons},
+                  {"mean_contact_mm2", m.mean_contact_mm2},
+                  {"peak_contact_mm2", m.peak_contact_mm2},
+                  {"pressure_frames", m.frames}};
   }
   if (!post("action_end", current_, d.dump())) return false;
   a.status = status;
@@ -201,7 +213,9 @@ void Runner::tick() {
   if (phase_ == Phase::Recording) max_silence_ms_ = std::max(max_silence_ms_, env_.stream_silence_ms());
   if (now < phase_end_ns_) return;
   switch (phase_) {
-    case Phase::Prompt: (void)enter_countdown(now); break;
+    case Phase::Prompt:
+      (void)enter_countdown(now);
+      break;
     case Phase::Countdown:
       // A device lost during the countdown: back to the prompt, the countdown starts again when it is back.
       if (!env_.devices_live()) {
@@ -222,7 +236,8 @@ void Runner::tick() {
     case Phase::Rest:
       if (!holding_) (void)advance(now);
       break;
-    default: break;
+    default:
+      break;
   }
 }
 
@@ -248,7 +263,8 @@ Runner::Reply Runner::command(Command c, const std::string& argument) {
     }
     case Command::Next: {
       switch (phase_) {
-        case Phase::Idle: return refuse("not started: use start");
+        case Phase::Idle:
+          return refuse("not started: use start");
         case Phase::Prompt:
           if (!enter_countdown(now)) return refuse(message_);
           return done(true, "countdown");
@@ -259,9 +275,12 @@ Runner::Reply Runner::command(Command c, const std::string& argument) {
           if (!finish_take(now, "done")) return refuse(message_);
           set_phase(Phase::Rest, now, 0);
           return done(advance(now), "take ended early; next take");
-        case Phase::Rest: return done(advance(now), "next take");
-        case Phase::Paused: return refuse("paused: resume first");
-        default: return refuse("nothing to go on to");
+        case Phase::Rest:
+          return done(advance(now), "next take");
+        case Phase::Paused:
+          return refuse("paused: resume first");
+        default:
+          return refuse("nothing to go on to");
       }
     }
     case Command::Redo: {
@@ -356,8 +375,8 @@ RunnerView Runner::view() const {
   if (current_ < int(plan_.size()) && phase_ != Phase::Done && phase_ != Phase::Aborted) {
     const PlannedTake& t = plan_[std::size_t(current_)];
     // Recording or resting after it: the take just made; before it: the one about to be made.
-    const bool after_take = phase_ == Phase::Recording || phase_ == Phase::Rest ||
-                            (phase_ == Phase::Paused && paused_in_ == Phase::Rest);
+    const bool after_take =
+        phase_ == Phase::Recording || phase_ == Phase::Rest || (phase_ == Phase::Paused && paused_in_ == Phase::Rest);
     v.sequence = t.sequence_name(attempts_of(current_) + (after_take ? 0 : 1));
     v.action_name = t.action->name;
     v.action_text = t.action->text;

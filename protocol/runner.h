@@ -45,7 +45,8 @@ enum class Phase { Idle, Prompt, Countdown, Recording, Rest, Paused, Done, Abort
 const char* to_string(Phase p);
 
 enum class Command { Start, Next, Redo, Skip, Pause, Resume, Abort, Bad, Note };
-std::optional<Command> parse_command(const std::string& word);  // start, next, redo, skip, pause, resume, abort, bad, note
+std::optional<Command> parse_command(
+    const std::string& word);  // start, next, redo, skip, pause, resume, abort, bad, note
 
 struct Attempt {
   int step = 0, attempt = 1;
@@ -59,23 +60,23 @@ struct Attempt {
 struct RunnerView {
   Phase phase = Phase::Idle;
   Phase paused_in = Phase::Idle;
-  int step = 0, steps = 0;          // the current take's position in the plan, and the plan's length
-  int takes_done = 0;               // steps with a done (or bad) take
+  int step = 0, steps = 0;  // the current take's position in the plan, and the plan's length
+  int takes_done = 0;       // steps with a done (or bad) take
   std::string sequence, action_text, action_name, pictogram, force, hand;
   int repetition = 0, repetitions = 0;  // while recording: which repetition is due (1-based)
   double seconds_left = 0;              // in the current timed phase
   bool waiting_for_devices = false;
-  bool holding = false;                 // after a take that failed its check: the operator decides
-  std::optional<Attempt> last;          // the latest finished attempt
-  std::string message;                  // the last thing the runner told the operator
-  std::vector<std::string> step_status; // per step: pending | done | skipped | bad
+  bool holding = false;                  // after a take that failed its check: the operator decides
+  std::optional<Attempt> last;           // the latest finished attempt
+  std::string message;                   // the last thing the runner told the operator
+  std::vector<std::string> step_status;  // per step: pending | done | skipped | bad
 };
 
 struct RunnerOptions {
-  bool auto_start = false;    // start at once (no operator start command)
-  bool auto_advance = false;  // a take that fails its check does not hold for the operator
-  bool fast = false;          // the protocol's fast timings
-  int first_step = 0;         // resume: begin here
+  bool auto_start = false;      // start at once (no operator start command)
+  bool auto_advance = false;    // a take that fails its check does not hold for the operator
+  bool fast = false;            // the protocol's fast timings
+  int first_step = 0;           // resume: begin here
   std::string protocol_detail;  // extra JSON fields for the protocol_start event (e.g. what it continues)
 };
 
@@ -122,7 +123,7 @@ class Runner {
   int current_ = 0;
   std::optional<int> return_to_;  // after a redo: the step to go on with
   bool holding_ = false, waiting_for_devices_ = false, started_ = false;
-  double max_silence_ms_ = 0;     // during the current recording
+  double max_silence_ms_ = 0;  // during the current recording
   std::vector<Attempt> attempts_;
   std::vector<std::string> step_status_;
   std::string message_;

@@ -22,10 +22,10 @@ struct ForcePoint {
 
 struct TakeMeasures {
   std::size_t frames = 0;
-  double mean_newtons = 0, peak_newtons = 0;      // total force over the take
+  double mean_newtons = 0, peak_newtons = 0;  // total force over the take
   double mean_contact_mm2 = 0, peak_contact_mm2 = 0;
-  std::optional<double> centroid_x_mm;            // force-weighted, when there was any force
-  double max_pressure_gap_ms = 0;                 // longest stretch without a pressure frame
+  std::optional<double> centroid_x_mm;  // force-weighted, when there was any force
+  double max_pressure_gap_ms = 0;       // longest stretch without a pressure frame
 };
 
 TakeMeasures measure_take(const std::vector<ForcePoint>& points, std::int64_t from_ns, std::int64_t to_ns);

@@ -180,10 +180,18 @@ nlohmann::json takes_json(const SessionTakes& t) {
   j["plan_steps"] = t.plan_steps;
   j["takes"] = nlohmann::json::array();
   for (const auto& r : t.takes) {
-    nlohmann::json row = {{"session", r.session}, {"step", r.step}, {"sequence", r.sequence}, {"action", r.action},
-                          {"hand", r.hand}, {"force", r.force}, {"repetitions", r.repetitions},
-                          {"status", r.status}, {"mean_newtons", r.mean_newtons}, {"peak_newtons", r.peak_newtons},
-                          {"mean_contact_mm2", r.mean_contact_mm2}, {"peak_contact_mm2", r.peak_contact_mm2},
+    nlohmann::json row = {{"session", r.session},
+                          {"step", r.step},
+                          {"sequence", r.sequence},
+                          {"action", r.action},
+                          {"hand", r.hand},
+                          {"force", r.force},
+                          {"repetitions", r.repetitions},
+                          {"status", r.status},
+                          {"mean_newtons", r.mean_newtons},
+                          {"peak_newtons", r.peak_newtons},
+                          {"mean_contact_mm2", r.mean_contact_mm2},
+                          {"peak_contact_mm2", r.peak_contact_mm2},
                           {"pressure_frames", r.pressure_frames}};
     // Seconds from the start of the take's own folder; the session clock's ns as stored.
     row["start_s"] = r.start_ns ? nlohmann::json(double(*r.start_ns - r.session_start_ns) / 1e9) : nlohmann::json();

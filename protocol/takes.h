@@ -20,8 +20,8 @@ struct TakeRow {
   int step = 0;
   std::string sequence, action, hand, force, status;
   int repetitions = 0;
-  std::optional<std::int64_t> start_ns, end_ns;  // session clock; none for a take skipped at its prompt
-  std::int64_t session_start_ns = 0;             // its folder's start, for times in seconds from it
+  std::optional<std::int64_t> start_ns, end_ns;         // session clock; none for a take skipped at its prompt
+  std::int64_t session_start_ns = 0;                    // its folder's start, for times in seconds from it
   std::optional<std::size_t> first_sample, end_sample;  // [first, end) in its session's samples
   double mean_newtons = 0, peak_newtons = 0, mean_contact_mm2 = 0, peak_contact_mm2 = 0;
   std::size_t pressure_frames = 0;

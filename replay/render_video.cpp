@@ -72,7 +72,8 @@ Result<RenderResult> render_replay(const std::filesystem::path& session, const R
   auto opened = SessionReader::open(session);
   if (!opened) return opened.error();
   SessionReader& reader = *opened.value();
-  if (reader.sample_count() == 0) return Error{fmt::format("{}: the session has no samples to replay", session.string())};
+  if (reader.sample_count() == 0)
+    return Error{fmt::format("{}: the session has no samples to replay", session.string())};
   auto composer = ReplayComposer::open(reader, session, o.pressure_full_scale_kpa);
   if (!composer) return composer.error();
 

@@ -14,8 +14,8 @@
 namespace pvcap::replay {
 
 struct RenderOptions {
-  std::filesystem::path out;          // .mp4 (H.264); .mkv works too
-  std::optional<std::string> take;    // only this take's samples
+  std::filesystem::path out;           // .mp4 (H.264); .mkv works too
+  std::optional<std::string> take;     // only this take's samples
   std::optional<double> from_s, to_s;  // seconds from the session's start
   double speed = 1.0;                  // 2: the video plays twice as fast as the session went
   double pressure_full_scale_kpa = 60;
@@ -23,9 +23,9 @@ struct RenderOptions {
 
 struct RenderResult {
   std::size_t frames = 0;
-  double video_seconds = 0;     // the rendered video's duration
-  double session_seconds = 0;   // the stretch of the session it shows
-  double seconds_taken = 0;     // wall time of the rendering
+  double video_seconds = 0;    // the rendered video's duration
+  double session_seconds = 0;  // the stretch of the session it shows
+  double seconds_taken = 0;    // wall time of the rendering
 };
 
 // `progress(done, total)` after each picture. The file is written under a temporary name and moved

@@ -62,10 +62,9 @@ Result<ReplayComposer> ReplayComposer::open(SessionReader& reader, const std::fi
   if (auto takes = protocol::read_takes(dir)) {
     const std::string folder = dir.filename().string();
     for (const auto& t : takes.value().takes) {
-      if (!t.first_sample || !t.end_sample || std::filesystem::path(t.session).filename().string() != folder)
-        continue;
-      c.takes_.push_back({{t.sequence, t.action, t.hand, t.force, t.status, t.repetitions}, *t.first_sample,
-                          *t.end_sample});
+      if (!t.first_sample || !t.end_sample || std::filesystem::path(t.session).filename().string() != folder) continue;
+      c.takes_.push_back(
+          {{t.sequence, t.action, t.hand, t.force, t.status, t.repetitions}, *t.first_sample, *t.end_sample});
     }
   }
   return c;
@@ -100,8 +99,10 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i) {
   cv::parallel_for_(cv::Range(0, int(camera_readers_.size())), [&](const cv::Range& range) {
     for (int c = range.start; c < range.end; ++c) {
       auto image = camera_readers_[std::size_t(c)]->image(i, std::size_t(c));
-      if (image) images[std::size_t(c)] = std::move(image.value());
-      else errors[std::size_t(c)] = image.error().message;
+      if (image)
+        images[std::size_t(c)] = std::move(image.value());
+      else
+        errors[std::size_t(c)] = image.error().message;
     }
   });
   for (const auto& e : errors)
@@ -136,7 +137,8 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i, std::vector<cv::Mat> imag
     const cv::Rect fit = Layout::fitted({info.width, info.height});
     cv::Mat view;
     cv::resize(s.images[c], view, fit.size(), 0, 0, cv::INTER_LINEAR);  // from half size: a small step down
-    if (!kpa.empty() && projectors_[c]) view = calib::overlay_pressure(view, projectors_[c]->project(kpa), full_scale_kpa_);
+    if (!kpa.empty() && projectors_[c])
+      view = calib::overlay_pressure(view, projectors_[c]->project(kpa), full_scale_kpa_);
     view.copyTo(tile(fit));
     const std::string label = name + (projectors_[c] ? "" : " (no calibration: no overlay)");
     int base = 0;
@@ -167,13 +169,18 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i, std::vector<cv::Mat> imag
   };
   const double t_s = double(s.info.t_ns - reader_->info().started_host_ns) * 1e-9;
   line(fmt::format("t = {:.2f} s   sample {}", t_s, i), 0.7, kText, 2);
-  if (kpa.empty()) line("pressure: none", 0.6, kDim);
-  else line(fmt::format("peak {:.0f} kPa (scale {:.0f})", [&] {
-              double top = 0;
-              cv::minMaxLoc(kpa, nullptr, &top);
-              return top;
-            }(), full_scale_kpa_),
-            0.6, kText);
+  if (kpa.empty())
+    line("pressure: none", 0.6, kDim);
+  else
+    line(fmt::format(
+             "peak {:.0f} kPa (scale {:.0f})",
+             [&] {
+               double top = 0;
+               cv::minMaxLoc(kpa, nullptr, &top);
+               return top;
+             }(),
+             full_scale_kpa_),
+         0.6, kText);
   y += 10;
   if (const auto take = take_at(i)) {
     line(take->action, 0.7, kText, 2);

@@ -12,27 +12,63 @@ constexpr double kMinSpeed = 0.125, kMaxSpeed = 8.0;
 
 PlayerKey key_from_code(int code) {
   switch (code) {
-    case ' ': return PlayerKey::PlayPause;
-    case '.': case '>': return PlayerKey::StepForward;
-    case ',': case '<': return PlayerKey::StepBack;
-    case ']': return PlayerKey::SeekForward;
-    case '[': return PlayerKey::SeekBack;
-    case 'n': case 'N': return PlayerKey::NextTake;
-    case 'p': case 'P': return PlayerKey::PreviousTake;
-    case '+': case '=': return PlayerKey::Faster;
-    case '-': case '_': return PlayerKey::Slower;
-    case 'q': case 'Q': case 27: return PlayerKey::Quit;
+    case ' ':
+      return PlayerKey::PlayPause;
+    case '.':
+    case '>':
+      return PlayerKey::StepForward;
+    case ',':
+    case '<':
+      return PlayerKey::StepBack;
+    case ']':
+      return PlayerKey::SeekForward;
+    case '[':
+      return PlayerKey::SeekBack;
+    case 'n':
+    case 'N':
+      return PlayerKey::NextTake;
+    case 'p':
+    case 'P':
+      return PlayerKey::PreviousTake;
+    case '+':
+    case '=':
+      return PlayerKey::Faster;
+    case '-':
+    case '_':
+      return PlayerKey::Slower;
+    case 'q':
+    case 'Q':
+    case 27:
+      return PlayerKey::Quit;
     // GTK (X11 keysyms) and Qt (Qt::Key) codes of the special keys.
-    case 0xFF53: case 0x01000014: return PlayerKey::StepForward;  // right
-    case 0xFF51: case 0x01000012: return PlayerKey::StepBack;     // left
-    case 0xFF52: case 0x01000013: return PlayerKey::Faster;       // up
-    case 0xFF54: case 0x01000015: return PlayerKey::Slower;       // down
-    case 0xFF56: case 0x01000017: return PlayerKey::SeekForward;  // page down
-    case 0xFF55: case 0x01000016: return PlayerKey::SeekBack;     // page up
-    case 0xFF50: case 0x01000010: return PlayerKey::Start;        // home
-    case 0xFF57: case 0x01000011: return PlayerKey::End;          // end
-    case 0x01000000: return PlayerKey::Quit;                      // Qt's escape
-    default: return PlayerKey::None;
+    case 0xFF53:
+    case 0x01000014:
+      return PlayerKey::StepForward;  // right
+    case 0xFF51:
+    case 0x01000012:
+      return PlayerKey::StepBack;  // left
+    case 0xFF52:
+    case 0x01000013:
+      return PlayerKey::Faster;  // up
+    case 0xFF54:
+    case 0x01000015:
+      return PlayerKey::Slower;  // down
+    case 0xFF56:
+    case 0x01000017:
+      return PlayerKey::SeekForward;  // page down
+    case 0xFF55:
+    case 0x01000016:
+      return PlayerKey::SeekBack;  // page up
+    case 0xFF50:
+    case 0x01000010:
+      return PlayerKey::Start;  // home
+    case 0xFF57:
+    case 0x01000011:
+      return PlayerKey::End;  // end
+    case 0x01000000:
+      return PlayerKey::Quit;  // Qt's escape
+    default:
+      return PlayerKey::None;
   }
 }
 
@@ -51,9 +87,7 @@ PlayerKey key_from_name(const std::string& name) {
   return PlayerKey::None;
 }
 
-const char* key_help() {
-  return "space play/pause   <- -> step   [ ] 5 s   p n take   - + speed   home end   q quit";
-}
+const char* key_help() { return "space play/pause   <- -> step   [ ] 5 s   p n take   - + speed   home end   q quit"; }
 
 ReplayPlayer::ReplayPlayer(std::vector<std::int64_t> sample_ns, std::vector<std::size_t> take_starts)
     : sample_ns_(std::move(sample_ns)), take_starts_(std::move(take_starts)) {}
@@ -80,15 +114,26 @@ void ReplayPlayer::press(PlayerKey key, std::int64_t now_ns) {
   }
   const std::size_t last = sample_ns_.size() - 1;
   switch (key) {
-    case PlayerKey::None: return;
+    case PlayerKey::None:
+      return;
     case PlayerKey::PlayPause:
       playing_ = !playing_;
       if (playing_ && position_ == last) go_to(0);  // play again from the start
       break;
-    case PlayerKey::StepForward: playing_ = false; go_to(position_ + 1); break;
-    case PlayerKey::StepBack: playing_ = false; go_to(position_ == 0 ? 0 : position_ - 1); break;
-    case PlayerKey::SeekForward: go_to(sample_at_or_before(sample_ns_[position_] + kSeekNs)); break;
-    case PlayerKey::SeekBack: go_to(sample_at_or_before(sample_ns_[position_] - kSeekNs)); break;
+    case PlayerKey::StepForward:
+      playing_ = false;
+      go_to(position_ + 1);
+      break;
+    case PlayerKey::StepBack:
+      playing_ = false;
+      go_to(position_ == 0 ? 0 : position_ - 1);
+      break;
+    case PlayerKey::SeekForward:
+      go_to(sample_at_or_before(sample_ns_[position_] + kSeekNs));
+      break;
+    case PlayerKey::SeekBack:
+      go_to(sample_at_or_before(sample_ns_[position_] - kSeekNs));
+      break;
     case PlayerKey::NextTake: {
       const auto it = std::upper_bound(take_starts_.begin(), take_starts_.end(), position_);
       if (it != take_starts_.end()) go_to(*it);
@@ -104,11 +149,22 @@ void ReplayPlayer::press(PlayerKey key, std::int64_t now_ns) {
       go_to(*it);
       break;
     }
-    case PlayerKey::Faster: speed_ = std::min(kMaxSpeed, speed_ * 2); break;
-    case PlayerKey::Slower: speed_ = std::max(kMinSpeed, speed_ / 2); break;
-    case PlayerKey::Start: go_to(0); break;
-    case PlayerKey::End: playing_ = false; go_to(last); break;
-    case PlayerKey::Quit: quit_ = true; break;
+    case PlayerKey::Faster:
+      speed_ = std::min(kMaxSpeed, speed_ * 2);
+      break;
+    case PlayerKey::Slower:
+      speed_ = std::max(kMinSpeed, speed_ / 2);
+      break;
+    case PlayerKey::Start:
+      go_to(0);
+      break;
+    case PlayerKey::End:
+      playing_ = false;
+      go_to(last);
+      break;
+    case PlayerKey::Quit:
+      quit_ = true;
+      break;
   }
   restart_clock(now_ns);
 }
@@ -123,8 +179,7 @@ void ReplayPlayer::tick(std::int64_t now_ns) {
 int ReplayPlayer::wait_ms(std::int64_t now_ns) const {
   if (!playing_ || position_ + 1 >= sample_ns_.size()) return 50;  // keys only (and window events)
   const auto next_session = sample_ns_[position_ + 1];
-  const double wall_left =
-      double(next_session - clock_session_ns_) / speed_ - double(now_ns - clock_wall_ns_);
+  const double wall_left = double(next_session - clock_session_ns_) / speed_ - double(now_ns - clock_wall_ns_);
   return std::max(1, int(std::ceil(wall_left / 1e6)));
 }
 

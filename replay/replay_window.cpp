@@ -21,8 +21,8 @@ constexpr int kStatusHeight = 34;
 cv::Mat with_status(const cv::Mat& picture, const ReplayPlayer& player, std::int64_t t_s_ns) {
   cv::Mat out(picture.rows + kStatusHeight, picture.cols, CV_8UC3, cv::Scalar(30, 30, 30));
   picture.copyTo(out(cv::Rect(0, 0, picture.cols, picture.rows)));
-  const std::string state = player.playing() ? fmt::format("PLAYING {:g}x", player.speed())
-                                             : fmt::format("PAUSED  {:g}x", player.speed());
+  const std::string state =
+      player.playing() ? fmt::format("PLAYING {:g}x", player.speed()) : fmt::format("PAUSED  {:g}x", player.speed());
   const std::string where =
       fmt::format("sample {} of {}   {:.2f} s", player.position(), player.size(), double(t_s_ns) / 1e9);
   const int y = picture.rows + 23;

@@ -23,7 +23,7 @@ struct WindowOptions {
 };
 
 struct WindowSummary {
-  std::size_t pictures = 0;   // shown
+  std::size_t pictures = 0;  // shown
   std::size_t last_sample = 0;
 };
 

@@ -17,7 +17,8 @@ PressFinding find_presses(const std::vector<PressureTotal>& totals, std::int64_t
     if (!runs.empty() && t.t_ns - runs.back().release_ns <= kBridge) {
       PressWindow& w = runs.back();
       w.release_ns = t.t_ns;
-      if (t.total_counts > w.peak_total) w.peak_total = t.total_counts, w.peak_sequence = t.sequence, w.peak_connection = t.connection;
+      if (t.total_counts > w.peak_total)
+        w.peak_total = t.total_counts, w.peak_sequence = t.sequence, w.peak_connection = t.connection;
     } else {
       runs.push_back({t.t_ns, t.t_ns, 0, 0, t.sequence, t.total_counts, t.connection});
     }

@@ -18,8 +18,8 @@ struct PressWindow {
 };
 
 struct PressFinding {
-  double threshold = 0;  // counts: 5 % of the session's highest total
-  std::size_t presses = 0;  // all found (isolated or not)
+  double threshold = 0;               // counts: 5 % of the session's highest total
+  std::size_t presses = 0;            // all found (isolated or not)
   std::vector<PressWindow> isolated;  // with nothing else pressed within their window
 };
 

@@ -17,11 +17,20 @@ std::string esc(const std::string& s) {
   std::string out;
   for (char c : s) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -59,13 +68,15 @@ std::string axes(const Frame& f, const std::string& xlabel, const std::string& y
       f.w, f.h, f.w, f.h, f.left, f.top, f.w - f.left - f.right, f.h - f.top - f.bottom);
   const double xs = tick_step(f.x1 - f.x0, 8), ys = tick_step(f.y1 - f.y0, 4);
   for (double x = std::ceil(f.x0 / xs) * xs; x <= f.x1 + 1e-9; x += xs)
-    s += fmt::format("<line x1='{0:.1f}' x2='{0:.1f}' y1='{1}' y2='{2}' stroke='#eee'/><text x='{0:.1f}' y='{3}' "
-                     "font-size='10' text-anchor='middle'>{4:g}</text>",
-                     f.px(x), f.top, f.h - f.bottom, f.h - f.bottom + 12, std::round(x / xs) * xs + 0.0);
+    s += fmt::format(
+        "<line x1='{0:.1f}' x2='{0:.1f}' y1='{1}' y2='{2}' stroke='#eee'/><text x='{0:.1f}' y='{3}' "
+        "font-size='10' text-anchor='middle'>{4:g}</text>",
+        f.px(x), f.top, f.h - f.bottom, f.h - f.bottom + 12, std::round(x / xs) * xs + 0.0);
   for (double y = std::ceil(f.y0 / ys) * ys; y <= f.y1 + 1e-9; y += ys)
-    s += fmt::format("<line x1='{0}' x2='{1}' y1='{2:.1f}' y2='{2:.1f}' stroke='#eee'/><text x='{3}' y='{4:.1f}' "
-                     "font-size='10' text-anchor='end'>{5:g}</text>",
-                     f.left, f.w - f.right, f.py(y), f.left - 4, f.py(y) + 3, std::round(y / ys) * ys + 0.0);
+    s += fmt::format(
+        "<line x1='{0}' x2='{1}' y1='{2:.1f}' y2='{2:.1f}' stroke='#eee'/><text x='{3}' y='{4:.1f}' "
+        "font-size='10' text-anchor='end'>{5:g}</text>",
+        f.left, f.w - f.right, f.py(y), f.left - 4, f.py(y) + 3, std::round(y / ys) * ys + 0.0);
   s += fmt::format("<text x='{}' y='{}' font-size='11' text-anchor='middle'>{}</text>", (f.left + f.w - f.right) / 2,
                    f.h - 3, esc(xlabel));
   s += fmt::format("<text x='12' y='{}' font-size='11' text-anchor='middle' transform='rotate(-90 12 {})'>{}</text>",
@@ -82,7 +93,8 @@ std::string line_plot(const std::vector<Series>& series, const std::string& xlab
                       const std::vector<double>& marks = {}, std::optional<std::pair<double, double>> yrange = {}) {
   double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
   for (const auto& s : series)
-    for (const auto& [x, y] : s.points) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+    for (const auto& [x, y] : s.points)
+      x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
   for (double m : marks) x0 = std::min(x0, m), x1 = std::max(x1, m);
   if (x0 > x1) return "<p class='note'>no data</p>";
   if (yrange) y0 = yrange->first, y1 = yrange->second;
@@ -114,10 +126,11 @@ std::string bar_plot(const json& h, const std::string& xlabel, const std::string
   for (std::size_t i = 0; i < counts.size(); ++i) {
     if (counts[i] <= 0) continue;
     const double x = lo + w * double(i);
-    s += fmt::format("<rect x='{:.1f}' y='{:.1f}' width='{:.1f}' height='{:.1f}' fill='{}'><title>{:g}..{:g}: "
-                     "{:g}</title></rect>",
-                     f.px(x), f.py(counts[i]), std::max(1.0, f.px(x + w) - f.px(x) - 0.5), f.py(0) - f.py(counts[i]),
-                     colour, x, x + w, counts[i]);
+    s += fmt::format(
+        "<rect x='{:.1f}' y='{:.1f}' width='{:.1f}' height='{:.1f}' fill='{}'><title>{:g}..{:g}: "
+        "{:g}</title></rect>",
+        f.px(x), f.py(counts[i]), std::max(1.0, f.px(x + w) - f.px(x) - 0.5), f.py(0) - f.py(counts[i]), colour, x,
+        x + w, counts[i]);
   }
   s += "</svg>";
   const std::uint64_t below = h.value("below", 0), above = h.value("above", 0);
@@ -148,14 +161,16 @@ std::string takes_timeline(const json& takes, double duration_s) {
     const double a = t["start_s"], b = t["end_s"];
     const bool right = t.value("hand", "") == "right";
     const double y0 = right ? 0.5 : 0.05, y1 = right ? 0.95 : 0.5;
-    s += fmt::format("<rect x='{:.1f}' y='{:.1f}' width='{:.1f}' height='{:.1f}' fill='{}' stroke='#333' "
-                     "stroke-width='0.5'><title>{} ({}): {:.1f}-{:.1f} s</title></rect>",
-                     f.px(a), f.py(y1), std::max(1.0, f.px(b) - f.px(a)), f.py(y0) - f.py(y1),
-                     status_colour(t.value("status", "")), esc(t.value("sequence", "")), esc(t.value("status", "")), a, b);
+    s += fmt::format(
+        "<rect x='{:.1f}' y='{:.1f}' width='{:.1f}' height='{:.1f}' fill='{}' stroke='#333' "
+        "stroke-width='0.5'><title>{} ({}): {:.1f}-{:.1f} s</title></rect>",
+        f.px(a), f.py(y1), std::max(1.0, f.px(b) - f.px(a)), f.py(y0) - f.py(y1), status_colour(t.value("status", "")),
+        esc(t.value("sequence", "")), esc(t.value("status", "")), a, b);
   }
-  s += fmt::format("<text x='{}' y='{:.1f}' font-size='10' text-anchor='end'>left</text><text x='{}' y='{:.1f}' "
-                   "font-size='10' text-anchor='end'>right</text>",
-                   f.left - 4, f.py(0.25) + 3, f.left - 4, f.py(0.75) + 3);
+  s += fmt::format(
+      "<text x='{}' y='{:.1f}' font-size='10' text-anchor='end'>left</text><text x='{}' y='{:.1f}' "
+      "font-size='10' text-anchor='end'>right</text>",
+      f.left - 4, f.py(0.25) + 3, f.left - 4, f.py(0.75) + 3);
   return s + "</svg>";
 }
 
@@ -165,7 +180,8 @@ const char* kPalette[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
 void add_summary(std::string& h, const json& r) {
   const json& session = r.at("session");
   h += "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>pvcap report: " +
-       esc(session.value("folder", "")) + "</title><style>"
+       esc(session.value("folder", "")) +
+       "</title><style>"
        "body{font-family:system-ui,sans-serif;margin:24px auto;max-width:1100px;padding:0 16px;color:#222;"
        "font-size:15px}h1{font-size:24px}h2{font-size:19px;margin-top:32px;border-bottom:1px solid #ccc}"
        "h3{font-size:15px;margin:16px 0 4px}table{border-collapse:collapse;margin:8px 0}"
@@ -182,9 +198,10 @@ void add_summary(std::string& h, const json& r) {
   row("folder", esc(session.value("folder", "")));
   row("rig", esc(session.value("rig", "")) + (session.value("simulated", false) ? " (simulated)" : ""));
   row("started", esc(session.value("started_utc", "")));
-  row("ended", session.value("ended_cleanly", false)
-                   ? esc(session.value("end_reason", "")) + fmt::format(" after {:.1f} s", session.value("duration_s", 0.0))
-                   : "<span class='bad'>did not end cleanly</span> " + esc(session.value("end_reason", "")));
+  row("ended",
+      session.value("ended_cleanly", false)
+          ? esc(session.value("end_reason", "")) + fmt::format(" after {:.1f} s", session.value("duration_s", 0.0))
+          : "<span class='bad'>did not end cleanly</span> " + esc(session.value("end_reason", "")));
   if (session.contains("participant"))
     row("participant", esc(session["participant"].value("pseudonym", "")) + ", skin tone " +
                            esc(session["participant"].value("skin_tone", "")) + ", hand order " +
@@ -219,18 +236,21 @@ void add_captured_and_lost(std::string& h, const json& r) {
     std::uint64_t subsampled = 0;
     if (s.contains("not_kept"))
       for (const auto& [why, n] : s["not_kept"].items()) {
-        if (why == "subsampled") subsampled = n;
-        else other += fmt::format("{}{}: {}", other.empty() ? "" : ", ", esc(why), n.get<std::uint64_t>());
+        if (why == "subsampled")
+          subsampled = n;
+        else
+          other += fmt::format("{}{}: {}", other.empty() ? "" : ", ", esc(why), n.get<std::uint64_t>());
       }
     const bool camera = s.value("kind", "") == "camera";
-    h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
-                     "<td>{:.2f}</td><td class='{}'>{}</td></tr>",
-                     esc(s.value("name", "")), s.value("frames", 0),
-                     camera && s["by_status"].contains("good") ? num(s["by_status"]["good"]) : "&ndash;",
-                     camera ? num(s["in_video"]) : "&ndash;", camera ? fmt::format("{}", subsampled) : "&ndash;",
-                     other.empty() ? (camera ? "0" : "&ndash;") : other, s.value("not_received", 0),
-                     s.value("connection_losses", 0), s.value("mean_rate_hz", 0.0),
-                     s.value("reconciles", false) ? "ok" : "bad", s.value("reconciles", false) ? "yes" : "NO");
+    h += fmt::format(
+        "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
+        "<td>{:.2f}</td><td class='{}'>{}</td></tr>",
+        esc(s.value("name", "")), s.value("frames", 0),
+        camera && s["by_status"].contains("good") ? num(s["by_status"]["good"]) : "&ndash;",
+        camera ? num(s["in_video"]) : "&ndash;", camera ? fmt::format("{}", subsampled) : "&ndash;",
+        other.empty() ? (camera ? "0" : "&ndash;") : other, s.value("not_received", 0), s.value("connection_losses", 0),
+        s.value("mean_rate_hz", 0.0), s.value("reconciles", false) ? "ok" : "bad",
+        s.value("reconciles", false) ? "yes" : "NO");
   }
   h += "</table>";
   h += reconciles ? "<p class='note'>Counts reconcile with the store: per camera, frames stored = good + incomplete = "
@@ -243,10 +263,11 @@ void add_self_check(std::string& h, const json& r) {
   if (r.contains("self_check")) {
     const json& sc = r["self_check"];
     h += "<h2>Sync self-check</h2>";
-    h += fmt::format("<p>Each camera's time offset to the pressure, estimated from the data alone ({} presses found, "
-                     "{} isolated, {} used). Positive: the camera's frames show an instant earlier than their time "
-                     "says (a latency not declared in the rig file).</p>",
-                     sc.value("presses_found", 0), sc.value("presses_isolated", 0), sc.value("presses_used", 0));
+    h += fmt::format(
+        "<p>Each camera's time offset to the pressure, estimated from the data alone ({} presses found, "
+        "{} isolated, {} used). Positive: the camera's frames show an instant earlier than their time "
+        "says (a latency not declared in the rig file).</p>",
+        sc.value("presses_found", 0), sc.value("presses_isolated", 0), sc.value("presses_used", 0));
     h += "<table><tr><th>camera</th><th>offset (ms)</th><th>&plusmn; (ms, 1 s.e.)</th><th>presses</th><th>verdict"
          "</th></tr>";
     for (const auto& c : sc["cameras"]) {
@@ -271,8 +292,8 @@ void add_intervals(std::string& h, const json& r) {
     std::vector<double> marks;
     for (const auto& d : s["drops"]) marks.push_back(d[0].get<double>());
     h += fmt::format("<h3>{}: median {:.2f} ms, p99 {:.2f} ms, max {:.2f} ms, {} never received</h3>",
-                     esc(s.value("name", "")), s.value("median_ms", 0.0), s.value("p99_ms", 0.0), s.value("max_ms", 0.0),
-                     s.value("not_received", 0));
+                     esc(s.value("name", "")), s.value("median_ms", 0.0), s.value("p99_ms", 0.0),
+                     s.value("max_ms", 0.0), s.value("not_received", 0));
     const double med = s.value("median_ms", 1.0);
     h += "<div class='plots'>" +
          line_plot({se}, "session time (s)", "interval (ms)", marks, std::make_pair(0.0, std::max(3 * med, 1.0))) +
@@ -285,13 +306,15 @@ void add_clocks(std::string& h, const json& r) {
        "and the 99th percentile of arrival latency above the fitted line (residuals). A reset starts a new segment."
        "</p><table><tr><th>stream</th><th>source</th><th>segments</th><th>resets</th><th>device clock fast by (ppm)"
        "</th>"
-       "<th>declared latency (ms)</th><th>residual p99, median (&micro;s)</th><th>residual p99, max (&micro;s)</th></tr>";
+       "<th>declared latency (ms)</th><th>residual p99, median (&micro;s)</th><th>residual p99, max "
+       "(&micro;s)</th></tr>";
   for (const auto& c : r.at("clocks"))
-    h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.0f}</td>"
-                     "<td>{:.0f}</td></tr>",
-                     esc(c.value("name", "")), esc(c.value("source", "")), c.value("segments", 0), c.value("resets", 0),
-                     c.value("device_fast_ppm", 0.0), c.value("latency_ms", 0.0), c.value("residual_p99_us_median", 0.0),
-                     c.value("residual_p99_us_max", 0.0));
+    h += fmt::format(
+        "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.0f}</td>"
+        "<td>{:.0f}</td></tr>",
+        esc(c.value("name", "")), esc(c.value("source", "")), c.value("segments", 0), c.value("resets", 0),
+        c.value("device_fast_ppm", 0.0), c.value("latency_ms", 0.0), c.value("residual_p99_us_median", 0.0),
+        c.value("residual_p99_us_max", 0.0));
   h += "</table>";
   {
     std::vector<Series> offsets, residuals;
@@ -319,13 +342,13 @@ void add_pairing(std::string& h, const json& r) {
   {
     const json& p = r.at("pairing");
     h += "<h2>Pairing</h2>";
-    h += fmt::format("<p>{} samples; {} paired with a pressure frame, {} without; {} missing a camera; {} ties (the "
-                     "pressure frames before and after equally near). |camera &minus; pressure| offset: p50 {:.2f} ms, "
-                     "p99 {:.2f} ms. Spread of a sample's camera frames: p50 {:.2f} ms, max {:.2f} ms.</p>",
-                     p.value("samples", 0), p.value("paired", 0), p.value("unpaired", 0),
-                     p.value("missing_a_camera", 0), p.value("ties", 0), p.value("abs_offset_ms_p50", 0.0),
-                     p.value("abs_offset_ms_p99", 0.0), p.value("camera_span_ms_p50", 0.0),
-                     p.value("camera_span_ms_max", 0.0));
+    h += fmt::format(
+        "<p>{} samples; {} paired with a pressure frame, {} without; {} missing a camera; {} ties (the "
+        "pressure frames before and after equally near). |camera &minus; pressure| offset: p50 {:.2f} ms, "
+        "p99 {:.2f} ms. Spread of a sample's camera frames: p50 {:.2f} ms, max {:.2f} ms.</p>",
+        p.value("samples", 0), p.value("paired", 0), p.value("unpaired", 0), p.value("missing_a_camera", 0),
+        p.value("ties", 0), p.value("abs_offset_ms_p50", 0.0), p.value("abs_offset_ms_p99", 0.0),
+        p.value("camera_span_ms_p50", 0.0), p.value("camera_span_ms_max", 0.0));
     h += bar_plot(p["offset_histogram_ms"], "pressure frame time minus sample time (ms)");
     if (p.contains("timeline_counts")) {
       h += "<table><tr><th>timeline tally</th><th>count</th></tr>";
@@ -351,18 +374,20 @@ void add_protocol(std::string& h, const json& r) {
         h += "<h3>Force by requested level (done takes)</h3><table><tr><th>force level</th><th>takes</th><th>mean "
              "force (N)</th><th>peak force (N)</th></tr>";
         for (const auto& [level, v] : p["by_force"].items())
-          h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>", esc(level), num(v.value("takes", json())),
-                           num(v.value("mean_newtons", json()), 2), num(v.value("peak_newtons", json()), 2));
+          h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>", esc(level),
+                           num(v.value("takes", json())), num(v.value("mean_newtons", json()), 2),
+                           num(v.value("peak_newtons", json()), 2));
         h += "</table>";
       }
       h += "<h3>Takes</h3><table><tr><th>sequence</th><th>status</th><th>start (s)</th><th>end (s)</th><th>mean "
            "(N)</th><th>peak (N)</th><th>check</th></tr>";
       for (const auto& t : p["takes"])
-        h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>{}</td></tr>",
-                         esc(t.value("sequence", "")), esc(t.value("status", "")), num(t.value("start_s", json()), 1),
-                         num(t.value("end_s", json()), 1), t.value("mean_newtons", 0.0), t.value("peak_newtons", 0.0),
-                         t.contains("check_ok") ? (t["check_ok"].get<bool>() ? "ok" : "<span class='bad'>problem</span>")
-                                                : "&ndash;");
+        h += fmt::format(
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>{}</td></tr>",
+            esc(t.value("sequence", "")), esc(t.value("status", "")), num(t.value("start_s", json()), 1),
+            num(t.value("end_s", json()), 1), t.value("mean_newtons", 0.0), t.value("peak_newtons", 0.0),
+            t.contains("check_ok") ? (t["check_ok"].get<bool>() ? "ok" : "<span class='bad'>problem</span>")
+                                   : "&ndash;");
       h += "</table>";
     }
   }
@@ -392,7 +417,8 @@ void add_calibration(std::string& h, const json& r) {
 
 void add_events(std::string& h, const json& r) {
   h += "<h2>Events</h2>";
-  if (r.at("events").empty()) h += "<p class='note'>none</p>";
+  if (r.at("events").empty())
+    h += "<p class='note'>none</p>";
   else {
     h += "<table><tr><th>time (s)</th><th>kind</th><th>message</th></tr>";
     for (const auto& e : r["events"])

@@ -43,9 +43,12 @@ json histogram(const std::vector<double>& values, double lo, double hi, int bins
   std::uint64_t below = 0, above = 0;
   const double width = (hi - lo) / bins;
   for (double v : values) {
-    if (v < lo) ++below;
-    else if (v >= hi) ++above;
-    else ++counts[std::min(std::size_t(bins - 1), std::size_t((v - lo) / width))];
+    if (v < lo)
+      ++below;
+    else if (v >= hi)
+      ++above;
+    else
+      ++counts[std::min(std::size_t(bins - 1), std::size_t((v - lo) / width))];
   }
   return {{"lo", lo}, {"hi", hi}, {"counts", counts}, {"below", below}, {"above", above}};
 }
@@ -82,7 +85,8 @@ std::string base64(const std::vector<std::uint8_t>& bytes) {
   std::string out;
   out.reserve((bytes.size() + 2) / 3 * 4);
   for (std::size_t i = 0; i < bytes.size(); i += 3) {
-    const std::uint32_t n = std::uint32_t(bytes[i]) << 16 | (i + 1 < bytes.size() ? std::uint32_t(bytes[i + 1]) << 8 : 0) |
+    const std::uint32_t n = std::uint32_t(bytes[i]) << 16 |
+                            (i + 1 < bytes.size() ? std::uint32_t(bytes[i + 1]) << 8 : 0) |
                             (i + 2 < bytes.size() ? bytes[i + 2] : 0);
     out += k[n >> 18 & 63];
     out += k[n >> 12 & 63];
@@ -161,15 +165,16 @@ json intervals_section(SessionReader& r, std::int64_t start_ns) {
         drop_marks.push_back({round_to(seconds(d.host_ns, start_ns), 1e-3), d.count});
         dropped += d.count;
       }
-    out.push_back({{"name", name},
-                   {"intervals", intervals.size()},
-                   {"median_ms", round_to(median, 1e-3)},
-                   {"p99_ms", round_to(percentile(intervals, 0.99), 1e-3)},
-                   {"max_ms", round_to(intervals.empty() ? 0 : *std::max_element(intervals.begin(), intervals.end()), 1e-3)},
-                   {"series", thin_minmax(series, 600)},
-                   {"histogram", histogram(intervals, 0, std::max(1.0, 3 * median), 60)},
-                   {"drops", drop_marks},
-                   {"not_received", dropped}});
+    out.push_back(
+        {{"name", name},
+         {"intervals", intervals.size()},
+         {"median_ms", round_to(median, 1e-3)},
+         {"p99_ms", round_to(percentile(intervals, 0.99), 1e-3)},
+         {"max_ms", round_to(intervals.empty() ? 0 : *std::max_element(intervals.begin(), intervals.end()), 1e-3)},
+         {"series", thin_minmax(series, 600)},
+         {"histogram", histogram(intervals, 0, std::max(1.0, 3 * median), 60)},
+         {"drops", drop_marks},
+         {"not_received", dropped}});
   }
   return out;
 }
@@ -267,9 +272,14 @@ json protocol_section(const std::filesystem::path& dir, std::int64_t start_ns) {
   out["protocol"] = t.value().protocol_start.value("protocol", "");
   const std::string here = std::filesystem::absolute(dir).lexically_normal().string();
   for (const auto& take : t.value().takes) {
-    json j = {{"step", take.step},       {"sequence", take.sequence},   {"action", take.action},
-              {"hand", take.hand},       {"force", take.force},         {"status", take.status},
-              {"repetitions", take.repetitions}, {"mean_newtons", round_to(take.mean_newtons, 1e-4)},
+    json j = {{"step", take.step},
+              {"sequence", take.sequence},
+              {"action", take.action},
+              {"hand", take.hand},
+              {"force", take.force},
+              {"status", take.status},
+              {"repetitions", take.repetitions},
+              {"mean_newtons", round_to(take.mean_newtons, 1e-4)},
               {"peak_newtons", round_to(take.peak_newtons, 1e-4)}};
     if (take.check_ok) j["check_ok"] = *take.check_ok;
     const bool this_folder = std::filesystem::absolute(take.session).lexically_normal().string() == here;
@@ -322,9 +332,10 @@ json self_check_section(SessionReader& r, const std::vector<std::optional<calib:
                         const calib::PadLayout& pad, const std::vector<SampleInfo>& samples,
                         const std::vector<PressureTotal>& totals, const ReportOptions& o) {
   json out = {{"cameras", json::array()}};
-  out["method"] = "image change near the contact against total pressure on the presses' flanks: the offset at which "
-                  "one curve fits the rising and the falling edges; uncertainty: jackknife over presses (1 standard "
-                  "error)";
+  out["method"] =
+      "image change near the contact against total pressure on the presses' flanks: the offset at which "
+      "one curve fits the rising and the falling edges; uncertainty: jackknife over presses (1 standard "
+      "error)";
   const PressFinding found = find_presses(totals);
   out["presses_found"] = found.presses;
   out["presses_isolated"] = found.isolated.size();
@@ -385,8 +396,9 @@ json self_check_section(SessionReader& r, const std::vector<std::optional<calib:
       j["offset_ms"] = nullptr;
       j["uncertainty_ms"] = nullptr;
       j["presses"] = 0;
-      j["verdict"] = "no pad calibration in the session: the contact cannot be found in this camera's image "
-                     "(`pvcap calibrate pad`)";
+      j["verdict"] =
+          "no pad calibration in the session: the contact cannot be found in this camera's image "
+          "(`pvcap calibrate pad`)";
     } else {
       const OffsetEstimate e = estimate_offset(per_camera[c]);
       j["offset_ms"] = e.offset_ms ? json(round_to(*e.offset_ms, 1e-3)) : json(nullptr);
@@ -402,8 +414,9 @@ json self_check_section(SessionReader& r, const std::vector<std::optional<calib:
 
 // A pressure-overlay frame per camera: the sample at the session's strongest press (or the nearest
 // one holding that camera's frame, when its frame is missing there).
-void add_thumbnails(SessionReader& r, json& calibration, const std::vector<std::optional<calib::CameraCalibration>>& cal,
-                    const calib::PadLayout& pad, const std::vector<PressureTotal>& totals) {
+void add_thumbnails(SessionReader& r, json& calibration,
+                    const std::vector<std::optional<calib::CameraCalibration>>& cal, const calib::PadLayout& pad,
+                    const std::vector<PressureTotal>& totals) {
   if (totals.empty() || r.sample_count() == 0) return;
   const auto peak = std::max_element(totals.begin(), totals.end(), [](const PressureTotal& a, const PressureTotal& b) {
     return a.total_counts < b.total_counts;
@@ -479,7 +492,8 @@ Result<json> build_report(const std::filesystem::path& dir, const ReportOptions&
     if (!events) return events.error();
     j["events"] = json::array();
     for (const auto& e : events.value())
-      j["events"].push_back({{"t_s", round_to(seconds(e.host_ns, start), 1e-3)}, {"kind", e.kind}, {"message", e.message}});
+      j["events"].push_back(
+          {{"t_s", round_to(seconds(e.host_ns, start), 1e-3)}, {"kind", e.kind}, {"message", e.message}});
     json calibration;
     const calib::PadLayout pad = calib::default_pad_layout();
     const auto cal = calibration_in_force(r, calibration);

@@ -58,9 +58,10 @@ Result<std::string> session_text(const std::filesystem::path& dir, std::optional
                      s.in_video, incomplete, s.dropped - pvcap_behind, pvcap_behind, behind, s.connection_losses);
       any_loss |= incomplete + s.dropped + behind + s.connection_losses > 0;
       if (unidentified + duplicates)
-        notes += fmt::format("{}: {} buffers arrived without their own frame id (reasons no_frame_id_*, "
-                             "stale_metadata_*, duplicate_frame_id); the frames they were are counted as not received\n",
-                             s.name, unidentified + duplicates);
+        notes += fmt::format(
+            "{}: {} buffers arrived without their own frame id (reasons no_frame_id_*, "
+            "stale_metadata_*, duplicate_frame_id); the frames they were are counted as not received\n",
+            s.name, unidentified + duplicates);
     } else {
       notes += fmt::format("{:<8} {:>9} frames stored, {} missing by its counter, {} connection losses\n", s.name,
                            s.frames, s.dropped, s.connection_losses);
@@ -73,10 +74,12 @@ Result<std::string> session_text(const std::filesystem::path& dir, std::optional
     if (n < 2) return 0.0;
     auto first = r.sample_info(0), last = r.sample_info(n - 1);
     if (!first || !last || last.value().tick == first.value().tick) return 0.0;
-    return double(last.value().tick - first.value().tick) / (double(last.value().tick_ns - first.value().tick_ns) / 1e9);
+    return double(last.value().tick - first.value().tick) /
+           (double(last.value().tick_ns - first.value().tick_ns) / 1e9);
   }();
-  fmt::format_to(out, "samples: {} at {:.3g} Hz ({} groups complete, {} with a camera missing, {} ticks without any "
-                      "group)\n",
+  fmt::format_to(out,
+                 "samples: {} at {:.3g} Hz ({} groups complete, {} with a camera missing, {} ticks without any "
+                 "group)\n",
                  r.sample_count(), sample_hz, count_of("groups_complete"), count_of("groups_incomplete"),
                  count_of("ticks_without_a_group"));
   if (const auto late = count_of("camera_frames_late_for_their_instant"))
@@ -87,9 +90,11 @@ Result<std::string> session_text(const std::filesystem::path& dir, std::optional
       fmt::format_to(out, "{}: its clock was reset {} time(s); each started a new clock-model segment\n",
                      what.substr(14), n);
   }
-  fmt::format_to(out, "video keeps one frame per camera per sample; every received frame is in session.db with its "
-                      "reason\n");
-  if (any_loss) fmt::format_to(out, "frames were lost: see the drops and frames tables (reason column) in session.db\n");
+  fmt::format_to(out,
+                 "video keeps one frame per camera per sample; every received frame is in session.db with its "
+                 "reason\n");
+  if (any_loss)
+    fmt::format_to(out, "frames were lost: see the drops and frames tables (reason column) in session.db\n");
   return fmt::to_string(buf);
 }
 

@@ -12,6 +12,6 @@ namespace pvcap::report {
 
 // `recorded_s`: how long the devices streamed, when known (otherwise the session's span).
 Result<std::string> session_text(const std::filesystem::path& session_dir,
-                                   std::optional<double> recorded_s = std::nullopt);
+                                 std::optional<double> recorded_s = std::nullopt);
 
 }  // namespace pvcap::report

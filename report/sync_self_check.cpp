@@ -31,7 +31,8 @@ std::optional<Scaled> scale(const PressSignals& p) {
 double at(const std::vector<TimedValue>& p, double t_ns) {
   if (t_ns <= double(p.front().t_ns)) return p.front().value;
   if (t_ns >= double(p.back().t_ns)) return p.back().value;
-  auto it = std::upper_bound(p.begin(), p.end(), t_ns, [](double t, const TimedValue& v) { return t < double(v.t_ns); });
+  auto it =
+      std::upper_bound(p.begin(), p.end(), t_ns, [](double t, const TimedValue& v) { return t < double(v.t_ns); });
   const TimedValue& b = *it;
   const TimedValue& a = *(it - 1);
   const double span = double(b.t_ns - a.t_ns);
@@ -164,7 +165,8 @@ Search search(const std::vector<Scaled>& presses, const std::vector<std::size_t>
   }
   const std::size_t away = std::size_t(std::lround(8.0 / o.step_ms));
   const double lo = r[best] + 1e-12;
-  const double left = best >= away ? r[best - away] : r.front(), right = best + away < r.size() ? r[best + away] : r.back();
+  const double left = best >= away ? r[best - away] : r.front(),
+               right = best + away < r.size() ? r[best + away] : r.back();
   s.contrast = std::min(left, right) / lo;
   return s;
 }
@@ -178,8 +180,8 @@ OffsetEstimate estimate_offset(const std::vector<PressSignals>& presses, const S
     if (auto s = scale(p)) scaled.push_back(std::move(*s));
   e.presses_used = int(scaled.size());
   if (e.presses_used < o.min_presses) {
-    e.verdict = fmt::format("too few presses to tell: {} seen by this camera, {} needed", e.presses_used,
-                            o.min_presses);
+    e.verdict =
+        fmt::format("too few presses to tell: {} seen by this camera, {} needed", e.presses_used, o.min_presses);
     return e;
   }
   std::vector<std::size_t> all(scaled.size());
@@ -192,14 +194,14 @@ OffsetEstimate estimate_offset(const std::vector<PressSignals>& presses, const S
   e.presses_rejected = int(scaled.size() - all.size());
   e.presses_used = int(all.size());
   if (e.presses_used < o.min_presses) {
-    e.verdict = fmt::format("too few presses to tell: {} agree with each other, {} needed", e.presses_used,
-                            o.min_presses);
+    e.verdict =
+        fmt::format("too few presses to tell: {} agree with each other, {} needed", e.presses_used, o.min_presses);
     return e;
   }
   const Search s = search(scaled, all, o);
   if (s.at_edge) {
-    e.verdict = fmt::format("no clear offset within +-{:.0f} ms: the image change does not follow the pressure",
-                            o.search_ms);
+    e.verdict =
+        fmt::format("no clear offset within +-{:.0f} ms: the image change does not follow the pressure", o.search_ms);
     return e;
   }
   if (s.contrast < 1.2) {

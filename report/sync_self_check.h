@@ -39,13 +39,13 @@ struct OffsetEstimate {
   std::optional<double> uncertainty_ms;  // one standard error (jackknife over presses)
   int presses_used = 0;
   int presses_rejected = 0;  // left out for disagreeing with the others (see consistent_presses)
-  std::string verdict;  // "ok", or in words why there is no estimate
+  std::string verdict;       // "ok", or in words why there is no estimate
 };
 
 struct SelfCheckOptions {
   double search_ms = 60;  // offsets tried: [-search, +search]
   double step_ms = 0.5;
-  int min_presses = 4;    // fewer: "too few presses to tell"
+  int min_presses = 4;  // fewer: "too few presses to tell"
 };
 
 OffsetEstimate estimate_offset(const std::vector<PressSignals>& presses, const SelfCheckOptions& o = {});

@@ -119,8 +119,8 @@ class CameraWorker {
     if (!raw) {
       converted = to_bgr(h.pixels.data(), h.pixels.size(), h.width, h.height, h.pixel_format, image);
     } else if (h.pixels.size() < bytes) {
-      converted = Error{fmt::format("frame has {} bytes, a {}x{} mosaic needs {}", h.pixels.size(), h.width, h.height,
-                                    bytes)};
+      converted =
+          Error{fmt::format("frame has {} bytes, a {}x{} mosaic needs {}", h.pixels.size(), h.width, h.height, bytes)};
     } else {
       std::memcpy(image.data, h.pixels.data(), bytes);
     }
@@ -165,13 +165,25 @@ class CameraWorker {
     }
     p_.tally.received.fetch_add(1, std::memory_order_relaxed);
     connection_ = frame.connection;
-    FrameRecord rec{p_.device_id, frame.connection, frame.sequence, frame.frame_id, frame.device_ts.ns,
-                    frame.host_ts.ns, frame.aravis_system_ns, to_string(frame.status), false, "", {}, {}, {}, {}};
+    FrameRecord rec{p_.device_id,
+                    frame.connection,
+                    frame.sequence,
+                    frame.frame_id,
+                    frame.device_ts.ns,
+                    frame.host_ts.ns,
+                    frame.aravis_system_ns,
+                    to_string(frame.status),
+                    false,
+                    "",
+                    {},
+                    {},
+                    {},
+                    {}};
     if (frame.identity != FrameIdentity::Own) {
       // A buffer that is not the frame it names (the frame it was is counted in a gap): recorded,
       // never used. Without a frame id it has sequence 0, unknown.
       p_.tally.unidentified.fetch_add(1, std::memory_order_relaxed);
-      rec.reason = frame.identity == FrameIdentity::NoFrameId ? "no_frame_id_" + frame.detail
+      rec.reason = frame.identity == FrameIdentity::NoFrameId   ? "no_frame_id_" + frame.detail
                    : frame.identity == FrameIdentity::Duplicate ? std::string("duplicate_frame_id")
                                                                 : "stale_metadata_" + frame.detail;
     } else if (frame.status != FrameStatus::Good) {
@@ -190,8 +202,8 @@ class CameraWorker {
     // The arrival it fits is the leader packet's, which Aravis stamps (CLOCK_REALTIME, us): the
     // frame's first sign of life, without its payload's transfer time, which grows with load.
     const std::int64_t leader_ns = frame.aravis_system_ns + (host_now().ns - wall_now_ns());
-    const bool leader_usable = frame.aravis_system_ns > 0 && leader_ns <= frame.host_ts.ns &&
-                               frame.host_ts.ns - leader_ns < 1'000'000'000;
+    const bool leader_usable =
+        frame.aravis_system_ns > 0 && leader_ns <= frame.host_ts.ns && frame.host_ts.ns - leader_ns < 1'000'000'000;
     rec.mapped_ns = p_.timeline
                         .camera_frame(p_.index, frame.connection, frame.sequence, frame.device_ts,
                                       leader_usable ? HostNs{leader_ns} : frame.host_ts)

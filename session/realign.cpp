@@ -24,7 +24,7 @@ void add_event(SessionIndex& index, const char* kind, std::string message) {
 bool realign_pending(SessionIndex& index) { return index.realign_pending(); }
 
 Result<std::optional<RealignResult>> realign_if_needed(const std::filesystem::path& dir, bool interrupted,
-                                                      const std::function<void(const std::string&)>& progress) {
+                                                       const std::function<void(const std::string&)>& progress) {
   try {
     SessionIndex index = SessionIndex::open_for_update(dir / "session.db");
     if (!interrupted && !index.realign_pending()) return std::optional<RealignResult>{};
@@ -66,8 +66,10 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
         ++result.segments;
       }
       for (const auto& m : index.mapped(kind, sc.device_id)) {
-        if (sc.pressure) pressure.push_back({-1, m.sequence, m.mapped_ns, m.connection});
-        else camera_mapped[{sc.device_id, m.connection, m.sequence}] = m.mapped_ns;
+        if (sc.pressure)
+          pressure.push_back({-1, m.sequence, m.mapped_ns, m.connection});
+        else
+          camera_mapped[{sc.device_id, m.connection, m.sequence}] = m.mapped_ns;
       }
       if (sc.pressure) pressure_device_id = sc.device_id;
     }
@@ -109,7 +111,8 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
       }
       for (const auto& m : frames) {
         const auto it = camera_mapped.find({m.device_id, m.connection, m.sequence});
-        if (it != camera_mapped.end()) s.cameras.push_back({m.device_id, m.connection, m.sequence, it->second - s.t_ns});
+        if (it != camera_mapped.end())
+          s.cameras.push_back({m.device_id, m.connection, m.sequence, it->second - s.t_ns});
       }
       const auto p = sync::pair_nearest(pressure.begin(), pressure.end(), s.t_ns, o.max_offset_ns);
       auto ref = [&](const std::optional<sync::FrameRef>& f) -> std::optional<SampleFrameRef> {
@@ -124,8 +127,9 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
     }
     result.seconds = double(host_now().ns - t0) / 1e9;
     if (end == members.size())
-      add_event(index, "realign_done",
-                fmt::format("{} samples re-paired with the final clock fits in {:.1f} s", result.samples, result.seconds));
+      add_event(
+          index, "realign_done",
+          fmt::format("{} samples re-paired with the final clock fits in {:.1f} s", result.samples, result.seconds));
     tx.commit();
     if (end < members.size()) say(fmt::format("re-mapping: {} of {} samples re-paired", end, members.size()));
   }

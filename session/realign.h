@@ -14,8 +14,8 @@
 // second, and `pvcap recover` runs it again (the same fits give the same result).
 #include <cstdint>
 #include <filesystem>
-#include <optional>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "core/result.h"
@@ -44,7 +44,7 @@ bool realign_pending(SessionIndex& index);
 // `pvcap recover`'s last step: re-maps the session in `dir` when it was interrupted (`interrupted`:
 // recover found it so) or its re-mapping is pending; nullopt when neither.
 Result<std::optional<RealignResult>> realign_if_needed(const std::filesystem::path& dir, bool interrupted,
-                                                      const std::function<void(const std::string&)>& progress);
+                                                       const std::function<void(const std::string&)>& progress);
 
 // `pvcap recover`: storage's recover_session (videos closed, losses marked; storage/recover.h), then
 // the timeline re-mapped with the stored clock fits as a finished session's was. What was done, one

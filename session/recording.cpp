@@ -7,8 +7,8 @@
 #include <fstream>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 #include "calib/rig_calibration.h"
 #include "capture/aravis_camera.h"
@@ -31,12 +31,22 @@ const char* const kStates[] = {"opened", "recording", "stopping", "ended"};
 enum State { kOpened, kRecording, kStopping, kEnded };
 
 std::string settings_json(const CameraSettings& s, const CameraConfig& c) {
-  nlohmann::json j = {{"pixel_format", s.pixel_format}, {"x", s.x}, {"y", s.y}, {"width", s.width},
-                      {"height", s.height}, {"frame_rate", s.frame_rate}, {"exposure_us", s.exposure_us},
-                      {"gain", s.gain}, {"trigger", s.trigger}, {"packet_size", s.packet_size},
-                      {"payload", s.payload}, {"buffer_count", s.buffer_count},
-                      {"timestamp_tick_hz", s.timestamp_tick_hz}, {"device_id", s.device_id},
-                      {"packet_resend", c.packet_resend}, {"socket_buffer_bytes", c.socket_buffer_bytes},
+  nlohmann::json j = {{"pixel_format", s.pixel_format},
+                      {"x", s.x},
+                      {"y", s.y},
+                      {"width", s.width},
+                      {"height", s.height},
+                      {"frame_rate", s.frame_rate},
+                      {"exposure_us", s.exposure_us},
+                      {"gain", s.gain},
+                      {"trigger", s.trigger},
+                      {"packet_size", s.packet_size},
+                      {"payload", s.payload},
+                      {"buffer_count", s.buffer_count},
+                      {"timestamp_tick_hz", s.timestamp_tick_hz},
+                      {"device_id", s.device_id},
+                      {"packet_resend", c.packet_resend},
+                      {"socket_buffer_bytes", c.socket_buffer_bytes},
                       {"latency_ns", c.latency_ns}};
   return j.dump();
 }
@@ -110,7 +120,7 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
       } else {
         spdlog::warn("{}", e.message);
       }
-      const char* kind = lost                                            ? "camera_lost"
+      const char* kind = lost                                     ? "camera_lost"
                          : e.kind == CameraEvent::Kind::NoTrigger ? "camera_no_trigger"
                                                                   : "camera_reconnected";
       if (SessionWriter* w = self->events_writer_.load())
@@ -160,8 +170,8 @@ void Recording::record_rig_calibration(SessionWriter& writer) {
     auto added = writer.add_calibration({device_ids_[i], m.created_wall_ns, m.method,
                                          nlohmann::json(std::vector<double>(h.val, h.val + 9)).dump(), m.rms_px,
                                          m.rms_mm, details.dump()});
-    if (!added) spdlog::warn("{}: calibration not recorded in the session: {}", rig_.cameras[i].name,
-                             added.error().message);
+    if (!added)
+      spdlog::warn("{}: calibration not recorded in the session: {}", rig_.cameras[i].name, added.error().message);
   }
   spdlog::info("calibration: {} (recorded in the session)", file.string());
 }
@@ -184,8 +194,10 @@ Status Recording::start() {
   };
   for (std::size_t i = 0; i < cameras_.size(); ++i) {
     const CameraSettings s = cameras_[i]->settings();
-    DeviceRecord d{"camera", rig_.cameras[i].name, s.vendor, s.model, s.serial, s.address, s.firmware,
-                   settings_json(s, rig_.cameras[i])};
+    DeviceRecord d{"camera",   rig_.cameras[i].name,
+                   s.vendor,   s.model,
+                   s.serial,   s.address,
+                   s.firmware, settings_json(s, rig_.cameras[i])};
     auto id = writer.add_camera(d, s.width, s.height, s.pixel_format);
     if (!id) return fail(id.error());
     device_ids_[i] = id.value();
@@ -253,11 +265,11 @@ Status Recording::start() {
   timeline_end_->feeding.store(int(cameras_.size()));
 
   for (std::size_t i = 0; i < cameras_.size(); ++i)
-    workers_.emplace_back(run_camera_pipeline,
-                          CameraPipeline{*cameras_[i], int(i), device_ids_[i], writer, *tallies_[i], *timeline_,
-                                         *timeline_end_, std::size_t(rig_.store.queue_frames), *previews_[i],
-                                         int(i) == options_.faults.stall_camera ? options_.faults.camera_pipeline_stall
-                                                                                : std::nullopt});
+    workers_.emplace_back(
+        run_camera_pipeline,
+        CameraPipeline{*cameras_[i], int(i), device_ids_[i], writer, *tallies_[i], *timeline_, *timeline_end_,
+                       std::size_t(rig_.store.queue_frames), *previews_[i],
+                       int(i) == options_.faults.stall_camera ? options_.faults.camera_pipeline_stall : std::nullopt});
   state_.store(kRecording);
   rec_start_ = host_now().ns;
   for (auto& cam : cameras_)
@@ -302,43 +314,48 @@ std::string Recording::wait(const std::atomic<bool>& interrupt, std::optional<do
     for (std::size_t i = 0; i < cameras_.size(); ++i) {
       if (!warned_spill_[i] && writer_->camera_stats(device_ids_[i]).spilled > 0) {
         warned_spill_[i] = true;
-        warn(fmt::format("{}: the video encoder is behind; frames wait on disk (the spill) until it catches up. "
-                         "Nothing is lost; the session may take longer to close",
-                         rig_.cameras[i].name));
+        warn(
+            fmt::format("{}: the video encoder is behind; frames wait on disk (the spill) until it catches up. "
+                        "Nothing is lost; the session may take longer to close",
+                        rig_.cameras[i].name));
       }
       // Frames pvcap itself was too slow to take from the camera: its worker fell behind.
       if (const auto behind = tallies_[i]->queue_overflow.load() + tallies_[i]->buffer_underrun.load();
           !warned_behind_[i] && behind > 0) {
         warned_behind_[i] = true;
-        warn(fmt::format("{}: {} frame{} lost because pvcap did not take {} from the camera in time ({}): this PC is "
-                         "too busy for the rig. Close other programs, or lower frame_rate or the resolution in the "
-                         "rig file; raising the camera's buffer_count rides out short stalls",
-                         rig_.cameras[i].name, behind, behind == 1 ? "" : "s", behind == 1 ? "it" : "them",
-                         tallies_[i]->queue_overflow.load() > 0 ? "its frame queue was full"
-                                                                : "the camera's stream had no free buffer"));
+        warn(
+            fmt::format("{}: {} frame{} lost because pvcap did not take {} from the camera in time ({}): this PC is "
+                        "too busy for the rig. Close other programs, or lower frame_rate or the resolution in the "
+                        "rig file; raising the camera's buffer_count rides out short stalls",
+                        rig_.cameras[i].name, behind, behind == 1 ? "" : "s", behind == 1 ? "it" : "them",
+                        tallies_[i]->queue_overflow.load() > 0 ? "its frame queue was full"
+                                                               : "the camera's stream had no free buffer"));
       }
       if (!warned_encoder_[i] && tallies_[i]->encoder_behind.load() > 0) {
         warned_encoder_[i] = true;
-        warn(fmt::format("{}: frames are being dropped (encoder_behind): neither the video encoder nor its spill to "
-                         "disk keeps up. This PC has {} cores for {} camera{} (store.video_mode {}): lower "
-                         "store.video_fps in the rig file, record to a faster disk, or on a PC with more cores "
-                         "(docs/PERFORMANCE.md, Store)",
-                         rig_.cameras[i].name, std::thread::hardware_concurrency(), cameras_.size(),
-                         cameras_.size() == 1 ? "" : "s", rig_.store.video_mode));
+        warn(
+            fmt::format("{}: frames are being dropped (encoder_behind): neither the video encoder nor its spill to "
+                        "disk keeps up. This PC has {} cores for {} camera{} (store.video_mode {}): lower "
+                        "store.video_fps in the rig file, record to a faster disk, or on a PC with more cores "
+                        "(docs/PERFORMANCE.md, Store)",
+                        rig_.cameras[i].name, std::thread::hardware_concurrency(), cameras_.size(),
+                        cameras_.size() == 1 ? "" : "s", rig_.store.video_mode));
       }
     }
     if (const auto n = sensel_ ? sensel_->queue_overflows() : 0; !warned_sensel_behind_ && n > 0) {
       warned_sensel_behind_ = true;
-      warn(fmt::format("sensel: {} frame{} lost because pvcap did not take {} from the device in time (its frame "
-                       "queue was full): this PC is too busy for the rig; close other programs",
-                       n, n == 1 ? "" : "s", n == 1 ? "it" : "them"));
+      warn(
+          fmt::format("sensel: {} frame{} lost because pvcap did not take {} from the device in time (its frame "
+                      "queue was full): this PC is too busy for the rig; close other programs",
+                      n, n == 1 ? "" : "s", n == 1 ? "it" : "them"));
     }
     if (const auto n = writer_->index_records_lost(); !warned_index_ && n > 0) {
       warned_index_ = true;
-      warn(fmt::format("session index: {} record{} could not be queued for session.db (the index queue was full; "
-                       "{}): the disk or this PC is too slow for the rig. session.db's index_overflow events say "
-                       "how many of each kind",
-                       n, n == 1 ? "" : "s", writer_->index_records_lost_by_kind()));
+      warn(
+          fmt::format("session index: {} record{} could not be queued for session.db (the index queue was full; "
+                      "{}): the disk or this PC is too slow for the rig. session.db's index_overflow events say "
+                      "how many of each kind",
+                      n, n == 1 ? "" : "s", writer_->index_records_lost_by_kind()));
     }
     if (std::chrono::steady_clock::now() - last_progress >= 2s) {
       last_progress = std::chrono::steady_clock::now();
@@ -514,8 +531,8 @@ RecordingResult Recording::finish(const std::string& end_reason) {
           std::uint64_t(tl.clock_resets[i]));
   for (std::size_t i = 0; i < cameras_.size(); ++i) {
     const StreamCounters c = cameras_[i]->counters();
-    writer.add_stream_stats({device_ids_[i], c.completed, c.failures, c.underruns, c.resent_packets,
-                             c.missing_packets, c.queue_overflows});
+    writer.add_stream_stats(
+        {device_ids_[i], c.completed, c.failures, c.underruns, c.resent_packets, c.missing_packets, c.queue_overflows});
   }
   events_writer_.store(nullptr);
   const Status closed = writer.close(end_reason);

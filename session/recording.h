@@ -15,8 +15,8 @@
 #include <atomic>
 #include <chrono>
 #include <deque>
-#include <functional>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -48,14 +48,14 @@ class RigLock;
 struct TimelineEnd;
 
 struct RecordingOptions {
-  std::filesystem::path root;    // the session folder is made under it
-  double device_wait_s = 0;      // keep trying to open the devices this long (cameras still booting)
+  std::filesystem::path root;  // the session folder is made under it
+  double device_wait_s = 0;    // keep trying to open the devices this long (cameras still booting)
   // Where a Morph that comes back under another tty name is looked for by its serial.
   std::filesystem::path sensel_ports_dir = "/dev";
   std::optional<ParticipantRecord> participant;
   std::optional<ConditionsRecord> conditions;
-  bool board_session = false;    // recording a calibration board session
-  FaultPlan faults;              // a test's faults (core/fault_injection.h); empty on a real session
+  bool board_session = false;  // recording a calibration board session
+  FaultPlan faults;            // a test's faults (core/fault_injection.h); empty on a real session
   // Called once every device has stopped streaming, before the store is drained and closed (what
   // served the devices may stop then).
   std::function<void()> on_devices_stopped;
@@ -68,11 +68,11 @@ struct StreamStatus {
   std::string name, kind;  // kind: camera | sensel
   std::uint64_t received = 0, good = 0, in_video = 0, incomplete = 0, not_received = 0, encoder_behind = 0,
                 connection_losses = 0;
-  std::uint64_t queue_overflow = 0;  // received by the driver and dropped, its queue full (pvcap too slow)
+  std::uint64_t queue_overflow = 0;   // received by the driver and dropped, its queue full (pvcap too slow)
   std::uint64_t buffer_underrun = 0;  // sent while the camera's stream had no free buffer (pvcap too slow)
-  std::size_t encoder_backlog = 0;  // kept frames waiting for the encoder (memory and spill)
-  std::size_t spill_backlog = 0;    // of which on disk
-  std::uint64_t spilled = 0;        // frames that went through the spill so far
+  std::size_t encoder_backlog = 0;    // kept frames waiting for the encoder (memory and spill)
+  std::size_t spill_backlog = 0;      // of which on disk
+  std::uint64_t spilled = 0;          // frames that went through the spill so far
   double rate_hz = 0;                 // over the last status interval
   double since_last_frame_ms = -1;    // since its last good frame arrived; -1: none yet
 };

@@ -43,9 +43,10 @@ Result<std::unique_ptr<RigLock>> RigLock::acquire(const std::filesystem::path& r
   if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
     const std::string holder = read_holder(fd);
     ::close(fd);
-    return Error{fmt::format("{} is already recording: {}. One rig, one recorder: stop that session first "
-                             "(Ctrl-C in its terminal)",
-                             rig_file.string(), holder)};
+    return Error{
+        fmt::format("{} is already recording: {}. One rig, one recorder: stop that session first "
+                    "(Ctrl-C in its terminal)",
+                    rig_file.string(), holder)};
   }
   std::unique_ptr<RigLock> lock(new RigLock(fd, path, rig));
   lock->write_holder("opening the devices");

@@ -25,7 +25,8 @@ class RigLock {
   const std::filesystem::path& path() const { return path_; }
 
  private:
-  RigLock(int fd, std::filesystem::path path, std::filesystem::path rig) : fd_(fd), path_(std::move(path)), rig_(std::move(rig)) {}
+  RigLock(int fd, std::filesystem::path path, std::filesystem::path rig)
+      : fd_(fd), path_(std::move(path)), rig_(std::move(rig)) {}
   void write_holder(const std::string& where);
 
   int fd_ = -1;

@@ -4,8 +4,8 @@
 #include <memory>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 #include "core/fault_injection.h"
 #include "core/loss_runs.h"
@@ -81,10 +81,13 @@ DeviceRecord SenselPipeline::device_record() const {
   const auto& info = device_->info();
   nlohmann::json j = {{"scan_detail", config_.scan_detail == 0 ? "high" : "medium"},
                       {"grid", {info.grid.cols, info.grid.rows, info.grid.xscale, info.grid.yscale}},
-                      {"dynamic_baseline", config_.dynamic_baseline}, {"frame_rate_cap", config_.frame_rate_cap},
+                      {"dynamic_baseline", config_.dynamic_baseline},
+                      {"frame_rate_cap", config_.frame_rate_cap},
                       {"latency_ns", config_.latency_ns}};
-  if (config_.usb_serial) j["usb"] = *config_.usb_serial;
-  else j["tty"] = config_.tty;
+  if (config_.usb_serial)
+    j["usb"] = *config_.usb_serial;
+  else
+    j["tty"] = config_.tty;
   return DeviceRecord{"sensel", "sensel", "Sensel", "Morph", info.serial, connection(), info.firmware, j.dump()};
 }
 
@@ -129,8 +132,10 @@ PressureSnapshot SenselPipeline::latest() const {
 
 void SenselPipeline::on_event(const sensel::SenselEvent& e) {
   using K = sensel::SenselEvent::Kind;
-  if (e.kind == K::Reconnected) spdlog::warn("{}", e.message);
-  else spdlog::error("{}", e.message);
+  if (e.kind == K::Reconnected)
+    spdlog::warn("{}", e.message);
+  else
+    spdlog::error("{}", e.message);
   static const char* kinds[] = {"sensel_stall", "sensel_garbage", "sensel_unplugged", "sensel_reconnected",
                                 "sensel_wrong_device"};
   static_assert(std::size(kinds) == std::size_t(sensel::SenselEvent::Kind::WrongDevice) + 1);
@@ -148,8 +153,8 @@ void SenselPipeline::on_event(const sensel::SenselEvent& e) {
 void SenselPipeline::record_losses(SessionWriter& writer, std::uint32_t connection, std::uint64_t from,
                                    std::uint64_t to, const std::vector<std::uint64_t>& dropped, std::int64_t host_ns) {
   for_each_loss_run(from, to, dropped, [&](std::uint64_t first, std::uint64_t count, bool by_queue) {
-    writer.record(DropRecord{device_id_, connection, first, count, by_queue ? "queue_overflow" : "not_received",
-                             host_ns});
+    writer.record(
+        DropRecord{device_id_, connection, first, count, by_queue ? "queue_overflow" : "not_received", host_ns});
   });
 }
 
@@ -170,16 +175,32 @@ void SenselPipeline::run() {
     // Every sequence between the previous frame of this connection and this one is lost: dropped
     // by the driver for want of room in its queue, or never received (the device's counter says).
     std::uint64_t from = s->sequence - s->lost_before;
-    if (previous_ && previous_->first == s->connection) from = previous_->second + 1;
-    else if (!s->dropped_before.empty()) from = std::min(from, s->dropped_before.front());
+    if (previous_ && previous_->first == s->connection)
+      from = previous_->second + 1;
+    else if (!s->dropped_before.empty())
+      from = std::min(from, s->dropped_before.front());
     record_losses(writer, s->connection, from, s->sequence, s->dropped_before, s->host_ts.ns);
     previous_ = {s->connection, s->sequence};
     // The clock model fits when the answer began to arrive (the midpoint is the stamp's best
     // single guess, but an arrival is what a latency floor bounds; its first bytes come before
     // the rest of a frame's 64-byte packets).
-    const std::int64_t mapped = timeline_->pressure_frame(s->connection, s->sequence, s->device_ts, s->first_byte_ts).ns;
-    PressureRecord rec{device_id_, s->connection, s->sequence, s->lost_before, s->device_ts.ns, s->host_ts.ns, s->host_wait_ns,
-                       s->grid.cols, s->grid.rows, s->grid.xscale, s->grid.yscale, {}, mapped, 0, {}};
+    const std::int64_t mapped =
+        timeline_->pressure_frame(s->connection, s->sequence, s->device_ts, s->first_byte_ts).ns;
+    PressureRecord rec{device_id_,
+                       s->connection,
+                       s->sequence,
+                       s->lost_before,
+                       s->device_ts.ns,
+                       s->host_ts.ns,
+                       s->host_wait_ns,
+                       s->grid.cols,
+                       s->grid.rows,
+                       s->grid.xscale,
+                       s->grid.yscale,
+                       {},
+                       mapped,
+                       0,
+                       {}};
     // The counts again in the store's portable form (zlib on the index's thread), for readers
     // without the Sensel codec; the device's payload is kept as it came.
     if (s->frame.pressure) {

@@ -30,10 +30,9 @@ calib::CameraModel sim_camera_model(int index, const SimCameraClock& c, cv::Size
   const double scale = double(size.width) / configured.width;
   const cv::Point2d principal(size.width / 2.0 + v.principal_offset.x * size.width / 1920.0,
                               size.height / 2.0 + v.principal_offset.y * size.width / 1920.0);
-  return calib::CameraModel::looking_at(size, focal_configured * scale, principal,
-                                        std::vector<double>(dist.begin(), dist.end()),
-                                        calib::pad_point(pos[0], pos[1], pos[2]),
-                                        calib::pad_point(at[0], at[1], at[2]));
+  return calib::CameraModel::looking_at(
+      size, focal_configured * scale, principal, std::vector<double>(dist.begin(), dist.end()),
+      calib::pad_point(pos[0], pos[1], pos[2]), calib::pad_point(at[0], at[1], at[2]));
 }
 
 }  // namespace pvcap::sim

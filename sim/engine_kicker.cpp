@@ -13,12 +13,8 @@
 
 namespace pvcap::sim {
 
-EngineKicker::EngineKicker(std::string ipv4, std::function<std::int64_t()> late_after,
-                           std::optional<LentPriority> lent)
-    : ipv4_(std::move(ipv4)),
-      late_after_(std::move(late_after)),
-      lent_(std::move(lent)),
-      thread_([this] { run(); }) {}
+EngineKicker::EngineKicker(std::string ipv4, std::function<std::int64_t()> late_after, std::optional<LentPriority> lent)
+    : ipv4_(std::move(ipv4)), late_after_(std::move(late_after)), lent_(std::move(lent)), thread_([this] { run(); }) {}
 
 EngineKicker::~EngineKicker() {
   {

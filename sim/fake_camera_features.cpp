@@ -47,7 +47,8 @@ void install_fake_camera_genicam() {
     const auto source = text.find("<Enumeration Name=\"TriggerSource\"");
     const std::string engine_register = "<pValue>TriggerSourceRegister</pValue>";
     const auto value = source == std::string::npos ? std::string::npos : text.find(engine_register, source);
-    if (value != std::string::npos) text.replace(value, engine_register.size(), "<pValue>PvcapTriggerSourceRegister</pValue>");
+    if (value != std::string::npos)
+      text.replace(value, engine_register.size(), "<pValue>PvcapTriggerSourceRegister</pValue>");
     // Named by its content, so every simulator process shares one file instead of leaving one
     // each; written aside and renamed into place, so a concurrent reader never sees half of it.
     const auto dir = std::filesystem::temp_directory_path();

@@ -17,7 +17,7 @@
 namespace pvcap::sim {
 
 inline constexpr std::uint32_t kLatchCommandRegister = 0xF000;
-inline constexpr std::uint32_t kLatchValueRegister = 0xF008;  // 64 bits: high word, then low
+inline constexpr std::uint32_t kLatchValueRegister = 0xF008;     // 64 bits: high word, then low
 inline constexpr std::uint32_t kTriggerSourceRegister = 0xF010;  // 0 = Line0, 1 = Software (the XML's values)
 
 // Makes the fake cameras created after this call serve the GenICam XML with these features (once

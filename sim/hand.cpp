@@ -11,9 +11,12 @@ namespace pvcap::sim {
 namespace {
 const char* mode_name(HandCommand::Mode m) {
   switch (m) {
-    case HandCommand::Mode::Away: return "away";
-    case HandCommand::Mode::Hover: return "hover";
-    case HandCommand::Mode::Press: return "press";
+    case HandCommand::Mode::Away:
+      return "away";
+    case HandCommand::Mode::Hover:
+      return "hover";
+    case HandCommand::Mode::Press:
+      return "press";
   }
   return "away";
 }
@@ -30,10 +33,14 @@ std::optional<HandCommand> HandCommand::parse(const std::string& line) {
   HandCommand c;
   if (!(in >> word) || word != "hand") return std::nullopt;
   if (!(in >> c.from_ns >> mode >> c.x_mm >> c.y_mm >> c.peak_grams >> c.period_s)) return std::nullopt;
-  if (mode == "away") c.mode = Mode::Away;
-  else if (mode == "hover") c.mode = Mode::Hover;
-  else if (mode == "press") c.mode = Mode::Press;
-  else return std::nullopt;
+  if (mode == "away")
+    c.mode = Mode::Away;
+  else if (mode == "hover")
+    c.mode = Mode::Hover;
+  else if (mode == "press")
+    c.mode = Mode::Press;
+  else
+    return std::nullopt;
   if (!(c.period_s > 0.05 && c.period_s < 600) || !(c.peak_grams >= 0 && c.peak_grams < 1e5)) return std::nullopt;
   return c;
 }

@@ -82,9 +82,10 @@ bool addresses_present(const std::vector<std::string>& addresses) {
 
 Status enter_private_network(const std::vector<std::string>& addresses) {
   if (unshare(CLONE_NEWNET) != 0)
-    return Error{fmt::format("cannot create a private network namespace for the simulated rig: {} (run as root, "
-                             "or grant CAP_SYS_ADMIN and CAP_NET_ADMIN)",
-                             std::strerror(errno))};
+    return Error{
+        fmt::format("cannot create a private network namespace for the simulated rig: {} (run as root, "
+                    "or grant CAP_SYS_ADMIN and CAP_NET_ADMIN)",
+                    std::strerror(errno))};
   if (Status s = bring_loopback_up(); !s.ok()) return s;
   int alias = 0;
   for (const auto& a : addresses) {

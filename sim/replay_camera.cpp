@@ -22,9 +22,9 @@
 namespace pvcap::sim {
 
 namespace {
-constexpr std::size_t kReadAhead = 12;  // stored mosaics decoded ahead of their frames
-constexpr int kEnginePriority = 10;     // SCHED_FIFO, around each frame (the kicker's is 11)
-constexpr int kSendPriority = 9;        // SCHED_FIFO, while the engine sends a frame's packets
+constexpr std::size_t kReadAhead = 12;    // stored mosaics decoded ahead of their frames
+constexpr int kEnginePriority = 10;       // SCHED_FIFO, around each frame (the kicker's is 11)
+constexpr int kSendPriority = 9;          // SCHED_FIFO, while the engine sends a frame's packets
 constexpr std::int64_t kSpinNs = 80'000;  // the end of the wait for a frame's instant, spun
 
 // Aravis' fake camera sends its next frame at the next multiple of its frame period (CLOCK_REALTIME,
@@ -42,8 +42,8 @@ std::uint32_t period_waking_at(std::int64_t now_us, std::int64_t target_us, std:
 }  // namespace
 
 Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& camera,
-                                                         std::shared_ptr<SessionReplay> replay,
-                                                         const std::filesystem::path& truth_dir) {
+                                                           std::shared_ptr<SessionReplay> replay,
+                                                           const std::filesystem::path& truth_dir) {
   if (camera.address.empty())
     return Error{fmt::format("{}: a replayed camera needs an 'address' (127.0.0.x)", camera.name)};
   auto index = replay->camera_index(camera.name);
@@ -63,9 +63,10 @@ Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& c
   const std::string serial = camera.serial.empty() ? camera.name : camera.serial;
   self->fake_.reset(arv_gv_fake_camera_new(camera.address.c_str(), serial.c_str()));
   if (!self->fake_ || !arv_gv_fake_camera_is_running(self->fake_.get()))
-    return Error{fmt::format("{}: the fake camera could not listen on {} (the simulated rig runs in its own network "
-                             "namespace)",
-                             camera.name, camera.address)};
+    return Error{
+        fmt::format("{}: the fake camera could not listen on {} (the simulated rig runs in its own network "
+                    "namespace)",
+                    camera.name, camera.address)};
   ReplayCamera* raw = self.get();
   raw->reader_ = std::thread([raw] { raw->read_ahead(); });
   // A frame not begun 0.15 ms after it is due has met the engine's stall (sim/engine_kicker.h): it
@@ -146,9 +147,10 @@ void ReplayCamera::read_ahead() {
         // A colour store holds no mosaic: its image is sampled back into the sensor's pattern.
         if (!colour.value().empty()) mosaic = to_sensor_format(colour.value(), pixel_format_);
         if (!said_colour)
-          spdlog::warn("replay: {}: the store keeps colour video, not the sensor's mosaics: its images are sent "
-                       "sampled back into {} (lossy video: close to what was captured, not bit for bit)",
-                       name_, pixel_format_);
+          spdlog::warn(
+              "replay: {}: the store keeps colour video, not the sensor's mosaics: its images are sent "
+              "sampled back into {} (lossy video: close to what was captured, not bit for bit)",
+              name_, pixel_format_);
         said_colour = true;
       } else if (!warned) {
         warned = true;
@@ -219,8 +221,10 @@ void ReplayCamera::fill_buffer(ArvBuffer* buffer) {
   const std::int64_t due = replay_->due_ns(f.t_ns);
   cv::Mat image = f.sample >= 0 ? stored_image(f.sample) : cv::Mat();
   const std::int64_t image_ns = host_now().ns;
-  if (!image.empty()) last_ = image;
-  else image = last_;
+  if (!image.empty())
+    last_ = image;
+  else
+    image = last_;
   // The engine woke just before the frame is due: the rest is slept, but for the last moment
   // (a sleeping thread wakes 30-80 us late here), which is waited without giving up the core.
   if (due - host_now().ns > kSpinNs) {

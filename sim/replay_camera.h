@@ -50,12 +50,12 @@ class ReplayCamera {
   std::string name_;
   std::string pixel_format_;  // what it sends (a colour store's images are sampled back into it)
   std::shared_ptr<SessionReplay> replay_;
-  std::size_t index_ = 0;    // the camera's index in the replay
+  std::size_t index_ = 0;  // the camera's index in the replay
   // Written by the engine's fill, read by the trigger line's thread.
-  std::atomic<std::size_t> next_{0};   // the next frame to send
-  std::atomic<bool> streaming_{false};  // the first frame after acquisition start has been sent
+  std::atomic<std::size_t> next_{0};     // the next frame to send
+  std::atomic<bool> streaming_{false};   // the first frame after acquisition start has been sent
   std::atomic<pid_t> engine_thread_{0};  // the engine's thread, known from its first fill
-  cv::Mat last_;             // the last stored mosaic sent (frames the session did not keep reuse it)
+  cv::Mat last_;                         // the last stored mosaic sent (frames the session did not keep reuse it)
   arv::GPtr<ArvGvFakeCamera> fake_;
   std::ofstream log_;
   std::uint64_t logged_ = 0;

@@ -64,8 +64,9 @@ cv::Mat render_scene_bgr(const calib::PadLayout& pad, const calib::CameraModel& 
   for (int y = 0; y < size.height; ++y) {
     auto* row = image.ptr<cv::Vec3b>(y);
     for (int x = 0; x < size.width; ++x)
-      row[x] = cv::Vec3b(cv::saturate_cast<uchar>(60 + 20 * y / size.height), cv::saturate_cast<uchar>(95 + (x % 37) / 6),
-                         cv::saturate_cast<uchar>(140 + 30 * x / size.width));
+      row[x] =
+          cv::Vec3b(cv::saturate_cast<uchar>(60 + 20 * y / size.height), cv::saturate_cast<uchar>(95 + (x % 37) / 6),
+                    cv::saturate_cast<uchar>(140 + 30 * x / size.width));
   }
   cv::Mat grain(size, CV_8UC3);
   cv::RNG rng(0x5eed);
@@ -92,11 +93,16 @@ cv::Mat render_default_scene_bgr(int index, cv::Size size, double noise_dn) {
 namespace {
 // Which BGR channel a Bayer sensor samples at (even row, even col), (even, odd), (odd, even), (odd, odd).
 bool bayer_layout(const std::string& pf, int layout[4]) {
-  if (pf == "BayerRG8") layout[0] = 2, layout[1] = 1, layout[2] = 1, layout[3] = 0;
-  else if (pf == "BayerBG8") layout[0] = 0, layout[1] = 1, layout[2] = 1, layout[3] = 2;
-  else if (pf == "BayerGR8") layout[0] = 1, layout[1] = 2, layout[2] = 0, layout[3] = 1;
-  else if (pf == "BayerGB8") layout[0] = 1, layout[1] = 0, layout[2] = 2, layout[3] = 1;
-  else return false;
+  if (pf == "BayerRG8")
+    layout[0] = 2, layout[1] = 1, layout[2] = 1, layout[3] = 0;
+  else if (pf == "BayerBG8")
+    layout[0] = 0, layout[1] = 1, layout[2] = 1, layout[3] = 2;
+  else if (pf == "BayerGR8")
+    layout[0] = 1, layout[1] = 2, layout[2] = 0, layout[3] = 1;
+  else if (pf == "BayerGB8")
+    layout[0] = 1, layout[1] = 0, layout[2] = 2, layout[3] = 1;
+  else
+    return false;
   return true;
 }
 }  // namespace
@@ -112,9 +118,12 @@ void draw_fingertip(cv::Mat& img, const std::string& pf, cv::Point2d c, double r
       const double d = std::hypot(x - c.x, y - c.y);
       if (d > r) continue;
       const cv::Vec3b col = d > 0.8 * r ? rim : skin;
-      if (bayer) img.at<uchar>(y, x) = col[layout[(y & 1) * 2 + (x & 1)]];
-      else if (img.type() == CV_8UC1) img.at<uchar>(y, x) = uchar((col[0] + col[1] + col[2]) / 3);
-      else img.at<cv::Vec3b>(y, x) = cv::Vec3b(col[2], col[1], col[0]);  // RGB8
+      if (bayer)
+        img.at<uchar>(y, x) = col[layout[(y & 1) * 2 + (x & 1)]];
+      else if (img.type() == CV_8UC1)
+        img.at<uchar>(y, x) = uchar((col[0] + col[1] + col[2]) / 3);
+      else
+        img.at<cv::Vec3b>(y, x) = cv::Vec3b(col[2], col[1], col[0]);  // RGB8
     }
 }
 

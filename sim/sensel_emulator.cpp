@@ -57,12 +57,12 @@ void SenselEmulator::soft_reset() {
   std::memcpy(&regs_[reg::kWidthUm], &w, 4);
   std::memcpy(&regs_[reg::kHeightUm], &h, 4);
   regs_[reg::kScanFrameRate] = 125;
-  regs_[reg::kScanDetail] = 1;           // medium
-  regs_[reg::kFrameContent] = 0x07;      // pressure, labels, contacts
+  regs_[reg::kScanDetail] = 1;       // medium
+  regs_[reg::kFrameContent] = 0x07;  // pressure, labels, contacts
   regs_[reg::kContentSupported] = 0x0F;
   regs_[reg::kContactsMaxCount] = 16;
   regs_[reg::kBaselineEnabled] = 1;
-  regs_[reg::kDynamicBaseline] = 1;      // on by default, as on the device
+  regs_[reg::kDynamicBaseline] = 1;  // on by default, as on the device
   regs_[0xA0] = 8;
   regs_[reg::kUnitShiftForce] = 3;
   regs_[0xA3] = 4;
@@ -235,8 +235,8 @@ std::vector<std::uint8_t> SenselEmulator::on_host_bytes(std::span<const std::uin
     if (board == 0x01 && size == 0) {  // WVS header: 01 reg 00 04 n0 n1 n2 n3 chk
       if (pending_.size() - pos < 9) break;
       const std::span<const std::uint8_t> n(&pending_[pos + 4], 4);
-      const std::uint32_t total = std::uint32_t(n[0]) | std::uint32_t(n[1]) << 8 | std::uint32_t(n[2]) << 16 |
-                                  std::uint32_t(n[3]) << 24;
+      const std::uint32_t total =
+          std::uint32_t(n[0]) | std::uint32_t(n[1]) << 8 | std::uint32_t(n[2]) << 16 | std::uint32_t(n[3]) << 24;
       if (pending_[pos + 3] != 4 || checksum(n) != pending_[pos + 8] || total == 0 || total > 65536) {
         out.push_back(kWvsNack);
         out.push_back(r);
@@ -261,7 +261,8 @@ std::vector<std::uint8_t> SenselEmulator::on_host_bytes(std::span<const std::uin
         out.push_back(kWriteNack);
         out.push_back(r);
       } else {
-        if (r == reg::kSoftReset && size >= 1 && data[0] == 1) soft_reset();
+        if (r == reg::kSoftReset && size >= 1 && data[0] == 1)
+          soft_reset();
         else if (r == reg::kScanEnabled) {
           regs_[r] = data[0];
           next_scan_ns_ = 0;  // scanning (re)starts now

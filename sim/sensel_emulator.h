@@ -37,8 +37,8 @@ class Hand;
 SenselScene hand_scene(std::shared_ptr<const Hand> hand);
 
 struct SenselClock {
-  std::int64_t t0_ns = 0;        // true time of the emulator's power-on
-  double start_us = 0;           // device timestamp at power-on (set near 2^32 to test the wrap)
+  std::int64_t t0_ns = 0;  // true time of the emulator's power-on
+  double start_us = 0;     // device timestamp at power-on (set near 2^32 to test the wrap)
   double drift_ppm = 0;
   std::int64_t reset_at_ns = INT64_MAX;  // true time the clock restarts from 0 (a brown-out, a firmware reset)
   std::uint32_t at(std::int64_t true_ns) const {

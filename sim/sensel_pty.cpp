@@ -4,8 +4,8 @@
 #include <poll.h>
 #include <pthread.h>
 #include <sched.h>
-#include <sys/prctl.h>
 #include <stdlib.h>
+#include <sys/prctl.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -64,8 +64,10 @@ void SenselPty::serve() {
     // Answers go out in 64-byte pieces, like USB full-speed bulk packets.
     while (done < out.size() && running_.load()) {
       const ssize_t w = ::write(master_, out.data() + done, std::min<std::size_t>(64, out.size() - done));
-      if (w > 0) done += std::size_t(w);
-      else if (errno != EAGAIN && errno != EINTR) break;
+      if (w > 0)
+        done += std::size_t(w);
+      else if (errno != EAGAIN && errno != EINTR)
+        break;
     }
   };
   while (running_.load()) {

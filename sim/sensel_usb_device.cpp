@@ -43,15 +43,19 @@ std::vector<std::uint8_t> morph_descriptors() {
   put16(d, 0x0100);
   d.insert(d.end(), {1, 2, 3, 1});  // manufacturer, product, serial strings; one configuration
 
-  struct Ep { std::uint8_t address, attributes; std::uint16_t max_packet; std::uint8_t interval; };
-  struct If { std::uint8_t cls, sub, proto; std::vector<Ep> eps; };
+  struct Ep {
+    std::uint8_t address, attributes;
+    std::uint16_t max_packet;
+    std::uint8_t interval;
+  };
+  struct If {
+    std::uint8_t cls, sub, proto;
+    std::vector<Ep> eps;
+  };
   const std::vector<If> interfaces = {
-      {0x02, 0x02, 0x01, {{0x81, 0x03, 8, 255}}},
-      {0x0A, 0x00, 0x00, {{kBulkOut, 0x02, 64, 0}, {kBulkIn, 0x02, 64, 0}}},
-      {0x03, 0x01, 0x02, {{0x83, 0x03, 19, 1}}},
-      {0x01, 0x03, 0x00, {{0x04, 0x02, 64, 0}, {0x84, 0x02, 64, 0}}},
-      {0x03, 0x00, 0x00, {{0x85, 0x03, 32, 1}}},
-      {0x03, 0x00, 0x00, {{0x86, 0x03, 64, 1}}},
+      {0x02, 0x02, 0x01, {{0x81, 0x03, 8, 255}}}, {0x0A, 0x00, 0x00, {{kBulkOut, 0x02, 64, 0}, {kBulkIn, 0x02, 64, 0}}},
+      {0x03, 0x01, 0x02, {{0x83, 0x03, 19, 1}}},  {0x01, 0x03, 0x00, {{0x04, 0x02, 64, 0}, {0x84, 0x02, 64, 0}}},
+      {0x03, 0x00, 0x00, {{0x85, 0x03, 32, 1}}},  {0x03, 0x00, 0x00, {{0x86, 0x03, 64, 1}}},
   };
   std::vector<std::uint8_t> c = {9, 2, 0, 0, std::uint8_t(interfaces.size()), 1, 0, 0x80, 250};  // 500 mA
   const std::uint8_t iad[] = {8, 11, 0, 2, 0x02, 0x02, 0x01, 0};  // CDC function: interfaces 0-1
@@ -78,7 +82,9 @@ std::vector<std::uint8_t> string_descriptor(const std::string& ascii) {
 }
 
 struct GObjectUnref {
-  void operator()(gpointer p) const { if (p) g_object_unref(p); }
+  void operator()(gpointer p) const {
+    if (p) g_object_unref(p);
+  }
 };
 
 }  // namespace
@@ -86,10 +92,10 @@ struct GObjectUnref {
 // One submitted URB: the client's usbdevfs_urb and its buffer, both resolved into
 // local copies that umockdev writes back when the URB is reaped.
 struct Urb {
-  UMockdevIoctlData* urb = nullptr;     // owned reference
-  UMockdevIoctlData* buffer = nullptr;  // owned reference (null for an empty buffer)
+  UMockdevIoctlData* urb = nullptr;      // owned reference
+  UMockdevIoctlData* buffer = nullptr;   // owned reference (null for an empty buffer)
   UMockdevIoctlClient* owner = nullptr;  // the open file that submitted it, the only one to reap it
-  bool complete = false;                // OUT and control URBs complete at submission
+  bool complete = false;                 // OUT and control URBs complete at submission
   usbdevfs_urb* get() const { return reinterpret_cast<usbdevfs_urb*>(urb->data); }
 };
 
@@ -117,8 +123,8 @@ struct SenselUsbDevice::Impl {
   std::string syspath;
   bool acm_bound[2] = {true, true};
   UMockdevIoctlClient* claimed_by[2] = {nullptr, nullptr};  // which open file holds each CDC interface
-  std::deque<Urb> urbs;  // submitted, not yet reaped, in submission order
-  std::deque<PacedAnswer> answers;  // device bytes not yet carried to the host
+  std::deque<Urb> urbs;                                     // submitted, not yet reaped, in submission order
+  std::deque<PacedAnswer> answers;                          // device bytes not yet carried to the host
   std::int64_t stalled_until_ns = 0;
   bool lose_next_request = false;
 
@@ -131,14 +137,37 @@ struct SenselUsbDevice::Impl {
     const std::string node = devnode();
     const std::string product_prop = fmt::format("{:x}/{:x}/100", kVendor, kProduct);
     const std::string majmin = fmt::format("189:{}", (kBus - 1) * 128 + devnum - 1);  // usb_device major
-    const gchar* attributes[] = {"busnum", busnum.c_str(), "devnum", dev.c_str(), "speed", "12",
-                                 "idVendor", "2c2f", "idProduct", "0003", "bcdDevice", "0100",
-                                 "bConfigurationValue", "1", "bNumConfigurations", "1", "bNumInterfaces", " 6",
-                                 "manufacturer", identity.manufacturer.c_str(), "product", identity.product.c_str(),
-                                 "serial", identity.serial.c_str(), "dev", majmin.c_str(), nullptr};
+    const gchar* attributes[] = {"busnum",
+                                 busnum.c_str(),
+                                 "devnum",
+                                 dev.c_str(),
+                                 "speed",
+                                 "12",
+                                 "idVendor",
+                                 "2c2f",
+                                 "idProduct",
+                                 "0003",
+                                 "bcdDevice",
+                                 "0100",
+                                 "bConfigurationValue",
+                                 "1",
+                                 "bNumConfigurations",
+                                 "1",
+                                 "bNumInterfaces",
+                                 " 6",
+                                 "manufacturer",
+                                 identity.manufacturer.c_str(),
+                                 "product",
+                                 identity.product.c_str(),
+                                 "serial",
+                                 identity.serial.c_str(),
+                                 "dev",
+                                 majmin.c_str(),
+                                 nullptr};
     const std::string busnum_prop = fmt::format("{:03d}", kBus), devnum_prop = fmt::format("{:03d}", devnum);
-    const gchar* properties[] = {"DEVTYPE", "usb_device", "DEVNAME", node.c_str(), "BUSNUM", busnum_prop.c_str(),
-                                 "DEVNUM", devnum_prop.c_str(), "PRODUCT", product_prop.c_str(), "DRIVER", "usb",
+    const gchar* properties[] = {"DEVTYPE", "usb_device",         "DEVNAME", node.c_str(),
+                                 "BUSNUM",  busnum_prop.c_str(),  "DEVNUM",  devnum_prop.c_str(),
+                                 "PRODUCT", product_prop.c_str(), "DRIVER",  "usb",
                                  nullptr};
     gchar* path = umockdev_testbed_add_devicev(testbed.get(), "usb", name.c_str(), nullptr,
                                                const_cast<gchar**>(attributes), const_cast<gchar**>(properties));
@@ -151,8 +180,11 @@ struct SenselUsbDevice::Impl {
     g_free(root);
     std::error_code ec;
     std::filesystem::create_directories(node_file.parent_path(), ec);
-    if (FILE* f = std::fopen(node_file.c_str(), "w")) std::fclose(f);
-    else return Error{fmt::format("cannot create the emulated device node {}: {}", node_file.string(), std::strerror(errno))};
+    if (FILE* f = std::fopen(node_file.c_str(), "w"))
+      std::fclose(f);
+    else
+      return Error{
+          fmt::format("cannot create the emulated device node {}: {}", node_file.string(), std::strerror(errno))};
     umockdev_testbed_set_attribute_binary(testbed.get(), syspath.c_str(), "descriptors",
                                           const_cast<guint8*>(descriptors.data()), gssize(descriptors.size()));
 
@@ -311,8 +343,8 @@ struct SenselUsbDevice::Impl {
     Urb entry;
     if (u->buffer_length > 0) {
       GError* err = nullptr;
-      entry.buffer = umockdev_ioctl_data_resolve(data.get(), offsetof(usbdevfs_urb, buffer),
-                                                 gsize(u->buffer_length), &err);
+      entry.buffer =
+          umockdev_ioctl_data_resolve(data.get(), offsetof(usbdevfs_urb, buffer), gsize(u->buffer_length), &err);
       if (!entry.buffer) {
         g_clear_error(&err);
         return done(-1, EFAULT);
@@ -325,8 +357,8 @@ struct SenselUsbDevice::Impl {
       entry.complete = true;
     } else if (u->type == USBDEVFS_URB_TYPE_BULK && u->endpoint == kBulkOut) {
       if (!may_use_data_interface(client)) return release(entry), done(-1, EBUSY);
-      host_bytes(std::span<const std::uint8_t>(entry.buffer ? entry.buffer->data : nullptr,
-                                               std::size_t(u->buffer_length)));
+      host_bytes(
+          std::span<const std::uint8_t>(entry.buffer ? entry.buffer->data : nullptr, std::size_t(u->buffer_length)));
       u->actual_length = u->buffer_length;
       entry.complete = true;
     } else if (u->type == USBDEVFS_URB_TYPE_BULK && u->endpoint == kBulkIn) {
@@ -372,12 +404,18 @@ struct SenselUsbDevice::Impl {
     std::vector<std::uint8_t> reply;
     if (request_type == 0x80 && request == 6) {
       const int type = value >> 8, index = value & 0xFF;
-      if (type == 1) reply.assign(descriptors.begin(), descriptors.begin() + 18);
-      else if (type == 2) reply.assign(descriptors.begin() + 18, descriptors.end());
-      else if (type == 3 && index == 0) reply = {4, 3, 0x09, 0x04};  // English (US)
-      else if (type == 3 && index == 1) reply = string_descriptor(identity.manufacturer);
-      else if (type == 3 && index == 2) reply = string_descriptor(identity.product);
-      else if (type == 3 && index == 3) reply = string_descriptor(identity.serial);
+      if (type == 1)
+        reply.assign(descriptors.begin(), descriptors.begin() + 18);
+      else if (type == 2)
+        reply.assign(descriptors.begin() + 18, descriptors.end());
+      else if (type == 3 && index == 0)
+        reply = {4, 3, 0x09, 0x04};  // English (US)
+      else if (type == 3 && index == 1)
+        reply = string_descriptor(identity.manufacturer);
+      else if (type == 3 && index == 2)
+        reply = string_descriptor(identity.product);
+      else if (type == 3 && index == 3)
+        reply = string_descriptor(identity.serial);
       else {
         u.status = -EPIPE;  // the device stalls unknown requests
         return;
@@ -461,8 +499,9 @@ Result<std::unique_ptr<SenselUsbDevice>> SenselUsbDevice::create(SenselEmulator&
   impl->testbed.reset(umockdev_testbed_new());
   // Only meaningful once a testbed exists: the preload library then redirects /sys.
   if (!umockdev_in_mock_environment())
-    return Error{"the emulated USB Sensel needs umockdev's preload library: run under umockdev-wrapper "
-                 "(LD_PRELOAD=libumockdev-preload.so.0)"};
+    return Error{
+        "the emulated USB Sensel needs umockdev's preload library: run under umockdev-wrapper "
+        "(LD_PRELOAD=libumockdev-preload.so.0)"};
   std::lock_guard lock(impl->mu);
   if (auto s = impl->add_to_bus(); !s.ok()) return s.error();
   return std::unique_ptr<SenselUsbDevice>(new SenselUsbDevice(std::move(impl)));

@@ -37,7 +37,7 @@ class SenselUsbDevice {
   SenselUsbDevice& operator=(const SenselUsbDevice&) = delete;
 
   const SenselUsbIdentity& identity() const;
-  std::string devnode() const;  // /dev/bus/usb/001/NNN of the current plug-in
+  std::string devnode() const;              // /dev/bus/usb/001/NNN of the current plug-in
   bool cdc_acm_bound(int interface) const;  // the kernel's tty driver holds interface 0 or 1
 
   void stall_for(int ms);  // the next request is lost and nothing answers for `ms`

@@ -52,8 +52,10 @@ class SenselClockScale {
     std::uint32_t us = 0;
     for (int i = 0; i < 4; ++i) us |= std::uint32_t(payload[2 + std::size_t(i)]) << (8 * i);
     const auto step = std::int32_t(us - last_);  // a wrap is a small step forward
-    if (!started_ || step < 0) start_ = us, elapsed_ = 0, started_ = true;
-    else elapsed_ += std::uint32_t(step);
+    if (!started_ || step < 0)
+      start_ = us, elapsed_ = 0, started_ = true;
+    else
+      elapsed_ += std::uint32_t(step);
     last_ = us;
     const auto scaled = std::uint32_t(start_ + std::uint64_t(std::llround(double(elapsed_) / rate_)));
     for (int i = 0; i < 4; ++i) payload[2 + std::size_t(i)] = std::uint8_t(scaled >> (8 * i));
@@ -86,8 +88,8 @@ Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem
     r->grid_hz_ = sample_rate_hz(rig);
     if (rig.sensel) sensel_latency_ns = rig.sensel->latency_ns;
   } catch (const UserError& e) {
-    return Error{fmt::format("{}: the rig file stored with the session cannot be read: {}", db_path.string(),
-                             e.what())};
+    return Error{
+        fmt::format("{}: the rig file stored with the session cannot be read: {}", db_path.string(), e.what())};
   }
 
   // Which sample stores which camera frame (samples by position, as SessionReader numbers them).
@@ -104,9 +106,9 @@ Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem
     auto timing = reader.frame_timing(info.device_id);
     if (!timing) return timing.error();
     auto rows = std::move(timing.value());
-    std::sort(rows.begin(), rows.end(),
-              [](const FrameTiming& a, const FrameTiming& b) { return std::tie(a.connection, a.sequence) <
-                                                                      std::tie(b.connection, b.sequence); });
+    std::sort(rows.begin(), rows.end(), [](const FrameTiming& a, const FrameTiming& b) {
+      return std::tie(a.connection, a.sequence) < std::tie(b.connection, b.sequence);
+    });
     Camera c;
     c.name = info.name;
     DeviceClockScale scale(rate);
@@ -114,8 +116,8 @@ Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem
       if (!row.mapped_ns || row.frame_id == 0 || !row.good) continue;
       ReplayCameraFrame f{row.frame_id, row.device_ns, *row.mapped_ns, -1};
       if (!plausible(f.device_ns) || !plausible(f.t_ns))
-        return Error{fmt::format("{}: camera {} has a frame at an impossible time (a damaged index)", db_path.string(),
-                                 c.name)};
+        return Error{
+            fmt::format("{}: camera {} has a frame at an impossible time (a damaged index)", db_path.string(), c.name)};
       if (rate != 1.0) f.device_ns = scale(f.device_ns);
       if (row.kept) {
         const auto it = stored.find({info.device_id, std::int64_t(row.connection), std::int64_t(row.sequence)});

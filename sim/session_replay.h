@@ -29,8 +29,8 @@ namespace pvcap::sim {
 struct ReplayCameraFrame {
   std::uint64_t frame_id = 0;
   std::int64_t device_ns = 0;
-  std::int64_t t_ns = 0;       // when it was exposed, on the recorded session's clock
-  std::int64_t sample = -1;    // the sample (SessionReader index) whose stored image it is; -1: not stored
+  std::int64_t t_ns = 0;     // when it was exposed, on the recorded session's clock
+  std::int64_t sample = -1;  // the sample (SessionReader index) whose stored image it is; -1: not stored
 };
 
 struct ReplayPressureFrame {
@@ -70,14 +70,14 @@ class SessionReplay {
   std::int64_t origin() const;  // the host instant standing for the recorded anchor
   struct Camera {
     std::string name;
-    std::vector<ReplayCameraFrame> frames;  // in the order they were sent
+    std::vector<ReplayCameraFrame> frames;                     // in the order they were sent
     std::vector<std::pair<std::int64_t, std::int64_t>> clock;  // (t_ns, device_ns), by t_ns
   };
   std::filesystem::path dir_;
   double rate_ = 1.0;
   double grid_hz_ = 15.0;
-  std::int64_t anchor_ns_ = 0;    // the recorded grid's anchor (session start)
-  std::int64_t first_t_ns_ = 0;   // the earliest recorded frame of any device
+  std::int64_t anchor_ns_ = 0;   // the recorded grid's anchor (session start)
+  std::int64_t first_t_ns_ = 0;  // the earliest recorded frame of any device
   std::vector<Camera> cameras_;
   std::vector<ReplayPressureFrame> pressure_;
   std::string sensel_serial_;

@@ -9,8 +9,8 @@
 #include <cstring>
 
 #include <fmt/format.h>
-#include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
+#include <opencv2/imgproc.hpp>
 
 #include "calib/charuco.h"
 #include "capture/pixel_format.h"
@@ -25,9 +25,9 @@
 
 namespace pvcap::sim {
 
-Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConfig& camera,
-                                                     const SimCameraClock& clock, std::int64_t t0_ns,
-                                                     std::uint64_t seed, const std::filesystem::path& truth_dir,
+Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConfig& camera, const SimCameraClock& clock,
+                                                     std::int64_t t0_ns, std::uint64_t seed,
+                                                     const std::filesystem::path& truth_dir,
                                                      std::shared_ptr<const Hand> hand, bool board) {
   if (camera.address.empty())
     return Error{fmt::format("{}: a simulated camera needs an 'address' (127.0.0.x)", camera.name)};
@@ -52,9 +52,10 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   install_fake_camera_genicam();
   self->fake_.reset(arv_gv_fake_camera_new(camera.address.c_str(), serial.c_str()));
   if (!self->fake_ || !arv_gv_fake_camera_is_running(self->fake_.get()))
-    return Error{fmt::format("{}: the fake camera could not listen on {} (is the address on an interface? the "
-                             "simulated rig runs in its own network namespace)",
-                             camera.name, camera.address)};
+    return Error{
+        fmt::format("{}: the fake camera could not listen on {} (is the address on an interface? the "
+                    "simulated rig runs in its own network namespace)",
+                    camera.name, camera.address)};
   if (clock.packet_loss > 0) g_object_set(self->fake_.get(), "gvsp-lost-ratio", clock.packet_loss, nullptr);
   // The engine looks for a pending software trigger once per 1/trigger_frequency, at whole periods
   // of the real-time clock: keep that well above the camera's rate so triggered frames are not
@@ -68,14 +69,14 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
     (void)self->base_image(camera.width, camera.height, ArvPixelFormat(pf));
     if (board) (void)self->board_image(camera.width, camera.height, ArvPixelFormat(pf), t0_ns);
   }
-  arv_fake_camera_set_fill_pattern(arv_gv_fake_camera_get_fake_camera(self->fake_.get()), &SimCamera::fill,
-                                   self.get());
+  arv_fake_camera_set_fill_pattern(arv_gv_fake_camera_get_fake_camera(self->fake_.get()), &SimCamera::fill, self.get());
   SimCamera* raw = self.get();
   // Wired to a trigger line pulsing at its configured rate (used when the host picks Line0), unless
   // the rig's simulator says its cable is off.
-  serve_features(raw, arv_gv_fake_camera_get_fake_camera(raw->fake_.get()),
-                 [raw](std::int64_t host_ns) { return raw->clock_.device_time(host_ns); },
-                 clock.trigger_line ? periodic_line(camera.frame_rate) : TriggerLine());
+  serve_features(
+      raw, arv_gv_fake_camera_get_fake_camera(raw->fake_.get()),
+      [raw](std::int64_t host_ns) { return raw->clock_.device_time(host_ns); },
+      clock.trigger_line ? periodic_line(camera.frame_rate) : TriggerLine());
   // Free-running, the engine is late once a frame period and 0.3 ms have passed since it began the
   // last frame; triggered, once a trigger has been pending for a look-for-triggers period and 0.3 ms.
   const std::int64_t trigger_period_ns = std::int64_t(1e9 / std::max(100.0, 4 * camera.frame_rate));
@@ -101,7 +102,6 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   });
   return self;
 }
-
 
 SimCamera::~SimCamera() {
   kicker_.reset();
@@ -185,7 +185,8 @@ void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format) {
   // A real camera's frame leaves a constant time after its exposure (exposure, readout: the
   // latency its datasheet states), whatever our rendering took, if it fit in that time.
   if (exposure_latency_ns_ > 0)
-    std::this_thread::sleep_until(std::chrono::steady_clock::time_point(std::chrono::nanoseconds(true_ns + exposure_latency_ns_)));
+    std::this_thread::sleep_until(
+        std::chrono::steady_clock::time_point(std::chrono::nanoseconds(true_ns + exposure_latency_ns_)));
 }
 
 void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns) {

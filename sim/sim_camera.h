@@ -6,6 +6,7 @@
 //
 // It also has the GenICam timestamp latch real GigE cameras offer
 // (sim/fake_camera_features.h).
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -13,7 +14,6 @@
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <atomic>
 #include <random>
 #include <string>
 #include <thread>
@@ -24,8 +24,8 @@
 #include "capture/aravis_handles.h"
 #include "core/result.h"
 #include "core/rig_config.h"
-#include "sim/sim_config.h"
 #include "sim/engine_kicker.h"
+#include "sim/sim_config.h"
 
 namespace pvcap::sim {
 
@@ -81,7 +81,7 @@ class SimCamera {
   std::atomic<std::int64_t> last_fill_ns_{0};  // when the engine last began a frame
   std::int64_t trigger_pending_since_ns_ = 0;  // the kicker's: when it saw a trigger pending
   std::unique_ptr<EngineKicker> kicker_;       // its stall, worked around (sim/engine_kicker.h)
-  std::mutex mu_;  // fill runs on the fake camera's thread; truth is read from others
+  std::mutex mu_;                              // fill runs on the fake camera's thread; truth is read from others
   std::mt19937_64 rng_;
   std::normal_distribution<double> noise_{0.0, 1.0};
   std::map<std::tuple<int, int, std::uint32_t>, cv::Mat> bases_;

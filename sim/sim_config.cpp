@@ -99,8 +99,7 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
     }
     if (sr.has("replug_renamed")) {
       sr.get("replug_renamed", s.sensel.replug_renamed);
-      if (!s.sensel.replug_after_s)
-        sr.fail(sn["replug_renamed"], "replug_renamed", "needs a replug_after_s before it");
+      if (!s.sensel.replug_after_s) sr.fail(sn["replug_renamed"], "replug_renamed", "needs a replug_after_s before it");
     }
     sr.finish();
   }

@@ -15,14 +15,14 @@
 namespace pvcap::sim {
 
 struct SimSenselConfig {
-  double press_x_mm = 115, press_y_mm = 65;  // where the simulated fingertip presses (sensor mm)
-  double peak_grams = 300;                   // on its centre cell
-  double period_s = 2.0;                     // one press and release per period
+  double press_x_mm = 115, press_y_mm = 65;    // where the simulated fingertip presses (sensor mm)
+  double peak_grams = 300;                     // on its centre cell
+  double period_s = 2.0;                       // one press and release per period
   double clock_start_us = 4294967295.0 - 3e6;  // device clock at start: wraps 3 s in
   double drift_ppm = 30;
-  double usb_jitter_mean_ms = 0.5;  // arrival delay after the scan (exponential)...
-  double usb_jitter_max_ms = 4.0;   // ...with a tail up to this
-  double drop_fraction = 0;         // frames the device scans but loses (its counter skips them)
+  double usb_jitter_mean_ms = 0.5;         // arrival delay after the scan (exponential)...
+  double usb_jitter_max_ms = 4.0;          // ...with a tail up to this
+  double drop_fraction = 0;                // frames the device scans but loses (its counter skips them)
   std::optional<double> clock_reset_at_s;  // the device clock restarts at 0 this long after start
   // Unplugged this long after start, and plugged back (power-cycled: counter and clock restart) after
   // `replug_after_s` on a new pseudo-terminal, as `replug_serial` if given (another Morph), and under
@@ -33,11 +33,12 @@ struct SimSenselConfig {
 };
 
 struct SimCameraClock {
-  double offset_ms = 0;   // device clock minus true time at t = 0
-  double drift_ppm = 0;   // device clock rate error
-  double jitter_us = 0;   // std-dev of device timestamp noise
+  double offset_ms = 0;    // device clock minus true time at t = 0
+  double drift_ppm = 0;    // device clock rate error
+  double jitter_us = 0;    // std-dev of device timestamp noise
   double packet_loss = 0;  // fraction of GVSP packets not sent
-  double exposure_latency_ms = 0;  // the instant a frame shows lies this long before it leaves (its "datasheet" latency)
+  double exposure_latency_ms =
+      0;  // the instant a frame shows lies this long before it leaves (its "datasheet" latency)
   // A latency nobody declared: each frame shows the scene this long before the instant its timestamp
   // says (negative: after), so the sessions's clocks agree while the pixels lag; the report's sync
   // self-check must find it from the data alone.
@@ -48,8 +49,8 @@ struct SimCameraClock {
   // Its lens and where it stands (pad coordinates in mm, z = height above the pad); any left out
   // take the default of the camera's position in the rig (see sim/camera_views.cpp).
   std::optional<std::array<double, 3>> position_mm, look_at_mm;
-  std::optional<double> focal_px;                      // at the configured image width
-  std::optional<std::array<double, 5>> distortion;     // k1, k2, p1, p2, k3 (OpenCV's order)
+  std::optional<double> focal_px;                   // at the configured image width
+  std::optional<std::array<double, 5>> distortion;  // k1, k2, p1, p2, k3 (OpenCV's order)
 };
 
 struct SimConfig {

@@ -20,10 +20,11 @@ namespace pvcap::sim {
 
 Result<std::unique_ptr<SimProcess>> SimProcess::start(const std::filesystem::path& exe,
                                                       const std::filesystem::path& rig,
-                                                      const std::filesystem::path& truth_dir, bool steerable, bool board) {
+                                                      const std::filesystem::path& truth_dir, bool steerable,
+                                                      bool board) {
   std::unique_ptr<SimProcess> self(new SimProcess());
-  std::vector<std::string> args = {exe.string(), "--log-level", "warn", "sim", "--rig", rig.string(),
-                                   "--truth", truth_dir.string()};
+  std::vector<std::string> args = {exe.string(), "--log-level", "warn",    "sim",
+                                   "--rig",      rig.string(),  "--truth", truth_dir.string()};
   if (steerable) args.push_back("--hand-commands");
   if (board) args.push_back("--board");
   std::vector<char*> argv;

@@ -6,11 +6,11 @@
 #include <thread>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
-#include "core/time.h"
 #include "calib/charuco.h"
+#include "core/time.h"
 #include "sim/board_motion.h"
 #include "sim/scene.h"
 
@@ -97,12 +97,18 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
                     ss.clock_reset_at_s ? self->t0_ns_ + std::int64_t(*ss.clock_reset_at_s * 1e9) : INT64_MAX});
     if (ss.drop_fraction > 0) self->sensel_->set_drop_fraction(ss.drop_fraction, self->sim_.seed + 17);
     self->sensel_->set_truth_log(&self->sensel_truth_);
-    if (Status s = self->serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, self->sim_.seed}); !s.ok())
+    if (Status s = self->serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, self->sim_.seed});
+        !s.ok())
       return s.error();
-    truth["sensel"] = {{"tty", self->sensel_pty_->slave_path()}, {"press_x_mm", ss.press_x_mm},
-                       {"press_y_mm", ss.press_y_mm}, {"peak_grams", ss.peak_grams}, {"period_s", ss.period_s},
-                       {"clock_start_us", ss.clock_start_us}, {"drift_ppm", ss.drift_ppm},
-                       {"usb_jitter_mean_ms", ss.usb_jitter_mean_ms}, {"usb_jitter_max_ms", ss.usb_jitter_max_ms},
+    truth["sensel"] = {{"tty", self->sensel_pty_->slave_path()},
+                       {"press_x_mm", ss.press_x_mm},
+                       {"press_y_mm", ss.press_y_mm},
+                       {"peak_grams", ss.peak_grams},
+                       {"period_s", ss.period_s},
+                       {"clock_start_us", ss.clock_start_us},
+                       {"drift_ppm", ss.drift_ppm},
+                       {"usb_jitter_mean_ms", ss.usb_jitter_mean_ms},
+                       {"usb_jitter_max_ms", ss.usb_jitter_max_ms},
                        {"drop_fraction", ss.drop_fraction}};
     if (ss.clock_reset_at_s) truth["sensel"]["clock_reset_at_s"] = *ss.clock_reset_at_s;
   }
@@ -183,7 +189,8 @@ Status SimRig::serve_sensel(SenselLink link, const std::string& name) {
   std::filesystem::remove(fresh, ec);
   std::filesystem::create_symlink(sensel_pty_->slave_path(), fresh, ec);
   if (!ec) std::filesystem::rename(fresh, published, ec);
-  if (ec) return Error{fmt::format("cannot publish the Sensel emulator's tty as {}: {}", published.string(), ec.message())};
+  if (ec)
+    return Error{fmt::format("cannot publish the Sensel emulator's tty as {}: {}", published.string(), ec.message())};
   return {};
 }
 
@@ -203,8 +210,7 @@ void SimRig::replug_sensel() {
     std::filesystem::remove(truth_dir_ / name, ec);
     name = "morph-replugged";
   }
-  if (Status s = serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, sim_.seed + 1}, name);
-      !s.ok()) {
+  if (Status s = serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, sim_.seed + 1}, name); !s.ok()) {
     spdlog::error("sim: the Sensel cannot come back: {}", s.error().message);
     return;
   }

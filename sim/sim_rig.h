@@ -16,12 +16,12 @@
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "sim/hand.h"
+#include "sim/replay_camera.h"
 #include "sim/sensel_emulator.h"
 #include "sim/sensel_pty.h"
-#include "sim/sim_config.h"
-#include "sim/replay_camera.h"
 #include "sim/session_replay.h"
 #include "sim/sim_camera.h"
+#include "sim/sim_config.h"
 
 namespace pvcap::sim {
 
@@ -61,7 +61,7 @@ class SimRig {
   std::vector<std::unique_ptr<ReplayCamera>> replay_cameras_;
 
   static Result<std::unique_ptr<SimRig>> create_replay(const RigConfig& rig, const SimConfig& sim,
-                                                      const std::filesystem::path& truth_dir);
+                                                       const std::filesystem::path& truth_dir);
 };
 
 // The camera addresses of a simulated rig (for the network namespace).

@@ -80,7 +80,8 @@ T value_of(Result<T> r) {
 
 // Each camera frame's true and arrival time, by (device, connection, sequence); the cameras' errors
 // from `from_ns` on go into `e`.
-using FrameTimes = std::map<std::tuple<std::int64_t, std::int64_t, std::int64_t>, std::pair<std::int64_t, std::int64_t>>;
+using FrameTimes =
+    std::map<std::tuple<std::int64_t, std::int64_t, std::int64_t>, std::pair<std::int64_t, std::int64_t>>;
 
 FrameTimes evaluate_cameras(SessionReader& reader, const std::filesystem::path& truth_dir, std::int64_t from_ns,
                             SyncEvaluation& e) {
@@ -111,7 +112,8 @@ std::vector<PressureTruth> evaluate_pressure(SessionReader& reader, const std::f
   const auto truth = read_truth(truth_dir / "sensel_frames.csv", "device_us", "true_ns");
   std::vector<double> mapped_err, arrival_err;
   auto frames = value_of(reader.frame_timing(sensel->device_id));
-  std::sort(frames.begin(), frames.end(), [](const FrameTiming& a, const FrameTiming& b) { return a.sequence < b.sequence; });
+  std::sort(frames.begin(), frames.end(),
+            [](const FrameTiming& a, const FrameTiming& b) { return a.sequence < b.sequence; });
   for (const FrameTiming& f : frames) {
     const auto it = truth.find((f.device_ns / 1000) & 0xFFFFFFFF);
     if (it == truth.end() || !f.mapped_ns) continue;
@@ -161,13 +163,17 @@ void evaluate_pairing(SessionReader& reader, const FrameTimes& frame_times, cons
     };
     if (sample.pressure) {
       ++e.paired;
-      if (std::int64_t(sample.pressure->sequence) == truly->sequence) ++e.paired_nearest;
-      else e.paired_tie += tie(std::int64_t(sample.pressure->sequence));
+      if (std::int64_t(sample.pressure->sequence) == truly->sequence)
+        ++e.paired_nearest;
+      else
+        e.paired_tie += tie(std::int64_t(sample.pressure->sequence));
     } else if (double(std::llabs(truly->true_ns - sample_true)) / 1e6 > targets.max_offset_ms) {
       ++e.rightly_unpaired;
     }
-    if (naive->sequence == truly->sequence) ++e.naive_nearest;
-    else e.naive_tie += tie(naive->sequence);
+    if (naive->sequence == truly->sequence)
+      ++e.naive_nearest;
+    else
+      e.naive_tie += tie(naive->sequence);
   }
 }
 
@@ -194,9 +200,10 @@ SyncEvaluation evaluate_sync(const std::filesystem::path& dir, double warmup_s, 
     const double frac =
         e.samples ? double(e.paired_nearest + e.paired_tie + e.rightly_unpaired) / double(e.samples) : 0;
     if (frac < targets.nearest_fraction)
-      e.missed.push_back(fmt::format("paired with the truly nearest pressure frame or rightly unpaired (ties within {:g} ms either way): "
-                                     "{:.2f} % < {:.1f} %",
-                                     targets.tie_ms, 100 * frac, 100 * targets.nearest_fraction));
+      e.missed.push_back(fmt::format(
+          "paired with the truly nearest pressure frame or rightly unpaired (ties within {:g} ms either way): "
+          "{:.2f} % < {:.1f} %",
+          targets.tie_ms, 100 * frac, 100 * targets.nearest_fraction));
   }
   return e;
 }
@@ -214,11 +221,13 @@ std::string format_evaluation(const SyncEvaluation& e) {
   const auto pct = [&](std::size_t n) { return e.samples ? 100.0 * double(n) / double(e.samples) : 0.0; };
   fmt::format_to(out, "samples: {} ({} with every camera), {} paired with pressure\n", e.samples, e.samples_complete,
                  e.paired);
-  fmt::format_to(out, "paired with the truly nearest pressure frame: pvcap {:.2f} % ({} of {}), naive arrival-time "
-                      "pairing {:.2f} % ({})\n",
+  fmt::format_to(out,
+                 "paired with the truly nearest pressure frame: pvcap {:.2f} % ({} of {}), naive arrival-time "
+                 "pairing {:.2f} % ({})\n",
                  pct(e.paired_nearest), e.paired_nearest, e.samples, pct(e.naive_nearest), e.naive_nearest);
-  fmt::format_to(out, "  counting ties (two frames equally near within {:g} ms) either way: pvcap {:.2f} % ({} ties), "
-                      "naive {:.2f} %\n",
+  fmt::format_to(out,
+                 "  counting ties (two frames equally near within {:g} ms) either way: pvcap {:.2f} % ({} ties), "
+                 "naive {:.2f} %\n",
                  e.tie_ms, pct(e.paired_nearest + e.paired_tie), e.paired_tie, pct(e.naive_nearest + e.naive_tie));
   if (e.rightly_unpaired > 0)
     fmt::format_to(out,

@@ -12,8 +12,8 @@ namespace pvcap::sim {
 struct StreamTiming {
   std::string name;
   std::size_t frames = 0;
-  double bias_ms = 0;                      // median of (mapped - true): the constant part
-  double p50_ms = 0, p99_ms = 0, max_ms = 0;  // |error - bias|
+  double bias_ms = 0;                              // median of (mapped - true): the constant part
+  double p50_ms = 0, p99_ms = 0, max_ms = 0;       // |error - bias|
   double arrival_bias_ms = 0, arrival_p99_ms = 0;  // the same for the raw arrival stamp
   bool is_camera = true;
 };
@@ -22,13 +22,13 @@ struct SyncEvaluation {
   std::vector<StreamTiming> streams;
   std::size_t samples = 0, samples_complete = 0;
   std::size_t paired = 0, paired_nearest = 0;  // pvcap: samples with pressure; with the truly nearest frame
-  std::size_t paired_tie = 0;  // of the others: the chosen frame is as near, within the tie tolerance
-  std::size_t rightly_unpaired = 0;  // no pressure, and truly no stored frame within the allowed offset
+  std::size_t paired_tie = 0;                  // of the others: the chosen frame is as near, within the tie tolerance
+  std::size_t rightly_unpaired = 0;            // no pressure, and truly no stored frame within the allowed offset
   std::size_t naive_nearest = 0;               // arrival-time pairing: with the truly nearest frame
   std::size_t naive_tie = 0;
-  double warmup_s = 0;                         // excluded from the timing errors
+  double warmup_s = 0;  // excluded from the timing errors
   double tie_ms = 0;
-  std::vector<std::string> missed;             // targets not met, in words
+  std::vector<std::string> missed;  // targets not met, in words
 };
 
 struct SyncTargets {
@@ -44,7 +44,8 @@ struct SyncTargets {
 };
 
 // Reads `session_dir`/session.db and `session_dir`/sim-truth. Throws UserError if either is unusable.
-SyncEvaluation evaluate_sync(const std::filesystem::path& session_dir, double warmup_s, const SyncTargets& targets = {});
+SyncEvaluation evaluate_sync(const std::filesystem::path& session_dir, double warmup_s,
+                             const SyncTargets& targets = {});
 std::string format_evaluation(const SyncEvaluation& e);
 
 // The scenario: four VGA cameras at 60 Hz with offset, drifting clocks and a Sensel with a

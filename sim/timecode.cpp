@@ -49,8 +49,10 @@ void draw_timecode(cv::Mat& mosaic, const Timecode& tc) {
 
 std::optional<Timecode> read_timecode(const cv::Mat& image) {
   cv::Mat grey;
-  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  else grey = image;
+  if (image.channels() == 3)
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  else
+    grey = image;
   const int c = timecode_cell_px(grey.cols);
   if ((kCols + 1) * c > grey.cols || (kRows + 1) * c > grey.rows) return std::nullopt;
   std::array<std::uint8_t, 12> b{};
@@ -84,13 +86,16 @@ void draw_frame_stripe(cv::Mat& mosaic, std::uint16_t frame_id) {
   CV_Assert(mosaic.type() == CV_8UC1);
   const int c = timecode_cell_px(mosaic.cols);
   const int x = mosaic.cols - 2 * c;
-  for (int k = 0; (k + 1) * c <= mosaic.rows; ++k) mosaic(cv::Rect(x, k * c, c, c)).setTo(stripe_bit(frame_id, k) ? 255 : 0);
+  for (int k = 0; (k + 1) * c <= mosaic.rows; ++k)
+    mosaic(cv::Rect(x, k * c, c, c)).setTo(stripe_bit(frame_id, k) ? 255 : 0);
 }
 
 int frame_stripe_mismatches(const cv::Mat& image, std::uint16_t frame_id) {
   cv::Mat grey;
-  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  else grey = image;
+  if (image.channels() == 3)
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  else
+    grey = image;
   const int c = timecode_cell_px(grey.cols);
   const int x = grey.cols - 2 * c;
   int bad = 0;

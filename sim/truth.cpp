@@ -18,8 +18,9 @@ const CameraTruth* RigTruth::camera(const std::string& name) const {
 Result<RigTruth> read_rig_truth(const std::filesystem::path& truth_dir) {
   const auto file = truth_dir / "rig.json";
   std::ifstream in(file);
-  if (!in) return Error{fmt::format("{}: cannot read it (is {} a simulated run's sim-truth folder?)", file.string(),
-                                    truth_dir.string())};
+  if (!in)
+    return Error{fmt::format("{}: cannot read it (is {} a simulated run's sim-truth folder?)", file.string(),
+                             truth_dir.string())};
   try {
     const auto j = nlohmann::json::parse(in);
     RigTruth t;

@@ -27,9 +27,12 @@ void route_ffmpeg_log() {
       std::string text(line);
       while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
       if (text.empty()) return;
-      if (quiet_depth > 0 || level > AV_LOG_WARNING) spdlog::debug("ffmpeg: {}", text);
-      else if (level <= AV_LOG_ERROR) spdlog::error("ffmpeg: {}", text);
-      else spdlog::warn("ffmpeg: {}", text);
+      if (quiet_depth > 0 || level > AV_LOG_WARNING)
+        spdlog::debug("ffmpeg: {}", text);
+      else if (level <= AV_LOG_ERROR)
+        spdlog::error("ffmpeg: {}", text);
+      else
+        spdlog::warn("ffmpeg: {}", text);
     });
   });
 }

@@ -18,7 +18,7 @@ namespace {
 // Record: "PVSP", u32 total bytes, u32 CRC-32 of everything after it, then the fields below and the
 // pixels. Little-endian (the machine's; a spill is read back by the same machine).
 constexpr char kMagic[4] = {'P', 'V', 'S', 'P'};
-constexpr std::size_t kPrefix = 12;          // magic, size, CRC
+constexpr std::size_t kPrefix = 12;             // magic, size, CRC
 constexpr std::uint32_t kMaxRecord = 1u << 30;  // a frame larger than 1 GiB is damage, not a frame
 
 class Buffer {
@@ -123,7 +123,8 @@ Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off
       !c.get_string(r.status) || !c.get(rows) || !c.get(cols) || !c.get(type) || !c.get(pixel_bytes))
     return Error{"fields cut short"};
   if (has_mapped) r.mapped_ns = mapped;
-  if (rows <= 0 || cols <= 0 || rows > 65536 || cols > 65536 || (type != CV_8UC1 && type != CV_8UC3 && type != CV_16UC1))
+  if (rows <= 0 || cols <= 0 || rows > 65536 || cols > 65536 ||
+      (type != CV_8UC1 && type != CV_8UC3 && type != CV_16UC1))
     return Error{fmt::format("impossible image {}x{} of type {}", cols, rows, type)};
   cv::Mat image(rows, cols, type);
   if (pixel_bytes != image.total() * image.elemSize() || c.left() != pixel_bytes)
@@ -220,7 +221,8 @@ void FrameSpillQueue::writer_loop() {
       std::filesystem::create_directories(folder_, ec);
       file_ = folder_ / fmt::format("{}-{:04}.spill", camera_, next_file_++);
       fd_ = ::open(file_.c_str(), O_CREAT | O_RDWR | O_TRUNC | O_CLOEXEC, 0644);
-      if (fd_ < 0) status = Error{fmt::format("{}: cannot create the spill file: {}", file_.string(), std::strerror(errno))};
+      if (fd_ < 0)
+        status = Error{fmt::format("{}: cannot create the spill file: {}", file_.string(), std::strerror(errno))};
       write_off_ = read_off_ = 0;
     }
     if (status.ok()) {

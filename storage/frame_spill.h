@@ -68,9 +68,9 @@ class FrameSpillQueue {
   // The encoder finished a video segment: spill files read to their end before now can go.
   void release_finished();
 
-  std::size_t backlog() const;         // frames waiting: in memory, for the writer, and on disk
-  std::size_t on_disk() const;         // of which on disk
-  std::uint64_t spilled_total() const;  // frames that went through the disk so far
+  std::size_t backlog() const;                 // frames waiting: in memory, for the writer, and on disk
+  std::size_t on_disk() const;                 // of which on disk
+  std::uint64_t spilled_total() const;         // frames that went through the disk so far
   std::optional<std::string> failure() const;  // the disk refused a write (the first reason)
 
  private:
@@ -82,7 +82,7 @@ class FrameSpillQueue {
   std::size_t memory_cap_, writer_cap_;
 
   mutable std::mutex mu_;
-  std::condition_variable ready_;   // the encoder's: something to pop
+  std::condition_variable ready_;     // the encoder's: something to pop
   std::condition_variable to_write_;  // the writer's: something to append
   std::deque<SpillItem> memory_, for_writer_, lost_;
   bool writing_ = false;  // the writer holds an item (taken from for_writer_, not yet on disk)

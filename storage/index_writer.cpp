@@ -13,7 +13,9 @@ IndexWriter::IndexWriter(SessionIndex& index, std::size_t capacity, std::chrono:
 
 IndexWriter::~IndexWriter() { stop(); }
 
-void IndexWriter::start() { thread_ = std::thread([this] { run(); }); }
+void IndexWriter::start() {
+  thread_ = std::thread([this] { run(); });
+}
 
 bool IndexWriter::push(Record record) {
   if ((failed_.load(std::memory_order_relaxed) && !disk_full_.load(std::memory_order_relaxed)) ||
@@ -64,16 +66,26 @@ void IndexWriter::write_records(const std::vector<Record>& batch) {
     std::visit(
         [&](const auto& rec) {
           using T = std::decay_t<decltype(rec)>;
-          if constexpr (std::is_same_v<T, FrameRecord>) index_.add_frame(rec);
-          else if constexpr (std::is_same_v<T, PressureRecord>) index_.add_pressure(rec);
-          else if constexpr (std::is_same_v<T, DropRecord>) index_.add_drop(rec);
-          else if constexpr (std::is_same_v<T, SampleRecord>) index_.add_sample(rec);
-          else if constexpr (std::is_same_v<T, ClockModelRecord>) index_.add_clock_model(rec);
-          else if constexpr (std::is_same_v<T, VideoFileRecord>) index_.add_video_file(rec);
-          else if constexpr (std::is_same_v<T, VideoFileClosed>) index_.close_video_file(rec);
-          else if constexpr (std::is_same_v<T, ProtocolEventRecord>) index_.add_protocol_event(rec);
-          else if constexpr (std::is_same_v<T, OperatorNoteRecord>) index_.add_operator_note(rec);
-          else if constexpr (std::is_same_v<T, EventRecord>) index_.add_event(rec);
+          if constexpr (std::is_same_v<T, FrameRecord>)
+            index_.add_frame(rec);
+          else if constexpr (std::is_same_v<T, PressureRecord>)
+            index_.add_pressure(rec);
+          else if constexpr (std::is_same_v<T, DropRecord>)
+            index_.add_drop(rec);
+          else if constexpr (std::is_same_v<T, SampleRecord>)
+            index_.add_sample(rec);
+          else if constexpr (std::is_same_v<T, ClockModelRecord>)
+            index_.add_clock_model(rec);
+          else if constexpr (std::is_same_v<T, VideoFileRecord>)
+            index_.add_video_file(rec);
+          else if constexpr (std::is_same_v<T, VideoFileClosed>)
+            index_.close_video_file(rec);
+          else if constexpr (std::is_same_v<T, ProtocolEventRecord>)
+            index_.add_protocol_event(rec);
+          else if constexpr (std::is_same_v<T, OperatorNoteRecord>)
+            index_.add_operator_note(rec);
+          else if constexpr (std::is_same_v<T, EventRecord>)
+            index_.add_event(rec);
         },
         r);
   }
@@ -86,8 +98,10 @@ void IndexWriter::write_batch(std::vector<Record>& batch) {
     // After a full disk, records are held (bounded by the queue's size) for stop(); after any
     // other failure nothing more is written and what arrives is counted lost.
     const bool hold = disk_full_.load() && held_.size() + batch.size() <= queue_capacity_;
-    if (hold) std::move(batch.begin(), batch.end(), std::back_inserter(held_));
-    else lost_.fetch_add(batch.size());
+    if (hold)
+      std::move(batch.begin(), batch.end(), std::back_inserter(held_));
+    else
+      lost_.fetch_add(batch.size());
     batch.clear();
     return;
   }
@@ -97,8 +111,10 @@ void IndexWriter::write_batch(std::vector<Record>& batch) {
   } catch (const sqlite::SqliteError& e) {
     std::lock_guard lock(failure_mu_);
     failure_ = e.disk_full() ? fmt::format("the disk is full or failing: {}", e.what()) : std::string(e.what());
-    if (e.disk_full()) held_ = std::move(batch), disk_full_.store(true);
-    else lost_.fetch_add(batch.size());
+    if (e.disk_full())
+      held_ = std::move(batch), disk_full_.store(true);
+    else
+      lost_.fetch_add(batch.size());
     failed_.store(true);
     spdlog::error("session index: {}", *failure_);
   }
@@ -106,13 +122,14 @@ void IndexWriter::write_batch(std::vector<Record>& batch) {
 }
 
 std::string IndexWriter::lost_records_by_kind() const {
-  static constexpr const char* kKinds[] = {"frames",         "pressure frames",   "drop ranges", "events",
-                                           "samples",        "clock models",      "video files", "video file closes",
-                                           "protocol events", "operator notes",   "commit barriers"};
+  static constexpr const char* kKinds[] = {"frames",          "pressure frames", "drop ranges",    "events",
+                                           "samples",         "clock models",    "video files",    "video file closes",
+                                           "protocol events", "operator notes",  "commit barriers"};
   static_assert(std::size(kKinds) == std::variant_size_v<Record>);
   std::string out;
   for (std::size_t i = 0; i < lost_by_kind_.size(); ++i)
-    if (const auto n = lost_by_kind_[i].load(); n > 0) out += fmt::format("{}{} {}", out.empty() ? "" : ", ", kKinds[i], n);
+    if (const auto n = lost_by_kind_[i].load(); n > 0)
+      out += fmt::format("{}{} {}", out.empty() ? "" : ", ", kKinds[i], n);
   return out;
 }
 

@@ -26,7 +26,8 @@ Result<std::vector<std::uint16_t>> decompress_counts(std::span<const std::uint8_
   const int rc = uncompress(raw.data(), &size, blob.data(), uLong(blob.size()));
   if (rc != Z_OK && rc != Z_BUF_ERROR)
     return Error{fmt::format("pressure counts are not zlib data ({})", rc == Z_DATA_ERROR ? "corrupt" : "error")};
-  if (rc == Z_BUF_ERROR) return Error{fmt::format("pressure counts are cut short or exceed the grid's {} bytes", cells * 2)};
+  if (rc == Z_BUF_ERROR)
+    return Error{fmt::format("pressure counts are cut short or exceed the grid's {} bytes", cells * 2)};
   if (size != cells * 2) return Error{fmt::format("pressure counts hold {} bytes, the grid needs {}", size, cells * 2)};
   std::vector<std::uint16_t> counts(cells);
   for (std::size_t i = 0; i < cells; ++i) counts[i] = std::uint16_t(raw[2 * i] | (raw[2 * i + 1] << 8));

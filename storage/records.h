@@ -31,7 +31,7 @@ struct DeviceRecord {
 struct VideoFileRecord {
   std::int64_t id = 0;
   std::int64_t device_id = 0;
-  std::string path;  // relative to the session directory
+  std::string path;                 // relative to the session directory
   std::string codec, pixel_format;  // what the file's codec holds ("gray" for raw videos)
   int width = 0, height = 0;        // the camera's image (a raw video's mosaic)
   int segment = 0;
@@ -54,13 +54,13 @@ struct FrameRecord {
   std::int64_t device_ns = 0;
   std::int64_t host_ns = 0;
   std::int64_t aravis_system_ns = 0;
-  std::string status;   // good | incomplete
-  bool kept = false;    // pixels are in the video
-  std::string reason;   // why not kept (or why incomplete)
+  std::string status;  // good | incomplete
+  bool kept = false;   // pixels are in the video
+  std::string reason;  // why not kept (or why incomplete)
   std::optional<std::int64_t> video_file_id;
-  std::optional<std::int64_t> video_index;  // 0-based frame number in that file
-  std::optional<std::int64_t> mapped_ns;    // on the session clock (the clock model's), when known
-  std::optional<std::int64_t> video_pts_ms; // its timestamp in the video file, exactly
+  std::optional<std::int64_t> video_index;   // 0-based frame number in that file
+  std::optional<std::int64_t> mapped_ns;     // on the session clock (the clock model's), when known
+  std::optional<std::int64_t> video_pts_ms;  // its timestamp in the video file, exactly
 };
 
 // In a session folder while it is being recorded; flock()ed by the recording process.

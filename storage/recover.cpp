@@ -11,9 +11,9 @@
 
 #include <fmt/format.h>
 
+#include "core/rig_config.h"
 #include "core/time.h"
 #include "core/version.h"
-#include "core/rig_config.h"
 #include "storage/bayer_planes.h"
 #include "storage/frame_spill.h"
 #include "storage/session_index.h"
@@ -121,8 +121,9 @@ void drain_spill(SessionIndex& index, const std::filesystem::path& dir, const st
     auto update = db.prepare(
         "UPDATE frames SET kept = 1, reason = NULL, video_file_id = ?, video_index = ?, video_pts_ms = ? WHERE "
         "device_id = ? AND connection = ? AND sequence = ?");
-    update.bind_all(row.video_file_id, row.video_index, row.video_pts_ms, row.device_id, std::int64_t(row.connection),
-                    std::int64_t(row.sequence))
+    update
+        .bind_all(row.video_file_id, row.video_index, row.video_pts_ms, row.device_id, std::int64_t(row.connection),
+                  std::int64_t(row.sequence))
         .run();
     if (db.changes() == 0) index.add_frame(row);
     ++encoded;
@@ -140,8 +141,8 @@ void drain_spill(SessionIndex& index, const std::filesystem::path& dir, const st
     // Nothing of this file is committed; the spill stays for another try.
     tx.rollback();
     for (auto& [device, o] : writers) std::filesystem::remove(dir / o.path, ec);
-    report.done.push_back(fmt::format("{}: could not be encoded ({}); kept for another recover",
-                                      file.filename().string(), *failure));
+    report.done.push_back(
+        fmt::format("{}: could not be encoded ({}); kept for another recover", file.filename().string(), *failure));
     return;
   }
   tx.commit();
@@ -200,13 +201,15 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
                                       const std::function<void(const std::string&)>& progress) {
   namespace fs = std::filesystem;
   const fs::path db_path = dir / "session.db";
-  if (!fs::is_regular_file(db_path)) return Error{fmt::format("{}: not a session folder (no session.db)", dir.string())};
+  if (!fs::is_regular_file(db_path))
+    return Error{fmt::format("{}: not a session folder (no session.db)", dir.string())};
   RecoverReport report;
   // A session still being recorded is not ours to touch (its recorder holds this lock while alive).
   if (const int fd = ::open((dir / kRecordingLock).c_str(), O_WRONLY | O_CLOEXEC); fd >= 0) {
     const bool live = flock(fd, LOCK_EX | LOCK_NB) != 0;
     ::close(fd);
-    if (live) return Error{fmt::format("{}: is being recorded right now; recover it after the recording ends", dir.string())};
+    if (live)
+      return Error{fmt::format("{}: is being recorded right now; recover it after the recording ends", dir.string())};
   }
   try {
     std::vector<int> passed;
@@ -239,8 +242,8 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
         // An earlier recover stopped between its two renames: finish it.
         fs::rename(tmp, file);
         const auto r = reconcile_video_file(index, dir, v.id, "lost_at_interruption", "recovered");
-        report.done.push_back(fmt::format("{}: closed with {} frames (finishing an earlier recover)", v.path,
-                                          r.frames_in_file));
+        report.done.push_back(
+            fmt::format("{}: closed with {} frames (finishing an earlier recover)", v.path, r.frames_in_file));
         continue;
       }
       std::int64_t indexed = 0;
@@ -263,17 +266,19 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
       if (Status m = remux_prefix(file, tmp, keep); !m.ok()) {
         fs::remove(tmp, ec);
         const auto r = reconcile_video_file(index, dir, v.id, "lost_at_interruption", "interrupted");
-        report.done.push_back(fmt::format("{}: could not be closed ({}); left as it is, {} frames readable, {} indexed "
-                                          "frames marked lost",
-                                          v.path, m.error().message, r.frames_in_file, r.rows_marked_lost));
+        report.done.push_back(
+            fmt::format("{}: could not be closed ({}); left as it is, {} frames readable, {} indexed "
+                        "frames marked lost",
+                        v.path, m.error().message, r.frames_in_file, r.rows_marked_lost));
         continue;
       }
-      if (fs::exists(dir / aside)) return Error{fmt::format("{}: already exists; not overwriting it", (dir / aside).string())};
+      if (fs::exists(dir / aside))
+        return Error{fmt::format("{}: already exists; not overwriting it", (dir / aside).string())};
       fs::rename(file, dir / aside);
       fs::rename(tmp, file);
       const auto r = reconcile_video_file(index, dir, v.id, "lost_at_interruption", "recovered");
-      std::string line = fmt::format("{}: closed with {} frames (the cut original is kept as {})", v.path,
-                                     r.frames_in_file, aside);
+      std::string line =
+          fmt::format("{}: closed with {} frames (the cut original is kept as {})", v.path, r.frames_in_file, aside);
       if (r.rows_marked_lost) line += fmt::format("; {} indexed frames never reached the disk", r.rows_marked_lost);
       if (on_disk.value() > keep)
         line += fmt::format("; {} frames on disk had no committed index row (left in the original)",

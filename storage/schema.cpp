@@ -243,7 +243,8 @@ void fill_pressure_counts(sqlite::Database& db, const std::function<void(const s
 }
 
 bool is_session_index(sqlite::Database& db) {
-  auto q = db.prepare("SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name IN ('session', 'frames', 'devices')");
+  auto q = db.prepare(
+      "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name IN ('session', 'frames', 'devices')");
   return q.step() && q.column_int(0) == 3;
 }
 
@@ -295,8 +296,8 @@ std::filesystem::path back_up_before_migration(const std::filesystem::path& db_p
     if (!fs::exists(from)) continue;
     fs::copy_file(from, copy.string() + suffix, fs::copy_options::overwrite_existing, ec);
     if (ec)
-      throw sqlite::SqliteError(0, fmt::format("{}: cannot back up the index before upgrading it: {}",
-                                               copy.string() + suffix, ec.message()));
+      throw sqlite::SqliteError(
+          0, fmt::format("{}: cannot back up the index before upgrading it: {}", copy.string() + suffix, ec.message()));
   }
   return copy;
 }

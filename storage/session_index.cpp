@@ -7,7 +7,6 @@
 
 namespace pvcap {
 
-
 SessionIndex SessionIndex::create(const std::filesystem::path& path) {
   if (std::filesystem::exists(path)) throw sqlite::SqliteError(0, fmt::format("{}: already exists", path.string()));
   auto db = std::make_unique<sqlite::Database>(path, sqlite::Database::Mode::Create);
@@ -91,7 +90,9 @@ void SessionIndex::set_participant(const ParticipantRecord& p) {
 
 void SessionIndex::set_conditions(const ConditionsRecord& c) {
   db_->exec("DELETE FROM conditions");
-  db_->prepare("INSERT INTO conditions (lighting, sensor_overlay) VALUES (?,?)").bind_all(c.lighting, c.sensor_overlay).run();
+  db_->prepare("INSERT INTO conditions (lighting, sensor_overlay) VALUES (?,?)")
+      .bind_all(c.lighting, c.sensor_overlay)
+      .run();
 }
 
 std::int64_t SessionIndex::add_calibration(const CalibrationRecord& c) {
@@ -157,12 +158,14 @@ namespace {
 struct PressureColumns {
   std::optional<std::int64_t> device, connection, seq, off, before_seq, before_off, after_seq, after_off;
   explicit PressureColumns(const SampleRecord& s) {
-    const auto* any = s.pressure ? &*s.pressure : s.pressure_before ? &*s.pressure_before
-                                              : s.pressure_after    ? &*s.pressure_after
-                                                                    : nullptr;
+    const auto* any = s.pressure          ? &*s.pressure
+                      : s.pressure_before ? &*s.pressure_before
+                      : s.pressure_after  ? &*s.pressure_after
+                                          : nullptr;
     if (any) device = any->device_id, connection = std::int64_t(any->connection);
     if (s.pressure) seq = std::int64_t(s.pressure->sequence), off = s.pressure->offset_ns;
-    if (s.pressure_before) before_seq = std::int64_t(s.pressure_before->sequence), before_off = s.pressure_before->offset_ns;
+    if (s.pressure_before)
+      before_seq = std::int64_t(s.pressure_before->sequence), before_off = s.pressure_before->offset_ns;
     if (s.pressure_after) after_seq = std::int64_t(s.pressure_after->sequence), after_off = s.pressure_after->offset_ns;
   }
 };
@@ -175,7 +178,8 @@ void SessionIndex::add_sample(const SampleRecord& s) {
                  p.connection, p.seq, p.off, p.before_seq, p.before_off, p.after_seq, p.after_off)
       .run();
   for (const auto& c : s.cameras)
-    insert_sample_frame_->bind_all(std::int64_t(s.index), c.device_id, std::int64_t(c.connection), c.sequence, c.offset_ns)
+    insert_sample_frame_
+        ->bind_all(std::int64_t(s.index), c.device_id, std::int64_t(c.connection), c.sequence, c.offset_ns)
         .run();
 }
 
@@ -276,8 +280,9 @@ void SessionIndex::update_sample(const SampleRecord& s) {
         "UPDATE samples SET t_ns = ?, span_ns = ?, pressure_device_id = ?, pressure_connection = ?, "
         "pressure_sequence = ?, pressure_offset_ns = ?, before_sequence = ?, before_offset_ns = ?, after_sequence = ?, "
         "after_offset_ns = ? WHERE id = ?"));
-    update_sample_frame_.emplace(db_->prepare(
-        "UPDATE sample_frames SET offset_ns = ? WHERE sample_id = ? AND device_id = ? AND connection = ? AND sequence = ?"));
+    update_sample_frame_.emplace(
+        db_->prepare("UPDATE sample_frames SET offset_ns = ? WHERE sample_id = ? AND device_id = ? AND connection = ? "
+                     "AND sequence = ?"));
   }
   const PressureColumns p(s);
   update_sample_
@@ -285,7 +290,8 @@ void SessionIndex::update_sample(const SampleRecord& s) {
                  p.after_off, std::int64_t(s.index))
       .run();
   for (const auto& c : s.cameras)
-    update_sample_frame_->bind_all(c.offset_ns, std::int64_t(s.index), c.device_id, std::int64_t(c.connection), c.sequence)
+    update_sample_frame_
+        ->bind_all(c.offset_ns, std::int64_t(s.index), c.device_id, std::int64_t(c.connection), c.sequence)
         .run();
 }
 

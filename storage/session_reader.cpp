@@ -12,7 +12,7 @@
 namespace pvcap {
 
 namespace {
-constexpr int kMaxGridSide = 1024;       // the Morph's grids are at most 185 x 105: anything bigger is damage
+constexpr int kMaxGridSide = 1024;  // the Morph's grids are at most 185 x 105: anything bigger is damage
 constexpr std::size_t kMaxOpenVideos = 16;
 
 // Everything below turns SQLite's exceptions into an Error naming the store.
@@ -78,12 +78,13 @@ Result<std::unique_ptr<SessionReader>> SessionReader::open(const std::filesystem
                        ? fmt::format("{}: store version {} was written by an older pvcap: 'pvcap migrate {}' "
                                      "upgrades it",
                                      db_path.string(), version, dir.string())
-                       : fmt::format("{}: store version {} is not one this pvcap reads ({})", db_path.string(),
-                                     version, kSchemaVersion)};
+                       : fmt::format("{}: store version {} is not one this pvcap reads ({})", db_path.string(), version,
+                                     kSchemaVersion)};
     SessionInfo& in = r->info_;
     in.schema_version = version;
-    auto s = db.prepare("SELECT started_wall_ns, started_host_ns, ended_host_ns, end_reason, pvcap_version, rig_name, "
-                        "rig_config, simulated, rig_path FROM session");
+    auto s = db.prepare(
+        "SELECT started_wall_ns, started_host_ns, ended_host_ns, end_reason, pvcap_version, rig_name, "
+        "rig_config, simulated, rig_path FROM session");
     if (!s.step()) return Error{fmt::format("{}: holds no session", db_path.string())};
     in.started_wall_ns = s.column_int(0);
     in.started_host_ns = s.column_int(1);
@@ -105,8 +106,8 @@ Result<std::unique_ptr<SessionReader>> SessionReader::open(const std::filesystem
       CameraInfo c{cams.column_int(0), cams.column_text(1), text_or_empty(cams, 2), int(cams.column_int(3)),
                    int(cams.column_int(4))};
       if (c.width <= 0 || c.height <= 0 || c.width > 16384 || c.height > 16384)
-        return Error{fmt::format("{}: camera {} has an impossible size {}x{}", db_path.string(), c.name, c.width,
-                                 c.height)};
+        return Error{
+            fmt::format("{}: camera {} has an impossible size {}x{}", db_path.string(), c.name, c.width, c.height)};
       r->cameras_.push_back(std::move(c));
     }
     if (auto p = db.prepare("SELECT id, name, serial FROM devices WHERE kind = 'sensel' ORDER BY id"); p.step())
@@ -149,8 +150,8 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) 
         "f.video_file_id "
         "WHERE f.device_id = ? AND f.connection = ? AND f.sequence = ? AND f.kept = 1");
     q.bind_all(c.device_id, std::int64_t(c.connection), c.sequence);
-    if (!q.step()) return Error{fmt::format("{}: frame {} of device {} is not in a video", dir_.string(), c.sequence,
-                                            c.device_id)};
+    if (!q.step())
+      return Error{fmt::format("{}: frame {} of device {} is not in a video", dir_.string(), c.sequence, c.device_id)};
     const std::int64_t file_id = q.column_int(0);
     const VideoTimestamp ts = video_timestamp(opt_int(q, 3), q.column_int(1), info_.started_host_ns);
     const std::string rel = q.column_text(2);
@@ -237,7 +238,8 @@ Result<Sample> SessionReader::sample(std::size_t i, PressureMode mode) {
   s.info = std::move(info.value());
   s.images.resize(cameras_.size());
   for (const auto& c : s.info.cameras) {
-    const auto cam = std::find_if(cameras_.begin(), cameras_.end(), [&](const auto& k) { return k.device_id == c.device_id; });
+    const auto cam =
+        std::find_if(cameras_.begin(), cameras_.end(), [&](const auto& k) { return k.device_id == c.device_id; });
     if (cam == cameras_.end() || !c.in_video) continue;  // not stored: the caller sees an empty image and c.reason
     auto image = camera_image(c);
     if (!image) return image.error();
@@ -293,7 +295,8 @@ Result<std::vector<ProtocolEventRecord>> SessionReader::protocol_events() {
   return guarded(dir_, [&]() -> Result<std::vector<ProtocolEventRecord>> {
     std::vector<ProtocolEventRecord> out;
     auto q = db_->prepare(
-        "SELECT host_ns, kind, step, action, hand, force, repetition, detail FROM protocol_events ORDER BY host_ns, id");
+        "SELECT host_ns, kind, step, action, hand, force, repetition, detail FROM protocol_events ORDER BY host_ns, "
+        "id");
     while (q.step())
       out.push_back({q.column_int(0), q.column_text(1), opt_int(q, 2), text_or_empty(q, 3), text_or_empty(q, 4),
                      text_or_empty(q, 5), opt_int(q, 6), text_or_empty(q, 7)});
@@ -355,7 +358,7 @@ Result<std::vector<CalibrationRecord>> SessionReader::calibrations() {
         "SELECT device_id, created_wall_ns, method, homography, rms_px, rms_mm, details_json FROM calibrations ORDER "
         "BY id");
     while (q.step()) {
-      CalibrationRecord c{q.column_int(0), q.column_int(1), q.column_text(2), q.column_text(3), {}, {},
+      CalibrationRecord c{q.column_int(0),    q.column_int(1), q.column_text(2), q.column_text(3), {}, {},
                           text_or_empty(q, 6)};
       if (!q.column_null(4)) c.rms_px = q.column_double(4);
       if (!q.column_null(5)) c.rms_mm = q.column_double(5);
@@ -396,16 +399,18 @@ Result<std::vector<StreamStatistics>> SessionReader::stream_statistics() {
       why.bind_all(s.device_id);
       while (why.step()) s.dropped_by_reason[why.column_text(0)] = std::uint64_t(why.column_int(1));
       if (camera) {
-        auto r = db_->prepare("SELECT coalesce(reason, ''), count(*) FROM frames WHERE device_id = ? AND kept = 0 GROUP "
-                              "BY reason");
+        auto r = db_->prepare(
+            "SELECT coalesce(reason, ''), count(*) FROM frames WHERE device_id = ? AND kept = 0 GROUP "
+            "BY reason");
         r.bind_all(s.device_id);
         while (r.step()) s.not_kept[r.column_text(0)] = std::uint64_t(r.column_int(1));
         auto st = db_->prepare("SELECT status, count(*) FROM frames WHERE device_id = ? GROUP BY status");
         st.bind_all(s.device_id);
         while (st.step()) s.by_status[st.column_text(0)] = std::uint64_t(st.column_int(1));
       }
-      auto ev = db_->prepare("SELECT count(*) FROM events WHERE device_id = ? AND kind IN ('camera_lost', "
-                             "'sensel_unplugged')");
+      auto ev = db_->prepare(
+          "SELECT count(*) FROM events WHERE device_id = ? AND kind IN ('camera_lost', "
+          "'sensel_unplugged')");
       ev.bind_all(s.device_id);
       if (ev.step()) s.connection_losses = std::uint64_t(ev.column_int(0));
     }
@@ -415,9 +420,8 @@ Result<std::vector<StreamStatistics>> SessionReader::stream_statistics() {
 
 Result<std::vector<FrameTiming>> SessionReader::frame_timing(std::int64_t device_id) {
   return guarded(dir_, [&]() -> Result<std::vector<FrameTiming>> {
-    const bool camera = std::any_of(cameras_.begin(), cameras_.end(), [&](const CameraInfo& c) {
-      return c.device_id == device_id;
-    });
+    const bool camera =
+        std::any_of(cameras_.begin(), cameras_.end(), [&](const CameraInfo& c) { return c.device_id == device_id; });
     auto q = db_->prepare(camera ? "SELECT connection, sequence, host_ns, device_ns, mapped_ns, status = 'good', kept, "
                                    "frame_id, 0 FROM frames WHERE device_id = ? ORDER BY host_ns"
                                  : "SELECT connection, sequence, host_ns, device_ns, mapped_ns, 1, 0, 0, host_wait_ns "
@@ -435,12 +439,14 @@ Result<std::vector<FrameTiming>> SessionReader::frame_timing(std::int64_t device
 Result<std::vector<PressurePayload>> SessionReader::pressure_payloads() {
   if (!pressure_device_) return std::vector<PressurePayload>{};
   return guarded(dir_, [&]() -> Result<std::vector<PressurePayload>> {
-    auto q = db_->prepare("SELECT connection, sequence, mapped_ns, payload FROM pressure_frames WHERE device_id = ? "
-                          "AND mapped_ns IS NOT NULL ORDER BY connection, sequence");
+    auto q = db_->prepare(
+        "SELECT connection, sequence, mapped_ns, payload FROM pressure_frames WHERE device_id = ? "
+        "AND mapped_ns IS NOT NULL ORDER BY connection, sequence");
     q.bind_all(pressure_device_->device_id);
     std::vector<PressurePayload> out;
     while (q.step())
-      out.push_back({std::uint32_t(q.column_int(0)), std::uint64_t(q.column_int(1)), q.column_int(2), q.column_blob(3)});
+      out.push_back(
+          {std::uint32_t(q.column_int(0)), std::uint64_t(q.column_int(1)), q.column_int(2), q.column_blob(3)});
     return out;
   });
 }
@@ -448,9 +454,10 @@ Result<std::vector<PressurePayload>> SessionReader::pressure_payloads() {
 Result<std::vector<PressureTotal>> SessionReader::pressure_totals() {
   if (!pressure_device_) return std::vector<PressureTotal>{};
   return guarded(dir_, [&]() -> Result<std::vector<PressureTotal>> {
-    auto q = db_->prepare("SELECT sequence, coalesce(mapped_ns, host_ns), grid_cols, grid_rows, counts, connection FROM "
-                          "pressure_frames WHERE device_id = ? AND counts IS NOT NULL ORDER BY "
-                          "coalesce(mapped_ns, host_ns)");
+    auto q = db_->prepare(
+        "SELECT sequence, coalesce(mapped_ns, host_ns), grid_cols, grid_rows, counts, connection FROM "
+        "pressure_frames WHERE device_id = ? AND counts IS NOT NULL ORDER BY "
+        "coalesce(mapped_ns, host_ns)");
     q.bind_all(pressure_device_->device_id);
     std::vector<PressureTotal> out;
     while (q.step()) {
@@ -486,10 +493,9 @@ Result<std::vector<SampleInfo>> SessionReader::sample_infos() {
     while (f.step()) {
       auto it = position.find(std::uint64_t(f.column_int(0)));
       if (it == position.end()) continue;
-      out[it->second].cameras.push_back({f.column_int(1), std::uint32_t(f.column_int(2)),
-                                         std::uint64_t(f.column_int(3)), f.column_int(4),
-                                         !f.column_null(5) && f.column_int(5) == 1,
-                                         f.column_null(5) ? "no frame row" : text_or_empty(f, 6)});
+      out[it->second].cameras.push_back(
+          {f.column_int(1), std::uint32_t(f.column_int(2)), std::uint64_t(f.column_int(3)), f.column_int(4),
+           !f.column_null(5) && f.column_int(5) == 1, f.column_null(5) ? "no frame row" : text_or_empty(f, 6)});
     }
     return out;
   });
@@ -498,8 +504,9 @@ Result<std::vector<SampleInfo>> SessionReader::sample_infos() {
 Result<std::vector<DropRecord>> SessionReader::drops() {
   return guarded(dir_, [&]() -> Result<std::vector<DropRecord>> {
     std::vector<DropRecord> out;
-    auto q = db_->prepare("SELECT device_id, connection, first_sequence, count, reason, host_ns FROM drops ORDER BY "
-                          "host_ns");
+    auto q = db_->prepare(
+        "SELECT device_id, connection, first_sequence, count, reason, host_ns FROM drops ORDER BY "
+        "host_ns");
     while (q.step())
       out.push_back({q.column_int(0), std::uint32_t(q.column_int(1)), std::uint64_t(q.column_int(2)),
                      std::uint64_t(q.column_int(3)), text_or_empty(q, 4), q.column_int(5)});
@@ -510,9 +517,10 @@ Result<std::vector<DropRecord>> SessionReader::drops() {
 Result<std::vector<ClockModelRecord>> SessionReader::clock_models() {
   return guarded(dir_, [&]() -> Result<std::vector<ClockModelRecord>> {
     std::vector<ClockModelRecord> out;
-    auto q = db_->prepare("SELECT device_id, host_ns, segment, x0_device_ns, offset_ns, skew, latency_ns, source, "
-                          "pairs, envelope_points, residual_p50_ns, residual_p99_ns FROM clock_models ORDER BY "
-                          "device_id, host_ns");
+    auto q = db_->prepare(
+        "SELECT device_id, host_ns, segment, x0_device_ns, offset_ns, skew, latency_ns, source, "
+        "pairs, envelope_points, residual_p50_ns, residual_p99_ns FROM clock_models ORDER BY "
+        "device_id, host_ns");
     while (q.step())
       out.push_back({q.column_int(0), q.column_int(1), int(q.column_int(2)), q.column_int(3), q.column_double(4),
                      q.column_double(5), q.column_int(6), text_or_empty(q, 7), std::uint64_t(q.column_int(8)),

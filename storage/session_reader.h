@@ -92,16 +92,16 @@ enum class PressureMode {
 
 struct Sample {
   SampleInfo info;
-  std::vector<cv::Mat> images;  // BGR per cameras() entry; empty where the sample has no stored frame
+  std::vector<cv::Mat> images;            // BGR per cameras() entry; empty where the sample has no stored frame
   std::optional<PressureFrame> pressure;  // the nearest frame, as recorded
-  cv::Mat pressure_image;  // CV_32F native grid: the nearest frame's counts, or interpolated ones
+  cv::Mat pressure_image;                 // CV_32F native grid: the nearest frame's counts, or interpolated ones
 };
 
 struct ActionSpan {
   std::optional<std::int64_t> step;
   std::string action, hand, force;
   std::optional<std::int64_t> repetition;
-  std::int64_t start_ns = 0, end_ns = 0;  // end: the action's end event, or the session's end
+  std::int64_t start_ns = 0, end_ns = 0;         // end: the action's end event, or the session's end
   std::size_t first_sample = 0, end_sample = 0;  // samples in [start_ns, end_ns): [first, end)
 };
 
@@ -110,11 +110,11 @@ struct StreamStatistics {
   std::string name, kind;
   std::uint64_t frames = 0;  // rows stored (camera: every received frame; sensel: every frame)
   std::uint64_t in_video = 0;
-  std::uint64_t dropped = 0;  // never reached the store (drops table)
+  std::uint64_t dropped = 0;                               // never reached the store (drops table)
   std::map<std::string, std::uint64_t> dropped_by_reason;  // not_received, queue_overflow, buffer_underrun, unplugged
-  std::map<std::string, std::uint64_t> not_kept;  // camera frames not in a video, by reason
-  std::map<std::string, std::uint64_t> by_status;  // camera frames by status (good, incomplete, ...)
-  std::uint64_t connection_losses = 0;             // camera_lost / sensel_unplugged events
+  std::map<std::string, std::uint64_t> not_kept;           // camera frames not in a video, by reason
+  std::map<std::string, std::uint64_t> by_status;          // camera frames by status (good, incomplete, ...)
+  std::uint64_t connection_losses = 0;                     // camera_lost / sensel_unplugged events
   double mean_rate_hz = 0;
 };
 
@@ -124,8 +124,8 @@ struct FrameTiming {
   std::uint64_t sequence = 0;
   std::int64_t host_ns = 0, device_ns = 0;
   std::optional<std::int64_t> mapped_ns;
-  bool good = true;   // camera: status 'good'
-  bool kept = false;  // camera: in a video
+  bool good = true;               // camera: status 'good'
+  bool kept = false;              // camera: in a video
   std::uint64_t frame_id = 0;     // camera: the id the camera sent it with
   std::int64_t host_wait_ns = 0;  // Sensel: request-to-answer time (host_ns is their midpoint)
 };

@@ -3,9 +3,9 @@
 #include <fcntl.h>
 #include <sys/file.h>
 #include <sys/resource.h>
-#include <sys/syscall.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -79,16 +79,17 @@ auto index_write(F&& write) {
 }  // namespace
 
 Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesystem::path& root, const RigConfig& rig,
-                                                             std::int64_t started_wall_ns,
-                                                             std::int64_t started_host_ns, const IndexFeedOptions& index) {
+                                                             std::int64_t started_wall_ns, std::int64_t started_host_ns,
+                                                             const IndexFeedOptions& index) {
   std::error_code ec;
   std::filesystem::create_directories(root, ec);
   if (ec) return Error{fmt::format("{}: cannot create the sessions folder: {}", root.string(), ec.message())};
   const std::int64_t needed = std::int64_t(rig.store.min_free_mb + rig.store.reserve_mb) * kMiB;
   if (const std::int64_t free = free_bytes(root); free >= 0 && free < needed)
-    return Error{fmt::format("{}: only {} MB free; a session needs at least {} MB to start (store.min_free_mb {} + "
-                             "store.reserve_mb {})",
-                             root.string(), free / kMiB, needed / kMiB, rig.store.min_free_mb, rig.store.reserve_mb)};
+    return Error{
+        fmt::format("{}: only {} MB free; a session needs at least {} MB to start (store.min_free_mb {} + "
+                    "store.reserve_mb {})",
+                    root.string(), free / kMiB, needed / kMiB, rig.store.min_free_mb, rig.store.reserve_mb)};
   std::unique_ptr<SessionWriter> w(new SessionWriter());
   const std::string base = format_utc_compact(started_wall_ns) + "_" + safe_name(rig.name);
   for (int n = 1;; ++n) {
@@ -130,14 +131,13 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
   }
   try {
     w->index_.emplace(SessionIndex::create(w->dir_ / "session.db"));
-    SessionRecord s{started_wall_ns, started_host_ns, kVersion, rig.name, rig.source.string(), rig.text,
-                    rig.simulated};
+    SessionRecord s{started_wall_ns, started_host_ns, kVersion, rig.name, rig.source.string(), rig.text, rig.simulated};
     w->index_->add_session(s);
   } catch (const sqlite::SqliteError& e) {
     return abandon(Error{e.what()});
   }
-  w->index_writer_ = std::make_unique<IndexWriter>(*w->index_, index.queue_records, std::chrono::milliseconds(250),
-                                                   index.stall);
+  w->index_writer_ =
+      std::make_unique<IndexWriter>(*w->index_, index.queue_records, std::chrono::milliseconds(250), index.stall);
   return w;
 }
 
@@ -152,8 +152,14 @@ Status SessionWriter::open_segment(Camera& cam, std::int64_t first_pts_us, bool 
   const std::string file = fmt::format("{}-{:03}.mkv", safe_name(cam.name), segment);
   auto video = VideoWriter::open(dir_ / file, cam.settings);
   if (!video) return video.error();
-  VideoFileRecord rec{next_video_file_id_.fetch_add(1), cam.device_id, file, cam.settings.stored_codec(),
-                      cam.settings.stored_pixel_format(), cam.settings.width, cam.settings.height, segment};
+  VideoFileRecord rec{next_video_file_id_.fetch_add(1),
+                      cam.device_id,
+                      file,
+                      cam.settings.stored_codec(),
+                      cam.settings.stored_pixel_format(),
+                      cam.settings.width,
+                      cam.settings.height,
+                      segment};
   if (cam.settings.raw()) {
     rec.layout = kBayerPlanesLayout;
     rec.bayer_format = cam.settings.bayer_format;
@@ -173,7 +179,7 @@ Status SessionWriter::open_segment(Camera& cam, std::int64_t first_pts_us, bool 
 }
 
 Result<std::int64_t> SessionWriter::add_camera(const DeviceRecord& device, int width, int height,
-                                              const std::string& pixel_format) {
+                                               const std::string& pixel_format) {
   auto cam = std::make_unique<Camera>();
   cam->name = device.name;
   cam->queue = std::make_unique<FrameSpillQueue>(dir_, safe_name(device.name), std::size_t(store_.queue_frames));
@@ -226,8 +232,7 @@ void SessionWriter::encode_loop(Camera& cam) {
   errno = 0;
   const int nice_now = getpriority(PRIO_PROCESS, tid);
   const bool niced = errno == 0 && setpriority(PRIO_PROCESS, tid, std::min(19, nice_now + kEncoderNiceStep)) == 0;
-  if (!niced)
-    spdlog::debug("{}: encoder thread keeps the default priority ({})", cam.name, std::strerror(errno));
+  if (!niced) spdlog::debug("{}: encoder thread keeps the default priority ({})", cam.name, std::strerror(errno));
   const std::int64_t segment_us = std::int64_t(store_.segment_seconds * 1e6);
   FrameSpillQueue& queue = *cam.queue;
   std::optional<std::chrono::steady_clock::time_point> drain_started;
@@ -330,9 +335,10 @@ void SessionWriter::watch_free_space() {
   while (!watch_cv_.wait_for(lock, std::chrono::milliseconds(250), [this] { return watch_stop_; })) {
     const std::int64_t free = free_bytes(dir_);
     if (free >= 0 && free < min_free) {
-      set_failure(fmt::format("{}: the disk is nearly full ({} MB free, store.min_free_mb is {}): stopping so that "
-                              "everything captured so far is kept",
-                              dir_.string(), free / kMiB, store_.min_free_mb));
+      set_failure(
+          fmt::format("{}: the disk is nearly full ({} MB free, store.min_free_mb is {}): stopping so that "
+                      "everything captured so far is kept",
+                      dir_.string(), free / kMiB, store_.min_free_mb));
       return;
     }
   }
@@ -374,8 +380,8 @@ bool SessionWriter::stores_raw(std::int64_t device_id) const {
 CameraStoreStats SessionWriter::camera_stats(std::int64_t device_id) const {
   for (const auto& cam : cameras_)
     if (cam->device_id == device_id)
-      return {cam->in_video.load(), cam->encoder_drops.load(), cam->segments.load(), cam->queue->backlog(),
-              cam->queue->on_disk(), cam->queue->spilled_total()};
+      return {cam->in_video.load(),  cam->encoder_drops.load(), cam->segments.load(),
+              cam->queue->backlog(), cam->queue->on_disk(),     cam->queue->spilled_total()};
   return {};
 }
 
@@ -431,7 +437,8 @@ Status SessionWriter::close(const std::string& end_reason) {
     try {
       finalizer_(*index_);  // commits its own steps
     } catch (const std::exception& e) {
-      spdlog::error("{}: re-mapping the timeline at the end failed ({}); the online values stay", dir_.string(), e.what());
+      spdlog::error("{}: re-mapping the timeline at the end failed ({}); the online values stay", dir_.string(),
+                    e.what());
     }
   }
   try {

@@ -36,7 +36,7 @@ namespace pvcap {
 
 struct CameraStoreStats {
   std::uint64_t frames_in_video = 0;
-  std::uint64_t encoder_drops = 0;   // kept frames neither the encoder nor its spill could take
+  std::uint64_t encoder_drops = 0;  // kept frames neither the encoder nor its spill could take
   std::uint64_t segments = 0;
   std::size_t encoder_backlog = 0;  // kept frames waiting for the encoder now (memory and spill)
   std::size_t spill_backlog = 0;    // of which on disk
@@ -94,7 +94,9 @@ class SessionWriter {
     return index_writer_->push_committed(std::move(note), timeout);
   }
   // Written at close (the timeline's tallies: groups, missed ticks, unpaired samples by reason).
-  void add_timeline_count(std::string what, std::uint64_t count) { timeline_counts_.emplace_back(std::move(what), count); }
+  void add_timeline_count(std::string what, std::uint64_t count) {
+    timeline_counts_.emplace_back(std::move(what), count);
+  }
   // Queues a kept frame (BGR, or the mosaic when stores_raw) for its camera's video: in memory, or
   // through the camera's spill on disk when the encoder is behind (storage/frame_spill.h). False
   // (nothing queued) only when the spill cannot keep up either, or the disk refused it; the caller

@@ -19,7 +19,11 @@ namespace {
 class Verifier {
  public:
   Verifier(const std::filesystem::path& dir, const std::function<void(const std::string&)>& progress, VerifyReport& r)
-      : dir_(dir), db_path_(dir / "session.db"), progress_(progress), r_(r), db_(db_path_, sqlite::Database::Mode::ReadOnly) {}
+      : dir_(dir),
+        db_path_(dir / "session.db"),
+        progress_(progress),
+        r_(r),
+        db_(db_path_, sqlite::Database::Mode::ReadOnly) {}
 
   void run() {
     if (!check_format() || !check_session_row()) return;
@@ -64,11 +68,13 @@ class Verifier {
     clean_end_ = !q.column_null(1);
     const std::string reason = q.column_null(2) ? "" : q.column_text(2);
     if (!clean_end_)
-      r_.losses.push_back("the recording did not end cleanly (crash, kill or power loss): 'pvcap recover' makes it "
-                          "readable");
+      r_.losses.push_back(
+          "the recording did not end cleanly (crash, kill or power loss): 'pvcap recover' makes it "
+          "readable");
     else if (reason.rfind("interrupted", 0) == 0)
       r_.losses.push_back(fmt::format("the recording was interrupted ({}): its last moments are lost", reason));
-    else r_.facts.push_back(fmt::format("ended: {}", reason));
+    else
+      r_.facts.push_back(fmt::format("ended: {}", reason));
     return true;
   }
 
@@ -86,11 +92,12 @@ class Verifier {
     // never committed, or miss frames whose rows were: losses, not damage. A closed one may not.
     const bool finished = state == "closed" || state == "recovered";
     if (state == "open" && !clean_end_)
-      r_.losses.push_back(fmt::format("{}: was being written when the recording stopped; 'pvcap recover' closes it",
-                                      path));
+      r_.losses.push_back(
+          fmt::format("{}: was being written when the recording stopped; 'pvcap recover' closes it", path));
     say(fmt::format("checking {}", path));
-    auto rows = db_.prepare("SELECT video_index, host_ns, video_pts_ms FROM frames WHERE video_file_id = ? AND "
-                            "kept = 1 ORDER BY video_index");
+    auto rows = db_.prepare(
+        "SELECT video_index, host_ns, video_pts_ms FROM frames WHERE video_file_id = ? AND "
+        "kept = 1 ORDER BY video_index");
     rows.bind_all(id);
     std::vector<std::pair<std::int64_t, VideoTimestamp>> kept;
     while (rows.step())
@@ -106,8 +113,8 @@ class Verifier {
         r_.losses.push_back(fmt::format("{}: holds no readable frame (cut before its first frame was written)", path));
       else
         ((cut_early ? r_.losses : r_.errors))
-            .push_back(fmt::format("{}: {}; {} indexed frames cannot be read", path, reader.error().message,
-                                   kept.size()));
+            .push_back(
+                fmt::format("{}: {}; {} indexed frames cannot be read", path, reader.error().message, kept.size()));
       return;
     }
     std::size_t n = 0, wrong_time = 0, key_frames = 0;
@@ -168,7 +175,8 @@ class Verifier {
       }
       if (!image) continue;
       auto counts = decompress_counts(q.column_blob(7), std::size_t(grid.cells()));
-      if (!counts) fail(q.column_int(5), counts.error().message);
+      if (!counts)
+        fail(q.column_int(5), counts.error().message);
       else if (counts.value() != image->counts || q.column_int(6) != image->base)
         fail(q.column_int(5), "its counts differ from its device payload");
     }
@@ -179,8 +187,9 @@ class Verifier {
   // Samples name frames that are in the videos.
   void check_samples() {
     const auto samples = scalar("SELECT count(*) FROM samples");
-    const auto dangling = scalar("SELECT count(*) FROM sample_frames sf LEFT JOIN frames f USING (device_id, "
-                                 "connection, sequence) WHERE f.kept IS NOT 1 OR f.video_index IS NULL");
+    const auto dangling = scalar(
+        "SELECT count(*) FROM sample_frames sf LEFT JOIN frames f USING (device_id, "
+        "connection, sequence) WHERE f.kept IS NOT 1 OR f.video_index IS NULL");
     const auto unpaired = scalar("SELECT count(*) FROM samples WHERE pressure_sequence IS NULL");
     const bool has_sensel = scalar("SELECT count(*) FROM devices WHERE kind = 'sensel'") > 0;
     r_.facts.push_back(fmt::format("samples: {}", samples));
@@ -206,9 +215,10 @@ class Verifier {
     for (std::filesystem::directory_iterator it(dir_ / kSpillFolder, ec), end; !ec && it != end; it.increment(ec))
       spills += it->path().extension() == ".spill";
     if (spills)
-      r_.losses.push_back(fmt::format("{}: {} spill file(s) hold frames that may not be in a video yet; 'pvcap "
-                                      "recover' encodes them",
-                                      (dir_ / kSpillFolder).string(), spills));
+      r_.losses.push_back(
+          fmt::format("{}: {} spill file(s) hold frames that may not be in a video yet; 'pvcap "
+                      "recover' encodes them",
+                      (dir_ / kSpillFolder).string(), spills));
   }
 
   std::int64_t scalar(const std::string& sql) {

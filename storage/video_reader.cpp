@@ -14,8 +14,8 @@ extern "C" {
 
 #include "core/frame_pool.h"
 #include "storage/av_handles.h"
-#include "storage/bayer_planes.h"
 #include "storage/av_log.h"
+#include "storage/bayer_planes.h"
 
 namespace pvcap {
 
@@ -25,9 +25,9 @@ struct VideoReader::Impl {  // members are freed in reverse: the scaler first, t
   av::Frame frame;
   av::Packet packet;
   av::Scaler sws;
-  cv::Mat ycbcr;  // yuv444p: the frame's planes merged, before conversion
-  cv::Mat mosaic;  // raw videos: the frame's mosaic, before demosaicing
-  cv::Mat bgr16;   // raw videos of more than 8 bits: demosaiced, before the 8-bit colour image
+  cv::Mat ycbcr;        // yuv444p: the frame's planes merged, before conversion
+  cv::Mat mosaic;       // raw videos: the frame's mosaic, before demosaicing
+  cv::Mat bgr16;        // raw videos of more than 8 bits: demosaiced, before the 8-bit colour image
   FramePool images{4};  // the BGR images handed out: reused once the caller has dropped them
   int stream = -1;
   bool draining = false;
@@ -65,8 +65,8 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
   };
   if (const std::string layout = tag("PVCAP_LAYOUT"); !layout.empty()) {
     if (layout != kBayerPlanesLayout)
-      return Error{fmt::format("{}: picture layout '{}' is not one this pvcap reads (update pvcap)", path.string(),
-                               layout)};
+      return Error{
+          fmt::format("{}: picture layout '{}' is not one this pvcap reads (update pvcap)", path.string(), layout)};
     r->bayer_format_ = tag("PVCAP_BAYER_FORMAT");
     const std::string depth = tag("PVCAP_BIT_DEPTH");
     r->bit_depth_ = depth.size() == 1 || depth.size() == 2 ? std::atoi(depth.c_str()) : 0;
@@ -80,7 +80,8 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
   // (frame threads would add a frame of delay to every random access).
   im.dec.ptr->thread_count = 2;
   im.dec.ptr->thread_type = FF_THREAD_SLICE;
-  if (avcodec_open2(im.dec.ptr, codec, nullptr) < 0) return Error{fmt::format("{}: cannot open decoder", path.string())};
+  if (avcodec_open2(im.dec.ptr, codec, nullptr) < 0)
+    return Error{fmt::format("{}: cannot open decoder", path.string())};
   if (r->raw() && im.dec.ptr->height % 4 != 0)
     return Error{fmt::format("{}: a raw video's picture must stack four planes", path.string())};
   im.frame.ptr = av_frame_alloc();
@@ -104,11 +105,12 @@ Status VideoReader::to_mosaic(cv::Mat& mosaic) {
   const AVFrame* f = impl_->frame.ptr;
   // The decoder says what a picture is only once it has decoded one. H.264's decoder hands a grey
   // (4:0:0) picture out as 4:2:0 with blank chroma: its first plane is the grey picture.
-  const bool grey8 = f->format == AV_PIX_FMT_GRAY8 || f->format == AV_PIX_FMT_YUV420P || f->format == AV_PIX_FMT_YUVJ420P;
+  const bool grey8 =
+      f->format == AV_PIX_FMT_GRAY8 || f->format == AV_PIX_FMT_YUV420P || f->format == AV_PIX_FMT_YUVJ420P;
   const bool grey16 = f->format == AV_PIX_FMT_GRAY16LE;
   if (!(bit_depth_ > 8 ? grey16 : grey8) || f->height % 4 != 0 || f->width <= 0)
-    return Error{fmt::format("{}: a raw video's pictures must be {}-bit grey with four planes stacked",
-                             path_.string(), bit_depth_ > 8 ? 16 : 8)};
+    return Error{fmt::format("{}: a raw video's pictures must be {}-bit grey with four planes stacked", path_.string(),
+                             bit_depth_ > 8 ? 16 : 8)};
   const cv::Mat planes(f->height, f->width, grey16 ? CV_16UC1 : CV_8UC1, f->data[0], std::size_t(f->linesize[0]));
   unpack_bayer_planes(planes, mosaic);
   return {};
@@ -150,8 +152,8 @@ Status VideoReader::to_bgr(cv::Mat& bgr) {
       im.frame.ptr->colorspace != AVCOL_SPC_BT709) {
     // The store's default format, converted here (faster than swscale for this pair): the inverse of
     // the writer's BT.601 limited-range conversion.
-    static const cv::Matx34f kYCbCrToBgr(1.164383f, 2.017232f, 0.f, -276.836f,          //
-                                         1.164383f, -0.391762f, -0.812968f, 135.576f,    //
+    static const cv::Matx34f kYCbCrToBgr(1.164383f, 2.017232f, 0.f, -276.836f,         //
+                                         1.164383f, -0.391762f, -0.812968f, 135.576f,  //
                                          1.164383f, 0.f, 1.596027f, -222.921f);
     std::vector<cv::Mat> planes;
     for (int p = 0; p < 3; ++p)
@@ -161,9 +163,9 @@ Status VideoReader::to_bgr(cv::Mat& bgr) {
     cv::transform(im.ycbcr, bgr, kYCbCrToBgr);
     return {};
   }
-  im.sws.ptr = sws_getCachedContext(im.sws.ptr, im.frame.ptr->width, im.frame.ptr->height, AVPixelFormat(im.frame.ptr->format),
-                                im.frame.ptr->width, im.frame.ptr->height, AV_PIX_FMT_BGR24, SWS_POINT, nullptr, nullptr,
-                                nullptr);
+  im.sws.ptr = sws_getCachedContext(im.sws.ptr, im.frame.ptr->width, im.frame.ptr->height,
+                                    AVPixelFormat(im.frame.ptr->format), im.frame.ptr->width, im.frame.ptr->height,
+                                    AV_PIX_FMT_BGR24, SWS_POINT, nullptr, nullptr, nullptr);
   std::uint8_t* dst[1] = {bgr.data};
   const int dst_stride[1] = {int(bgr.step[0])};
   sws_scale(im.sws.ptr, im.frame.ptr->data, im.frame.ptr->linesize, 0, im.frame.ptr->height, dst, dst_stride);
@@ -208,8 +210,7 @@ Result<bool> VideoReader::read_at(std::int64_t pts_ms, cv::Mat& bgr, std::int64_
 }
 
 Result<bool> VideoReader::read_raw_at(std::int64_t pts_ms, cv::Mat& mosaic, std::int64_t tolerance_ms) {
-  if (!raw())
-    return Error{fmt::format("{}: a colour video (stored debayered) holds no sensor mosaic", path_.string())};
+  if (!raw()) return Error{fmt::format("{}: a colour video (stored debayered) holds no sensor mosaic", path_.string())};
   return seek_and_convert(pts_ms, mosaic, tolerance_ms, true);
 }
 

@@ -33,14 +33,16 @@ ReconcileResult reconcile_video_file(SessionIndex& index, const std::filesystem:
   {
     auto q = db.prepare("SELECT path FROM video_files WHERE id = ?");
     q.bind_all(id);
-    if (!q.step()) throw sqlite::SqliteError(0, fmt::format("{}: no video file {} in the index", db.path().string(), id));
+    if (!q.step())
+      throw sqlite::SqliteError(0, fmt::format("{}: no video file {} in the index", db.path().string(), id));
     r.path = q.column_text(0);
   }
   auto counted = count_video_frames(session_dir / r.path);
   r.frames_in_file = counted ? counted.value() : 0;
   sqlite::Transaction tx(db);
-  db.prepare("UPDATE frames SET kept = 0, reason = ?, video_index = NULL WHERE video_file_id = ? AND kept = 1 AND "
-             "video_index >= ?")
+  db.prepare(
+        "UPDATE frames SET kept = 0, reason = ?, video_index = NULL WHERE video_file_id = ? AND kept = 1 AND "
+        "video_index >= ?")
       .bind_all(reason, id, r.frames_in_file)
       .run();
   r.rows_marked_lost = db.changes();
@@ -54,7 +56,8 @@ Status remux_prefix(const std::filesystem::path& from, const std::filesystem::pa
   route_ffmpeg_log();
   const FfmpegLogQuiet quiet;  // `from` was cut by a crash: it ends early; failures are returned, named
   av::InputFormat in;
-  if (avformat_open_input(&in.ptr, from.c_str(), nullptr, nullptr) < 0 || avformat_find_stream_info(in.ptr, nullptr) < 0)
+  if (avformat_open_input(&in.ptr, from.c_str(), nullptr, nullptr) < 0 ||
+      avformat_find_stream_info(in.ptr, nullptr) < 0)
     return Error{fmt::format("{}: not a readable video file", where)};
   const int stream = av_find_best_stream(in.ptr, AVMEDIA_TYPE_VIDEO, -1, -1, nullptr, 0);
   if (stream < 0) return Error{fmt::format("{}: no video stream", where)};

@@ -11,8 +11,8 @@ extern "C" {
 
 #include <fmt/format.h>
 #include "storage/av_handles.h"
-#include "storage/bayer_planes.h"
 #include "storage/av_log.h"
+#include "storage/bayer_planes.h"
 
 namespace pvcap {
 
@@ -49,15 +49,17 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   if (pix == AV_PIX_FMT_NONE)
     return Error{fmt::format("{}: unknown pixel format '{}' (store.video_pixel_format)", where, s.pixel_format)};
   if (s.raw() && s.bit_depth > 8 && codec_name == "libx264")
-    return Error{fmt::format("{}: libx264 keeps at most 10 bits; a {}-bit {} mosaic needs store.raw_codec ffvhuff or "
-                             "ffv1",
-                             where, s.bit_depth, s.bayer_format)};
+    return Error{
+        fmt::format("{}: libx264 keeps at most 10 bits; a {}-bit {} mosaic needs store.raw_codec ffvhuff or "
+                    "ffv1",
+                    where, s.bit_depth, s.bayer_format)};
   if (s.raw() && (s.bit_depth < 8 || s.bit_depth > 16))
     return Error{fmt::format("{}: a raw video of {} bits per sample is not possible", where, s.bit_depth)};
   if (s.raw() && (s.width % 2 != 0 || s.height % 2 != 0))
-    return Error{fmt::format("{}: a {} mosaic of {}x{} has no whole 2x2 cells; raw video needs an even width and "
-                             "height (or store.video_mode: color)",
-                             where, s.bayer_format, s.width, s.height)};
+    return Error{
+        fmt::format("{}: a {} mosaic of {}x{} has no whole 2x2 cells; raw video needs an even width and "
+                    "height (or store.video_mode: color)",
+                    where, s.bayer_format, s.width, s.height)};
   // In raw mode the codec sees the four planes stacked: half the width, twice the height.
   const cv::Size coded = s.raw() ? bayer_planes_size({s.width, s.height}) : cv::Size(s.width, s.height);
   im.matroska = s.container == "matroska";
@@ -77,8 +79,10 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   AVDictionary* opts = nullptr;
   if (codec_name == "libx264") {
     av_dict_set(&opts, "preset", s.preset.c_str(), 0);
-    if (s.raw()) av_dict_set(&opts, "qp", "0", 0);  // lossless
-    else av_dict_set(&opts, "crf", std::to_string(s.crf).c_str(), 0);
+    if (s.raw())
+      av_dict_set(&opts, "qp", "0", 0);  // lossless
+    else
+      av_dict_set(&opts, "crf", std::to_string(s.crf).c_str(), 0);
     // In-band SPS/PPS on every key frame: any GOP decodes on its own.
     av_dict_set(&opts, "x264-params", "repeat-headers=1:bframes=0:slices=4", 0);
   } else if (codec_name == "ffv1") {
@@ -122,8 +126,8 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   w->width_ = s.width;
   w->height_ = s.height;
   if (s.raw()) return w;
-  im.sws.ptr = sws_getContext(s.width, s.height, AV_PIX_FMT_BGR24, s.width, s.height, pix, SWS_AREA, nullptr, nullptr,
-                          nullptr);
+  im.sws.ptr =
+      sws_getContext(s.width, s.height, AV_PIX_FMT_BGR24, s.width, s.height, pix, SWS_AREA, nullptr, nullptr, nullptr);
   if (!im.sws.ptr) return Error{fmt::format("{}: no conversion from BGR to {}", where, s.pixel_format)};
   return w;
 }
@@ -155,8 +159,9 @@ Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us)
   if (bgr.type() != input_type_ || bgr.cols != width_ || bgr.rows != height_)
     return Error{fmt::format("{}: frame is {}x{} of type {}, the video takes {}x{} {}", path_.string(), bgr.cols,
                              bgr.rows, cv::typeToString(bgr.type()), width_, height_,
-                             !raw_ ? "BGR images (CV_8UC3)"
-                                   : input_type_ == CV_16UC1 ? "16-bit mosaics (CV_16UC1)" : "mosaics (CV_8UC1)")};
+                             !raw_                     ? "BGR images (CV_8UC3)"
+                             : input_type_ == CV_16UC1 ? "16-bit mosaics (CV_16UC1)"
+                                                       : "mosaics (CV_8UC1)")};
   // The container keeps milliseconds: round to them here (so the stored timestamp is exactly
   // last_pts_ms()), and keep them strictly increasing (frames that arrived in a burst).
   std::int64_t pts_ms = (pts_us + (pts_us >= 0 ? 500 : -500)) / 1000;
@@ -174,7 +179,7 @@ Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us)
   } else if (im.enc.ptr->pix_fmt == AV_PIX_FMT_YUV444P) {
     // The default format, converted here rather than by swscale (3x faster for this pair): BT.601
     // limited range, the coefficients swscale uses, straight into the frame's three planes.
-    static const cv::Matx34f kBgrToYCbCr(25.064f / 256, 129.057f / 256, 65.738f / 256, 16.f,    //
+    static const cv::Matx34f kBgrToYCbCr(25.064f / 256, 129.057f / 256, 65.738f / 256, 16.f,     //
                                          112.439f / 256, -74.494f / 256, -37.945f / 256, 128.f,  //
                                          -18.285f / 256, -94.154f / 256, 112.439f / 256, 128.f);
     cv::transform(bgr, im.ycbcr, kBgrToYCbCr);

@@ -27,11 +27,11 @@ struct VideoSettings {
   int crf = 10;
   std::string preset = "ultrafast";
   std::string pixel_format = "yuv444p";
-  int gop_frames = 15;       // at most this many frames between key frames
-  double nominal_fps = 15;   // rate-control hint only; timestamps are real
-  int threads = 1;           // per encoder; cameras already run in parallel
+  int gop_frames = 15;                 // at most this many frames between key frames
+  double nominal_fps = 15;             // rate-control hint only; timestamps are real
+  int threads = 1;                     // per encoder; cameras already run in parallel
   std::string container = "matroska";  // FFmpeg's muxer name ("mp4" for a rendered replay)
-  int width = 0, height = 0;  // the camera's image (in raw mode the mosaic, not the stacked planes)
+  int width = 0, height = 0;           // the camera's image (in raw mode the mosaic, not the stacked planes)
   bool raw() const { return !bayer_format.empty(); }
   // What the file's codec is and holds, as the index records it.
   std::string stored_codec() const { return raw() ? raw_codec : codec; }
@@ -46,7 +46,8 @@ class VideoWriter {
   VideoWriter& operator=(const VideoWriter&) = delete;
 
   // Encodes one frame at `pts_us` (µs from the session start): BGR (CV_8UC3) in colour mode, the
-  // mosaic (CV_8UC1, or CV_16UC1 above 8 bits) in raw mode, of the configured size. Returns its 0-based index in the file.
+  // mosaic (CV_8UC1, or CV_16UC1 above 8 bits) in raw mode, of the configured size. Returns its 0-based index in the
+  // file.
   Result<std::int64_t> write(const cv::Mat& image, std::int64_t pts_us);
   // Flushes the encoder and writes the trailer. Safe to call twice.
   Status close();

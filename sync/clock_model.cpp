@@ -72,8 +72,10 @@ void ClockModel::refit_probes() {
   double a = -m, b = m;
   for (int i = 0; i < 80; ++i) {
     const double s1 = a + (b - a) / 3, s2 = b - (b - a) / 3;
-    if (probe_band(s1) < probe_band(s2)) a = s1;
-    else b = s2;
+    if (probe_band(s1) < probe_band(s2))
+      a = s1;
+    else
+      b = s2;
   }
   const double best = 0.5 * (a + b);
   const double widest = probe_band(best) - 1.0;  // within a nanosecond of the widest
@@ -122,8 +124,10 @@ bool ClockModel::add(std::int64_t device_ns, std::int64_t arrival_ns) {
       bin_ns_ *= 2;
       std::vector<Point> merged;
       for (const Point& b : bins_)
-        if (merged.empty() || merged.back().x / bin_ns_ != b.x / bin_ns_) merged.push_back(b);
-        else if (b.y < merged.back().y) merged.back() = b;
+        if (merged.empty() || merged.back().x / bin_ns_ != b.x / bin_ns_)
+          merged.push_back(b);
+        else if (b.y < merged.back().y)
+          merged.back() = b;
       bins_.swap(merged);
     }
   }

@@ -42,16 +42,16 @@
 namespace pvcap::sync {
 
 struct ClockModelOptions {
-  std::int64_t latency_ns = 0;                 // constant latency known from the rig file / datasheet
-  std::int64_t reset_below_ns = 20'000'000;    // an arrival this far *before* the line: the clock jumped
-  std::int64_t reset_above_ns = 1'000'000'000; // this far after it, `reset_run` times in a row: it jumped too
-  std::int64_t reset_back_ns = 1'000'000'000;  // device time this far back: restarted (less: a reordered pair)
-  int reset_run = 16;                          // ...or back at all, this many times in a row
-  double max_skew = 1e-3;                      // crystal clocks: a slope beyond +-1000 ppm is noise, not drift
+  std::int64_t latency_ns = 0;                        // constant latency known from the rig file / datasheet
+  std::int64_t reset_below_ns = 20'000'000;           // an arrival this far *before* the line: the clock jumped
+  std::int64_t reset_above_ns = 1'000'000'000;        // this far after it, `reset_run` times in a row: it jumped too
+  std::int64_t reset_back_ns = 1'000'000'000;         // device time this far back: restarted (less: a reordered pair)
+  int reset_run = 16;                                 // ...or back at all, this many times in a row
+  double max_skew = 1e-3;                             // crystal clocks: a slope beyond +-1000 ppm is noise, not drift
   std::int64_t min_span_for_skew_ns = 2'000'000'000;  // until the pairs span this, assume no drift
-  std::int64_t bin_ns = 500'000'000;           // the envelope's resolution in device time...
-  std::size_t max_bins = 4096;                 // ...doubled whenever it would need more bins than this
-  std::size_t max_probes = 512;                // probes kept per segment (thinned to the tighter of each pair)
+  std::int64_t bin_ns = 500'000'000;                  // the envelope's resolution in device time...
+  std::size_t max_bins = 4096;                        // ...doubled whenever it would need more bins than this
+  std::size_t max_probes = 512;                       // probes kept per segment (thinned to the tighter of each pair)
 };
 
 class ClockModel {
@@ -84,7 +84,7 @@ class ClockModel {
   const std::vector<Segment>& segments() const { return segments_; }
   std::int64_t latency_ns() const { return options_.latency_ns; }
   int segment() const { return segment_; }
-  std::size_t pairs() const { return n_; }                 // in this segment
+  std::size_t pairs() const { return n_; }                      // in this segment
   std::size_t envelope_points() const { return bins_.size(); }  // bin minima kept
 
  private:

@@ -144,7 +144,7 @@ void SessionTimeline::advance(std::vector<SampleOut>& done, bool flush) {
     aligner_.add_sample(out.group.t_ns, out.index);
     awaiting_pressure_.emplace(out.index, std::move(out));
   }
-  const std::int64_t give_up = !config_.has_pressure ? INT64_MAX
+  const std::int64_t give_up = !config_.has_pressure            ? INT64_MAX
                                : newest_camera_ns_ == INT64_MIN ? INT64_MIN
                                                                 : newest_camera_ns_ - config_.pressure_give_up_ns;
   for (auto& [index, pairing] : aligner_.take(flush, give_up)) {

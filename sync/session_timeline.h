@@ -23,13 +23,13 @@ namespace pvcap::sync {
 
 struct TimelineConfig {
   int cameras = 0;
-  double camera_hz = 60;        // nominal; the grouping limit is half its period
-  double sample_hz = 15;        // the dataset's grid
-  std::int64_t anchor_ns = 0;   // the grid's tick 0 (session start, host time)
-  std::int64_t group_wait_ns = 250'000'000;    // how long a silent camera may hold up grouping
-  std::int64_t pressure_window_ns = 60'000'000;  // late / reordered pressure frames within this are handled
+  double camera_hz = 60;                             // nominal; the grouping limit is half its period
+  double sample_hz = 15;                             // the dataset's grid
+  std::int64_t anchor_ns = 0;                        // the grid's tick 0 (session start, host time)
+  std::int64_t group_wait_ns = 250'000'000;          // how long a silent camera may hold up grouping
+  std::int64_t pressure_window_ns = 60'000'000;      // late / reordered pressure frames within this are handled
   std::int64_t pressure_max_offset_ns = 20'000'000;  // farther than this from a sample: unpaired
-  std::vector<std::int64_t> camera_latency_ns;  // known constant latencies (rig file)
+  std::vector<std::int64_t> camera_latency_ns;       // known constant latencies (rig file)
   std::int64_t pressure_latency_ns = 0;
   bool has_pressure = true;  // without a Sensel, samples are finished without waiting for pressure
   std::int64_t pressure_give_up_ns = 1'000'000'000;  // a silent Sensel holds samples back at most this long
@@ -38,7 +38,7 @@ struct TimelineConfig {
 struct SampleOut {
   std::uint64_t index = 0;  // 0, 1, 2... in time order
   std::int64_t tick = 0, tick_ns = 0;
-  Group group;              // the camera frames (stream = camera index)
+  Group group;  // the camera frames (stream = camera index)
   PressureAligner::Pairing pressure;
 };
 

@@ -9,7 +9,10 @@ namespace pvcap::sync {
 // Grouper
 
 Grouper::Grouper(int cameras, std::int64_t limit_ns, std::int64_t wait_ns)
-    : pending_(std::size_t(cameras)), latest_(std::size_t(cameras), INT64_MIN), limit_ns_(limit_ns), wait_ns_(wait_ns) {}
+    : pending_(std::size_t(cameras)),
+      latest_(std::size_t(cameras), INT64_MIN),
+      limit_ns_(limit_ns),
+      wait_ns_(wait_ns) {}
 
 bool Grouper::add(const FrameRef& frame) {
   const auto c = std::size_t(frame.stream);
@@ -154,26 +157,27 @@ void PressureAligner::add_pressure(const FrameRef& frame) {
   while (frames_.size() > 1 && frames_[1].t_ns <= keep_from) frames_.pop_front();
 }
 
-void PressureAligner::add_sample(std::int64_t sample_ns, std::uint64_t key) {
-  samples_.emplace_back(sample_ns, key);
-}
+void PressureAligner::add_sample(std::int64_t sample_ns, std::uint64_t key) { samples_.emplace_back(sample_ns, key); }
 
 PressureAligner::Pairing PressureAligner::pair(std::int64_t t) const {
   return pair_nearest(frames_.begin(), frames_.end(), t, max_offset_ns_);
 }
 
 std::vector<std::pair<std::uint64_t, PressureAligner::Pairing>> PressureAligner::take(bool flush,
-                                                                                   std::int64_t give_up_before_ns) {
+                                                                                      std::int64_t give_up_before_ns) {
   std::vector<std::pair<std::uint64_t, Pairing>> out;
-  while (!samples_.empty() && (flush || newest_ >= samples_.front().first + window_ns_ ||
-                               samples_.front().first < give_up_before_ns)) {
+  while (!samples_.empty() &&
+         (flush || newest_ >= samples_.front().first + window_ns_ || samples_.front().first < give_up_before_ns)) {
     const auto [t, key] = samples_.front();
     samples_.pop_front();
     Pairing p = pair(t);
     if (!p.nearest) {
-      if (frames_.empty()) ++unpaired_["no pressure frames"];
-      else if (frames_.front().t_ns > t + max_offset_ns_ && !p.before) ++unpaired_["sample older than the pressure kept"];
-      else ++unpaired_["no pressure frame within the allowed offset"];
+      if (frames_.empty())
+        ++unpaired_["no pressure frames"];
+      else if (frames_.front().t_ns > t + max_offset_ns_ && !p.before)
+        ++unpaired_["sample older than the pressure kept"];
+      else
+        ++unpaired_["no pressure frame within the allowed offset"];
     }
     decided_until_ = std::max(decided_until_, t);
     out.emplace_back(key, std::move(p));

@@ -23,14 +23,14 @@ namespace pvcap::sync {
 struct FrameRef {
   int stream = 0;
   std::uint64_t sequence = 0;
-  std::int64_t t_ns = 0;          // mapped host time
-  std::uint32_t connection = 0;   // sequences restart with each connection of a device
+  std::int64_t t_ns = 0;         // mapped host time
+  std::uint32_t connection = 0;  // sequences restart with each connection of a device
 };
 
 struct Group {
   std::vector<std::optional<FrameRef>> members;  // one slot per camera; empty = no frame for this instant
-  std::int64_t t_ns = 0;                          // mean of the members' times
-  std::int64_t span_ns = 0;                       // latest minus earliest member
+  std::int64_t t_ns = 0;                         // mean of the members' times
+  std::int64_t span_ns = 0;                      // latest minus earliest member
   bool complete() const {
     for (const auto& m : members)
       if (!m) return false;
@@ -148,8 +148,10 @@ Pairing pair_nearest(It begin, It end, std::int64_t t, std::int64_t max_offset_n
   It after = begin, lo = begin, hi = end;
   while (lo < hi) {  // first frame later than t
     It mid = lo + (hi - lo) / 2;
-    if (mid->t_ns <= t) lo = mid + 1;
-    else hi = mid;
+    if (mid->t_ns <= t)
+      lo = mid + 1;
+    else
+      hi = mid;
   }
   after = lo;
   if (after != end) p.after = *after;

@@ -125,7 +125,8 @@ void Database::define_function(const char* name, IntIntRealRealIntFunction fn) {
   };
   const int rc = sqlite3_create_function_v2(db_, name, 5, SQLITE_UTF8 | SQLITE_DETERMINISTIC,
                                             reinterpret_cast<void*>(fn), call, nullptr, nullptr, nullptr);
-  if (rc != SQLITE_OK) throw SqliteError(rc, fmt::format("{}: cannot define {}: {}", path_.string(), name, sqlite3_errstr(rc)));
+  if (rc != SQLITE_OK)
+    throw SqliteError(rc, fmt::format("{}: cannot define {}: {}", path_.string(), name, sqlite3_errstr(rc)));
 }
 
 }  // namespace pvcap::sqlite

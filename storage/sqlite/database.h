@@ -102,7 +102,10 @@ class Transaction {
  public:
   explicit Transaction(Database& db) : db_(db) { db_.exec("BEGIN IMMEDIATE"); }
   ~Transaction() {
-    if (!done_) try { db_.exec("ROLLBACK"); } catch (...) {}
+    if (!done_) try {
+        db_.exec("ROLLBACK");
+      } catch (...) {
+      }
   }
   void rollback() {
     if (!done_) db_.exec("ROLLBACK");

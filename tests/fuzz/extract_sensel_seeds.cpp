@@ -14,8 +14,10 @@ int main(int argc, char** argv) {
   }
   namespace fs = std::filesystem;
   if (!fs::is_directory(argv[1])) {
-    std::fprintf(stderr, "extract_sensel_seeds: %s is not a folder: the real Sensel captures are read from "
-                         "../shared beside the repository\n", argv[1]);
+    std::fprintf(stderr,
+                 "extract_sensel_seeds: %s is not a folder: the real Sensel captures are read from "
+                 "../shared beside the repository\n",
+                 argv[1]);
     return 1;
   }
   fs::create_directories(argv[2]);

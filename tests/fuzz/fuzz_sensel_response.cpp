@@ -18,7 +18,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   for (int guard = 0; guard < 100000 && !bytes.empty(); ++guard) {
     const Response r = parse_response(bytes, expect, reg, want);
     if (r.state == Response::State::NeedMore) break;
-    if (r.consumed == 0 || r.consumed > bytes.size()) __builtin_trap();  // no progress, or past the end
+    if (r.consumed == 0 || r.consumed > bytes.size()) __builtin_trap();        // no progress, or past the end
     if (r.state == Response::State::Bad && r.error.empty()) __builtin_trap();  // a Bad always says why
     if (r.state == Response::State::Ok && r.data.size() > bytes.size()) __builtin_trap();
     bytes = bytes.subspan(r.consumed);

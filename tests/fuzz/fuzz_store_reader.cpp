@@ -76,7 +76,8 @@ void read_replay(const std::filesystem::path& dir) {
   for (std::size_t c = 0;; ++c) {
     auto i = replay.camera_index("cam" + std::to_string(c));
     if (!i) break;
-    for (const auto& f : replay.camera_frames(i.value())) (void)replay.camera_device_time(i.value(), replay.due_ns(f.t_ns));
+    for (const auto& f : replay.camera_frames(i.value()))
+      (void)replay.camera_device_time(i.value(), replay.due_ns(f.t_ns));
   }
   auto rig = pvcap::sim::write_replay_rig(dir, dir / "replay.yaml", 1.0);
   if (!rig && rig.error().message.empty()) __builtin_trap();

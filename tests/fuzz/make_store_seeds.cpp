@@ -41,8 +41,19 @@ int main(int argc, char** argv) {
     f.content = sensel::kPressure;
     f.pressure = sensel::PressureImage{3, std::vector<std::uint16_t>(std::size_t(sensel::kMediumDetail.cells()), 0)};
     f.pressure->counts[std::size_t(p * 3)] = std::uint16_t(100 + p);
-    PressureRecord r{sensel, 0, std::uint64_t(p), 0, p * 8'000'000, t0 + p * 8'000'000, 0, 47, 27, 4, 4,
-                     sensel::encode_frame(f), t0 + p * 8'000'000};
+    PressureRecord r{sensel,
+                     0,
+                     std::uint64_t(p),
+                     0,
+                     p * 8'000'000,
+                     t0 + p * 8'000'000,
+                     0,
+                     47,
+                     27,
+                     4,
+                     4,
+                     sensel::encode_frame(f),
+                     t0 + p * 8'000'000};
     r.base = 3;
     r.counts = f.pressure->counts;
     writer.record(std::move(r));
@@ -52,8 +63,14 @@ int main(int argc, char** argv) {
     writer.submit_video(cam, cv::Mat(16, 32, CV_8UC3, cv::Scalar(i * 40, 80, 200 - i * 30)),
                         FrameRecord{cam, 0, std::uint64_t(i), std::uint64_t(i), i, t, 0, "good", false, "", {}, {}, t});
     const std::uint64_t before = std::uint64_t((t - t0) / 8'000'000);
-    writer.record(SampleRecord{std::uint64_t(i), i, t, t, 0, {{cam, 0, std::uint64_t(i), 0}},
-                               SampleFrameRef{sensel, 0, before, -1000}, SampleFrameRef{sensel, 0, before, -1000},
+    writer.record(SampleRecord{std::uint64_t(i),
+                               i,
+                               t,
+                               t,
+                               0,
+                               {{cam, 0, std::uint64_t(i), 0}},
+                               SampleFrameRef{sensel, 0, before, -1000},
+                               SampleFrameRef{sensel, 0, before, -1000},
                                SampleFrameRef{sensel, 0, before + 1, 7000}});
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }

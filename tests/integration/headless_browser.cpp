@@ -114,7 +114,8 @@ std::optional<nlohmann::json> HeadlessBrowser::receive(std::chrono::milliseconds
   }
 }
 
-nlohmann::json HeadlessBrowser::call(const std::string& method, const nlohmann::json& params, const std::string& session) {
+nlohmann::json HeadlessBrowser::call(const std::string& method, const nlohmann::json& params,
+                                     const std::string& session) {
   if (!ok()) return nullptr;
   const int id = next_id_++;
   nlohmann::json m = {{"id", id}, {"method", method}, {"params", params}};

@@ -19,8 +19,8 @@ namespace fs = std::filesystem;
 
 namespace pvcap::testing {
 
-std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, int height, double fps,
-                         double video_fps, const std::string& trigger, bool sensel) {
+std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, int height, double fps, double video_fps,
+                         const std::string& trigger, bool sensel) {
   std::string y = "name: test-rig\ncameras:\n";
   for (std::size_t i = 0; i < cameras.size(); ++i)
     y += fmt::format(
@@ -53,7 +53,6 @@ CommandResult run_pvcap(const std::string& args, const std::string& prefix) {
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
 }
-
 
 pid_t spawn_pvcap(const std::string& args, const fs::path& log, const std::string& prefix) {
   const pid_t pid = fork();
@@ -156,15 +155,16 @@ RecordedSession record(const std::string& test_name, const std::string& rig_yaml
         "FROM frames WHERE device_id = ? ORDER BY host_ns");
     f.bind(1, c.device_id);
     while (f.step())
-      c.frames.push_back({std::uint32_t(f.column_int(0)), std::uint64_t(f.column_int(1)), std::uint64_t(f.column_int(2)),
-                          f.column_int(3), f.column_int(4), f.column_text(5), f.column_text(6), f.column_int(7) != 0,
-                          f.column_int(8), f.column_int(9)});
+      c.frames.push_back({std::uint32_t(f.column_int(0)), std::uint64_t(f.column_int(1)),
+                          std::uint64_t(f.column_int(2)), f.column_int(3), f.column_int(4), f.column_text(5),
+                          f.column_text(6), f.column_int(7) != 0, f.column_int(8), f.column_int(9)});
     auto v = db.prepare("SELECT id, path FROM video_files WHERE device_id = ? ORDER BY segment");
     v.bind(1, c.device_id);
     while (v.step()) c.videos.emplace_back(v.column_int(0), s.dir / v.column_text(1));
     auto d = db.prepare("SELECT first_sequence, count, reason FROM drops WHERE device_id = ?");
     d.bind(1, c.device_id);
-    while (d.step()) c.drops.push_back({std::uint64_t(d.column_int(0)), std::uint64_t(d.column_int(1)), d.column_text(2)});
+    while (d.step())
+      c.drops.push_back({std::uint64_t(d.column_int(0)), std::uint64_t(d.column_int(1)), d.column_text(2)});
     s.cameras.push_back(std::move(c));
   }
   return s;

@@ -18,17 +18,17 @@ struct SimCameraSpec {
   double return_after_s = -1;  // < 0: never
   bool trigger_line = true;    // false: not wired to the simulated trigger line
   double drift_ppm = 0;
-  double offset_ms = 1000;     // fields are set by name in the tests ({.packet_loss = 0.01})
+  double offset_ms = 1000;  // fields are set by name in the tests ({.packet_loss = 0.01})
 };
 
 // A rig of `cameras` simulated cameras at 127.0.0.2.. with the given size and rate.
-std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, int height, double fps,
-                         double video_fps, const std::string& trigger = "free-run", bool sensel = false);
+std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, int height, double fps, double video_fps,
+                         const std::string& trigger = "free-run", bool sensel = false);
 
 // A protocol of one press (index finger) at the given force levels ("[low, high]"), 2 repetitions,
 // with the given fast timings; written as dir/protocol.yaml.
-std::filesystem::path write_press_protocol(const std::filesystem::path& dir, const std::string& forces,
-                                           double prompt_s, double countdown_s, double record_s, double rest_s);
+std::filesystem::path write_press_protocol(const std::filesystem::path& dir, const std::string& forces, double prompt_s,
+                                           double countdown_s, double record_s, double rest_s);
 // Four 320x240 cameras at 30 Hz and a Sensel: the protocol tests' rig, written as dir/rig.yaml.
 std::filesystem::path write_protocol_rig(const std::filesystem::path& dir);
 

@@ -60,8 +60,8 @@ TEST(Calibration, BoardSessionGivesEveryCamerasIntrinsicsWithinTargets) {
                                            (work / "board").string()));
   ASSERT_EQ(board.exit_code, 0) << board.output;
   const fs::path session = only_session(work / "board");
-  const auto intrinsics = run_pvcap(fmt::format("calibrate intrinsics {} --rig {} --ground-truth {}",
-                                                session.string(), rig.string(), (session / "sim-truth").string()));
+  const auto intrinsics = run_pvcap(fmt::format("calibrate intrinsics {} --rig {} --ground-truth {}", session.string(),
+                                                rig.string(), (session / "sim-truth").string()));
   // The margins, in the test log whatever the outcome (the principal point's is the thin one).
   for (std::size_t p = intrinsics.output.find("against the truth"); p != std::string::npos;
        p = intrinsics.output.find("against the truth", p + 1))
@@ -95,8 +95,8 @@ TEST(Calibration, PadCornersFromASessionMatchTheTruthAndLaterSessionsRecordTheCa
   const fs::path work = work_dir("calibrate-pad");
   const fs::path rig = write_full_size_rig(work);
   // 4 s: two presses of the simulated Sensel (one every 2 s) for the press check.
-  const auto first = run_pvcap(fmt::format("session --rig {} --duration 4 --root {} --no-web", rig.string(),
-                                           (work / "s1").string()));
+  const auto first =
+      run_pvcap(fmt::format("session --rig {} --duration 4 --root {} --no-web", rig.string(), (work / "s1").string()));
   ASSERT_EQ(first.exit_code, 0) << first.output;
   const fs::path session = only_session(work / "s1");
 
@@ -139,7 +139,8 @@ TEST(Calibration, PadCornersFromASessionMatchTheTruthAndLaterSessionsRecordTheCa
   // 1 mm on the pad (the simulator's truth puts both at the same point).
   const auto check = run_pvcap(fmt::format("calibrate check {} --rig {}", session.string(), rig.string()));
   EXPECT_EQ(check.exit_code, 0) << check.output;
-  const std::regex line(R"((cam\d): (\d+) presses; pressure vs fingertip: median ([\d.]+) px / ([\d.]+) mm, max ([\d.]+) px / ([\d.]+) mm)");
+  const std::regex line(
+      R"((cam\d): (\d+) presses; pressure vs fingertip: median ([\d.]+) px / ([\d.]+) mm, max ([\d.]+) px / ([\d.]+) mm)");
   int cameras_checked = 0;
   for (std::sregex_iterator it(check.output.begin(), check.output.end(), line), end; it != end; ++it) {
     ++cameras_checked;
@@ -149,8 +150,8 @@ TEST(Calibration, PadCornersFromASessionMatchTheTruthAndLaterSessionsRecordTheCa
   EXPECT_EQ(cameras_checked, 4) << check.output;
 
   // The next session on this rig records the calibration it was made with.
-  const auto second = run_pvcap(fmt::format("session --rig {} --duration 2 --root {} --no-web", rig.string(),
-                                            (work / "s2").string()));
+  const auto second =
+      run_pvcap(fmt::format("session --rig {} --duration 2 --root {} --no-web", rig.string(), (work / "s2").string()));
   ASSERT_EQ(second.exit_code, 0) << second.output;
   auto reader = pvcap::SessionReader::open(only_session(work / "s2"));
   ASSERT_TRUE(reader);
@@ -162,11 +163,12 @@ TEST(Calibration, PadCornersFromASessionMatchTheTruthAndLaterSessionsRecordTheCa
 
   // A damaged calibration file is said, and the session is recorded anyway.
   std::ofstream(file) << "pvcap_calibration: [unclosed\n";
-  const auto third = run_pvcap(fmt::format("session --rig {} --duration 2 --root {} --no-web", rig.string(),
-                                           (work / "s3").string()));
+  const auto third =
+      run_pvcap(fmt::format("session --rig {} --duration 2 --root {} --no-web", rig.string(), (work / "s3").string()));
   EXPECT_EQ(third.exit_code, 0) << third.output;
-  EXPECT_TRUE(std::regex_search(third.output, std::regex(R"(rig\.calibration\.yaml:\d+: YAML syntax error.*the session is )"
-                                                          R"(recorded without it)")))
+  EXPECT_TRUE(
+      std::regex_search(third.output, std::regex(R"(rig\.calibration\.yaml:\d+: YAML syntax error.*the session is )"
+                                                 R"(recorded without it)")))
       << third.output;
   fs::remove_all(work);
 }

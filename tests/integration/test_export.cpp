@@ -60,7 +60,8 @@ const Recorded& recorded() {
       fs::remove_all(to_remove, ec);
     });
     std::string rig = read_all(fs::path(PVCAP_SOURCE_DIR) / "rig-configs" / "sim.yaml");
-    for (auto [from, to] : {std::pair<std::string, std::string>{"width: 1920", "width: 960"}, {"height: 1080", "height: 540"}})
+    for (auto [from, to] :
+         {std::pair<std::string, std::string>{"width: 1920", "width: 960"}, {"height: 1080", "height: 540"}})
       for (auto at = rig.find(from); at != std::string::npos; at = rig.find(from)) rig.replace(at, from.size(), to);
     std::ofstream(out.work / "rig.yaml") << rig;
     const auto run = run_pvcap(fmt::format(
@@ -71,8 +72,8 @@ const Recorded& recorded() {
     EXPECT_EQ(run.exit_code, 0) << run.output;
     out.session = only_session(out.work / "sessions");
     EXPECT_EQ(write_truth_lenses(out.session, out.work / "lenses.yaml"), "");
-    const auto pad = run_pvcap(fmt::format("calibrate pad {} --calibration {}", out.session.string(),
-                                           (out.work / "lenses.yaml").string()));
+    const auto pad = run_pvcap(
+        fmt::format("calibrate pad {} --calibration {}", out.session.string(), (out.work / "lenses.yaml").string()));
     EXPECT_EQ(pad.exit_code, 0) << pad.output;
     return out;
   }();
@@ -80,11 +81,10 @@ const Recorded& recorded() {
 }
 
 json read_back(const fs::path& dir, const fs::path& session) {
-  const std::string out = output_of(fmt::format("/usr/bin/python3 {} {} {}",
-                                                (fs::path(PVCAP_SOURCE_DIR) / "tests" / "integration" /
-                                                 "read_pressurevision_export.py")
-                                                    .string(),
-                                                dir.string(), (session / "sim-truth" / "rig.json").string()));
+  const std::string out = output_of(
+      fmt::format("/usr/bin/python3 {} {} {}",
+                  (fs::path(PVCAP_SOURCE_DIR) / "tests" / "integration" / "read_pressurevision_export.py").string(),
+                  dir.string(), (session / "sim-truth" / "rig.json").string()));
   return json::parse(out, nullptr, false);
 }
 
@@ -106,13 +106,15 @@ TEST(Export, ThePressureVisionLayoutReadsBackAsTheLoadersReadIt) {
   const Recorded& rec = recorded();
   ASSERT_FALSE(rec.session.empty());
   const fs::path out = rec.work / "pv";
-  const auto run = run_pvcap(fmt::format("export {} --layout pressurevision --out {}", rec.session.string(), out.string()));
+  const auto run =
+      run_pvcap(fmt::format("export {} --layout pressurevision --out {}", rec.session.string(), out.string()));
   ASSERT_EQ(run.exit_code, 0) << run.output;
   const json back = read_back(out, rec.session);
   ASSERT_TRUE(back.is_object()) << "the Python reader failed";
   EXPECT_EQ(back["participants"]["P017"], "0001_P017");
 
-  const auto takes = json::parse(run_pvcap(fmt::format("--log-level warn takes {} --json", rec.session.string())).output);
+  const auto takes =
+      json::parse(run_pvcap(fmt::format("--log-level warn takes {} --json", rec.session.string())).output);
   ASSERT_EQ(back["sequences"].size(), takes["takes"].size()) << "every done take is a sequence";
   auto reader = pvcap::SessionReader::open(rec.session);
   ASSERT_TRUE(reader) << reader.error().message;
@@ -131,15 +133,16 @@ TEST(Export, ThePressureVisionLayoutReadsBackAsTheLoadersReadIt) {
     const std::size_t n = seq["num_frames"];
     // Every sample of the take is a frame, or counted as left out (a camera's frame missing: the
     // simulated cameras free-run, and a loaded machine makes some instants incomplete).
-    const json meta = json::parse(read_all(out / seq["participant"].get<std::string>() /
-                                           seq["sequence"].get<std::string>() / "metadata.json"));
+    const json meta = json::parse(
+        read_all(out / seq["participant"].get<std::string>() / seq["sequence"].get<std::string>() / "metadata.json"));
     EXPECT_EQ(n + meta["pvcap"]["samples_left_out"].get<std::size_t>(), end - first);
     EXPECT_GT(n, (end - first) / 2);
-    for (std::size_t t = 1; t < n; ++t) EXPECT_GT(seq["timesteps"][t].get<double>(), seq["timesteps"][t - 1].get<double>());
+    for (std::size_t t = 1; t < n; ++t)
+      EXPECT_GT(seq["timesteps"][t].get<double>(), seq["timesteps"][t - 1].get<double>());
     // The force the loaders compute is the store's pressure: compare each frame with the sample at its time.
     for (std::size_t t = 0; t < n; ++t) {
-      const std::int64_t at = reader.value()->info().started_host_ns +
-                              std::llround(seq["timesteps"][t].get<double>() * 1e9);
+      const std::int64_t at =
+          reader.value()->info().started_host_ns + std::llround(seq["timesteps"][t].get<double>() * 1e9);
       auto i = reader.value()->sample_at(at);
       ASSERT_TRUE(i);
       const double expected = store_kpa_sum(*reader.value(), i.value());
@@ -160,7 +163,8 @@ TEST(Export, ThePressureVisionLayoutReadsBackAsTheLoadersReadIt) {
     EXPECT_EQ(meta["pvcap"]["take"]["sequence"], seq["sequence"]);
   }
   // Again: everything is found, nothing rewritten.
-  const auto again = run_pvcap(fmt::format("export {} --layout pressurevision --out {}", rec.session.string(), out.string()));
+  const auto again =
+      run_pvcap(fmt::format("export {} --layout pressurevision --out {}", rec.session.string(), out.string()));
   ASSERT_EQ(again.exit_code, 0) << again.output;
   EXPECT_NE(again.output.find("(0 written now"), std::string::npos) << again.output;
 }
@@ -201,9 +205,9 @@ TEST(Export, OneTakeSomeCamerasAndNpyForce) {
   EXPECT_TRUE(fs::exists(dir / "camera_1" / "00000.jpg"));
   EXPECT_FALSE(fs::exists(dir / "camera_2"));
   EXPECT_TRUE(fs::exists(dir / "force" / "00000.npy"));
-  const std::string npy = output_of(fmt::format(
-      "/usr/bin/python3 -c \"import numpy; a = numpy.load('{}'); print(a.shape, a.dtype)\"",
-      (dir / "force" / "00000.npy").string()));
+  const std::string npy =
+      output_of(fmt::format("/usr/bin/python3 -c \"import numpy; a = numpy.load('{}'); print(a.shape, a.dtype)\"",
+                            (dir / "force" / "00000.npy").string()));
   EXPECT_EQ(npy, "(105, 185) float32\n");
 }
 
@@ -212,9 +216,9 @@ TEST(Export, AnInterruptedExportResumesAndMistakesAreNamed) {
   ASSERT_FALSE(rec.session.empty());
   const fs::path out = rec.work / "resume";
   // Killed mid-way: only whole files are left, and the second run completes the rest.
-  const pid_t pid = spawn_pvcap(fmt::format("export {} --layout pressurevision --out {}", rec.session.string(),
-                                            out.string()),
-                                rec.work / "export-killed.log");
+  const pid_t pid =
+      spawn_pvcap(fmt::format("export {} --layout pressurevision --out {}", rec.session.string(), out.string()),
+                  rec.work / "export-killed.log");
   for (int i = 0; i < 200; ++i) {
     std::size_t files = 0;
     if (fs::exists(out))
@@ -224,8 +228,8 @@ TEST(Export, AnInterruptedExportResumesAndMistakesAreNamed) {
   }
   kill(pid, SIGKILL);
   waitpid(pid, nullptr, 0);
-  const auto resumed = run_pvcap(fmt::format("export {} --layout pressurevision --out {}", rec.session.string(),
-                                             out.string()));
+  const auto resumed =
+      run_pvcap(fmt::format("export {} --layout pressurevision --out {}", rec.session.string(), out.string()));
   ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
   EXPECT_EQ(resumed.output.find(", 0 found from an earlier run"), std::string::npos)
       << "the killed run's frames are kept: " << resumed.output;
@@ -253,8 +257,8 @@ TEST(Export, ThePapersCropKeepsTheLoadersGeometryOnTheCroppedFrames) {
   ASSERT_FALSE(rec.session.empty());
   const fs::path out = rec.work / "crop";
   const std::string take = "press_index_finger_low_2x_left";
-  const auto run = run_pvcap(fmt::format("export {} --out {} --take {} --crop-paper", rec.session.string(),
-                                         out.string(), take));
+  const auto run =
+      run_pvcap(fmt::format("export {} --out {} --take {} --crop-paper", rec.session.string(), out.string(), take));
   ASSERT_EQ(run.exit_code, 0) << run.output;
   const fs::path dir = out / "0001_P017" / take;
   const json meta = json::parse(read_all(dir / "metadata.json"));
@@ -286,7 +290,8 @@ TEST(Export, ThePapersCropKeepsTheLoadersGeometryOnTheCroppedFrames) {
     cv::Vec3d rvec;
     cv::Rodrigues(R, rvec);
     const cv::Matx33d K(c["fx"], 0, c["cx"], 0, c["fy"], c["cy"], 0, 0, 1);
-    std::vector<cv::Point3d> world{{0.149, -0.001, 0.251}, {0.014, -0.001, 0.251}, {0.014, -0.001, 0.016}, {0.149, -0.001, 0.016}};
+    std::vector<cv::Point3d> world{
+        {0.149, -0.001, 0.251}, {0.014, -0.001, 0.251}, {0.014, -0.001, 0.016}, {0.149, -0.001, 0.016}};
     std::vector<cv::Point2d> corners;
     cv::projectPoints(world, rvec, t, cv::Mat(K), cv::Mat(), corners);
     const auto& tc = truth.value().cameras[k].pad_corners_px;  // (0,0), (185,0), (185,105), (0,105)

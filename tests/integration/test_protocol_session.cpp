@@ -48,9 +48,10 @@ nlohmann::json takes_of(const fs::path& session) {
 
 TEST(ProtocolSession, TheAutomaticParticipantPerformsEveryTakeAndTheDataAgreeWithTheLabels) {
   const fs::path work = work_dir("protocol");
-  const auto r = run_pvcap(fmt::format(
-      "session --rig {} --root {} --protocol {} --auto --fast --participant T01 --skin-tone dark --hand-order left_first",
-      write_rig(work).string(), (work / "sessions").string(), write_protocol(work).string()));
+  const auto r =
+      run_pvcap(fmt::format("session --rig {} --root {} --protocol {} --auto --fast --participant T01 --skin-tone dark "
+                            "--hand-order left_first",
+                            write_rig(work).string(), (work / "sessions").string(), write_protocol(work).string()));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("ended: protocol complete"), std::string::npos) << r.output;
   const fs::path session = only_session(work / "sessions");
@@ -113,7 +114,8 @@ TEST(ProtocolSession, AKilledSessionResumesAndTogetherTheFoldersCoverTheProtocol
   const std::string first_log = read_all(log);
   std::set<std::string> acknowledged;
   const std::regex done_line("protocol: (press_index_finger_\\w+) done");
-  for (auto it = std::sregex_iterator(first_log.begin(), first_log.end(), done_line); it != std::sregex_iterator(); ++it)
+  for (auto it = std::sregex_iterator(first_log.begin(), first_log.end(), done_line); it != std::sregex_iterator();
+       ++it)
     acknowledged.insert((*it)[1]);
   ASSERT_EQ(acknowledged.size(), 3u) << first_log;
 
@@ -177,14 +179,15 @@ bool pane_shows(const std::string& needle, std::chrono::seconds timeout, int tim
 // The operator's keyboard in a real terminal (tmux): the participant's details asked first (none
 // were given on the command line), then start, pause and resume, skip, redo, abort.
 TEST(ProtocolSession, TheOperatorSteersFromTheTerminal) {
-  if (std::system("command -v tmux > /dev/null") != 0) GTEST_SKIP() << "tmux is not installed (scripts/deps.sh installs it)";
+  if (std::system("command -v tmux > /dev/null") != 0)
+    GTEST_SKIP() << "tmux is not installed (scripts/deps.sh installs it)";
   const fs::path work = work_dir("console");
   const fs::path rig = write_rig(work), protocol = write_protocol(work);
   tmux("kill-server");
-  tmux(fmt::format("new-session -d -s console -x 220 -y 60 '{} session --rig {} --root {} --protocol {} --fast "
-                   "--no-web 2>&1 | tee {}'",
-                   PVCAP_BIN, rig.string(), (work / "sessions").string(), protocol.string(),
-                   (work / "console.log").string()));
+  tmux(fmt::format(
+      "new-session -d -s console -x 220 -y 60 '{} session --rig {} --root {} --protocol {} --fast "
+      "--no-web 2>&1 | tee {}'",
+      PVCAP_BIN, rig.string(), (work / "sessions").string(), protocol.string(), (work / "console.log").string()));
   ASSERT_TRUE(pane_shows("Participant code", std::chrono::seconds(20))) << tmux("capture-pane -p -t console");
   tmux("send-keys -t console 'Jane Doe' Enter");  // a name is refused
   ASSERT_TRUE(pane_shows("not accepted", std::chrono::seconds(5))) << tmux("capture-pane -p -t console");

@@ -39,8 +39,8 @@ TEST(Replay, TheRenderedTakeShowsThePressWhereTheSimulatorPutIt) {
   const fs::path session = only_session(work / "sessions");
   // The pad calibrated through the simulator's lenses (no board session needed here).
   ASSERT_EQ(write_truth_lenses(session, work / "lenses.yaml"), "");
-  const auto pad = run_pvcap(fmt::format("calibrate pad {} --calibration {}", session.string(),
-                                         (work / "lenses.yaml").string()));
+  const auto pad =
+      run_pvcap(fmt::format("calibrate pad {} --calibration {}", session.string(), (work / "lenses.yaml").string()));
   ASSERT_EQ(pad.exit_code, 0) << pad.output;
 
   // The first take, rendered.
@@ -143,8 +143,8 @@ TEST(Replay, TheRenderedTakeShowsThePressWhereTheSimulatorPutIt) {
     const double scale = double(fit.width) / cam.width;
     const cv::Point2d expected((px.x + 0.5) * scale - 0.5, (px.y + 0.5) * scale - 0.5);
     const double off = cv::norm(hot - expected);
-    std::printf("%s: overlay centre (%.1f, %.1f), truth (%.1f, %.1f): %.2f view px (%d pixels hot)\n",
-                cam.name.c_str(), hot.x, hot.y, expected.x, expected.y, off, area);
+    std::printf("%s: overlay centre (%.1f, %.1f), truth (%.1f, %.1f): %.2f view px (%d pixels hot)\n", cam.name.c_str(),
+                hot.x, hot.y, expected.x, expected.y, off, area);
     EXPECT_LT(off, 4.0) << cam.name;
   }
 
@@ -160,8 +160,7 @@ TEST(Replay, TheRenderedTakeShowsThePressWhereTheSimulatorPutIt) {
       run_pvcap(fmt::format("replay {} --keys n,right,right,q --snapshot {}", session.string(), shot.string()));
   unsetenv("QT_QPA_PLATFORM");
   ASSERT_EQ(window.exit_code, 0) << window.output;
-  EXPECT_NE(window.output.find(fmt::format("the last of sample {}", expected)), std::string::npos)
-      << window.output;
+  EXPECT_NE(window.output.find(fmt::format("the last of sample {}", expected)), std::string::npos) << window.output;
   const cv::Mat seen = cv::imread(shot.string());
   ASSERT_FALSE(seen.empty());
   ASSERT_GT(seen.rows, Layout::kHeight) << "the status line under the picture";

@@ -139,8 +139,8 @@ RoundTrip record_twice(const fs::path& work, const std::string& rig_yaml, double
     ADD_FAILURE() << rig.output;
     return {};
   }
-  const auto again = run_pvcap(fmt::format("session --rig {} --root {} --duration {} --no-web",
-                                           r.replay_rig.string(), (work / "replayed").string(), again_seconds));
+  const auto again = run_pvcap(fmt::format("session --rig {} --root {} --duration {} --no-web", r.replay_rig.string(),
+                                           (work / "replayed").string(), again_seconds));
   r.again_output = again.output;
   r.replayed = only_session(work / "replayed");
   if (again.exit_code != 0 || r.replayed.empty()) {
@@ -154,18 +154,19 @@ RoundTrip record_twice(const fs::path& work, const std::string& rig_yaml, double
 
 TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   const fs::path work = work_dir("replay-devices");
-  std::ofstream(work / "rig.yaml") << sim_rig_yaml(
-      {{.drift_ppm = 40, .offset_ms = 5000}, {.drift_ppm = -65, .offset_ms = 12500}, {.drift_ppm = 90, .offset_ms = 800},
-       {.drift_ppm = -15, .offset_ms = 31000}},
-      640, 480, 30, 15, "free-run", /*sensel=*/true);
+  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000},
+                                                    {.drift_ppm = -65, .offset_ms = 12500},
+                                                    {.drift_ppm = 90, .offset_ms = 800},
+                                                    {.drift_ppm = -15, .offset_ms = 31000}},
+                                                   640, 480, 30, 15, "free-run", /*sensel=*/true);
   const auto first = run_pvcap(fmt::format("session --rig {} --root {} --duration 8 --no-web",
                                            (work / "rig.yaml").string(), (work / "recorded").string()));
   ASSERT_EQ(first.exit_code, 0) << first.output;
   const fs::path recorded = only_session(work / "recorded");
   ASSERT_FALSE(recorded.empty()) << first.output;
 
-  const auto rig = run_pvcap(fmt::format("replay {} --as-devices --rig-out {}", recorded.string(),
-                                         (work / "replay.yaml").string()));
+  const auto rig =
+      run_pvcap(fmt::format("replay {} --as-devices --rig-out {}", recorded.string(), (work / "replay.yaml").string()));
   ASSERT_EQ(rig.exit_code, 0) << rig.output;
   // The printed command, as a user would run it.
   const std::string printed = "pvcap session --rig " + (work / "replay.yaml").string() + " --duration ";
@@ -229,8 +230,7 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
                  std::int64_t at_again) {
     const auto x = ra_.mapped_ns.find({stream, then_device}), y = ra_.mapped_ns.find({stream, again_device});
     const auto xa = rb_.mapped_ns.find({stream, then_device}), ya = rb_.mapped_ns.find({stream, again_device});
-    if (x == ra_.mapped_ns.end() || y == ra_.mapped_ns.end() || xa == rb_.mapped_ns.end() ||
-        ya == rb_.mapped_ns.end())
+    if (x == ra_.mapped_ns.end() || y == ra_.mapped_ns.end() || xa == rb_.mapped_ns.end() || ya == rb_.mapped_ns.end())
       return false;
     tie_margins_us.push_back((std::fabs(double(y->second - at_then)) - std::fabs(double(x->second - at_then))) / 1e3);
     return std::fabs(double(ya->second - at_again)) <= std::fabs(double(xa->second - at_again)) + 1e3;
@@ -269,8 +269,10 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
                       tie("pressure", s.pressure_device_ns, twin->pressure_device_ns, s.t_ns, twin->t_ns));
     for (const auto& [name, frame] : s.cameras) {
       const auto it = twin->cameras.find(name);
-      if (it == twin->cameras.end()) explained = false;
-      else if (it->second != frame) explained = explained && tie(name, frame.second, it->second.second, s.tick_ns, twin->tick_ns);
+      if (it == twin->cameras.end())
+        explained = false;
+      else if (it->second != frame)
+        explained = explained && tie(name, frame.second, it->second.second, s.tick_ns, twin->tick_ns);
     }
     if (explained) {
       ++ties;
@@ -283,12 +285,13 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   const std::size_t compared = a.size() - not_sent;
   const double same_pct = 100.0 * double(same) / double(compared);
   std::sort(tie_margins_us.begin(), tie_margins_us.end());
-  std::printf("as-devices round trip: %zu of %zu samples name the same camera frames and pressure frame "
-              "(%.2f %%; pressure alone %zu); %zu more broke a tie the other way (the re-recording's pick is the "
-              "nearer on its clock; the original's was nearer by at most %.0f us); %zu differ; %zu not compared (a "
-              "frame they name was due before its device streamed again)\n",
-              same, compared, same_pct, pressure_same, ties, tie_margins_us.empty() ? 0.0 : tie_margins_us.back(),
-              different, not_sent);
+  std::printf(
+      "as-devices round trip: %zu of %zu samples name the same camera frames and pressure frame "
+      "(%.2f %%; pressure alone %zu); %zu more broke a tie the other way (the re-recording's pick is the "
+      "nearer on its clock; the original's was nearer by at most %.0f us); %zu differ; %zu not compared (a "
+      "frame they name was due before its device streamed again)\n",
+      same, compared, same_pct, pressure_same, ties, tie_margins_us.empty() ? 0.0 : tie_margins_us.back(), different,
+      not_sent);
   EXPECT_LE(not_sent, 3u) << "only the session's first moments";
   EXPECT_GE(100.0 * double(same + ties) / double(compared), 99.0);
 
@@ -337,10 +340,11 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   }
   const auto sensel_errors = replay_interval_errors_ms(replayed / "sim-truth" / "sensel_replay.csv", true);
   EXPECT_GT(sensel_errors.size(), 800u);
-  std::printf("replay timing, |interval sent - recorded device interval|: cameras p50 %.3f p95 %.3f p99 %.3f ms "
-              "(%zu intervals); Sensel p50 %.3f p95 %.3f p99 %.3f ms (%zu)\n",
-              pct(cam_errors, 0.5), pct(cam_errors, 0.95), pct(cam_errors, 0.99), cam_errors.size(),
-              pct(sensel_errors, 0.5), pct(sensel_errors, 0.95), pct(sensel_errors, 0.99), sensel_errors.size());
+  std::printf(
+      "replay timing, |interval sent - recorded device interval|: cameras p50 %.3f p95 %.3f p99 %.3f ms "
+      "(%zu intervals); Sensel p50 %.3f p95 %.3f p99 %.3f ms (%zu)\n",
+      pct(cam_errors, 0.5), pct(cam_errors, 0.95), pct(cam_errors, 0.99), cam_errors.size(), pct(sensel_errors, 0.5),
+      pct(sensel_errors, 0.95), pct(sensel_errors, 0.99), sensel_errors.size());
   // Frames leave on time: p50 10-60 us, cameras p99 0.3-0.9 ms and the Sensel's 0.1-0.25 ms on
   // these 2 cores beside the recorder (docs/replay.md). The bounds are on p95, which this shared
   // machine's hiccups do not reach (one moves ~8 intervals by milliseconds, and two in a run took
@@ -391,9 +395,10 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
   // ~45 samples; under the suite's load fewer are found in both with an image (14 once).
   ASSERT_GE(differences.size(), 8u);
   std::sort(differences.begin(), differences.end());
-  std::printf("colour store re-served: %zu images compared; mean |again - then| median %.2f, worst %.2f levels "
-              "(a grey frame: %.1f)\n",
-              differences.size(), differences[differences.size() / 2], differences.back(), grey_difference);
+  std::printf(
+      "colour store re-served: %zu images compared; mean |again - then| median %.2f, worst %.2f levels "
+      "(a grey frame: %.1f)\n",
+      differences.size(), differences[differences.size() / 2], differences.back(), grey_difference);
   EXPECT_LT(differences.back(), 8.0);
   EXPECT_GT(grey_difference, 20.0) << "the scene is not grey: the comparison means something";
   fs::remove_all(work);
@@ -443,8 +448,8 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
 // half the time.
 TEST(ReplayAsDevices, AtRateTwoTheSameFramesComeTwiceAsOften) {
   const fs::path work = work_dir("replay-rate");
-  const RoundTrip trip = record_twice(work, sim_rig_yaml({{.drift_ppm = 40}}, 640, 480, 30, 15, "free-run", true),
-                                      5, 3.1, "--rate 2");
+  const RoundTrip trip =
+      record_twice(work, sim_rig_yaml({{.drift_ppm = 40}}, 640, 480, 30, 15, "free-run", true), 5, 3.1, "--rate 2");
   ASSERT_FALSE(trip.replayed.empty());
   const std::string printed = "pvcap session --rig " + trip.replay_rig.string() + " --duration ";
   const auto at = trip.rig_output.find(printed);
@@ -494,8 +499,8 @@ TEST(ReplayAsDevices, AtRateTwoTheSameFramesComeTwiceAsOften) {
     if (first_b != b.camera_device_ns.end())
       halved += std::llabs((it->second - first_b->second) - (device_ns - first_a->second) / 2) < 2'000;
   }
-  std::printf("cam0 at rate 2: %zu of %zu recorded frames received again, %zu at half the device time apart\n",
-              again, a.camera_device_ns.size(), halved);
+  std::printf("cam0 at rate 2: %zu of %zu recorded frames received again, %zu at half the device time apart\n", again,
+              a.camera_device_ns.size(), halved);
   EXPECT_GT(a.camera_device_ns.size(), 130u);
   EXPECT_GE(double(again), 0.9 * double(a.camera_device_ns.size()));
   EXPECT_EQ(halved, again);
@@ -507,18 +512,19 @@ TEST(ReplayAsDevices, AtRateTwoTheSameFramesComeTwiceAsOften) {
       same += it != a.pressure_by_counter.end() &&
               std::find(it->second.begin(), it->second.end(), payload) != it->second.end();
     }
-  std::printf("pressure at rate 2: %zu of %zu recorded frames received again, the same but for the timestamp\n",
-              same, a.pressure_frames);
+  std::printf("pressure at rate 2: %zu of %zu recorded frames received again, the same but for the timestamp\n", same,
+              a.pressure_frames);
   EXPECT_GE(double(same), 0.9 * double(a.pressure_frames));
   // On the new session's clock the camera runs at 60 frames a second, and the frames left on time.
   ASSERT_GT(b.camera_mapped_ns.size(), 100u);
-  const double fps = double(b.camera_mapped_ns.size() - 1) /
-                     (double(b.camera_mapped_ns.back() - b.camera_mapped_ns.front()) / 1e9);
+  const double fps =
+      double(b.camera_mapped_ns.size() - 1) / (double(b.camera_mapped_ns.back() - b.camera_mapped_ns.front()) / 1e9);
   const auto cam = replay_interval_errors_ms(trip.replayed / "sim-truth" / "cam0_replay.csv", false);
   const auto sensel = replay_interval_errors_ms(trip.replayed / "sim-truth" / "sensel_replay.csv", true);
-  std::printf("re-recorded at rate 2: %.1f camera frames a second; |interval sent - timestamped| camera p50 %.3f "
-              "p95 %.3f ms, Sensel p50 %.3f p95 %.3f ms\n",
-              fps, pct(cam, 0.5), pct(cam, 0.95), pct(sensel, 0.5), pct(sensel, 0.95));
+  std::printf(
+      "re-recorded at rate 2: %.1f camera frames a second; |interval sent - timestamped| camera p50 %.3f "
+      "p95 %.3f ms, Sensel p50 %.3f p95 %.3f ms\n",
+      fps, pct(cam, 0.5), pct(cam, 0.95), pct(sensel, 0.5), pct(sensel, 0.95));
   EXPECT_NEAR(fps, 60.0, 1.0);
   EXPECT_LT(pct(cam, 0.5), 0.5);
   EXPECT_LT(pct(sensel, 0.5), 0.5);

@@ -68,7 +68,8 @@ TEST(Report, AProtocolSessionsReportOpensInABrowserAndItsCountsAreTheStores) {
   for (const auto& s : r["streams"]) {
     SCOPED_TRACE(s["name"].get<std::string>());
     EXPECT_TRUE(s["reconciles"].get<bool>());
-    const std::int64_t id = scalar(db, fmt::format("SELECT id FROM devices WHERE name = '{}'", s["name"].get<std::string>()));
+    const std::int64_t id =
+        scalar(db, fmt::format("SELECT id FROM devices WHERE name = '{}'", s["name"].get<std::string>()));
     EXPECT_EQ(s["not_received"].get<std::int64_t>(),
               scalar(db, "SELECT coalesce(sum(count), 0) FROM drops WHERE device_id = ?", id));
     if (s["kind"] == "camera") {
@@ -120,7 +121,8 @@ TEST(Report, AProtocolSessionsReportOpensInABrowserAndItsCountsAreTheStores) {
   ASSERT_FALSE(tab.empty());
   bool loaded = false;  // navigation returns before the page has loaded
   for (int i = 0; i < 200 && !loaded; ++i) {
-    loaded = browser.eval(tab, "document.readyState === 'complete' && document.title.startsWith('pvcap report')") == true;
+    loaded =
+        browser.eval(tab, "document.readyState === 'complete' && document.title.startsWith('pvcap report')") == true;
     if (!loaded) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   ASSERT_TRUE(loaded);
@@ -156,11 +158,11 @@ TEST(Report, TheSyncSelfCheckFindsLatenciesTheRigFileDoesNotDeclare) {
   // A press period off the 15 Hz grid: successive presses are sampled at different phases, as a
   // person's are.
   ASSERT_NO_FATAL_FAILURE(replace("period_s: 2.0", "period_s: 2.07"));
-  ASSERT_NO_FATAL_FAILURE(replace("drift_ppm: -65, jitter_us: 20", "drift_ppm: -65, jitter_us: 20, undeclared_latency_ms: 7"));
-  ASSERT_NO_FATAL_FAILURE(replace("drift_ppm: 90, jitter_us: 20", "drift_ppm: 90, jitter_us: 20, undeclared_latency_ms: -5"));
-  {
-    std::ofstream(work / "rig.yaml") << rig;
-  }
+  ASSERT_NO_FATAL_FAILURE(
+      replace("drift_ppm: -65, jitter_us: 20", "drift_ppm: -65, jitter_us: 20, undeclared_latency_ms: 7"));
+  ASSERT_NO_FATAL_FAILURE(
+      replace("drift_ppm: 90, jitter_us: 20", "drift_ppm: 90, jitter_us: 20, undeclared_latency_ms: -5"));
+  { std::ofstream(work / "rig.yaml") << rig; }
   const auto run = run_pvcap(fmt::format("session --rig {} --duration 40 --root {} --no-web",
                                          (work / "rig.yaml").string(), (work / "s").string()));
   ASSERT_EQ(run.exit_code, 0) << run.output;
@@ -169,8 +171,8 @@ TEST(Report, TheSyncSelfCheckFindsLatenciesTheRigFileDoesNotDeclare) {
   // The cameras' lenses as the simulator made them (so this test needs no board session), then the
   // pad calibrated from the session itself: the self-check finds the contact through it.
   ASSERT_EQ(write_truth_lenses(session, work / "lenses.yaml"), "");
-  const auto pad = run_pvcap(fmt::format("calibrate pad {} --calibration {}", session.string(),
-                                         (work / "lenses.yaml").string()));
+  const auto pad =
+      run_pvcap(fmt::format("calibrate pad {} --calibration {}", session.string(), (work / "lenses.yaml").string()));
   ASSERT_EQ(pad.exit_code, 0) << pad.output;
 
   const json r = report_json(session);
@@ -180,9 +182,9 @@ TEST(Report, TheSyncSelfCheckFindsLatenciesTheRigFileDoesNotDeclare) {
   const double injected[] = {0, 7, -5, 0};
   for (std::size_t c = 0; c < 4; ++c) {
     const json& cam = sc["cameras"][c];
-    std::printf("self-check %s: %s ms +- %s ms (injected %+.0f ms), %d presses\n", cam["name"].get<std::string>().c_str(),
-                cam["offset_ms"].dump().c_str(), cam["uncertainty_ms"].dump().c_str(), injected[c],
-                cam["presses"].get<int>());
+    std::printf("self-check %s: %s ms +- %s ms (injected %+.0f ms), %d presses\n",
+                cam["name"].get<std::string>().c_str(), cam["offset_ms"].dump().c_str(),
+                cam["uncertainty_ms"].dump().c_str(), injected[c], cam["presses"].get<int>());
     ASSERT_EQ(cam["verdict"], "ok") << cam.dump();
     EXPECT_NEAR(cam["offset_ms"].get<double>(), injected[c], 2.0) << cam.dump();
     EXPECT_LT(cam["uncertainty_ms"].get<double>(), 1.0) << cam.dump();

@@ -51,11 +51,10 @@ struct Rig {
     link = std::move(l.value());
     auto factory = [path = link->slave_path()](const std::string&) { return sensel::open_tty(path); };
 #endif
-    auto d = sensel::SenselDevice::open(factory,
-                                        [this](const sensel::SenselEvent& e) {
-                                          std::lock_guard lock(mu);
-                                          events.push_back(e);
-                                        });
+    auto d = sensel::SenselDevice::open(factory, [this](const sensel::SenselEvent& e) {
+      std::lock_guard lock(mu);
+      events.push_back(e);
+    });
     ASSERT_TRUE(d) << d.error().message;
     device = std::move(d.value());
   }

@@ -41,13 +41,13 @@ std::vector<fs::path> sessions_in(const fs::path& root) {
 TEST(SessionFaults, ASecondRecorderOnTheSameRigIsRefusedWithTheRunningOnesPidAndFolder) {
   const fs::path work = work_dir("one-recorder");
   const fs::path rig = write_rig(work);
-  const pid_t first = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 12 --no-web", rig.string(),
-                                              (work / "first").string()),
-                                  work / "first.log");
+  const pid_t first = spawn_pvcap(
+      fmt::format("session --rig {} --root {} --duration 12 --no-web", rig.string(), (work / "first").string()),
+      work / "first.log");
   ASSERT_TRUE(wait_for_text(work / "first.log", "recording session", std::chrono::seconds(60)))
       << read_all(work / "first.log");
-  const auto second = run_pvcap(fmt::format("session --rig {} --root {} --duration 3 --no-web", rig.string(),
-                                            (work / "second").string()));
+  const auto second = run_pvcap(
+      fmt::format("session --rig {} --root {} --duration 3 --no-web", rig.string(), (work / "second").string()));
   int status = 0;
   ASSERT_EQ(waitpid(first, &status, 0), first);
   const auto running = sessions_in(work / "first");
@@ -55,16 +55,16 @@ TEST(SessionFaults, ASecondRecorderOnTheSameRigIsRefusedWithTheRunningOnesPidAnd
   EXPECT_EQ(second.exit_code, 1) << second.output;
   EXPECT_NE(second.output.find("is already recording"), std::string::npos) << second.output;
   EXPECT_NE(second.output.find(fmt::format("pid {}", first)), std::string::npos) << second.output;
-  EXPECT_NE(second.output.find(running[0].string()), std::string::npos) << "names the running session's folder: "
-                                                                         << second.output;
+  EXPECT_NE(second.output.find(running[0].string()), std::string::npos)
+      << "names the running session's folder: " << second.output;
   EXPECT_TRUE(sessions_in(work / "second").empty()) << "the refused recorder left no session behind";
   // The first session never noticed.
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_all(work / "first.log");
   const auto v = run_pvcap("verify " + running[0].string());
   EXPECT_TRUE(v.exit_code == 0 || v.exit_code == 3) << v.output;
   // Once it has ended, the rig is free again (also after a kill: the kernel drops the lock).
-  const auto third = run_pvcap(fmt::format("session --rig {} --root {} --duration 2 --no-web", rig.string(),
-                                           (work / "third").string()));
+  const auto third = run_pvcap(
+      fmt::format("session --rig {} --root {} --duration 2 --no-web", rig.string(), (work / "third").string()));
   EXPECT_EQ(third.exit_code, 0) << third.output;
   fs::remove_all(work);
 }
@@ -78,8 +78,8 @@ TEST(SessionFaults, ARootThatCannotTakeASessionEndsWithExit1AndAMessage) {
   fs::create_directories(readonly);
   ASSERT_EQ(mount("tmpfs", readonly.c_str(), "tmpfs", MS_RDONLY | MS_NOSUID | MS_NODEV, "size=1m"), 0)
       << std::strerror(errno);
-  const auto ro = run_pvcap(fmt::format("session --rig {} --root {} --duration 2 --no-web", rig.string(),
-                                        readonly.string()));
+  const auto ro =
+      run_pvcap(fmt::format("session --rig {} --root {} --duration 2 --no-web", rig.string(), readonly.string()));
   umount2(readonly.c_str(), MNT_DETACH);
   EXPECT_EQ(ro.exit_code, 1) << ro.output;
   EXPECT_NE(ro.output.find(readonly.string()), std::string::npos) << "names where: " << ro.output;
@@ -153,8 +153,9 @@ TEST(SessionFaults, ASenselPluggedBackIsANewConnectionAndItsAbsenceIsRecordedAsL
   EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_reconnected'"), 1);
   EXPECT_GT(scalar(db, "SELECT count(*) FROM pressure_frames WHERE connection = 0"), 200);
   EXPECT_GT(scalar(db, "SELECT count(*) FROM pressure_frames WHERE connection = 1"), 200);
-  EXPECT_EQ(scalar(db, "SELECT count(*) FROM (SELECT connection, sequence FROM pressure_frames GROUP BY 1, 2 "
-                       "HAVING count(*) > 1)"),
+  EXPECT_EQ(scalar(db,
+                   "SELECT count(*) FROM (SELECT connection, sequence FROM pressure_frames GROUP BY 1, 2 "
+                   "HAVING count(*) > 1)"),
             0)
       << "a sequence repeated within a connection";
   // Away from the unplug (3 s) to the reconnect (4.5 s, then the driver's next try, once a second):
@@ -164,9 +165,10 @@ TEST(SessionFaults, ASenselPluggedBackIsANewConnectionAndItsAbsenceIsRecordedAsL
   EXPECT_LT(lost, 400);
   // Samples on both sides pair with their own connection's frames, and each reads back.
   EXPECT_GT(scalar(db, "SELECT count(*) FROM samples WHERE pressure_connection = 1"), 20);
-  EXPECT_EQ(scalar(db, "SELECT count(*) FROM samples s WHERE pressure_sequence IS NOT NULL AND NOT EXISTS (SELECT 1 "
-                       "FROM pressure_frames p WHERE p.connection = s.pressure_connection AND p.sequence = "
-                       "s.pressure_sequence AND abs(p.mapped_ns - s.t_ns) <= 20000000)"),
+  EXPECT_EQ(scalar(db,
+                   "SELECT count(*) FROM samples s WHERE pressure_sequence IS NOT NULL AND NOT EXISTS (SELECT 1 "
+                   "FROM pressure_frames p WHERE p.connection = s.pressure_connection AND p.sequence = "
+                   "s.pressure_sequence AND abs(p.mapped_ns - s.t_ns) <= 20000000)"),
             0)
       << "a sample names a pressure frame that is not the one near it";
   auto reader = pvcap::SessionReader::open(session);
@@ -227,12 +229,12 @@ TEST(SessionFaults, PressureFramesAndIndexRowsLostToASlowPvcapAreCountedWithThei
          "sensel_pipeline.stall_s=1,sensel_pipeline.stall_after_s=1,sensel.queue_frames=16,"
          "index_writer.stall_s=1.5,index_writer.stall_after_s=3.5,index_writer.queue_records=100",
          1);
-  const auto run = run_pvcap(fmt::format("session --rig {} --root {} --duration 6 --no-web", rig.string(),
-                                         (work / "sessions").string()));
+  const auto run = run_pvcap(
+      fmt::format("session --rig {} --root {} --duration 6 --no-web", rig.string(), (work / "sessions").string()));
   unsetenv("PVCAP_FAULTS");
   ASSERT_EQ(run.exit_code, 0) << run.output;
-  for (const std::string warning : {"frames lost because pvcap did not take them from the device",
-                                     "could not be queued for session.db"}) {
+  for (const std::string warning :
+       {"frames lost because pvcap did not take them from the device", "could not be queued for session.db"}) {
     const auto first = run.output.find(warning);
     EXPECT_NE(first, std::string::npos) << run.output;
     EXPECT_EQ(run.output.find(warning, first + 1), std::string::npos) << "said more than once: " << run.output;
@@ -281,9 +283,8 @@ TEST(SessionFaults, SighupAndSigtermStopTheSessionCleanly) {
   for (const int sig : {SIGHUP, SIGTERM}) {
     const fs::path root = work / fmt::format("sig{}", sig);
     const fs::path log = work / fmt::format("sig{}.log", sig);
-    const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 60 --no-web", rig.string(),
-                                              root.string()),
-                                  log);
+    const pid_t pid =
+        spawn_pvcap(fmt::format("session --rig {} --root {} --duration 60 --no-web", rig.string(), root.string()), log);
     ASSERT_TRUE(wait_for_text(log, "2.0 s |", std::chrono::seconds(60))) << read_all(log);
     if (sig == SIGHUP) {
       // Meanwhile `pvcap devices` asked about the Morph the session streams from leaves it alone.

@@ -25,9 +25,9 @@
 #include "calib/camera_model.h"
 #include "calib/rig_calibration.h"
 #include "headless_browser.h"
+#include "session_under_test.h"
 #include "sim/fingertip.h"
 #include "sim/truth.h"
-#include "session_under_test.h"
 #include "storage/session_reader.h"
 
 namespace fs = std::filesystem;
@@ -69,18 +69,17 @@ Url parse(const std::string& url) {
 
 const fs::path kScreenshots = fs::path(PVCAP_BINARY_DIR) / "tests" / "screenshots";
 
-
 }  // namespace
 
 TEST(SessionPages, TheParticipantAndOperatorPagesFollowTheRunnerThroughTheTakes) {
   HeadlessBrowser browser(1920, 1080);
   if (!browser.ok()) GTEST_SKIP() << "chromium is not installed (scripts/deps.sh installs it)";
   const fs::path work = work_dir("pages");
-  const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --protocol {} --auto --fast --participant T05 "
-                                            "--web-port 0",
-                                            write_rig(work).string(), (work / "sessions").string(),
-                                            write_protocol(work).string()),
-                                work / "pvcap.log");
+  const pid_t pid =
+      spawn_pvcap(fmt::format("session --rig {} --root {} --protocol {} --auto --fast --participant T05 "
+                              "--web-port 0",
+                              write_rig(work).string(), (work / "sessions").string(), write_protocol(work).string()),
+                  work / "pvcap.log");
   ASSERT_TRUE(wait_for_text(work / "pvcap.log", "operator console:", std::chrono::seconds(60)))
       << read_all(work / "pvcap.log");
   const std::string participant_url = printed_url(work / "pvcap.log", "participant display");
@@ -169,8 +168,8 @@ TEST(SessionPages, TheParticipantAndOperatorPagesFollowTheRunnerThroughTheTakes)
     EXPECT_TRUE(phases_seen.count(phase)) << phase << " never shown";
   EXPECT_TRUE(indicator_seen) << "the recording indicator never showed";
   EXPECT_TRUE(countdown_digit_seen) << "no countdown digit";
-  for (const char* png : {"participant-prompt.png", "participant-countdown.png", "participant-recording.png",
-                          "operator.png"})
+  for (const char* png :
+       {"participant-prompt.png", "participant-countdown.png", "participant-recording.png", "operator.png"})
     EXPECT_TRUE(fs::exists(kScreenshots / png)) << png;
 
   // The participant page put up each prompt as the runner reached it, in plan order, pushed (one
@@ -229,8 +228,9 @@ TEST(SessionPages, TheParticipantAndOperatorPagesFollowTheRunnerThroughTheTakes)
     }
     paused = paused || e.kind == "pause";
   }
-  for (const auto& s : shown) EXPECT_TRUE(logged.count(s)) << s << " was displayed but its display is not logged: "
-                                       << fmt::format("{}", fmt::join(logged, " / "));
+  for (const auto& s : shown)
+    EXPECT_TRUE(logged.count(s)) << s << " was displayed but its display is not logged: "
+                                 << fmt::format("{}", fmt::join(logged, " / "));
   EXPECT_TRUE(paused);
   bool noted = false;
   const auto notes = reader.value()->operator_notes();
@@ -265,8 +265,8 @@ TEST(SessionPages, OffLoopbackEveryRequestNeedsTheToken) {
     close(fd);
     httplib::Client c(u.host, u.port);
     for (const std::string& path : std::vector<std::string>{"/operator", "/participant", "/state", "/camera/0.jpg",
-                                   "/operator?token=0000000000000000", "/operator?token=" + u.token,
-                                   "/state?token=" + u.token}) {
+                                                            "/operator?token=0000000000000000",
+                                                            "/operator?token=" + u.token, "/state?token=" + u.token}) {
       auto r = c.Get(path);
       codes.push_back(r ? r->status : -1);
       if (r && r->status == 401 && refusal.empty()) refusal = r->body;
@@ -296,9 +296,9 @@ TEST(SessionPages, TheOperatorMarksTheFingertipForThePressCheck) {
   const fs::path work = work_dir("mark");
   const fs::path rig = work / "rig.yaml";
   std::ofstream(rig) << sim_rig_yaml({{}, {}}, 640, 480, 30, 15, "free-run", /*sensel=*/true);
-  const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 14 --web-port 0", rig.string(),
-                                            (work / "sessions").string()),
-                                work / "pvcap.log");
+  const pid_t pid = spawn_pvcap(
+      fmt::format("session --rig {} --root {} --duration 14 --web-port 0", rig.string(), (work / "sessions").string()),
+      work / "pvcap.log");
   ASSERT_TRUE(wait_for_text(work / "pvcap.log", "operator console:", std::chrono::seconds(60)))
       << read_all(work / "pvcap.log");
   const std::string tab = browser.open(printed_url(work / "pvcap.log", "operator console"));
@@ -323,9 +323,10 @@ TEST(SessionPages, TheOperatorMarksTheFingertipForThePressCheck) {
     browser.eval(tab, "(() => { const i = document.querySelectorAll('#cams img')[1]; if (i) i.click(); })()");
     nlohmann::json ready;
     for (int i = 0; i < 40; ++i) {
-      ready = browser.eval(tab, "(() => { const f = document.getElementById('mark-frame'); return marking && "
-                                "f.complete && f.naturalWidth > 0 && f.style.width ? [f.naturalWidth, "
-                                "Number(marking.frameNs)] : null; })()");
+      ready = browser.eval(tab,
+                           "(() => { const f = document.getElementById('mark-frame'); return marking && "
+                           "f.complete && f.naturalWidth > 0 && f.style.width ? [f.naturalWidth, "
+                           "Number(marking.frameNs)] : null; })()");
       if (ready.is_array()) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
@@ -342,8 +343,9 @@ TEST(SessionPages, TheOperatorMarksTheFingertipForThePressCheck) {
                                   "Math.round(b.top + ({} + 0.5) * b.height / f.naturalHeight)}})); }})()",
                                   tip.x, tip.y));
     for (int i = 0; i < 40 && !marked; ++i) {
-      marked = browser.eval(tab, "document.getElementById('mark-reply').textContent").get<std::string>().rfind(
-                   "marked at", 0) == 0;
+      marked = browser.eval(tab, "document.getElementById('mark-reply').textContent")
+                   .get<std::string>()
+                   .rfind("marked at", 0) == 0;
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
     fs::create_directories(kScreenshots);
@@ -360,7 +362,8 @@ TEST(SessionPages, TheOperatorMarksTheFingertipForThePressCheck) {
   auto reader = pvcap::SessionReader::open(session);
   ASSERT_TRUE(reader);
   const auto events = reader.value()->protocol_events().value();
-  const auto mark = std::find_if(events.begin(), events.end(), [](const auto& e) { return e.kind == "fingertip_marked"; });
+  const auto mark =
+      std::find_if(events.begin(), events.end(), [](const auto& e) { return e.kind == "fingertip_marked"; });
   ASSERT_NE(mark, events.end());
   const auto d = nlohmann::json::parse(mark->detail);
   EXPECT_EQ(d["camera"], 1);
@@ -383,11 +386,12 @@ TEST(SessionPages, TheOperatorMarksTheFingertipForThePressCheck) {
     cal.cameras.push_back(cc);
   }
   ASSERT_TRUE(pvcap::calib::save_rig_calibration(work / "truth.calibration.yaml", cal).ok());
-  const auto check = run_pvcap(fmt::format("calibrate check {} --calibration {}", session.string(),
-                                           (work / "truth.calibration.yaml").string()));
+  const auto check = run_pvcap(
+      fmt::format("calibrate check {} --calibration {}", session.string(), (work / "truth.calibration.yaml").string()));
   EXPECT_EQ(check.exit_code, 0) << check.output;
   std::smatch m;
-  ASSERT_TRUE(std::regex_search(check.output, m, std::regex(R"(cam1: 1 marked presses; .* median [\d.]+ px / ([\d.]+) mm)")))
+  ASSERT_TRUE(
+      std::regex_search(check.output, m, std::regex(R"(cam1: 1 marked presses; .* median [\d.]+ px / ([\d.]+) mm)")))
       << check.output;
   EXPECT_LE(std::stod(m[1]), 2.0) << check.output;
   ASSERT_TRUE(std::regex_search(check.output, m, std::regex(R"(cam1: \d+ presses; .* max [\d.]+ px / ([\d.]+) mm)")))

@@ -7,21 +7,21 @@
 #include <fmt/format.h>
 
 #include <fstream>
-#include <sstream>
 #include <map>
 #include <set>
+#include <sstream>
 
+#include <nlohmann/json.hpp>
+#include "capture/sensel_frame.h"
 #include "core/sequence_unwrap.h"
 #include "session_under_test.h"
 #include "sim/timecode.h"
 #include "storage/sqlite/database.h"
 #include "storage/video_reader.h"
-#include "capture/sensel_frame.h"
-#include <nlohmann/json.hpp>
 
-#include "sim/truth.h"
-#include "sim/fingertip.h"
 #include "capture/sensel_units.h"
+#include "sim/fingertip.h"
+#include "sim/truth.h"
 
 using namespace pvcap::testing;
 namespace fs = std::filesystem;
@@ -80,8 +80,10 @@ Accounting account(const CameraRecord& c) {
     bool in_drop = false;
     for (const auto& d : c.drops)
       if (seq >= d.first_sequence && seq < d.first_sequence + d.count && !d.reason.empty()) in_drop = true;
-    if (in_drop) ++a.dropped;
-    else ++a.unaccounted;
+    if (in_drop)
+      ++a.dropped;
+    else
+      ++a.unaccounted;
   }
   return a;
 }
@@ -123,17 +125,18 @@ VideoCheck check_video(const fs::path& session, const CameraRecord& c) {
                       << row->second->frame_id << ", connection " << row->second->connection << ", device_ns "
                       << row->second->device_ns << "; decoded "
                       << (tc ? fmt::format("id {} true {}", tc->frame_id, tc->true_ns) : std::string("nothing"))
-                      << ", truth has " << true_time.count({row->second->frame_id, row->second->device_ns}) << ": "
-                      << [&] {
-                           std::string rows;
-                           for (const auto& t : c.truth)
-                             if (t.frame_id == row->second->frame_id)
-                               rows += fmt::format("[device {} true {}] ", t.device_ns, t.true_ns);
-                           return rows;
-                         }()
-                      << ")";
-      if (pvcap::sim::frame_stripe_mismatches(img, std::uint16_t(row->second->frame_id)) == 0) ++v.stripe_ok;
-      else ADD_FAILURE() << c.name << ": video frame " << n << " holds pixels of another frame (corrupted)";
+                      << ", truth has " << true_time.count({row->second->frame_id, row->second->device_ns}) << ": " <<
+            [&] {
+              std::string rows;
+              for (const auto& t : c.truth)
+                if (t.frame_id == row->second->frame_id)
+                  rows += fmt::format("[device {} true {}] ", t.device_ns, t.true_ns);
+              return rows;
+            }() << ")";
+      if (pvcap::sim::frame_stripe_mismatches(img, std::uint16_t(row->second->frame_id)) == 0)
+        ++v.stripe_ok;
+      else
+        ADD_FAILURE() << c.name << ": video frame " << n << " holds pixels of another frame (corrupted)";
     }
   }
   return v;
@@ -143,9 +146,13 @@ VideoCheck check_video(const fs::path& session, const CameraRecord& c) {
 
 TEST(SimSession, FourCamerasTenSecondsEveryFrameAccountedAndTimecodesMatch) {
   const double duration = 10;
-  const auto s = record("four", sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000}, {.drift_ppm = -65, .offset_ms = 12500},
-                                             {.drift_ppm = 90, .offset_ms = 800}, {.drift_ppm = -15, .offset_ms = 31000}},
-                                            kWidth, kHeight, kFps, 15), duration);
+  const auto s = record("four",
+                        sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000},
+                                      {.drift_ppm = -65, .offset_ms = 12500},
+                                      {.drift_ppm = 90, .offset_ms = 800},
+                                      {.drift_ppm = -15, .offset_ms = 31000}},
+                                     kWidth, kHeight, kFps, 15),
+                        duration);
   ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
   ASSERT_FALSE(s.dir.empty()) << s.result.output;
   ASSERT_EQ(s.cameras.size(), 4u);
@@ -172,8 +179,10 @@ TEST(SimSession, FourCamerasTenSecondsEveryFrameAccountedAndTimecodesMatch) {
       const std::int64_t latency = f.host_ns - true_time[{f.frame_id, f.device_ns}];
       EXPECT_GT(latency, 0) << "arrival before capture, frame " << f.frame_id;
       EXPECT_LT(latency, 1'000'000'000) << "frame " << f.frame_id;
-      if (f.kept) ++kept;
-      else EXPECT_FALSE(f.reason.empty()) << "frame " << f.frame_id << " not kept, without a reason";
+      if (f.kept)
+        ++kept;
+      else
+        EXPECT_FALSE(f.reason.empty()) << "frame " << f.frame_id << " not kept, without a reason";
     }
     EXPECT_NEAR(double(kept), duration * 15, duration * 15 * 0.15);  // the 15 Hz grid
     const VideoCheck v = check_video(s.dir, c);
@@ -185,7 +194,8 @@ TEST(SimSession, FourCamerasTenSecondsEveryFrameAccountedAndTimecodesMatch) {
 }
 
 TEST(SimSession, OnePercentPacketLossNeverStoresACorruptedFrame) {
-  const auto s = record("loss", sim_rig_yaml({{.packet_loss = 0.01}, {.packet_loss = 0.01}}, kWidth, kHeight, kFps, 0), 6);
+  const auto s =
+      record("loss", sim_rig_yaml({{.packet_loss = 0.01}, {.packet_loss = 0.01}}, kWidth, kHeight, kFps, 0), 6);
   ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
   ASSERT_EQ(s.cameras.size(), 2u);
   std::size_t incomplete = 0;
@@ -256,10 +266,10 @@ TEST(SimSession, KilledCameraIsReportedWithinTwoSecondsAndTheOthersKeepRecording
 // answers, so the operator is told no trigger reaches it, and it is not called lost.
 TEST(SimSession, AHardwareTriggeredCameraThatVanishesIsReportedWithinTwoSeconds) {
   const double duration = 7;
-  const auto s = record("hwtrigger",
-                        sim_rig_yaml({{}, {}, {.stop_after_s = 3.0}, {.trigger_line = false}}, kWidth, kHeight, 30, 15,
-                                     "hardware"),
-                        duration);
+  const auto s = record(
+      "hwtrigger",
+      sim_rig_yaml({{}, {}, {.stop_after_s = 3.0}, {.trigger_line = false}}, kWidth, kHeight, 30, 15, "hardware"),
+      duration);
   ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
   ASSERT_EQ(s.cameras.size(), 4u);
   EXPECT_NE(s.result.output.find("cam2 (serial PVSIM2 at 127.0.0.4): camera lost (no frame for"), std::string::npos)
@@ -307,14 +317,17 @@ TEST(SimSession, AHardwareTriggeredCameraThatVanishesIsReportedWithinTwoSeconds)
 
 TEST(SimSession, CameraThatComesBackIsReconnectedAndRecordsAgain) {
   // cam1 vanishes 2 s after the simulator starts and is back (power-cycled) 3 s later.
-  const auto s = record("reconnect", sim_rig_yaml({{}, {.stop_after_s = 2.0, .return_after_s = 5.0}}, kWidth, kHeight, 30, 15), 11);
+  const auto s = record("reconnect",
+                        sim_rig_yaml({{}, {.stop_after_s = 2.0, .return_after_s = 5.0}}, kWidth, kHeight, 30, 15), 11);
   ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
-  EXPECT_NE(s.result.output.find("cam1 (serial PVSIM1 at 127.0.0.3): reconnected"), std::string::npos) << s.result.output;
+  EXPECT_NE(s.result.output.find("cam1 (serial PVSIM1 at 127.0.0.3): reconnected"), std::string::npos)
+      << s.result.output;
   ASSERT_EQ(s.cameras.size(), 2u);
   const auto& c = s.cameras[1];
   std::size_t before = 0, after = 0, kept_after = 0;
   for (const auto& f : c.frames) {
-    if (f.connection == 0) ++before;
+    if (f.connection == 0)
+      ++before;
     else {
       ++after;
       if (f.kept) ++kept_after;
@@ -363,8 +376,8 @@ TEST(SimSession, AnEncoderFallingBehindIsWarnedOnceAndItsFramesWaitOnDisk) {
   ASSERT_EQ(s.cameras.size(), 1u);
   std::size_t lost_to_the_store = 0, in_video = 0;
   for (const auto& f : s.cameras[0].frames) {
-    lost_to_the_store += f.reason == "encoder_behind" || f.reason.rfind("spill", 0) == 0 ||
-                         f.reason == "video_write_failed";
+    lost_to_the_store +=
+        f.reason == "encoder_behind" || f.reason.rfind("spill", 0) == 0 || f.reason == "video_write_failed";
     in_video += f.video_index >= 0;
   }
   EXPECT_EQ(lost_to_the_store, 0u);
@@ -391,8 +404,8 @@ BehindOutcome record_with_a_stalled_worker(const std::string& name, const std::s
   const std::string warning = "lost because pvcap did not take";
   const auto first = s.result.output.find(warning);
   EXPECT_NE(first, std::string::npos) << s.result.output;
-  EXPECT_EQ(s.result.output.find(warning, first + 1), std::string::npos) << "warned more than once: "
-                                                                         << s.result.output;
+  EXPECT_EQ(s.result.output.find(warning, first + 1), std::string::npos)
+      << "warned more than once: " << s.result.output;
   EXPECT_EQ(s.result.output.find("camera lost"), std::string::npos)
       << "a camera pvcap starved of buffers is not a lost camera: " << s.result.output;
   if (s.cameras.size() != 2) {
@@ -403,7 +416,8 @@ BehindOutcome record_with_a_stalled_worker(const std::string& name, const std::s
   for (const auto& d : s.cameras[1].drops)
     if (d.reason == "queue_overflow" || d.reason == "buffer_underrun") o.other_camera_lost_by_pvcap += d.count;
   o.accounting = account(s.cameras[0]);
-  for (const auto& [why, n] : o.lost_by_reason) std::printf("%s: cam0 lost %llu frames: %s\n", name.c_str(), (unsigned long long)n, why.c_str());
+  for (const auto& [why, n] : o.lost_by_reason)
+    std::printf("%s: cam0 lost %llu frames: %s\n", name.c_str(), (unsigned long long)n, why.c_str());
   if (first != std::string::npos)
     std::printf("%s\n", s.result.output.substr(first, s.result.output.find('\n', first) - first).c_str());
   EXPECT_EQ(o.accounting.unaccounted, 0u) << "frames neither stored nor in a drop row";
@@ -414,7 +428,8 @@ BehindOutcome record_with_a_stalled_worker(const std::string& name, const std::s
 TEST(SimSession, FramesSentWhileTheStreamHadNoFreeBufferAreRecordedAsBufferUnderrun) {
   // The driver's queue is larger than the buffer pool: the stalled worker holds every buffer, and
   // the frames the camera sends meanwhile find none (1.5 s at 30 Hz, less the 15 buffers: ~30).
-  const auto o = record_with_a_stalled_worker("underrun", "camera_pipeline.stall_s=1.5,camera_pipeline.stall_after_s=1.5");
+  const auto o =
+      record_with_a_stalled_worker("underrun", "camera_pipeline.stall_s=1.5,camera_pipeline.stall_after_s=1.5");
   EXPECT_GE(o.lost_by_reason.count("buffer_underrun") ? o.lost_by_reason.at("buffer_underrun") : 0, 20u);
   EXPECT_EQ(o.lost_by_reason.count("queue_overflow"), 0u);
   EXPECT_EQ(o.other_camera_lost_by_pvcap, 0u) << "the other camera's worker never stalled";
@@ -445,7 +460,8 @@ TEST(SimSession, SenselIsStoredAtFullRateWithItsDeviceAndArrivalTimes) {
     long long t = 0;
     unsigned long dev = 0;
     while (std::getline(in, line))
-      if (std::sscanf(line.c_str(), "%u,%lld,%lu", &counter, &t, &dev) == 3) true_ns_by_device_us[std::uint32_t(dev)] = t;
+      if (std::sscanf(line.c_str(), "%u,%lld,%lu", &counter, &t, &dev) == 3)
+        true_ns_by_device_us[std::uint32_t(dev)] = t;
   }
   ASSERT_FALSE(true_ns_by_device_us.empty());
   pvcap::sqlite::Database db(s.dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
@@ -531,8 +547,8 @@ TEST(PvcapCommand, MissingCameraIsNamedAndLeavesNoSession) {
   const fs::path work = fs::temp_directory_path() / ("pvcap-it-nocam-" + std::to_string(getpid()));
   fs::create_directories(work);
   std::ofstream(work / "rig.yaml") << "name: x\ncameras:\n  - name: top\n    address: 127.0.0.1\n";
-  const auto r = run_pvcap("session --rig " + (work / "rig.yaml").string() + " --root " + (work / "s").string() +
-                           " --duration 1");
+  const auto r =
+      run_pvcap("session --rig " + (work / "rig.yaml").string() + " --root " + (work / "s").string() + " --duration 1");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("top (at 127.0.0.1): no camera answers"), std::string::npos) << r.output;
   EXPECT_TRUE(!fs::exists(work / "s") || fs::is_empty(work / "s"));

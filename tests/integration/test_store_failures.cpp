@@ -24,9 +24,9 @@
 
 namespace fs = std::filesystem;
 using pvcap::testing::only_session;
+using pvcap::testing::read_all;
 using pvcap::testing::run_pvcap;
 using pvcap::testing::sim_rig_yaml;
-using pvcap::testing::read_all;
 using pvcap::testing::spawn_pvcap;
 using pvcap::testing::wait_for_text;
 using namespace std::chrono_literals;
@@ -38,7 +38,6 @@ std::string with_store(std::string yaml, const std::string& extra) {
   yaml.replace(yaml.find(at), at.size(), at + extra);
   return yaml;
 }
-
 
 }  // namespace
 
@@ -100,8 +99,8 @@ TEST(StoreCrash, KillNineAtRandomMomentsLosesAtMostTheLastSecond) {
       EXPECT_GT(rows, 15u);
     }
     auto recovered_again = run_pvcap(fmt::format("--log-level warn recover {}", dir.string()));
-    EXPECT_EQ(recovered_again.output.find("re-mapped"), std::string::npos) << "once is enough: "
-                                                                           << recovered_again.output;
+    EXPECT_EQ(recovered_again.output.find("re-mapped"), std::string::npos)
+        << "once is enough: " << recovered_again.output;
     auto after = run_pvcap(fmt::format("--log-level off verify {}", dir.string()));
     EXPECT_EQ(after.exit_code, 3) << after.output;  // lossy: the last moments are gone
     EXPECT_EQ(after.output.find("ERROR"), std::string::npos) << after.output;
@@ -146,8 +145,8 @@ TEST(StoreCrash, KillNineAtRandomMomentsLosesAtMostTheLastSecond) {
     EXPECT_GE(double(checked), expected - 1.5) << "samples up to a second before the kill";
     auto stats = r.stream_statistics();
     ASSERT_TRUE(stats);
-    std::printf("kill after %.2f s: %zu samples before the horizon readable (%.0f expected); recover said:\n%s", after_s,
-                checked, expected, recovered.output.c_str());
+    std::printf("kill after %.2f s: %zu samples before the horizon readable (%.0f expected); recover said:\n%s",
+                after_s, checked, expected, recovered.output.c_str());
     fs::remove_all(work);
   }
 }

@@ -90,8 +90,9 @@ TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
     auto q = db.prepare("SELECT message FROM events WHERE kind = 'spill'");
     while (q.step()) std::printf("%s\n", q.column_text(0).c_str());
     // Every kept frame the samples name is in a video.
-    EXPECT_EQ(count(db, "SELECT count(*) FROM sample_frames sf JOIN frames f USING (device_id, connection, sequence) "
-                        "WHERE f.kept = 0"),
+    EXPECT_EQ(count(db,
+                    "SELECT count(*) FROM sample_frames sf JOIN frames f USING (device_id, connection, sequence) "
+                    "WHERE f.kept = 0"),
               0);
   }
   EXPECT_FALSE(fs::exists(dir / pvcap::kSpillFolder)) << "a drained spill leaves nothing behind";

@@ -6,9 +6,9 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <fmt/format.h>
 #include <cmath>
 #include <cstdio>
-#include <fmt/format.h>
 
 #include <fstream>
 #include <set>
@@ -54,9 +54,11 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
   EXPECT_GE(scalar(db, "SELECT count(*) FROM samples WHERE cameras = 4") * 3, samples * 2) << "most groups complete";
   EXPECT_EQ(scalar(db, "SELECT count(*) FROM samples s1 JOIN samples s2 ON s2.id = s1.id + 1 WHERE s2.tick <= s1.tick"),
             0);
-  EXPECT_EQ(scalar(db, "SELECT count(*) FROM samples WHERE abs(tick_ns - (SELECT started_host_ns FROM session) - "
-                       "tick * (1e9 / 15)) > 1"),
-            0) << "tick k lies at k/15 s after the session start, exactly";
+  EXPECT_EQ(scalar(db,
+                   "SELECT count(*) FROM samples WHERE abs(tick_ns - (SELECT started_host_ns FROM session) - "
+                   "tick * (1e9 / 15)) > 1"),
+            0)
+      << "tick k lies at k/15 s after the session start, exactly";
   // A group never spans more than half a frame period (60 Hz: 8.3 ms) on the live clock models that
   // formed it; the stored span is re-measured with the final models (realign), which moves a frame by
   // the live model's error at the time: well under a millisecond once a camera's latch probes span
@@ -69,49 +71,63 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
   EXPECT_LE(wide * 100, samples * 3) << "groups wider than half a frame period (plus 1 ms of live-model error)";
 
   // The video holds exactly the samples' frames: kept <=> referenced by a sample.
-  EXPECT_EQ(scalar(db, "SELECT count(*) FROM frames f WHERE kept = 1 AND NOT EXISTS (SELECT 1 FROM sample_frames sf "
-                       "WHERE sf.device_id = f.device_id AND sf.connection = f.connection AND sf.sequence = f.sequence)"),
+  EXPECT_EQ(scalar(db,
+                   "SELECT count(*) FROM frames f WHERE kept = 1 AND NOT EXISTS (SELECT 1 FROM sample_frames sf "
+                   "WHERE sf.device_id = f.device_id AND sf.connection = f.connection AND sf.sequence = f.sequence)"),
             0);
-  EXPECT_EQ(scalar(db, "SELECT count(*) FROM sample_frames sf JOIN frames f USING (device_id, connection, sequence) "
-                       "WHERE f.kept = 0 AND f.reason <> 'encoder_behind'"),
+  EXPECT_EQ(scalar(db,
+                   "SELECT count(*) FROM sample_frames sf JOIN frames f USING (device_id, connection, sequence) "
+                   "WHERE f.kept = 0 AND f.reason <> 'encoder_behind'"),
             0);
   // Every other good frame says why it is not in the video.
-  EXPECT_EQ(scalar(db, "SELECT count(*) FROM frames WHERE status = 'good' AND kept = 0 AND (reason IS NULL OR reason = '')"),
-            0);
+  EXPECT_EQ(
+      scalar(db, "SELECT count(*) FROM frames WHERE status = 'good' AND kept = 0 AND (reason IS NULL OR reason = '')"),
+      0);
 
   // Pressure: nearest plus both neighbours with their offsets, consistent with the mapped times. A
   // sample goes without pressure only when no stored frame lies within the pairing's limit (20 ms):
   // the polled Sensel scans when asked, so a starved reader thread leaves real gaps in its stream.
-  EXPECT_EQ(scalar(db, "SELECT count(*) FROM samples s WHERE s.pressure_sequence IS NULL AND EXISTS (SELECT 1 FROM "
-                       "pressure_frames p WHERE abs(p.mapped_ns - s.t_ns) <= 20000000)"),
-            0) << "a sample left without pressure although a frame was near enough";
+  EXPECT_EQ(scalar(db,
+                   "SELECT count(*) FROM samples s WHERE s.pressure_sequence IS NULL AND EXISTS (SELECT 1 FROM "
+                   "pressure_frames p WHERE abs(p.mapped_ns - s.t_ns) <= 20000000)"),
+            0)
+      << "a sample left without pressure although a frame was near enough";
   EXPECT_GE(scalar(db, "SELECT count(*) FROM samples WHERE pressure_sequence IS NOT NULL") * 100, samples * 90);
-  EXPECT_EQ(scalar(db, "SELECT count(*) FROM samples WHERE pressure_sequence IS NOT NULL AND (before_offset_ns > 0 OR "
-                       "after_offset_ns <= 0 OR pressure_offset_ns NOT IN (before_offset_ns, after_offset_ns) OR "
-                       "abs(pressure_offset_ns) > min(-before_offset_ns, after_offset_ns))"),
-            0) << "the nearest frame is the nearer of the two around the sample";
-  EXPECT_EQ(scalar(db, "SELECT count(*) FROM samples WHERE pressure_sequence IS NOT NULL AND after_offset_ns - "
-                       "before_offset_ns <= 16200000 AND abs(pressure_offset_ns) > 8100000"),
-            0) << "at ~125 Hz the nearest frame is at most half a period away where the stream has no gap";
-  EXPECT_EQ(scalar(db, "SELECT count(*) FROM samples s JOIN pressure_frames p ON p.device_id = s.pressure_device_id "
-                       "AND p.sequence = s.pressure_sequence WHERE p.mapped_ns - s.t_ns <> s.pressure_offset_ns"),
+  EXPECT_EQ(scalar(db,
+                   "SELECT count(*) FROM samples WHERE pressure_sequence IS NOT NULL AND (before_offset_ns > 0 OR "
+                   "after_offset_ns <= 0 OR pressure_offset_ns NOT IN (before_offset_ns, after_offset_ns) OR "
+                   "abs(pressure_offset_ns) > min(-before_offset_ns, after_offset_ns))"),
+            0)
+      << "the nearest frame is the nearer of the two around the sample";
+  EXPECT_EQ(scalar(db,
+                   "SELECT count(*) FROM samples WHERE pressure_sequence IS NOT NULL AND after_offset_ns - "
+                   "before_offset_ns <= 16200000 AND abs(pressure_offset_ns) > 8100000"),
+            0)
+      << "at ~125 Hz the nearest frame is at most half a period away where the stream has no gap";
+  EXPECT_EQ(scalar(db,
+                   "SELECT count(*) FROM samples s JOIN pressure_frames p ON p.device_id = s.pressure_device_id "
+                   "AND p.sequence = s.pressure_sequence WHERE p.mapped_ns - s.t_ns <> s.pressure_offset_ns"),
             0);
   // The device lost ~1 % of its frames: counted by its counter, as drops.
-  EXPECT_GT(scalar(db, "SELECT coalesce(sum(count), 0) FROM drops d JOIN devices v ON v.id = d.device_id WHERE "
-                       "v.kind = 'sensel'"),
+  EXPECT_GT(scalar(db,
+                   "SELECT coalesce(sum(count), 0) FROM drops d JOIN devices v ON v.id = d.device_id WHERE "
+                   "v.kind = 'sensel'"),
             0);
   // Its clock reset half-way: one new segment, seen in the counts and the stored models.
   EXPECT_EQ(scalar(db, "SELECT count FROM timeline_counts WHERE what = 'clock_resets: sensel'"), 1);
-  EXPECT_EQ(scalar(db, "SELECT max(segment) FROM clock_models m JOIN devices v ON v.id = m.device_id WHERE "
-                       "v.kind = 'sensel'"),
+  EXPECT_EQ(scalar(db,
+                   "SELECT max(segment) FROM clock_models m JOIN devices v ON v.id = m.device_id WHERE "
+                   "v.kind = 'sensel'"),
             1);
 
   // The cameras' clocks are read through their timestamp latch; the Sensel has none.
-  EXPECT_EQ(scalar(db, "SELECT count(DISTINCT m.device_id) FROM clock_models m JOIN devices v ON v.id = m.device_id "
-                       "WHERE v.kind = 'camera' AND m.source = 'latch'"),
+  EXPECT_EQ(scalar(db,
+                   "SELECT count(DISTINCT m.device_id) FROM clock_models m JOIN devices v ON v.id = m.device_id "
+                   "WHERE v.kind = 'camera' AND m.source = 'latch'"),
             4);
-  EXPECT_EQ(scalar(db, "SELECT count(*) FROM clock_models m JOIN devices v ON v.id = m.device_id WHERE "
-                       "v.kind = 'sensel' AND m.source <> 'arrivals'"),
+  EXPECT_EQ(scalar(db,
+                   "SELECT count(*) FROM clock_models m JOIN devices v ON v.id = m.device_id WHERE "
+                   "v.kind = 'sensel' AND m.source <> 'arrivals'"),
             0);
 
   // Against the truth: every stream on one clock; pairing far better than arrival times.
@@ -135,7 +151,8 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
     }
   }
   // The truly nearest frame for nearly all (99.5 % is eval-sync's target; ctest's load costs some).
-  EXPECT_GE((e.paired_nearest + e.paired_tie + e.rightly_unpaired) * 100, e.samples * 95) << pvcap::sim::format_evaluation(e);
+  EXPECT_GE((e.paired_nearest + e.paired_tie + e.rightly_unpaired) * 100, e.samples * 95)
+      << pvcap::sim::format_evaluation(e);
   EXPECT_GT(e.paired_nearest, e.naive_nearest + e.samples / 4) << pvcap::sim::format_evaluation(e);
   std::filesystem::remove_all(root);
 }

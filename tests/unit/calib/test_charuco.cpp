@@ -38,7 +38,8 @@ TEST(Charuco, BoardViewsOfTheSimulatedRigRecoverEachLens) {
       sim::draw_plane(img, rays, truth.R * p.R, truth.R * p.t + truth.t, board);
       const cv::Mat mosaic = sim::to_sensor_format(img, "BayerRG8");
       cv::Mat seen;
-      ASSERT_TRUE(to_bgr(mosaic.data, mosaic.total(), mosaic.cols, mosaic.rows, ARV_PIXEL_FORMAT_BAYER_RG_8, seen).ok());
+      ASSERT_TRUE(
+          to_bgr(mosaic.data, mosaic.total(), mosaic.cols, mosaic.rows, ARV_PIXEL_FORMAT_BAYER_RG_8, seen).ok());
       views.push_back(detect_board(seen, spec));
     }
     auto got = calibrate_intrinsics(views, k1080p, spec);
@@ -46,10 +47,11 @@ TEST(Charuco, BoardViewsOfTheSimulatedRigRecoverEachLens) {
     const Intrinsics& in = got.value();
     std::string empty;
     for (auto& e : in.empty_regions) empty += e + "; ";
-    std::printf("camera %d: %d views, %d corners, rms %.3f px, fx %.2f (truth %.2f), cx %.2f (%.2f), cy %.2f (%.2f), "
-                "sd cx %.2f cy %.2f, empty: %s\n",
-                cam, in.views, in.corners, in.rms_px, in.model.K(0, 0), truth.K(0, 0), in.model.K(0, 2), truth.K(0, 2),
-                in.model.K(1, 2), truth.K(1, 2), in.deviation[2], in.deviation[3], empty.c_str());
+    std::printf(
+        "camera %d: %d views, %d corners, rms %.3f px, fx %.2f (truth %.2f), cx %.2f (%.2f), cy %.2f (%.2f), "
+        "sd cx %.2f cy %.2f, empty: %s\n",
+        cam, in.views, in.corners, in.rms_px, in.model.K(0, 0), truth.K(0, 0), in.model.K(0, 2), truth.K(0, 2),
+        in.model.K(1, 2), truth.K(1, 2), in.deviation[2], in.deviation[3], empty.c_str());
     EXPECT_NEAR(in.model.K(0, 0) / truth.K(0, 0), 1.0, 0.005);
     EXPECT_NEAR(in.model.K(1, 1) / truth.K(1, 1), 1.0, 0.005);
     EXPECT_NEAR(in.model.K(0, 2), truth.K(0, 2), 2.0);

@@ -47,8 +47,8 @@ CameraModel intrinsics_of(const CameraModel& m) {
 }  // namespace
 
 TEST(CameraModel, LooksAtItsTargetAndItsHomographyAgreesWithProjection) {
-  const CameraModel m = CameraModel::looking_at(k1080p, 1500, {960, 540}, {}, pad_point(100, 50, 400),
-                                                pad_point(100, 50, 0));
+  const CameraModel m =
+      CameraModel::looking_at(k1080p, 1500, {960, 540}, {}, pad_point(100, 50, 400), pad_point(100, 50, 0));
   const cv::Point2d c = m.project({100, 50, 0});
   EXPECT_NEAR(c.x, 960, 1e-9);
   EXPECT_NEAR(c.y, 540, 1e-9);
@@ -178,7 +178,8 @@ TEST(RigCalibrationFile, RoundTripsAndNamesTheFileInEveryError) {
   std::ofstream(file) << "pvcap_calibration: 1\nrig: x\npad_layout: {name: a}\ncameras: []\n";
   auto bad = load_rig_calibration(file);
   ASSERT_FALSE(bad);
-  EXPECT_EQ(bad.error().message.rfind(file.string() + ": not a usable calibration file:", 0), 0u) << bad.error().message;
+  EXPECT_EQ(bad.error().message.rfind(file.string() + ": not a usable calibration file:", 0), 0u)
+      << bad.error().message;
   std::ofstream(file) << "rig: x\n";
   bad = load_rig_calibration(file);
   ASSERT_FALSE(bad);

@@ -14,8 +14,8 @@ TEST(Projection, WarpIsBilinearPressureWithZerosOffThePad) {
   p.at<float>(3, 2) = 10.0f;  // row 3, column 2
   const cv::Matx33d twice(2, 0, 0, 0, 2, 0, 0, 0, 1);
   const cv::Mat w = warp_pressure(p, twice, {400, 220});
-  EXPECT_FLOAT_EQ(w.at<float>(6, 4), 10.0f);   // image (4, 6) <- cell (2, 3)
-  EXPECT_FLOAT_EQ(w.at<float>(6, 5), 5.0f);    // halfway to cell (3, 3): bilinear
+  EXPECT_FLOAT_EQ(w.at<float>(6, 4), 10.0f);  // image (4, 6) <- cell (2, 3)
+  EXPECT_FLOAT_EQ(w.at<float>(6, 5), 5.0f);   // halfway to cell (3, 3): bilinear
   EXPECT_FLOAT_EQ(w.at<float>(7, 5), 2.5f);
   EXPECT_FLOAT_EQ(w.at<float>(6, 7), 0.0f);
   EXPECT_FLOAT_EQ(w.at<float>(215, 395), 0.0f);  // beyond the pad
@@ -46,7 +46,7 @@ TEST(Projection, PaperCropMatchesTheOriginalsArithmetic) {
   // Taller than wide: x grows instead. y 50..450 -> half-span 200 -> x half-span 250 about 200.
   const std::array<cv::Point2d, 4> tall = {{{150, 100}, {250, 100}, {250, 400}, {150, 400}}};
   EXPECT_EQ(paper_crop_box(tall, {1920, 1080}), cv::Rect(0, 50, 450, 400)) << "clamped at the left edge, as the "
-                                                                               "original does";
+                                                                              "original does";
   // Fractions: the centre rounds half to even, the edges truncate toward zero.
   const std::array<cv::Point2d, 4> frac = {{{100.25, 100}, {300.75, 100}, {300.75, 200}, {100.25, 200}}};
   // x 50.25..350.75: centre round(200.5) = 200; half-span 150.25 -> x0 = int(49.75) = 49, x1 = int(350.25) = 350;

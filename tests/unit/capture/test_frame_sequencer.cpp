@@ -118,7 +118,7 @@ TEST(FrameSequencer, ADroppedDuplicateLosesNoFrame) {
 TEST(FrameSequencer, GapsWhileAravisHadNoBufferAreChargedToTheUnderrun) {
   Sequenced s;
   s.add(1, 0);
-  s.add(11, 160);   // 9 missing
+  s.add(11, 160);  // 9 missing
   s.settle(1200, /*underruns=*/6);
   ASSERT_EQ(s.losses.size(), 2u);
   EXPECT_STREQ(s.losses[0].reason, "buffer_underrun");

@@ -16,8 +16,8 @@ TEST(SenselTtyCandidates, CdcAcmAndMorphNamesSortedAndNothingElse) {
   const fs::path dir = fs::temp_directory_path() / fmt::format("pvcap-tty-candidates-{}", getpid());
   fs::remove_all(dir);
   fs::create_directories(dir);
-  for (const char* name : {"ttyACM1", "ttyACM0", "morph-replugged", "SenselMorph0", "ttyS0", "ttyUSB0", "sensel.tty",
-                           "null"})
+  for (const char* name :
+       {"ttyACM1", "ttyACM0", "morph-replugged", "SenselMorph0", "ttyS0", "ttyUSB0", "sensel.tty", "null"})
     std::ofstream(dir / name) << "";
   const auto got = pvcap::sensel::sensel_tty_candidates(dir);
   const std::vector<std::string> want = {(dir / "SenselMorph0").string(), (dir / "morph-replugged").string(),

@@ -30,7 +30,8 @@ TEST(WebConsole, LoopbackNeedsNoTokenAndAGivenTokenIsInThePrintedAddress) {
   ASSERT_TRUE(open) << open.error().message;
   EXPECT_TRUE(open.value()->token().empty());
   EXPECT_GT(open.value()->port(), 0);
-  EXPECT_EQ(open.value()->url("participant"), "http://127.0.0.1:" + std::to_string(open.value()->port()) + "/participant");
+  EXPECT_EQ(open.value()->url("participant"),
+            "http://127.0.0.1:" + std::to_string(open.value()->port()) + "/participant");
 
   auto guarded = WebConsole::bind({.bind = "127.0.0.1", .port = 0, .token = "s3cret-token"});
   ASSERT_TRUE(guarded);

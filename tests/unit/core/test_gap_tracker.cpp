@@ -57,7 +57,9 @@ TEST(GapTracker, FlushReportsEverythingOpen) {
 
 TEST(LossRuns, ARangeSplitsIntoRunsOfDroppedAndNotReceived) {
   std::vector<std::tuple<std::uint64_t, std::uint64_t, bool>> runs;
-  auto collect = [&](std::uint64_t first, std::uint64_t count, bool dropped) { runs.emplace_back(first, count, dropped); };
+  auto collect = [&](std::uint64_t first, std::uint64_t count, bool dropped) {
+    runs.emplace_back(first, count, dropped);
+  };
   // 10..19 missing; the driver dropped 12, 13 and 19 (and 5 and 30, outside the range).
   pvcap::for_each_loss_run(10, 20, {5, 12, 13, 19, 30}, collect);
   using R = std::tuple<std::uint64_t, std::uint64_t, bool>;

@@ -32,10 +32,20 @@ TEST(NumpyFiles, ThePickleIsWhatNumpyWritesAndNumpyReadsBoth) {
   for (int i = 0; i < 6; ++i) small.at<float>(i) = float(i);
   // pickle.dumps(numpy.arange(6, dtype=numpy.float32).reshape(2, 3), protocol=3), numpy 1.24.
   static const char kNumpyWrote[] =
-      "\x80\x03" "cnumpy.core.multiarray\n_reconstruct\nq\x00" "cnumpy\nndarray\nq\x01" "K\x00\x85q\x02" "C\x01" "bq\x03"
-      "\x87q\x04Rq\x05(K\x01K\x02K\x03\x86q\x06" "cnumpy\ndtype\nq\x07X\x02\x00\x00\x00" "f4q\x08\x89\x88\x87q\tRq\n"
-      "(K\x03X\x01\x00\x00\x00<q\x0bNNNJ\xff\xff\xff\xffJ\xff\xff\xff\xffK\x00tq\x0c" "b\x89" "C\x18"
-      "\x00\x00\x00\x00\x00\x00\x80?\x00\x00\x00@\x00\x00@@\x00\x00\x80@\x00\x00\xa0@q\rtq\x0e" "b.";
+      "\x80\x03"
+      "cnumpy.core.multiarray\n_reconstruct\nq\x00"
+      "cnumpy\nndarray\nq\x01"
+      "K\x00\x85q\x02"
+      "C\x01"
+      "bq\x03"
+      "\x87q\x04Rq\x05(K\x01K\x02K\x03\x86q\x06"
+      "cnumpy\ndtype\nq\x07X\x02\x00\x00\x00"
+      "f4q\x08\x89\x88\x87q\tRq\n"
+      "(K\x03X\x01\x00\x00\x00<q\x0bNNNJ\xff\xff\xff\xffJ\xff\xff\xff\xffK\x00tq\x0c"
+      "b\x89"
+      "C\x18"
+      "\x00\x00\x00\x00\x00\x00\x80?\x00\x00\x00@\x00\x00@@\x00\x00\x80@\x00\x00\xa0@q\rtq\x0e"
+      "b.";
   const std::string numpy_wrote(kNumpyWrote, sizeof kNumpyWrote - 1);
   EXPECT_EQ(numpy_pickle(small), numpy_wrote);
 

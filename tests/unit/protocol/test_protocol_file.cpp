@@ -9,7 +9,8 @@ using namespace pvcap;
 using namespace pvcap::protocol;
 
 namespace {
-const std::filesystem::path kDefault = std::filesystem::path(PVCAP_SOURCE_DIR) / "rig-configs/protocols/pressurevision.yaml";
+const std::filesystem::path kDefault =
+    std::filesystem::path(PVCAP_SOURCE_DIR) / "rig-configs/protocols/pressurevision.yaml";
 
 std::string error_of(const std::string& yaml) {
   try {
@@ -58,9 +59,10 @@ TEST(ProtocolFile, ThePlanDoesEveryActionWithOneHandThenTheOther) {
 
 TEST(ProtocolFile, MistakesAreNamedWithTheirLine) {
   const std::string head = "name: t\nactions:\n";
-  EXPECT_NE(error_of(head + "  - name: a\n    text: x\n    pictogram: pictograms/press_palm.svg\n    forces: [low, hard]\n")
-                .find(":6: actions[0].forces: 'hard' is not one of"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of(head + "  - name: a\n    text: x\n    pictogram: pictograms/press_palm.svg\n    forces: [low, hard]\n")
+          .find(":6: actions[0].forces: 'hard' is not one of"),
+      std::string::npos);
   EXPECT_NE(error_of(head + "  - name: a\n    text: x\n    pictogram: nothing.svg\n").find(":5: actions[0].pictogram"),
             std::string::npos);
   EXPECT_NE(error_of(head + "  - name: A b\n    text: x\n    pictogram: pictograms/press_palm.svg\n")

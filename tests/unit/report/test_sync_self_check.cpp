@@ -31,8 +31,7 @@ std::vector<PressSignals> presses(int n, double latency_ms, std::uint64_t seed, 
   for (int k = 0; k < n; ++k) {
     const double start = 1 + 2.3 * k, from = start - 0.3, to = start + 1.3;
     PressSignals p;
-    for (double t = from; t <= to; t += 0.008)
-      p.pressure.push_back({std::int64_t(t * 1e9), 300 * force_at(t, start)});
+    for (double t = from; t <= to; t += 0.008) p.pressure.push_back({std::int64_t(t * 1e9), 300 * force_at(t, start)});
     for (double t = from + phase(rng); t <= to; t += 1.0 / 15) {
       const double f = force_at(t - latency_ms / 1e3, start);
       const double footprint = f > 0 ? std::pow(3 + 5 * f, 2) : 0.0;

@@ -40,19 +40,51 @@ struct Fixture {
     auto camera_host = [](int i) { return std::int64_t(i) * 33'333'333 + 10 * kMs; };
     auto camera_device = [&](int i) { return i < 30 ? camera_host(i) - 1000 * kMs : camera_host(i) - 2000 * kMs; };
     for (int i = 0; i < 60; ++i) {
-      FrameRecord f{camera, 0, std::uint64_t(i + 1), std::uint64_t(i + 1), camera_device(i), camera_host(i) + 3 * kMs,
-                    0, "good", true, "", {}, {}, camera_host(i) + 7 * kMs, {}};
+      FrameRecord f{camera,
+                    0,
+                    std::uint64_t(i + 1),
+                    std::uint64_t(i + 1),
+                    camera_device(i),
+                    camera_host(i) + 3 * kMs,
+                    0,
+                    "good",
+                    true,
+                    "",
+                    {},
+                    {},
+                    camera_host(i) + 7 * kMs,
+                    {}};
       index.add_frame(f);
     }
     for (int k = 0; k < 250; ++k) {
       const std::int64_t host = std::int64_t(k) * 8 * kMs;
-      PressureRecord p{sensel, 0, std::uint64_t(k), 0, host - 500 * kMs + kMs / 2, host + kMs, 0, 185, 105, 1, 1,
-                       {1, 2, 3}, host + 7 * kMs, 0, {}};
+      PressureRecord p{sensel,
+                       0,
+                       std::uint64_t(k),
+                       0,
+                       host - 500 * kMs + kMs / 2,
+                       host + kMs,
+                       0,
+                       185,
+                       105,
+                       1,
+                       1,
+                       {1, 2, 3},
+                       host + 7 * kMs,
+                       0,
+                       {}};
       index.add_pressure(p);
     }
     for (int i = 0; i + 1 < 60; i += 2) {
-      SampleRecord s{samples, i / 2, camera_host(i), camera_host(i) + 7 * kMs, 0, {{camera, 0, std::uint64_t(i + 1), 0}},
-                     std::nullopt, std::nullopt, std::nullopt};
+      SampleRecord s{samples,
+                     i / 2,
+                     camera_host(i),
+                     camera_host(i) + 7 * kMs,
+                     0,
+                     {{camera, 0, std::uint64_t(i + 1), 0}},
+                     std::nullopt,
+                     std::nullopt,
+                     std::nullopt};
       index.add_sample(s);
       ++samples;
     }

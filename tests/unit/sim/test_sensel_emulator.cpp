@@ -31,8 +31,8 @@ TEST(SenselEmulator, AnswersTheOpenSequenceLikeTheDevice) {
   auto serial = ask(emu, command_read_variable(reg::kSerialNumber), Expect::ReadVariable, reg::kSerialNumber);
   ASSERT_EQ(serial.data.size(), 16u);
   EXPECT_EQ(serial.data[15], 0xFF);  // 13 characters and 0xFF padding
-  auto meta = ask(emu, command_read_variable(reg::kCompressionMetadata), Expect::ReadVariable,
-                  reg::kCompressionMetadata);
+  auto meta =
+      ask(emu, command_read_variable(reg::kCompressionMetadata), Expect::ReadVariable, reg::kCompressionMetadata);
   EXPECT_EQ(grid_from_metadata(meta.data).value(), kMediumDetail);  // medium after reset
   const std::uint8_t high[] = {0};
   ask(emu, command_write(reg::kScanDetail, high), Expect::Write, reg::kScanDetail);
@@ -56,8 +56,8 @@ TEST(SenselEmulator, KnownPressDecodesToTheDocumentedPressure) {
   ask(emu, command_write(reg::kScanDetail, high), Expect::Write, reg::kScanDetail);
   const std::uint8_t content[] = {kPressure | kLabels | kContacts | kAccel};
   ask(emu, command_write(reg::kFrameContent, content), Expect::Write, reg::kFrameContent);
-  const auto r = ask(emu, command_read_variable(reg::kReadFrame), Expect::ReadVariable, reg::kReadFrame, 0,
-                     500'000'000);
+  const auto r =
+      ask(emu, command_read_variable(reg::kReadFrame), Expect::ReadVariable, reg::kReadFrame, 0, 500'000'000);
   ASSERT_EQ(r.state, Response::State::Ok) << r.error;
   auto f = parse_frame(r.data, kHighDetail);
   ASSERT_TRUE(f) << f.error().message;
@@ -178,6 +178,5 @@ TEST(SenselEmulator, VariableWriteArrivesInChunksAndABadChunkIsRefused) {
   EXPECT_EQ(ask(emu, bad, Expect::WriteVariableChunk, 0x80).state, Response::State::Bad);
   EXPECT_EQ(emu.variable_reg(0x80), leds) << "a refused write changes nothing";
   // The channel is back to commands afterwards.
-  EXPECT_EQ(ask(emu, command_read(reg::kSensorCols, 2), Expect::Read, reg::kSensorCols, 2).state,
-            Response::State::Ok);
+  EXPECT_EQ(ask(emu, command_read(reg::kSensorCols, 2), Expect::Read, reg::kSensorCols, 2).state, Response::State::Ok);
 }

@@ -32,7 +32,8 @@ TEST(SimConfig, SimSectionMustMatchCameraCount) {
 
 TEST(SimConfig, SimClocksAreRead) {
   const auto sim = sim_config_of(
-      "name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  seed: 3\n  cameras:\n    - {drift_ppm: 50, packet_loss: 0.01, "
+      "name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  seed: 3\n  cameras:\n    - {drift_ppm: 50, packet_loss: "
+      "0.01, "
       "stop_after_s: 4}\n",
       "rig.yaml");
   ASSERT_TRUE(sim);
@@ -52,11 +53,11 @@ TEST(SimConfig, SimCameraLensAndPlaceAreReadAndChecked) {
   EXPECT_DOUBLE_EQ((*c.look_at_mm)[0], 100);
   EXPECT_DOUBLE_EQ(*c.focal_px, 1200);
   EXPECT_DOUBLE_EQ((*c.distortion)[1], 0.05);
-  std::string e = error_of("name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  cameras:\n    - {position_mm: [1, 2]}\n");
+  std::string e =
+      error_of("name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  cameras:\n    - {position_mm: [1, 2]}\n");
   EXPECT_NE(e.find("rig.yaml:6: sim.cameras[0].position_mm: expected a list of 3 numbers"), std::string::npos) << e;
   e = error_of("name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  cameras:\n    - {position_mm: [1, 2, -5]}\n");
   EXPECT_NE(e.find("must stand above the pad"), std::string::npos) << e;
   e = error_of("name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  cameras:\n    - {distortion: [a, 0, 0, 0, 0]}\n");
   EXPECT_NE(e.find("'a' is not a number"), std::string::npos) << e;
 }
-

@@ -17,7 +17,8 @@ TEST(Timecode, RoundTripsThroughAMosaicAndDebayering) {
   const Timecode tc{1234567890123456789LL, 65535};
   draw_timecode(mosaic, tc);
   cv::Mat back;
-  ASSERT_TRUE(pvcap::to_bgr(mosaic.data, mosaic.total(), size.width, size.height, ARV_PIXEL_FORMAT_BAYER_RG_8, back).ok());
+  ASSERT_TRUE(
+      pvcap::to_bgr(mosaic.data, mosaic.total(), size.width, size.height, ARV_PIXEL_FORMAT_BAYER_RG_8, back).ok());
   const auto got = read_timecode(back);
   ASSERT_TRUE(got.has_value());
   EXPECT_EQ(*got, tc);

@@ -102,8 +102,10 @@ TEST(FrameSpill, ACameraFasterThanItsEncoderLosesNothing) {
     std::uint64_t pushed = 0, refused = 0;
     std::thread camera([&] {
       for (std::uint64_t i = 0; i < 400; ++i) {
-        if (q.push(image_of(i), row_of(i))) ++pushed;
-        else ++refused;
+        if (q.push(image_of(i), row_of(i)))
+          ++pushed;
+        else
+          ++refused;
         std::this_thread::sleep_for(200us);
       }
       q.close();

@@ -13,16 +13,16 @@
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
 
-#include "storage/verify.h"
 #include "capture/sensel_frame.h"
 #include "core/rig_config.h"
 #include "core/time.h"
+#include "sim/scene.h"
 #include "storage/pressure_blob.h"
 #include "storage/recover.h"
-#include "sim/scene.h"
 #include "storage/session_reader.h"
 #include "storage/session_writer.h"
 #include "storage/sqlite/database.h"
+#include "storage/verify.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;
@@ -102,7 +102,8 @@ WrittenStore write_store(const fs::path& root, double seconds, bool raw_first = 
     EXPECT_TRUE(id) << id.error().message;
     out.cams.push_back(id.value());
   }
-  const std::int64_t sensel = writer.add_device(DeviceRecord{"sensel", "sensel", "Sensel", "Morph", "SM1", "tty", "1", "{}"}).value();
+  const std::int64_t sensel =
+      writer.add_device(DeviceRecord{"sensel", "sensel", "Sensel", "Morph", "SM1", "tty", "1", "{}"}).value();
   EXPECT_TRUE(writer.set_participant({"P017", "medium", "left_first"}).ok());
   EXPECT_TRUE(writer.set_conditions({"L-R", "white_vinyl"}).ok());
   EXPECT_TRUE(writer.add_calibration({out.cams[0], 123, "fiducials", "[[1,0,0],[0,1,0],[0,0,1]]", 0.4, 0.3, "{}"}));
@@ -112,8 +113,19 @@ WrittenStore write_store(const fs::path& root, double seconds, bool raw_first = 
   const int frames = int(seconds * 15);
   for (int p = 0; p * pressure_ns < std::int64_t(seconds * 1e9) + 100'000'000; ++p) {
     const auto counts = pressure_counts(p);
-    PressureRecord r{sensel, 0, std::uint64_t(p), 0, p * pressure_ns, out.t0 + p * pressure_ns, 1000, 47, 27, 4, 4,
-                     pressure_payload(p, counts), out.t0 + p * pressure_ns};
+    PressureRecord r{sensel,
+                     0,
+                     std::uint64_t(p),
+                     0,
+                     p * pressure_ns,
+                     out.t0 + p * pressure_ns,
+                     1000,
+                     47,
+                     27,
+                     4,
+                     4,
+                     pressure_payload(p, counts),
+                     out.t0 + p * pressure_ns};
     r.base = 3;
     r.counts = counts;
     writer.record(std::move(r));
@@ -133,8 +145,8 @@ WrittenStore write_store(const fs::path& root, double seconds, bool raw_first = 
     const std::uint64_t before = std::uint64_t(rel / pressure_ns);
     s.pressure_before = SampleFrameRef{sensel, 0, before, std::int64_t(before) * pressure_ns - rel};
     s.pressure_after = SampleFrameRef{sensel, 0, before + 1, std::int64_t(before + 1) * pressure_ns - rel};
-    s.pressure = std::llabs(s.pressure_before->offset_ns) <= s.pressure_after->offset_ns ? s.pressure_before
-                                                                                        : s.pressure_after;
+    s.pressure =
+        std::llabs(s.pressure_before->offset_ns) <= s.pressure_after->offset_ns ? s.pressure_before : s.pressure_after;
     writer.record(std::move(s));
     ++out.samples;
     std::this_thread::sleep_for(std::chrono::milliseconds(2));  // keep the encoder queues short
@@ -158,7 +170,8 @@ TEST(PressureBlob, RoundTripsAndRejectsDamage) {
   ASSERT_TRUE(back) << back.error().message;
   EXPECT_EQ(back.value(), counts);
   EXPECT_FALSE(decompress_counts(blob, counts.size() + 1)) << "a grid of another size is refused";
-  EXPECT_FALSE(decompress_counts(std::vector<std::uint8_t>(blob.begin(), blob.begin() + long(blob.size() / 2)), counts.size()));
+  EXPECT_FALSE(
+      decompress_counts(std::vector<std::uint8_t>(blob.begin(), blob.begin() + long(blob.size() / 2)), counts.size()));
   std::vector<std::uint8_t> junk = {1, 2, 3, 4, 5};
   EXPECT_FALSE(decompress_counts(junk, counts.size()));
 }
@@ -218,8 +231,8 @@ TEST(SessionStore, WrittenInSegmentsAndReadBackExactly) {
   ASSERT_TRUE(actions);
   ASSERT_EQ(actions.value().size(), 2u);
   EXPECT_EQ(actions.value()[0].action, "press_index");
-  EXPECT_EQ(actions.value()[0].first_sample, 3u);   // first sample at or after 200 ms: 10 + 3 * 66.7 ms
-  EXPECT_EQ(actions.value()[0].end_sample, 14u);    // first at or after 900 ms
+  EXPECT_EQ(actions.value()[0].first_sample, 3u);  // first sample at or after 200 ms: 10 + 3 * 66.7 ms
+  EXPECT_EQ(actions.value()[0].end_sample, 14u);   // first at or after 900 ms
   EXPECT_EQ(actions.value()[1].action, "flat_palm");
   EXPECT_EQ(actions.value()[1].end_sample, reader.sample_count()) << "an open action runs to the session's end";
   EXPECT_EQ(reader.operator_notes().value().at(0).text, "participant sneezed");
@@ -351,13 +364,14 @@ TEST(SessionStore, OlderSchemasAreMigratedAfterABackup) {
   }
   std::vector<int> passed;
   std::vector<std::string> said;
-  { auto index = SessionIndex::open_for_update(path, &passed, [&](const std::string& s) { said.push_back(s); }); }
+  {
+    auto index = SessionIndex::open_for_update(path, &passed, [&](const std::string& s) { said.push_back(s); });
+  }
   EXPECT_EQ(passed, (std::vector<int>{2, 3, 4}));
   // The operator sees each step, and how far the long one (every pressure frame decoded) has come.
-  EXPECT_EQ(said, (std::vector<std::string>{"upgrading the index from version 1 to 2",
-                                            "upgrading the index from version 2 to 3",
-                                            "raw pressure counts: 1 of 1 frames",
-                                            "upgrading the index from version 3 to 4"}));
+  EXPECT_EQ(said, (std::vector<std::string>{
+                      "upgrading the index from version 1 to 2", "upgrading the index from version 2 to 3",
+                      "raw pressure counts: 1 of 1 frames", "upgrading the index from version 3 to 4"}));
   EXPECT_TRUE(fs::exists(root / "session.db.v1.bak"));
   {
     sqlite::Database backup(root / "session.db.v1.bak", sqlite::Database::Mode::ReadOnly);
@@ -496,8 +510,10 @@ TEST(SessionStore, FramesArrivingInABurstAreStillFoundExactly) {
 // recover never touches a session that is still being recorded.
 TEST(SessionStore, RecoverRefusesASessionBeingRecorded) {
   const auto root = temp_root("live");
-  const auto rig = parse_rig_config("name: live\ncameras:\n  - {name: c, address: 10.0.0.1}\n"
-                                    "store: {min_free_mb: 0, reserve_mb: 0}\n", "live.yaml");
+  const auto rig = parse_rig_config(
+      "name: live\ncameras:\n  - {name: c, address: 10.0.0.1}\n"
+      "store: {min_free_mb: 0, reserve_mb: 0}\n",
+      "live.yaml");
   auto w = SessionWriter::create(root, rig, wall_now_ns(), host_now().ns);
   ASSERT_TRUE(w);
   ASSERT_TRUE(w.value()->add_camera({"camera", "c", "", "", "", "", "", "{}"}, 64, 48));

@@ -38,11 +38,13 @@ TEST(SessionWriter, IndexRecordsEveryFrameWithItsReasonAndVersion) {
   w.value()->start();
   const std::int64_t t0 = host_now().ns;
   for (int i = 0; i < 10; ++i) {
-    FrameRecord f{id.value(), 0, std::uint64_t(i), std::uint64_t(i), i * 1000, t0 + i * 16'666'667, 0, "good", false,
-                  "", {}, {}};
-    if (i % 4 == 0) ASSERT_TRUE(w.value()->submit_video(id.value(), cv::Mat(64, 64, CV_8UC3, cv::Scalar(i, 0, 0)), f));
-    else w.value()->record(FrameRecord{f.device_id, 0, f.sequence, f.frame_id, f.device_ns, f.host_ns, 0, "good", false,
-                                       "subsampled", {}, {}});
+    FrameRecord f{
+        id.value(), 0, std::uint64_t(i), std::uint64_t(i), i * 1000, t0 + i * 16'666'667, 0, "good", false, "", {}, {}};
+    if (i % 4 == 0)
+      ASSERT_TRUE(w.value()->submit_video(id.value(), cv::Mat(64, 64, CV_8UC3, cv::Scalar(i, 0, 0)), f));
+    else
+      w.value()->record(FrameRecord{
+          f.device_id, 0, f.sequence, f.frame_id, f.device_ns, f.host_ns, 0, "good", false, "subsampled", {}, {}});
   }
   w.value()->record(DropRecord{id.value(), 0, 10, 3, "not_received", t0});
   const auto dir = w.value()->dir();
@@ -73,8 +75,8 @@ TEST(SessionWriter, AFailedStartSaysWhyAndLeavesNoSessionFolder) {
   const auto root = fs::temp_directory_path() / ("pvcap-test-sw3-" + std::to_string(::getpid()));
   fs::remove_all(root);
   fs::create_directories(root);
-  const auto rig = parse_rig_config(
-      "name: r\ncameras:\n  - address: 10.0.0.1\nstore: {min_free_mb: 0, reserve_mb: 8}\n", "r.yaml");
+  const auto rig =
+      parse_rig_config("name: r\ncameras:\n  - address: 10.0.0.1\nstore: {min_free_mb: 0, reserve_mb: 8}\n", "r.yaml");
   rlimit old{};
   ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
   const rlimit one_mb{1 << 20, old.rlim_max};

@@ -330,8 +330,10 @@ TEST(BayerPlanes, PackAndUnpackAreInverseAndPutEachCellPositionInItsOwnPlane) {
       for (int x = 0; x < 4; ++x)
         for (int p = 0; p < 4; ++p) {  // p: the cell's top-left, top-right, bottom-left, bottom-right
           const int my = 2 * y + p / 2, mx = 2 * x + p % 2;
-          if (type == CV_8UC1) EXPECT_EQ(planes.at<std::uint8_t>(p * 3 + y, x), mosaic.at<std::uint8_t>(my, mx));
-          else EXPECT_EQ(planes.at<std::uint16_t>(p * 3 + y, x), mosaic.at<std::uint16_t>(my, mx));
+          if (type == CV_8UC1)
+            EXPECT_EQ(planes.at<std::uint8_t>(p * 3 + y, x), mosaic.at<std::uint8_t>(my, mx));
+          else
+            EXPECT_EQ(planes.at<std::uint16_t>(p * 3 + y, x), mosaic.at<std::uint16_t>(my, mx));
         }
     unpack_bayer_planes(planes, back);
     EXPECT_EQ(cv::norm(back, mosaic, cv::NORM_INF), 0.0);

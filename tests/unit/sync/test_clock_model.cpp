@@ -28,8 +28,8 @@ struct Errors {
 };
 
 // Runs one stream for `seconds` at `hz` and returns the online mapping errors after `warmup_s`.
-Errors run(ClockModel& model, DeviceClock clock, Link link, double hz, double seconds, double warmup_s,
-           double drop = 0, std::uint64_t seed = 7) {
+Errors run(ClockModel& model, DeviceClock clock, Link link, double hz, double seconds, double warmup_s, double drop = 0,
+           std::uint64_t seed = 7) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(0, 1);
   Errors e;

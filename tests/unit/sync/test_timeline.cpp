@@ -14,7 +14,8 @@ constexpr std::int64_t kPeriod60 = 16'666'667;
 
 // Four cameras at 60 Hz, each with its own phase and +-jitter, interleaved in time order
 // of arrival (arrival = t + 3 ms +- 1 ms).
-std::vector<FrameRef> four_cameras(double seconds, std::uint64_t seed, std::set<std::pair<int, std::uint64_t>> skip = {}) {
+std::vector<FrameRef> four_cameras(double seconds, std::uint64_t seed,
+                                   std::set<std::pair<int, std::uint64_t>> skip = {}) {
   std::mt19937_64 rng(seed);
   std::uniform_int_distribution<std::int64_t> jitter(-300'000, 300'000), arrive(2'000'000, 4'000'000);
   const std::int64_t phase[4] = {0, 1'500'000, -2'000'000, 3'000'000};
