@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cstdio>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -131,14 +132,15 @@ int report_recorded_session(const console::SessionOutcome& outcome) {
       text ? text.value()
            : fmt::format("session: {}\nthe report could not be made: {}\n", rec.dir.string(), text.error().message);
   for (const auto& note : rec.notes) report += note + "\n";
-  fmt::print("\n{}", report);
+  // fputs, not fmt::print: a terminal that went away (a dropped ssh) is not an error here.
+  std::fputs(("\n" + report).c_str(), stdout);
   if (outcome.protocol) {
     if (auto takes = protocol::read_takes(rec.dir)) {
       // Every take in report.txt (and report.html); the console keeps to the totals.
       const std::string table = protocol::format_takes(takes.value());
       report += "\n" + table;
       const auto at = table.find(" takes done of ");
-      fmt::print("\n{}", at == std::string::npos ? table : table.substr(table.rfind('\n', at) + 1));
+      std::fputs(("\n" + (at == std::string::npos ? table : table.substr(table.rfind('\n', at) + 1))).c_str(), stdout);
     } else {
       spdlog::error("the takes could not be read back: {}", takes.error().message);
     }

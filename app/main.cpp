@@ -1,6 +1,7 @@
 // pvcap: capture and synchronization for visual hand-pressure datasets.
 // Thin: each subcommand registers its own options (app/command.h); main parses the line, sets up
 // logging and signals, and runs the one given. See docs/ for the user guide.
+#include <fcntl.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -20,18 +21,38 @@
 namespace {
 
 std::atomic<bool> g_stop{false};
+// /dev/null, opened at start: where a hang-up sends the output that went to the terminal.
+int g_dev_null = -1;
+bool g_stdout_tty = false, g_stderr_tty = false;
 
-void on_signal(int) {
-  if (g_stop.exchange(true)) _exit(130);  // a second Ctrl-C: leave now
+void on_signal(int sig) {
+  if (sig == SIGHUP) {
+    // The terminal is gone (a dropped ssh, a closed window): stop cleanly, whatever repeats. The
+    // shell forwards a hang-up more than once, and a write to the dead terminal fails with EIO, so
+    // what went to it goes to /dev/null from now on (dup2 is safe in a handler); the session's log
+    // file keeps every line.
+    if (g_dev_null >= 0) {
+      if (g_stdout_tty) dup2(g_dev_null, STDOUT_FILENO);
+      if (g_stderr_tty) dup2(g_dev_null, STDERR_FILENO);
+    }
+    g_stop.store(true);
+    return;
+  }
+  if (g_stop.exchange(true)) _exit(130);  // a second Ctrl-C or SIGTERM: leave now
 }
 
 void install_stop_handlers() {
+  g_stdout_tty = isatty(STDOUT_FILENO) == 1;
+  g_stderr_tty = isatty(STDERR_FILENO) == 1;
+  g_dev_null = open("/dev/null", O_WRONLY | O_CLOEXEC);
   struct sigaction sa {};
   sa.sa_handler = on_signal;
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
   sigaction(SIGHUP, &sa, nullptr);  // an ssh connection that drops stops the session cleanly
   signal(SIGPIPE, SIG_IGN);         // a closed pipe or socket is an error return, not death
+  // A background job that writes to its terminal must not be stopped for it (the session runs on).
+  signal(SIGTTOU, SIG_IGN);
 }
 
 std::filesystem::path self_exe() {
@@ -84,6 +105,14 @@ int main(int argc, char** argv) {
   } catch (const pvcap::UserError& e) {
     spdlog::error("{}", e.what());
     return 2;
+  } catch (const std::exception& e) {
+    // Never unreported: whatever escaped (a bug, or a library's error nobody expected) is named,
+    // and the exit status says the command failed.
+    try {
+      spdlog::error("pvcap stopped on an unexpected error: {}", e.what());
+    } catch (...) {
+    }
+    return 1;
   }
   return 0;
 }

@@ -18,6 +18,9 @@
 //   index_writer.stall_s           the index thread sleeps this long, once, `stall_after_s`
 //   index_writer.stall_after_s     (default 2) after it starts
 //   index_writer.queue_records     the index queue holds this many records
+//   encoder.frame_delay_ms         every camera's encoder waits this long before each frame (an
+//                                  encoder slower than its camera, whatever the machine)
+#include <chrono>
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -38,6 +41,7 @@ struct FaultPlan {
   std::optional<Stall> sensel_pipeline_stall;
   std::optional<Stall> index_writer_stall;
   std::optional<std::size_t> camera_queue_frames, sensel_queue_frames, index_queue_records;
+  std::chrono::milliseconds encoder_frame_delay{0};
   std::string spec;  // as given, for the warning and the log
   bool empty() const { return spec.empty(); }
 };

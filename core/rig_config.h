@@ -69,6 +69,9 @@ struct StoreConfig {
   double segment_seconds = 60;  // a camera's video is cut into files this long; 0 = one file
   int min_free_mb = 512;        // stop the session cleanly when the disk's free space drops below this
   int reserve_mb = 32;          // space set aside at start, freed to finish the store if the disk fills anyway
+  // Every file of the session reaches stable storage at least this often while recording (fsync,
+  // storage/durable_folder.h): what a power cut can lose. 0 leaves it to the kernel (benchmarks).
+  double sync_interval_s = 1.0;
 };
 
 struct RigConfig {

@@ -12,6 +12,7 @@
 #include "capture/pixel_format.h"
 #include "core/frame_pool.h"
 #include "core/time.h"
+#include "storage/frame_checksum.h"
 
 namespace pvcap::session {
 
@@ -62,7 +63,7 @@ class CameraWorker {
       auto frame = queue.pop_for(100ms);
       record_losses();
       apply_decisions();
-      give_up_undecided(host_now().ns - 5'000'000'000);
+      if (!p_.end.stopping.load()) give_up_undecided(host_now().ns - 5'000'000'000);
       take_clock_probes();
       if (frame) take(*frame);
     }
@@ -123,6 +124,9 @@ class CameraWorker {
           Error{fmt::format("frame has {} bytes, a {}x{} mosaic needs {}", h.pixels.size(), h.width, h.height, bytes)};
     } else {
       std::memcpy(image.data, h.pixels.data(), bytes);
+      // The frame's checksum, taken from the camera's bytes before anything encodes them: verify and
+      // the reader compare every decoded frame with it (storage/frame_checksum.h).
+      h.rec.checksum = stored_mosaic_crc(image);
     }
     recycle(std::move(h.pixels));
     if (!converted) {
@@ -181,8 +185,10 @@ class CameraWorker {
                     {}};
     if (frame.identity != FrameIdentity::Own) {
       // A buffer that is not the frame it names (the frame it was is counted in a gap): recorded,
-      // never used. Without a frame id it has sequence 0, unknown.
+      // never used, with sequence 0 (unknown). The id it carries (kept in frame_id) is another
+      // frame's, and a second row under that frame's key would stand beside it in every join.
       p_.tally.unidentified.fetch_add(1, std::memory_order_relaxed);
+      rec.sequence = 0;
       rec.reason = frame.identity == FrameIdentity::NoFrameId   ? "no_frame_id_" + frame.detail
                    : frame.identity == FrameIdentity::Duplicate ? std::string("duplicate_frame_id")
                                                                 : "stale_metadata_" + frame.detail;

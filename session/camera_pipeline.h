@@ -44,6 +44,10 @@ class Preview {
 struct TimelineEnd {
   std::atomic<int> feeding{0};
   std::atomic<bool> flushed{false};
+  // Set when the stop begins: from then on the timeline's flush decides every held frame, so the
+  // workers no longer give one up as undecided (a camera slow to stop would otherwise lose frames
+  // a sample already names).
+  std::atomic<bool> stopping{false};
 };
 
 struct CameraPipeline {

@@ -177,10 +177,11 @@ void Recording::record_rig_calibration(SessionWriter& writer) {
 }
 
 Status Recording::start() {
-  IndexFeedOptions index;
-  if (options_.faults.index_queue_records) index.queue_records = *options_.faults.index_queue_records;
-  index.stall = options_.faults.index_writer_stall;
-  auto created = SessionWriter::create(options_.root, rig_, wall0_, host0_, index);
+  WriterOptions writer_options;
+  if (options_.faults.index_queue_records) writer_options.index_queue_records = *options_.faults.index_queue_records;
+  writer_options.index_stall = options_.faults.index_writer_stall;
+  writer_options.encoder_frame_delay = options_.faults.encoder_frame_delay;
+  auto created = SessionWriter::create(options_.root, rig_, wall0_, host0_, writer_options);
   if (!created) return created.error();
   writer_ = std::move(created.value());
   SessionWriter& writer = *writer_;
@@ -502,6 +503,7 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   state_.store(kStopping);
   SessionWriter& writer = *writer_;
   result.recorded_s = double(host_now().ns - rec_start_) / 1e9;
+  if (timeline_end_) timeline_end_->stopping.store(true);
   // All cameras stop at once; one blocked on a reconnect attempt must not keep the others recording.
   for (auto& cam : cameras_) cam->request_stop();
   if (sensel_) sensel_->stop();

@@ -9,6 +9,7 @@
 
 #include "core/fault_injection.h"
 #include "core/loss_runs.h"
+#include "storage/frame_checksum.h"
 
 namespace pvcap::session {
 
@@ -214,6 +215,8 @@ void SenselPipeline::run() {
       latest_.mapped_ns = mapped;
       rec.counts = std::move(s->frame.pressure->counts);
     }
+    // Its checksum, of the payload as the device sent it (storage/frame_checksum.h): verify checks it.
+    rec.checksum = crc32_of(s->payload.data(), s->payload.size());
     rec.payload = std::move(s->payload);
     writer.record(std::move(rec));
     stored_.fetch_add(1, std::memory_order_relaxed);

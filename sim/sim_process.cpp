@@ -36,7 +36,15 @@ Result<std::unique_ptr<SimProcess>> SimProcess::start(const std::filesystem::pat
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   if (steerable) posix_spawn_file_actions_adddup2(&actions, fds[0], STDIN_FILENO);  // dup2 clears CLOEXEC
-  const int rc = posix_spawn(&self->pid_, exe.c_str(), &actions, nullptr, argv.data(), environ);
+  // Its own process group, as real devices are: the terminal's Ctrl-C or hang-up reaches the
+  // recorder, which stops the simulator itself after the devices' last frames (and it dies with
+  // the recorder: PR_SET_PDEATHSIG in `pvcap sim`).
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attr, 0);
+  const int rc = posix_spawn(&self->pid_, exe.c_str(), &actions, &attr, argv.data(), environ);
+  posix_spawnattr_destroy(&attr);
   posix_spawn_file_actions_destroy(&actions);
   if (steerable) close(fds[0]);
   if (rc != 0) {

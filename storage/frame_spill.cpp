@@ -15,9 +15,11 @@ namespace pvcap {
 
 namespace {
 
-// Record: "PVSP", u32 total bytes, u32 CRC-32 of everything after it, then the fields below and the
-// pixels. Little-endian (the machine's; a spill is read back by the same machine).
-constexpr char kMagic[4] = {'P', 'V', 'S', 'P'};
+// Record: "PVS2", u32 total bytes, u32 CRC-32 of everything after it, then the fields below and the
+// pixels. Little-endian (the machine's; a spill is read back by the same machine). "PVSP" records
+// (pvcap before store version 5) are the same without the frame's capture checksum.
+constexpr char kMagic[4] = {'P', 'V', 'S', '2'};
+constexpr char kMagicWithoutChecksum[4] = {'P', 'V', 'S', 'P'};
 constexpr std::size_t kPrefix = 12;             // magic, size, CRC
 constexpr std::uint32_t kMaxRecord = 1u << 30;  // a frame larger than 1 GiB is damage, not a frame
 
@@ -79,6 +81,8 @@ std::vector<std::uint8_t> fields(const SpillItem& item) {
   b.put(std::uint8_t(r.mapped_ns.has_value()));
   b.put(r.mapped_ns.value_or(0));
   b.put_string(r.status);
+  b.put(std::uint8_t(r.checksum.has_value()));
+  b.put(r.checksum.value_or(0));
   b.put(std::int32_t(item.image.rows));
   b.put(std::int32_t(item.image.cols));
   b.put(std::int32_t(item.image.type()));
@@ -103,7 +107,8 @@ bool full_pread(int fd, void* buf, std::size_t n, std::int64_t off) {
 Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off) {
   std::uint8_t prefix[kPrefix];
   if (!full_pread(fd, prefix, kPrefix, off)) return Error{"cut before its header"};
-  if (std::memcmp(prefix, kMagic, 4) != 0) return Error{"not a spill record"};
+  const bool with_checksum = std::memcmp(prefix, kMagic, 4) == 0;
+  if (!with_checksum && std::memcmp(prefix, kMagicWithoutChecksum, 4) != 0) return Error{"not a spill record"};
   std::uint32_t size = 0, crc = 0;
   std::memcpy(&size, prefix + 4, 4);
   std::memcpy(&crc, prefix + 8, 4);
@@ -114,15 +119,18 @@ Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off
   Cursor c(body.data(), body.size());
   SpillRecord out;
   FrameRecord& r = out.rec;
-  std::uint8_t has_mapped = 0;
+  std::uint8_t has_mapped = 0, has_checksum = 0;
   std::int64_t mapped = 0;
+  std::uint32_t checksum = 0;
   std::int32_t rows = 0, cols = 0, type = 0;
   std::uint64_t pixel_bytes = 0;
   if (!c.get(r.device_id) || !c.get(r.connection) || !c.get(r.sequence) || !c.get(r.frame_id) || !c.get(r.device_ns) ||
       !c.get(r.host_ns) || !c.get(r.aravis_system_ns) || !c.get(has_mapped) || !c.get(mapped) ||
-      !c.get_string(r.status) || !c.get(rows) || !c.get(cols) || !c.get(type) || !c.get(pixel_bytes))
+      !c.get_string(r.status) || (with_checksum && (!c.get(has_checksum) || !c.get(checksum))) || !c.get(rows) ||
+      !c.get(cols) || !c.get(type) || !c.get(pixel_bytes))
     return Error{"fields cut short"};
   if (has_mapped) r.mapped_ns = mapped;
+  if (has_checksum) r.checksum = checksum;
   if (rows <= 0 || cols <= 0 || rows > 65536 || cols > 65536 ||
       (type != CV_8UC1 && type != CV_8UC3 && type != CV_16UC1))
     return Error{fmt::format("impossible image {}x{} of type {}", cols, rows, type)};

@@ -61,6 +61,8 @@ struct FrameRecord {
   std::optional<std::int64_t> video_index;   // 0-based frame number in that file
   std::optional<std::int64_t> mapped_ns;     // on the session clock (the clock model's), when known
   std::optional<std::int64_t> video_pts_ms;  // its timestamp in the video file, exactly
+  // CRC-32 of the picture kept in a raw video, taken at capture (storage/frame_checksum.h)
+  std::optional<std::uint32_t> checksum;
 };
 
 // In a session folder while it is being recorded; flock()ed by the recording process.
@@ -97,6 +99,7 @@ struct PressureRecord {
   std::optional<std::int64_t> mapped_ns;  // on the session clock (the clock model's)
   std::uint16_t base = 0;
   std::vector<std::uint16_t> counts;
+  std::optional<std::uint32_t> checksum;  // CRC-32 of `payload` as received (storage/frame_checksum.h)
 };
 
 // One 15 Hz dataset sample: a camera frame per camera for one instant, and the pressure

@@ -195,6 +195,13 @@ ALTER TABLE video_files ADD COLUMN bayer_format TEXT;
 ALTER TABLE video_files ADD COLUMN bit_depth INTEGER;
 )sql";
 
+// 4 -> 5: each stored frame's checksum, taken at capture (storage/frame_checksum.h). An older
+// store's frames have none (NULL): they were not taken when those frames were captured.
+constexpr const char* kTo5 = R"sql(
+ALTER TABLE frames ADD COLUMN checksum INTEGER;
+ALTER TABLE pressure_frames ADD COLUMN checksum INTEGER;
+)sql";
+
 // Decodes every stored device payload once and stores its counts in the portable form. Read in
 // pages by rowid, each page before its updates: rows are never changed under a running SELECT.
 void fill_pressure_counts(sqlite::Database& db, const std::function<void(const std::string&)>& progress) {
@@ -256,6 +263,7 @@ void apply_step(sqlite::Database& db, int version, const std::function<void(cons
     fill_pressure_counts(db, progress);
   }
   if (version == 3) db.exec(kTo4);
+  if (version == 4) db.exec(kTo5);
   db.set_user_version(version + 1);
 }
 }  // namespace

@@ -27,16 +27,25 @@ SessionIndex SessionIndex::open_for_update(const std::filesystem::path& path, st
   return SessionIndex(std::move(db));
 }
 
+namespace {
+// A CRC-32 as SQLite stores it: an unsigned 32-bit number in an INTEGER column.
+std::optional<std::int64_t> checksum_column(std::optional<std::uint32_t> crc) {
+  if (!crc) return std::nullopt;
+  return std::int64_t(*crc);
+}
+}  // namespace
+
 SessionIndex::SessionIndex(std::unique_ptr<sqlite::Database> db) : db_(std::move(db)) {
   insert_frame_.emplace(db_->prepare(
       "INSERT INTO frames (device_id, connection, sequence, frame_id, device_ns, host_ns, aravis_system_ns, status, "
-      "kept, reason, video_file_id, video_index, mapped_ns, video_pts_ms) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?)"));
+      "kept, reason, video_file_id, video_index, mapped_ns, video_pts_ms, checksum) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)"));
   insert_drop_.emplace(db_->prepare(
       "INSERT INTO drops (device_id, connection, first_sequence, count, reason, host_ns) VALUES (?,?,?,?,?,?)"));
   insert_pressure_.emplace(db_->prepare(
       "INSERT INTO pressure_frames (device_id, connection, sequence, lost_before, device_ns, host_ns, host_wait_ns, "
-      "grid_cols, grid_rows, grid_xscale, grid_yscale, payload, mapped_ns, base, counts) "
-      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)"));
+      "grid_cols, grid_rows, grid_xscale, grid_yscale, payload, mapped_ns, base, counts, checksum) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)"));
   insert_sample_.emplace(db_->prepare(
       "INSERT INTO samples (id, tick, tick_ns, t_ns, span_ns, cameras, pressure_device_id, pressure_connection, "
       "pressure_sequence, pressure_offset_ns, before_sequence, before_offset_ns, after_sequence, after_offset_ns) "
@@ -120,7 +129,7 @@ void SessionIndex::add_frame(const FrameRecord& f) {
   insert_frame_
       ->bind_all(f.device_id, std::int64_t(f.connection), f.sequence, f.frame_id, f.device_ns, f.host_ns,
                  f.aravis_system_ns, f.status, int(f.kept), f.reason, f.video_file_id, f.video_index, f.mapped_ns,
-                 f.video_pts_ms)
+                 f.video_pts_ms, checksum_column(f.checksum))
       .run();
 }
 
@@ -135,7 +144,7 @@ void SessionIndex::add_pressure(const PressureRecord& p) {
   insert_pressure_
       ->bind_all(p.device_id, std::int64_t(p.connection), p.sequence, p.lost_before, p.device_ns, p.host_ns,
                  p.host_wait_ns, p.grid_cols, p.grid_rows, p.grid_xscale, p.grid_yscale, p.payload, p.mapped_ns, base,
-                 counts)
+                 counts, checksum_column(p.checksum))
       .run();
 }
 

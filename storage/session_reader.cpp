@@ -145,16 +145,19 @@ Result<SampleInfo> SessionReader::sample_info(std::size_t i) {
 
 Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) {
   return guarded(dir_, [&]() -> Result<cv::Mat> {
-    auto q = db_->prepare(
-        "SELECT f.video_file_id, f.host_ns, v.path, f.video_pts_ms FROM frames f JOIN video_files v ON v.id = "
+    // Stores before version 5 have no checksums.
+    auto q = db_->prepare(fmt::format(
+        "SELECT f.video_file_id, f.host_ns, v.path, f.video_pts_ms, {} FROM frames f JOIN video_files v ON v.id = "
         "f.video_file_id "
-        "WHERE f.device_id = ? AND f.connection = ? AND f.sequence = ? AND f.kept = 1");
+        "WHERE f.device_id = ? AND f.connection = ? AND f.sequence = ? AND f.kept = 1",
+        info_.schema_version >= 5 ? "f.checksum" : "NULL"));
     q.bind_all(c.device_id, std::int64_t(c.connection), c.sequence);
     if (!q.step())
       return Error{fmt::format("{}: frame {} of device {} is not in a video", dir_.string(), c.sequence, c.device_id)};
     const std::int64_t file_id = q.column_int(0);
     const VideoTimestamp ts = video_timestamp(opt_int(q, 3), q.column_int(1), info_.started_host_ns);
     const std::string rel = q.column_text(2);
+    const std::optional<std::int64_t> checksum = opt_int(q, 4);
     if (rel.empty() || rel.find("..") != std::string::npos || rel.front() == '/')
       return Error{fmt::format("{}: video path '{}' leaves the session folder", dir_.string(), rel)};
     auto it = videos_.find(file_id);
@@ -171,6 +174,14 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) 
     if (!found) return found.error();
     if (!found.value())
       return Error{fmt::format("{}: no frame at {} ms in {}", dir_.string(), ts.ms, (dir_ / rel).string())};
+    if (check_checksums_ && checksum) {
+      const auto crc = it->second->decoded_picture_crc();
+      if (crc && *crc != std::uint32_t(*checksum))
+        return Error{fmt::format(
+            "{}: frame {} (connection {}) of device {} at {} ms: its pixels are not the bytes the "
+            "camera sent (checksum at capture {:08x}, stored picture {:08x})",
+            (dir_ / rel).string(), c.sequence, c.connection, c.device_id, ts.ms, std::uint32_t(*checksum), *crc)};
+    }
     return bgr;
   });
 }

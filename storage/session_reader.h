@@ -169,6 +169,10 @@ class SessionReader {
   // How raw videos become the colour images above: bilinear (the default, as the capture path's
   // previews), edge-aware or VNG (capture/pixel_format.h).
   void set_demosaic(Demosaic method);
+  // Checks each raw video frame read (image, raw_image, sample) against the checksum its camera's
+  // bytes got at capture (docs/store.md, Checksums): a frame whose pixels differ is an Error naming
+  // it, never handed out. Off by default (one CRC per frame read: ~1 ms per 1080p frame).
+  void set_check_checksums(bool on) { check_checksums_ = on; }
   // The sample nearest `t_ns` on the session clock (info().started_host_ns + seconds * 1e9).
   Result<std::size_t> sample_at(std::int64_t t_ns) const;
   Result<PressureFrame> pressure_frame(std::uint64_t sequence, std::uint32_t connection = 0);
@@ -200,6 +204,7 @@ class SessionReader {
   Result<cv::Mat> camera_image(const SampleCamera& c, bool mosaic = false);
   Result<cv::Mat> one_image(std::size_t i, std::size_t camera, bool mosaic);
   Demosaic demosaic_ = Demosaic::Bilinear;
+  bool check_checksums_ = false;
   std::filesystem::path dir_;
   std::unique_ptr<sqlite::Database> db_;
   SessionInfo info_;

@@ -80,7 +80,7 @@ auto index_write(F&& write) {
 
 Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesystem::path& root, const RigConfig& rig,
                                                              std::int64_t started_wall_ns, std::int64_t started_host_ns,
-                                                             const IndexFeedOptions& index) {
+                                                             const WriterOptions& options) {
   std::error_code ec;
   std::filesystem::create_directories(root, ec);
   if (ec) return Error{fmt::format("{}: cannot create the sessions folder: {}", root.string(), ec.message())};
@@ -136,8 +136,9 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
   } catch (const sqlite::SqliteError& e) {
     return abandon(Error{e.what()});
   }
-  w->index_writer_ =
-      std::make_unique<IndexWriter>(*w->index_, index.queue_records, std::chrono::milliseconds(250), index.stall);
+  w->encoder_frame_delay_ = options.encoder_frame_delay;
+  w->index_writer_ = std::make_unique<IndexWriter>(*w->index_, options.index_queue_records,
+                                                   std::chrono::milliseconds(250), options.index_stall);
   return w;
 }
 
@@ -212,6 +213,10 @@ void SessionWriter::start() {
   index_writer_->start();
   for (auto& cam : cameras_) cam->thread = std::thread([this, c = cam.get()] { encode_loop(*c); });
   watcher_ = std::thread([this] { watch_free_space(); });
+  if (store_.sync_interval_s > 0) {
+    durable_ = std::make_unique<DurableFolder>(dir_, std::vector<std::string>{kSpillFolder});
+    syncer_ = std::thread([this] { keep_durable(); });
+  }
 }
 
 bool SessionWriter::submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecord frame) {
@@ -288,6 +293,7 @@ void SessionWriter::encode_loop(Camera& cam) {
       }
     }
     if (!cam.failed.load()) {
+      if (encoder_frame_delay_.count() > 0) std::this_thread::sleep_for(encoder_frame_delay_);  // a test's fault
       auto index = cam.video->write(bgr, pts_us);
       if (index) {
         rec.kept = true;
@@ -341,6 +347,16 @@ void SessionWriter::watch_free_space() {
                       dir_.string(), free / kMiB, store_.min_free_mb));
       return;
     }
+  }
+}
+
+void SessionWriter::keep_durable() {
+  const auto interval = std::chrono::duration<double>(store_.sync_interval_s);
+  std::unique_lock lock(watch_mu_);
+  while (!watch_cv_.wait_for(lock, interval, [this] { return sync_stop_; })) {
+    lock.unlock();
+    if (Status s = durable_->sync_changed(); !s.ok()) set_failure(s.error().message);
+    lock.lock();
   }
 }
 
@@ -419,6 +435,12 @@ Status SessionWriter::close(const std::string& end_reason) {
   }
   index_writer_->stop();
   if (auto f = index_writer_->failure(); f && result.ok()) result = Error{*f};
+  {
+    std::lock_guard lock(watch_mu_);
+    sync_stop_ = true;
+  }
+  watch_cv_.notify_all();
+  if (syncer_.joinable()) syncer_.join();
   std::lock_guard lock(failure_mu_);
   if (failure_ && result.ok()) result = Error{*failure_};
   // A segment whose writing failed holds fewer frames than were handed to it: the index is made
@@ -457,6 +479,12 @@ Status SessionWriter::close(const std::string& end_reason) {
     std::filesystem::remove(dir_ / kRecordingLock, ec);
     ::close(lock_fd_);
     lock_fd_ = -1;
+  }
+  if (durable_) {  // the finished store, its last rows and the lock's removal, on stable storage
+    if (Status s = durable_->sync_changed(); !s.ok() && result.ok()) result = s;
+    const auto& c = durable_->counts();
+    spdlog::debug("{}: {} fsync rounds, {} file and {} folder syncs, the slowest round {:.1f} ms", dir_.string(),
+                  c.rounds, c.file_syncs, c.folder_syncs, c.slowest_round_ms);
   }
   return result;
 }

@@ -28,6 +28,7 @@
 #include "core/bounded_queue.h"
 #include "core/result.h"
 #include "core/rig_config.h"
+#include "storage/durable_folder.h"
 #include "storage/index_writer.h"
 #include "storage/session_index.h"
 #include "storage/video_writer.h"
@@ -47,10 +48,13 @@ struct CameraStoreStats {
 // (PFNC name) when store.video_mode is raw, colour otherwise. Used by the writer and by recover.
 VideoSettings camera_video_settings(const StoreConfig& store, int width, int height, const std::string& pixel_format);
 
-// How the index is fed: its queue's size, and a test's fault (core/fault_injection.h).
-struct IndexFeedOptions {
-  std::size_t queue_records = IndexWriter::kQueueRecords;
-  std::optional<Stall> stall;
+// How the writer's threads run: the index queue's size, and a test's faults (core/fault_injection.h).
+struct WriterOptions {
+  std::size_t index_queue_records = IndexWriter::kQueueRecords;
+  std::optional<Stall> index_stall;
+  // Each encoder waits this long before every frame: an encoder slower than its camera on any
+  // machine, so the spill is exercised deterministically rather than by a slow codec preset.
+  std::chrono::milliseconds encoder_frame_delay{0};
 };
 
 class SessionWriter {
@@ -58,7 +62,7 @@ class SessionWriter {
   // Makes `<root>/<UTC date-time>_<rig name>` (suffixing -2, -3... if taken).
   static Result<std::unique_ptr<SessionWriter>> create(const std::filesystem::path& root, const RigConfig& rig,
                                                        std::int64_t started_wall_ns, std::int64_t started_host_ns,
-                                                       const IndexFeedOptions& index = {});
+                                                       const WriterOptions& options = {});
   ~SessionWriter();
 
   // Registers a camera and opens its first video segment; returns its device id in the index.
@@ -127,10 +131,12 @@ class SessionWriter {
   Status open_segment(Camera& cam, std::int64_t first_pts_us, bool direct);
   void set_failure(std::string message);
   void watch_free_space();
+  void keep_durable();
   void release_reserve() const;  // idempotent; any thread
 
   std::filesystem::path dir_;
   std::int64_t started_host_ns_ = 0;
+  std::chrono::milliseconds encoder_frame_delay_{0};
   StoreConfig store_;
   std::optional<SessionIndex> index_;
   std::unique_ptr<IndexWriter> index_writer_;
@@ -150,6 +156,11 @@ class SessionWriter {
   std::mutex watch_mu_;
   std::condition_variable watch_cv_;
   bool watch_stop_ = false;
+  // The durability horizon: every changed file fsynced each store.sync_interval_s, on its own
+  // thread (an fsync may take a while; the free-space watch must not wait for it).
+  std::unique_ptr<DurableFolder> durable_;
+  std::thread syncer_;
+  bool sync_stop_ = false;
 };
 
 }  // namespace pvcap

@@ -1,10 +1,12 @@
 #include "storage/verify.h"
 
+#include <chrono>
 #include <cstdlib>
 
 #include <fmt/format.h>
 
 #include "capture/sensel_frame.h"
+#include "storage/frame_checksum.h"
 #include "storage/frame_spill.h"
 #include "storage/pressure_blob.h"
 #include "storage/session_index.h"
@@ -66,6 +68,7 @@ class Verifier {
     }
     started_ = q.column_int(0);
     clean_end_ = !q.column_null(1);
+    if (clean_end_) r_.session_s = double(q.column_int(1) - started_) / 1e9;
     const std::string reason = q.column_null(2) ? "" : q.column_text(2);
     if (!clean_end_)
       r_.losses.push_back(
@@ -82,12 +85,43 @@ class Verifier {
   void check_videos() {
     auto files = db_.prepare(
         "SELECT v.id, v.path, d.name, v.state FROM video_files v JOIN devices d ON d.id = v.device_id ORDER BY v.id");
-    std::vector<std::tuple<std::int64_t, std::string, std::string>> videos;
-    while (files.step()) videos.emplace_back(files.column_int(0), files.column_text(1), files.column_text(3));
-    for (const auto& [id, path, state] : videos) check_video(id, path, state);
+    std::vector<std::tuple<std::int64_t, std::string, std::string, std::string>> videos;
+    while (files.step())
+      videos.emplace_back(files.column_int(0), files.column_text(1), files.column_text(2), files.column_text(3));
+    for (const auto& [id, path, camera, state] : videos) check_video(id, path, camera, state);
+    if (frames_checked_)
+      r_.facts.push_back(fmt::format("video frames: {} checked against their capture checksum, {} damaged",
+                                     frames_checked_, frames_damaged_));
   }
 
-  void check_video(std::int64_t id, const std::string& path, const std::string& state) {
+  // A video's kept rows, in video order.
+  struct KeptRow {
+    std::int64_t video_index = 0;
+    VideoTimestamp ts;
+    std::optional<std::uint32_t> checksum;
+    std::int64_t connection = 0, sequence = 0;
+  };
+
+  std::vector<KeptRow> kept_rows(std::int64_t file_id) {
+    auto rows = db_.prepare(
+        "SELECT video_index, host_ns, video_pts_ms, checksum, connection, sequence FROM frames WHERE video_file_id = "
+        "? AND kept = 1 ORDER BY video_index");
+    rows.bind_all(file_id);
+    std::vector<KeptRow> kept;
+    while (rows.step()) {
+      KeptRow k;
+      k.video_index = rows.column_int(0);
+      k.ts = video_timestamp(rows.column_null(2) ? std::nullopt : std::optional(rows.column_int(2)), rows.column_int(1),
+                             started_);
+      if (!rows.column_null(3)) k.checksum = std::uint32_t(rows.column_int(3));
+      k.connection = rows.column_int(4);
+      k.sequence = rows.column_int(5);
+      kept.push_back(k);
+    }
+    return kept;
+  }
+
+  void check_video(std::int64_t id, const std::string& path, const std::string& camera, const std::string& state) {
     // A segment left open by a crash, or cut by a failed write, may hold frames whose rows were
     // never committed, or miss frames whose rows were: losses, not damage. A closed one may not.
     const bool finished = state == "closed" || state == "recovered";
@@ -95,15 +129,7 @@ class Verifier {
       r_.losses.push_back(
           fmt::format("{}: was being written when the recording stopped; 'pvcap recover' closes it", path));
     say(fmt::format("checking {}", path));
-    auto rows = db_.prepare(
-        "SELECT video_index, host_ns, video_pts_ms FROM frames WHERE video_file_id = ? AND "
-        "kept = 1 ORDER BY video_index");
-    rows.bind_all(id);
-    std::vector<std::pair<std::int64_t, VideoTimestamp>> kept;
-    while (rows.step())
-      kept.emplace_back(rows.column_int(0),
-                        video_timestamp(rows.column_null(2) ? std::nullopt : std::optional(rows.column_int(2)),
-                                        rows.column_int(1), started_));
+    const std::vector<KeptRow> kept = kept_rows(id);
     auto reader = VideoReader::open(dir_ / path);
     if (!reader) {
       // Cut before its first frame reached the disk: a loss when the recording was interrupted
@@ -117,29 +143,57 @@ class Verifier {
                 fmt::format("{}: {}; {} indexed frames cannot be read", path, reader.error().message, kept.size()));
       return;
     }
-    std::size_t n = 0, wrong_time = 0, key_frames = 0;
+    // A raw video is decoded frame by frame and each picture checked against the checksum its
+    // camera's bytes got at capture; a colour (lossy) one is read packet by packet.
+    VideoReader& video = *reader.value();
+    std::size_t n = 0, wrong_time = 0, key_frames = 0, checked = 0;
+    std::vector<std::string> damaged;
     std::int64_t pts_ms = 0;
     bool key = false;
     std::string read_error;
+    cv::Mat picture;
     for (;;) {
-      auto more = reader.value()->next_packet(pts_ms, key);
+      auto more = video.raw() ? video.next_stored(picture, pts_ms, key) : video.next_packet(pts_ms, key);
       if (!more) {
         read_error = more.error().message;
         break;
       }
       if (!more.value()) break;
-      if (n < kept.size() && std::llabs(pts_ms - kept[n].second.ms) > kept[n].second.tolerance_ms) ++wrong_time;
+      if (n < kept.size()) {
+        const KeptRow& row = kept[n];
+        if (std::llabs(pts_ms - row.ts.ms) > row.ts.tolerance_ms) ++wrong_time;
+        if (video.raw() && row.checksum) {
+          ++checked;
+          if (const std::uint32_t crc = picture_crc(picture); crc != *row.checksum)
+            damaged.push_back(
+                fmt::format("{}: frame {} ({} connection {} sequence {}): its pixels are not the bytes "
+                            "the camera sent (checksum at capture {:08x}, stored picture {:08x})",
+                            path, n, camera, row.connection, row.sequence, *row.checksum, crc));
+        }
+      }
       key_frames += key;
       ++n;
     }
+    report_video(path, n, kept, key_frames, checked, wrong_time, read_error, clean_end_ && finished);
+    for (std::size_t i = 0; i < damaged.size() && i < kMaxNamed; ++i) r_.errors.push_back(damaged[i]);
+    if (damaged.size() > kMaxNamed)
+      r_.errors.push_back(fmt::format("{}: {} more damaged frames", path, damaged.size() - kMaxNamed));
+    frames_checked_ += checked;
+    frames_damaged_ += damaged.size();
+  }
+
+  void report_video(const std::string& path, std::size_t n, const std::vector<KeptRow>& kept, std::size_t key_frames,
+                    std::size_t checked, std::size_t wrong_time, const std::string& read_error, bool must_be_whole) {
     bool contiguous = true;
-    for (std::size_t i = 0; i < kept.size(); ++i) contiguous &= kept[i].first == std::int64_t(i);
-    r_.facts.push_back(fmt::format("{}: {} frames in the video, {} kept in the index, {} key frames", path, n,
-                                   kept.size(), key_frames));
+    for (std::size_t i = 0; i < kept.size(); ++i) contiguous &= kept[i].video_index == std::int64_t(i);
+    r_.facts.push_back(
+        fmt::format("{}: {} frames in the video, {} kept in the index, {} key frames, {} checked against "
+                    "their capture checksum",
+                    path, n, kept.size(), key_frames, checked));
     if (!read_error.empty()) r_.errors.push_back(read_error);
     if (!contiguous) r_.errors.push_back(fmt::format("{}: the index's video positions are not 0, 1, 2, ...", path));
     // A session that did not end cleanly may lose the open part of a video; one that did, may not.
-    auto& missing = clean_end_ && finished ? r_.errors : r_.losses;
+    auto& missing = must_be_whole ? r_.errors : r_.losses;
     if (n < kept.size())
       missing.push_back(fmt::format("{}: {} indexed frames are missing from the video (it ends at frame {})", path,
                                     kept.size() - n, n));
@@ -153,8 +207,9 @@ class Verifier {
   void check_pressure() {
     say("checking pressure frames");
     auto q = db_.prepare(
-        "SELECT payload, grid_cols, grid_rows, grid_xscale, grid_yscale, sequence, base, counts FROM pressure_frames");
-    std::size_t total = 0, bad = 0;
+        "SELECT payload, grid_cols, grid_rows, grid_xscale, grid_yscale, sequence, base, counts, checksum, connection "
+        "FROM pressure_frames");
+    std::size_t total = 0, bad = 0, checksummed = 0, damaged = 0;
     std::string first_bad;
     auto fail = [&](std::int64_t seq, const std::string& why) {
       if (!bad++) first_bad = fmt::format("sequence {}: {}", seq, why);
@@ -162,6 +217,17 @@ class Verifier {
     while (q.step()) {
       ++total;
       const auto payload = q.column_blob(0);
+      if (!q.column_null(8)) {
+        ++checksummed;
+        if (const std::uint32_t crc = crc32_of(payload.data(), payload.size()); crc != std::uint32_t(q.column_int(8))) {
+          if (damaged++ < kMaxNamed)
+            r_.errors.push_back(
+                fmt::format("pressure frame (connection {} sequence {}): its payload is not the bytes "
+                            "the Sensel sent (checksum at capture {:08x}, stored {:08x})",
+                            q.column_int(9), q.column_int(5), std::uint32_t(q.column_int(8)), crc));
+          continue;
+        }
+      }
       const sensel::Grid grid{int(q.column_int(1)), int(q.column_int(2)), int(q.column_int(3)), int(q.column_int(4))};
       auto f = sensel::parse_frame(payload, grid);
       if (!f) {
@@ -180,7 +246,11 @@ class Verifier {
       else if (counts.value() != image->counts || q.column_int(6) != image->base)
         fail(q.column_int(5), "its counts differ from its device payload");
     }
-    r_.facts.push_back(fmt::format("pressure frames: {} stored, {} decode", total, total - bad));
+    r_.facts.push_back(
+        fmt::format("pressure frames: {} stored, {} decode, {} checked against their capture checksum, "
+                    "{} damaged",
+                    total, total - bad - damaged, checksummed, damaged));
+    if (damaged > kMaxNamed) r_.errors.push_back(fmt::format("{} more damaged pressure frames", damaged - kMaxNamed));
     if (bad) r_.errors.push_back(fmt::format("{} pressure frames do not decode (first: {})", bad, first_bad));
   }
 
@@ -232,12 +302,15 @@ class Verifier {
   sqlite::Database db_;
   std::int64_t started_ = 0;
   bool clean_end_ = true;
+  std::size_t frames_checked_ = 0, frames_damaged_ = 0;
+  static constexpr std::size_t kMaxNamed = 20;  // damaged frames named one by one, per file
 };
 
 }  // namespace
 
 VerifyReport verify_session(const std::filesystem::path& dir, const std::function<void(const std::string&)>& progress) {
   VerifyReport r;
+  const auto t0 = std::chrono::steady_clock::now();
   if (!std::filesystem::exists(dir / "session.db")) {
     r.errors.push_back(fmt::format("{}: not a session folder (no session.db)", dir.string()));
     return r;
@@ -247,6 +320,7 @@ VerifyReport verify_session(const std::filesystem::path& dir, const std::functio
   } catch (const sqlite::SqliteError& e) {
     r.errors.push_back(fmt::format("{}: {}", (dir / "session.db").string(), e.what()));
   }
+  r.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }
 
@@ -255,6 +329,10 @@ std::string format_report(const std::filesystem::path& dir, const VerifyReport& 
   for (const auto& f : r.facts) out += "  " + f + "\n";
   for (const auto& l : r.losses) out += "  LOSS: " + l + "\n";
   for (const auto& e : r.errors) out += "  ERROR: " + e + "\n";
+  if (r.session_s > 0)
+    out += fmt::format("checked in {:.1f} s; the session lasted {:.1f} s\n", r.elapsed_s, r.session_s);
+  else
+    out += fmt::format("checked in {:.1f} s\n", r.elapsed_s);
   out += r.exit_code() == 0   ? "verdict: clean\n"
          : r.exit_code() == 3 ? "verdict: lossy but readable (exit 3)\n"
                               : "verdict: FAILED: parts cannot be read as indexed (exit 1)\n";

@@ -16,6 +16,8 @@ struct VerifyReport {
   std::vector<std::string> facts;   // what was checked and found in order
   std::vector<std::string> losses;  // recorded losses: readable, but not everything is there
   std::vector<std::string> errors;  // the session (or a part of it) cannot be read as indexed
+  double elapsed_s = 0;             // how long the check took
+  double session_s = 0;             // how long the recording lasted (0: it did not end cleanly)
   // 0 clean, 3 lossy but readable, 1 failed.
   int exit_code() const { return !errors.empty() ? 1 : !losses.empty() ? 3 : 0; }
 };

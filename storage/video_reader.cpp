@@ -16,6 +16,7 @@ extern "C" {
 #include "storage/av_handles.h"
 #include "storage/av_log.h"
 #include "storage/bayer_planes.h"
+#include "storage/frame_checksum.h"
 
 namespace pvcap {
 
@@ -99,6 +100,38 @@ Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
   if (more && more.value())
     if (Status s = to_bgr(bgr); !s.ok()) return s.error();
   return more;
+}
+
+namespace {
+// A raw video's decoded frame as the stored picture (the planes stacked), viewing the frame.
+Result<cv::Mat> stored_picture(const AVFrame* f, int bit_depth, const std::filesystem::path& path) {
+  // As in to_mosaic: H.264 hands a grey picture out as 4:2:0 with blank chroma (its first plane).
+  const bool grey8 =
+      f->format == AV_PIX_FMT_GRAY8 || f->format == AV_PIX_FMT_YUV420P || f->format == AV_PIX_FMT_YUVJ420P;
+  const bool grey16 = f->format == AV_PIX_FMT_GRAY16LE;
+  if (!(bit_depth > 8 ? grey16 : grey8))
+    return Error{fmt::format("{}: a raw video's pictures must be {}-bit grey", path.string(), bit_depth > 8 ? 16 : 8)};
+  return cv::Mat(f->height, f->width, grey16 ? CV_16UC1 : CV_8UC1, f->data[0], std::size_t(f->linesize[0]));
+}
+}  // namespace
+
+Result<bool> VideoReader::next_stored(cv::Mat& picture, std::int64_t& pts_ms, bool& key) {
+  if (!raw()) return Error{fmt::format("{}: a colour video keeps no stored picture to check", path_.string())};
+  const FfmpegLogQuiet quiet;
+  auto more = decode_next(pts_ms);
+  if (!more || !more.value()) return more;
+  auto p = stored_picture(impl_->frame.ptr, bit_depth_, path_);
+  if (!p) return p.error();
+  picture = p.value();
+  key = impl_->frame.ptr->key_frame != 0;
+  return true;
+}
+
+std::optional<std::uint32_t> VideoReader::decoded_picture_crc() const {
+  if (!raw() || last_pts_ms_ == INT64_MIN || !impl_->frame.ptr->data[0]) return std::nullopt;
+  auto p = stored_picture(impl_->frame.ptr, bit_depth_, path_);
+  if (!p) return std::nullopt;
+  return picture_crc(p.value());
 }
 
 Status VideoReader::to_mosaic(cv::Mat& mosaic) {

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <opencv2/core.hpp>
@@ -24,6 +25,13 @@ class VideoReader {
 
   // The next frame in file order; false at the end. `pts_ms` is its timestamp.
   Result<bool> next(cv::Mat& bgr, std::int64_t& pts_ms);
+  // A raw video's next frame as stored (its planes stacked, as storage/frame_checksum.h checksums
+  // it), in file order; false at the end. `picture` views the decoder's memory until the next call.
+  // An Error for a colour video. Do not mix with next() or next_packet().
+  Result<bool> next_stored(cv::Mat& picture, std::int64_t& pts_ms, bool& key);
+  // A raw video: the CRC-32 of the stored picture last decoded (by any read), as
+  // storage/frame_checksum.h takes it at capture; nullopt for a colour video or before a read.
+  std::optional<std::uint32_t> decoded_picture_crc() const;
   // Without decoding: the next packet of the video stream (one per frame here: no B-frames),
   // its timestamp and whether it is a key frame; false at the end. Do not mix with next().
   Result<bool> next_packet(std::int64_t& pts_ms, bool& key);

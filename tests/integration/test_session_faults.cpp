@@ -2,6 +2,8 @@
 // recorder on the same rig, and a --root that cannot take a session (read-only, missing parent).
 #include <gtest/gtest.h>
 
+#include <poll.h>
+#include <pty.h>
 #include <signal.h>
 #include <sys/mount.h>
 #include <sys/wait.h>
@@ -11,6 +13,7 @@
 #include <cstring>
 #include <fstream>
 #include <set>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -33,6 +36,20 @@ std::vector<fs::path> sessions_in(const fs::path& root) {
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(root, ec))
     if (e.is_directory() && e.path().filename().string()[0] != '.') out.push_back(e.path());
+  return out;
+}
+
+// For a failure's message: the reasons of the sample frames not in a video, with their times.
+std::string why_sample_frames_are_not_in_a_video(const fs::path& session) {
+  pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  auto q = db.prepare(
+      "SELECT sf.sample_id, sf.device_id, sf.sequence, coalesce(f.reason, 'no row'), (s.t_ns - x.started_host_ns) / "
+      "1000000 FROM sample_frames sf JOIN samples s ON s.id = sf.sample_id, session x LEFT JOIN frames f USING "
+      "(device_id, connection, sequence) WHERE f.kept IS NOT 1");
+  std::string out = "\nsample frames not in a video:";
+  while (q.step())
+    out += fmt::format("\n  sample {} device {} sequence {}: {} at {} ms", q.column_int(0), q.column_int(1),
+                       q.column_int(2), q.column_text(3), q.column_int(4));
   return out;
 }
 
@@ -311,5 +328,61 @@ TEST(SessionFaults, SighupAndSigtermStopTheSessionCleanly) {
     EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind LIKE 'sensel_%'"), 0)
         << "the Morph streamed on, untouched by the listing";
   }
+  fs::remove_all(work);
+}
+
+// The operator's ssh connection drops, as it really happens: `pvcap session` runs as the job of an
+// interactive bash on a pseudo-terminal, writing to it, and the terminal is closed (no kill() of
+// ours). The kernel hangs up the job, bash forwards a second hang-up, and writes to the dead
+// terminal fail: the session still stops cleanly, writes its report, verifies, and exits 0.
+TEST(SessionFaults, ClosingTheTerminalOfAnInteractiveShellStopsTheSessionCleanly) {
+  const fs::path work = work_dir("hangup");
+  const fs::path rig = write_rig(work);
+  const fs::path root = work / "sessions", status_file = work / "status";
+  int master = -1;
+  const pid_t shell = forkpty(&master, nullptr, nullptr, nullptr);
+  ASSERT_GE(shell, 0) << std::strerror(errno);
+  if (shell == 0) {
+    execl("/bin/bash", "bash", "--norc", "--noprofile", "-i", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // The wrapper only keeps the exit status (it ignores the hang-up itself); pvcap sets its own
+  // handlers, and its output goes to the terminal.
+  const std::string line =
+      fmt::format("sh -c 'trap \"\" HUP; {} session --rig {} --root {} --duration 60 --no-web; echo $? > {}'\n",
+                  PVCAP_BIN, rig.string(), root.string(), status_file.string());
+  ASSERT_EQ(write(master, line.data(), line.size()), ssize_t(line.size()));
+  // Read the terminal as a terminal emulator would (a full pty would block the writer) until six
+  // seconds of recording were shown.
+  std::string shown;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(90);
+  while (shown.find("6.0 s |") == std::string::npos && std::chrono::steady_clock::now() < deadline) {
+    pollfd p{master, POLLIN, 0};
+    if (poll(&p, 1, 200) <= 0) continue;
+    char buf[4096];
+    const ssize_t n = read(master, buf, sizeof buf);
+    if (n <= 0) break;
+    shown.append(buf, std::size_t(n));
+  }
+  ASSERT_NE(shown.find("6.0 s |"), std::string::npos) << shown;
+  close(master);  // the terminal window closes
+  int shell_status = 0;
+  waitpid(shell, &shell_status, 0);
+  for (int i = 0; i < 600 && !fs::exists(status_file); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_TRUE(fs::exists(status_file)) << "pvcap did not end within 60 s of the hang-up";
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the echo's line complete
+  EXPECT_EQ(read_all(status_file), "0\n") << "pvcap's exit status after the hang-up";
+  const fs::path session = only_session(root);
+  ASSERT_FALSE(session.empty());
+  EXPECT_TRUE(fs::exists(session / "report.html"));
+  EXPECT_FALSE(fs::exists(session / "space-reserve")) << "the space reserve is given back";
+  {
+    pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+    auto q = db.prepare("SELECT coalesce(end_reason, '') FROM session");
+    ASSERT_TRUE(q.step());
+    EXPECT_EQ(q.column_text(0), "stopped by operator");
+  }
+  const auto v = run_pvcap("verify " + session.string());
+  EXPECT_EQ(v.exit_code, 0) << v.output << why_sample_frames_are_not_in_a_video(session);
   fs::remove_all(work);
 }

@@ -44,6 +44,11 @@ std::int64_t count(pvcap::sqlite::Database& db, const std::string& sql) {
   return q.step() ? q.column_int(0) : -1;
 }
 
+std::string text(pvcap::sqlite::Database& db, const std::string& sql) {
+  auto q = db.prepare(sql);
+  return q.step() && !q.column_null(0) ? q.column_text(0) : "";
+}
+
 // A busy loop on one core for as long as it lives.
 struct CpuHog {
   pid_t pid = fork();
@@ -60,9 +65,10 @@ struct CpuHog {
 
 // Four 1080p cameras in raw mode with another process taking one of the two cores. At the defaults
 // (15 Hz, ffvhuff) the encoders keep up even beside the hog and the spill stays unused (seen in the
-// suite), so here every frame is kept (video_fps 0: 4 x 30 frames/s) and the raw codec is lossless
-// x264, with a memory queue of two frames: the encoders fall behind, frames wait in the spill, and
-// none is dropped.
+// suite), so here every frame is kept (video_fps 0: 4 x 30 frames/s), the raw codec is lossless
+// x264 with a memory queue of two frames, and each encoder waits 40 ms before every frame (a fault,
+// core/fault_injection.h: at most 25 of 30 frames/s on any machine): the encoders fall behind,
+// frames wait in the spill, and none is dropped.
 TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
   const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-spill-hog-{}", getpid());
   fs::remove_all(work);
@@ -73,8 +79,10 @@ TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
   pvcap::testing::CommandResult result;
   {
     CpuHog hog;
+    setenv("PVCAP_FAULTS", "encoder.frame_delay_ms=40", 1);
     result = run_pvcap(fmt::format("session --rig {} --root {} --duration 6 --no-web", (work / "rig.yaml").string(),
                                    (work / "sessions").string()));
+    unsetenv("PVCAP_FAULTS");
   }
   ASSERT_EQ(result.exit_code, 0) << result.output;
   const fs::path dir = only_session(work / "sessions");
@@ -93,7 +101,10 @@ TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
     EXPECT_EQ(count(db,
                     "SELECT count(*) FROM sample_frames sf JOIN frames f USING (device_id, connection, sequence) "
                     "WHERE f.kept = 0"),
-              0);
+              0)
+        << text(db,
+                "SELECT group_concat(f.reason) FROM sample_frames sf JOIN frames f USING "
+                "(device_id, connection, sequence) WHERE f.kept = 0");
   }
   EXPECT_FALSE(fs::exists(dir / pvcap::kSpillFolder)) << "a drained spill leaves nothing behind";
   // The videos and the index agree frame for frame. (Under the hog the Sensel's stream may leave an
@@ -106,8 +117,9 @@ TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
   fs::remove_all(work);
 }
 
-// The encoder far behind (lossless x264 at its slowest preset, every frame kept), the session
-// stopped, and the process killed while it drains the spill: `pvcap recover` encodes what the spill
+// The encoder far behind (every frame kept, and each encoder waits 100 ms before every frame, a fault
+// of core/fault_injection.h: 10 of the camera's 30 frames/s on any machine), the session stopped,
+// and the process killed while it drains the spill: `pvcap recover` encodes what the spill
 // still holds, and every spilled frame ends in a video exactly as the camera sent it.
 TEST(StoreSpill, KillDuringTheDrainThenRecoverPutsEverySpilledFrameInAVideo) {
   const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-spill-kill-{}", getpid());
@@ -115,10 +127,12 @@ TEST(StoreSpill, KillDuringTheDrainThenRecoverPutsEverySpilledFrameInAVideo) {
   fs::create_directories(work);
   std::ofstream(work / "rig.yaml") << store_lines_instead_of_preset(
       sim_rig_yaml({{}, {}, {}, {}}, 640, 480, 30, 0, "free-run", /*sensel=*/true),
-      "  raw_codec: libx264\n  preset: placebo\n  queue_frames: 4\n");
+      "  raw_codec: libx264\n  preset: ultrafast\n  queue_frames: 4\n");
+  setenv("PVCAP_FAULTS", "encoder.frame_delay_ms=100", 1);
   const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 6 --no-web",
                                             (work / "rig.yaml").string(), (work / "sessions").string()),
                                 work / "log.txt");
+  unsetenv("PVCAP_FAULTS");
   ASSERT_TRUE(wait_for_text(work / "log.txt", "encoding the frames still waiting", 60s)) << read_all(work / "log.txt");
   std::this_thread::sleep_for(500ms);
   ASSERT_EQ(kill(pid, SIGKILL), 0);

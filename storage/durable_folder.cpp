@@ -1,0 +1,108 @@
+#include "storage/durable_folder.h"
+
+#include <dirent.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <set>
+
+#include <fmt/format.h>
+
+namespace pvcap {
+
+namespace {
+
+Status fsync_path_fd(int fd, const std::filesystem::path& path, const char* what) {
+  if (fsync(fd) == 0) return {};
+  return Error{fmt::format("{}: could not be made durable ({}: {}); what the disk holds of it may be incomplete",
+                           path.string(), what, std::strerror(errno))};
+}
+
+}  // namespace
+
+DurableFolder::DurableFolder(std::filesystem::path dir, std::vector<std::string> subfolders) : dir_(std::move(dir)) {
+  folders_.push_back(dir_);
+  for (const auto& s : subfolders) folders_.push_back(dir_ / s);
+}
+
+DurableFolder::~DurableFolder() {
+  for (auto& [path, t] : files_)
+    if (t.fd >= 0) ::close(t.fd);
+}
+
+Status DurableFolder::sync_folder(const std::filesystem::path& folder, bool& entries_changed) {
+  DIR* d = opendir(folder.c_str());
+  if (!d) return {};  // not made yet (the spill), or gone with the session: nothing to keep
+  std::set<std::filesystem::path> present;
+  Status failure;
+  while (dirent* e = readdir(d)) {
+    if (e->d_type != DT_REG && e->d_type != DT_UNKNOWN) continue;
+    const std::filesystem::path path = folder / e->d_name;
+    struct stat st {};
+    if (stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) continue;
+    present.insert(path);
+    Tracked& t = files_[path];
+    if (t.size == st.st_size && t.mtime.tv_sec == st.st_mtim.tv_sec && t.mtime.tv_nsec == st.st_mtim.tv_nsec) continue;
+    if (t.fd < 0) t.fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (t.fd < 0) continue;  // removed between the listing and now
+    if (Status s = fsync_path_fd(t.fd, path, "fsync"); !s.ok()) {
+      if (failure.ok()) failure = s;
+      continue;
+    }
+    ++counts_.file_syncs;
+    t.size = st.st_size;
+    t.mtime = st.st_mtim;
+  }
+  closedir(d);
+  // Files that went (a drained spill file, a replaced segment): forget them.
+  for (auto it = files_.begin(); it != files_.end();) {
+    if (it->first.parent_path() == folder && !present.count(it->first)) {
+      if (it->second.fd >= 0) ::close(it->second.fd);
+      it = files_.erase(it);
+      entries_changed = true;
+    } else {
+      ++it;
+    }
+  }
+  std::size_t& known = entries_[folder];
+  if (known != present.size()) entries_changed = true;
+  known = present.size();
+  return failure;
+}
+
+Status DurableFolder::sync_changed() {
+  const auto t0 = std::chrono::steady_clock::now();
+  Status failure;
+  bool any_entries_changed = false;
+  for (const auto& folder : folders_) {
+    bool entries_changed = false;
+    if (Status s = sync_folder(folder, entries_changed); !s.ok() && failure.ok()) failure = s;
+    any_entries_changed |= entries_changed;
+    if (!entries_changed) continue;
+    // A new (or removed) file's name is in its folder's data: synced too, or a power cut can keep a
+    // file's bytes and lose its name.
+    const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0) continue;
+    if (Status s = fsync_path_fd(fd, folder, "fsync of the folder"); !s.ok() && failure.ok()) failure = s;
+    ::close(fd);
+    ++counts_.folder_syncs;
+  }
+  // A subfolder made since the last round is an entry of the session folder.
+  if (any_entries_changed && folders_.size() > 1) {
+    const int fd = ::open(dir_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd >= 0) {
+      if (Status s = fsync_path_fd(fd, dir_, "fsync of the folder"); !s.ok() && failure.ok()) failure = s;
+      ::close(fd);
+    }
+  }
+  ++counts_.rounds;
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  counts_.slowest_round_ms = std::max(counts_.slowest_round_ms, ms);
+  return failure;
+}
+
+}  // namespace pvcap

@@ -1,0 +1,55 @@
+#pragma once
+// The session's durability horizon (docs/store.md, "What a power cut can lose"): while recording,
+// every file of the session folder that changed (video segments, spill files, the index and its
+// WAL) and the folder entries themselves reach stable storage once a second. The writes go to the
+// kernel as they happen (FFmpeg flushes each packet, the spill writes each frame, SQLite each
+// commit); what this adds is the fsync that makes them survive a power cut, from a thread that is
+// not a device thread. An fsync that fails (EIO: the disk lost written data) is an error naming
+// the file: the session stops, as for any failed write.
+#include <sys/types.h>
+
+#include <cstdint>
+#include <ctime>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/result.h"
+
+namespace pvcap {
+
+class DurableFolder {
+ public:
+  // `dir` and its `subfolders` (created later is fine: they are synced once they exist).
+  DurableFolder(std::filesystem::path dir, std::vector<std::string> subfolders);
+  ~DurableFolder();
+  DurableFolder(const DurableFolder&) = delete;
+  DurableFolder& operator=(const DurableFolder&) = delete;
+
+  // fsyncs every regular file whose size or modification time changed since the last call, and
+  // each folder whose entries changed. The first failure, naming the file and the error.
+  Status sync_changed();
+
+  struct Counts {
+    std::uint64_t rounds = 0, file_syncs = 0, folder_syncs = 0;
+    double slowest_round_ms = 0;
+  };
+  const Counts& counts() const { return counts_; }
+
+ private:
+  struct Tracked {
+    int fd = -1;
+    off_t size = -1;
+    timespec mtime{};
+  };
+  Status sync_folder(const std::filesystem::path& folder, bool& entries_changed);
+
+  std::filesystem::path dir_;
+  std::vector<std::filesystem::path> folders_;
+  std::map<std::filesystem::path, Tracked> files_;        // kept open: a later write error is reported to this fd
+  std::map<std::filesystem::path, std::size_t> entries_;  // each folder's entry count at the last round
+  Counts counts_;
+};
+
+}  // namespace pvcap
