@@ -2,7 +2,9 @@
 
 #include <unistd.h>
 
+#include <cctype>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -29,6 +31,7 @@ struct SessionArgs {
   ConditionsRecord conditions;
   bool auto_participant = false, fast = false, board = false, no_web = false;
   console::WebOptions web;
+  std::string web_token_file;
   bool root_given = false;
 };
 
@@ -50,13 +53,34 @@ RigConfig rig_of_resumed_session(const std::filesystem::path& session) {
                           info.rig_path.empty() ? session / "rig.yaml" : std::filesystem::path(info.rig_path));
 }
 
+// The pages' token: --web-token-file (its first line), else PVCAP_WEB_TOKEN, else --web-token (which
+// `ps` shows to every user), else one generated and printed in the addresses.
+console::WebOptions web_options(const SessionArgs& a) {
+  console::WebOptions web = a.web;
+  const int given = int(!a.web_token_file.empty()) + int(!web.token.empty()) + int(web.no_token);
+  if (given > 1) throw UserError("give one of --web-token, --web-token-file and --no-web-token");
+  if (!a.web_token_file.empty()) {
+    std::ifstream in(a.web_token_file);
+    if (!in) throw UserError(fmt::format("{}: cannot read the pages' token file", a.web_token_file));
+    std::getline(in, web.token);
+    while (!web.token.empty() && std::isspace(static_cast<unsigned char>(web.token.back()))) web.token.pop_back();
+    if (web.token.empty()) throw UserError(fmt::format("{}: the token file's first line is empty", a.web_token_file));
+  } else if (const char* env = std::getenv("PVCAP_WEB_TOKEN"); env && *env && web.token.empty() && !web.no_token) {
+    web.token = env;
+  }
+  if (!web.token.empty() && web.token.size() < 8) throw UserError("the pages' token must be at least 8 characters");
+  for (const char c : web.token)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_')
+      throw UserError("the pages' token may hold letters, digits, '-' and '_' only (it goes into addresses)");
+  return web;
+}
+
 console::SessionSetup setup_from(const SessionArgs& a, const RigConfig& rig) {
   console::SessionSetup setup;
   if (!a.no_web) {
     // Bound here, before a simulated rig's private network namespace: the pages stay reachable
     // from this machine's own browser.
-    if (!a.web.token.empty() && a.web.token.size() < 8) throw UserError("--web-token must be at least 8 characters");
-    auto bound = console::WebConsole::bind(a.web);
+    auto bound = console::WebConsole::bind(web_options(a));
     if (!bound) throw UserError(bound.error().message);
     setup.web = std::move(bound.value());
   }
@@ -176,14 +200,18 @@ Registered add_session_command(CLI::App& app, AppContext& ctx) {
               "simulated rig moves its own board)");
   s->add_option("--resume", a->resume, "continue the protocol of this interrupted session in a new folder")
       ->check(CLI::ExistingDirectory);
-  s->add_option("--web-bind", a->web.bind,
-                "address the session's pages listen on (another than loopback needs a "
-                "token)")
-      ->capture_default_str();
+  s->add_option("--web-bind", a->web.bind, "address the session's pages listen on")->capture_default_str();
   s->add_option("--web-port", a->web.port, "port of the session's pages (busy: another is taken and printed; 0: any)")
       ->capture_default_str()
       ->check(CLI::Range(0, 65535));
-  s->add_option("--web-token", a->web.token, "token the pages require (generated when binding off loopback)");
+  s->add_option("--web-token", a->web.token,
+                "token the pages require (default: generated and printed in the addresses); other users see it "
+                "in `ps`: prefer --web-token-file or PVCAP_WEB_TOKEN");
+  s->add_option("--web-token-file", a->web_token_file, "read the pages' token from this file's first line")
+      ->check(CLI::ExistingFile);
+  s->add_flag("--no-web-token", a->web.no_token,
+              "loopback only: pages without a token (any local user or process can then watch and steer the "
+              "session)");
   s->add_flag("--no-web", a->no_web, "serve no pages (the terminal console still works)");
   return {s, [a, s, &ctx] {
             a->root_given = s->count("--root") > 0;

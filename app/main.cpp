@@ -3,6 +3,7 @@
 // logging and signals, and runs the one given. See docs/ for the user guide.
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -97,6 +98,9 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   pvcap::log::init_console(log_level);
+  // What pvcap writes (a participant's videos, their index, reports, exports) is not for other
+  // users of the machine: folders 0750, files 0640. A lab shares with its group (store.group).
+  umask(027);
   install_stop_handlers();
   ctx.faults = read_faults();
   try {

@@ -1,10 +1,17 @@
 #include "console/web_console.h"
 
 #include <arpa/inet.h>
+#include <ifaddrs.h>
+#include <netinet/in.h>
 #include <sys/socket.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -62,6 +69,42 @@ std::string cookie_value(const std::string& cookies, const std::string& name) {
   return {};
 }
 
+// A number in a route's path (\d+ matched); one too long to be an index is no index (a 404).
+std::size_t index_in_path(const std::string& digits) {
+  return digits.size() > 6 ? SIZE_MAX : std::size_t(std::stoul(digits));
+}
+
+// The names a request to these pages may give as its Host: the bound address, the loopback names,
+// this machine's name, and for a wildcard bind every address of its interfaces. A page of another
+// site that rebinds its own name to this machine gives its own name, and is refused.
+std::vector<std::string> local_host_names(const std::string& bind) {
+  std::vector<std::string> names = {bind, "localhost", "127.0.0.1", "::1"};
+  char name[256] = {};
+  if (gethostname(name, sizeof name - 1) == 0 && name[0]) {
+    std::string n = name;
+    for (char& c : n) c = char(std::tolower(static_cast<unsigned char>(c)));
+    names.push_back(n);
+    names.push_back(n + ".local");
+  }
+  if (bind == "0.0.0.0" || bind == "::") {
+    ifaddrs* list = nullptr;
+    if (getifaddrs(&list) == 0) {
+      for (ifaddrs* i = list; i; i = i->ifa_next) {
+        if (!i->ifa_addr) continue;
+        char text[INET6_ADDRSTRLEN] = {};
+        const int family = i->ifa_addr->sa_family;
+        if (family == AF_INET)
+          inet_ntop(AF_INET, &reinterpret_cast<sockaddr_in*>(i->ifa_addr)->sin_addr, text, sizeof text);
+        else if (family == AF_INET6)
+          inet_ntop(AF_INET6, &reinterpret_cast<sockaddr_in6*>(i->ifa_addr)->sin6_addr, text, sizeof text);
+        if (text[0]) names.emplace_back(text);
+      }
+      freeifaddrs(list);
+    }
+  }
+  return names;
+}
+
 }  // namespace
 
 bool is_loopback_address(const std::string& address) {
@@ -87,12 +130,21 @@ Result<std::unique_ptr<WebConsole>> WebConsole::bind(WebOptions options) {
                     options.bind)};
   if (options.port < 0 || options.port > 65535)
     return Error{fmt::format("--web-port {} is not a port (1-65535, or 0 for any free one)", options.port)};
-  if (!is_loopback_address(options.bind) && options.token.empty()) options.token = random_token();
+  if (options.no_token && !is_loopback_address(options.bind))
+    return Error{
+        fmt::format("--no-web-token is for loopback only: pages on {} need the session's token", options.bind)};
+  if (options.no_token)
+    options.token.clear();
+  else if (options.token.empty())
+    options.token = random_token();
   std::unique_ptr<WebConsole> w(new WebConsole(std::move(options)));
   auto& o = w->options_;
   // Event streams hold a thread each for as long as a page is open: more than the default few.
   w->server_->new_task_queue = [] { return new httplib::ThreadPool(32); };
   w->server_->set_keep_alive_timeout(2);
+  // One request per connection: a refused request's body (a 413) is never read as the next
+  // request's line, which httplib would buffer whole. Pages on loopback lose nothing by it.
+  w->server_->set_keep_alive_max_count(1);
   // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, which would let a second session share
   // the first one's port and answer half of its page requests.
   w->server_->set_socket_options([](int sock) {
@@ -109,8 +161,23 @@ Result<std::unique_ptr<WebConsole>> WebConsole::bind(WebOptions options) {
     if (requested != 0)
       spdlog::warn("port {} on {} is in use: the session's pages are on port {} instead", requested, o.bind, w->port_);
   }
+  w->allowed_hosts_ = local_host_names(o.bind);
+  // A body is refused past this before it is buffered (a chunked one too).
+  w->server_->set_payload_max_length(kMaxBodyBytes);
   w->routes();
   return w;
+}
+
+bool WebConsole::allowed_host(const std::string& host_header) const {
+  std::string host = host_header;
+  if (!host.empty() && host.front() == '[') {  // [v6]:port
+    const auto close = host.find(']');
+    host = close == std::string::npos ? "" : host.substr(1, close - 1);
+  } else if (const auto colon = host.rfind(':'); colon != std::string::npos) {
+    host = host.substr(0, colon);
+  }
+  for (char& c : host) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return !host.empty() && std::find(allowed_hosts_.begin(), allowed_hosts_.end(), host) != allowed_hosts_.end();
 }
 
 std::string WebConsole::url(const std::string& page) const {
@@ -168,6 +235,19 @@ void WebConsole::route_guard() {
   // Every request passes the token check first; the pages keep the token in a cookie so that
   // their images and event stream need not repeat it.
   s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    auto refuse = [&res](int status, const char* why) {
+      res.status = status;
+      res.set_header("Connection", "close");
+      res.set_content(why, "text/plain; charset=utf-8");
+      return httplib::Server::HandlerResponse::Handled;
+    };
+    // Only this machine's names: a DNS-rebinding page gives its own name as the Host.
+    if (!allowed_host(req.get_header_value("Host")))
+      return refuse(403, "these pages answer only to this machine's names (the address pvcap printed)\n");
+    // Refused before the body is read: nothing a local process sends can fill the recorder's memory.
+    if (req.has_header("Content-Length") &&
+        std::strtoull(req.get_header_value("Content-Length").c_str(), nullptr, 10) > kMaxBodyBytes)
+      return refuse(413, "a request to these pages is at most 64 KiB\n");
     // A command must come from the pages themselves: another site open in the operator's browser
     // could otherwise post "abort" to 127.0.0.1 (browsers name a cross-site sender in Origin).
     if (req.method == "POST" && req.has_header("Origin") &&
@@ -193,9 +273,10 @@ void WebConsole::route_guard() {
       what = e.what();
     } catch (...) {
     }
+    // The details go to the log, not to whoever asked.
     spdlog::warn("the session's pages: {} {}: {}", req.method, req.path, what);
     res.status = 500;
-    res.set_content(what + "\n", "text/plain");
+    res.set_content("the request could not be answered (pvcap's log says why)\n", "text/plain");
   });
 }
 
@@ -215,7 +296,7 @@ void WebConsole::route_pages() {
   s.Get("/operator", page(web_assets::kOperatorHtml));
 
   s.Get(R"(/pictogram/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
-    const std::size_t step = std::stoul(req.matches[1]);
+    const std::size_t step = index_in_path(req.matches[1]);
     if (!runner_ || step >= runner_->plan().size()) {
       res.status = 404;
       return;
@@ -225,10 +306,18 @@ void WebConsole::route_pages() {
       res.status = 404;
       return;
     }
-    std::ostringstream svg;
-    svg << in.rdbuf();
+    std::ostringstream bytes;
+    bytes << in.rdbuf();
+    // The type its (checked, protocol/protocol.cpp) name says; an SVG opened on its own runs no script.
+    const std::string ext = std::filesystem::path(runner_->plan()[step].action->pictogram).extension().string();
+    const char* type = ext == ".png"                     ? "image/png"
+                       : ext == ".jpg" || ext == ".jpeg" ? "image/jpeg"
+                       : ext == ".webp"                  ? "image/webp"
+                                                         : "image/svg+xml";
     res.set_header("Cache-Control", "max-age=3600");
-    res.set_content(svg.str(), "image/svg+xml");
+    res.set_header("Content-Security-Policy", "script-src 'none'");
+    res.set_header("X-Content-Type-Options", "nosniff");
+    res.set_content(bytes.str(), type);
   });
 }
 
@@ -248,7 +337,14 @@ void WebConsole::route_state() {
     auto last = std::make_shared<std::string>();
     auto quiet = std::make_shared<int>(0);
     // Which page listens: the operator sees whether the participant's screen is connected.
-    std::atomic<int>& open = req.get_param_value("page") == "participant" ? participant_pages_ : operator_pages_;
+    const bool participant = req.get_param_value("page") == "participant";
+    std::atomic<int>& open = participant ? participant_pages_ : operator_pages_;
+    if (open.load() >= (participant ? kMaxParticipantStreams : kMaxOtherStreams)) {
+      res.status = 503;
+      res.set_header("Connection", "close");
+      res.set_content("too many pages of this session are open; close one\n", "text/plain; charset=utf-8");
+      return;
+    }
     open.fetch_add(1);
     streams_.fetch_add(1);
     res.set_chunked_content_provider(
@@ -291,7 +387,7 @@ void WebConsole::route_images() {
       res.status = 404;
       return;
     }
-    const std::size_t camera = std::stoul(req.matches[1]);
+    const std::size_t camera = index_in_path(req.matches[1]);
     const auto [image, at] = full ? recording_->preview_full(camera) : recording_->preview(camera);
     const auto jpg = camera_jpeg(image, full);
     if (!jpg) {

@@ -6,12 +6,17 @@
 //                 counters and pairing offsets, and the operator's commands.
 // Both follow the session through server-sent events (/events): no reloads.
 //
-// Bound on 127.0.0.1 by default. Any other address needs a token (given, or generated and
-// printed): every request must then carry it (?token=, or the cookie the pages set).
+// Bound on 127.0.0.1 by default. Every request carries the session's token (given, or generated
+// and printed in the addresses; ?token=, then the HttpOnly SameSite=Strict cookie the pages set),
+// on loopback too: any local user or process could otherwise watch the participant or abort the
+// session. `no_token` turns that off, on loopback only. Requests are bounded before they are
+// read: a Host that is not this machine's is refused (DNS rebinding), a body over kMaxBodyBytes is
+// refused (413), and event streams are capped so the participant's page is always served.
 //
 // The socket is bound before the simulated rig moves pvcap into its private network
 // namespace, so the pages open in the machine's own browser on the simulated rig too.
 #include <atomic>
+#include <cstddef>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -35,9 +40,17 @@ namespace pvcap::console {
 
 struct WebOptions {
   std::string bind = "127.0.0.1";
-  int port = 8090;    // busy: another free port is taken (and printed); 0: any free port
-  std::string token;  // required of every request when set; generated when binding off loopback
+  int port = 8090;        // busy: another free port is taken (and printed); 0: any free port
+  std::string token;      // required of every request; generated when empty
+  bool no_token = false;  // loopback only: no token at all (bind() refuses it elsewhere)
 };
+
+// What a request may be: a command's form is a few hundred bytes.
+inline constexpr std::size_t kMaxBodyBytes = 64 * 1024;
+// Open event streams, each holding a server thread (of 32): the participant's page is counted
+// apart, so other pages cannot take its place, and threads stay free for the pages themselves.
+inline constexpr int kMaxParticipantStreams = 4;
+inline constexpr int kMaxOtherStreams = 12;
 
 bool is_loopback_address(const std::string& address);
 
@@ -69,8 +82,10 @@ class WebConsole {
   void route_commands();
   std::string state_json() const;
   bool authorized(const std::string& query_token, const std::string& cookie) const;
+  bool allowed_host(const std::string& host_header) const;
 
   WebOptions options_;
+  std::vector<std::string> allowed_hosts_;  // names a request's Host may give (without the port)
   int port_ = 0;
   std::unique_ptr<httplib::Server> server_;
   std::thread thread_;

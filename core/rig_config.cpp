@@ -128,6 +128,7 @@ StoreConfig parse_store(const YAML::Node& node, const std::filesystem::path& fil
   r.get_in_range("min_free_mb", s.min_free_mb, 0, 1'000'000);
   r.get_in_range("reserve_mb", s.reserve_mb, 0, 100'000);
   r.get_in_range("sync_interval_s", s.sync_interval_s, 0.0, 60.0);
+  r.get("group", s.group);
   r.finish();
   return s;
 }

@@ -72,6 +72,9 @@ struct StoreConfig {
   // Every file of the session reaches stable storage at least this often while recording (fsync,
   // storage/durable_folder.h): what a power cut can lose. 0 leaves it to the kernel (benchmarks).
   double sync_interval_s = 1.0;
+  // The group a session folder belongs to (its files follow: the folder is setgid), for a lab whose
+  // members read each other's sessions; empty: the recorder's own group. Others read nothing.
+  std::string group;
 };
 
 struct RigConfig {

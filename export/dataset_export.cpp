@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -57,6 +58,16 @@ Status write_atomically(const fs::path& path, const std::string& bytes) {
   return {};
 }
 
+// A name a folder of the export is made from (a pseudonym, a take, a mapped folder), as it comes
+// from a store or an output folder that may have been crafted: letters, digits and - _ ( ) only,
+// at most 100, so no name can leave --out or hide as a dot file.
+bool safe_name(const std::string& s) {
+  if (s.empty() || s.size() > 100) return false;
+  for (const char c : s)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_' && c != '(' && c != ')') return false;
+  return true;
+}
+
 // The output folder's participant mapping, read and extended under an exclusive lock, so parallel
 // jobs exporting the same participant agree on one folder.
 Result<std::string> participant_folder(const fs::path& out, const std::string& pseudonym) {
@@ -78,7 +89,15 @@ Result<std::string> participant_folder(const fs::path& out, const std::string& p
       return Error{fmt::format("{}: is not the participant mapping pvcap writes (a JSON object); move it away",
                                map_path.string())};
   }
-  if (map.contains(pseudonym) && map[pseudonym].is_string()) return map[pseudonym].get<std::string>();
+  if (map.contains(pseudonym) && map[pseudonym].is_string()) {
+    const std::string folder = map[pseudonym].get<std::string>();
+    if (!safe_name(folder))
+      return Error{
+          fmt::format("{}: the folder '{}' it gives participant '{}' is not a folder name pvcap makes; "
+                      "move the file away",
+                      map_path.string(), folder, pseudonym)};
+    return folder;
+  }
   int next = 1;
   for (const auto& [code, folder] : map.items())
     if (folder.is_string()) next = std::max(next, std::atoi(folder.get<std::string>().substr(0, 4).c_str()) + 1);
@@ -87,10 +106,6 @@ Result<std::string> participant_folder(const fs::path& out, const std::string& p
   map[pseudonym] = folder;
   if (auto w = write_atomically(map_path, map.dump(2) + "\n"); !w.ok()) return w.error();
   return folder;
-}
-
-bool safe_name(const std::string& s) {
-  return !s.empty() && s != "." && s != ".." && s.find('/') == std::string::npos && s.find('\0') == std::string::npos;
 }
 
 json matrix(const cv::Matx44d& m) {
@@ -297,6 +312,11 @@ class SessionExport {
     if (ec) return Error{fmt::format("{}: cannot be made: {}", o_.out.string(), ec.message())};
     const auto& info = reader_->info();
     pseudonym_ = info.participant ? info.participant->pseudonym : "unrecorded";
+    if (!safe_name(pseudonym_))
+      return Error{
+          fmt::format("{}: the participant's pseudonym '{}' cannot be a folder name (letters, digits, - and "
+                      "_ only)",
+                      (session_ / "session.db").string(), pseudonym_)};
     auto folder = participant_folder(o_.out, pseudonym_);
     if (!folder) return folder.error();
     participant_folder_ = folder.value();

@@ -1,6 +1,10 @@
 #include "protocol/protocol.h"
 
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -43,6 +47,45 @@ const char* display_name(Force f) {
 const char* to_string(Hand h) { return h == Hand::Left ? "left" : "right"; }
 
 namespace {
+
+// A pictogram is served to the participant's browser by the recorder (often run as root): it must
+// be an image in the protocol file's own folder (or below it), never any file the path can reach.
+// What is wrong with `given`, or nothing.
+std::optional<std::string> pictogram_problem(const std::filesystem::path& source, const std::string& given) {
+  namespace fs = std::filesystem;
+  const fs::path rel(given);
+  if (given.empty() || rel.is_absolute())
+    return fmt::format("'{}' must be a path relative to the protocol file's folder", given);
+  for (const auto& part : rel)
+    if (part == "..") return fmt::format("'{}' leaves the protocol file's folder ('..')", given);
+  std::string ext = rel.extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".svg" && ext != ".png" && ext != ".jpg" && ext != ".jpeg" && ext != ".webp")
+    return fmt::format("'{}' is not an image (.svg, .png, .jpg or .webp)", given);
+  // The error_code forms: a name the file system refuses (too long, ...) is a mistake in the file,
+  // said as one, not an exception from the file system.
+  std::error_code ec;
+  const fs::path folder = fs::canonical(source.parent_path().empty() ? fs::path(".") : source.parent_path(), ec);
+  const fs::path file = fs::canonical(source.parent_path() / rel, ec);
+  if (ec || !fs::is_regular_file(file, ec))
+    return fmt::format("{} does not exist{}", (source.parent_path() / rel).lexically_normal().string(),
+                       ec ? " (" + ec.message() + ")" : "");
+  // A symbolic link may not lead out of the folder either.
+  const auto [f, _] = std::mismatch(folder.begin(), folder.end(), file.begin(), file.end());
+  if (f != folder.end())
+    return fmt::format("'{}' leads out of the protocol file's folder (to {})", given, file.string());
+  // Its bytes must be what its name says.
+  std::ifstream in(file, std::ios::binary);
+  char head[16] = {};
+  in.read(head, sizeof head);
+  const std::string h(head, std::size_t(in.gcount()));
+  const bool ok = ext == ".png"                     ? h.rfind("\x89PNG", 0) == 0
+                  : ext == ".jpg" || ext == ".jpeg" ? h.rfind("\xff\xd8\xff", 0) == 0
+                  : ext == ".webp" ? h.size() >= 12 && h.rfind("RIFF", 0) == 0 && h.substr(8, 4) == "WEBP"
+                                   : h.find('<') != std::string::npos;
+  if (!ok) return fmt::format("{} is not the image its name says", file.string());
+  return std::nullopt;
+}
 
 void read_timings(MapReader& r, Timings& t) {
   r.get_in_range("prompt_s", t.prompt_s, 0.0, 600.0);
@@ -102,12 +145,7 @@ Protocol parse_protocol(const std::string& text, const std::filesystem::path& so
     std::string pictogram;
     ar.require("pictogram", pictogram);
     base.pictogram = (source.parent_path() / pictogram).lexically_normal().string();
-    // The error_code form: a name the file system refuses (too long, ...) is a mistake in the file,
-    // said as one, not an exception from the file system.
-    std::error_code missing;
-    if (!std::filesystem::exists(base.pictogram, missing))
-      ar.fail(a["pictogram"], "pictogram",
-              fmt::format("{} does not exist{}", base.pictogram, missing ? " (" + missing.message() + ")" : ""));
+    if (auto refused = pictogram_problem(source, pictogram)) ar.fail(a["pictogram"], "pictogram", *refused);
     ar.get_in_range("repetitions", base.repetitions, 1, 100);
     ar.get("check_side", base.check_side);
     std::vector<Force> forces;

@@ -29,11 +29,6 @@ DurableFolder::DurableFolder(std::filesystem::path dir, std::vector<std::string>
   for (const auto& s : subfolders) folders_.push_back(dir_ / s);
 }
 
-DurableFolder::~DurableFolder() {
-  for (auto& [path, t] : files_)
-    if (t.fd >= 0) ::close(t.fd);
-}
-
 Status DurableFolder::sync_folder(const std::filesystem::path& folder, bool& entries_changed) {
   DIR* d = opendir(folder.c_str());
   if (!d) return {};  // not made yet (the spill), or gone with the session: nothing to keep
@@ -47,10 +42,12 @@ Status DurableFolder::sync_folder(const std::filesystem::path& folder, bool& ent
     present.insert(path);
     Tracked& t = files_[path];
     if (t.size == st.st_size && t.mtime.tv_sec == st.st_mtim.tv_sec && t.mtime.tv_nsec == st.st_mtim.tv_nsec) continue;
-    if (t.fd < 0) t.fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (t.fd < 0) continue;  // removed between the listing and now
-    if (Status s = fsync_path_fd(t.fd, path, "fsync"); !s.ok()) {
-      if (failure.ok()) failure = s;
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) continue;  // removed between the listing and now
+    const Status synced = fsync_path_fd(fd, path, "fsync");
+    ::close(fd);
+    if (!synced.ok()) {
+      if (failure.ok()) failure = synced;
       continue;
     }
     ++counts_.file_syncs;
@@ -61,7 +58,6 @@ Status DurableFolder::sync_folder(const std::filesystem::path& folder, bool& ent
   // Files that went (a drained spill file, a replaced segment): forget them.
   for (auto it = files_.begin(); it != files_.end();) {
     if (it->first.parent_path() == folder && !present.count(it->first)) {
-      if (it->second.fd >= 0) ::close(it->second.fd);
       it = files_.erase(it);
       entries_changed = true;
     } else {

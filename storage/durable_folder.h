@@ -23,7 +23,6 @@ class DurableFolder {
  public:
   // `dir` and its `subfolders` (created later is fine: they are synced once they exist).
   DurableFolder(std::filesystem::path dir, std::vector<std::string> subfolders);
-  ~DurableFolder();
   DurableFolder(const DurableFolder&) = delete;
   DurableFolder& operator=(const DurableFolder&) = delete;
 
@@ -39,7 +38,6 @@ class DurableFolder {
 
  private:
   struct Tracked {
-    int fd = -1;
     off_t size = -1;
     timespec mtime{};
   };
@@ -47,7 +45,10 @@ class DurableFolder {
 
   std::filesystem::path dir_;
   std::vector<std::filesystem::path> folders_;
-  std::map<std::filesystem::path, Tracked> files_;        // kept open: a later write error is reported to this fd
+  // What each file was at its last fsync. No descriptor is kept between rounds: an open one would
+  // keep a removed file's space (the space reserve freed on a full disk, a drained spill file). An
+  // fsync on a fresh descriptor still reports a write-back error nobody has seen (Linux errseq).
+  std::map<std::filesystem::path, Tracked> files_;
   std::map<std::filesystem::path, std::size_t> entries_;  // each folder's entry count at the last round
   Counts counts_;
 };

@@ -1,6 +1,7 @@
 #include "storage/session_writer.h"
 
 #include <fcntl.h>
+#include <grp.h>
 #include <sys/file.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -90,16 +91,32 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
         fmt::format("{}: only {} MB free; a session needs at least {} MB to start (store.min_free_mb {} + "
                     "store.reserve_mb {})",
                     root.string(), free / kMiB, needed / kMiB, rig.store.min_free_mb, rig.store.reserve_mb)};
+  std::optional<gid_t> lab_group;
+  if (!rig.store.group.empty()) {
+    const struct group* g = getgrnam(rig.store.group.c_str());
+    if (!g)
+      return Error{
+          fmt::format("{}: store.group: there is no group '{}' on this machine", rig.source.string(), rig.store.group)};
+    lab_group = g->gr_gid;
+  }
   std::unique_ptr<SessionWriter> w(new SessionWriter());
   const std::string base = format_utc_compact(started_wall_ns) + "_" + safe_name(rig.name);
   for (int n = 1;; ++n) {
     const auto candidate = root / (n == 1 ? base : fmt::format("{}-{}", base, n));
-    if (mkdir(candidate.c_str(), 0775) == 0) {  // atomic: never reuses an existing session
+    if (mkdir(candidate.c_str(), 0750) == 0) {  // atomic: never reuses an existing session
       w->dir_ = candidate;
       break;
     }
     if (errno != EEXIST || n > 999)
       return Error{fmt::format("{}: cannot create the session folder: {}", candidate.string(), std::strerror(errno))};
+  }
+  // The lab's group reads the session: the folder is the group's, and setgid, so what is made in
+  // it is the group's too (the umask leaves files 0640).
+  if (lab_group && (chown(w->dir_.c_str(), uid_t(-1), *lab_group) != 0 || chmod(w->dir_.c_str(), 02750) != 0)) {
+    const std::string why = std::strerror(errno);
+    std::filesystem::remove(w->dir_);
+    return Error{fmt::format("{}: cannot give the session folder to group '{}' (store.group): {}", w->dir_.string(),
+                             rig.store.group, why)};
   }
   w->started_host_ns_ = started_host_ns;
   w->store_ = rig.store;

@@ -66,14 +66,18 @@ pid_t spawn_pvcap(const std::string& args, const fs::path& log, const std::strin
 
 fs::path write_press_protocol(const fs::path& dir, const std::string& forces, double prompt_s, double countdown_s,
                               double record_s, double rest_s) {
-  const fs::path pictograms = fs::path(PVCAP_SOURCE_DIR) / "rig-configs/protocols/pictograms";
+  // A protocol's pictograms live in its own folder (protocol/protocol.cpp refuses others).
+  fs::create_directories(dir / "pictograms");
+  fs::copy_file(fs::path(PVCAP_SOURCE_DIR) / "rig-configs/protocols/pictograms/press_index_finger.svg",
+                dir / "pictograms" / "press_index_finger.svg", fs::copy_options::overwrite_existing);
   std::ofstream(dir / "protocol.yaml") << fmt::format(
       "name: test\n"
       "fast_timings: {{prompt_s: {}, countdown_s: {}, record_s: {}, rest_s: {}}}\n"
       "actions:\n"
-      "  - {{name: press_index_finger, text: Press with your index finger, pictogram: {}/press_index_finger.svg,\n"
+      "  - {{name: press_index_finger, text: Press with your index finger, pictogram: "
+      "pictograms/press_index_finger.svg,\n"
       "      forces: {}, repetitions: 2}}\n",
-      prompt_s, countdown_s, record_s, rest_s, pictograms.string(), forces);
+      prompt_s, countdown_s, record_s, rest_s, forces);
   return dir / "protocol.yaml";
 }
 

@@ -24,6 +24,7 @@
 #include "session_under_test.h"
 #include "sim/truth.h"
 #include "storage/session_reader.h"
+#include "storage/sqlite/database.h"
 
 namespace fs = std::filesystem;
 using pvcap::testing::only_session;
@@ -247,6 +248,38 @@ TEST(Export, AnInterruptedExportResumesAndMistakesAreNamed) {
   const auto no_camera = run_pvcap(fmt::format("export {} --out {} --cameras 7", rec.session.string(), out.string()));
   EXPECT_EQ(no_camera.exit_code, 1);
   EXPECT_NE(no_camera.output.find("there is no camera 7"), std::string::npos) << no_camera.output;
+
+  // A crafted store (its pseudonym a path) and a crafted output folder (its participant mapping
+  // pointing out): refused with the file named, and nothing is written outside --out.
+  const fs::path crafted = rec.work / "crafted" / rec.session.filename();
+  fs::create_directories(crafted);
+  // The videos linked (they are not changed), the index and its WAL copied (they are).
+  for (const auto& e : fs::directory_iterator(rec.session)) {
+    if (!e.is_regular_file()) continue;
+    if (e.path().filename().string().rfind("session.db", 0) == 0)
+      fs::copy_file(e.path(), crafted / e.path().filename());
+    else
+      fs::create_hard_link(e.path(), crafted / e.path().filename());
+  }
+  {
+    pvcap::sqlite::Database db(crafted / "session.db", pvcap::sqlite::Database::Mode::ReadWrite);
+    db.exec("UPDATE participant SET pseudonym = '../../escaped'");
+  }
+  const fs::path jail = rec.work / "jail", jailed_out = jail / "a" / "out";
+  const auto by_store = run_pvcap(fmt::format("export {} --out {}", crafted.string(), jailed_out.string()));
+  EXPECT_EQ(by_store.exit_code, 1) << by_store.output;
+  EXPECT_NE(by_store.output.find("pseudonym '../../escaped' cannot be a folder name"), std::string::npos)
+      << by_store.output;
+  fs::create_directories(jailed_out);
+  std::ofstream(jailed_out / "participants.json") << R"({"P017": "../../escaped"})";
+  const auto by_mapping = run_pvcap(fmt::format("export {} --out {}", rec.session.string(), jailed_out.string()));
+  EXPECT_EQ(by_mapping.exit_code, 1) << by_mapping.output;
+  EXPECT_NE(by_mapping.output.find("participants.json: the folder '../../escaped'"), std::string::npos)
+      << by_mapping.output;
+  for (const auto& e : fs::recursive_directory_iterator(jail)) {
+    if (jailed_out.string().rfind(e.path().string(), 0) == 0) continue;  // one of --out's own parents
+    EXPECT_EQ(e.path().string().rfind(jailed_out.string(), 0), 0u) << "written outside --out: " << e.path();
+  }
 }
 
 // The paper's crop: frames of 480 x 384 around the pad, and the loaders' own geometry (their pad

@@ -2,10 +2,12 @@
 // recorder on the same rig, and a --root that cannot take a session (read-only, missing parent).
 #include <gtest/gtest.h>
 
+#include <grp.h>
 #include <poll.h>
 #include <pty.h>
 #include <signal.h>
 #include <sys/mount.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -384,5 +386,52 @@ TEST(SessionFaults, ClosingTheTerminalOfAnInteractiveShellStopsTheSessionCleanly
   }
   const auto v = run_pvcap("verify " + session.string());
   EXPECT_EQ(v.exit_code, 0) << v.output << why_sample_frames_are_not_in_a_video(session);
+  fs::remove_all(work);
+}
+
+// A participant's session is for the lab, not for every user of the machine: run as root (as the
+// simulated rig needs), its folder is 0750 and its files 0640; with store.group the folder is that
+// group's (setgid) and its members read it, and another user reads nothing.
+TEST(SessionFaults, ASessionIsReadableByItsGroupAndByNoOtherUser) {
+  const fs::path work = work_dir("permissions");
+  const group* users = getgrnam("users");
+  ASSERT_NE(users, nullptr) << "Debian's 'users' group";
+  const gid_t users_gid = users->gr_gid;
+  std::string rig = sim_rig_yaml({{}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  const std::string at = "  preset: ultrafast\n";
+  ASSERT_NE(rig.find(at), std::string::npos);
+  rig.replace(rig.find(at), at.size(), at + "  group: users\n");
+  std::ofstream(work / "rig.yaml") << rig;
+  fs::create_directories(work / "sessions");
+  fs::permissions(work / "sessions", fs::perms(0755));  // a lab's sessions root, made by its admin
+  const auto r = run_pvcap(fmt::format("session --rig {} --root {} --duration 2 --no-web", (work / "rig.yaml").string(),
+                                       (work / "sessions").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const fs::path session = only_session(work / "sessions");
+  ASSERT_FALSE(session.empty());
+  struct stat st {};
+  ASSERT_EQ(stat(session.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 07777, 02750u) << std::oct << (st.st_mode & 07777);
+  EXPECT_EQ(st.st_gid, users_gid);
+  for (const char* file : {"session.db", "cam0-000.mkv", "report.html", "report.txt"}) {
+    ASSERT_EQ(stat((session / file).c_str(), &st), 0) << file;
+    EXPECT_EQ(st.st_mode & 0777, 0640u) << file << ": " << std::oct << (st.st_mode & 0777);
+    EXPECT_EQ(st.st_gid, users_gid) << file;
+  }
+  auto read_as = [&](gid_t gid) {
+    return std::system(fmt::format("setpriv --reuid=65534 --regid={} --clear-groups cat {} > /dev/null 2>&1", gid,
+                                   (session / "session.db").string())
+                           .c_str());
+  };
+  EXPECT_NE(read_as(65534), 0) << "another user (nobody) read the index";
+  EXPECT_EQ(read_as(users_gid), 0) << "a member of the lab's group could not read the index";
+
+  // A group the machine does not have: named, before anything is recorded.
+  rig.replace(rig.find("  group: users\n"), std::string("  group: users\n").size(), "  group: no-such-lab\n");
+  std::ofstream(work / "rig.yaml") << rig;
+  const auto refused = run_pvcap(fmt::format("session --rig {} --root {} --duration 2 --no-web",
+                                             (work / "rig.yaml").string(), (work / "other").string()));
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.output.find("there is no group 'no-such-lab'"), std::string::npos) << refused.output;
   fs::remove_all(work);
 }

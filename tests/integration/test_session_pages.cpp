@@ -5,9 +5,13 @@
 // operator's commands over HTTP; and off loopback, nothing without the token.
 #include <gtest/gtest.h>
 
+#include <arpa/inet.h>
 #include <fcntl.h>
+#include <netinet/in.h>
+#include <poll.h>
 #include <sched.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -69,6 +73,47 @@ Url parse(const std::string& url) {
 
 const fs::path kScreenshots = fs::path(PVCAP_BINARY_DIR) / "tests" / "screenshots";
 
+// A raw connection to 127.0.0.1:port, for requests no well-behaved client sends.
+int connect_loopback(int port) {
+  const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(std::uint16_t(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+// What arrives on `fd` within `timeout_ms` (up to the first 4 KiB).
+std::string read_some(int fd, int timeout_ms) {
+  pollfd p{fd, POLLIN, 0};
+  if (poll(&p, 1, timeout_ms) <= 0) return {};
+  char buf[4096];
+  const ssize_t n = recv(fd, buf, sizeof buf, 0);
+  return n > 0 ? std::string(buf, std::size_t(n)) : std::string();
+}
+
+std::int64_t rss_kib(pid_t pid) {
+  std::ifstream in(fmt::format("/proc/{}/status", pid));
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::stoll(line.substr(6));
+  return -1;
+}
+
+// Stops the recorder however the test ends.
+struct StopOnExit {
+  pid_t pid;
+  ~StopOnExit() {
+    if (pid <= 0) return;
+    kill(pid, SIGINT);
+    waitpid(pid, nullptr, 0);
+  }
+};
+
 }  // namespace
 
 TEST(SessionPages, TheParticipantAndOperatorPagesFollowTheRunnerThroughTheTakes) {
@@ -85,7 +130,7 @@ TEST(SessionPages, TheParticipantAndOperatorPagesFollowTheRunnerThroughTheTakes)
   const std::string participant_url = printed_url(work / "pvcap.log", "participant display");
   const std::string operator_url = printed_url(work / "pvcap.log", "operator console");
   ASSERT_EQ(parse(participant_url).host, "127.0.0.1") << "loopback by default: " << participant_url;
-  EXPECT_TRUE(parse(participant_url).token.empty()) << "no token on loopback";
+  EXPECT_EQ(parse(participant_url).token.size(), 32u) << "a token on loopback too: " << participant_url;
   const std::string participant = browser.open(participant_url);
   const std::string operator_page = browser.open(operator_url);
   ASSERT_FALSE(participant.empty());
@@ -93,6 +138,7 @@ TEST(SessionPages, TheParticipantAndOperatorPagesFollowTheRunnerThroughTheTakes)
 
   const Url u = parse(operator_url);
   httplib::Client client(u.host, u.port);
+  client.set_default_headers({{"Cookie", "pvcap_token=" + u.token}});  // as the pages' own requests carry it
   auto state = [&] {
     auto st = client.Get("/state");
     return st ? nlohmann::json::parse(st->body) : nlohmann::json::object();
@@ -398,5 +444,152 @@ TEST(SessionPages, TheOperatorMarksTheFingertipForThePressCheck) {
       << check.output;
   EXPECT_LE(std::stod(m[1]), 1.0) << check.output;
   EXPECT_TRUE(browser.errors().empty()) << fmt::format("{}", fmt::join(browser.errors(), "\n"));
+  fs::remove_all(work);
+}
+
+// Every route of the running pages, probed as another local user or a hostile page would: nothing
+// without the token on loopback either, nothing for a foreign Host (DNS rebinding), a 100 MB POST
+// refused before it is read, and 40 event streams cannot keep the participant's page from being
+// served.
+TEST(SessionPages, EveryRouteIsGuardedAndRequestsAreBounded) {
+  const fs::path work = work_dir("pages-guard");
+  const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 90 --web-port 0",
+                                            write_rig(work).string(), (work / "sessions").string()),
+                                work / "pvcap.log");
+  StopOnExit stop{pid};
+  ASSERT_TRUE(wait_for_text(work / "pvcap.log", "operator console:", std::chrono::seconds(60)))
+      << read_all(work / "pvcap.log");
+  const Url u = parse(printed_url(work / "pvcap.log", "operator console"));
+  ASSERT_EQ(u.host, "127.0.0.1");
+  ASSERT_EQ(u.token.size(), 32u) << "a token on loopback too";
+  const std::string token = "token=" + u.token;
+  httplib::Client c(u.host, u.port);
+
+  // Without the token, every route: 401.
+  for (const char* path : {"/", "/participant", "/operator", "/state", "/events", "/camera/0.jpg", "/camera/0/full.jpg",
+                           "/pressure.png", "/pictogram/0", "/no-such-page"}) {
+    auto r = c.Get(path);
+    ASSERT_TRUE(r) << path;
+    EXPECT_EQ(r->status, 401) << path;
+  }
+  for (const char* path : {"/command", "/fingertip", "/shown"}) {
+    auto r = c.Post(path, "command=abort", "application/x-www-form-urlencoded");
+    ASSERT_TRUE(r) << path;
+    EXPECT_EQ(r->status, 401) << path;
+  }
+  // With it: the pages, and once the page set its cookie, the cookie alone.
+  auto page = c.Get("/operator?" + token);
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  const std::string cookie = page->get_header_value("Set-Cookie");
+  EXPECT_NE(cookie.find("HttpOnly"), std::string::npos) << cookie;
+  EXPECT_NE(cookie.find("SameSite=Strict"), std::string::npos) << cookie;
+  auto by_cookie = c.Get("/state", httplib::Headers{{"Cookie", "pvcap_token=" + u.token}});
+  ASSERT_TRUE(by_cookie);
+  EXPECT_EQ(by_cookie->status, 200);
+  // A foreign Host (a rebinding page names itself), even with the token: 403.
+  for (const std::string& host :
+       std::vector<std::string>{"rebind.example", "rebind.example:" + std::to_string(u.port), "127.0.0.1.nip.io"}) {
+    auto r = c.Get("/state?" + token, httplib::Headers{{"Host", host}});
+    ASSERT_TRUE(r) << host;
+    EXPECT_EQ(r->status, 403) << host;
+  }
+  auto local = c.Get("/state?" + token, httplib::Headers{{"Host", fmt::format("localhost:{}", u.port)}});
+  ASSERT_TRUE(local);
+  EXPECT_EQ(local->status, 200) << "localhost is this machine";
+  // A command from another site's page (its Origin is not the pages' own): 403.
+  auto cross = c.Post("/command?" + token, httplib::Headers{{"Origin", "http://example.org"}}, "command=abort",
+                      "application/x-www-form-urlencoded");
+  ASSERT_TRUE(cross);
+  EXPECT_EQ(cross->status, 403);
+  // A malformed index in a path: answered (404), never an error page with internals.
+  auto huge_index = c.Get("/pictogram/99999999999999999999999?" + token);
+  ASSERT_TRUE(huge_index);
+  EXPECT_EQ(huge_index->status, 404);
+
+  // A 100 MB POST: refused on its headers (413), the recorder's memory unchanged.
+  const std::int64_t rss_before = rss_kib(pid);
+  {
+    const int fd = connect_loopback(u.port);
+    ASSERT_GE(fd, 0);
+    const std::string head = fmt::format(
+        "POST /command?{} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nContent-Type: application/x-www-form-urlencoded\r\n"
+        "Content-Length: 104857600\r\n\r\n",
+        token, u.port);
+    ASSERT_EQ(send(fd, head.data(), head.size(), MSG_NOSIGNAL), ssize_t(head.size()));
+    const std::string answer = read_some(fd, 5000);
+    EXPECT_EQ(answer.rfind("HTTP/1.1 413", 0), 0u) << answer;
+    const std::string chunk(64 * 1024, 'x');  // the body anyway, as a flood would: it is not kept
+    for (int i = 0; i < 1600 && send(fd, chunk.data(), chunk.size(), MSG_NOSIGNAL) > 0; ++i) {
+    }
+    close(fd);
+  }
+  const std::int64_t rss_after = rss_kib(pid);
+  std::printf("recorder's resident memory: %lld KiB before the 100 MB POST, %lld KiB after\n", (long long)rss_before,
+              (long long)rss_after);
+  EXPECT_LT(rss_after - rss_before, 20 * 1024) << "the body was not buffered";
+
+  // 40 event streams: 12 are served, the others told to close a page; the participant's page and
+  // its own stream are still served.
+  std::vector<int> streams;
+  int served = 0, refused = 0;
+  for (int i = 0; i < 40; ++i) {
+    const int fd = connect_loopback(u.port);
+    ASSERT_GE(fd, 0);
+    const std::string get = fmt::format("GET /events?{} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\n\r\n", token, u.port);
+    send(fd, get.data(), get.size(), MSG_NOSIGNAL);
+    const std::string answer = read_some(fd, 3000);
+    served += answer.rfind("HTTP/1.1 200", 0) == 0;
+    refused += answer.rfind("HTTP/1.1 503", 0) == 0;
+    streams.push_back(fd);
+  }
+  EXPECT_EQ(served, 12);
+  EXPECT_EQ(refused, 28);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto participant = c.Get("/participant?" + token);
+  const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_TRUE(participant);
+  EXPECT_EQ(participant->status, 200);
+  EXPECT_LT(took_s, 2.0) << "the participant's page waited for a thread";
+  {
+    const int fd = connect_loopback(u.port);
+    const std::string get =
+        fmt::format("GET /events?page=participant&{} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\n\r\n", token, u.port);
+    send(fd, get.data(), get.size(), MSG_NOSIGNAL);
+    EXPECT_EQ(read_some(fd, 3000).rfind("HTTP/1.1 200", 0), 0u) << "the participant's own stream";
+    close(fd);
+  }
+  for (const int fd : streams) close(fd);
+  stop.pid = -1;
+  kill(pid, SIGINT);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_all(work / "pvcap.log");
+  fs::remove_all(work);
+}
+
+// The token from a file (not the command line, where `ps` shows it), and --no-web-token, which is
+// for loopback only.
+TEST(SessionPages, TheTokenComesFromAFileAndNoTokenIsForLoopbackOnly) {
+  const fs::path work = work_dir("pages-token-file");
+  const fs::path rig = write_rig(work);
+  std::ofstream(work / "token") << "lab-token-2026_abc\n";
+  const auto with_file =
+      run_pvcap(fmt::format("session --rig {} --root {} --duration 2 --web-port 0 --web-token-file {}", rig.string(),
+                            (work / "a").string(), (work / "token").string()));
+  EXPECT_EQ(with_file.exit_code, 0) << with_file.output;
+  EXPECT_NE(with_file.output.find("/operator?token=lab-token-2026_abc"), std::string::npos) << with_file.output;
+
+  const auto off_loopback =
+      run_pvcap(fmt::format("session --rig {} --root {} --duration 2 --web-bind 10.231.0.1 --no-web-token",
+                            rig.string(), (work / "b").string()));
+  EXPECT_EQ(off_loopback.exit_code, 2) << off_loopback.output;
+  EXPECT_NE(off_loopback.output.find("--no-web-token is for loopback only"), std::string::npos) << off_loopback.output;
+  EXPECT_FALSE(fs::exists(work / "b")) << "refused before anything was recorded";
+
+  const auto none = run_pvcap(fmt::format("session --rig {} --root {} --duration 2 --web-port 0 --no-web-token",
+                                          rig.string(), (work / "c").string()));
+  EXPECT_EQ(none.exit_code, 0) << none.output;
+  EXPECT_EQ(none.output.find("?token="), std::string::npos) << none.output;
   fs::remove_all(work);
 }

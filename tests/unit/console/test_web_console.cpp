@@ -25,13 +25,22 @@ TEST(WebConsole, ABadAddressIsRefusedWithWhatWasGiven) {
   EXPECT_NE(w.error().message.find("--web-bind 'lab pc' is not an IP address"), std::string::npos);
 }
 
-TEST(WebConsole, LoopbackNeedsNoTokenAndAGivenTokenIsInThePrintedAddress) {
-  auto open = WebConsole::bind({.bind = "127.0.0.1", .port = 0});
+TEST(WebConsole, LoopbackTooHasATokenInThePrintedAddressUnlessRefusedOnPurpose) {
+  auto generated = WebConsole::bind({.bind = "127.0.0.1", .port = 0});
+  ASSERT_TRUE(generated) << generated.error().message;
+  EXPECT_EQ(generated.value()->token().size(), 32u);
+  EXPECT_GT(generated.value()->port(), 0);
+  EXPECT_EQ(generated.value()->url("participant"), "http://127.0.0.1:" + std::to_string(generated.value()->port()) +
+                                                       "/participant?token=" + generated.value()->token());
+
+  auto open = WebConsole::bind({.bind = "127.0.0.1", .port = 0, .no_token = true});
   ASSERT_TRUE(open) << open.error().message;
   EXPECT_TRUE(open.value()->token().empty());
-  EXPECT_GT(open.value()->port(), 0);
   EXPECT_EQ(open.value()->url("participant"),
             "http://127.0.0.1:" + std::to_string(open.value()->port()) + "/participant");
+  auto off_loopback = WebConsole::bind({.bind = "10.231.0.1", .port = 0, .no_token = true});
+  ASSERT_FALSE(off_loopback);
+  EXPECT_NE(off_loopback.error().message.find("loopback only"), std::string::npos) << off_loopback.error().message;
 
   auto guarded = WebConsole::bind({.bind = "127.0.0.1", .port = 0, .token = "s3cret-token"});
   ASSERT_TRUE(guarded);

@@ -1,5 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
 #include <set>
 
 #include "core/result.h"
@@ -77,4 +81,42 @@ TEST(ProtocolFile, MistakesAreNamedWithTheirLine) {
             std::string::npos);
   EXPECT_NE(error_of("name: t\nactions: []\n").find("expected a list of actions"), std::string::npos);
   EXPECT_NE(error_of("name: [t\n").find("YAML syntax error"), std::string::npos);
+}
+
+// The recorder serves each pictogram to the participant's browser: only images inside the protocol
+// file's folder are taken, and anything else is refused at load with file:line.
+TEST(ProtocolFile, PictogramsAreImagesInsideTheProtocolsFolder) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("pvcap-pictograms-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "img");
+  std::ofstream(dir / "img" / "ok.svg") << "<svg xmlns='http://www.w3.org/2000/svg'/>";
+  std::ofstream(dir / "img" / "fake.png") << "not a png at all";
+  std::ofstream(dir / "notes.txt") << "hello";
+  fs::create_symlink("/etc/hostname", dir / "img" / "link.svg");
+  auto load_error = [&](const std::string& pictogram) {
+    std::ofstream(dir / "p.yaml") << "name: t\nactions:\n  - name: a\n    text: x\n    pictogram: " << pictogram
+                                  << "\n";
+    try {
+      load_protocol(dir / "p.yaml");
+    } catch (const UserError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(load_error("img/ok.svg"), "");
+  const std::string at = (dir / "p.yaml").string() + ":5: actions[0].pictogram";
+  for (const auto& [pictogram, why] :
+       std::vector<std::pair<std::string, std::string>>{{"/etc/passwd", "relative to the protocol file's folder"},
+                                                        {"../../etc/hostname.svg", "leaves the protocol file's folder"},
+                                                        {"img/../../x.svg", "leaves the protocol file's folder"},
+                                                        {"notes.txt", "is not an image"},
+                                                        {"img/fake.png", "is not the image its name says"},
+                                                        {"img/link.svg", "leads out of the protocol file's folder"},
+                                                        {"img/missing.svg", "does not exist"}}) {
+    const std::string e = load_error(pictogram);
+    EXPECT_EQ(e.rfind(at, 0), 0u) << pictogram << ": " << e;
+    EXPECT_NE(e.find(why), std::string::npos) << pictogram << ": " << e;
+  }
+  fs::remove_all(dir);
 }
