@@ -35,7 +35,7 @@ CameraConfig parse_camera(const YAML::Node& node, const std::filesystem::path& f
   r.get("name", c.name);
   r.get("serial", c.serial);
   r.get("address", c.address);
-  if (c.serial.empty() && c.address.empty()) r.fail(node, "", "needs a 'serial' or an 'address'");
+  if (c.serial.empty() && c.address.empty()) r.fail_missing(node, "", "needs a 'serial' or an 'address'");
   r.get("pixel_format", c.pixel_format);
   static const std::set<std::string> formats = {"BayerRG8", "BayerBG8", "BayerGB8", "BayerGR8", "Mono8", "RGB8"};
   if (!formats.count(c.pixel_format))
@@ -82,10 +82,16 @@ SenselRigConfig parse_sensel(const YAML::Node& node, const std::filesystem::path
     r.get("usb", serial);
     c.usb_serial = serial == "any" ? "" : serial;
   }
-  if (r.has("tty") == r.has("usb"))
-    r.fail(node, "tty/usb",
-           "say where the Morph is with exactly one of tty: (/dev/ttyACM0, /dev/morph0, sim) or usb: (its USB "
-           "serial string, or any)");
+  (void)r.child("usb");  // read above when present; known either way (a typo of it is said as one)
+  if (r.has("tty") == r.has("usb")) {
+    const char* where =
+        "say where the Morph is with exactly one of tty: (/dev/ttyACM0, /dev/morph0, sim) or usb: (its USB "
+        "serial string, or any)";
+    if (r.has("tty"))
+      r.fail(node, "tty/usb", where);
+    else
+      r.fail_missing(node, "tty/usb", where);
+  }
   if (c.usb_serial && c.usb_serial->empty() && r.node()["usb"].Scalar() != "any")
     r.fail(node["usb"], "usb", "empty: give the Morph's USB serial string (pvcap devices lists it) or 'any'");
   std::string detail = "medium";

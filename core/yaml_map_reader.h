@@ -2,6 +2,7 @@
 // Strict reading of one YAML mapping for configuration files (rig files,
 // protocols): typed values with ranges, required keys, and unknown keys as
 // errors, each failure a UserError naming file:line and the key's path.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <filesystem>
@@ -9,6 +10,8 @@
 #include <set>
 #include <string>
 #include <type_traits>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -35,9 +38,14 @@ class MapReader {
   }
 
   [[noreturn]] void fail(const YAML::Node& at, const std::string& key, const std::string& what) const {
-    const std::string path = key.empty() ? where_ : (where_.empty() ? key : where_ + "." + key);
-    throw UserError(
-        fmt::format("{}:{}: {}{}{}", file_.string(), at.Mark().line + 1, path, path.empty() ? "" : ": ", what));
+    raise(at, key, what);
+  }
+  // Something missing: a required key, or one of a pair ("needs a 'serial' or an 'address'"). A
+  // misspelt key (`serail:`) is its likely cause, so that is said first, with the key it meant.
+  [[noreturn]] void fail_missing(const YAML::Node& at, const std::string& key, const std::string& what) const {
+    if (const auto m = misspelt_key())
+      raise(m->first, m->first.Scalar(), fmt::format("unknown key; did you mean '{}'?", m->second));
+    raise(at, key, what);
   }
 
   bool has(const char* key) const { return bool(node_[key]); }
@@ -62,7 +70,10 @@ class MapReader {
 
   template <typename T>
   void require(const char* key, T& out) {
-    if (!has(key)) fail(node_, key, "missing (required)");
+    if (!has(key)) {
+      used_.insert(key);  // the key it may be a typo of
+      fail_missing(node_, key, "missing (required)");
+    }
     get(key, out);
   }
 
@@ -94,12 +105,14 @@ class MapReader {
 
   // Unknown keys are errors: a misspelt "frame_rat" must not silently become the default.
   void finish() const {
+    if (const auto m = misspelt_key())
+      raise(m->first, m->first.Scalar(), fmt::format("unknown key; did you mean '{}'?", m->second));
     for (const auto& kv : node_) {
       const std::string k = kv.first.Scalar();
       if (!used_.count(k)) {
         std::string known;
         for (const auto& u : used_) known += (known.empty() ? "" : ", ") + u;
-        fail(kv.first, k, fmt::format("unknown key (known here: {})", known));
+        raise(kv.first, k, fmt::format("unknown key (known here: {})", known));
       }
     }
   }
@@ -107,6 +120,38 @@ class MapReader {
   const YAML::Node& node() const { return node_; }
 
  private:
+  [[noreturn]] void raise(const YAML::Node& at, const std::string& key, const std::string& what) const {
+    const std::string path = key.empty() ? where_ : (where_.empty() ? key : where_ + "." + key);
+    throw UserError(
+        fmt::format("{}:{}: {}{}{}", file_.string(), at.Mark().line + 1, path, path.empty() ? "" : ": ", what));
+  }
+
+  // Edits (insert, delete, change, swap two neighbours) from a to b: a typo is one or two.
+  static std::size_t edit_distance(const std::string& a, const std::string& b) {
+    std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+    for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+    for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i)
+      for (std::size_t j = 1; j <= b.size(); ++j) {
+        d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] != b[j - 1])});
+        if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
+          d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+      }
+    return d[a.size()][b.size()];
+  }
+
+  // A key not read here that is a typo of one that is (so far), with that key.
+  std::optional<std::pair<YAML::Node, std::string>> misspelt_key() const {
+    if (!node_.IsMap()) return std::nullopt;
+    for (const auto& kv : node_) {
+      const std::string k = kv.first.Scalar();
+      if (used_.count(k)) continue;
+      for (const auto& u : used_)
+        if (k.size() > 3 && edit_distance(k, u) <= (u.size() > 5 ? 2u : 1u)) return std::make_pair(kv.first, u);
+    }
+    return std::nullopt;
+  }
+
   template <typename T>
   static const char* type_name() {
     if constexpr (std::is_same_v<T, bool>)

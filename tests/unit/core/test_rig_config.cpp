@@ -49,6 +49,19 @@ TEST(RigConfig, UnknownKeyIsAnErrorWithLineAndPath) {
   EXPECT_NE(e.find("unknown key"), std::string::npos) << e;
 }
 
+// A misspelt key is the cause of whatever else looks wrong: said first, with the key it meant.
+TEST(RigConfig, AMisspeltKeyIsSaidBeforeWhatItLeftMissingWithTheKeyItMeant) {
+  std::string e = error_of("name: x\ncameras:\n  - name: top\n    serail: 21A0001\n");
+  EXPECT_NE(e.find("rig.yaml:4: cameras[0].serail: unknown key; did you mean 'serial'?"), std::string::npos) << e;
+  EXPECT_EQ(e.find("needs a 'serial'"), std::string::npos) << e;
+  e = error_of("name: x\ncameras:\n  - serial: A\n    frame_rat: 60\n");
+  EXPECT_NE(e.find("did you mean 'frame_rate'?"), std::string::npos) << e;
+  e = error_of("name: x\ncameras:\n  - serial: A\nsensel:\n  ttty: /dev/ttyACM0\n");
+  EXPECT_NE(e.find("sensel.ttty: unknown key; did you mean 'tty'?"), std::string::npos) << e;
+  e = error_of("name: x\ncameras:\n  - serial: A\n    colour: 1\n");  // no key near it: the list
+  EXPECT_NE(e.find("unknown key (known here:"), std::string::npos) << e;
+}
+
 TEST(RigConfig, WrongTypeNamesTheValueAndTheKey) {
   const std::string e = error_of("name: x\ncameras:\n  - serial: A\n    frame_rate: fast\n");
   EXPECT_NE(e.find("rig.yaml:4:"), std::string::npos) << e;
