@@ -29,6 +29,10 @@ class DurableFolder {
   // fsyncs every regular file whose size or modification time changed since the last call, and
   // each folder whose entries changed. The first failure, naming the file and the error.
   Status sync_changed();
+  // Starts the write-back of every file that changed since its last fsync, without waiting
+  // (sync_file_range): called between the fsyncs, it spreads the writing over the second so the
+  // fsync finds little left to write and the disk never takes a second's writes at once.
+  void start_writeback();
 
   struct Counts {
     std::uint64_t rounds = 0, file_syncs = 0, folder_syncs = 0;

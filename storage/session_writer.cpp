@@ -368,11 +368,16 @@ void SessionWriter::watch_free_space() {
 }
 
 void SessionWriter::keep_durable() {
-  const auto interval = std::chrono::duration<double>(store_.sync_interval_s);
+  // Four steps an interval: three start the write-back of what changed, the fourth fsyncs it.
+  constexpr int kSteps = 4;
+  const auto step = std::chrono::duration<double>(store_.sync_interval_s / kSteps);
   std::unique_lock lock(watch_mu_);
-  while (!watch_cv_.wait_for(lock, interval, [this] { return sync_stop_; })) {
+  for (int n = 1; !watch_cv_.wait_for(lock, step, [this] { return sync_stop_; }); ++n) {
     lock.unlock();
-    if (Status s = durable_->sync_changed(); !s.ok()) set_failure(s.error().message);
+    if (n % kSteps != 0)
+      durable_->start_writeback();
+    else if (Status s = durable_->sync_changed(); !s.ok())
+      set_failure(s.error().message);
     lock.lock();
   }
 }
