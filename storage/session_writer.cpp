@@ -388,7 +388,12 @@ std::optional<std::string> SessionWriter::failure() const {
     return f;
   }
   std::lock_guard lock(failure_mu_);
-  return failure_;
+  if (failure_) return failure_;
+  // A spill the disk refused (an I/O error, not a slow encoder): the store cannot keep what comes,
+  // so capture stops, as for any failed write.
+  for (const auto& cam : cameras_)
+    if (auto f = cam->queue->failure()) return fmt::format("{}: the spill to disk failed: {}", cam->name, *f);
+  return std::nullopt;
 }
 
 VideoSettings camera_video_settings(const StoreConfig& store, int width, int height, const std::string& pixel_format) {
@@ -463,8 +468,8 @@ Status SessionWriter::close(const std::string& end_reason) {
   }
   watch_cv_.notify_all();
   if (syncer_.joinable()) syncer_.join();
+  if (auto f = failure(); f && result.ok()) result = Error{*f};  // the writer's own, or a spill's
   std::lock_guard lock(failure_mu_);
-  if (failure_ && result.ok()) result = Error{*failure_};
   // A segment whose writing failed holds fewer frames than were handed to it: the index is made
   // to say so, frame by frame, from what the file really holds.
   for (auto& cam : cameras_)

@@ -1,5 +1,7 @@
 #include "storage/sqlite/database.h"
 
+#include <cstring>
+
 #include <sqlite3.h>
 
 #include <fmt/format.h>
@@ -9,10 +11,20 @@ namespace pvcap::sqlite {
 bool SqliteError::disk_full() const { return (code_ & 0xff) == SQLITE_FULL || (code_ & 0xff) == SQLITE_IOERR; }
 
 namespace {
+// SQLite says "disk I/O error"; the operating system's error (EIO, ENOSPC, EROFS) says which.
+std::string os_error(sqlite3* db, int rc) {
+  const int primary = rc & 0xff;
+  if (!db ||
+      (primary != SQLITE_IOERR && primary != SQLITE_FULL && primary != SQLITE_READONLY && primary != SQLITE_CANTOPEN))
+    return "";
+  const int e = sqlite3_system_errno(db);
+  return e ? fmt::format(": {}", std::strerror(e)) : "";
+}
+
 [[noreturn]] void fail(sqlite3* db, int rc, std::string_view what) {
   const char* file = db ? sqlite3_db_filename(db, "main") : nullptr;
-  throw SqliteError(rc, fmt::format("{}{}{}: {} (SQLite code {})", file ? file : "", file ? ": " : "", what,
-                                    db ? sqlite3_errmsg(db) : sqlite3_errstr(rc), rc));
+  throw SqliteError(rc, fmt::format("{}{}{}: {}{} (SQLite code {})", file ? file : "", file ? ": " : "", what,
+                                    db ? sqlite3_errmsg(db) : sqlite3_errstr(rc), os_error(db, rc), rc));
 }
 }  // namespace
 
@@ -105,7 +117,7 @@ void Database::exec(std::string_view sql) {
   if (rc != SQLITE_OK) {
     const std::string msg = err ? err : sqlite3_errstr(rc);
     sqlite3_free(err);
-    throw SqliteError(rc, fmt::format("{}: {} (in '{}')", path_.string(), msg, s.substr(0, 60)));
+    throw SqliteError(rc, fmt::format("{}: {}{} (in '{}')", path_.string(), msg, os_error(db_, rc), s.substr(0, 60)));
   }
 }
 

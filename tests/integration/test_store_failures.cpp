@@ -317,3 +317,56 @@ TEST(StoreCrash, KillNineAtEveryPhaseThenRecoverAndASecondRecoverChangesNothing)
     fs::remove_all(work);
   }
 }
+
+// A dying disk under a real `pvcap session` (tests/io_faults/io_faults.c, preloaded): EIO on the
+// n-th write or fsync of each kind of file (a video segment, the index, its WAL, a spill file),
+// and a short write. Each ends in a stop with the file and the error named, never a crash; what
+// was committed reads, and verify says what is there.
+TEST(StoreIoErrors, EioAndShortWritesAndFailedFsyncsStopCleanlyNamingTheFile) {
+  struct Case {
+    const char* fault;  // PVCAP_IO_FAULT
+    const char* names;  // what the message must name ("" for a short write, which may be absorbed)
+    bool slow_encoder;  // a spill exists only while an encoder is behind
+  };
+  const Case cases[] = {
+      {"segment:write:40:eio", ".mkv", false},     {"segment:fsync:1:eio", ".mkv", false},
+      {"index:write:40:eio", "session.db", false}, {"wal:write:20:eio", "session.db", false},
+      {"wal:fsync:4:eio", "session.db", false},    {"spill:write:3:eio", ".spill", true},
+      {"segment:write:40:short", "", false},
+  };
+  const fs::path lib = PVCAP_IO_FAULTS_LIB;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.fault);
+    const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-eio-{}", getpid());
+    fs::remove_all(work);
+    fs::create_directories(work);
+    std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}}, 320, 240, 30, c.slow_encoder ? 0 : 15, "free-run",
+                                                     /*sensel=*/true);
+    const std::string env = fmt::format("env LD_PRELOAD={} PVCAP_IO_FAULT={}{}", lib.string(), c.fault,
+                                        c.slow_encoder ? " PVCAP_FAULTS=encoder.frame_delay_ms=80" : "");
+    const auto rec = run_pvcap(fmt::format("session --rig {} --root {} --duration 5 --no-web",
+                                           (work / "rig.yaml").string(), (work / "sessions").string()),
+                               env);
+    EXPECT_LT(rec.exit_code, 128) << "killed by a signal: " << rec.output;
+    if (*c.names) {
+      EXPECT_EQ(rec.exit_code, 1) << rec.output;
+      // EIO as the system says it, or as SQLite does.
+      EXPECT_TRUE(rec.output.find("Input/output error") != std::string::npos ||
+                  rec.output.find("disk I/O error") != std::string::npos)
+          << rec.output;
+      EXPECT_NE(rec.output.find(c.names), std::string::npos) << "the file is named: " << rec.output;
+    } else {
+      EXPECT_TRUE(rec.exit_code == 0 || rec.exit_code == 1) << rec.output;
+    }
+    const fs::path dir = only_session(work / "sessions");
+    if (!dir.empty()) {
+      const auto verified = run_pvcap("--log-level off verify " + dir.string());
+      EXPECT_TRUE(verified.exit_code == 0 || verified.exit_code == 1 || verified.exit_code == 3) << verified.output;
+      const auto at = rec.output.find("error] ");
+      const auto line = at != std::string::npos ? rec.output.substr(at + 7) : std::string("(no error line)");
+      std::printf("%s: session exit %d; verify exit %d; %s\n", c.fault, rec.exit_code, verified.exit_code,
+                  line.substr(0, line.find('\n')).c_str());
+    }
+    fs::remove_all(work);
+  }
+}
