@@ -1,11 +1,31 @@
 #!/usr/bin/env bash
-# The main job on the simulated rig: build, then run a whole participant session: the
-# PressureVisionDB protocol (every action with one hand, then the other), performed by the
-# simulated participant (--auto), with short timings (--fast, about 4 minutes).
+# The main job on the simulated rig: build, calibrate the rig (once), then run a whole participant
+# session: the PressureVisionDB protocol (every action with one hand, then the other), performed by
+# the simulated participant (--auto), with short timings (--fast, about 4 minutes), ending in its
+# report (with the rig's calibration and the sync self-check).
 # Extra arguments go to `pvcap session` (e.g. --duration 30 to stop early).
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 bash "$here/scripts/build.sh"
-exec "$here/build/app/pvcap" session --rig "$here/rig-configs/sim.yaml" --root "$here/sessions" \
+pvcap="$here/build/app/pvcap"
+rig="$here/rig-configs/sim.yaml"
+calibration="$here/rig-configs/sim.calibration.yaml"
+newest() { ls -1d "$1"/*/ 2>/dev/null | sort | tail -n 1; }
+
+# The rig's calibration, as a lab makes it once (docs/calibration.md): a board session for each
+# camera's lens, then a short session for where the pad lies in each camera. Kept beside the rig
+# file; every later session on the rig records it.
+if ! grep -q "cells_to_ideal_px" "$calibration" 2>/dev/null; then
+  echo "== calibrating the simulated rig (once; about 3 minutes) =="
+  rm -rf "$here/sessions/calibration"
+  "$pvcap" session --rig "$rig" --board --duration 52 --root "$here/sessions/calibration" --no-web
+  board=$(newest "$here/sessions/calibration")
+  "$pvcap" calibrate intrinsics "$board" --rig "$rig" --ground-truth "$board/sim-truth"
+  "$pvcap" session --rig "$rig" --duration 6 --root "$here/sessions/calibration/pad" --no-web
+  pad=$(newest "$here/sessions/calibration/pad")
+  "$pvcap" calibrate pad "$pad" --rig "$rig" --ground-truth "$pad/sim-truth"
+fi
+
+exec "$pvcap" session --rig "$rig" --root "$here/sessions" \
   --protocol "$here/rig-configs/protocols/pressurevision.yaml" --auto --fast \
   --participant SIM01 --skin-tone medium --hand-order right_first --lighting LCR --overlay white_vinyl "$@"
