@@ -22,6 +22,23 @@ Status fsync_path_fd(int fd, const std::filesystem::path& path, const char* what
                            path.string(), what, std::strerror(errno))};
 }
 
+// Each regular file of `folder` with its stat; false when the folder is not there (not made yet,
+// as the spill, or gone with the session: nothing to keep).
+template <typename Each>
+bool for_each_file(const std::filesystem::path& folder, Each&& each) {
+  DIR* d = opendir(folder.c_str());
+  if (!d) return false;
+  while (dirent* e = readdir(d)) {
+    if (e->d_type != DT_REG && e->d_type != DT_UNKNOWN) continue;
+    const std::filesystem::path path = folder / e->d_name;
+    struct stat st {};
+    if (stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) continue;
+    each(path, st);
+  }
+  closedir(d);
+  return true;
+}
+
 }  // namespace
 
 DurableFolder::DurableFolder(std::filesystem::path dir, std::vector<std::string> subfolders) : dir_(std::move(dir)) {
@@ -30,31 +47,25 @@ DurableFolder::DurableFolder(std::filesystem::path dir, std::vector<std::string>
 }
 
 Status DurableFolder::sync_folder(const std::filesystem::path& folder, bool& entries_changed) {
-  DIR* d = opendir(folder.c_str());
-  if (!d) return {};  // not made yet (the spill), or gone with the session: nothing to keep
   std::set<std::filesystem::path> present;
   Status failure;
-  while (dirent* e = readdir(d)) {
-    if (e->d_type != DT_REG && e->d_type != DT_UNKNOWN) continue;
-    const std::filesystem::path path = folder / e->d_name;
-    struct stat st {};
-    if (stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) continue;
+  const bool there = for_each_file(folder, [&](const std::filesystem::path& path, const struct stat& st) {
     present.insert(path);
     Tracked& t = files_[path];
-    if (t.size == st.st_size && t.mtime.tv_sec == st.st_mtim.tv_sec && t.mtime.tv_nsec == st.st_mtim.tv_nsec) continue;
+    if (t.size == st.st_size && t.mtime.tv_sec == st.st_mtim.tv_sec && t.mtime.tv_nsec == st.st_mtim.tv_nsec) return;
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) continue;  // removed between the listing and now
+    if (fd < 0) return;  // removed between the listing and now
     const Status synced = fsync_path_fd(fd, path, "fsync");
     ::close(fd);
     if (!synced.ok()) {
       if (failure.ok()) failure = synced;
-      continue;
+      return;
     }
     ++counts_.file_syncs;
     t.size = st.st_size;
     t.mtime = st.st_mtim;
-  }
-  closedir(d);
+  });
+  if (!there) return {};
   // Files that went (a drained spill file, a replaced segment): forget them.
   for (auto it = files_.begin(); it != files_.end();) {
     if (it->first.parent_path() == folder && !present.count(it->first)) {
@@ -71,23 +82,15 @@ Status DurableFolder::sync_folder(const std::filesystem::path& folder, bool& ent
 }
 
 void DurableFolder::start_writeback() {
-  for (const auto& folder : folders_) {
-    DIR* d = opendir(folder.c_str());
-    if (!d) continue;
-    while (dirent* e = readdir(d)) {
-      if (e->d_type != DT_REG && e->d_type != DT_UNKNOWN) continue;
-      const std::filesystem::path path = folder / e->d_name;
-      struct stat st {};
-      if (stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) continue;
+  for (const auto& folder : folders_)
+    for_each_file(folder, [&](const std::filesystem::path& path, const struct stat& st) {
       const auto known = files_.find(path);
-      if (known != files_.end() && known->second.size == st.st_size) continue;  // nothing new to write
+      if (known != files_.end() && known->second.size == st.st_size) return;  // nothing new to write
       const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-      if (fd < 0) continue;
+      if (fd < 0) return;
       (void)sync_file_range(fd, 0, 0, SYNC_FILE_RANGE_WRITE);  // a failure shows at the next fsync
       ::close(fd);
-    }
-    closedir(d);
-  }
+    });
 }
 
 Status DurableFolder::sync_changed() {

@@ -105,7 +105,8 @@ Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
 namespace {
 // A raw video's decoded frame as the stored picture (the planes stacked), viewing the frame.
 Result<cv::Mat> stored_picture(const AVFrame* f, int bit_depth, const std::filesystem::path& path) {
-  // As in to_mosaic: H.264 hands a grey picture out as 4:2:0 with blank chroma (its first plane).
+  // The decoder says what a picture is only once it has decoded one. H.264's decoder hands a grey
+  // (4:0:0) picture out as 4:2:0 with blank chroma: its first plane is the grey picture.
   const bool grey8 =
       f->format == AV_PIX_FMT_GRAY8 || f->format == AV_PIX_FMT_YUV420P || f->format == AV_PIX_FMT_YUVJ420P;
   const bool grey16 = f->format == AV_PIX_FMT_GRAY16LE;
@@ -135,17 +136,11 @@ std::optional<std::uint32_t> VideoReader::decoded_picture_crc() const {
 }
 
 Status VideoReader::to_mosaic(cv::Mat& mosaic) {
-  const AVFrame* f = impl_->frame.ptr;
-  // The decoder says what a picture is only once it has decoded one. H.264's decoder hands a grey
-  // (4:0:0) picture out as 4:2:0 with blank chroma: its first plane is the grey picture.
-  const bool grey8 =
-      f->format == AV_PIX_FMT_GRAY8 || f->format == AV_PIX_FMT_YUV420P || f->format == AV_PIX_FMT_YUVJ420P;
-  const bool grey16 = f->format == AV_PIX_FMT_GRAY16LE;
-  if (!(bit_depth_ > 8 ? grey16 : grey8) || f->height % 4 != 0 || f->width <= 0)
-    return Error{fmt::format("{}: a raw video's pictures must be {}-bit grey with four planes stacked", path_.string(),
-                             bit_depth_ > 8 ? 16 : 8)};
-  const cv::Mat planes(f->height, f->width, grey16 ? CV_16UC1 : CV_8UC1, f->data[0], std::size_t(f->linesize[0]));
-  unpack_bayer_planes(planes, mosaic);
+  auto planes = stored_picture(impl_->frame.ptr, bit_depth_, path_);
+  if (!planes) return planes.error();
+  if (planes.value().rows % 4 != 0 || planes.value().cols <= 0)
+    return Error{fmt::format("{}: a raw video's pictures must hold four planes stacked", path_.string())};
+  unpack_bayer_planes(planes.value(), mosaic);
   return {};
 }
 

@@ -124,20 +124,21 @@ ssize_t pwritev(int fd, const struct iovec* iov, int iovcnt, off_t offset) {
   return pwritev64(fd, iov, iovcnt, offset);
 }
 
-int fsync(int fd) {
-  REAL(fsync, sync_fn);
+// fsync and fdatasync fail alike.
+static int failing_sync(int fd, sync_fn real) {
   if (decide(fd, "fsync") == 1) {
     errno = EIO;
     return -1;
   }
-  return real_fsync(fd);
+  return real(fd);
+}
+
+int fsync(int fd) {
+  REAL(fsync, sync_fn);
+  return failing_sync(fd, real_fsync);
 }
 
 int fdatasync(int fd) {
   REAL(fdatasync, sync_fn);
-  if (decide(fd, "fsync") == 1) {
-    errno = EIO;
-    return -1;
-  }
-  return real_fdatasync(fd);
+  return failing_sync(fd, real_fdatasync);
 }
