@@ -1,30 +1,31 @@
 #include "storage/frame_checksum.h"
 
-#include <vector>
-
 #include <zlib.h>
 
 namespace pvcap {
 
 namespace {
 std::uint32_t extend(std::uint32_t crc, const void* data, std::size_t size) {
-  // zlib takes at most 4 GB at a time (uInt); a picture row is far less.
+  // zlib takes at most 4 GB at a time (uInt); a plane or a picture row is far less.
   return std::uint32_t(crc32(uLong(crc), static_cast<const Bytef*>(data), uInt(size)));
 }
 
-template <typename Sample>
+// The planes' order (storage/bayer_planes.h): the 2x2 cell's top-left, top-right, bottom-left,
+// bottom-right samples. Each plane is gathered whole (OpenCV's vectorised channel extraction over
+// a two-sample-per-pixel view of every other row), then checksummed: per sample in a plain loop it
+// took 1.87 ms per 1080p mosaic on the camera worker, against 0.50 ms for the CRC alone.
 std::uint32_t planes_crc(const cv::Mat& mosaic) {
+  thread_local cv::Mat plane;  // reused: one per camera worker
+  const int cell_type = CV_MAKETYPE(mosaic.depth(), 2);
   std::uint32_t crc = 0;
-  std::vector<Sample> row(std::size_t(mosaic.cols / 2));
-  // The planes' order (storage/bayer_planes.h): the 2x2 cell's top-left, top-right, bottom-left,
-  // bottom-right samples.
-  for (int parity_y = 0; parity_y < 2; ++parity_y)
-    for (int parity_x = 0; parity_x < 2; ++parity_x)
-      for (int y = parity_y; y < mosaic.rows; y += 2) {
-        const Sample* in = mosaic.ptr<Sample>(y) + parity_x;
-        for (std::size_t x = 0; x < row.size(); ++x) row[x] = in[2 * x];
-        crc = extend(crc, row.data(), row.size() * sizeof(Sample));
-      }
+  for (int parity_y = 0; parity_y < 2; ++parity_y) {
+    const cv::Mat cells(mosaic.rows / 2, mosaic.cols / 2, cell_type, const_cast<uchar*>(mosaic.ptr(parity_y)),
+                        mosaic.step[0] * 2);
+    for (int parity_x = 0; parity_x < 2; ++parity_x) {
+      cv::extractChannel(cells, plane, parity_x);
+      crc = extend(crc, plane.data, plane.total() * plane.elemSize());
+    }
+  }
   return crc;
 }
 }  // namespace
@@ -33,7 +34,8 @@ std::uint32_t crc32_of(const void* data, std::size_t size) { return extend(0, da
 
 std::uint32_t stored_mosaic_crc(const cv::Mat& mosaic) {
   CV_Assert(mosaic.channels() == 1 && mosaic.cols % 2 == 0 && mosaic.rows % 2 == 0);
-  return mosaic.depth() == CV_16U ? planes_crc<std::uint16_t>(mosaic) : planes_crc<std::uint8_t>(mosaic);
+  CV_Assert(mosaic.depth() == CV_8U || mosaic.depth() == CV_16U);
+  return planes_crc(mosaic);
 }
 
 std::uint32_t picture_crc(const cv::Mat& picture) {
