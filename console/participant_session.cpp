@@ -185,8 +185,9 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
     });
   }
 
+  RecordingPages pages(recording);  // outlives the pages' stop() below
   if (command.web) {
-    command.web->serve(recording, runner.get());
+    command.web->serve(pages, runner.get());
     spdlog::info("participant display: {}", command.web->url("participant"));
     spdlog::info("operator console:    {}", command.web->url("operator"));
   }

@@ -28,7 +28,6 @@
 #include "console/web_images.h"
 #include "console/web_status.h"
 #include "protocol/runner.h"
-#include "session/recording.h"
 
 namespace pvcap::console {
 
@@ -192,7 +191,7 @@ bool WebConsole::authorized(const std::string& query_token, const std::string& c
   return same_token(query_token, options_.token) || same_token(cookie, options_.token);
 }
 
-void WebConsole::serve(session::Recording& recording, Runner* runner) {
+void WebConsole::serve(PageSource& recording, Runner* runner) {
   recording_ = &recording;
   runner_ = runner;
   thread_ = std::thread([this] {
@@ -216,7 +215,7 @@ void WebConsole::stop() {
 std::string WebConsole::state_json() const {
   std::optional<RunnerView> view;
   if (runner_) view = runner_->view();
-  return status_model(recording_->status(), recording_->rig().cameras.size(), recording_->pressure_now(),
+  return status_model(recording_->status(), recording_->camera_count(), recording_->pressure_now(),
                       {participant_pages_.load(), operator_pages_.load()}, view ? &*view : nullptr)
       .dump();
 }
@@ -388,7 +387,7 @@ void WebConsole::route_images() {
       return;
     }
     const std::size_t camera = index_in_path(req.matches[1]);
-    const auto [image, at] = full ? recording_->preview_full(camera) : recording_->preview(camera);
+    const auto [image, at] = recording_->preview(camera, full);
     const auto jpg = camera_jpeg(image, full);
     if (!jpg) {
       res.status = 404;

@@ -23,15 +23,13 @@
 #include <thread>
 #include <vector>
 
+#include "console/page_source.h"
 #include "core/result.h"
 
 namespace httplib {
 class Server;
 }
 
-namespace pvcap::session {
-class Recording;
-}
 namespace pvcap::protocol {
 class Runner;
 }
@@ -64,7 +62,7 @@ class WebConsole {
   WebConsole& operator=(const WebConsole&) = delete;
 
   // Starts serving the running recording, and its protocol when `runner` is set. Both must outlive stop().
-  void serve(session::Recording& recording, protocol::Runner* runner);
+  void serve(PageSource& recording, protocol::Runner* runner);
   // Ends the event streams and the server (idempotent).
   void stop();
 
@@ -92,7 +90,7 @@ class WebConsole {
   std::atomic<bool> stopping_{false};
   std::atomic<int> streams_{0};  // event streams open
   std::atomic<int> participant_pages_{0}, operator_pages_{0};
-  session::Recording* recording_ = nullptr;
+  PageSource* recording_ = nullptr;
   protocol::Runner* runner_ = nullptr;
 };
 

@@ -6,7 +6,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "session/sensel_pipeline.h"
+#include "session/recording_status.h"
 
 namespace pvcap::console {
 

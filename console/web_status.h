@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "protocol/runner.h"
-#include "session/recording.h"
+#include "session/recording_status.h"
 
 namespace pvcap::console {
 

@@ -71,13 +71,6 @@ Status check_sessions_root(const std::filesystem::path& root) {
   return {};
 }
 
-bool RecordingStatus::all_live(double window_ms) const {
-  if (streams.empty()) return false;
-  for (const auto& s : streams)
-    if (s.since_last_frame_ms < 0 || s.since_last_frame_ms > window_ms) return false;
-  return true;
-}
-
 Recording::Recording() = default;
 
 Recording::~Recording() {

@@ -29,6 +29,7 @@
 #include "core/fault_injection.h"
 #include "core/result.h"
 #include "core/rig_config.h"
+#include "session/recording_status.h"
 #include "session/sensel_pipeline.h"
 #include "storage/records.h"
 
@@ -63,32 +64,6 @@ struct RecordingOptions {
 
 // The sessions folder can take a session (made if missing, writable); an Error names it and why.
 Status check_sessions_root(const std::filesystem::path& root);
-
-struct StreamStatus {
-  std::string name, kind;  // kind: camera | sensel
-  std::uint64_t received = 0, good = 0, in_video = 0, incomplete = 0, not_received = 0, encoder_behind = 0,
-                connection_losses = 0;
-  std::uint64_t queue_overflow = 0;   // received by the driver and dropped, its queue full (pvcap too slow)
-  std::uint64_t buffer_underrun = 0;  // sent while the camera's stream had no free buffer (pvcap too slow)
-  std::size_t encoder_backlog = 0;    // kept frames waiting for the encoder (memory and spill)
-  std::size_t spill_backlog = 0;      // of which on disk
-  std::uint64_t spilled = 0;          // frames that went through the spill so far
-  double rate_hz = 0;                 // over the last status interval
-  double since_last_frame_ms = -1;    // since its last good frame arrived; -1: none yet
-};
-
-struct RecordingStatus {
-  std::string state;  // opened | recording | stopping | ended
-  std::string session_dir;
-  double elapsed_s = 0;
-  std::vector<StreamStatus> streams;  // the cameras in rig order, then the Sensel
-  std::uint64_t samples = 0;
-  double pressure_offset_mean_ms = 0, pressure_offset_max_ms = 0;  // |sample - nearest pressure frame|, recent
-  std::int64_t free_disk_bytes = -1;
-  std::vector<std::string> warnings;  // the latest operator warnings, oldest first
-  // True while every stream delivered a good frame within `window_ms`.
-  bool all_live(double window_ms) const;
-};
 
 struct RecordingResult {
   int exit_code = 0;  // 0 recorded, 1 failed (the message was logged)

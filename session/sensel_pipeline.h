@@ -17,6 +17,7 @@
 #include "core/fault_injection.h"
 #include "core/result.h"
 #include "core/rig_config.h"
+#include "session/recording_status.h"
 #include "storage/session_writer.h"
 #include "sync/session_timeline.h"
 
@@ -26,13 +27,6 @@ struct PressurePoint {
   std::int64_t mapped_ns = 0;  // on the session clock
   std::uint64_t sequence = 0;
   sensel::PressureSummary summary;
-};
-
-// The latest pressure frame, for the live heat map.
-struct PressureSnapshot {
-  sensel::Grid grid;
-  std::vector<std::uint16_t> counts;
-  std::int64_t mapped_ns = 0;
 };
 
 struct SenselPipelineOptions {
