@@ -13,7 +13,9 @@ int print_sensel_summary(const std::filesystem::path& path, const sensel::Captur
   for (const auto& [why, n] : s.rejected) fmt::print("  rejected      {} x {}\n", n, why);
   fmt::print("  counter gaps  {} frames missing by the rolling counter\n", s.counter_gaps);
   fmt::print("  time span     {:.3f} s of device time{}\n", s.span_s,
-             s.decoded > 1 && s.span_s > 0 ? fmt::format(" ({:.1f} frames/s)", double(s.decoded - 1) / std::max(s.span_s, 1e-9)) : "");
+             s.decoded > 1 && s.span_s > 0
+                 ? fmt::format(" ({:.1f} frames/s)", double(s.decoded - 1) / std::max(s.span_s, 1e-9))
+                 : "");
   fmt::print("  peak force    {:.1f} g on one {:.2f} x {:.2f} mm cell ({:.1f} kPa); {:.1f} g on the whole pad\n",
              s.peak_cell_g, 1.25 * s.grid.xscale, 1.25 * s.grid.yscale, s.peak_cell_kpa, s.peak_total_g);
   if (s.decoded != s.frames) {

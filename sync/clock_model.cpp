@@ -27,6 +27,7 @@ void ClockModel::publish() {
 
 void ClockModel::add_probe(std::int64_t device_ns, std::int64_t host_lo_ns, std::int64_t host_hi_ns) {
   if (segment_ < 0 || host_hi_ns < host_lo_ns) return;
+  device_ns = bounded_device_time(device_ns);
   const std::int64_t x = device_ns - fit_.x0;
   // A probe from before this segment's clock (x far back) belongs to no segment we fit.
   if (x < -options_.reset_back_ns) return;
@@ -95,6 +96,7 @@ void ClockModel::refit_probes() {
 }
 
 bool ClockModel::add(std::int64_t device_ns, std::int64_t arrival_ns) {
+  device_ns = bounded_device_time(device_ns);
   if (segment_ < 0) {
     start_segment(device_ns, arrival_ns);
     return false;  // the first segment is not a reset

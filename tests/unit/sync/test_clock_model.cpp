@@ -3,6 +3,9 @@
 // the recorder maps: each frame with the fit it had when the frame arrived.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+
 #include "core/sequence_unwrap.h"
 #include "sync/clock_model.h"
 #include "tests/unit/sync/sync_test_util.h"
@@ -251,4 +254,32 @@ TEST(ClockModel, ThinnedProbesKeepTheSegmentsSpanAndTheTighterBrackets) {
   }
   for (std::int64_t t = 0; t < 60'000'000'000; t += 1'000'000'000)
     EXPECT_LT(std::llabs(m.map(clock.device(t)) - t), 200'000) << t;
+}
+
+// Found by fuzz_timeline: a device time at either end of int64 overflowed the model's differences.
+// Device times are bytes from outside; they are bounded to +-2^61 ns, and a wild one is a clock jump.
+TEST(ClockModel, AWildDeviceTimeIsAJumpNotAnOverflow) {
+  ClockModel m;
+  for (std::int64_t t = 0; t < 3'000'000'000; t += 16'666'667) m.add(5'000'000'000 + t, 1'000'000'000 + t);
+  const std::int64_t arrival = 4'100'000'000;
+  EXPECT_TRUE(m.add(std::numeric_limits<std::int64_t>::min(), arrival));  // a new segment...
+  // ...that maps it at its arrival (to the double offset's precision at 2^61: 512 ns)
+  EXPECT_NEAR(double(m.map(std::numeric_limits<std::int64_t>::min())), double(arrival), 1000);
+  // The other end, into a young segment: a wrong time (nothing can place it), but a bounded one.
+  m.add(std::numeric_limits<std::int64_t>::max(), arrival + 16'666'667);
+  EXPECT_LE(std::llabs(m.map(std::numeric_limits<std::int64_t>::max())),
+            3 * kDeviceTimeLimitNs + kDeviceTimeLimitNs / 2);
+  m.add_probe(std::numeric_limits<std::int64_t>::min(), arrival, arrival + 1000);
+}
+
+TEST(ClockModel, TheMappingOfADamagedFitIsBoundedNotUndefined) {
+  const std::int64_t big = std::numeric_limits<std::int64_t>::max();
+  EXPECT_EQ(map_device_time(big, -big, 0, 0, 0), kDeviceTimeLimitNs);
+  EXPECT_EQ(map_device_time(0, 0, std::nan(""), 0, 0), 0);
+  EXPECT_EQ(map_device_time(0, 0, 1e300, 0, 0), 2 * kDeviceTimeLimitNs);
+  EXPECT_EQ(map_device_time(-big, 0, -1e300, 1e300, big),
+            -kDeviceTimeLimitNs - 2 * kDeviceTimeLimitNs - kDeviceTimeLimitNs / 2);
+  // Real clocks are untouched: the pinned arithmetic (docs/store.md).
+  EXPECT_EQ(map_device_time(1'000'000'123, 1'000, 2.5, 1e-6, 40),
+            1'000'000'123 + std::llround(2.5 + 1e-6 * 999'999'123.0) - 40);
 }
