@@ -113,6 +113,10 @@ Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off
   std::memcpy(&size, prefix + 4, 4);
   std::memcpy(&crc, prefix + 8, 4);
   if (size < kPrefix || size > kMaxRecord) return Error{fmt::format("impossible record size {}", size)};
+  // A damaged size is not believed before the file is seen to hold it (no buffer of a size a flipped
+  // bit chose).
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || off + std::int64_t(size) > std::int64_t(st.st_size)) return Error{"cut in its body"};
   std::vector<std::uint8_t> body(size - kPrefix);
   if (!full_pread(fd, body.data(), body.size(), off + std::int64_t(kPrefix))) return Error{"cut in its body"};
   if (std::uint32_t(crc32(0L, body.data(), uInt(body.size()))) != crc) return Error{"CRC mismatch"};
