@@ -37,11 +37,15 @@ class BoundedQueue {
     if (items_.empty()) return std::nullopt;
       // GCC 12 reports moving a nested optional<vector> out of a deque as "used uninitialized"
       // (a known false positive at -O2); the element is fully constructed.
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wuninitialized"
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
     std::optional<T> item(std::in_place, std::move(items_.front()));
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
+#endif
     items_.pop_front();
     return item;
   }
@@ -55,6 +59,10 @@ class BoundedQueue {
     cv_.notify_all();
   }
 
+  bool closed() const {
+    std::lock_guard lock(mu_);
+    return closed_;
+  }
   bool closed_and_empty() const {
     std::lock_guard lock(mu_);
     return closed_ && items_.empty();

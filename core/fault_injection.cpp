@@ -54,6 +54,7 @@ FaultPlan parse_faults(std::string_view spec, std::vector<std::string>& problems
   plan.camera_queue_frames = count("camera.queue_frames");
   plan.sensel_queue_frames = count("sensel.queue_frames");
   plan.index_queue_records = count("index_writer.queue_records");
+  plan.index_overflow_memory_records = count("index_writer.overflow_memory_records");
   plan.encoder_frame_delay =
       std::chrono::milliseconds(std::int64_t(std::max(0.0, take("encoder.frame_delay_ms").value_or(0))));
   for (const auto& [name, v] : values)

@@ -18,6 +18,7 @@
 //   index_writer.stall_s           the index thread sleeps this long, once, `stall_after_s`
 //   index_writer.stall_after_s     (default 2) after it starts
 //   index_writer.queue_records     the index queue holds this many records
+//   index_writer.overflow_memory_records  beyond the queue, this many wait in memory, then on disk
 //   encoder.frame_delay_ms         every camera's encoder waits this long before each frame (an
 //                                  encoder slower than its camera, whatever the machine)
 #include <chrono>
@@ -40,7 +41,8 @@ struct FaultPlan {
   int stall_camera = 0;  // which camera's worker stalls
   std::optional<Stall> sensel_pipeline_stall;
   std::optional<Stall> index_writer_stall;
-  std::optional<std::size_t> camera_queue_frames, sensel_queue_frames, index_queue_records;
+  std::optional<std::size_t> camera_queue_frames, sensel_queue_frames, index_queue_records,
+      index_overflow_memory_records;
   std::chrono::milliseconds encoder_frame_delay{0};
   std::string spec;  // as given, for the warning and the log
   bool empty() const { return spec.empty(); }

@@ -172,6 +172,8 @@ void Recording::record_rig_calibration(SessionWriter& writer) {
 Status Recording::start() {
   WriterOptions writer_options;
   if (options_.faults.index_queue_records) writer_options.index_queue_records = *options_.faults.index_queue_records;
+  if (options_.faults.index_overflow_memory_records)
+    writer_options.index_overflow_memory_records = *options_.faults.index_overflow_memory_records;
   writer_options.index_stall = options_.faults.index_writer_stall;
   writer_options.encoder_frame_delay = options_.faults.encoder_frame_delay;
   auto created = SessionWriter::create(options_.root, rig_, wall0_, host0_, writer_options);
@@ -343,12 +345,17 @@ std::string Recording::wait(const std::atomic<bool>& interrupt, std::optional<do
                       "queue was full): this PC is too busy for the rig; close other programs",
                       n, n == 1 ? "" : "s", n == 1 ? "it" : "them"));
     }
+    if (const auto n = writer_->index_records_waited(); !warned_index_behind_ && n > 0) {
+      warned_index_behind_ = true;
+      warn(
+          "session index: behind (the disk or this PC is slow for the rig); its rows wait, in memory and then in "
+          "the session's spill folder, and nothing is lost. session.db's index_behind events say how long");
+    }
     if (const auto n = writer_->index_records_lost(); !warned_index_ && n > 0) {
       warned_index_ = true;
       warn(
-          fmt::format("session index: {} record{} could not be queued for session.db (the index queue was full; "
-                      "{}): the disk or this PC is too slow for the rig. session.db's index_overflow events say "
-                      "how many of each kind",
+          fmt::format("session index: {} record{} lost ({}): storage failed. session.db's index_overflow events "
+                      "say how many of each kind",
                       n, n == 1 ? "" : "s", writer_->index_records_lost_by_kind()));
     }
     if (std::chrono::steady_clock::now() - last_progress >= 2s) {

@@ -135,7 +135,7 @@ class Recording {
   std::string stop_reason_;
   std::optional<std::string> start_failure_;
   std::vector<bool> warned_encoder_, warned_spill_, warned_behind_;
-  bool warned_sensel_behind_ = false, warned_index_ = false;
+  bool warned_sensel_behind_ = false, warned_index_ = false, warned_index_behind_ = false;
 
   mutable std::mutex mu_;  // what follows
   std::deque<std::string> warnings_;

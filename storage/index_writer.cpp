@@ -8,8 +8,14 @@
 namespace pvcap {
 
 IndexWriter::IndexWriter(SessionIndex& index, std::size_t capacity, std::chrono::milliseconds batch_period,
-                         std::optional<Stall> stall)
-    : index_(index), queue_(capacity), queue_capacity_(capacity), batch_period_(batch_period), stall_(stall) {}
+                         std::optional<Stall> stall, std::filesystem::path overflow_file,
+                         std::size_t overflow_memory_records)
+    : index_(index),
+      queue_(capacity),
+      queue_capacity_(capacity),
+      batch_period_(batch_period),
+      stall_(stall),
+      overflow_(std::move(overflow_file), overflow_memory_records) {}
 
 IndexWriter::~IndexWriter() { stop(); }
 
@@ -18,12 +24,37 @@ void IndexWriter::start() {
 }
 
 bool IndexWriter::push(Record record) {
-  if ((failed_.load(std::memory_order_relaxed) && !disk_full_.load(std::memory_order_relaxed)) ||
-      !queue_.try_push(record)) {
+  auto lose = [&] {
     lost_by_kind_[record.index()].fetch_add(1, std::memory_order_relaxed);
     lost_.fetch_add(1, std::memory_order_relaxed);
     return false;
+  };
+  if (failed_.load(std::memory_order_relaxed) && !disk_full_.load(std::memory_order_relaxed)) return lose();
+  {
+    // A short lock, never held across I/O: it orders the queue against the overflow.
+    std::lock_guard lock(push_mu_);
+    if (!overflowing_.load(std::memory_order_relaxed)) {
+      if (queue_.try_push(record)) return true;
+      if (queue_.closed()) return lose();  // stopped
+      behind_since_ns_.store(host_now().ns, std::memory_order_relaxed);
+      overflowing_.store(true);
+    }
+    overflow_.add(std::move(record));
   }
+  waited_.fetch_add(1, std::memory_order_relaxed);
+  return true;
+}
+
+bool IndexWriter::take_overflow(std::vector<Record>& items) {
+  if (!overflowing_.load()) return false;
+  {
+    std::lock_guard lock(push_mu_);  // no record is added while the overflow is found empty
+    if (overflow_.empty()) {
+      overflowing_.store(false);
+      return false;
+    }
+  }
+  items = overflow_.take();  // may wait for a chunk landing in the file: producers do not
   return true;
 }
 
@@ -137,27 +168,47 @@ void IndexWriter::run() {
   // An index thread that falls behind, on purpose (core/fault_injection.h): tests meet a full queue.
   std::optional<Stall> stall = stall_;
   const auto stall_at = std::chrono::steady_clock::now() + std::chrono::duration<double>(stall ? stall->after_s : 0.0);
-  std::vector<Record> batch;
+  std::vector<Record> batch, items;
   auto batch_started = std::chrono::steady_clock::now();
   std::uint64_t lost_reported = 0;
-  while (!queue_.closed_and_empty()) {
+  for (;;) {
     if (stall && std::chrono::steady_clock::now() >= stall_at) {
       std::this_thread::sleep_for(std::chrono::duration<double>(stall->seconds));
       stall.reset();
     }
-    if (auto r = queue_.pop_for(std::chrono::milliseconds(50))) {
-      if (auto* barrier = std::get_if<CommitBarrier>(&*r)) {
+    const bool behind = overflowing_.load();
+    items.clear();
+    // Behind: the queue's records first (they are older), then the overflow's, without waiting.
+    if (auto r = queue_.pop_for(std::chrono::milliseconds(behind ? 0 : 50)))
+      items.push_back(std::move(*r));
+    else if (!take_overflow(items) && queue_.closed_and_empty())
+      break;
+    for (Record& item : items) {
+      if (auto* barrier = std::get_if<CommitBarrier>(&item)) {
         write_batch(batch);
         barrier->committed->set_value(!failed_.load());
         continue;
       }
       if (batch.empty()) batch_started = std::chrono::steady_clock::now();
-      batch.push_back(std::move(*r));
+      batch.push_back(std::move(item));
     }
-    if (const std::uint64_t lost = lost_.load(); lost > lost_reported && !failed_.load()) {
-      batch.push_back(EventRecord{host_now().ns, "index_overflow", std::nullopt,
-                                  fmt::format("{} index records were lost: the index queue was full (so far: {})",
-                                              lost - lost_reported, lost_records_by_kind())});
+    if (behind && !overflowing_.load()) {  // caught up: what waited, and where
+      const std::uint64_t waited = waited_.load(), spilled = overflow_.spilled();
+      batch.push_back(EventRecord{
+          host_now().ns, "index_behind", std::nullopt,
+          fmt::format("the index fell behind for {:.1f} s: {} records waited ({} of them on disk); none was lost",
+                      double(host_now().ns - behind_since_ns_.load()) / 1e9, waited - waited_reported_,
+                      spilled - spilled_reported_)});
+      spdlog::info("session index: caught up; {} records waited for it ({} on disk), none lost",
+                   waited - waited_reported_, spilled - spilled_reported_);
+      waited_reported_ = waited;
+      spilled_reported_ = spilled;
+    }
+    if (const std::uint64_t lost = records_lost(); lost > lost_reported && !failed_.load()) {
+      batch.push_back(
+          EventRecord{host_now().ns, "index_overflow", std::nullopt,
+                      fmt::format("{} index records were lost (so far: {}){}", lost - lost_reported,
+                                  lost_records_by_kind(), overflow_.failure() ? ": " + *overflow_.failure() : "")});
       lost_reported = lost;
     }
     if (!batch.empty() && std::chrono::steady_clock::now() - batch_started >= batch_period_) write_batch(batch);

@@ -2,11 +2,12 @@
 // Writes index records on its own thread, in transactions of at most
 // `batch_period` (default 250 ms): producers push without waiting; a crash loses
 // at most the open batch. Records are held in a bounded queue sized for many
-// seconds of every stream; if it ever fills, the overflow is counted by kind
-// and written as an index_overflow event when there is room again. A batch that fails because
-// the disk is full is held, and written once more at stop(): the session writer
-// frees its space reserve first, so what was captured before the disk filled is
-// not lost with it.
+// seconds of every stream; if it ever fills (the index fell behind), records wait in the
+// overflow (storage/index_overflow.h: memory, then the spill folder) in their order until the
+// index has caught up, and an index_behind event says how many waited: none is dropped. A batch
+// that fails because the disk is full is held, and written once more at stop(): the session
+// writer frees its space reserve first, so what was captured before the disk filled is not lost
+// with it. Records are lost (counted by kind) only after a storage failure.
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -20,29 +21,27 @@
 
 #include "core/bounded_queue.h"
 #include "core/fault_injection.h"
+#include "storage/index_overflow.h"
 #include "storage/session_index.h"
 
 namespace pvcap {
 
-// In the queue: "commit everything before me now, then tell". Never written itself.
-struct CommitBarrier {
-  std::shared_ptr<std::promise<bool>> committed;  // true once committed; false if writing failed
-};
-
 class IndexWriter {
  public:
-  using Record = std::variant<FrameRecord, PressureRecord, DropRecord, EventRecord, SampleRecord, ClockModelRecord,
-                              VideoFileRecord, VideoFileClosed, ProtocolEventRecord, OperatorNoteRecord, CommitBarrier>;
+  using Record = IndexQueueItem;
 
   static constexpr std::size_t kQueueRecords = 200'000;
 
-  // `stall`: a test's fault (core/fault_injection.h), the index thread sleeps once.
+  // `stall`: a test's fault (core/fault_injection.h), the index thread sleeps once. `overflow_file`:
+  // where records wait on disk when the queue and the overflow's memory are full (none: memory only).
   IndexWriter(SessionIndex& index, std::size_t capacity = kQueueRecords,
-              std::chrono::milliseconds batch_period = std::chrono::milliseconds(250), std::optional<Stall> stall = {});
+              std::chrono::milliseconds batch_period = std::chrono::milliseconds(250), std::optional<Stall> stall = {},
+              std::filesystem::path overflow_file = {},
+              std::size_t overflow_memory_records = IndexOverflow::kMemoryRecords);
   ~IndexWriter();
 
   void start();
-  // False when the queue is full (the record is counted as lost) or after a failure.
+  // Never waits on I/O. False (the record counted as lost) only after a storage failure or stop().
   bool push(Record record);
   // Pushes `record` and waits until it is committed to the index (at most `timeout`): for what
   // must be on disk before it is acknowledged (protocol transitions). Not for capture threads.
@@ -52,12 +51,17 @@ class IndexWriter {
   // Set when writing failed (e.g. disk full): the message names the file and the cause.
   std::optional<std::string> failure() const;
   std::uint64_t records_written() const { return written_.load(); }
-  std::uint64_t records_lost() const { return lost_.load(); }
+  std::uint64_t records_lost() const { return lost_.load() + overflow_.lost(); }
+  // Records that waited in the overflow (the index was behind), and of them went through its file.
+  std::uint64_t records_waited() const { return waited_.load(); }
+  std::uint64_t records_waited_on_disk() const { return overflow_.spilled(); }
   // "frames 12, pressure frames 40": what the lost records were (empty when none was lost).
   std::string lost_records_by_kind() const;
 
  private:
   void run();
+  // The overflow's oldest records when the queue is empty; false once nothing waits there.
+  bool take_overflow(std::vector<Record>& items);
   void write_batch(std::vector<Record>& batch);
   void write_records(const std::vector<Record>& batch);
 
@@ -67,7 +71,13 @@ class IndexWriter {
   const std::chrono::milliseconds batch_period_;
   const std::optional<Stall> stall_;
   std::thread thread_;
-  std::atomic<std::uint64_t> written_{0}, lost_{0};
+  std::atomic<std::uint64_t> written_{0}, lost_{0}, waited_{0};
+  // While the overflow holds records every new one goes there too (order); set and cleared under push_mu_.
+  std::mutex push_mu_;
+  std::atomic<bool> overflowing_{false};
+  std::atomic<std::int64_t> behind_since_ns_{0};              // when the latest overflow began
+  std::uint64_t waited_reported_ = 0, spilled_reported_ = 0;  // the index thread's, for its events
+  IndexOverflow overflow_;
   std::array<std::atomic<std::uint64_t>, std::variant_size_v<Record>> lost_by_kind_{};
   std::atomic<bool> failed_{false}, disk_full_{false};
   mutable std::mutex failure_mu_;

@@ -39,11 +39,13 @@ struct VideoFileRecord {
   std::string layout = "bgr";
   std::optional<std::string> bayer_format;  // raw videos: the pattern as PFNC names it ("BayerRG8")
   std::optional<int> bit_depth;             // raw videos: bits per sample
+  bool operator==(const VideoFileRecord&) const = default;
 };
 // A segment finished cleanly (trailer written): how many frames it holds.
 struct VideoFileClosed {
   std::int64_t id = 0;
   std::int64_t frames = 0;
+  bool operator==(const VideoFileClosed&) const = default;
 };
 
 struct FrameRecord {
@@ -63,6 +65,7 @@ struct FrameRecord {
   std::optional<std::int64_t> video_pts_ms;  // its timestamp in the video file, exactly
   // CRC-32 of the picture kept in a raw video, taken at capture (storage/frame_checksum.h)
   std::optional<std::uint32_t> checksum;
+  bool operator==(const FrameRecord&) const = default;
 };
 
 // In a session folder while it is being recorded; flock()ed by the recording process.
@@ -100,6 +103,7 @@ struct PressureRecord {
   std::uint16_t base = 0;
   std::vector<std::uint16_t> counts;
   std::optional<std::uint32_t> checksum;  // CRC-32 of `payload` as received (storage/frame_checksum.h)
+  bool operator==(const PressureRecord&) const = default;
 };
 
 // One 15 Hz dataset sample: a camera frame per camera for one instant, and the pressure
@@ -109,6 +113,7 @@ struct SampleFrameRef {
   std::uint32_t connection = 0;
   std::uint64_t sequence = 0;
   std::int64_t offset_ns = 0;  // frame's mapped time minus the sample's
+  bool operator==(const SampleFrameRef&) const = default;
 };
 struct SampleRecord {
   std::uint64_t index = 0;
@@ -117,6 +122,7 @@ struct SampleRecord {
   std::int64_t span_ns = 0;            // latest minus earliest camera frame
   std::vector<SampleFrameRef> cameras;
   std::optional<SampleFrameRef> pressure, pressure_before, pressure_after;  // nearest; neighbours
+  bool operator==(const SampleRecord&) const = default;
 };
 
 // A stream's clock model at one moment: host = device + offset + skew * (device - x0) - latency.
@@ -130,6 +136,7 @@ struct ClockModelRecord {
   std::string source;  // "arrivals" (the envelope of arrival times) or "latch" (clock probes)
   std::uint64_t pairs = 0, envelope_points = 0;
   std::int64_t residual_p50_ns = 0, residual_p99_ns = 0;
+  bool operator==(const ClockModelRecord&) const = default;
 };
 
 struct DropRecord {
@@ -139,6 +146,7 @@ struct DropRecord {
   std::uint64_t count = 0;
   std::string reason;
   std::int64_t host_ns = 0;  // when the drop was noticed
+  bool operator==(const DropRecord&) const = default;
 };
 
 struct EventRecord {
@@ -146,6 +154,7 @@ struct EventRecord {
   std::string kind;
   std::optional<std::int64_t> device_id;
   std::string message;
+  bool operator==(const EventRecord&) const = default;
 };
 
 // Who sat in the chair and under what conditions (one row each per session).
@@ -187,11 +196,13 @@ struct ProtocolEventRecord {
   std::string action, hand, force;
   std::optional<std::int64_t> repetition;
   std::string detail;
+  bool operator==(const ProtocolEventRecord&) const = default;
 };
 
 struct OperatorNoteRecord {
   std::int64_t host_ns = 0;
   std::string text;
+  bool operator==(const OperatorNoteRecord&) const = default;
 };
 
 struct StreamStatsRecord {

@@ -16,6 +16,7 @@
 #include "core/version.h"
 #include "storage/bayer_planes.h"
 #include "storage/frame_spill.h"
+#include "storage/index_overflow.h"
 #include "storage/session_index.h"
 #include "storage/session_writer.h"
 #include "storage/video_repair.h"
@@ -180,6 +181,16 @@ void drain_spills(SessionIndex& index, const std::filesystem::path& dir,
     }
   }
   for (const fs::path& file : files) drain_spill(index, dir, file, store, started_host_ns, progress, report);
+  // Rows that waited for a slow index when the recording was cut (storage/index_overflow.h): some
+  // may be in the index already, and none is needed to read what is; they are lost with the cut.
+  if (const fs::path rows = folder / kIndexOverflowFile; fs::exists(rows, ec)) {
+    const auto bytes = fs::file_size(rows, ec);
+    fs::remove(rows, ec);
+    report.done.push_back(
+        fmt::format("{}: index rows that were waiting for the index when the recording was cut "
+                    "({} bytes) are lost; removed",
+                    rows.filename().string(), ec ? 0 : bytes));
+  }
   fs::remove(folder, ec);  // when empty
 }
 }  // namespace

@@ -155,7 +155,9 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
   }
   w->encoder_frame_delay_ = options.encoder_frame_delay;
   w->index_writer_ = std::make_unique<IndexWriter>(*w->index_, options.index_queue_records,
-                                                   std::chrono::milliseconds(250), options.index_stall);
+                                                   std::chrono::milliseconds(250), options.index_stall,
+                                                   w->dir_ / kSpillFolder / kIndexOverflowFile,
+                                                   options.index_overflow_memory_records);
   return w;
 }
 

@@ -51,6 +51,7 @@ VideoSettings camera_video_settings(const StoreConfig& store, int width, int hei
 // How the writer's threads run: the index queue's size, and a test's faults (core/fault_injection.h).
 struct WriterOptions {
   std::size_t index_queue_records = IndexWriter::kQueueRecords;
+  std::size_t index_overflow_memory_records = IndexOverflow::kMemoryRecords;  // then on disk
   std::optional<Stall> index_stall;
   // Each encoder waits this long before every frame: an encoder slower than its camera on any
   // machine, so the spill is exercised deterministically rather than by a slow codec preset.
@@ -122,6 +123,7 @@ class SessionWriter {
   const std::filesystem::path& dir() const { return dir_; }
   CameraStoreStats camera_stats(std::int64_t device_id) const;
   std::uint64_t index_records_lost() const { return index_writer_->records_lost(); }
+  std::uint64_t index_records_waited() const { return index_writer_->records_waited(); }
   std::string index_records_lost_by_kind() const { return index_writer_->lost_records_by_kind(); }
 
  private:

@@ -63,8 +63,8 @@ const std::vector<Files>& baselines() {
     std::vector<Files> out;
     for (const char* name : {"raw-interrupted", "raw-finished"}) {
       if (!fs::is_directory(from / name)) {
-        std::fprintf(stderr, "fuzz_store_damage: %s is missing: run make_store_seeds %s first\n",
-                     (from / name).c_str(), from.c_str());
+        std::fprintf(stderr, "fuzz_store_damage: %s is missing: run make_store_seeds %s first\n", (from / name).c_str(),
+                     from.c_str());
         std::exit(2);
       }
       out.push_back(read_folder(from / name));
@@ -78,7 +78,8 @@ void write_folder(const fs::path& dir, const Files& files) {
   std::error_code ec;
   fs::remove_all(dir, ec);
   fs::create_directories(dir);
-  for (const auto& [name, bytes] : files) std::ofstream(dir / name, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+  for (const auto& [name, bytes] : files)
+    std::ofstream(dir / name, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
 }
 
 void damage(FuzzedDataProvider& in, Files& files) {

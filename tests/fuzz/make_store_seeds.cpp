@@ -56,8 +56,14 @@ int write_raw_store(const fs::path& out, bool interrupted) {
     r.base = 3;
     r.counts = f.pressure->counts;
     writer.record(std::move(r));
-    writer.record(SampleRecord{std::uint64_t(i), i, t, t, 0, {{cam, 0, std::uint64_t(i), 0}},
-                               SampleFrameRef{sensel, 0, std::uint64_t(i), 0}, SampleFrameRef{sensel, 0, std::uint64_t(i), 0},
+    writer.record(SampleRecord{std::uint64_t(i),
+                               i,
+                               t,
+                               t,
+                               0,
+                               {{cam, 0, std::uint64_t(i), 0}},
+                               SampleFrameRef{sensel, 0, std::uint64_t(i), 0},
+                               SampleFrameRef{sensel, 0, std::uint64_t(i), 0},
                                std::nullopt});
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
