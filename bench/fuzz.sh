@@ -8,6 +8,8 @@
 #
 #   bash bench/fuzz.sh [SECONDS] [RUNS] [TARGET_REGEX]   (default 1200 s, 1000000 inputs, every target)
 #
+# Both cores: run it twice at once with disjoint TARGET_REGEXes.
+#
 # A finding: reproduce with `build/tests/fuzz/fuzz_<target> FILE`, fix, and keep FILE among the
 # target's seeds in tests/fuzz/seeds_<target>/ (docs/testing.md, Fuzzing).
 set -euo pipefail
@@ -21,7 +23,10 @@ findings=$build/fuzz-findings
 logs=$build/fuzz-logs
 mkdir -p "$findings" "$logs"
 # The seeds made at test time (from ../shared and a small store written by SessionWriter).
-(cd "$build" && ctest -R 'fuzz\..*\.seeds$' > "$logs/seeds.log" 2>&1) || { echo "making the seeds failed: $logs/seeds.log" >&2; exit 1; }
+# Two runs of this script at once (targets split over both cores) make them one after the other.
+(cd "$build" && flock "$logs/seeds.lock" ctest -R 'fuzz\..*\.seeds$' > "$logs/seeds-$$.log" 2>&1) ||
+  { echo "making the seeds failed: $logs/seeds-$$.log" >&2; exit 1; }
+rm -f "$logs/seeds-$$.log"
 
 mapfile -t targets < <(cd "$build" && ctest -R '^fuzz\.' --show-only=json-v1 | /usr/bin/python3 -c '
 import json, re, sys
