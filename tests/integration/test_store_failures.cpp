@@ -1,5 +1,6 @@
 // The store under the failures a lab meets: the recording process killed (kill -9 at random
-// moments), and the disk filling up mid-session (a small tmpfs this test mounts).
+// moments), the disk filling up mid-session (a small tmpfs this test mounts), and the disk turning
+// read-only (an ext4 image on a loop device, failed on purpose).
 #include <gtest/gtest.h>
 
 #include <signal.h>
@@ -369,4 +370,93 @@ TEST(StoreIoErrors, EioAndShortWritesAndFailedFsyncsStopCleanlyNamingTheFile) {
     }
     fs::remove_all(work);
   }
+}
+
+namespace {
+int run(const std::string& command) { return std::system(command.c_str()); }
+}  // namespace
+
+// The session's filesystem turns read-only mid-session, as ext4 does on an I/O error with
+// errors=remount-ro (a failing disk): the test mounts a small ext4 image on a loop device and makes
+// the kernel take that path (/sys/fs/ext4/<dev>/trigger_fs_error). The session stops cleanly (exit
+// 1, never a signal) with a message naming a file of the session and the error; what was committed
+// reads in place, verify says what it finds there; a copy recovers and verifies.
+TEST(StoreReadOnly, AFilesystemTurnedReadOnlyMidSessionStopsItCleanlyAndWhatWasCommittedReads) {
+  if (geteuid() != 0) GTEST_SKIP() << "mounting a loop device needs root";
+  const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-readonly-{}", getpid());
+  fs::remove_all(work);
+  fs::create_directories(work / "disk");
+  const fs::path image = work / "disk.img", disk = work / "disk";
+  if (run(fmt::format("truncate -s 400M {0} && mkfs.ext4 -q {0} && mount -o loop,errors=remount-ro {0} {1}",
+                      image.string(), disk.string())) != 0)
+    GTEST_SKIP() << "no loop device or ext4 here";
+  struct Unmount {
+    fs::path disk, work;
+    ~Unmount() {
+      umount2(disk.c_str(), MNT_DETACH);
+      std::error_code ec;
+      fs::remove_all(work, ec);
+    }
+  } unmount{disk, work};
+  // The loop device the image is on: its ext4 knobs are /sys/fs/ext4/loopN/.
+  const std::string mounts = read_all("/proc/self/mounts");
+  const auto at = mounts.find(" " + disk.string() + " ext4");
+  ASSERT_NE(at, std::string::npos) << mounts;
+  const std::string device = mounts.substr(mounts.rfind('\n', at) + 1, at - mounts.rfind('\n', at) - 1);
+  const fs::path trigger = fs::path("/sys/fs/ext4") / fs::path(device).filename() / "trigger_fs_error";
+  if (!fs::exists(trigger)) GTEST_SKIP() << trigger << " is missing (kernel without it)";
+
+  std::ofstream(work / "rig.yaml") << with_store(sim_rig_yaml({{}, {}}, 640, 480, 30, 15, "free-run", /*sensel=*/true),
+                                                 "  min_free_mb: 16\n  reserve_mb: 4\n");
+  const fs::path log = work / "log.txt";  // beside the disk, not on it
+  const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 60 --no-web",
+                                            (work / "rig.yaml").string(), (disk / "sessions").string()),
+                                log);
+  ASSERT_TRUE(wait_for_text(log, "4.0 s |", 60s)) << read_all(log);
+  std::ofstream(trigger) << "pvcap test: the disk failed";
+  int status = 0;
+  for (int i = 0; i < 600 && waitpid(pid, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(100ms);
+  if (!WIFEXITED(status) && !WIFSIGNALED(status)) {
+    kill(pid, SIGKILL);
+    waitpid(pid, &status, 0);
+    FAIL() << "the session did not stop within 60 s of the disk turning read-only\n" << read_all(log);
+  }
+  const std::string out = read_all(log);
+  ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status) << "\n" << out;
+  EXPECT_EQ(WEXITSTATUS(status), 1) << out;
+  EXPECT_NE(out.find("Read-only file system"), std::string::npos) << out;
+  EXPECT_NE(out.find("storage failed, stopping capture"), std::string::npos) << out;
+  const fs::path dir = only_session(disk / "sessions");
+  ASSERT_FALSE(dir.empty());
+  EXPECT_NE(out.find(dir.string() + "/"), std::string::npos) << "the message names a file of the session\n" << out;
+  // Its own log file on that disk fails too: said once, never an end of its own.
+  EXPECT_EQ(out.find("unexpected error"), std::string::npos) << out;
+  EXPECT_EQ(out.find("LOG ERROR"), std::string::npos) << out;
+
+  // In place, on the read-only disk: the reader gets what was committed, verify tells what it finds.
+  {
+    auto reader = pvcap::SessionReader::open(dir);
+    ASSERT_TRUE(reader) << reader.error().message;
+    EXPECT_GT(reader.value()->sample_count(), 30u) << "some 4 s were recorded";
+  }
+  auto verify = run_pvcap(fmt::format("--log-level off verify {}", dir.string()));
+  EXPECT_NE(verify.exit_code, 0) << "the session did not end cleanly: not clean\n" << verify.output;
+  EXPECT_EQ(verify.output.find("Segmentation"), std::string::npos) << verify.output;
+  // A copy on a working disk recovers and verifies, lossy at most.
+  const fs::path copy = work / "copy";
+  fs::copy(dir, copy, fs::copy_options::recursive);
+  auto recovered = run_pvcap(fmt::format("recover {}", copy.string()));
+  EXPECT_EQ(recovered.exit_code, 0) << recovered.output;
+  auto again = run_pvcap(fmt::format("--log-level off verify {}", copy.string()));
+  EXPECT_TRUE(again.exit_code == 0 || again.exit_code == 3) << again.output;
+  // What the operator saw, and what verify said in place (its verdict lines).
+  for (const std::string& text : {out, verify.output})
+    for (std::size_t p = 0, e; (e = text.find('\n', p)) != std::string::npos; p = e + 1) {
+      const std::string line = text.substr(p, e - p);
+      if (line.find("Read-only") != std::string::npos || line.find("verdict") != std::string::npos ||
+          line.find("LOSS") != std::string::npos || line.find("ERROR") != std::string::npos)
+        std::printf("%s\n", line.c_str());
+    }
+  std::printf("read-only after 4 s: verify in place exit %d, after recover of a copy exit %d\n", verify.exit_code,
+              again.exit_code);
 }
