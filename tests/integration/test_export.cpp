@@ -45,21 +45,18 @@ std::string output_of(const std::string& command) {
 }
 
 // A protocol session at 960x540 with its pad calibrated (the simulator's lenses given, as a lab
-// gives the lenses a board session measured). Recorded once for the tests below.
+// gives the lenses a board session measured), recorded once for the tests below. Under ctest
+// (PVCAP_EXPORT_FIXTURE set) ExportFixture.Record records it into that folder before them and
+// ExportFixture.Remove removes it after them; run alone, a test records its own, removed at exit.
 struct Recorded {
   fs::path work, session;
 };
 
-const Recorded& recorded() {
-  static const Recorded r = [] {
-    Recorded out;
-    out.work = work_dir("export");
-    // Shared by the tests below, so removed when the test program ends.
-    static const fs::path to_remove = out.work;
-    std::atexit([] {
-      std::error_code ec;
-      fs::remove_all(to_remove, ec);
-    });
+Recorded record_export_session(const fs::path& work) {
+  Recorded out;
+  out.work = work;
+  fs::create_directories(out.work);
+  {
     std::string rig = read_all(fs::path(PVCAP_SOURCE_DIR) / "rig-configs" / "sim.yaml");
     for (auto [from, to] :
          {std::pair<std::string, std::string>{"width: 1920", "width: 960"}, {"height: 1080", "height: 540"}})
@@ -76,7 +73,23 @@ const Recorded& recorded() {
     const auto pad = run_pvcap(
         fmt::format("calibrate pad {} --calibration {}", out.session.string(), (out.work / "lenses.yaml").string()));
     EXPECT_EQ(pad.exit_code, 0) << pad.output;
-    return out;
+  }
+  return out;
+}
+
+const Recorded& recorded() {
+  static const Recorded r = [] {
+    if (const char* shared = std::getenv("PVCAP_EXPORT_FIXTURE")) {
+      Recorded out{shared, only_session(fs::path(shared) / "sessions")};
+      EXPECT_FALSE(out.session.empty()) << "ExportFixture.Record did not record into " << shared;
+      return out;
+    }
+    static const fs::path work = work_dir("export");
+    std::atexit([] {  // shared by the tests of this process, so removed when it ends
+      std::error_code ec;
+      fs::remove_all(work, ec);
+    });
+    return record_export_session(work);
   }();
   return r;
 }
@@ -102,6 +115,15 @@ double store_kpa_sum(pvcap::SessionReader& r, std::size_t sample) {
 }
 
 }  // namespace
+
+// ctest's fixture (tests/CMakeLists.txt): records the export tests' session into PVCAP_EXPORT_FIXTURE.
+TEST(ExportFixture, Record) {
+  const char* shared = std::getenv("PVCAP_EXPORT_FIXTURE");
+  if (!shared) GTEST_SKIP() << "ctest runs it before the export tests";
+  fs::remove_all(shared);
+  const Recorded r = record_export_session(shared);
+  ASSERT_FALSE(r.session.empty());
+}
 
 TEST(Export, ThePressureVisionLayoutReadsBackAsTheLoadersReadIt) {
   const Recorded& rec = recorded();
