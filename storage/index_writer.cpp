@@ -179,10 +179,11 @@ void IndexWriter::run() {
     const bool behind = overflowing_.load();
     items.clear();
     // Behind: the queue's records first (they are older), then the overflow's, without waiting.
+    bool done = false;  // stopped, and nothing waits: after this round's events
     if (auto r = queue_.pop_for(std::chrono::milliseconds(behind ? 0 : 50)))
       items.push_back(std::move(*r));
     else if (!take_overflow(items) && queue_.closed_and_empty())
-      break;
+      done = true;
     for (Record& item : items) {
       if (auto* barrier = std::get_if<CommitBarrier>(&item)) {
         write_batch(batch);
@@ -213,6 +214,7 @@ void IndexWriter::run() {
                                   lost_records_by_kind(), overflow_.failure() ? ": " + *overflow_.failure() : "")});
       lost_reported = lost;
     }
+    if (done) break;
     if (!batch.empty() && std::chrono::steady_clock::now() - batch_started >= batch_period_) write_batch(batch);
   }
   write_batch(batch);
