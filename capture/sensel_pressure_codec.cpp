@@ -31,6 +31,9 @@ void write_varint(std::vector<std::uint8_t>& out, std::uint16_t v) {
 }
 
 Result<PressureImage> decode_pressure(std::span<const std::uint8_t> in, std::size_t& pos, const Grid& grid) {
+  if (!plausible_grid(grid))
+    return Error{fmt::format("pressure: no Morph has a {}x{} grid scaled {}x{}", grid.cols, grid.rows, grid.xscale,
+                             grid.yscale)};
   PressureImage img;
   const std::size_t total = std::size_t(grid.cells());
   img.counts.reserve(total);

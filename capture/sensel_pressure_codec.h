@@ -22,6 +22,12 @@ struct Grid {
   int out_rows() const { return (rows - 1) * yscale + 1; }
   bool operator==(const Grid&) const = default;
 };
+// A grid a Morph can have (its grids are at most 185 x 105, scaled up at most 4 times): one read
+// from a damaged store or file is refused before anything is sized by it.
+inline bool plausible_grid(const Grid& g) {
+  return g.cols > 0 && g.rows > 0 && g.cols <= 1024 && g.rows <= 1024 && g.xscale > 0 && g.yscale > 0 &&
+         g.xscale <= 16 && g.yscale <= 16;
+}
 inline constexpr Grid kHighDetail{93, 53, 2, 2};
 inline constexpr Grid kMediumDetail{47, 27, 4, 4};
 

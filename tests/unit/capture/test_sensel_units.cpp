@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include "capture/sensel_frame.h"
 #include "capture/sensel_units.h"
 
 using namespace pvcap::sensel;
@@ -52,4 +53,17 @@ TEST(SenselUnits, KnownPressToKilopascal) {
   EXPECT_NEAR(native_cell_kpa(counts, kMediumDetail), 156.9064 / 4, 1e-3);
   // On the upsampled image the per-sensel pressure divides by xscale*yscale: same as the native cell.
   EXPECT_NEAR(upsampled_sensel_kpa(counts, kHighDetail), native_cell_kpa(counts, kHighDetail), 1e-9);
+}
+
+// Found by fuzz_store_damage: a grid read from a damaged store sized the decoder's buffer (a
+// negative one threw std::length_error out of `pvcap verify`). A grid no Morph has is an error.
+TEST(SenselCodec, AGridNoMorphHasIsRefusedBeforeDecoding) {
+  const std::vector<std::uint8_t> payload = {0x01, 0x10, 0x00, 0x00, 0x00, 0x00, 0x03, 0xf5, 0x09};
+  ASSERT_TRUE(pvcap::sensel::parse_frame(payload, pvcap::sensel::kMediumDetail));
+  for (const pvcap::sensel::Grid g : {pvcap::sensel::Grid{-47, 27, 4, 4}, pvcap::sensel::Grid{47, 0, 4, 4},
+                                      pvcap::sensel::Grid{47, 27, 0, 4}, pvcap::sensel::Grid{1 << 20, 1 << 20, 4, 4}}) {
+    const auto f = pvcap::sensel::parse_frame(payload, g);
+    ASSERT_FALSE(f);
+    EXPECT_NE(f.error().message.find("no Morph has"), std::string::npos) << f.error().message;
+  }
 }
