@@ -132,11 +132,13 @@ class Verifier {
     const std::vector<KeptRow> kept = kept_rows(id);
     auto reader = VideoReader::open(dir_ / path);
     if (!reader) {
-      // Cut before its first frame reached the disk: a loss when the recording was interrupted
-      // (recover marks its rows lost), damage otherwise.
+      // Cut before its first frame reached the disk, or before any of its frames had a committed
+      // row (recover then closes it with none: a file without frames, which no reader opens): a
+      // loss when nothing indexed is in it or the recording was interrupted; damage otherwise.
       const bool cut_early = (state == "open" && !clean_end_) || state == "unreadable";
-      if (cut_early && kept.empty())
-        r_.losses.push_back(fmt::format("{}: holds no readable frame (cut before its first frame was written)", path));
+      if (kept.empty())
+        r_.losses.push_back(fmt::format("{}: holds no readable frame and no indexed one ({})", path,
+                                        cut_early ? "cut before its first frame was written" : reader.error().message));
       else
         ((cut_early ? r_.losses : r_.errors))
             .push_back(
