@@ -17,6 +17,15 @@ using namespace pvcap;
 using namespace std::chrono_literals;
 
 namespace {
+// Removed when the test ends, also when an assertion ends it early.
+struct TempDir {
+  fs::path path;
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
 fs::path temp_dir(const std::string& name) {
   const auto d = fs::temp_directory_path() / ("pvcap-test-overflow-" + name + "-" + std::to_string(::getpid()));
   fs::remove_all(d);
@@ -95,7 +104,8 @@ TEST(RecordCodec, EveryKindReadsBackAsItWasAndACutRecordIsNoRecord) {
 }
 
 TEST(IndexOverflow, RecordsLeaveInTheirOrderThroughMemoryAndTheFile) {
-  const fs::path dir = temp_dir("order");
+  const TempDir scratch{temp_dir("order")};
+  const fs::path& dir = scratch.path;
   const fs::path file = dir / "spill" / kIndexOverflowFile;
   std::vector<std::uint64_t> out;
   {
@@ -119,13 +129,13 @@ TEST(IndexOverflow, RecordsLeaveInTheirOrderThroughMemoryAndTheFile) {
   ASSERT_EQ(out.size(), 6000u);
   for (std::uint64_t i = 0; i < out.size(); ++i) ASSERT_EQ(out[i], i);
   EXPECT_FALSE(fs::exists(file)) << "removed once read back";
-  fs::remove_all(dir);
 }
 
 // The index thread stalls with a queue of 100 records and 200 in memory: 20,000 rows pushed meanwhile
 // all reach session.db, in order, none lost, and the index says it was behind.
 TEST(IndexWriter, AStalledIndexLosesNoRowAndSaysItWasBehind) {
-  const fs::path dir = temp_dir("stall");
+  const TempDir scratch{temp_dir("stall")};
+  const fs::path& dir = scratch.path;
   const fs::path file = dir / "spill" / kIndexOverflowFile;
   {
     SessionIndex index = SessionIndex::create(dir / "session.db");
@@ -158,5 +168,4 @@ TEST(IndexWriter, AStalledIndexLosesNoRowAndSaysItWasBehind) {
   ASSERT_TRUE(e.step());
   EXPECT_NE(e.column_text(0).find("none was lost"), std::string::npos) << e.column_text(0);
   EXPECT_FALSE(fs::exists(file));
-  fs::remove_all(dir);
 }
