@@ -41,6 +41,15 @@ bool for_each_file(const std::filesystem::path& folder, Each&& each) {
 
 }  // namespace
 
+Status sync_to_disk(const std::filesystem::path& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0)
+    return Error{fmt::format("{}: could not be made durable (open: {})", path.string(), std::strerror(errno))};
+  Status s = fsync_path_fd(fd, path, "fsync");
+  ::close(fd);
+  return s;
+}
+
 DurableFolder::DurableFolder(std::filesystem::path dir, std::vector<std::string> subfolders) : dir_(std::move(dir)) {
   folders_.push_back(dir_);
   for (const auto& s : subfolders) folders_.push_back(dir_ / s);

@@ -19,6 +19,10 @@
 
 namespace pvcap {
 
+// fsyncs one file or folder now: a file that is final (a finished segment), a folder whose entries
+// just changed. The failure names the path and the error.
+Status sync_to_disk(const std::filesystem::path& path);
+
 class DurableFolder {
  public:
   // `dir` and its `subfolders` (created later is fine: they are synced once they exist).

@@ -197,11 +197,11 @@ void IndexWriter::run() {
       const std::uint64_t waited = waited_.load(), spilled = overflow_.spilled();
       // Waiting records are lost only when the overflow's file failed (an index_overflow event says so).
       const std::string outcome = overflow_.lost() == 0 ? "none was lost" : "some were lost (see index_overflow)";
-      batch.push_back(EventRecord{
-          host_now().ns, "index_behind", std::nullopt,
-          fmt::format("the index fell behind for {:.1f} s: {} records waited ({} of them on disk); {}",
-                      double(host_now().ns - behind_since_ns_.load()) / 1e9, waited - waited_reported_,
-                      spilled - spilled_reported_, outcome)});
+      batch.push_back(
+          EventRecord{host_now().ns, "index_behind", std::nullopt,
+                      fmt::format("the index fell behind for {:.1f} s: {} records waited ({} of them on disk); {}",
+                                  double(host_now().ns - behind_since_ns_.load()) / 1e9, waited - waited_reported_,
+                                  spilled - spilled_reported_, outcome)});
       spdlog::info("session index: caught up; {} records waited for it ({} on disk); {}", waited - waited_reported_,
                    spilled - spilled_reported_, outcome);
       waited_reported_ = waited;

@@ -15,6 +15,7 @@
 #include "core/time.h"
 #include "core/version.h"
 #include "storage/bayer_planes.h"
+#include "storage/durable_folder.h"
 #include "storage/frame_spill.h"
 #include "storage/index_overflow.h"
 #include "storage/session_index.h"
@@ -228,10 +229,12 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
     if (!passed.empty()) report.done.push_back(describe_migration(passed, db_path));
     auto& db = index.db();
 
+    std::int64_t started_host_ns = 0;
     {
-      auto s = db.prepare("SELECT ended_host_ns IS NULL FROM session");
+      auto s = db.prepare("SELECT ended_host_ns IS NULL, started_host_ns FROM session");
       if (!s.step()) return Error{fmt::format("{}: holds no session", db_path.string())};
       report.was_interrupted = s.column_int(0) != 0;
+      started_host_ns = s.column_int(1);
     }  // statements end before the checkpoint below, which needs no reader open
 
     struct Open {
@@ -264,13 +267,16 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
         if (rows.step()) indexed = rows.column_int(0);
       }
       auto on_disk = count_video_frames(file);
-      if (!on_disk) {  // nothing readable (cut before its first cluster): rows say so, the file stays
+      // What is kept is the leading frames that are their rows' frames: after a power cut a segment's
+      // tail may hold frames the demuxer reads past a hole, or frames partly overwritten.
+      auto matching = on_disk ? count_frames_matching_index(index, dir, v.id, started_host_ns) : on_disk;
+      if (!matching) {  // nothing readable (cut before its first cluster): rows say so, the file stays
         const auto r = reconcile_video_file(index, dir, v.id, "lost_at_interruption", "unreadable");
         report.done.push_back(fmt::format("{}: no readable frame ({}); {} indexed frames marked lost", v.path,
-                                          on_disk.error().message, r.rows_marked_lost));
+                                          matching.error().message, r.rows_marked_lost));
         continue;
       }
-      const std::int64_t keep = std::min(indexed, on_disk.value());
+      const std::int64_t keep = std::min(indexed, matching.value());
       // Finish a copy first; only then move the cut original aside: a failure leaves the original as it was.
       std::error_code ec;
       fs::remove(tmp, ec);
@@ -285,15 +291,23 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
       }
       if (fs::exists(dir / aside))
         return Error{fmt::format("{}: already exists; not overwriting it", (dir / aside).string())};
+      // The copy on disk before its name replaces the original's, and the names before the index says so.
+      if (Status d = sync_to_disk(tmp); !d.ok()) return d.error();
       fs::rename(file, dir / aside);
       fs::rename(tmp, file);
+      if (Status d = sync_to_disk(dir); !d.ok()) return d.error();
       const auto r = reconcile_video_file(index, dir, v.id, "lost_at_interruption", "recovered");
       std::string line =
           fmt::format("{}: closed with {} frames (the cut original is kept as {})", v.path, r.frames_in_file, aside);
       if (r.rows_marked_lost) line += fmt::format("; {} indexed frames never reached the disk", r.rows_marked_lost);
-      if (on_disk.value() > keep)
+      if (keep < std::min(indexed, on_disk.value()))
+        line += fmt::format(
+            "; {} frames after it on disk are not the frames their rows name (cut writes; left in "
+            "the original)",
+            std::min(indexed, on_disk.value()) - keep);
+      if (on_disk.value() > indexed)
         line += fmt::format("; {} frames on disk had no committed index row (left in the original)",
-                            on_disk.value() - keep);
+                            on_disk.value() - indexed);
       report.done.push_back(line);
     }
 

@@ -110,6 +110,12 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
     if (errno != EEXIST || n > 999)
       return Error{fmt::format("{}: cannot create the session folder: {}", candidate.string(), std::strerror(errno))};
   }
+  // The session folder's name is an entry of the sessions folder: until that is synced, a power cut
+  // can lose the whole session however often its files are (found by the power-cut test).
+  if (Status s = sync_to_disk(root); !s.ok()) {
+    std::filesystem::remove(w->dir_);
+    return s.error();
+  }
   // The lab's group reads the session: the folder is the group's, and setgid, so what is made in
   // it is the group's too (the umask leaves files 0640).
   if (lab_group && (chown(w->dir_.c_str(), uid_t(-1), *lab_group) != 0 || chmod(w->dir_.c_str(), 02750) != 0)) {
@@ -154,10 +160,9 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
     return abandon(Error{e.what()});
   }
   w->encoder_frame_delay_ = options.encoder_frame_delay;
-  w->index_writer_ = std::make_unique<IndexWriter>(*w->index_, options.index_queue_records,
-                                                   std::chrono::milliseconds(250), options.index_stall,
-                                                   w->dir_ / kSpillFolder / kIndexOverflowFile,
-                                                   options.index_overflow_memory_records);
+  w->index_writer_ = std::make_unique<IndexWriter>(
+      *w->index_, options.index_queue_records, std::chrono::milliseconds(250), options.index_stall,
+      w->dir_ / kSpillFolder / kIndexOverflowFile, options.index_overflow_memory_records);
   return w;
 }
 

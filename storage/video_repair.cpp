@@ -5,10 +5,15 @@ extern "C" {
 #include <libavformat/avformat.h>
 }
 
+#include <algorithm>
+#include <cstdlib>
+
 #include <fmt/format.h>
 
 #include "storage/av_handles.h"
 #include "storage/av_log.h"
+#include "storage/frame_checksum.h"
+#include "storage/records.h"
 #include "storage/video_reader.h"
 
 namespace pvcap {
@@ -21,6 +26,50 @@ Result<std::int64_t> count_video_frames(const std::filesystem::path& path) {
   for (;;) {
     auto more = reader.value()->next_packet(pts, key);
     if (!more || !more.value()) break;  // a cut tail ends the count
+    ++n;
+  }
+  return n;
+}
+
+Result<std::int64_t> count_frames_matching_index(SessionIndex& index, const std::filesystem::path& session_dir,
+                                                 std::int64_t id, std::int64_t started_host_ns) {
+  auto& db = index.db();
+  std::string path;
+  {
+    auto q = db.prepare("SELECT path FROM video_files WHERE id = ?");
+    q.bind_all(id);
+    if (!q.step())
+      throw sqlite::SqliteError(0, fmt::format("{}: no video file {} in the index", db.path().string(), id));
+    path = q.column_text(0);
+  }
+  struct Row {
+    VideoTimestamp ts;
+    std::optional<std::uint32_t> checksum;
+  };
+  std::vector<Row> rows;
+  {
+    auto q = db.prepare(
+        "SELECT host_ns, video_pts_ms, checksum FROM frames WHERE video_file_id = ? AND kept = 1 ORDER BY video_index");
+    q.bind_all(id);
+    while (q.step())
+      rows.push_back({video_timestamp(q.column_null(1) ? std::nullopt : std::optional(q.column_int(1)), q.column_int(0),
+                                      started_host_ns),
+                      q.column_null(2) ? std::nullopt : std::optional(std::uint32_t(q.column_int(2)))});
+  }
+  auto reader = VideoReader::open(session_dir / path);
+  if (!reader) return reader.error();
+  VideoReader& video = *reader.value();
+  std::int64_t n = 0, pts_ms = 0;
+  bool key = false;
+  cv::Mat picture;
+  // A raw video is decoded when there are checksums to hold its frames to (a store before format 5
+  // has none); otherwise its packets are read as they are.
+  const bool decode = video.raw() && std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.checksum; });
+  for (const Row& row : rows) {
+    auto more = decode ? video.next_stored(picture, pts_ms, key) : video.next_packet(pts_ms, key);
+    if (!more || !more.value()) break;  // a cut tail ends the count
+    if (std::llabs(pts_ms - row.ts.ms) > row.ts.tolerance_ms) break;
+    if (decode && row.checksum && picture_crc(picture) != *row.checksum) break;
     ++n;
   }
   return n;

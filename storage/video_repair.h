@@ -27,6 +27,15 @@ struct ReconcileResult {
 ReconcileResult reconcile_video_file(SessionIndex& index, const std::filesystem::path& session_dir, std::int64_t id,
                                      std::string_view reason, std::string_view state);
 
+// The leading frames of video file `id` that are the frames its index rows name (kept rows, in video
+// order): each at its row's timestamp and, for a raw video whose row has a capture checksum, with
+// the pixels that checksum was taken of. A power cut can leave a segment's tail with writes missing
+// or torn: the demuxer then skips to a later cluster, or reads a frame whose bytes are partly
+// another's; counting stops at the first frame that is not its row's. Error when the file cannot be
+// opened as a video at all. Throws SqliteError.
+Result<std::int64_t> count_frames_matching_index(SessionIndex& index, const std::filesystem::path& session_dir,
+                                                 std::int64_t id, std::int64_t started_host_ns);
+
 // Copies the first `frames` packets of `from` into a new, finished Matroska file `to`
 // (cues, duration) without re-encoding.
 Status remux_prefix(const std::filesystem::path& from, const std::filesystem::path& to, std::int64_t frames);

@@ -13,6 +13,7 @@ extern "C" {
 #include "storage/av_handles.h"
 #include "storage/av_log.h"
 #include "storage/bayer_planes.h"
+#include "storage/durable_folder.h"
 
 namespace pvcap {
 
@@ -202,6 +203,9 @@ Status VideoWriter::close() {
   const int rc = av_write_trailer(impl_->fmt.ptr);
   if (s.ok() && rc < 0) s = Error{fmt::format("{}: cannot finish the video: {}", path_.string(), av::error(rc))};
   avio_closep(&impl_->fmt.ptr->pb);
+  // A finished file is final on disk before its index row says "closed" (recover leaves closed
+  // files alone): its trailer rewrote the header, which the last periodic fsync did not see.
+  if (s.ok()) s = sync_to_disk(path_);
   return s;
 }
 

@@ -49,6 +49,15 @@ pid_t spawn_pvcap(const std::string& args, const std::filesystem::path& log, con
 std::string read_all(const std::filesystem::path& p);
 // A fresh, empty folder for one test's files: <tmp>/pvcap-it-<name>-<pid>.
 std::filesystem::path work_dir(const std::string& name);
+// Removes a test's folder when the test ends, also when an assertion ends it early: what a test
+// records is a session's size, and /tmp is shared.
+struct RemovedAtEnd {
+  std::filesystem::path path;
+  ~RemovedAtEnd() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path, ignored);
+  }
+};
 // The one session folder pvcap made under `root` (not the simulator's .sim-truth-* while it runs);
 // empty when there is none.
 std::filesystem::path only_session(const std::filesystem::path& root);
