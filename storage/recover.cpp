@@ -194,6 +194,75 @@ void drain_spills(SessionIndex& index, const std::filesystem::path& dir,
   }
   fs::remove(folder, ec);  // when empty
 }
+
+// Closes one segment a crash left open: a finished copy of its leading frames that are their index
+// rows' frames replaces it (the cut original kept beside it), and rows past them are marked lost.
+Status close_cut_segment(SessionIndex& index, const std::filesystem::path& dir, std::int64_t id,
+                         const std::string& path, std::int64_t started_host_ns, RecoverReport& report) {
+  namespace fs = std::filesystem;
+  const fs::path file = dir / path;
+  const fs::path tmp = file.string() + ".recovering";
+  const std::string aside = interrupted_name(path);
+  if (!fs::exists(file) && fs::exists(tmp) && fs::exists(dir / aside)) {
+    // An earlier recover stopped between its two renames: finish it.
+    fs::rename(tmp, file);
+    const auto r = reconcile_video_file(index, dir, id, "lost_at_interruption", "recovered");
+    report.done.push_back(
+        fmt::format("{}: closed with {} frames (finishing an earlier recover)", path, r.frames_in_file));
+    return {};
+  }
+  std::int64_t indexed = 0;
+  {
+    auto rows = index.db().prepare("SELECT count(*) FROM frames WHERE video_file_id = ? AND kept = 1");
+    rows.bind_all(id);
+    if (rows.step()) indexed = rows.column_int(0);
+  }
+  auto on_disk = count_video_frames(file);
+  // What is kept is the leading frames that are their rows' frames: after a power cut a segment's
+  // tail may hold frames the demuxer reads past a hole, or frames partly overwritten.
+  auto matching = on_disk ? count_frames_matching_index(index, dir, id, started_host_ns) : on_disk;
+  if (!matching) {  // nothing readable (cut before its first cluster): rows say so, the file stays
+    const auto r = reconcile_video_file(index, dir, id, "lost_at_interruption", "unreadable");
+    report.done.push_back(fmt::format("{}: no readable frame ({}); {} indexed frames marked lost", path,
+                                      matching.error().message, r.rows_marked_lost));
+    return {};
+  }
+  const std::int64_t keep = std::min(indexed, matching.value());
+  // Finish a copy first; only then move the cut original aside: a failure leaves the original as it was.
+  std::error_code ec;
+  fs::remove(tmp, ec);
+  if (Status m = remux_prefix(file, tmp, keep); !m.ok()) {
+    fs::remove(tmp, ec);
+    const auto r = reconcile_video_file(index, dir, id, "lost_at_interruption", "interrupted");
+    report.done.push_back(
+        fmt::format("{}: could not be closed ({}); left as it is, {} frames readable, {} indexed "
+                    "frames marked lost",
+                    path, m.error().message, r.frames_in_file, r.rows_marked_lost));
+    return {};
+  }
+  if (fs::exists(dir / aside))
+    return Error{fmt::format("{}: already exists; not overwriting it", (dir / aside).string())};
+  // The copy on disk before its name replaces the original's, and the names before the index says so.
+  if (Status d = sync_to_disk(tmp); !d.ok()) return d.error();
+  fs::rename(file, dir / aside);
+  fs::rename(tmp, file);
+  if (Status d = sync_to_disk(dir); !d.ok()) return d.error();
+  const auto r = reconcile_video_file(index, dir, id, "lost_at_interruption", "recovered");
+  std::string line =
+      fmt::format("{}: closed with {} frames (the cut original is kept as {})", path, r.frames_in_file, aside);
+  if (r.rows_marked_lost) line += fmt::format("; {} indexed frames never reached the disk", r.rows_marked_lost);
+  if (keep < std::min(indexed, on_disk.value()))
+    line += fmt::format(
+        "; {} frames after it on disk are not the frames their rows name (cut writes; left in "
+        "the original)",
+        std::min(indexed, on_disk.value()) - keep);
+  if (on_disk.value() > indexed)
+    line +=
+        fmt::format("; {} frames on disk had no committed index row (left in the original)", on_disk.value() - indexed);
+  report.done.push_back(line);
+  return {};
+}
+
 }  // namespace
 
 Result<std::vector<std::string>> migrate_session(const std::filesystem::path& dir,
@@ -249,66 +318,7 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
 
     for (const auto& v : open) {
       if (progress) progress(fmt::format("closing {}", v.path));
-      const fs::path file = dir / v.path;
-      const fs::path tmp = file.string() + ".recovering";
-      const std::string aside = interrupted_name(v.path);
-      if (!fs::exists(file) && fs::exists(tmp) && fs::exists(dir / aside)) {
-        // An earlier recover stopped between its two renames: finish it.
-        fs::rename(tmp, file);
-        const auto r = reconcile_video_file(index, dir, v.id, "lost_at_interruption", "recovered");
-        report.done.push_back(
-            fmt::format("{}: closed with {} frames (finishing an earlier recover)", v.path, r.frames_in_file));
-        continue;
-      }
-      std::int64_t indexed = 0;
-      {
-        auto rows = db.prepare("SELECT count(*) FROM frames WHERE video_file_id = ? AND kept = 1");
-        rows.bind_all(v.id);
-        if (rows.step()) indexed = rows.column_int(0);
-      }
-      auto on_disk = count_video_frames(file);
-      // What is kept is the leading frames that are their rows' frames: after a power cut a segment's
-      // tail may hold frames the demuxer reads past a hole, or frames partly overwritten.
-      auto matching = on_disk ? count_frames_matching_index(index, dir, v.id, started_host_ns) : on_disk;
-      if (!matching) {  // nothing readable (cut before its first cluster): rows say so, the file stays
-        const auto r = reconcile_video_file(index, dir, v.id, "lost_at_interruption", "unreadable");
-        report.done.push_back(fmt::format("{}: no readable frame ({}); {} indexed frames marked lost", v.path,
-                                          matching.error().message, r.rows_marked_lost));
-        continue;
-      }
-      const std::int64_t keep = std::min(indexed, matching.value());
-      // Finish a copy first; only then move the cut original aside: a failure leaves the original as it was.
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      if (Status m = remux_prefix(file, tmp, keep); !m.ok()) {
-        fs::remove(tmp, ec);
-        const auto r = reconcile_video_file(index, dir, v.id, "lost_at_interruption", "interrupted");
-        report.done.push_back(
-            fmt::format("{}: could not be closed ({}); left as it is, {} frames readable, {} indexed "
-                        "frames marked lost",
-                        v.path, m.error().message, r.frames_in_file, r.rows_marked_lost));
-        continue;
-      }
-      if (fs::exists(dir / aside))
-        return Error{fmt::format("{}: already exists; not overwriting it", (dir / aside).string())};
-      // The copy on disk before its name replaces the original's, and the names before the index says so.
-      if (Status d = sync_to_disk(tmp); !d.ok()) return d.error();
-      fs::rename(file, dir / aside);
-      fs::rename(tmp, file);
-      if (Status d = sync_to_disk(dir); !d.ok()) return d.error();
-      const auto r = reconcile_video_file(index, dir, v.id, "lost_at_interruption", "recovered");
-      std::string line =
-          fmt::format("{}: closed with {} frames (the cut original is kept as {})", v.path, r.frames_in_file, aside);
-      if (r.rows_marked_lost) line += fmt::format("; {} indexed frames never reached the disk", r.rows_marked_lost);
-      if (keep < std::min(indexed, on_disk.value()))
-        line += fmt::format(
-            "; {} frames after it on disk are not the frames their rows name (cut writes; left in "
-            "the original)",
-            std::min(indexed, on_disk.value()) - keep);
-      if (on_disk.value() > indexed)
-        line += fmt::format("; {} frames on disk had no committed index row (left in the original)",
-                            on_disk.value() - indexed);
-      report.done.push_back(line);
+      if (Status c = close_cut_segment(index, dir, v.id, v.path, started_host_ns, report); !c.ok()) return c.error();
     }
 
     drain_spills(index, dir, progress, report);

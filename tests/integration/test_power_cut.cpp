@@ -158,7 +158,7 @@ TEST(CrashImage, WritesAfterTheLastFsyncAndNamesAfterTheFoldersLastSyncMayEachBe
     }
     EXPECT_EQ(seen, (std::set<std::string>{"c", "d"}));
   }
-  // A cut before an op leaves it out: the image of the first three ops of t1 never has "def".
+  // A cut before an op leaves it out: the image of t1's first four ops never has "def".
   {
     HandTrace h(work / "t4");
     h.op(TRACE_OPEN, (root / "a").string(), "", 0, TRACE_CREATED)
@@ -216,7 +216,8 @@ TEST(PowerCut, AProtocolSessionCutAtRandomWritesRecoversVerifiesAndLosesAtMostTh
     const std::size_t cut = std::size_t(std::lower_bound(trace.ops.begin(), trace.ops.end(), at,
                                                          [](const auto& op, std::int64_t t) { return op.t_ns < t; }) -
                                         trace.ops.begin());
-    // The cut is no earlier than the last op made before it: losses are counted from there.
+    // The power went between the last op made and this one: losses are counted from this one's time
+    // (the harsher reading).
     const std::int64_t cut_ns = cut < trace.ops.size() ? trace.ops[cut].t_ns : t_last;
     SCOPED_TRACE(fmt::format("cut {} at op {} of {}, {:.2f} s in (seed {})", k, cut, trace.ops.size(),
                              (cut_ns - t_first) / 1e9, seed));
@@ -224,7 +225,7 @@ TEST(PowerCut, AProtocolSessionCutAtRandomWritesRecoversVerifiesAndLosesAtMostTh
     const auto counts = pvcap::power_cut::build_crash_image(trace, root, cut, seed + k, image);
     const fs::path session = image / truth_dir.filename();
     if (!fs::exists(session / "session.db")) {
-      // Only a cut before the session's first sync may lose the session (it then has nothing).
+      // Only a cut before the first sync of the session folder may leave it without its index.
       EXPECT_LT(double(cut_ns - t_first) / 1e9, kVideoHorizonS) << "the session folder is gone";
       fs::remove_all(image);
       continue;
