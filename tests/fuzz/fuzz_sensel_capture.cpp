@@ -12,21 +12,10 @@
 #include <string>
 
 #include "capture/sensel_capture_file.h"
+#include "tests/fuzz/fuzz_scratch.h"
 
 namespace {
-struct Scratch {
-  std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("pvcap-fuzz-capture-" + std::to_string(getpid()));
-  Scratch() { std::filesystem::create_directories(dir); }
-  ~Scratch() {
-    std::error_code ec;
-    std::filesystem::remove_all(dir, ec);
-  }
-};
-const std::filesystem::path& scratch() {
-  static const Scratch s;
-  return s.dir;
-}
+const std::filesystem::path& scratch() { return pvcap::fuzz::scratch("capture"); }
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -11,9 +11,10 @@
 #include <string>
 
 #include "storage/frame_spill.h"
+#include "tests/fuzz/fuzz_scratch.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const std::string path = "/tmp/fuzz_spill_reader-" + std::to_string(getpid()) + ".spill";
+  static const std::string path = (pvcap::fuzz::scratch("spill") / "input.spill").string();
   if (FILE* f = std::fopen(path.c_str(), "wb")) {
     if (size) std::fwrite(data, 1, size, f);
     std::fclose(f);

@@ -23,6 +23,7 @@
 #include "storage/recover.h"
 #include "storage/session_reader.h"
 #include "storage/verify.h"
+#include "tests/fuzz/fuzz_scratch.h"
 
 #define PVCAP_STRINGIFY2(x) #x
 #define PVCAP_STRINGIFY(x) PVCAP_STRINGIFY2(x)
@@ -31,18 +32,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Scratch {
-  fs::path dir = fs::temp_directory_path() / ("pvcap-fuzz-damage-" + std::to_string(getpid()));
-  Scratch() { fs::create_directories(dir); }
-  ~Scratch() {
-    std::error_code ec;
-    fs::remove_all(dir, ec);
-  }
-};
-const fs::path& scratch() {
-  static const Scratch s;
-  return s.dir;
-}
+const std::filesystem::path& scratch() { return pvcap::fuzz::scratch("damage"); }
 
 using Files = std::map<std::string, std::string>;  // name -> bytes
 

@@ -16,21 +16,10 @@
 #include "sim/session_replay.h"
 #include "storage/session_reader.h"
 #include "storage/video_reader.h"
+#include "tests/fuzz/fuzz_scratch.h"
 
 namespace {
-// The fuzzer's scratch folder, removed when the process exits (libFuzzer ends with exit()).
-struct Scratch {
-  std::filesystem::path dir = std::filesystem::temp_directory_path() / ("pvcap-fuzz-store-" + std::to_string(getpid()));
-  Scratch() { std::filesystem::create_directories(dir); }
-  ~Scratch() {
-    std::error_code ec;
-    std::filesystem::remove_all(dir, ec);
-  }
-};
-const std::filesystem::path& scratch() {
-  static const Scratch s;
-  return s.dir;
-}
+const std::filesystem::path& scratch() { return pvcap::fuzz::scratch("store"); }
 
 void write_file(const std::filesystem::path& p, const std::uint8_t* data, std::size_t size) {
   for (const char* suffix : {"", "-wal", "-shm", "-journal"}) std::filesystem::remove(p.string() + suffix);
