@@ -22,11 +22,11 @@
 #include <spdlog/spdlog.h>
 #include <opencv2/core.hpp>
 
+#include "bench/bench_mosaics.h"
 #include "capture/pixel_format.h"
 #include "core/frame_pool.h"
 #include "core/rig_config.h"
 #include "core/time.h"
-#include "sim/scene.h"
 #include "storage/bayer_planes.h"
 #include "storage/session_reader.h"
 #include "storage/session_writer.h"
@@ -36,31 +36,12 @@ using namespace pvcap;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-constexpr int kW = 1920, kH = 1080;
+constexpr int kW = bench::kMosaicWidth, kH = bench::kMosaicHeight;
 const std::uint32_t kBayer = pixel_format_code("BayerRG8");
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// `n` Bayer frames of camera `cam`: the scene, a fingertip moving across it, and sensor noise of
-// `noise` DN (standard deviation; 0: the simulator's clean image).
-std::vector<cv::Mat> make_frames(int cam, int n, double noise) {
-  const cv::Size size(kW, kH);
-  const cv::Mat bgr = sim::render_default_scene_bgr(cam, size, /*noise_dn=*/0);  // its own noise is added below
-  const cv::Mat bayer = sim::to_sensor_format(bgr, "BayerRG8");
-  std::vector<cv::Mat> out;
-  cv::RNG rng(std::uint64_t(cam + 1));
-  for (int i = 0; i < n; ++i) {
-    cv::Mat f = bayer.clone();
-    sim::draw_fingertip(f, "BayerRG8", {700.0 + 12 * i, 500.0 + 4 * i}, 40);
-    if (noise > 0) {
-      cv::Mat dn(f.size(), CV_8SC1);
-      rng.fill(dn, cv::RNG::NORMAL, 0, noise);
-      cv::add(f, dn, f, cv::noArray(), CV_8U);
-    }
-    out.push_back(f);
-  }
-  return out;
-}
+std::vector<cv::Mat> make_frames(int cam, int n, double noise) { return bench::make_mosaics(cam, n, noise); }
 
 // `store_fields`: rig-file store settings to try instead of pvcap's defaults ("gop_seconds: 0.5, crf: 14").
 RigConfig bench_rig(int cameras, const std::string& store_fields) {
