@@ -116,9 +116,10 @@ StoreConfig parse_store(const YAML::Node& node, const std::filesystem::path& fil
   if (s.video_mode != "raw" && s.video_mode != "color")
     r.fail(r.node()["video_mode"], "video_mode", fmt::format("'{}' is not one of raw, color", s.video_mode));
   r.get("raw_codec", s.raw_codec);
-  if (s.raw_codec != "ffvhuff" && s.raw_codec != "ffv1" && s.raw_codec != "libx264")
+  if (s.raw_codec != "ffvhuff" && s.raw_codec != "ffv1" && s.raw_codec != "libx264" && s.raw_codec != "magicyuv")
     r.fail(r.node()["raw_codec"], "raw_codec",
-           fmt::format("'{}' is not one of ffvhuff, ffv1, libx264 (lossless codecs of grey pictures)", s.raw_codec));
+           fmt::format("'{}' is not one of ffvhuff, magicyuv, ffv1, libx264 (lossless codecs of grey pictures)",
+                       s.raw_codec));
   r.get("video_codec", s.video_codec);
   r.get_in_range("crf", s.crf, 0, 51);
   r.get("preset", s.preset);

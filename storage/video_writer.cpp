@@ -49,11 +49,10 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   const AVPixelFormat pix = av_get_pix_fmt(s.stored_pixel_format().c_str());
   if (pix == AV_PIX_FMT_NONE)
     return Error{fmt::format("{}: unknown pixel format '{}' (store.video_pixel_format)", where, s.pixel_format)};
-  if (s.raw() && s.bit_depth > 8 && codec_name == "libx264")
-    return Error{
-        fmt::format("{}: libx264 keeps at most 10 bits; a {}-bit {} mosaic needs store.raw_codec ffvhuff or "
-                    "ffv1",
-                    where, s.bit_depth, s.bayer_format)};
+  if (s.raw() && s.bit_depth > 8 && (codec_name == "libx264" || codec_name == "magicyuv"))
+    return Error{fmt::format("{}: {} keeps {}; a {}-bit {} mosaic needs store.raw_codec ffvhuff or ffv1", where,
+                             codec_name, codec_name == "libx264" ? "at most 10 bits" : "8-bit grey only", s.bit_depth,
+                             s.bayer_format)};
   if (s.raw() && (s.bit_depth < 8 || s.bit_depth > 16))
     return Error{fmt::format("{}: a raw video of {} bits per sample is not possible", where, s.bit_depth)};
   if (s.raw() && (s.width % 2 != 0 || s.height % 2 != 0))
@@ -86,6 +85,8 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
       av_dict_set(&opts, "crf", std::to_string(s.crf).c_str(), 0);
     // In-band SPS/PPS on every key frame: any GOP decodes on its own.
     av_dict_set(&opts, "x264-params", "repeat-headers=1:bframes=0:slices=4", 0);
+  } else if (codec_name == "magicyuv") {
+    av_dict_set(&opts, "pred", "median", 0);  // the fastest of its predictors here, as small as left
   } else if (codec_name == "ffv1") {
     av_dict_set(&opts, "level", "3", 0);
     av_dict_set(&opts, "slicecrc", "1", 0);

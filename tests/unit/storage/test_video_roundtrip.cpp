@@ -171,7 +171,7 @@ TEST(VideoRoundTrip, Ffv1IsBitExact) {
 // Raw video (the default for Bayer cameras): the mosaic comes back bit for bit, and the colour image
 // read from it is the capture path's own debayering of that mosaic, for every raw codec offered.
 TEST(VideoRoundTrip, RawVideoKeepsTheMosaicBitExactAndDemosaicsOnRead) {
-  for (const std::string codec : {"ffvhuff", "ffv1", "libx264"}) {
+  for (const std::string codec : {"ffvhuff", "magicyuv", "ffv1", "libx264"}) {
     SCOPED_TRACE(codec);
     const auto dir = temp_dir("raw-" + codec);
     auto w = VideoWriter::open(dir / "v.mkv", raw_settings("BayerRG8", codec));
@@ -269,6 +269,10 @@ TEST(VideoRoundTrip, RawVideoKeepsA12BitMosaicBitExact) {
   auto refused = VideoWriter::open(dir / "v.mkv", raw_settings("BayerRG12", "libx264", 12));
   ASSERT_FALSE(refused);
   EXPECT_NE(refused.error().message.find("at most 10 bits"), std::string::npos) << refused.error().message;
+  auto refused_magicyuv = VideoWriter::open(dir / "m.mkv", raw_settings("BayerRG12", "magicyuv", 12));
+  ASSERT_FALSE(refused_magicyuv);
+  EXPECT_NE(refused_magicyuv.error().message.find("8-bit grey only"), std::string::npos)
+      << refused_magicyuv.error().message;
   fs::remove_all(dir);
 }
 
