@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 
 #include <opencv2/calib3d.hpp>
@@ -64,6 +65,7 @@ TEST(NumpyFiles, ThePickleIsWhatNumpyWritesAndNumpyReadsBoth) {
     std::snprintf(expected, sizeof expected, "(105, 185) float32 %.3f %g\n", sum, double(force.at<float>(104, 184)));
     EXPECT_EQ(loaded.substr(0, loaded.rfind(' ')), std::string(expected).substr(0, std::string(expected).rfind(' ')))
         << f;
+    std::filesystem::remove(dir + "/" + f);
   }
 }
 
