@@ -148,10 +148,13 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
   std::thread ticker;
   std::atomic<bool> ticking{true};
   if (proto) {
-    nlohmann::json detail = {
-        {"protocol", proto->name}, {"file", proto->source.string()},   {"hand_order", hand_order},
-        {"fast", command.fast},    {"auto", command.auto_participant}, {"takes", 2 * proto->actions.size()},
-        {"text", proto->text}};
+    nlohmann::json detail = {{"protocol", proto->name},
+                             {"file", proto->source.string()},
+                             {"hand_order", hand_order},
+                             {"fast", command.fast},
+                             {"auto", command.auto_participant},
+                             {"takes", protocol::make_plan(*proto, hand_order).size()},
+                             {"text", proto->text}};
     protocol::RunnerOptions ro;
     ro.auto_start = command.auto_participant;
     ro.auto_advance = command.auto_participant;

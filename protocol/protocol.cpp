@@ -44,6 +44,14 @@ const char* display_name(Force f) {
   return "Any force";
 }
 
+Force parse_force(const std::string& s) {
+  if (s == "low") return Force::Low;
+  if (s == "high") return Force::High;
+  if (s == "no_contact") return Force::NoContact;
+  if (s == "any") return Force::Any;
+  throw std::invalid_argument(s);
+}
+
 const char* to_string(Hand h) { return h == Hand::Left ? "left" : "right"; }
 
 namespace {
@@ -148,21 +156,28 @@ Protocol parse_protocol(const std::string& text, const std::filesystem::path& so
     if (auto refused = pictogram_problem(source, pictogram)) ar.fail(a["pictogram"], "pictogram", *refused);
     ar.get_in_range("repetitions", base.repetitions, 1, 100);
     ar.get("check_side", base.check_side);
+    if (auto hands = ar.child("hands")) {
+      if (!hands.IsSequence() || hands.size() == 0)
+        ar.fail(hands, "hands", "expected a list: [left, right], [left] or [right]");
+      base.left_hand = base.right_hand = false;
+      for (const auto& v : hands) {
+        if (v.Scalar() == "left")
+          base.left_hand = true;
+        else if (v.Scalar() == "right")
+          base.right_hand = true;
+        else
+          ar.fail(v, "hands", fmt::format("'{}' is not left or right", v.Scalar()));
+      }
+    }
     std::vector<Force> forces;
     if (auto f = ar.child("forces")) {
       if (!f.IsSequence() || f.size() == 0) ar.fail(f, "forces", "expected a list: [low, high, no_contact] or [any]");
       for (const auto& v : f) {
-        const std::string s = v.Scalar();
-        if (s == "low")
-          forces.push_back(Force::Low);
-        else if (s == "high")
-          forces.push_back(Force::High);
-        else if (s == "no_contact")
-          forces.push_back(Force::NoContact);
-        else if (s == "any")
-          forces.push_back(Force::Any);
-        else
-          ar.fail(v, "forces", fmt::format("'{}' is not one of low, high, no_contact, any", s));
+        try {
+          forces.push_back(parse_force(v.Scalar()));
+        } catch (const std::invalid_argument&) {
+          ar.fail(v, "forces", fmt::format("'{}' is not one of low, high, no_contact, any", v.Scalar()));
+        }
       }
     } else {
       forces.push_back(Force::Any);
@@ -204,7 +219,8 @@ std::vector<PlannedTake> make_plan(const Protocol& p, const std::string& hand_or
   const Hand second = first == Hand::Left ? Hand::Right : Hand::Left;
   std::vector<PlannedTake> plan;
   for (Hand h : {first, second})
-    for (const auto& a : p.actions) plan.push_back({int(plan.size()), &a, h});
+    for (const auto& a : p.actions)
+      if (h == Hand::Left ? a.left_hand : a.right_hand) plan.push_back({int(plan.size()), &a, h});
   return plan;
 }
 

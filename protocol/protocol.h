@@ -39,6 +39,9 @@ struct Action {
   Force force = Force::Any;
   int repetitions = 1;
   bool check_side = true;  // the hand is expected on its own half of the pad
+  // Which hands perform it (both by default): a dataset's "remaining" protocol asks only for the
+  // takes a participant still lacks, which may be one hand's.
+  bool left_hand = true, right_hand = true;
   Timings timings;
   int line = 0;  // in the protocol file
 };
@@ -57,6 +60,8 @@ Protocol parse_protocol(const std::string& yaml_text, const std::filesystem::pat
 
 enum class Hand { Left, Right };
 const char* to_string(Hand h);
+
+Force parse_force(const std::string& s);  // throws std::invalid_argument for anything else
 
 // One take to perform: an action with one hand.
 struct PlannedTake {

@@ -9,11 +9,7 @@
 
 namespace pvcap::report {
 
-namespace {
-
-using nlohmann::json;
-
-std::string esc(const std::string& s) {
+std::string html_escape(const std::string& s) {
   std::string out;
   for (char c : s) {
     switch (c) {
@@ -35,6 +31,12 @@ std::string esc(const std::string& s) {
   }
   return out;
 }
+
+namespace {
+
+using nlohmann::json;
+
+std::string esc(const std::string& s) { return html_escape(s); }
 
 std::string num(const json& v, int decimals = 1) {
   if (v.is_null()) return "&ndash;";

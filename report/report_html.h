@@ -13,6 +13,9 @@ namespace pvcap::report {
 
 std::string render_html(const nlohmann::json& report);
 
+// Text as HTML (& < > " escaped): what a store or a file names is never markup.
+std::string html_escape(const std::string& s);
+
 // Builds the report of a session and writes it as SESSION/report.html (through a temporary file
 // renamed over it: a reader never sees half a page). Returns the file's path.
 Result<std::filesystem::path> write_html_report(const std::filesystem::path& session_dir, const ReportOptions& o = {});

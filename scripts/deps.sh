@@ -23,6 +23,7 @@ if [ "${1:-}" = "--tests" ]; then
   packages+=(
     tmux                                # the operator's terminal console is tested in it
     chromium                            # the session's pages are tested in headless Chromium
+    slurm-wlm munge                     # `pvcap dataset release --scheduler slurm` on a one-node cluster
   )
 fi
 missing=()

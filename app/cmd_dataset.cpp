@@ -1,0 +1,373 @@
+// `pvcap dataset`: init, status, split, release (and the release's job and finish steps, which a
+// Slurm job array runs), withdraw. Wiring only: the work is dataset/'s.
+#include <chrono>
+#include <random>
+#include <set>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "app/command.h"
+#include "app/progress_line.h"
+#include "dataset/catalog.h"
+#include "dataset/completeness.h"
+#include "dataset/dataset_folder.h"
+#include "dataset/dataset_page.h"
+#include "dataset/release.h"
+#include "dataset/slurm.h"
+#include "dataset/splits.h"
+#include "protocol/protocol.h"
+#include "storage/records.h"
+
+namespace pvcap {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+struct DatasetArgs {
+  fs::path dir;
+  dataset::DatasetConfig init;
+  std::string protocol;
+  std::vector<std::string> roots;
+  bool json_out = false;
+  int test = 0, val = 0;
+  std::int64_t seed = -1;
+  fs::path out;
+  std::string layout = "pressurevision", scheduler = "local";
+  int jobs = 2;
+  bool wait = false;
+  std::size_t index = 0;
+  std::string participant, reason;
+  bool purge = false;
+};
+
+// The catalogue brought up to date (progress on stderr), and the dataset's state from it.
+struct Loaded {
+  dataset::DatasetConfig config;
+  protocol::Protocol protocol;
+  std::unique_ptr<CatalogDb> db;
+  std::vector<CatalogSession> sessions;
+  std::vector<CatalogTake> takes;
+  std::vector<dataset::Withdrawal> withdrawals;
+  dataset::DatasetStatus status;
+};
+
+Loaded load(const fs::path& dir, bool rescan, const std::atomic<bool>& stop) {
+  Loaded l;
+  l.config = dataset::load_dataset(dir);
+  l.protocol = protocol::load_protocol(l.config.protocol);
+  auto db = CatalogDb::open(l.config.dir / "catalog.db");
+  if (!db) throw UserError(db.error().message);
+  l.db = std::move(db.value());
+  if (rescan) {
+    ProgressLine bar;
+    const auto started = std::chrono::steady_clock::now();
+    auto r = dataset::scan(
+        l.config, *l.db,
+        [&](std::size_t done, std::size_t total, const std::string& folder) {
+          const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+          bar.show(fmt::format("scan: {}/{} session folders, {:.0f} s{}", done, total, s,
+                               folder.empty() ? "" : ": " + folder),
+                   done, total);
+        },
+        stop);
+    if (!r) throw UserError(r.error().message);
+    const auto& s = r.value();
+    spdlog::info("catalogue: {} session folders ({} read, {} unchanged{}{}) in {:.1f} s", s.found, s.read, s.unchanged,
+                 s.forgotten ? fmt::format(", {} forgotten", s.forgotten) : "",
+                 s.withdrawn ? fmt::format(", {} of withdrawn participants left out", s.withdrawn) : "", s.seconds);
+    for (const auto& p : s.problems) spdlog::warn("{}", p);
+  }
+  l.sessions = l.db->sessions();
+  l.takes = l.db->takes();
+  l.withdrawals = dataset::load_withdrawals(l.config.dir);
+  l.status = dataset::compute_status(l.config, l.protocol, l.sessions, l.takes, l.withdrawals);
+  return l;
+}
+
+std::optional<dataset::Splits> load_splits(const fs::path& dir) {
+  const json j = dataset::read_json_file(dir / "splits.json", nullptr);
+  if (!j.is_object()) return std::nullopt;
+  return dataset::splits_from_json(j);
+}
+
+std::vector<std::string> leakage(const Loaded& l) {
+  const auto splits = load_splits(l.config.dir);
+  if (!splits) return {};
+  return dataset::leakage_problems(*splits, l.sessions, l.withdrawals);
+}
+
+// DIR/remaining/<participant>.yaml for each incomplete participant (the pictograms beside them);
+// a complete participant's old file is removed.
+void write_remaining(const Loaded& l) {
+  const fs::path folder = l.config.dir / "remaining";
+  std::error_code ec;
+  fs::create_directories(folder / "pictograms", ec);
+  if (ec) throw UserError(fmt::format("{}: cannot be made: {}", folder.string(), ec.message()));
+  for (const auto& a : l.protocol.actions) {
+    const fs::path to = folder / "pictograms" / fs::path(a.pictogram).filename();
+    fs::copy_file(a.pictogram, to, fs::copy_options::overwrite_existing, ec);
+    if (ec) throw UserError(fmt::format("{}: cannot be copied to {}: {}", a.pictogram, to.string(), ec.message()));
+  }
+  for (const auto& p : l.status.participants) {
+    const fs::path file = folder / (p.code + ".yaml");
+    const std::string text = dataset::remaining_protocol_yaml(l.protocol, p, "pictograms");
+    if (text.empty()) {
+      fs::remove(file, ec);
+      continue;
+    }
+    if (auto w = dataset::write_file_atomically(file, text); !w.ok()) throw UserError(w.error().message);
+  }
+}
+
+int run_init(DatasetArgs& a) {
+  auto& c = a.init;
+  c.dir = fs::absolute(a.dir).lexically_normal();
+  c.protocol = fs::absolute(a.protocol).lexically_normal();
+  protocol::load_protocol(c.protocol);  // a bad protocol is said now, not at the first status
+  for (const auto& r : a.roots) c.session_roots.push_back(fs::absolute(r).lexically_normal());
+  if (c.name.empty()) c.name = c.dir.filename().string();
+  if (auto w = dataset::write_dataset(c); !w.ok()) throw UserError(w.error().message);
+  fmt::print("{}: dataset '{}' over {} session root(s); `pvcap dataset status {}` catalogues it\n",
+             (c.dir / "dataset.yaml").string(), c.name, c.session_roots.size(), a.dir.string());
+  if (c.license.empty() || c.url.empty() || c.creators.empty())
+    fmt::print("  set license, url and creators in dataset.yaml before a release (its metadata requires them)\n");
+  return 0;
+}
+
+int run_status(const DatasetArgs& a, const std::atomic<bool>& stop) {
+  const Loaded l = load(a.dir, true, stop);
+  const auto leaks = leakage(l);
+  write_remaining(l);
+  const json j = dataset::status_json(l.status);
+  if (auto w = dataset::write_file_atomically(l.config.dir / "dataset.html", dataset::render_dataset_html(j, leaks));
+      !w.ok())
+    throw UserError(w.error().message);
+  if (a.json_out) {
+    json out = j;
+    out["leakage"] = leaks;
+    fmt::print("{}\n", out.dump(2));
+    return 0;
+  }
+  fmt::print("{}", dataset::format_status(l.status));
+  for (const auto& p : leaks) fmt::print("splits: {}\n", p);
+  for (const auto& p : l.status.participants)
+    if (!p.remaining.empty())
+      fmt::print("{}: {} takes to record: {}\n", p.code, p.remaining.size(),
+                 (l.config.dir / "remaining" / (p.code + ".yaml")).string());
+  fmt::print("page: {}\n", (l.config.dir / "dataset.html").string());
+  return 0;
+}
+
+int run_split(const DatasetArgs& a, const std::atomic<bool>& stop) {
+  const Loaded l = load(a.dir, true, stop);
+  std::vector<dataset::SplitCandidate> candidates;
+  for (const auto& p : l.status.participants)
+    if (!p.folders.empty())
+      candidates.push_back({p.code, p.skin_tone, p.lighting.empty() ? "unrecorded" : p.lighting.front()});
+  const std::uint64_t seed = a.seed >= 0 ? std::uint64_t(a.seed) : std::random_device{}();
+  const auto s = dataset::make_splits(candidates, a.test, a.val, seed);
+  if (auto w = dataset::write_file_atomically(l.config.dir / "splits.json",
+                                              dataset::splits_json(s, candidates).dump(2) + "\n");
+      !w.ok())
+    throw UserError(w.error().message);
+  fmt::print("splits (seed {}; --seed {} makes them again):\n  train: {}\n  val:   {}\n  test:  {}\n", seed, seed,
+             fmt::join(s.train, " "), fmt::join(s.val, " "), fmt::join(s.test, " "));
+  const auto leaks = dataset::leakage_problems(s, l.sessions, l.withdrawals);
+  for (const auto& p : leaks) fmt::print("leak: {}\n", p);
+  return leaks.empty() ? 0 : 1;
+}
+
+// The release's last step, from the catalogue as the release was prepared.
+int finish(const fs::path& dir, const fs::path& out, const std::atomic<bool>& stop) {
+  const Loaded l = load(dir, false, stop);
+  auto plan = dataset::load_plan(l.config.dir, out);
+  if (!plan) throw UserError(plan.error().message);
+  const json splits = dataset::read_json_file(l.config.dir / "splits.json", json::object());
+  auto r = dataset::finish_release(l.config, plan.value(), l.status, splits, l.sessions);
+  if (!r) throw UserError(r.error().message);
+  fmt::print("{}: {} sequences, {} frames, {} files ({:.1f} MB); check with: cd {} && sha256sum -c SHA256SUMS\n",
+             plan.value().out.string(), r.value().sequences, r.value().frames, r.value().files,
+             double(r.value().bytes) / 1e6, plan.value().out.string());
+  return 0;
+}
+
+int run_release(const DatasetArgs& a, const AppContext& ctx) {
+  const Loaded l = load(a.dir, true, ctx.stop);
+  if (!load_splits(l.config.dir))
+    throw UserError(fmt::format("{}: no splits yet; make them first (pvcap dataset split {} --test N --val N)",
+                                (l.config.dir / "splits.json").string(), a.dir.string()));
+  if (const auto leaks = leakage(l); !leaks.empty())
+    throw UserError(fmt::format("the splits leak, so no release:\n  {}", fmt::join(leaks, "\n  ")));
+  auto plan = dataset::prepare_release(l.config.dir, l.sessions, l.withdrawals, a.out, a.layout);
+  if (!plan) throw UserError(plan.error().message);
+  const auto& p = plan.value();
+  fmt::print("release of {} session folders ({} participants) into {}; {} to export\n", p.sessions.size(),
+             p.participants.size(), p.out.string(), dataset::pending_jobs(p).size());
+  if (a.scheduler == "slurm") {
+    auto s = dataset::submit_to_slurm(ctx.self_exe, l.config.dir, p, a.wait);
+    if (!s) throw UserError(s.error().message);
+    fmt::print("submitted to Slurm: {} task(s){}, final job {}{}\n", s.value().tasks,
+               s.value().array_job.empty() ? "" : " in job array " + s.value().array_job, s.value().final_job,
+               a.wait ? " (finished)" : "; logs in " + (p.book / "slurm-logs").string());
+    return 0;
+  }
+  ProgressLine bar;
+  const auto started = std::chrono::steady_clock::now();
+  const Status s = dataset::run_local(
+      p, a.jobs,
+      [&](std::size_t done, std::size_t total, const std::string& folder) {
+        const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+        bar.show(fmt::format("release: {}/{} sessions exported, {:.0f} s{}", done, total, t,
+                             folder.empty() ? "" : " (last: " + folder + ")"),
+                 done, total);
+      },
+      ctx.stop);
+  if (!s.ok()) {
+    bar.abandon();
+    throw UserError(s.error().message);
+  }
+  return finish(a.dir, a.out, ctx.stop);
+}
+
+int run_release_job(const DatasetArgs& a, const std::atomic<bool>& stop) {
+  auto plan = dataset::load_plan(dataset::load_dataset(a.dir).dir, a.out);
+  if (!plan) throw UserError(plan.error().message);
+  if (auto s = dataset::run_release_job(plan.value(), a.index, stop); !s.ok()) throw UserError(s.error().message);
+  fmt::print("job {}: {} exported\n", a.index, plan.value().sessions.at(a.index));
+  return 0;
+}
+
+// The participant's folder in a release (its participants.json), or empty.
+std::string release_folder_of(const fs::path& out, const std::string& code) {
+  const json map = dataset::read_json_file(out / "participants.json", json::object());
+  return map.contains(code) && map[code].is_string() ? map[code].get<std::string>() : "";
+}
+
+int run_withdraw(const DatasetArgs& a, const std::atomic<bool>& stop) {
+  Loaded l = load(a.dir, true, stop);
+  if (!pvcap::is_pseudonymous_code(a.participant))
+    throw UserError(fmt::format("'{}' is not a participant code (letters, digits, - and _)", a.participant));
+  dataset::Withdrawal w;
+  w.participant = a.participant;
+  w.reason = a.reason;
+  w.wall_ns =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  w.purged = a.purge;
+  for (const auto& r : dataset::load_releases(l.config.dir))
+    if (std::find(r.participants.begin(), r.participants.end(), a.participant) != r.participants.end())
+      w.releases_named.push_back(r.out);
+  std::vector<std::string> session_folders;
+  for (const auto& s : l.sessions)
+    if (s.participant == a.participant) session_folders.push_back(s.folder);
+  if (auto s = dataset::add_withdrawal(l.config.dir, w); !s.ok()) throw UserError(s.error().message);
+  // Out of the splits and the catalogue now; out of every later release by the record.
+  if (auto splits = load_splits(l.config.dir)) {
+    for (auto* v : {&splits->train, &splits->val, &splits->test})
+      v->erase(std::remove(v->begin(), v->end(), a.participant), v->end());
+    json j = dataset::read_json_file(l.config.dir / "splits.json", json::object());
+    j["train"] = splits->train;
+    j["val"] = splits->val;
+    j["test"] = splits->test;
+    if (auto s = dataset::write_file_atomically(l.config.dir / "splits.json", j.dump(2) + "\n"); !s.ok())
+      throw UserError(s.error().message);
+  }
+  Loaded after = load(a.dir, true, stop);  // the scan forgets the withdrawn participant's folders
+  fmt::print("{} withdrawn ({}): out of the catalogue ({} session folders), the splits and every later release\n",
+             a.participant, a.reason, session_folders.size());
+  for (const auto& out : w.releases_named) {
+    const std::string folder = release_folder_of(out, a.participant);
+    fmt::print("  release {} holds them{}\n", out, folder.empty() ? "" : " in " + (fs::path(out) / folder).string());
+    if (!a.purge || folder.empty()) continue;
+    std::error_code ec;
+    fs::remove_all(fs::path(out) / folder, ec);
+    if (ec) throw UserError(fmt::format("{}: cannot be removed: {}", (fs::path(out) / folder).string(), ec.message()));
+    json map = dataset::read_json_file(fs::path(out) / "participants.json", json::object());
+    map.erase(a.participant);
+    if (auto s = dataset::write_file_atomically(fs::path(out) / "participants.json", map.dump(2) + "\n"); !s.ok())
+      throw UserError(s.error().message);
+    auto sums = dataset::write_sha256sums(out);
+    if (!sums) throw UserError(sums.error().message);
+    fmt::print("    removed; its SHA256SUMS rewritten (make a new release for an up-to-date datasheet)\n");
+  }
+  if (a.purge)
+    for (const auto& f : session_folders) {
+      std::error_code ec;
+      fs::remove_all(f, ec);
+      if (ec) throw UserError(fmt::format("{}: cannot be removed: {}", f, ec.message()));
+      fmt::print("  session {} removed\n", f);
+    }
+  else if (!session_folders.empty())
+    fmt::print("  their session folders stay on disk (--purge removes them and their released folders)\n");
+  return 0;
+}
+
+}  // namespace
+
+Registered add_dataset_command(CLI::App& app, AppContext& ctx) {
+  auto a = std::make_shared<DatasetArgs>();
+  auto* d = app.add_subcommand("dataset",
+                               "many sessions as one dataset: catalogue, completeness, splits, releases, "
+                               "withdrawals (docs/dataset.md)");
+  d->require_subcommand(1);
+  auto* init = d->add_subcommand("init", "make a dataset folder (writes its dataset.yaml)");
+  init->add_option("DIR", a->dir, "the dataset folder")->required();
+  init->add_option("--protocol", a->protocol, "the protocol its sessions run")->required()->check(CLI::ExistingFile);
+  init->add_option("--sessions", a->roots, "folders holding its session folders")->required();
+  init->add_option("--name", a->init.name, "the dataset's name (default: the folder's)");
+  init->add_option("--description", a->init.description, "one paragraph on what it is");
+  init->add_option("--license", a->init.license, "licence URL (e.g. https://creativecommons.org/licenses/by-nc/4.0/)");
+  init->add_option("--url", a->init.url, "where the dataset will be published");
+  init->add_option("--creator", a->init.creators, "a creator's name (repeat for several)");
+  init->add_option("--participants", a->init.planned_participants, "the planned participants' codes");
+  init->add_option("--conditions", a->init.conditions, "the planned lighting conditions (e.g. LCR L-R)");
+
+  auto* status = d->add_subcommand("status", "catalogue the sessions; completeness, QA flags, what remains");
+  status->add_option("DIR", a->dir, "the dataset folder")->required()->check(CLI::ExistingDirectory);
+  status->add_flag("--json", a->json_out, "print the status as JSON");
+
+  auto* split = d->add_subcommand("split", "participant-held-out splits into DIR/splits.json");
+  split->add_option("DIR", a->dir, "the dataset folder")->required()->check(CLI::ExistingDirectory);
+  split->add_option("--test", a->test, "participants held out for testing")->required()->check(CLI::NonNegativeNumber);
+  split->add_option("--val", a->val, "participants held out for validation")->required()->check(CLI::NonNegativeNumber);
+  split->add_option("--seed", a->seed, "the random seed (printed; the same seed, the same splits)");
+
+  auto* release = d->add_subcommand("release", "export every session, with splits, datasheet, metadata, SHA256SUMS");
+  release->add_option("DIR", a->dir, "the dataset folder")->required()->check(CLI::ExistingDirectory);
+  release->add_option("--out", a->out, "the release folder")->required();
+  release->add_option("--layout", a->layout, "pressurevision or pressurevision-plus")
+      ->check(CLI::IsMember({"pressurevision", "pressurevision-plus"}));
+  release->add_option("--scheduler", a->scheduler, "local (a process pool here, the default) or slurm")
+      ->check(CLI::IsMember({"local", "slurm"}));
+  release->add_option("--jobs", a->jobs, "local: sessions exported at once (default 2)")->check(CLI::Range(1, 64));
+  release->add_flag("--wait", a->wait, "slurm: return once the release is finished");
+
+  auto* job = d->add_subcommand("release-job", "one session of a prepared release (a Slurm array task runs it)");
+  job->add_option("DIR", a->dir, "the dataset folder")->required();
+  job->add_option("--out", a->out, "the release folder")->required();
+  job->add_option("--index", a->index, "the session's index in the release's plan")->required();
+  auto* fin = d->add_subcommand("release-finish", "a release's manifest, datasheet and metadata, once all is exported");
+  fin->add_option("DIR", a->dir, "the dataset folder")->required();
+  fin->add_option("--out", a->out, "the release folder")->required();
+
+  auto* withdraw = d->add_subcommand("withdraw", "a participant withdraws consent");
+  withdraw->add_option("DIR", a->dir, "the dataset folder")->required()->check(CLI::ExistingDirectory);
+  withdraw->add_option("PARTICIPANT", a->participant, "the participant's code")->required();
+  withdraw->add_option("--reason", a->reason, "why (recorded; no personal data)")->required();
+  withdraw->add_flag("--purge", a->purge, "also remove their session folders and their folders in past releases");
+
+  return {d, [=, &ctx]() -> int {
+            if (*init) return run_init(*a);
+            if (*status) return run_status(*a, ctx.stop);
+            if (*split) return run_split(*a, ctx.stop);
+            if (*release) return run_release(*a, ctx);
+            if (*job) return run_release_job(*a, ctx.stop);
+            if (*fin) return finish(a->dir, a->out, ctx.stop);
+            if (*withdraw) return run_withdraw(*a, ctx.stop);
+            return 2;
+          }};
+}
+
+}  // namespace pvcap

@@ -1,0 +1,192 @@
+#include "dataset/dataset_folder.h"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "core/yaml_map_reader.h"
+#include "storage/durable_folder.h"
+
+namespace pvcap::dataset {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+std::vector<std::string> strings(MapReader& r, const char* key) {
+  std::vector<std::string> out;
+  const YAML::Node n = r.child(key);
+  if (!n) return out;
+  if (!n.IsSequence()) r.fail(n, key, "expected a list");
+  for (const auto& v : n) {
+    if (!v.IsScalar()) r.fail(v, key, "expected a list of single values");
+    out.push_back(v.Scalar());
+  }
+  return out;
+}
+
+fs::path under(const fs::path& dir, const std::string& p) {
+  const fs::path path(p);
+  return (path.is_absolute() ? path : dir / path).lexically_normal();
+}
+
+}  // namespace
+
+DatasetConfig load_dataset(const fs::path& dir_given) {
+  DatasetConfig c;
+  c.dir = fs::absolute(dir_given).lexically_normal();
+  const fs::path file = c.dir / "dataset.yaml";
+  std::ifstream in(file);
+  if (!in)
+    throw UserError(
+        fmt::format("{}: no dataset here (make one with `pvcap dataset init {} --protocol FILE "
+                    "--sessions ROOT`)",
+                    file.string(), dir_given.string()));
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const YAML::Node root = load_yaml(ss.str(), file);
+  MapReader r(root, file, "");
+  r.require("name", c.name);
+  r.get("description", c.description);
+  r.get("license", c.license);
+  r.get("url", c.url);
+  c.creators = strings(r, "creators");
+  std::string protocol;
+  r.require("protocol", protocol);
+  c.protocol = under(c.dir, protocol);
+  for (const auto& s : strings(r, "sessions")) c.session_roots.push_back(under(c.dir, s));
+  if (c.session_roots.empty()) r.fail(root, "sessions", "expected at least one folder of sessions");
+  c.planned_participants = strings(r, "participants");
+  c.conditions = strings(r, "conditions");
+  if (auto t = r.child("qa")) {
+    MapReader tr(t, file, "qa");
+    tr.get_in_range("max_lost_percent", c.thresholds.max_lost_percent, 0.0, 100.0);
+    tr.get_in_range("max_sync_offset_ms", c.thresholds.max_sync_offset_ms, 0.0, 1000.0);
+    tr.finish();
+  }
+  r.finish();
+  return c;
+}
+
+Status write_dataset(const DatasetConfig& c) {
+  const fs::path file = c.dir / "dataset.yaml";
+  if (fs::exists(file))
+    return Error{fmt::format("{}: exists already; edit it, or choose another folder", file.string())};
+  std::error_code ec;
+  fs::create_directories(c.dir, ec);
+  if (ec) return Error{fmt::format("{}: cannot be made: {}", c.dir.string(), ec.message())};
+  YAML::Emitter y;
+  y << YAML::BeginMap;
+  y << YAML::Key << "name" << YAML::Value << c.name;
+  y << YAML::Key << "description" << YAML::Value << c.description;
+  y << YAML::Key << "license" << YAML::Value << c.license;
+  y << YAML::Key << "url" << YAML::Value << c.url;
+  y << YAML::Key << "creators" << YAML::Value << YAML::Flow << c.creators;
+  y << YAML::Key << "protocol" << YAML::Value << c.protocol.string();
+  std::vector<std::string> roots;
+  for (const auto& r : c.session_roots) roots.push_back(r.string());
+  y << YAML::Key << "sessions" << YAML::Value << roots;
+  y << YAML::Key << "participants" << YAML::Value << YAML::Flow << c.planned_participants;
+  y << YAML::Key << "conditions" << YAML::Value << YAML::Flow << c.conditions;
+  y << YAML::Key << "qa" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "max_lost_percent" << YAML::Value << c.thresholds.max_lost_percent;
+  y << YAML::Key << "max_sync_offset_ms" << YAML::Value << c.thresholds.max_sync_offset_ms;
+  y << YAML::EndMap << YAML::EndMap;
+  const std::string text = fmt::format(
+      "# A pvcap dataset (docs/dataset.md). The sessions under `sessions` are its only source of truth;\n"
+      "# catalog.db is derived from them. `participants` (codes) and `conditions` (lighting) are what is\n"
+      "# planned, for the completeness matrix; license, url and creators go into the release's metadata.\n{}\n",
+      y.c_str());
+  return write_file_atomically(file, text);
+}
+
+Status write_file_atomically(const fs::path& file, const std::string& text) {
+  const fs::path tmp = file.string() + fmt::format(".tmp-{}", getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out.write(text.data(), std::streamsize(text.size()));
+    out.flush();
+    if (!out) {
+      const std::string why = std::strerror(errno);
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      return Error{fmt::format("{}: could not be written ({}; is the disk full?)", file.string(), why)};
+    }
+  }
+  if (auto s = sync_to_disk(tmp); !s.ok()) return s;
+  std::error_code ec;
+  fs::rename(tmp, file, ec);
+  if (ec) return Error{fmt::format("{}: could not be written: {}", file.string(), ec.message())};
+  return sync_to_disk(file.parent_path().empty() ? fs::path(".") : file.parent_path());
+}
+
+json read_json_file(const fs::path& file, const json& otherwise) {
+  std::ifstream in(file);
+  if (!in) return otherwise;
+  json j = json::parse(in, nullptr, false);
+  if (j.is_discarded())
+    throw UserError(
+        fmt::format("{}: is not JSON; it is one of the dataset's records: restore it from a backup", file.string()));
+  return j;
+}
+
+std::vector<Withdrawal> load_withdrawals(const fs::path& dir) {
+  std::vector<Withdrawal> out;
+  const json j = read_json_file(dir / "withdrawals.json", json::array());
+  for (const auto& w : j) {
+    Withdrawal x;
+    x.participant = w.value("participant", "");
+    x.reason = w.value("reason", "");
+    x.wall_ns = w.value("wall_ns", std::int64_t(0));
+    x.releases_named = w.value("releases_named", std::vector<std::string>{});
+    x.purged = w.value("purged", false);
+    out.push_back(std::move(x));
+  }
+  return out;
+}
+
+Status add_withdrawal(const fs::path& dir, const Withdrawal& w) {
+  json j = read_json_file(dir / "withdrawals.json", json::array());
+  j.push_back({{"participant", w.participant},
+               {"reason", w.reason},
+               {"wall_ns", w.wall_ns},
+               {"releases_named", w.releases_named},
+               {"purged", w.purged}});
+  return write_file_atomically(dir / "withdrawals.json", j.dump(2) + "\n");
+}
+
+bool is_withdrawn(const std::vector<Withdrawal>& w, const std::string& participant) {
+  for (const auto& x : w)
+    if (x.participant == participant) return true;
+  return false;
+}
+
+std::vector<ReleaseRecord> load_releases(const fs::path& dir) {
+  std::vector<ReleaseRecord> out;
+  for (const auto& r : read_json_file(dir / "releases.json", json::array())) {
+    ReleaseRecord x;
+    x.out = r.value("out", "");
+    x.wall_ns = r.value("wall_ns", std::int64_t(0));
+    x.participants = r.value("participants", std::vector<std::string>{});
+    out.push_back(std::move(x));
+  }
+  return out;
+}
+
+Status record_release(const fs::path& dir, const ReleaseRecord& r) {
+  json j = read_json_file(dir / "releases.json", json::array());
+  json kept = json::array();
+  for (const auto& e : j)
+    if (e.value("out", "") != r.out) kept.push_back(e);  // made again into the same folder: the new record
+  kept.push_back({{"out", r.out}, {"wall_ns", r.wall_ns}, {"participants", r.participants}});
+  return write_file_atomically(dir / "releases.json", kept.dump(2) + "\n");
+}
+
+}  // namespace pvcap::dataset

@@ -1,0 +1,66 @@
+#pragma once
+// A dataset folder and the files `pvcap dataset` keeps in it:
+//   dataset.yaml       what the lab declares: name, protocol, the sessions' roots, the planned
+//                      participants and conditions, the QA thresholds, the release's licence and
+//                      creators (written by `pvcap dataset init`, edited by hand)
+//   catalog.db         derived from the sessions (storage/catalog_db.h); can always be rebuilt
+//   splits.json        the participant-held-out splits
+//   withdrawals.json   who withdrew consent, when and why (codes only: no personal data)
+//   releases.json      every release made: where, when, which participants it holds
+// The sessions stay the only source of truth: nothing here writes into a session folder.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/result.h"
+
+namespace pvcap::dataset {
+
+struct Thresholds {
+  double max_lost_percent = 1.0;    // frames the devices numbered that never arrived, per stream
+  double max_sync_offset_ms = 2.0;  // the self-check's estimate beyond this (and two standard errors)
+};
+
+struct DatasetConfig {
+  std::filesystem::path dir;  // the dataset folder (absolute)
+  std::string name, description, license, url;
+  std::vector<std::string> creators;
+  std::filesystem::path protocol;                    // absolute
+  std::vector<std::filesystem::path> session_roots;  // absolute
+  std::vector<std::string> planned_participants;     // codes; may be empty
+  std::vector<std::string> conditions;               // lighting conditions planned, e.g. LCR; may be empty
+  Thresholds thresholds;
+};
+
+// Reads DIR/dataset.yaml; a bad file is a UserError naming file:line and key; relative paths in it
+// are relative to the dataset folder.
+DatasetConfig load_dataset(const std::filesystem::path& dir);
+// Writes DIR/dataset.yaml (refuses to overwrite one).
+Status write_dataset(const DatasetConfig& c);
+
+struct Withdrawal {
+  std::string participant, reason;
+  std::int64_t wall_ns = 0;
+  std::vector<std::string> releases_named;  // the release folders that held the participant
+  bool purged = false;
+};
+std::vector<Withdrawal> load_withdrawals(const std::filesystem::path& dir);
+Status add_withdrawal(const std::filesystem::path& dir, const Withdrawal& w);
+bool is_withdrawn(const std::vector<Withdrawal>& w, const std::string& participant);
+
+struct ReleaseRecord {
+  std::string out;  // absolute
+  std::int64_t wall_ns = 0;
+  std::vector<std::string> participants;
+};
+std::vector<ReleaseRecord> load_releases(const std::filesystem::path& dir);
+Status record_release(const std::filesystem::path& dir, const ReleaseRecord& r);
+
+// A file written whole or not at all (temporary name, fsync, rename).
+Status write_file_atomically(const std::filesystem::path& file, const std::string& text);
+nlohmann::json read_json_file(const std::filesystem::path& file, const nlohmann::json& otherwise);
+
+}  // namespace pvcap::dataset

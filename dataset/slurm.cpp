@@ -1,0 +1,127 @@
+#include "dataset/slurm.h"
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <sstream>
+#include <vector>
+
+#include <fmt/format.h>
+
+namespace pvcap::dataset {
+
+namespace fs = std::filesystem;
+
+extern "C" char** environ;
+
+namespace {
+
+// Runs argv[0] (found on PATH) and returns its standard output, or an Error with its exit status and
+// what it printed.
+Result<std::string> run(const std::vector<std::string>& args) {
+  int out[2];
+  if (pipe(out) != 0) return Error{fmt::format("cannot run {}: {}", args[0], std::strerror(errno))};
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, out[1], STDOUT_FILENO);
+  posix_spawn_file_actions_adddup2(&actions, out[1], STDERR_FILENO);
+  posix_spawn_file_actions_addclose(&actions, out[0]);
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  const int rc = posix_spawnp(&pid, args[0].c_str(), &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  close(out[1]);
+  if (rc != 0) {
+    close(out[0]);
+    return Error{
+        fmt::format("cannot run {}: {} (is Slurm installed, and {} on PATH?)", args[0], std::strerror(rc), args[0])};
+  }
+  std::string text;
+  char buf[4096];
+  for (ssize_t n; (n = read(out[0], buf, sizeof buf)) != 0;) {
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) break;
+    text.append(buf, std::size_t(n));
+  }
+  close(out[0]);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    return Error{fmt::format("{} failed (exit {}): {}", fmt::join(args, " "),
+                             WIFEXITED(status) ? WEXITSTATUS(status) : -1, text)};
+  return text;
+}
+
+std::string quoted(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+Status write_script(const fs::path& file, const std::string& text) {
+  if (auto w = write_file_atomically(file, text); !w.ok()) return w;
+  std::error_code ec;
+  fs::permissions(file, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add, ec);
+  return {};
+}
+
+std::string job_id(const std::string& sbatch_output) {
+  std::string id = sbatch_output.substr(0, sbatch_output.find_first_of(";\n"));
+  while (!id.empty() && std::isspace(static_cast<unsigned char>(id.back()))) id.pop_back();
+  return id;
+}
+
+}  // namespace
+
+Result<SlurmSubmission> submit_to_slurm(const fs::path& pvcap, const fs::path& dataset_dir, const ReleasePlan& plan,
+                                        bool wait) {
+  const fs::path book = plan.book, logs = book / "slurm-logs";
+  std::error_code ec;
+  fs::create_directories(logs, ec);
+  if (ec) return Error{fmt::format("{}: cannot be made: {}", logs.string(), ec.message())};
+  const std::string common = fmt::format("{} --log-level warn dataset", quoted(pvcap.string()));
+  const fs::path array_script = book / "release-job.sbatch", final_script = book / "release-finish.sbatch";
+  if (auto w = write_script(
+          array_script, fmt::format("#!/bin/sh\n# One session folder of the release (pvcap dataset release).\n"
+                                    "#SBATCH --job-name=pvcap-release\n#SBATCH --output={}/%A_%a.log\n"
+                                    "exec {} release-job {} --out {} --index \"$SLURM_ARRAY_TASK_ID\"\n",
+                                    logs.string(), common, quoted(dataset_dir.string()), quoted(plan.out.string())));
+      !w.ok())
+    return w.error();
+  if (auto w = write_script(
+          final_script, fmt::format("#!/bin/sh\n# The release's manifest, datasheet and metadata, once every "
+                                    "session is exported.\n#SBATCH --job-name=pvcap-release-finish\n"
+                                    "#SBATCH --output={}/finish-%j.log\nexec {} release-finish {} --out {}\n",
+                                    logs.string(), common, quoted(dataset_dir.string()), quoted(plan.out.string())));
+      !w.ok())
+    return w.error();
+  SlurmSubmission s;
+  const auto pending = pending_jobs(plan);
+  s.tasks = pending.size();
+  if (!pending.empty()) {
+    std::string indices;
+    for (auto i : pending) indices += (indices.empty() ? "" : ",") + std::to_string(i);
+    auto r = run({"sbatch", "--parsable", "--array=" + indices, array_script.string()});
+    if (!r) return r.error();
+    s.array_job = job_id(r.value());
+  }
+  std::vector<std::string> args = {"sbatch", "--parsable"};
+  if (!s.array_job.empty()) {
+    args.push_back("--dependency=afterok:" + s.array_job);
+    args.push_back("--kill-on-invalid-dep=yes");  // a failed task ends the final job, never leaves it waiting
+  }
+  if (wait) args.push_back("--wait");
+  args.push_back(final_script.string());
+  auto r = run(args);
+  if (!r) return r.error();
+  s.final_job = job_id(r.value());
+  return s;
+}
+
+}  // namespace pvcap::dataset
