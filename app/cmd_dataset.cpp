@@ -89,8 +89,8 @@ Loaded load(const fs::path& dir, bool rescan, const std::atomic<bool>& stop) {
 
 std::optional<dataset::Splits> load_splits(const fs::path& dir) {
   const json j = dataset::read_json_file(dir / "splits.json", nullptr);
-  if (!j.is_object()) return std::nullopt;
-  return dataset::splits_from_json(j);
+  if (j.is_null()) return std::nullopt;
+  return dataset::splits_from_json(j, dir / "splits.json");
 }
 
 std::vector<std::string> leakage(const Loaded& l) {
@@ -185,8 +185,10 @@ int finish(const fs::path& dir, const fs::path& out, const std::atomic<bool>& st
   const Loaded l = load(dir, false, stop);
   auto plan = dataset::load_plan(l.config.dir, out);
   if (!plan) throw UserError(plan.error().message);
-  const json splits = dataset::read_json_file(l.config.dir / "splits.json", json::object());
-  auto r = dataset::finish_release(l.config, plan.value(), l.status, splits, l.sessions);
+  const auto splits = load_splits(l.config.dir);
+  if (!splits)
+    throw UserError(fmt::format("{}: missing; a release needs its splits", (l.config.dir / "splits.json").string()));
+  auto r = dataset::finish_release(l.config, plan.value(), l.status, *splits, l.sessions);
   if (!r) throw UserError(r.error().message);
   fmt::print("{}: {} sequences, {} frames, {} files ({:.1f} MB); check with: cd {} && sha256sum -c SHA256SUMS\n",
              plan.value().out.string(), r.value().sequences, r.value().frames, r.value().files,
@@ -250,6 +252,16 @@ int run_withdraw(const DatasetArgs& a, const std::atomic<bool>& stop) {
   Loaded l = load(a.dir, true, stop);
   if (!pvcap::is_pseudonymous_code(a.participant))
     throw UserError(fmt::format("'{}' is not a participant code (letters, digits, - and _)", a.participant));
+  if (dataset::is_withdrawn(l.withdrawals, a.participant))
+    throw UserError(
+        fmt::format("{} has withdrawn already ({})", a.participant, (l.config.dir / "withdrawals.json").string()));
+  const auto& known = l.status.participants;
+  if (std::none_of(known.begin(), known.end(), [&](const auto& p) { return p.code == a.participant; })) {
+    std::vector<std::string> codes;
+    for (const auto& p : known) codes.push_back(p.code);
+    throw UserError(fmt::format("no participant {} in dataset {} (participants: {})", a.participant, l.config.name,
+                                fmt::join(codes, ", ")));
+  }
   dataset::Withdrawal w;
   w.participant = a.participant;
   w.reason = a.reason;
@@ -274,7 +286,7 @@ int run_withdraw(const DatasetArgs& a, const std::atomic<bool>& stop) {
     if (auto s = dataset::write_file_atomically(l.config.dir / "splits.json", j.dump(2) + "\n"); !s.ok())
       throw UserError(s.error().message);
   }
-  Loaded after = load(a.dir, true, stop);  // the scan forgets the withdrawn participant's folders
+  load(a.dir, true, stop);  // the scan forgets the withdrawn participant's folders
   fmt::print("{} withdrawn ({}): out of the catalogue ({} session folders), the splits and every later release\n",
              a.participant, a.reason, session_folders.size());
   for (const auto& out : w.releases_named) {

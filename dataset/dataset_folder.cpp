@@ -40,9 +40,8 @@ fs::path under(const fs::path& dir, const std::string& p) {
 }  // namespace
 
 DatasetConfig load_dataset(const fs::path& dir_given) {
-  DatasetConfig c;
-  c.dir = fs::absolute(dir_given).lexically_normal();
-  const fs::path file = c.dir / "dataset.yaml";
+  const fs::path dir = fs::absolute(dir_given).lexically_normal();
+  const fs::path file = dir / "dataset.yaml";
   std::ifstream in(file);
   if (!in)
     throw UserError(
@@ -51,9 +50,17 @@ DatasetConfig load_dataset(const fs::path& dir_given) {
                     file.string(), dir_given.string()));
   std::stringstream ss;
   ss << in.rdbuf();
-  const YAML::Node root = load_yaml(ss.str(), file);
+  return parse_dataset(ss.str(), dir);
+}
+
+DatasetConfig parse_dataset(const std::string& text, const fs::path& dir) {
+  DatasetConfig c;
+  c.dir = dir;
+  const fs::path file = c.dir / "dataset.yaml";
+  const YAML::Node root = load_yaml(text, file);
   MapReader r(root, file, "");
   r.require("name", c.name);
+  if (c.name.empty()) r.fail(root["name"], "name", "must not be empty (it names the release)");
   r.get("description", c.description);
   r.get("license", c.license);
   r.get("url", c.url);
@@ -137,19 +144,62 @@ json read_json_file(const fs::path& file, const json& otherwise) {
   return j;
 }
 
-std::vector<Withdrawal> load_withdrawals(const fs::path& dir) {
+RecordReader::RecordReader(const json& j, fs::path file) : j_(j), file_(std::move(file)) {
+  if (!j_.is_object()) fail("", "an object");
+}
+
+void RecordReader::fail(const std::string& key, const char* what) const {
+  throw UserError(fmt::format("{}: {} is not {}; the file is one of the dataset's records: restore it from a backup",
+                              file_.string(), key.empty() ? "an entry" : "'" + key + "'", what));
+}
+
+std::string RecordReader::text(const char* key) const {
+  if (!j_.contains(key)) return "";
+  if (!j_[key].is_string()) fail(key, "text");
+  return j_[key].get<std::string>();
+}
+
+std::int64_t RecordReader::integer(const char* key) const {
+  if (!j_.contains(key)) return 0;
+  if (!j_[key].is_number_integer()) fail(key, "an integer");
+  return j_[key].get<std::int64_t>();
+}
+
+bool RecordReader::flag(const char* key) const {
+  if (!j_.contains(key)) return false;
+  if (!j_[key].is_boolean()) fail(key, "true or false");
+  return j_[key].get<bool>();
+}
+
+std::vector<std::string> RecordReader::texts(const char* key) const {
+  std::vector<std::string> out;
+  if (!j_.contains(key)) return out;
+  if (!j_[key].is_array()) fail(key, "a list of text");
+  for (const auto& v : j_[key]) {
+    if (!v.is_string()) fail(key, "a list of text");
+    out.push_back(v.get<std::string>());
+  }
+  return out;
+}
+
+std::vector<Withdrawal> parse_withdrawals(const json& j, const fs::path& file) {
+  if (!j.is_array()) RecordReader(json::object(), file).fail("", "a list of withdrawals");
   std::vector<Withdrawal> out;
-  const json j = read_json_file(dir / "withdrawals.json", json::array());
   for (const auto& w : j) {
+    const RecordReader r(w, file);
     Withdrawal x;
-    x.participant = w.value("participant", "");
-    x.reason = w.value("reason", "");
-    x.wall_ns = w.value("wall_ns", std::int64_t(0));
-    x.releases_named = w.value("releases_named", std::vector<std::string>{});
-    x.purged = w.value("purged", false);
+    x.participant = r.text("participant");
+    x.reason = r.text("reason");
+    x.wall_ns = r.integer("wall_ns");
+    x.releases_named = r.texts("releases_named");
+    x.purged = r.flag("purged");
     out.push_back(std::move(x));
   }
   return out;
+}
+
+std::vector<Withdrawal> load_withdrawals(const fs::path& dir) {
+  return parse_withdrawals(read_json_file(dir / "withdrawals.json", json::array()), dir / "withdrawals.json");
 }
 
 Status add_withdrawal(const fs::path& dir, const Withdrawal& w) {
@@ -168,23 +218,30 @@ bool is_withdrawn(const std::vector<Withdrawal>& w, const std::string& participa
   return false;
 }
 
-std::vector<ReleaseRecord> load_releases(const fs::path& dir) {
+std::vector<ReleaseRecord> parse_releases(const json& j, const fs::path& file) {
+  if (!j.is_array()) RecordReader(json::object(), file).fail("", "a list of releases");
   std::vector<ReleaseRecord> out;
-  for (const auto& r : read_json_file(dir / "releases.json", json::array())) {
+  for (const auto& e : j) {
+    const RecordReader r(e, file);
     ReleaseRecord x;
-    x.out = r.value("out", "");
-    x.wall_ns = r.value("wall_ns", std::int64_t(0));
-    x.participants = r.value("participants", std::vector<std::string>{});
+    x.out = r.text("out");
+    x.wall_ns = r.integer("wall_ns");
+    x.participants = r.texts("participants");
     out.push_back(std::move(x));
   }
   return out;
 }
 
+std::vector<ReleaseRecord> load_releases(const fs::path& dir) {
+  return parse_releases(read_json_file(dir / "releases.json", json::array()), dir / "releases.json");
+}
+
 Status record_release(const fs::path& dir, const ReleaseRecord& r) {
   json j = read_json_file(dir / "releases.json", json::array());
   json kept = json::array();
-  for (const auto& e : j)
-    if (e.value("out", "") != r.out) kept.push_back(e);  // made again into the same folder: the new record
+  for (const auto& e : parse_releases(j, dir / "releases.json"))
+    if (e.out != r.out)  // made again into the same folder: the new record
+      kept.push_back({{"out", e.out}, {"wall_ns", e.wall_ns}, {"participants", e.participants}});
   kept.push_back({{"out", r.out}, {"wall_ns", r.wall_ns}, {"participants", r.participants}});
   return write_file_atomically(dir / "releases.json", kept.dump(2) + "\n");
 }

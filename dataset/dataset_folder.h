@@ -38,6 +38,7 @@ struct DatasetConfig {
 // Reads DIR/dataset.yaml; a bad file is a UserError naming file:line and key; relative paths in it
 // are relative to the dataset folder.
 DatasetConfig load_dataset(const std::filesystem::path& dir);
+DatasetConfig parse_dataset(const std::string& text, const std::filesystem::path& dir);
 // Writes DIR/dataset.yaml (refuses to overwrite one).
 Status write_dataset(const DatasetConfig& c);
 
@@ -48,6 +49,7 @@ struct Withdrawal {
   bool purged = false;
 };
 std::vector<Withdrawal> load_withdrawals(const std::filesystem::path& dir);
+std::vector<Withdrawal> parse_withdrawals(const nlohmann::json& j, const std::filesystem::path& file);
 Status add_withdrawal(const std::filesystem::path& dir, const Withdrawal& w);
 bool is_withdrawn(const std::vector<Withdrawal>& w, const std::string& participant);
 
@@ -57,7 +59,24 @@ struct ReleaseRecord {
   std::vector<std::string> participants;
 };
 std::vector<ReleaseRecord> load_releases(const std::filesystem::path& dir);
+std::vector<ReleaseRecord> parse_releases(const nlohmann::json& j, const std::filesystem::path& file);
 Status record_release(const std::filesystem::path& dir, const ReleaseRecord& r);
+
+// One entry of a record file read strictly: a key of the wrong type is a UserError naming the file
+// and the key (the files are edited by hand now and then), never a library's exception.
+class RecordReader {
+ public:
+  RecordReader(const nlohmann::json& j, std::filesystem::path file);
+  std::string text(const char* key) const;  // "" when absent
+  std::int64_t integer(const char* key) const;
+  bool flag(const char* key) const;
+  std::vector<std::string> texts(const char* key) const;
+  [[noreturn]] void fail(const std::string& key, const char* what) const;
+
+ private:
+  const nlohmann::json& j_;
+  std::filesystem::path file_;
+};
 
 // A file written whole or not at all (temporary name, fsync, rename).
 Status write_file_atomically(const std::filesystem::path& file, const std::string& text);

@@ -63,7 +63,9 @@ std::vector<ReleasedSequence> released_sequences(const fs::path& out, const std:
         s.hand = m[3];
       }
       std::ifstream src(q->path() / "pvcap_source.json");
-      s.session = json::parse(src, nullptr, false).value("session", "");
+      const json source = json::parse(src, nullptr, false);
+      if (source.is_object() && source.contains("session") && source["session"].is_string())
+        s.session = source["session"].get<std::string>();
       std::error_code ec2;
       for (fs::directory_iterator f(q->path() / "force", ec2), fend; !ec2 && f != fend; f.increment(ec2)) ++s.frames;
       list.push_back(std::move(s));
@@ -79,9 +81,9 @@ std::string table_row(const std::vector<std::string>& cells) {
   return "| " + fmt::format("{}", fmt::join(cells, " | ")) + " |\n";
 }
 
-std::string datasheet(const DatasetConfig& c, const ReleasePlan& plan, const DatasetStatus& status, const json& splits,
-                      const std::vector<CatalogSession>& sessions, const std::vector<ReleasedSequence>& seqs,
-                      const std::string& protocol_sha) {
+std::string datasheet(const DatasetConfig& c, const ReleasePlan& plan, const DatasetStatus& status,
+                      const Splits& splits, const std::vector<CatalogSession>& sessions,
+                      const std::vector<ReleasedSequence>& seqs, const std::string& protocol_sha) {
   std::map<std::string, const CatalogSession*> by_folder;
   for (const auto& s : sessions) by_folder[s.folder] = &s;
   std::string md =
@@ -132,7 +134,8 @@ std::string datasheet(const DatasetConfig& c, const ReleasePlan& plan, const Dat
   for (const auto& folder : plan.sessions) {
     if (!by_folder.count(folder)) continue;
     const CatalogSession& s = *by_folder[folder];
-    const json facts = json::parse(s.facts_json, nullptr, false);
+    json facts = json::parse(s.facts_json, nullptr, false);
+    if (!facts.is_object()) facts = json::object();
     int calibrated = 0, cameras = 0;
     std::vector<std::string> offsets;
     for (const auto& cam : facts.value("calibration", json::array())) {
@@ -149,10 +152,9 @@ std::string datasheet(const DatasetConfig& c, const ReleasePlan& plan, const Dat
                                           : "failed",
                      fmt::format("{} of {}", calibrated, cameras), fmt::format("{}", fmt::join(offsets, ", "))});
   }
-  md += fmt::format("\n## Splits (held out by participant, seed {})\n\ntrain: {}\n\nval: {}\n\ntest: {}\n\n",
-                    splits.value("seed", 0), fmt::join(splits.value("train", std::vector<std::string>{}), ", "),
-                    fmt::join(splits.value("val", std::vector<std::string>{}), ", "),
-                    fmt::join(splits.value("test", std::vector<std::string>{}), ", "));
+  md +=
+      fmt::format("\n## Splits (held out by participant, seed {})\n\ntrain: {}\n\nval: {}\n\ntest: {}\n\n", splits.seed,
+                  fmt::join(splits.train, ", "), fmt::join(splits.val, ", "), fmt::join(splits.test, ", "));
   md += "## Known issues (pvcap's QA flags at release)\n\n";
   std::set<std::string> released(plan.participants.begin(), plan.participants.end());
   std::size_t n = 0;
@@ -225,9 +227,10 @@ Result<ReleasePlan> load_plan(const fs::path& dataset_dir, const fs::path& out_g
   if (!j.is_object())
     return Error{fmt::format("{}: no release into it was prepared by this dataset (no {})", plan.out.string(),
                              (plan.book / "plan.json").string())};
-  plan.layout = j.value("layout", "pressurevision");
-  plan.sessions = j.value("sessions", std::vector<std::string>{});
-  plan.participants = j.value("participants", std::vector<std::string>{});
+  const RecordReader r(j, plan.book / "plan.json");
+  plan.layout = r.text("layout");
+  plan.sessions = r.texts("sessions");
+  plan.participants = r.texts("participants");
   return plan;
 }
 
@@ -393,7 +396,7 @@ json croissant_metadata(const DatasetConfig& c, const ReleasePlan& plan, const s
 }
 
 Result<ReleaseSummary> finish_release(const DatasetConfig& c, const ReleasePlan& plan, const DatasetStatus& status,
-                                      const json& splits, const std::vector<CatalogSession>& sessions) {
+                                      const Splits& splits, const std::vector<CatalogSession>& sessions) {
   if (c.license.empty() || c.url.empty() || c.creators.empty())
     return Error{fmt::format("{}: set license, url and creators; a release's Croissant metadata requires them",
                              (c.dir / "dataset.yaml").string())};
@@ -405,15 +408,18 @@ Result<ReleaseSummary> finish_release(const DatasetConfig& c, const ReleasePlan&
                              plan.sessions.size(), fmt::join(names, ", "))};
   }
   // Only the released participants' splits.
-  json released_splits = splits;
+  Splits released_splits = splits;
   const std::set<std::string> released(plan.participants.begin(), plan.participants.end());
-  for (const char* k : {"train", "val", "test"}) {
-    std::vector<std::string> kept;
-    for (const auto& code : splits.value(k, std::vector<std::string>{}))
-      if (released.count(code)) kept.push_back(code);
-    released_splits[k] = kept;
-  }
-  const std::string splits_text = released_splits.dump(2) + "\n";
+  for (auto* v : {&released_splits.train, &released_splits.val, &released_splits.test})
+    v->erase(std::remove_if(v->begin(), v->end(), [&](const std::string& code) { return !released.count(code); }),
+             v->end());
+  const std::string splits_text = json{{"held_out_by", "participant"},
+                                       {"seed", released_splits.seed},
+                                       {"train", released_splits.train},
+                                       {"val", released_splits.val},
+                                       {"test", released_splits.test}}
+                                      .dump(2) +
+                                  "\n";
   if (auto w = write_file_atomically(plan.out / "splits.json", splits_text); !w.ok()) return w.error();
   const auto seqs = released_sequences(plan.out, plan.layout == "pressurevision-plus" ? "meta.json" : "metadata.json");
   auto protocol_sha = exporting::sha256_file(c.protocol);

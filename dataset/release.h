@@ -63,7 +63,7 @@ struct ReleaseSummary {
 
 // The release-wide files, once every job is done (an Error naming the jobs that are not).
 Result<ReleaseSummary> finish_release(const DatasetConfig& c, const ReleasePlan& plan, const DatasetStatus& status,
-                                      const nlohmann::json& splits, const std::vector<CatalogSession>& sessions);
+                                      const Splits& splits, const std::vector<CatalogSession>& sessions);
 
 // SHA256SUMS over every other file under `out`, rewritten (also after a withdrawal purged a
 // participant's folder from the release).

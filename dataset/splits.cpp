@@ -94,12 +94,13 @@ json splits_json(const Splits& s, const std::vector<SplitCandidate>& candidates)
       {"strata (skin tone/lighting)", strata}};
 }
 
-Splits splits_from_json(const json& j) {
+Splits splits_from_json(const json& j, const std::filesystem::path& file) {
+  const RecordReader r(j, file);
   Splits s;
-  s.seed = j.value("seed", std::uint64_t(0));
-  s.train = j.value("train", std::vector<std::string>{});
-  s.val = j.value("val", std::vector<std::string>{});
-  s.test = j.value("test", std::vector<std::string>{});
+  s.seed = std::uint64_t(r.integer("seed"));
+  s.train = r.texts("train");
+  s.val = r.texts("val");
+  s.test = r.texts("test");
   return s;
 }
 

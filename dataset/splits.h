@@ -5,6 +5,7 @@
 // tone and lighting where the counts allow: each stratum (skin tone x lighting) gives test and val
 // their share of it, by largest remainder. The leakage check that status and release also run.
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -27,7 +28,8 @@ struct Splits {
 // Throws UserError when test + val leave no participant for training.
 Splits make_splits(std::vector<SplitCandidate> candidates, int test, int val, std::uint64_t seed);
 nlohmann::json splits_json(const Splits& s, const std::vector<SplitCandidate>& candidates);
-Splits splits_from_json(const nlohmann::json& j);
+// Reads splits.json's content strictly (a UserError naming `file` for a key of the wrong type).
+Splits splits_from_json(const nlohmann::json& j, const std::filesystem::path& file);
 
 // What is wrong with the splits against the catalogue: a participant in two splits, a resumed
 // session whose folders belong to different participants (so could land in two splits), a

@@ -259,6 +259,21 @@ TEST(Dataset, ThreeParticipantsAreCataloguedCheckedCompletedSplitReleasedAndOneW
   EXPECT_EQ(read_all(out2 / "participants.json").find("P02"), std::string::npos);
   EXPECT_EQ(read_all(out2 / "SHA256SUMS").find("P02"), std::string::npos);
   EXPECT_TRUE(fs::exists(p02a)) << "without --purge the sessions stay";
+
+  // P03 withdraws with --purge: their folders leave both releases (which still check) and their
+  // sessions are removed.
+  r = run_pvcap(fmt::format("--log-level warn dataset withdraw {} P03 --reason 'asked to be removed' --purge",
+                            lab.dataset.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const auto& release : {out, out2}) {
+    EXPECT_FALSE(fs::exists(release / "0003_P03")) << r.output;
+    EXPECT_EQ(std::system(fmt::format("cd {} && sha256sum --quiet -c SHA256SUMS", release.string()).c_str()), 0);
+  }
+  EXPECT_FALSE(fs::exists(p03));
+  EXPECT_EQ(lab.status()["sessions"], 1) << "P01's alone: the withdrawn are not catalogued";
+  r = run_pvcap(fmt::format("--log-level warn dataset withdraw {} P09 --reason x", lab.dataset.string()));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("no participant P09"), std::string::npos) << r.output;
 }
 
 TEST(Dataset, ASlurmReleaseEqualsTheLocalOneFileForFileAndAResubmissionSkipsWhatIsDone) {
