@@ -11,6 +11,14 @@ using report::html_escape;
 
 namespace {
 
+// A mark beside the colour, so the matrix reads without telling red from green.
+const char* cell_mark(const std::string& status) {
+  if (status == "done") return "&#10003;";
+  if (status == "bad") return "B";
+  if (status == "superseded") return "s";
+  return "";
+}
+
 const char* cell_colour(const std::string& status) {
   if (status == "done") return "#2e7d32";
   if (status == "bad") return "#c62828";
@@ -37,8 +45,8 @@ void matrix(std::string& h, const json& status) {
       for (const auto& a : actions) {
         const std::string s = cells.contains(a) ? cells[a].value("status", "missing") : "";
         h += s.empty() ? "<td></td>"
-                       : fmt::format("<td title='{} {}: {}' style='background:{}'></td>", html_escape(a), hand, s,
-                                     cell_colour(s));
+                       : fmt::format("<td title='{} {}: {}' class='c' style='background:{}'>{}</td>", html_escape(a),
+                                     hand, s, cell_colour(s), cell_mark(s));
       }
       std::size_t left = 0;
       for (const auto& r : p.value("remaining", json::array())) left += r.value("hand", "") == hand;
@@ -60,7 +68,8 @@ std::string render_dataset_html(const json& status, const std::vector<std::strin
       "</title><style>body{font-family:system-ui,sans-serif;margin:24px auto;max-width:1200px;padding:0 16px;"
       "color:#222;font-size:15px}h1{font-size:24px}h2{font-size:19px;margin-top:28px;border-bottom:1px solid #ccc}"
       "table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
-      "th{background:#f3f3f3}td.t,th.t,td:first-child{text-align:left}table.m td{min-width:18px;height:20px}"
+      "th{background:#f3f3f3}td.t,th.t,td:first-child{text-align:left}table.m "
+      "td{min-width:18px;height:20px}td.c{text-align:center;color:#fff;font-weight:700}"
       ".k{display:inline-block;width:14px;height:14px;vertical-align:middle;margin:0 2px 0 10px}"
       ".ok{color:#1a7f37;font-weight:600}.bad{color:#c62828;font-weight:600}.note{color:#555;font-size:13px}"
       "</style></head><body>";

@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "headless_browser.h"
 #include "session_under_test.h"
 #include "slurm_cluster.h"
 
@@ -175,7 +176,17 @@ TEST(Dataset, ThreeParticipantsAreCataloguedCheckedCompletedSplitReleasedAndOneW
     EXPECT_FALSE(flags_of(s, code).count("take_check")) << s["flags"].dump(1);
   }
   EXPECT_FALSE(flags_of(s, "P01").count("not_verified_clean")) << s["flags"].dump(1);
-  EXPECT_TRUE(fs::exists(lab.dataset / "dataset.html"));
+  {  // The page a person reads: the matrix as the JSON says it, in a real browser.
+    HeadlessBrowser browser(1200, 900);
+    ASSERT_TRUE(browser.ok()) << "chromium is not installed (scripts/deps.sh --tests installs it)";
+    const std::string tab = browser.open("file://" + (lab.dataset / "dataset.html").string());
+    ASSERT_FALSE(tab.empty());
+    EXPECT_EQ(browser.eval(tab, "document.querySelectorAll(\"td[title$=': done']\").length"), 10)
+        << "P01 and P02: 4 each, P03: the right hand's 2";
+    EXPECT_EQ(browser.eval(tab, "document.querySelectorAll(\"td[title$=': missing']\").length"), 6);
+    EXPECT_NE(browser.dom(tab).find("condition_unplanned"), std::string::npos);
+    EXPECT_TRUE(browser.errors().empty());
+  }
 
   // A rescan reads nothing unchanged; the calibrated folder is read again and its flag goes.
   r = run_pvcap(fmt::format("dataset status {}", lab.dataset.string()));
