@@ -237,8 +237,10 @@ int run_release(const DatasetArgs& a, const AppContext& ctx) {
 int run_release_job(const DatasetArgs& a, const std::atomic<bool>& stop) {
   auto plan = dataset::load_plan(dataset::load_dataset(a.dir).dir, a.out);
   if (!plan) throw UserError(plan.error().message);
+  const auto started = std::chrono::steady_clock::now();
   if (auto s = dataset::run_release_job(plan.value(), a.index, stop); !s.ok()) throw UserError(s.error().message);
-  fmt::print("job {}: {} exported\n", a.index, plan.value().sessions.at(a.index));
+  fmt::print("job {}: {} exported in {:.1f} s\n", a.index, plan.value().sessions.at(a.index),
+             std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
   return 0;
 }
 
