@@ -182,6 +182,7 @@ int run_split(const DatasetArgs& a, const std::atomic<bool>& stop) {
 
 // The release's last step, from the catalogue as the release was prepared.
 int finish(const fs::path& dir, const fs::path& out, const std::atomic<bool>& stop) {
+  const auto started = std::chrono::steady_clock::now();
   const Loaded l = load(dir, false, stop);
   auto plan = dataset::load_plan(l.config.dir, out);
   if (!plan) throw UserError(plan.error().message);
@@ -190,9 +191,11 @@ int finish(const fs::path& dir, const fs::path& out, const std::atomic<bool>& st
     throw UserError(fmt::format("{}: missing; a release needs its splits", (l.config.dir / "splits.json").string()));
   auto r = dataset::finish_release(l.config, plan.value(), l.status, *splits, l.sessions);
   if (!r) throw UserError(r.error().message);
-  fmt::print("{}: {} sequences, {} frames, {} files ({:.1f} MB); check with: cd {} && sha256sum -c SHA256SUMS\n",
-             plan.value().out.string(), r.value().sequences, r.value().frames, r.value().files,
-             double(r.value().bytes) / 1e6, plan.value().out.string());
+  fmt::print(
+      "{}: {} sequences, {} frames, {} files ({:.1f} MB); finished in {:.1f} s; check with: cd {} && sha256sum -c "
+      "SHA256SUMS\n",
+      plan.value().out.string(), r.value().sequences, r.value().frames, r.value().files, double(r.value().bytes) / 1e6,
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(), plan.value().out.string());
   return 0;
 }
 

@@ -55,7 +55,7 @@ echo "dataset scan, again with nothing changed: $(per "$t1" "$t2" "$sessions")"
 "$pvcap" --log-level warn dataset split "$work/dataset" --test 1 --val 0 --seed 1 > /dev/null
 
 t0=$(now); "$pvcap" --log-level warn dataset release "$work/dataset" --out "$work/local" > "$work/local.log"; t1=$(now)
-echo "dataset release, local (--jobs 2): $(per "$t0" "$t1" "$sessions"); $(tail -1 "$work/local.log" | cut -d';' -f1)"
+echo "dataset release, local (--jobs 2): $(per "$t0" "$t1" "$sessions"); $(tail -1 "$work/local.log" | cut -d';' -f1-2)"
 
 # A one-node Slurm cluster in a network namespace of its own (as tests/integration/slurm_cluster.cpp).
 c=$work/cluster
@@ -101,6 +101,18 @@ $in_cluster "$pvcap" --log-level warn dataset release "$work/dataset" --out "$wo
   > "$work/slurm.log"
 t1=$(now)
 echo "dataset release, Slurm (one node, 2 CPUs, a task per session): $(per "$t0" "$t1" "$sessions")"
-echo "  its tasks took: $(cat "$work"/dataset/releases/*slurm/slurm-logs/*_*.log | sed -n 's/.* exported in \(.*\) s$/\1 s/p' | tr '\n' ' ')"
+logs=$(echo "$work"/dataset/releases/*slurm/slurm-logs)
+echo "  its tasks took: $(cat "$logs"/*_*.log | sed -n 's/.* exported in \(.*\) s$/\1 s/p' | tr '\n' ' '); the final job: $(sed -n 's/.*finished in \(.*\) s;.*/\1 s/p' "$logs"/finish-*.log)"
+# When the controller started and ended each job, from its log (seconds after the submission).
+/usr/bin/python3 - "$c/slurmctld.log" "$t0" <<'PY'
+import re, sys, datetime
+t0 = float(sys.argv[2])
+for line in open(sys.argv[1]):
+    m = re.match(r"\[(\S+)\] (.*)", line)
+    if not m or not re.search(r"sched: Allocate|_job_complete: JobId=\S+ done", m.group(2)):
+        continue
+    t = datetime.datetime.fromisoformat(m.group(1)).timestamp()
+    print(f"  controller at +{t - t0:6.1f} s: {m.group(2)[:90]}")
+PY
 if diff -r "$work/local" "$work/slurm" > /dev/null; then echo "the Slurm release equals the local one file for file"
 else echo "the Slurm release differs from the local one"; exit 1; fi

@@ -44,17 +44,17 @@ const char* display_name(Force f) {
   return "Any force";
 }
 
-Force parse_force(const std::string& s) {
+const char* to_string(Hand h) { return h == Hand::Left ? "left" : "right"; }
+
+namespace {
+
+Force parse_force(const std::string& s) {  // std::invalid_argument for anything else
   if (s == "low") return Force::Low;
   if (s == "high") return Force::High;
   if (s == "no_contact") return Force::NoContact;
   if (s == "any") return Force::Any;
   throw std::invalid_argument(s);
 }
-
-const char* to_string(Hand h) { return h == Hand::Left ? "left" : "right"; }
-
-namespace {
 
 // A pictogram is served to the participant's browser by the recorder (often run as root): it must
 // be an image in the protocol file's own folder (or below it), never any file the path can reach.

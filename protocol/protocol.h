@@ -61,8 +61,6 @@ Protocol parse_protocol(const std::string& yaml_text, const std::filesystem::pat
 enum class Hand { Left, Right };
 const char* to_string(Hand h);
 
-Force parse_force(const std::string& s);  // throws std::invalid_argument for anything else
-
 // One take to perform: an action with one hand.
 struct PlannedTake {
   int step = 0;  // position in the plan, from 0
