@@ -206,7 +206,7 @@ int run_release(const DatasetArgs& a, const AppContext& ctx) {
                                 (l.config.dir / "splits.json").string(), a.dir.string()));
   if (const auto leaks = leakage(l); !leaks.empty())
     throw UserError(fmt::format("the splits leak, so no release:\n  {}", fmt::join(leaks, "\n  ")));
-  auto plan = dataset::prepare_release(l.config.dir, l.sessions, l.withdrawals, a.out, a.layout);
+  auto plan = dataset::prepare_release(l.config.dir, l.sessions, l.takes, l.withdrawals, a.out, a.layout);
   if (!plan) throw UserError(plan.error().message);
   const auto& p = plan.value();
   fmt::print("release of {} session folders ({} participants) into {}; {} to export\n", p.sessions.size(),

@@ -174,11 +174,33 @@ std::string datasheet(const DatasetConfig& c, const ReleasePlan& plan, const Dat
   return md;
 }
 
+// The sequence folders of every done take, per participant in the order of their sessions (the
+// plan's order: participant, then start).
+std::map<std::string, std::map<std::string, std::string>> name_sequence_folders(
+    const std::vector<std::string>& planned, const std::vector<CatalogSession>& sessions,
+    const std::vector<CatalogTake>& takes) {
+  std::map<std::string, std::string> participant_of;
+  for (const auto& s : sessions) participant_of[s.folder] = s.participant;
+  std::map<std::string, std::set<std::string>> used;  // participant -> folder names given
+  std::map<std::string, std::map<std::string, std::string>> out;
+  for (const auto& folder : planned) {
+    auto& taken = used[participant_of[folder]];
+    for (const auto& t : takes) {
+      if (t.folder != folder || t.status != "done") continue;
+      std::string name = t.sequence;
+      for (int n = 2; taken.count(name); ++n) name = fmt::format("{}({})", t.sequence, n);
+      taken.insert(name);
+      out[folder][fmt::format("{}:{}", t.step, t.start_ns.value_or(0))] = name;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 Result<ReleasePlan> prepare_release(const fs::path& dataset_dir, const std::vector<CatalogSession>& sessions,
-                                    const std::vector<Withdrawal>& withdrawals, const fs::path& out_given,
-                                    const std::string& layout) {
+                                    const std::vector<CatalogTake>& takes, const std::vector<Withdrawal>& withdrawals,
+                                    const fs::path& out_given, const std::string& layout) {
   ReleasePlan plan;
   plan.out = fs::absolute(out_given).lexically_normal();
   plan.book = bookkeeping(dataset_dir, plan.out);
@@ -190,6 +212,7 @@ Result<ReleasePlan> prepare_release(const fs::path& dataset_dir, const std::vect
     codes.insert(s.participant);
   }
   plan.participants.assign(codes.begin(), codes.end());
+  plan.sequence_folders = name_sequence_folders(plan.sessions, sessions, takes);
   if (plan.sessions.empty())
     return Error{"the catalogue holds no session to release (run `pvcap dataset status` to scan)"};
   std::error_code ec;
@@ -197,7 +220,10 @@ Result<ReleasePlan> prepare_release(const fs::path& dataset_dir, const std::vect
   if (!ec) fs::create_directories(plan.out, ec);
   if (ec) return Error{fmt::format("{}: cannot be made: {}", plan.out.string(), ec.message())};
   const fs::path plan_file = plan.book / "plan.json";
-  const json j = {{"layout", plan.layout}, {"sessions", plan.sessions}, {"participants", plan.participants}};
+  const json j = {{"layout", plan.layout},
+                  {"sessions", plan.sessions},
+                  {"participants", plan.participants},
+                  {"sequence_folders", plan.sequence_folders}};
   if (fs::exists(plan_file)) {
     const json before = read_json_file(plan_file, json::object());
     if (before != j)
@@ -231,6 +257,11 @@ Result<ReleasePlan> load_plan(const fs::path& dataset_dir, const fs::path& out_g
   plan.layout = r.text("layout");
   plan.sessions = r.texts("sessions");
   plan.participants = r.texts("participants");
+  if (j.contains("sequence_folders") && j["sequence_folders"].is_object())
+    for (const auto& [session, names] : j["sequence_folders"].items()) {
+      const RecordReader n(names, plan.book / "plan.json");
+      for (const auto& [key, value] : names.items()) plan.sequence_folders[session][key] = n.text(key.c_str());
+    }
   return plan;
 }
 
@@ -249,6 +280,8 @@ Status run_release_job(const ReleasePlan& plan, std::size_t i, const std::atomic
   if (job_done(plan, i)) return {};
   exporting::ExportOptions o;
   o.out = plan.out;
+  if (const auto names = plan.sequence_folders.find(plan.sessions[i]); names != plan.sequence_folders.end())
+    o.sequence_folders = names->second;
   o.layout =
       plan.layout == "pressurevision-plus" ? exporting::Layout::PressureVisionPlus : exporting::Layout::PressureVision;
   auto r = exporting::export_session(plan.sessions[i], o, stop);

@@ -18,6 +18,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -35,13 +36,17 @@ struct ReleasePlan {
   std::string layout;                     // pressurevision | pressurevision-plus
   std::vector<std::string> sessions;      // folders, in participant then time order
   std::vector<std::string> participants;  // codes, sorted
+  // Each session's done takes' sequence folders ("<step>:<start_ns>" -> folder), named in session
+  // order per participant before any job runs: a participant's second take of one name is "(2)"
+  // whichever job runs first.
+  std::map<std::string, std::map<std::string, std::string>> sequence_folders;
 };
 
 // The dataset's folder holding a release's plan and done markers.
 std::filesystem::path bookkeeping(const std::filesystem::path& dataset_dir, const std::filesystem::path& out);
 
 Result<ReleasePlan> prepare_release(const std::filesystem::path& dataset_dir,
-                                    const std::vector<CatalogSession>& sessions,
+                                    const std::vector<CatalogSession>& sessions, const std::vector<CatalogTake>& takes,
                                     const std::vector<Withdrawal>& withdrawals, const std::filesystem::path& out,
                                     const std::string& layout);
 Result<ReleasePlan> load_plan(const std::filesystem::path& dataset_dir, const std::filesystem::path& out);

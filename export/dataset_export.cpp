@@ -326,6 +326,12 @@ class SessionExport {
       const json source = {{"session", here_}, {"step", p.take->step}, {"start_ns", p.take->start_ns.value_or(0)}};
       if (!safe_name(p.take->sequence))
         return Error{fmt::format("{}: take name '{}' cannot be a folder name", session_.string(), p.take->sequence)};
+      const auto named = o_.sequence_folders.find(fmt::format("{}:{}", p.take->step, p.take->start_ns.value_or(0)));
+      if (named != o_.sequence_folders.end()) {
+        if (auto s = named_folder(p, named->second, source); !s.ok()) return s;
+        taken.insert(named->second);
+        continue;
+      }
       for (int n = 1;; ++n) {
         const std::string name = n == 1 ? p.take->sequence : fmt::format("{}({})", p.take->sequence, n);
         if (taken.count(name)) continue;
@@ -346,6 +352,28 @@ class SessionExport {
         break;
       }
     }
+    return {};
+  }
+
+  // A take's folder given by the caller: made (or found holding this take); one holding another
+  // take is an error, never overwritten.
+  Status named_folder(PlannedSequence& p, const std::string& name, const json& source) {
+    if (!safe_name(name)) return Error{fmt::format("the sequence folder '{}' is not a name pvcap makes", name)};
+    const fs::path dir = result_.participant_folder / name, marker = dir / "pvcap_source.json";
+    if (fs::exists(marker)) {
+      std::ifstream in(marker);
+      if (json::parse(in, nullptr, false) != source)
+        return Error{fmt::format("{}: holds another take than {} step {}; export into an empty folder", dir.string(),
+                                 here_, p.take->step)};
+    } else if (fs::exists(dir) && !fs::is_empty(dir)) {
+      return Error{fmt::format("{}: holds files pvcap did not write; export into an empty folder", dir.string())};
+    }
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) return Error{fmt::format("{}: cannot be made: {}", dir.string(), ec.message())};
+    if (!fs::exists(marker))
+      if (auto w = write_atomically(marker, source.dump(2) + "\n"); !w.ok()) return w;
+    p.folder = name;
     return {};
   }
 

@@ -19,6 +19,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -38,6 +39,11 @@ struct ExportOptions {
   int jpeg_quality = 95;
   bool npy = false;          // force frames as .npy instead of .pkl
   bool include_all = false;  // superseded, bad and interrupted takes too
+  // The sequence folder each take gets, by "<step>:<start_ns>" (a dataset release names them all
+  // before its jobs run, so two sessions of one participant with a take of the same name get the
+  // same folders in any order of jobs); a take not named here is named as usual: its sequence
+  // name, "(2)", "(3)"... after the folders other takes hold.
+  std::map<std::string, std::string> sequence_folders;
   // The paper's crop (spec 2.2): each camera's frames cut to the pad with a 50 px border, grown to
   // 480:384 and resized to 480 x 384; the intrinsics and homographies follow, so the loaders' own
   // geometry lands on the cropped frames (train with CROP_IMAGES off: they are cropped already).

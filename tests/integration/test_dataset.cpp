@@ -290,7 +290,7 @@ TEST(Dataset, ThreeParticipantsAreCataloguedCheckedCompletedSplitReleasedAndOneW
 TEST(Dataset, ASlurmReleaseEqualsTheLocalOneFileForFileAndAResubmissionSkipsWhatIsDone) {
   Lab lab("dataset-slurm");
   RemovedAtEnd cleanup{lab.work};
-  for (const std::string code : {"S01", "S02"}) {
+  for (const std::string code : {"S01", "S02", "S01"}) {  // S01 twice: each take of theirs twice
     const auto before = lab.folders();
     const auto r =
         run_pvcap(lab.session_args(code, fmt::format("--protocol {} --lighting LCR", lab.protocol.string())));
@@ -315,9 +315,12 @@ TEST(Dataset, ASlurmReleaseEqualsTheLocalOneFileForFileAndAResubmissionSkipsWhat
                             lab.dataset.string(), slurm.string()),
                 cluster.prefix());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("2 task(s) in job array"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("3 task(s) in job array"), std::string::npos) << r.output;
   const auto a = files_and_bytes(local), b = files_and_bytes(slurm);
   ASSERT_GT(a.size(), 10u);
+  EXPECT_TRUE(a.count("0001_S01/press_index_finger_low_2x_right/metadata.json"));
+  EXPECT_TRUE(a.count("0001_S01/press_index_finger_low_2x_right(2)/metadata.json"))
+      << "the second session's take of the same name";
   std::vector<std::string> differ;
   for (const auto& [name, bytes] : a)
     if (!b.count(name) || b.at(name) != bytes) differ.push_back(name);

@@ -332,3 +332,37 @@ TEST(DatasetRelease, TheCroissantMetadataHoldsTheFieldsItsSpecificationRequires)
   }
   EXPECT_EQ(m["recordSet"][0]["field"].size(), 3u);
 }
+
+TEST(DatasetRelease, APlansFoldersAreFixedBeforeAnyJobRunsAndASecondTakeOfANameIsTheSecondFolder) {
+  Folder f;
+  std::vector<CatalogSession> sessions = {session("/s/a", "P01"), session("/s/b", "P01"), session("/s/c", "P02")};
+  sessions[0].started_wall_ns = 1;
+  sessions[1].started_wall_ns = 2;
+  auto at = [](CatalogTake t, int step, std::int64_t start) {
+    t.step = step;
+    t.start_ns = start;
+    return t;
+  };
+  const std::vector<CatalogTake> takes = {
+      at(take("/s/a", "pull", "left", "done"), 0, 100), at(take("/s/a", "pull", "right", "superseded"), 1, 150),
+      at(take("/s/b", "pull", "left", "done"), 0, 200), at(take("/s/c", "pull", "left", "done"), 0, 300)};
+  const fs::path out = f.dir / "release";
+  auto plan = prepare_release(f.dir, sessions, takes, {{"P02", "withdrew", 1, {}, false}}, out, "pressurevision");
+  ASSERT_TRUE(plan) << plan.error().message;
+  EXPECT_EQ(plan.value().sessions, (std::vector<std::string>{"/s/a", "/s/b"}));
+  EXPECT_EQ(plan.value().participants, (std::vector<std::string>{"P01"}));
+  const auto& names = plan.value().sequence_folders;
+  EXPECT_EQ(names.at("/s/a").at("0:100"), "pull_x_left");
+  EXPECT_EQ(names.at("/s/a").count("1:150"), 0u) << "only done takes are released";
+  EXPECT_EQ(names.at("/s/b").at("0:200"), "pull_x_left(2)");
+  EXPECT_EQ(dataset::read_json_file(out / "participants.json", nullptr), json({{"P01", "0001_P01"}}));
+  // The plan is read back as written; another plan into the same folder is refused.
+  auto loaded = load_plan(f.dir, out);
+  ASSERT_TRUE(loaded) << loaded.error().message;
+  EXPECT_EQ(loaded.value().sequence_folders, names);
+  EXPECT_TRUE(prepare_release(f.dir, sessions, takes, {{"P02", "withdrew", 1, {}, false}}, out, "pressurevision"));
+  auto other = prepare_release(f.dir, sessions, takes, {}, out, "pressurevision");
+  ASSERT_FALSE(other);
+  EXPECT_NE(other.error().message.find("other sessions"), std::string::npos) << other.error().message;
+  EXPECT_EQ(pending_jobs(loaded.value()).size(), 2u);
+}
