@@ -190,8 +190,17 @@ Result<ScanResult> scan(const DatasetConfig& c, CatalogDb& db, const ScanProgres
     }
     auto r = read_session(folders[i]);
     if (!r) {
-      out.problems.push_back(fmt::format("{}: not catalogued: {}", folder, r.error().message));
-      continue;
+      // Damaged beyond reading: catalogued as such (status flags it), not left out of sight.
+      out.problems.push_back(fmt::format("{}: cannot be read: {}", folder, r.error().message));
+      CatalogSession damaged;
+      damaged.folder = damaged.original = folder;
+      damaged.fingerprint = session_fingerprint(folders[i]);
+      damaged.participant = participant_of(folders[i]);
+      damaged.skin_tone = damaged.hand_order = damaged.lighting = damaged.overlay = "unrecorded";
+      damaged.verify_exit = 1;
+      damaged.facts_json =
+          json{{"verify", {{"exit", 1}, {"losses", json::array()}, {"errors", {r.error().message}}}}}.dump();
+      r = std::make_pair(std::move(damaged), std::vector<CatalogTake>{});
     }
     if (auto p = db.put(r.value().first, r.value().second); !p.ok()) return p.error();
     keep.push_back(folder);

@@ -20,7 +20,7 @@ namespace pvcap::dataset {
 
 struct ScanResult {
   std::size_t found = 0, read = 0, unchanged = 0, forgotten = 0, withdrawn = 0;
-  std::vector<std::string> problems;  // folders that could not be read, each with why
+  std::vector<std::string> problems;  // folders that could not be read (catalogued as failed), each with why
   double seconds = 0;
 };
 

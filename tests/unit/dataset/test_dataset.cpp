@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/result.h"
+#include "dataset/catalog.h"
 #include "dataset/completeness.h"
 #include "dataset/dataset_folder.h"
 #include "dataset/release.h"
@@ -365,4 +366,32 @@ TEST(DatasetRelease, APlansFoldersAreFixedBeforeAnyJobRunsAndASecondTakeOfANameI
   ASSERT_FALSE(other);
   EXPECT_NE(other.error().message.find("other sessions"), std::string::npos) << other.error().message;
   EXPECT_EQ(pending_jobs(loaded.value()).size(), 2u);
+}
+
+TEST(DatasetCatalogue, AFolderThatCannotBeReadIsCataloguedAsFailedNotLeftOut) {
+  Folder f;
+  fs::create_directories(f.dir / "sessions" / "20261125-000000_rig");
+  std::ofstream(f.dir / "sessions" / "20261125-000000_rig" / "session.db") << "not a session index";
+  DatasetConfig c;
+  c.dir = f.dir;
+  c.name = "t";
+  c.session_roots = {f.dir / "sessions"};
+  auto db = CatalogDb::open(f.dir / "catalog.db");
+  ASSERT_TRUE(db);
+  std::atomic<bool> stop{false};
+  auto r = scan(c, *db.value(), nullptr, stop);
+  ASSERT_TRUE(r) << r.error().message;
+  EXPECT_EQ(r.value().found, 1u);
+  ASSERT_EQ(r.value().problems.size(), 1u);
+  EXPECT_NE(r.value().problems[0].find("cannot be read"), std::string::npos) << r.value().problems[0];
+  const auto sessions = db.value()->sessions();
+  ASSERT_EQ(sessions.size(), 1u);
+  EXPECT_EQ(sessions[0].verify_exit, 1);
+  const auto s = compute_status(c, f.protocol, sessions, {}, {});
+  EXPECT_TRUE(kinds(s, "unrecorded").count("not_verified_clean"));
+  // Unchanged, it is not read again.
+  auto again = scan(c, *db.value(), nullptr, stop);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again.value().unchanged, 1u);
+  EXPECT_TRUE(again.value().problems.empty());
 }
