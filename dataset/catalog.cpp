@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <future>
+#include <mutex>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -112,7 +113,8 @@ std::string session_fingerprint(const fs::path& folder) {
   return out;
 }
 
-Result<std::pair<CatalogSession, std::vector<CatalogTake>>> read_session(const fs::path& folder) {
+Result<std::pair<CatalogSession, std::vector<CatalogTake>>> read_session(
+    const fs::path& folder, const std::function<void(const std::string&)>& step) {
   CatalogSession s;
   s.folder = fs::absolute(folder).lexically_normal().string();
   s.fingerprint = session_fingerprint(folder);
@@ -129,11 +131,18 @@ Result<std::pair<CatalogSession, std::vector<CatalogTake>>> read_session(const f
   }
   // The two that decode video run side by side (each with its own reader): verify decodes every
   // kept frame, the report's self-check the frames around the presses.
-  auto verified = std::async(std::launch::async, [&folder] { return verify_session(folder); });
+  auto verified = std::async(std::launch::async, [&folder, &step] {
+    return verify_session(folder, [&step](const std::string& s) {
+      if (step) step("verify: " + s);
+    });
+  });
   json report;
   try {
     report::ReportOptions o;
     o.thumbnails = false;
+    o.progress = [&step](const std::string& what, std::size_t done, std::size_t total) {
+      if (step) step(fmt::format("report: {} ({}/{})", what, done, total));
+    };
     auto r = report::build_report(folder, o);
     if (!r) return r.error();
     report = std::move(r.value());
@@ -188,7 +197,12 @@ Result<ScanResult> scan(const DatasetConfig& c, CatalogDb& db, const ScanProgres
       ++out.withdrawn;
       continue;
     }
-    auto r = read_session(folders[i]);
+    // What each of the two readers is at (they run on two threads), said as the folder's progress.
+    std::mutex said;
+    auto r = read_session(folders[i], [&](const std::string& step) {
+      std::lock_guard lock(said);
+      if (progress) progress(i, folders.size(), folders[i].filename().string() + ": " + step);
+    });
     if (!r) {
       // Damaged beyond reading: catalogued as such (status flags it), not left out of sight.
       out.problems.push_back(fmt::format("{}: cannot be read: {}", folder, r.error().message));

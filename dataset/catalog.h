@@ -24,7 +24,8 @@ struct ScanResult {
   double seconds = 0;
 };
 
-// Called before each folder is read (done of total) with its name.
+// Called before each folder is read (done of total) with its name, and while a folder is read with
+// its name and what the reading is at (verify's file, the report's step).
 using ScanProgress = std::function<void(std::size_t done, std::size_t total, const std::string& folder)>;
 
 // The session folders under the roots (a folder holding session.db, at most two levels down;
@@ -36,7 +37,9 @@ std::string session_fingerprint(const std::filesystem::path& folder);
 Result<ScanResult> scan(const DatasetConfig& c, CatalogDb& db, const ScanProgress& progress,
                         const std::atomic<bool>& stop);
 
-// Reads one session folder into its catalogue rows (what scan does for a changed folder).
-Result<std::pair<CatalogSession, std::vector<CatalogTake>>> read_session(const std::filesystem::path& folder);
+// Reads one session folder into its catalogue rows (what scan does for a changed folder); `step`,
+// when given, is told what it is at (from two threads, never at once).
+Result<std::pair<CatalogSession, std::vector<CatalogTake>>> read_session(
+    const std::filesystem::path& folder, const std::function<void(const std::string&)>& step = nullptr);
 
 }  // namespace pvcap::dataset

@@ -181,6 +181,12 @@ TEST(Dataset, ThreeParticipantsAreCataloguedCheckedCompletedSplitReleasedAndOneW
     ASSERT_TRUE(browser.ok()) << "chromium is not installed (scripts/deps.sh --tests installs it)";
     const std::string tab = browser.open("file://" + (lab.dataset / "dataset.html").string());
     ASSERT_FALSE(tab.empty());
+    bool loaded = false;  // navigation returns before the page has loaded
+    for (int i = 0; i < 200 && !loaded; ++i) {
+      loaded = browser.eval(tab, "document.readyState === 'complete' && document.title.startsWith('Dataset')") == true;
+      if (!loaded) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    ASSERT_TRUE(loaded);
     EXPECT_EQ(browser.eval(tab, "document.querySelectorAll(\"td[title$=': done']\").length"), 10)
         << "P01 and P02: 4 each, P03: the right hand's 2";
     EXPECT_EQ(browser.eval(tab, "document.querySelectorAll(\"td[title$=': missing']\").length"), 6);
