@@ -101,7 +101,7 @@ $in_cluster "$pvcap" --log-level warn dataset release "$work/dataset" --out "$wo
   > "$work/slurm.log"
 t1=$(now)
 echo "dataset release, Slurm (one node, 2 CPUs, a task per session): $(per "$t0" "$t1" "$sessions")"
-logs=$(echo "$work"/dataset/releases/*slurm/slurm-logs)
+logs=$(echo "$work"/dataset/releases/*slurm-*/slurm-logs)
 echo "  its tasks took: $(cat "$logs"/*_*.log | sed -n 's/.* exported in \(.*\) s$/\1 s/p' | tr '\n' ' '); the final job: $(sed -n 's/.*finished in \(.*\) s;.*/\1 s/p' "$logs"/finish-*.log)"
 # When the controller started and ended each job, from its log (seconds after the submission).
 /usr/bin/python3 - "$c/slurmctld.log" "$t0" <<'PY'

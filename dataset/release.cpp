@@ -22,11 +22,13 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 fs::path bookkeeping(const fs::path& dataset_dir, const fs::path& out) {
-  std::string name = fs::absolute(out).lexically_normal().string();
-  while (!name.empty() && name.back() == '/') name.pop_back();
+  std::string path = fs::absolute(out).lexically_normal().string();
+  while (path.size() > 1 && path.back() == '/') path.pop_back();
+  std::string name = path;
   for (char& ch : name)
     if (ch == '/') ch = '_';
-  return dataset_dir / "releases" / name;
+  // The path's own hash beside it: /a/b_c and /a_b/c must not share one plan and its done markers.
+  return dataset_dir / "releases" / (name + "-" + exporting::sha256_hex(path).substr(0, 8));
 }
 
 namespace {
@@ -52,7 +54,8 @@ std::vector<ReleasedSequence> released_sequences(const fs::path& out, const std:
   std::error_code ec;
   for (fs::directory_iterator p(out, ec), end; !ec && p != end; p.increment(ec)) {
     if (!p->is_directory() || p->path().filename().string().rfind('.', 0) == 0) continue;
-    for (fs::directory_iterator q(p->path(), ec), qend; !ec && q != qend; q.increment(ec)) {
+    std::error_code inner;
+    for (fs::directory_iterator q(p->path(), inner), qend; !inner && q != qend; q.increment(inner)) {
       if (!fs::exists(q->path() / meta_name)) continue;  // not (yet) complete
       ReleasedSequence s;
       s.participant_folder = p->path().filename().string();

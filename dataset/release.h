@@ -12,7 +12,7 @@
 //   finish   once every job is done: splits.json, README.md, croissant.json, SHA256SUMS, and the
 //            release recorded in the dataset's releases.json.
 // The plan, the done markers and a scheduler's scripts and logs are kept in the dataset folder
-// (DIR/releases/<the release folder's path>/), never in the release, which holds only what the
+// (DIR/releases/<the release folder's path>-<hash>/), never in the release, which holds only what the
 // layout and the release's own files name.
 #include <atomic>
 #include <cstddef>
