@@ -37,7 +37,7 @@ struct DatasetArgs {
   fs::path out;
   std::string layout = "pressurevision", scheduler = "local";
   int jobs = 2;
-  bool wait = false;
+  bool wait = false, compact = false;
   std::size_t index = 0;
   std::string participant, reason;
   bool purge = false;
@@ -206,11 +206,11 @@ int run_release(const DatasetArgs& a, const AppContext& ctx) {
                                 (l.config.dir / "splits.json").string(), a.dir.string()));
   if (const auto leaks = leakage(l); !leaks.empty())
     throw UserError(fmt::format("the splits leak, so no release:\n  {}", fmt::join(leaks, "\n  ")));
-  auto plan = dataset::prepare_release(l.config.dir, l.sessions, l.takes, l.withdrawals, a.out, a.layout);
+  auto plan = dataset::prepare_release(l.config.dir, l.sessions, l.takes, l.withdrawals, a.out, a.layout, a.compact);
   if (!plan) throw UserError(plan.error().message);
   const auto& p = plan.value();
-  fmt::print("release of {} session folders ({} participants) into {}; {} to export\n", p.sessions.size(),
-             p.participants.size(), p.out.string(), dataset::pending_jobs(p).size());
+  fmt::print("release of {} session folders ({} participants) into {}; {} to {}export\n", p.sessions.size(),
+             p.participants.size(), p.out.string(), dataset::pending_jobs(p).size(), p.compact ? "compact and " : "");
   if (a.scheduler == "slurm") {
     auto s = dataset::submit_to_slurm(ctx.self_exe, l.config.dir, p, a.wait);
     if (!s) throw UserError(s.error().message);
@@ -360,6 +360,8 @@ Registered add_dataset_command(CLI::App& app, AppContext& ctx) {
       ->check(CLI::IsMember({"local", "slurm"}));
   release->add_option("--jobs", a->jobs, "local: sessions exported at once (default 2)")->check(CLI::Range(1, 64));
   release->add_flag("--wait", a->wait, "slurm: return once the release is finished");
+  release->add_flag("--compact", a->compact,
+                    "each session's job first compacts its raw video (pvcap compact: denser, bit-exact)");
 
   auto* job = d->add_subcommand("release-job", "one session of a prepared release (a Slurm array task runs it)");
   job->add_option("DIR", a->dir, "the dataset folder")->required();

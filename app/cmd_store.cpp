@@ -1,10 +1,13 @@
-// The store's own tools: `pvcap takes`, `pvcap verify`, `pvcap recover`, `pvcap migrate`.
+// The store's own tools: `pvcap takes`, `pvcap verify`, `pvcap recover`, `pvcap migrate`,
+// `pvcap compact`.
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "app/command.h"
+#include "app/progress_line.h"
 #include "protocol/takes.h"
 #include "session/realign.h"
+#include "storage/compact.h"
 #include "storage/recover.h"
 #include "storage/verify.h"
 
@@ -83,6 +86,65 @@ Registered add_migrate_command(CLI::App& app, AppContext&) {
             }
             for (const auto& d : r.value()) fmt::print("{}: {}\n", *dir, d);
             return 0;
+          }};
+}
+
+Registered add_compact_command(CLI::App& app, AppContext& ctx) {
+  auto dirs = std::make_shared<std::vector<std::string>>();
+  auto o = std::make_shared<CompactOptions>();
+  auto* c = app.add_subcommand("compact",
+                               "re-encode finished sessions' raw videos to a denser lossless codec, every frame "
+                               "checked bit for bit before an old file is removed (safe to stop at any moment)");
+  c->add_option("SESSION", *dirs, "session folders, one after another")->required()->check(CLI::ExistingDirectory);
+  c->add_option("--codec", o->codec, "libx264 (lossless, inter prediction) or ffv1 (intra only)")
+      ->check(CLI::IsMember({"libx264", "ffv1"}))
+      ->capture_default_str();
+  c->add_option("--preset", o->preset, "libx264's preset: slower is smaller")->capture_default_str();
+  c->add_option("--gop", o->gop_frames, "frames between key frames (what a random read decodes at most)")
+      ->check(CLI::Range(1, 600))
+      ->capture_default_str();
+  c->add_option("--threads", o->threads, "encoder threads")->check(CLI::Range(1, 64))->capture_default_str();
+  return {c, [dirs, o, &ctx] {
+            int failed = 0;
+            for (const auto& dir : *dirs) {
+              ProgressLine line;
+              CompactOptions options = *o;
+              options.stop = &ctx.stop;
+              const auto started = std::chrono::steady_clock::now();
+              options.progress = [&](const std::string& segment, std::int64_t done, std::int64_t total,
+                                     std::int64_t all_done, std::int64_t all_total) {
+                const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+                const double rate = s > 0 ? double(all_done) / s : 0;
+                line.show(fmt::format("compact: {} {}/{} frames; session {}/{} frames, {:.1f} frames/s, {:.0f} s left",
+                                      segment, done, total, all_done, all_total, rate,
+                                      rate > 0 ? double(all_total - all_done) / rate : 0),
+                          std::size_t(all_done), std::size_t(all_total));
+              };
+              auto r = compact_session(dir, options);
+              if (!r) {
+                line.abandon();
+                spdlog::error("{}", r.error().message);
+                ++failed;
+                continue;
+              }
+              const auto& rep = r.value();
+              fmt::print("session {}\n", dir);
+              for (const auto& d : rep.done) fmt::print("  {}\n", d);
+              if (rep.segments_compacted > 0)
+                fmt::print(
+                    "compacted {} segments, {} frames in {:.1f} s ({:.1f} frames/s): {:.1f} -> {:.1f} MB ({:.0f} %)\n",
+                    rep.segments_compacted, rep.frames, rep.elapsed_s,
+                    rep.elapsed_s > 0 ? double(rep.frames) / rep.elapsed_s : 0, double(rep.bytes_before) / 1e6,
+                    double(rep.bytes_after) / 1e6, 100.0 * double(rep.bytes_after) / double(rep.bytes_before));
+              if (rep.stopped) {
+                line.abandon();
+                fmt::print(
+                    "stopped: the segments above are compacted, the rest are as they were; run it again to "
+                    "go on\n");
+                return 130;
+              }
+            }
+            return failed ? 1 : 0;
           }};
 }
 

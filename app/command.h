@@ -36,6 +36,7 @@ Registered add_eval_sync_command(CLI::App& app, AppContext& ctx);
 Registered add_verify_command(CLI::App& app, AppContext& ctx);
 Registered add_recover_command(CLI::App& app, AppContext& ctx);
 Registered add_migrate_command(CLI::App& app, AppContext& ctx);
+Registered add_compact_command(CLI::App& app, AppContext& ctx);
 Registered add_dataset_command(CLI::App& app, AppContext& ctx);
 
 }  // namespace pvcap

@@ -90,7 +90,8 @@ int main(int argc, char** argv) {
       pvcap::add_sim_command(app, ctx),     pvcap::add_calibrate_command(app, ctx),
       pvcap::add_sensel_command(app, ctx),  pvcap::add_eval_sync_command(app, ctx),
       pvcap::add_verify_command(app, ctx),  pvcap::add_recover_command(app, ctx),
-      pvcap::add_migrate_command(app, ctx),  pvcap::add_dataset_command(app, ctx)};
+      pvcap::add_migrate_command(app, ctx), pvcap::add_dataset_command(app, ctx),
+      pvcap::add_compact_command(app, ctx)};
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

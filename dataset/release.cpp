@@ -15,6 +15,7 @@
 #include "core/version.h"
 #include "export/dataset_export.h"
 #include "export/sha256.h"
+#include "storage/compact.h"
 
 namespace pvcap::dataset {
 
@@ -203,11 +204,12 @@ std::map<std::string, std::map<std::string, std::string>> name_sequence_folders(
 
 Result<ReleasePlan> prepare_release(const fs::path& dataset_dir, const std::vector<CatalogSession>& sessions,
                                     const std::vector<CatalogTake>& takes, const std::vector<Withdrawal>& withdrawals,
-                                    const fs::path& out_given, const std::string& layout) {
+                                    const fs::path& out_given, const std::string& layout, bool compact) {
   ReleasePlan plan;
   plan.out = fs::absolute(out_given).lexically_normal();
   plan.book = bookkeeping(dataset_dir, plan.out);
   plan.layout = layout;
+  plan.compact = compact;
   std::set<std::string> codes;
   for (const auto& s : sessions) {
     if (is_withdrawn(withdrawals, s.participant)) continue;
@@ -223,17 +225,18 @@ Result<ReleasePlan> prepare_release(const fs::path& dataset_dir, const std::vect
   if (!ec) fs::create_directories(plan.out, ec);
   if (ec) return Error{fmt::format("{}: cannot be made: {}", plan.out.string(), ec.message())};
   const fs::path plan_file = plan.book / "plan.json";
-  const json j = {{"layout", plan.layout},
-                  {"sessions", plan.sessions},
-                  {"participants", plan.participants},
-                  {"sequence_folders", plan.sequence_folders}};
+  json j = {{"layout", plan.layout},
+            {"sessions", plan.sessions},
+            {"participants", plan.participants},
+            {"sequence_folders", plan.sequence_folders}};
+  if (plan.compact) j["compact"] = true;  // absent otherwise: an earlier plan compares equal
   if (fs::exists(plan_file)) {
     const json before = read_json_file(plan_file, json::object());
     if (before != j)
-      return Error{
-          fmt::format("{}: holds a release of other sessions or another layout; release into an empty "
-                      "folder (or remove it)",
-                      plan.out.string())};
+      return Error{fmt::format(
+          "{}: holds a release of other sessions, another layout or another --compact; release into an empty "
+          "folder (or remove it)",
+          plan.out.string())};
   } else if (auto w = write_file_atomically(plan_file, j.dump(2) + "\n"); !w.ok()) {
     return w.error();
   }
@@ -260,6 +263,7 @@ Result<ReleasePlan> load_plan(const fs::path& dataset_dir, const fs::path& out_g
   plan.layout = r.text("layout");
   plan.sessions = r.texts("sessions");
   plan.participants = r.texts("participants");
+  plan.compact = j.contains("compact") && j["compact"].is_boolean() && j["compact"].get<bool>();
   if (j.contains("sequence_folders") && j["sequence_folders"].is_object())
     for (const auto& [session, names] : j["sequence_folders"].items()) {
       const RecordReader n(names, plan.book / "plan.json");
@@ -281,6 +285,15 @@ Status run_release_job(const ReleasePlan& plan, std::size_t i, const std::atomic
   if (i >= plan.sessions.size())
     return Error{fmt::format("job {} is not in the release's plan ({} sessions)", i, plan.sessions.size())};
   if (job_done(plan, i)) return {};
+  if (plan.compact) {
+    CompactOptions c;
+    c.stop = &stop;
+    auto done = compact_session(plan.sessions[i], c);
+    if (!done) return done.error();
+    if (done.value().stopped)
+      return Error{
+          fmt::format("{}: interrupted while compacting; run the release again to finish it", plan.sessions[i])};
+  }
   exporting::ExportOptions o;
   o.out = plan.out;
   if (const auto names = plan.sequence_folders.find(plan.sessions[i]); names != plan.sequence_folders.end())

@@ -7,8 +7,9 @@
 // A release runs in three steps, so that a scheduler can run the middle one as a job array:
 //   prepare  the plan (plan.json: which session folders, in which layout) and OUT/participants.json
 //            (participant ids fixed in code order, so any order of jobs gives the same folders);
-//   job i    exports session i, then marks it done (done/i); a done job is skipped, an interrupted
-//            one resumes where it stopped (the export keeps whole files);
+//   job i    (with --compact: compacts session i's raw video first, storage/compact.h) exports
+//            session i, then marks it done (done/i); a done job is skipped, an interrupted one
+//            resumes where it stopped (the export keeps whole files, compact whole segments);
 //   finish   once every job is done: splits.json, README.md, croissant.json, SHA256SUMS, and the
 //            release recorded in the dataset's releases.json.
 // The plan, the done markers and a scheduler's scripts and logs are kept in the dataset folder
@@ -34,6 +35,7 @@ struct ReleasePlan {
   std::filesystem::path out;              // absolute
   std::filesystem::path book;             // its bookkeeping folder in the dataset
   std::string layout;                     // pressurevision | pressurevision-plus
+  bool compact = false;                   // each job compacts its session's raw video before exporting
   std::vector<std::string> sessions;      // folders, in participant then time order
   std::vector<std::string> participants;  // codes, sorted
   // Each session's done takes' sequence folders ("<step>:<start_ns>" -> folder), named in session
@@ -48,12 +50,12 @@ std::filesystem::path bookkeeping(const std::filesystem::path& dataset_dir, cons
 Result<ReleasePlan> prepare_release(const std::filesystem::path& dataset_dir,
                                     const std::vector<CatalogSession>& sessions, const std::vector<CatalogTake>& takes,
                                     const std::vector<Withdrawal>& withdrawals, const std::filesystem::path& out,
-                                    const std::string& layout);
+                                    const std::string& layout, bool compact = false);
 Result<ReleasePlan> load_plan(const std::filesystem::path& dataset_dir, const std::filesystem::path& out);
 bool job_done(const ReleasePlan& plan, std::size_t index);
 std::vector<std::size_t> pending_jobs(const ReleasePlan& plan);
 
-// Exports session `index` of the plan (skipping it when done).
+// Exports session `index` of the plan (skipping it when done), compacting it first when the plan says so.
 Status run_release_job(const ReleasePlan& plan, std::size_t index, const std::atomic<bool>& stop);
 
 // Every pending job on `workers` threads of this machine; progress is (jobs done, total, folder).

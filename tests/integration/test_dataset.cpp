@@ -19,6 +19,7 @@
 #include "headless_browser.h"
 #include "session_under_test.h"
 #include "slurm_cluster.h"
+#include "storage/sqlite/database.h"
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
@@ -317,11 +318,20 @@ TEST(Dataset, ASlurmReleaseEqualsTheLocalOneFileForFileAndAResubmissionSkipsWhat
   SlurmCluster cluster(lab.work / "cluster");
   const std::string why = cluster.start();
   ASSERT_EQ(why, "") << "the one-node Slurm cluster did not start";
-  r = run_pvcap(fmt::format("--log-level warn dataset release {} --out {} --scheduler slurm --wait",
+  // Each session's task also compacts its raw video first: the release from the compacted sessions
+  // must be the one made from them before, byte for byte.
+  r = run_pvcap(fmt::format("--log-level warn dataset release {} --out {} --scheduler slurm --wait --compact",
                             lab.dataset.string(), slurm.string()),
                 cluster.prefix());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("3 task(s) in job array"), std::string::npos) << r.output;
+  for (const auto& folder : lab.folders()) {
+    pvcap::sqlite::Database db(fs::path(folder) / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+    auto q = db.prepare("SELECT count(*), sum(codec = 'libx264') FROM video_files WHERE layout = 'bayer_planes'");
+    ASSERT_TRUE(q.step());
+    EXPECT_GT(q.column_int(0), 0) << folder;
+    EXPECT_EQ(q.column_int(1), q.column_int(0)) << folder << ": not every raw segment was compacted";
+  }
   const auto a = files_and_bytes(local), b = files_and_bytes(slurm);
   ASSERT_GT(a.size(), 10u);
   EXPECT_TRUE(a.count("0001_S01/press_index_finger_low_2x_right/metadata.json"));
@@ -335,10 +345,10 @@ TEST(Dataset, ASlurmReleaseEqualsTheLocalOneFileForFileAndAResubmissionSkipsWhat
   EXPECT_TRUE(differ.empty()) << "differ: " << fmt::format("{}", fmt::join(differ, ", "));
   EXPECT_EQ(std::system(fmt::format("cd {} && sha256sum --quiet -c SHA256SUMS", slurm.string()).c_str()), 0);
   // Submitted again: every session is done, so only the final job runs.
-  r = run_pvcap(fmt::format("--log-level warn dataset release {} --out {} --scheduler slurm --wait",
+  r = run_pvcap(fmt::format("--log-level warn dataset release {} --out {} --scheduler slurm --wait --compact",
                             lab.dataset.string(), slurm.string()),
                 cluster.prefix());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("0 to export"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("0 to compact and export"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("0 task(s), final job"), std::string::npos) << r.output;
 }

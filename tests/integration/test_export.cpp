@@ -25,6 +25,7 @@
 #include "sim/truth.h"
 #include "storage/session_reader.h"
 #include "storage/sqlite/database.h"
+#include "tests/integration/export_fixture.h"
 
 namespace fs = std::filesystem;
 using pvcap::testing::only_session;
@@ -42,56 +43,6 @@ std::string output_of(const std::string& command) {
   while (std::size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
   pclose(p);
   return out;
-}
-
-// A protocol session at 960x540 with its pad calibrated (the simulator's lenses given, as a lab
-// gives the lenses a board session measured), recorded once for the tests below. Under ctest
-// (PVCAP_EXPORT_FIXTURE set) ExportFixture.Record records it into that folder before them and
-// ExportFixture.Remove removes it after them; run alone, a test records its own, removed at exit.
-struct Recorded {
-  fs::path work, session;
-};
-
-Recorded record_export_session(const fs::path& work) {
-  Recorded out;
-  out.work = work;
-  fs::create_directories(out.work);
-  {
-    std::string rig = read_all(fs::path(PVCAP_SOURCE_DIR) / "rig-configs" / "sim.yaml");
-    for (auto [from, to] :
-         {std::pair<std::string, std::string>{"width: 1920", "width: 960"}, {"height: 1080", "height: 540"}})
-      for (auto at = rig.find(from); at != std::string::npos; at = rig.find(from)) rig.replace(at, from.size(), to);
-    std::ofstream(out.work / "rig.yaml") << rig;
-    const auto run = run_pvcap(fmt::format(
-        "session --rig {} --root {} --protocol {} --auto --fast --participant P017 --skin-tone dark --lighting L-R "
-        "--overlay white_vinyl --no-web",
-        (out.work / "rig.yaml").string(), (out.work / "sessions").string(),
-        write_press_protocol(out.work, "[low, high]", 0.5, 0.4, 1.5, 0.3).string()));
-    EXPECT_EQ(run.exit_code, 0) << run.output;
-    out.session = only_session(out.work / "sessions");
-    EXPECT_EQ(write_truth_lenses(out.session, out.work / "lenses.yaml"), "");
-    const auto pad = run_pvcap(
-        fmt::format("calibrate pad {} --calibration {}", out.session.string(), (out.work / "lenses.yaml").string()));
-    EXPECT_EQ(pad.exit_code, 0) << pad.output;
-  }
-  return out;
-}
-
-const Recorded& recorded() {
-  static const Recorded r = [] {
-    if (const char* shared = std::getenv("PVCAP_EXPORT_FIXTURE")) {
-      Recorded out{shared, only_session(fs::path(shared) / "sessions")};
-      EXPECT_FALSE(out.session.empty()) << "ExportFixture.Record did not record into " << shared;
-      return out;
-    }
-    static const fs::path work = work_dir("export");
-    std::atexit([] {  // shared by the tests of this process, so removed when it ends
-      std::error_code ec;
-      fs::remove_all(work, ec);
-    });
-    return record_export_session(work);
-  }();
-  return r;
 }
 
 json read_back(const fs::path& dir, const fs::path& session) {

@@ -1,0 +1,57 @@
+#include "tests/integration/export_fixture.h"
+
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <utility>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "tests/integration/session_under_test.h"
+
+namespace fs = std::filesystem;
+
+namespace pvcap::testing {
+
+Recorded record_export_session(const fs::path& work) {
+  Recorded out;
+  out.work = work;
+  fs::create_directories(out.work);
+  std::string rig = read_all(fs::path(PVCAP_SOURCE_DIR) / "rig-configs" / "sim.yaml");
+  for (auto [from, to] :
+       {std::pair<std::string, std::string>{"width: 1920", "width: 960"}, {"height: 1080", "height: 540"}})
+    for (auto at = rig.find(from); at != std::string::npos; at = rig.find(from)) rig.replace(at, from.size(), to);
+  std::ofstream(out.work / "rig.yaml") << rig;
+  const auto run = run_pvcap(fmt::format(
+      "session --rig {} --root {} --protocol {} --auto --fast --participant P017 --skin-tone dark --lighting L-R "
+      "--overlay white_vinyl --no-web",
+      (out.work / "rig.yaml").string(), (out.work / "sessions").string(),
+      write_press_protocol(out.work, "[low, high]", 0.5, 0.4, 1.5, 0.3).string()));
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  out.session = only_session(out.work / "sessions");
+  EXPECT_EQ(write_truth_lenses(out.session, out.work / "lenses.yaml"), "");
+  const auto pad = run_pvcap(
+      fmt::format("calibrate pad {} --calibration {}", out.session.string(), (out.work / "lenses.yaml").string()));
+  EXPECT_EQ(pad.exit_code, 0) << pad.output;
+  return out;
+}
+
+const Recorded& recorded() {
+  static const Recorded r = [] {
+    if (const char* shared = std::getenv("PVCAP_EXPORT_FIXTURE")) {
+      Recorded out{shared, only_session(fs::path(shared) / "sessions")};
+      EXPECT_FALSE(out.session.empty()) << "ExportFixture.Record did not record into " << shared;
+      return out;
+    }
+    static const fs::path work = work_dir("export");
+    std::atexit([] {  // shared by the tests of this process, so removed when it ends
+      std::error_code ec;
+      fs::remove_all(work, ec);
+    });
+    return record_export_session(work);
+  }();
+  return r;
+}
+
+}  // namespace pvcap::testing
