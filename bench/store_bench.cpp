@@ -6,7 +6,9 @@
 //  3. random access: one camera image of a random sample, demosaiced (goal < 30 ms);
 //  4. sequential reading: samples (all cameras decoded) per second;
 //  5. exactness: raw mode, the stored mosaic against the sensor's ("bit-exact"); colour mode, PSNR of
-//     the decoded images against their debayered sources.
+//     the decoded images against their debayered sources;
+//  6. raw mode: `pvcap compact` on the finished store, bytes per frame before and after, its speed,
+//     and the mosaics read back again.
 // The speed figures come with the same measure for the ffmpeg command line, run in the same run.
 // Usage: store_bench [FRAMES=90] [NOISE_DN=2] ["STORE SETTINGS" for both modes, e.g. "crf: 16"]
 // Frames are the simulator's scene with a moving fingertip and sensor noise, prepared beforehand.
@@ -28,6 +30,7 @@
 #include "core/rig_config.h"
 #include "core/time.h"
 #include "storage/bayer_planes.h"
+#include "storage/compact.h"
 #include "storage/session_reader.h"
 #include "storage/session_writer.h"
 
@@ -100,6 +103,44 @@ double run_pipeline(const fs::path& root, const std::vector<std::vector<cv::Mat>
 double percentile(std::vector<double> v, double p) {
   std::sort(v.begin(), v.end());
   return v[std::min(v.size() - 1, std::size_t(p * double(v.size())))];
+}
+
+// 6. Raw mode: `pvcap compact` on the finished store (its defaults), then camera 0's mosaics read back
+// against the sensor's again.
+void bench_compact(const fs::path& session, const std::vector<cv::Mat>& sensor) {
+  CompactOptions o;
+  const auto t = Clock::now();
+  auto c = compact_session(session, o);
+  const double s = seconds_since(t);
+  if (!c) throw std::runtime_error("compact: " + c.error().message);
+  const auto& rep = c.value();
+  auto reader = SessionReader::open(session);
+  if (!reader) throw std::runtime_error("cannot read the compacted store: " + reader.error().message);
+  std::mt19937 rng(11);
+  std::vector<double> ms;
+  for (int k = 0; k < 60; ++k) {
+    const std::size_t i = rng() % reader.value()->sample_count(), cam = rng() % reader.value()->cameras().size();
+    const auto t_read = Clock::now();
+    auto img = reader.value()->image(i, cam);
+    ms.push_back(seconds_since(t_read) * 1e3);
+    if (!img || img.value().empty()) std::printf("compacted: sample %zu camera %zu did not read\n", i, cam);
+  }
+  std::size_t exact = 0;
+  for (std::size_t i = 0; i < reader.value()->sample_count() && i < sensor.size(); ++i) {
+    auto m = reader.value()->raw_image(i, 0);
+    exact += m && !m.value().empty() && cv::norm(m.value(), sensor[i], cv::NORM_INF) == 0;
+  }
+  const double frames = double(std::max<std::int64_t>(1, rep.frames));
+  std::printf(
+      "compact (%s qp 0, preset %s, gop %d, %d threads): %.2f -> %.2f MB per 1080p frame (%.0f %%), %lld frames in "
+      "%.1f s = %.1f frames/s; camera 0 read back: %s (%zu of %zu mosaics equal the sensor's)\n",
+      o.codec.c_str(), o.preset.c_str(), o.gop_frames, o.threads, double(rep.bytes_before) / 1e6 / frames,
+      double(rep.bytes_after) / 1e6 / frames,
+      100.0 * double(rep.bytes_after) / double(std::max<std::uint64_t>(1, rep.bytes_before)),
+      static_cast<long long>(rep.frames), s, frames / s, exact == sensor.size() ? "bit-exact" : "NOT exact", exact,
+      sensor.size());
+  std::printf("compacted: random access, one camera image of a random sample: p50 %.1f ms, p95 %.1f ms, max %.1f ms\n",
+              percentile(ms, 0.5), percentile(ms, 0.95), percentile(ms, 1.0));
 }
 
 // Steps 1-5 for one mode (`fields`: the store settings of the mode), printed with `label`.
@@ -259,6 +300,7 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
   for (const auto& e : fs::directory_iterator(session)) bytes += e.is_regular_file() ? e.file_size() : 0;
   std::printf("store size: %.1f MB for %d samples of 4 cameras (%.2f MB per 1080p frame)\n", double(bytes) / 1e6, n,
               double(bytes) / 1e6 / (4.0 * n));
+  if (raw) bench_compact(session, frames[0]);
 }
 }  // namespace
 
