@@ -4,6 +4,7 @@
 //     pvcap's capture path (AravisCamera + a consumer that unwraps ids and releases buffers,
 //     as the recorder's worker does before debayering), on the same simulated stream; the ratio.
 //  2. The highest cameras x fps the capture path sustains here with zero drops.
+// Usage: capture_bench [SECONDS=8 per measurement] [ROUNDS=3 of the ratio] [ratio: only step 1]
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -182,6 +183,9 @@ PathResult pvcap_path(const std::vector<CameraConfig>& configs, double seconds) 
 
 int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::atof(argv[1]) : 8.0;
+  // More rounds narrow the medians on a busy machine; "ratio" skips the drop-free search.
+  const int rounds = argc > 2 ? std::max(1, std::atoi(argv[2])) : 3;
+  const bool ratio_only = argc > 3 && std::string(argv[3]) == "ratio";
   spdlog::set_level(spdlog::level::err);
   arv::route_glib_logs_to_spdlog();
   std::vector<std::string> addrs;
@@ -204,7 +208,7 @@ int main(int argc, char** argv) {
     const auto per_frame_us = [](double cpu, std::uint64_t n) { return n ? cpu / double(n) * 1e6 : 0.0; };
     std::vector<double> bare_us, ours_us;
     std::uint64_t bare_frames = 0, ours_frames = 0;
-    for (int round = 0; round < 3; ++round) {
+    for (int round = 0; round < rounds; ++round) {
       const auto bare = bare_aravis(camera(0, 1920, 1080, fps), seconds);
       bare_us.push_back(per_frame_us(bare.first, bare.second));
       bare_frames += bare.second;
@@ -216,12 +220,14 @@ int main(int argc, char** argv) {
     }
     std::sort(bare_us.begin(), bare_us.end());
     std::sort(ours_us.begin(), ours_us.end());
+    const std::size_t mid = bare_us.size() / 2;
     fmt::print(
-        "cpu per 1080p frame @ {:.0f} fps (median of 3, [min..max]): bare aravis loop {:.0f} us [{:.0f}..{:.0f}] "
+        "cpu per 1080p frame @ {:.0f} fps (median of {}, [min..max]): bare aravis loop {:.0f} us [{:.0f}..{:.0f}] "
         "({} frames), pvcap capture path {:.0f} us [{:.0f}..{:.0f}] ({} frames), ratio pvcap/bare {:.2f}\n",
-        fps, bare_us[1], bare_us[0], bare_us[2], bare_frames, ours_us[1], ours_us[0], ours_us[2], ours_frames,
-        bare_us[1] > 0 ? ours_us[1] / bare_us[1] : 0.0);
+        fps, rounds, bare_us[mid], bare_us.front(), bare_us.back(), bare_frames, ours_us[mid], ours_us.front(),
+        ours_us.back(), ours_frames, bare_us[mid] > 0 ? ours_us[mid] / bare_us[mid] : 0.0);
   }
+  if (ratio_only) return 0;
 
   // 2. Highest cameras x fps with zero drops (1080p BayerRG8, capture path).
   double best = 0;

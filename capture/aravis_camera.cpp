@@ -315,7 +315,10 @@ void AravisCamera::control_loop() {
   while (running_.load()) {
     {
       std::unique_lock lock(wake_mu_);
-      wake_.wait_for(lock, 50ms, [&] { return !running_.load() || control_lost_.load(); });
+      // Five looks a second: a lost camera is named within its stall timeout (>= 500 ms) plus 200 ms;
+      // Aravis' control-lost signal and a stop wake it at once. (Every 50 ms cost as much CPU as the
+      // latch probes: docs/PERFORMANCE.md, "Capture path".)
+      wake_.wait_for(lock, 200ms, [&] { return !running_.load() || control_lost_.load(); });
     }
     if (!running_.load()) break;
     const HostNs now = host_now();
@@ -385,16 +388,16 @@ bool AravisCamera::has_timestamp_latch() const {
 // latch command and the time the new value was read back (a camera latches while it handles
 // the command; one that latches later is waited for, briefly). Runs on its own thread: GVCP
 // to a camera that just vanished blocks for its timeouts, and the watchdog must not wait.
-bool AravisCamera::probe_clock() {
+AravisCamera::Probe AravisCamera::probe_clock() {
   arv::GPtr<ArvCamera> cam;
   std::string command, value;
   double tick_hz = 1e9;
   std::uint32_t connection = 0;
   {
     std::lock_guard lock(mu_);
-    if (!link_->camera || latch_command_.empty()) return true;
+    if (!link_->camera || latch_command_.empty()) return Probe::NotStreaming;
     const HostNs last = link_->stream ? link_->stream->last_arrival() : HostNs{0};
-    if (last.ns == 0 || host_now().ns - last.ns > 100'000'000) return true;  // probe only a streaming camera
+    if (last.ns == 0 || host_now().ns - last.ns > 100'000'000) return Probe::NotStreaming;
     cam.reset(ARV_CAMERA(g_object_ref(link_->camera.get())));
     command = latch_command_;
     value = latch_value_;
@@ -404,30 +407,42 @@ bool AravisCamera::probe_clock() {
   ArvDevice* dev = arv_camera_get_device(cam.get());
   arv::GErrorSlot err;
   const gint64 before = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
-  if (err) return false;
+  if (err) return Probe::Failed;
   const HostNs lo = host_now();
   arv_device_execute_command(dev, command.c_str(), err.out());
-  if (err) return false;
+  if (err) return Probe::Failed;
   for (int attempt = 0; attempt < 20; ++attempt) {
     const gint64 ticks = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
-    if (err) return false;
+    if (err) return Probe::Failed;
     if (ticks != before) {
       const HostNs hi = host_now();
       ClockProbe probe{connection, DeviceNs{std::int64_t(double(ticks) * (1e9 / tick_hz))}, lo, hi};
       (void)probes_.try_push(probe);  // a full queue (nobody reading) loses a probe, nothing else
-      return true;
+      return Probe::Taken;
     }
     std::this_thread::sleep_for(200us);
   }
-  return false;  // the value never changed: a latch that does not work; try again later
+  return Probe::Failed;  // the value never changed: a latch that does not work; try again later
 }
 
 void AravisCamera::probe_loop() {
+  // Four probes a second for a connection's first 20 (its clock model converges on them), then one a
+  // second: each costs GVCP round trips and wake-ups on both sides, and a converged model gains little
+  // from more (docs/PERFORMANCE.md, "Capture path"). After a failure (a vanishing camera, a busy link)
+  // a pause.
+  constexpr int kFastProbes = 20;
+  std::uint32_t connection = 0;
+  int taken = 0;
   while (running_.load()) {
-    const bool ok = probe_clock();
-    // Four probes a second; after a failure (a vanishing camera, a busy link) a pause.
+    const Probe p = probe_clock();
+    if (const std::uint32_t now_on = connection_.load(); now_on != connection) {
+      connection = now_on;  // a new connection starts a new clock segment: converge again
+      taken = 0;
+    }
+    taken += p == Probe::Taken;
+    const auto pause = p == Probe::Failed ? 2000ms : taken < kFastProbes ? 250ms : 1000ms;
     std::unique_lock lock(wake_mu_);
-    wake_.wait_for(lock, ok ? 250ms : 2000ms, [&] { return !running_.load(); });
+    wake_.wait_for(lock, pause, [&] { return !running_.load(); });
   }
 }
 

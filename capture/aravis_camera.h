@@ -102,8 +102,9 @@ class AravisCamera {
   // with their reasons. Both close after stop().
   BoundedQueue<CameraFrame>& frames() { return queue_; }
   BoundedQueue<FrameLoss>& losses() { return losses_; }
-  // Timestamp-latch probes, four a second while streaming, from cameras that have the
-  // SFNC TimestampControlLatch/TimestampLatchValue or GevTimestampControlLatch/GevTimestampValue.
+  // Timestamp-latch probes while streaming (four a second for a connection's first 5 s, while its
+  // clock model converges; then one a second), from cameras that have the SFNC
+  // TimestampControlLatch/TimestampLatchValue or GevTimestampControlLatch/GevTimestampValue.
   BoundedQueue<ClockProbe>& clock_probes() { return probes_; }
   bool has_timestamp_latch() const;
   const CameraConfig& config() const { return config_; }
@@ -123,8 +124,9 @@ class AravisCamera {
   // One attempt to connect again and restart acquisition (the watchdog found the camera lost).
   bool reconnect();
   void trigger_loop();  // TriggerMode::Software: one AcquisitionSoftwareTrigger per frame period
-  bool probe_clock();   // false when the camera did not answer
-  void probe_loop();    // its own thread: four probes a second while streaming
+  enum class Probe { Taken, NotStreaming, Failed };
+  Probe probe_clock();
+  void probe_loop();  // its own thread: the probes while streaming
   void emit(CameraEvent::Kind kind, std::string message);
 
   const int index_;
