@@ -341,9 +341,19 @@ Result<CompactReport> compact_session(const fs::path& dir, const CompactOptions&
       }
       todo.push_back(s);
     }
+    // Each new name must be its segment's alone (names are made from the segment's own; a store named
+    // otherwise could map two segments to one file): refused before anything is written.
+    std::map<fs::path, std::string> named;
+    for (const auto& s : segments) named[fs::path(s.path).lexically_normal()] = s.path;
+    for (const auto& s : todo) {
+      const fs::path target = compacted_path(s.path, s.bit_depth > 8 ? "ffv1" : o.codec).lexically_normal();
+      if (const auto [at, fresh] = named.emplace(target, s.path); !fresh)
+        return Error{fmt::format("{}: cannot compact {}: its new name {} is {}'s", dir.string(), s.path,
+                                 target.string(), at->second)};
+    }
     std::int64_t session_total = 0, session_done = 0;
     for (const auto& s : todo) session_total += s.frames;
-    if (todo.empty()) report.done.push_back("nothing to compact: every raw segment is already in its compact codec");
+    if (todo.empty()) report.done.push_back("nothing to compact: no closed raw segment is in another codec");
     SegmentCompactor compactor(dir, index, o, report, session_done, session_total);
     for (const auto& s : todo) {
       auto r = compactor.run(s);

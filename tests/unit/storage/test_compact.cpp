@@ -271,6 +271,31 @@ TEST(Compact, AFrameThatIsNotItsCaptureIsNamedAndItsSegmentLeftAsItWas) {
   fs::remove_all(root);
 }
 
+// A store whose names would give two segments one compacted file (not one pvcap names, but a store
+// may come from elsewhere) is refused before anything is written.
+TEST(Compact, ANewNameThatIsAnotherSegmentsIsRefused) {
+  const auto root = temp_root("names");
+  const fs::path dir = write_raw_session(root, 2);
+  {
+    sqlite::Database db(dir / "session.db", sqlite::Database::Mode::ReadWrite);
+    auto q = db.prepare("SELECT path FROM video_files ORDER BY id");
+    ASSERT_TRUE(q.step());
+    const std::string first = q.column_text(0);
+    ASSERT_TRUE(q.step());
+    const std::string second = q.column_text(0);
+    q.reset();
+    const std::string taken = first.substr(0, first.find('.')) + ".x264.mkv";
+    fs::rename(dir / second, dir / taken);
+    db.prepare("UPDATE video_files SET path = ? WHERE path = ?").bind_all(taken, second).run();
+  }
+  const auto files = folder_contents(dir);
+  auto r = compact_session(dir, {});
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().message.find("its new name"), std::string::npos) << r.error().message;
+  EXPECT_EQ(folder_contents(dir), files);
+  fs::remove_all(root);
+}
+
 TEST(Compact, ASessionBeingRecordedOrNotClosedIsRefused) {
   const auto root = temp_root("refused");
   const fs::path dir = write_raw_session(root, 1);
