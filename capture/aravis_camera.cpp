@@ -312,13 +312,15 @@ void AravisCamera::control_loop() {
   watchdog.started(started_at_);
   bool connected = true;
   HostNs next_attempt{0};
+  bool streaming = false;  // the last look found a frame within the last 100 ms
   while (running_.load()) {
     {
       std::unique_lock lock(wake_mu_);
-      // Five looks a second: a lost camera is named within its stall timeout (>= 500 ms) plus 200 ms;
-      // Aravis' control-lost signal and a stop wake it at once. (Every 50 ms cost as much CPU as the
-      // latch probes: docs/PERFORMANCE.md, "Capture path".)
-      wake_.wait_for(lock, 200ms, [&] { return !running_.load() || control_lost_.load(); });
+      // While frames flow, five looks a second (every 50 ms cost as much CPU as the latch probes:
+      // docs/PERFORMANCE.md, "Capture path"); once a camera is silent, or not connected, twenty, so a
+      // lost camera is named as soon as the watchdog decides. A stop and Aravis' control-lost signal
+      // wake it at once.
+      wake_.wait_for(lock, streaming ? 200ms : 50ms, [&] { return !running_.load() || control_lost_.load(); });
     }
     if (!running_.load()) break;
     const HostNs now = host_now();
@@ -340,6 +342,7 @@ void AravisCamera::control_loop() {
         underruns = link_->stream->counters().underruns;
       }
     }
+    streaming = last.ns != 0 && now.ns - last.ns < 100'000'000;
     const auto look = watchdog.look(now, last, underruns, control_lost_.load());
     if (look.verdict == CameraWatchdog::Verdict::Ask && watchdog.answered(gvcp_answers(settings().address, 250ms)))
       emit(CameraEvent::Kind::NoTrigger,
@@ -353,6 +356,7 @@ void AravisCamera::control_loop() {
                        label(), look.why));
       teardown_connection(false);
       connected = false;
+      streaming = false;
       next_attempt = now;
     }
   }
