@@ -6,7 +6,6 @@
 
 #include <chrono>
 #include <map>
-#include <optional>
 #include <set>
 
 #include <fmt/format.h>
@@ -38,6 +37,10 @@ std::string base_name(const fs::path& path) {
   const std::string name = path.filename().string();
   return name.substr(0, name.find('.'));
 }
+
+// The codec a segment is compacted to: the one asked for, but FFV1 for a mosaic of more than 8 bits
+// (x264 keeps at most 10 and this build's 8).
+std::string target_codec(int bit_depth, const CompactOptions& o) { return bit_depth > 8 ? "ffv1" : o.codec; }
 
 fs::path compacted_path(const fs::path& path, const std::string& codec) {
   return path.parent_path() / (base_name(path) + "." + compact_tags().at(codec) + ".mkv");
@@ -150,7 +153,7 @@ class SegmentCompactor {
 
   // Ok(false): stopped (the stop flag, or after_step said so).
   Result<bool> run(const Segment& s) {
-    const std::string codec = s.bit_depth > 8 ? "ffv1" : o_.codec;
+    const std::string codec = target_codec(s.bit_depth, o_);
     const fs::path old_file = dir_ / s.path;
     const fs::path new_rel = compacted_path(s.path, codec);
     const fs::path new_file = dir_ / new_rel;
@@ -334,8 +337,8 @@ Result<CompactReport> compact_session(const fs::path& dir, const CompactOptions&
 
     std::vector<Segment> todo;
     for (const auto& s : segments) {
-      const std::string codec = s.bit_depth > 8 ? "ffv1" : o.codec;
-      if (s.layout != "bayer_planes" || s.codec == codec || (s.state != "closed" && s.state != "recovered")) {
+      if (const std::string codec = target_codec(s.bit_depth, o);
+          s.layout != "bayer_planes" || s.codec == codec || (s.state != "closed" && s.state != "recovered")) {
         ++report.segments_kept;
         continue;
       }
@@ -346,7 +349,7 @@ Result<CompactReport> compact_session(const fs::path& dir, const CompactOptions&
     std::map<fs::path, std::string> named;
     for (const auto& s : segments) named[fs::path(s.path).lexically_normal()] = s.path;
     for (const auto& s : todo) {
-      const fs::path target = compacted_path(s.path, s.bit_depth > 8 ? "ffv1" : o.codec).lexically_normal();
+      const fs::path target = compacted_path(s.path, target_codec(s.bit_depth, o)).lexically_normal();
       if (const auto [at, fresh] = named.emplace(target, s.path); !fresh)
         return Error{fmt::format("{}: cannot compact {}: its new name {} is {}'s", dir.string(), s.path,
                                  target.string(), at->second)};

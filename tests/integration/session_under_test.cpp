@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "calib/rig_calibration.h"
+#include "export/sha256.h"
 #include "sim/truth.h"
 #include "storage/sqlite/database.h"
 
@@ -104,6 +105,18 @@ std::string read_all(const fs::path& p) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+std::map<std::string, std::string> folder_hashes(const std::filesystem::path& dir, bool without_sqlite_sidecars) {
+  std::map<std::string, std::string> out;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (!e.is_regular_file() || (without_sqlite_sidecars && (name == "session.db-wal" || name == "session.db-shm")))
+      continue;
+    auto h = pvcap::exporting::sha256_file(e.path());
+    out[std::filesystem::relative(e.path(), dir).string()] = h ? h.value() : "unreadable: " + h.error().message;
+  }
+  return out;
 }
 
 bool wait_for_text(const fs::path& log, const std::string& needle, std::chrono::seconds timeout) {

@@ -47,6 +47,11 @@ CommandResult run_pvcap(const std::string& args, const std::string& prefix = "")
 // `prefix` runs it through another command that execs it (e.g. "ip netns exec NAME").
 pid_t spawn_pvcap(const std::string& args, const std::filesystem::path& log, const std::string& prefix = "");
 std::string read_all(const std::filesystem::path& p);
+// Every file under `dir` (relative path) with its SHA-256: what a command that must change nothing
+// compares before and after. `without_sqlite_sidecars` leaves out session.db-wal and -shm (a reader,
+// such as verify, may leave them; the index's content is session.db's once its last writer closed).
+std::map<std::string, std::string> folder_hashes(const std::filesystem::path& dir,
+                                                 bool without_sqlite_sidecars = false);
 // A fresh, empty folder for one test's files: <tmp>/pvcap-it-<name>-<pid>.
 std::filesystem::path work_dir(const std::string& name);
 // Removes a test's folder when the test ends, also when an assertion ends it early: what a test

@@ -20,13 +20,13 @@
 #include <fmt/format.h>
 
 #include "core/time.h"
-#include "export/sha256.h"
 #include "sim/timecode.h"
 #include "storage/session_reader.h"
 #include "storage/sqlite/database.h"
 #include "tests/integration/session_under_test.h"
 
 namespace fs = std::filesystem;
+using pvcap::testing::folder_hashes;
 using pvcap::testing::only_session;
 using pvcap::testing::read_all;
 using pvcap::testing::run_pvcap;
@@ -219,17 +219,6 @@ TEST(StoreDiskFull, AFullDiskStopsTheSessionAndWhatWasWrittenVerifies) {
 }
 
 namespace {
-
-// Every file of a session folder with its SHA-256 (what a second recover must leave as it is).
-std::map<std::string, std::string> folder_hashes(const fs::path& dir) {
-  std::map<std::string, std::string> out;
-  for (const auto& e : fs::recursive_directory_iterator(dir))
-    if (e.is_regular_file()) {
-      auto h = pvcap::exporting::sha256_file(e.path());
-      out[fs::relative(e.path(), dir).string()] = h ? h.value() : "unreadable: " + h.error().message;
-    }
-  return out;
-}
 
 // The phases of a session's life a kill -9 can land in, each found by the line the recorder logs
 // as it enters it (or, for recover, by the process itself).
