@@ -149,6 +149,12 @@ double sample_rate_hz(const RigConfig& rig) {
   return fastest > 0 ? fastest : 60.0;
 }
 
+double grouping_rate_hz(const RigConfig& rig) {
+  double fastest = 0;
+  for (const auto& c : rig.cameras) fastest = std::max(fastest, c.frame_rate);
+  return fastest > 0 ? fastest : 60.0;
+}
+
 RigConfig parse_rig_config(const std::string& text, const std::filesystem::path& source) {
   RigConfig rig;
   rig.source = source;

@@ -95,6 +95,10 @@ struct RigConfig {
 // every frame is kept (video_fps 0), or 60 Hz for a rig without cameras.
 double sample_rate_hz(const RigConfig& rig);
 
+// The rate whose half period bounds a group of camera frames (one instant): the fastest camera's,
+// or 60 Hz for a rig without cameras. The live grouper and the end-of-session re-mapping use it alike.
+double grouping_rate_hz(const RigConfig& rig);
+
 // Loads and validates a rig file. Throws UserError("file:line: key: problem").
 RigConfig load_rig_config(const std::filesystem::path& path);
 // The same from text (tests, fuzzing); `source` names it in messages.

@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "core/rig_config.h"
 #include "core/time.h"
 #include "storage/recover.h"
 #include "sync/timeline.h"
@@ -17,6 +18,46 @@ namespace {
 
 void add_event(SessionIndex& index, const char* kind, std::string message) {
   index.add_event(EventRecord{host_now().ns, kind, std::nullopt, std::move(message)});
+}
+
+// The live grouper's limit for the session in `index`, from the rig it recorded.
+std::int64_t recorded_group_limit(SessionIndex& index) {
+  double hz = 60;
+  if (const auto rig = index.recorded_rig()) {
+    try {
+      hz = grouping_rate_hz(parse_rig_config(rig->text, rig->path));
+    } catch (const std::exception&) {
+      // A rig this version no longer reads: the rule's default rate, as the recorder's own.
+    }
+  }
+  return sync::Grouper::limit_for(hz);
+}
+
+struct TimedMember {
+  SampleFrameRef ref;
+  std::int64_t t_ns = 0;
+};
+
+// The members that stay in a group: the most that lie within `limit` of each other; among as
+// many, the set whose mean is nearest the tick. `members` sorted by time.
+std::pair<std::size_t, std::size_t> members_within(const std::vector<TimedMember>& members, std::int64_t limit,
+                                                   std::int64_t tick_ns) {
+  std::pair<std::size_t, std::size_t> best{0, 0};
+  std::int64_t best_distance = INT64_MAX;
+  for (std::size_t i = 0, j = 0; i < members.size(); ++i) {
+    j = std::max(j, i);
+    while (j + 1 < members.size() && members[j + 1].t_ns - members[i].t_ns <= limit) ++j;
+    std::int64_t rel = 0;
+    for (std::size_t k = i; k <= j; ++k) rel += members[k].t_ns - members[i].t_ns;
+    const std::int64_t mean = members[i].t_ns + rel / std::int64_t(j - i + 1);
+    const std::int64_t distance = mean > tick_ns ? mean - tick_ns : tick_ns - mean;
+    const std::size_t n = j - i + 1, best_n = best.second - best.first;
+    if (n > best_n || (n == best_n && distance < best_distance)) {
+      best = {i, j + 1};
+      best_distance = distance;
+    }
+  }
+  return best;
 }
 
 }  // namespace
@@ -78,42 +119,48 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
   std::sort(pressure.begin(), pressure.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
   say(fmt::format("re-mapping: {} clock segments applied; re-pairing the samples", result.segments));
 
-  // Step 2: every sample's instant and pairing, committed in steps.
+  // Step 2: every sample's instant and pairing, committed in steps; a group the final fits widen
+  // beyond the grouping rule loses the frames outside it.
+  const std::int64_t limit = o.group_limit_ns > 0 ? o.group_limit_ns : recorded_group_limit(index);
   const auto members = index.sample_members();
   const std::size_t step = std::max<std::size_t>(1, o.samples_per_step);
   for (std::size_t begin = 0; begin < members.size(); begin += step) {
     sqlite::Transaction tx(db);
     const std::size_t end = std::min(members.size(), begin + step);
     for (std::size_t i = begin; i < end; ++i) {
-      const auto& [id, stored_t_ns, stored_span_ns, frames] = members[i];
+      const auto& [id, tick_ns, stored_t_ns, stored_span_ns, frames] = members[i];
       SampleRecord s;
       s.index = id;
-      std::int64_t lo = INT64_MAX, hi = INT64_MIN;
-      std::vector<std::int64_t> times;
+      std::vector<TimedMember> timed;
       for (const auto& m : frames) {
         const auto it = camera_mapped.find({m.device_id, m.connection, m.sequence});
-        if (it == camera_mapped.end()) continue;
-        times.push_back(it->second);
-        lo = std::min(lo, it->second);
-        hi = std::max(hi, it->second);
+        if (it != camera_mapped.end()) timed.push_back({m, it->second});
       }
-      if (times.empty()) {
+      std::sort(timed.begin(), timed.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
+      if (!timed.empty() && timed.back().t_ns - timed.front().t_ns > limit) {
+        const auto [first, last] = members_within(timed, limit, tick_ns);
+        for (std::size_t k = 0; k < timed.size(); ++k)
+          if (k < first || k >= last) {
+            index.leave_sample(id, timed[k].ref);
+            ++result.frames_out_of_groups;
+          }
+        timed = std::vector<TimedMember>(timed.begin() + std::ptrdiff_t(first), timed.begin() + std::ptrdiff_t(last));
+      }
+      if (timed.empty()) {
         // None of its frames was stored (lost at an interruption): its instant stays the live
         // timeline's, and its pressure is still re-paired against the re-mapped pressure frames.
         s.t_ns = stored_t_ns;
         s.span_ns = stored_span_ns;
       } else {
         // Mean relative to the earliest, so the sum cannot overflow.
+        const std::int64_t lo = timed.front().t_ns;
         std::int64_t rel = 0;
-        for (auto t : times) rel += t - lo;
-        s.t_ns = lo + rel / std::int64_t(times.size());
-        s.span_ns = hi - lo;
+        for (const auto& m : timed) rel += m.t_ns - lo;
+        s.t_ns = lo + rel / std::int64_t(timed.size());
+        s.span_ns = timed.back().t_ns - lo;
       }
-      for (const auto& m : frames) {
-        const auto it = camera_mapped.find({m.device_id, m.connection, m.sequence});
-        if (it != camera_mapped.end())
-          s.cameras.push_back({m.device_id, m.connection, m.sequence, it->second - s.t_ns});
-      }
+      for (const auto& m : timed)
+        s.cameras.push_back({m.ref.device_id, m.ref.connection, m.ref.sequence, m.t_ns - s.t_ns});
       const auto p = sync::pair_nearest(pressure.begin(), pressure.end(), s.t_ns, o.max_offset_ns);
       auto ref = [&](const std::optional<sync::FrameRef>& f) -> std::optional<SampleFrameRef> {
         if (!f) return std::nullopt;
@@ -129,7 +176,12 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
     if (end == members.size())
       add_event(
           index, "realign_done",
-          fmt::format("{} samples re-paired with the final clock fits in {:.1f} s", result.samples, result.seconds));
+          fmt::format("{} samples re-paired with the final clock fits in {:.1f} s{}", result.samples, result.seconds,
+                      result.frames_out_of_groups == 0
+                          ? std::string()
+                          : fmt::format("; {} camera frames left groups the final fits put wider than {:.2f} ms "
+                                        "(reason outside_its_group)",
+                                        result.frames_out_of_groups, double(limit) / 1e6)));
     tx.commit();
     if (end < members.size()) say(fmt::format("re-mapping: {} of {} samples re-paired", end, members.size()));
   }

@@ -1,8 +1,11 @@
 #pragma once
 // The last step of a recording, and of recovering one: every frame re-mapped with its stream's
 // final clock fit (the online fit each frame met was fitted on less), then every sample's instant
-// and pressure pairing recomputed. Which frames are in the videos is not revisited; that was
-// decided online, within half a frame period, which the final fit does not change.
+// and pressure pairing recomputed. Which frames are in the videos was decided online and stays;
+// but a group formed on a poor early fit (a loaded start) can hold a frame that the final fits put
+// a frame period from the others. Each group is held to the live grouper's rule again: the most
+// frames that lie within its limit stay (ties: the set nearest the sample's tick), the others leave
+// the sample and keep their place in the video with the reason `outside_its_group`.
 //
 // The fits come from the store (clock_models: a segment begins at its first row and is fitted as
 // its last row says; the recorder writes each segment's final fit when it ends), so a session
@@ -27,11 +30,15 @@ struct RealignOptions {
   std::int64_t max_offset_ns = 20'000'000;  // farther than this from a sample: no pressure paired
   std::size_t samples_per_step = 2000;
   std::function<void(const std::string&)> progress;  // a line per step
+  // A group's span at most this: the live grouper's limit, half the fastest camera's period
+  // (sync::Grouper::limit_for). 0: from the rig the session recorded.
+  std::int64_t group_limit_ns = 0;
 };
 
 struct RealignResult {
-  std::size_t samples = 0;   // re-paired
-  std::size_t segments = 0;  // clock segments applied, over all streams
+  std::size_t samples = 0;               // re-paired
+  std::size_t segments = 0;              // clock segments applied, over all streams
+  std::size_t frames_out_of_groups = 0;  // camera frames the final fits put outside their group
   double seconds = 0;
 };
 

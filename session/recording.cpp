@@ -217,12 +217,8 @@ Status Recording::start() {
   // tick of the sample grid, each paired with the pressure frames around it.
   sync::TimelineConfig tc;
   tc.cameras = int(cameras_.size());
-  tc.camera_hz = 0;
-  for (const auto& c : rig_.cameras) {
-    tc.camera_hz = std::max(tc.camera_hz, c.frame_rate);  // the grouping limit: half the fastest period
-    tc.camera_latency_ns.push_back(c.latency_ns);
-  }
-  if (tc.camera_hz <= 0) tc.camera_hz = 60;
+  tc.camera_hz = grouping_rate_hz(rig_);  // the grouping limit: half the fastest period
+  for (const auto& c : rig_.cameras) tc.camera_latency_ns.push_back(c.latency_ns);
   tc.sample_hz = sample_rate_hz(rig_);
   tc.anchor_ns = host0_;
   tc.has_pressure = bool(sensel_);
@@ -514,9 +510,11 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   // At close: every frame re-mapped with its stream's final clock fit, every sample re-paired,
   // from the fits the store holds (each stream's final one written now), in committed steps.
   timeline_->final_snapshots();
-  writer.set_finalizer([max_offset_ns = pressure_max_offset_ns_](SessionIndex& index) {
+  writer.set_finalizer([max_offset_ns = pressure_max_offset_ns_,
+                        limit = sync::Grouper::limit_for(grouping_rate_hz(rig_))](SessionIndex& index) {
     spdlog::info("timeline: re-mapping every frame with the final clock fits");
-    const auto r = realign(index, {max_offset_ns, 2000, [](const std::string& line) { spdlog::info("{}", line); }});
+    const auto r =
+        realign(index, {max_offset_ns, 2000, [](const std::string& line) { spdlog::info("{}", line); }, limit});
     spdlog::info("timeline: {} samples re-paired with the final clock fits in {:.1f} s", r.samples, r.seconds);
   });
   const auto tl = timeline_->counts();

@@ -270,15 +270,15 @@ std::vector<SessionIndex::MappedRef> SessionIndex::mapped(Stream stream, std::in
 
 std::vector<SessionIndex::SampleMembers> SessionIndex::sample_members() {
   auto q = db_->prepare(
-      "SELECT s.id, s.t_ns, s.span_ns, sf.device_id, sf.connection, sf.sequence, sf.offset_ns FROM samples s "
-      "LEFT JOIN sample_frames sf ON sf.sample_id = s.id ORDER BY s.id");
+      "SELECT s.id, s.tick_ns, s.t_ns, s.span_ns, sf.device_id, sf.connection, sf.sequence, sf.offset_ns FROM "
+      "samples s LEFT JOIN sample_frames sf ON sf.sample_id = s.id ORDER BY s.id");
   std::vector<SampleMembers> out;
   while (q.step()) {
     const auto id = std::uint64_t(q.column_int(0));
-    if (out.empty() || out.back().id != id) out.push_back({id, q.column_int(1), q.column_int(2), {}});
-    if (!q.column_null(3))
+    if (out.empty() || out.back().id != id) out.push_back({id, q.column_int(1), q.column_int(2), q.column_int(3), {}});
+    if (!q.column_null(4))
       out.back().frames.push_back(
-          {q.column_int(3), std::uint32_t(q.column_int(4)), std::uint64_t(q.column_int(5)), q.column_int(6)});
+          {q.column_int(4), std::uint32_t(q.column_int(5)), std::uint64_t(q.column_int(6)), q.column_int(7)});
   }
   return out;
 }
@@ -302,6 +302,28 @@ void SessionIndex::update_sample(const SampleRecord& s) {
     update_sample_frame_
         ->bind_all(c.offset_ns, std::int64_t(s.index), c.device_id, std::int64_t(c.connection), c.sequence)
         .run();
+}
+
+std::optional<SessionIndex::RecordedRig> SessionIndex::recorded_rig() {
+  auto q = db_->prepare("SELECT rig_config, rig_path FROM session");
+  if (!q.step()) return std::nullopt;
+  return RecordedRig{q.column_text(0), q.column_text(1)};
+}
+
+void SessionIndex::leave_sample(std::uint64_t sample_id, const SampleFrameRef& f) {
+  const auto id = std::int64_t(sample_id);
+  const auto connection = std::int64_t(f.connection);
+  const auto sequence = std::int64_t(f.sequence);
+  db_->prepare("DELETE FROM sample_frames WHERE sample_id = ? AND device_id = ? AND connection = ? AND sequence = ?")
+      .bind_all(id, f.device_id, connection, sequence)
+      .run();
+  if (db_->changes() == 0) return;  // already out (a re-mapping run again)
+  db_->prepare("UPDATE samples SET cameras = cameras - 1 WHERE id = ?").bind_all(id).run();
+  db_->prepare(
+         "UPDATE frames SET reason = 'outside_its_group' WHERE device_id = ? AND connection = ? AND sequence = ? "
+         "AND kept = 1")
+      .bind_all(f.device_id, connection, sequence)
+      .run();
 }
 
 }  // namespace pvcap

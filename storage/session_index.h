@@ -74,12 +74,21 @@ class SessionIndex {
   // Every sample with its stored instant and camera frames (none when the sample names no frame).
   struct SampleMembers {
     std::uint64_t id = 0;
-    std::int64_t t_ns = 0, span_ns = 0;
+    std::int64_t tick_ns = 0, t_ns = 0, span_ns = 0;
     std::vector<SampleFrameRef> frames;
   };
   std::vector<SampleMembers> sample_members();
+  // The rig file the session recorded with: its text and the path it was read from (none: no session row).
+  struct RecordedRig {
+    std::string text, path;
+  };
+  std::optional<RecordedRig> recorded_rig();
   // Rewrites a sample's instant, its frames' offsets and its pressure pairing.
   void update_sample(const SampleRecord& s);
+  // Takes a camera frame out of its sample (the final clock fits put it outside the group's span
+  // limit): its sample_frames row goes, the sample counts one camera less, and the frame, still in
+  // its video, gets the reason `outside_its_group`.
+  void leave_sample(std::uint64_t sample_id, const SampleFrameRef& frame);
 
   sqlite::Database& db() { return *db_; }
 

@@ -19,7 +19,7 @@ SessionTimeline::SessionTimeline(TimelineConfig config, std::function<void(Sampl
       on_sample_(std::move(on_sample)),
       on_clock_(std::move(on_clock)),
       pressure_{ClockModel(with_latency(config_.pressure_latency_ns)), {}, 0, 0},
-      grouper_(config_.cameras, std::int64_t(0.5e9 / config_.camera_hz), config_.group_wait_ns),
+      grouper_(config_.cameras, Grouper::limit_for(config_.camera_hz), config_.group_wait_ns),
       subsampler_(config_.anchor_ns, config_.sample_hz),
       aligner_(config_.pressure_window_ns, config_.pressure_max_offset_ns),
       decisions_(std::size_t(config_.cameras)) {

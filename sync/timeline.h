@@ -47,6 +47,8 @@ struct Group {
 // it, so a silent camera delays nothing by more than `wait_ns`.
 class Grouper {
  public:
+  // The limit for cameras at `camera_hz`: half a frame period.
+  static std::int64_t limit_for(double camera_hz) { return std::int64_t(0.5e9 / camera_hz); }
   Grouper(int cameras, std::int64_t limit_ns, std::int64_t wait_ns);
   // Frames of one camera must come in time order; frames of different cameras interleave freely.
   // False (and counted as late) for a frame whose instant is already decided.
