@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace pvcap::sync {
 
@@ -18,6 +19,9 @@ void ClockModel::start_segment(std::int64_t device_ns, std::int64_t arrival_ns) 
   probes_.clear();
   probed_ = false;
   segments_.push_back({arrival_ns, fit_, options_.latency_ns});
+  if (segment_ == 0)
+    for (const EarlyProbe& p : std::exchange(before_first_frame_, {}))
+      add_probe(p.device_ns, p.host_lo_ns, p.host_hi_ns);
 }
 
 void ClockModel::publish() {
@@ -26,7 +30,11 @@ void ClockModel::publish() {
 }
 
 void ClockModel::add_probe(std::int64_t device_ns, std::int64_t host_lo_ns, std::int64_t host_hi_ns) {
-  if (segment_ < 0 || host_hi_ns < host_lo_ns) return;
+  if (host_hi_ns < host_lo_ns) return;
+  if (segment_ < 0) {
+    if (before_first_frame_.size() < 16) before_first_frame_.push_back({device_ns, host_lo_ns, host_hi_ns});
+    return;
+  }
   device_ns = bounded_device_time(device_ns);
   const std::int64_t x = device_ns - fit_.x0;
   // A probe from before this segment's clock (x far back) belongs to no segment we fit.
@@ -61,7 +69,19 @@ double ClockModel::probe_band(double slope, double* centre) const {
 
 void ClockModel::refit_probes() {
   const std::size_t n = probes_.size();
-  if (n < 4 || probes_.back().x - probes_.front().x < options_.min_span_for_skew_ns) return;
+  if (n == 0) return;
+  if (n < 4 || probes_.back().x - probes_.front().x < options_.min_span_for_skew_ns) {
+    // Too short a span for a slope: no drift, the offset the brackets leave open.
+    double offset = 0;
+    if (probe_band(0.0, &offset) < 0) {
+      const Probe& tightest = *std::min_element(
+          probes_.begin(), probes_.end(), [](const Probe& a, const Probe& b) { return a.hi - a.lo < b.hi - b.lo; });
+      offset = 0.5 * (double(tightest.lo) + double(tightest.hi));
+    }
+    probe_fit_ = {fit_.x0, offset, 0.0};
+    probed_ = true;
+    return;
+  }
   // Every probe says the line passes through its bracket: offset + slope x in [lo, hi]. The
   // width of what all of them leave open is concave in the slope; take the slope where it is
   // widest (the middle of that plateau), and the offset at the centre of the band there. When

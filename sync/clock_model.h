@@ -33,6 +33,11 @@
 // two host times. Once a segment has probes spanning `min_span_for_skew_ns`, they define
 // the mapping (the line through the widest band all the probes' brackets leave open, at its
 // centre) and no latency is subtracted: the probe reads the clock the frames are stamped with.
+// Before that, from its first probe on, the segment is mapped by its probes with no drift (the
+// centre of what their brackets leave open at slope 0; if they disagree, the tightest one's
+// centre): a bracket bounds its error, while the first arrivals at a loaded start may all be late
+// by tens of milliseconds, which no envelope of them can see. Probes taken before the first frame
+// are kept for the first segment.
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -109,6 +114,10 @@ class ClockModel {
     std::int64_t lo, hi;  // host bracket - device
   };
   std::vector<Probe> probes_;  // this segment's
+  struct EarlyProbe {
+    std::int64_t device_ns, host_lo_ns, host_hi_ns;
+  };
+  std::vector<EarlyProbe> before_first_frame_;  // probes that came before any segment began
   ClockFit probe_fit_;
   bool probed_ = false;
   ClockFit fit_;

@@ -255,6 +255,8 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
       if (auto it = b_by_frame.find({name, frame.second}); it != b_by_frame.end()) twin = it->second;
     if (!twin) {
       ++different;
+      std::printf("sample %lld (%zu of %zu): none of its frames is in a sample of the re-recording\n",
+                  static_cast<long long>(s.index), std::size_t(&s - a.data()) + 1, a.size());
       continue;
     }
     const bool cameras_same = twin->cameras == s.cameras;
@@ -380,18 +382,35 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
   ASSERT_TRUE(a && b);
   std::vector<double> differences;  // mean |again - then| per image (8-bit levels)
   double grey_difference = 0;       // what a grey frame would have differed by
+  std::size_t without_camera = 0, not_again = 0, no_image_then = 0, no_image_again = 0;
   for (const auto& s : ra.samples) {
-    if (s.cameras.empty()) continue;
+    if (s.cameras.empty()) {
+      ++without_camera;
+      continue;
+    }
     const auto it = b_by_device.find(s.cameras.begin()->second.second);
-    if (it == b_by_device.end()) continue;
+    if (it == b_by_device.end()) {
+      ++not_again;
+      continue;
+    }
     auto x = a.value()->image(std::size_t(s.index), 0), y = b.value()->image(std::size_t(it->second), 0);
-    if (!x || !y || x.value().empty() || y.value().empty()) continue;
+    if (!x || x.value().empty()) {
+      ++no_image_then;
+      continue;
+    }
+    if (!y || y.value().empty()) {
+      ++no_image_again;
+      continue;
+    }
     cv::Mat diff;
     cv::absdiff(x.value(), y.value(), diff);
     differences.push_back(cv::mean(diff)[0]);
     cv::absdiff(x.value(), cv::Scalar::all(128), diff);
     grey_difference = std::max(grey_difference, cv::mean(diff)[0]);
   }
+  std::printf("colour store: %zu samples recorded: %zu without a camera frame, %zu not sampled again, %zu without an "
+              "image then, %zu without an image again\n",
+              ra.samples.size(), without_camera, not_again, no_image_then, no_image_again);
   // ~45 samples; under the suite's load fewer are found in both with an image (14 once).
   ASSERT_GE(differences.size(), 8u);
   std::sort(differences.begin(), differences.end());
