@@ -209,31 +209,35 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   for (const auto& [key, t] : ra_.mapped_ns)
     if (auto it = rb_.mapped_ns.find(key); it != rb_.mapped_ns.end())
       moved_us[key.first].push_back(std::fabs(double(it->second - shift - t)) / 1e3);
-  // How far apart a re-recording puts a frame: tens to a few hundred microseconds (a camera's clock
-  // is fitted to its latch probes afresh; the Sensel's pseudo-terminal adds its floor again, 60-80
-  // us). Printed: it is the replay's precision, and a loaded machine moves it. Beyond half the
-  // Sensel's scan period (4 ms) the pairings could not be compared at all.
+  // How far apart a re-recording puts a frame: tens of microseconds (a camera's clock is fitted to
+  // its latch probes afresh; the Sensel's pseudo-terminal adds its floor again, 60-80 us); p95
+  // 20-110 us measured on 2026-11-26, loaded or not. It is the replay's precision, which the tie
+  // rule below compares each differing pick against.
   for (const auto& [stream, v] : moved_us) {
     std::printf("re-recorded instants, %s: |again - then| p50 %.1f p95 %.1f us (%zu frames)\n", stream.c_str(),
                 pct(v, 0.5), pct(v, 0.95), v.size());
-    EXPECT_LT(pct(v, 0.95), 4000.0) << stream;
+    EXPECT_LT(pct(v, 0.95), 500.0) << stream;
   }
 
-  // A pick that differs is a tie broken the other way when the re-recording's pick is the nearer
-  // one on the re-recording's own clock: the original picked the nearest on its clock, and the
-  // frames moved between the two by the re-recording's precision. (The simulated Morph scans every
-  // 8 ms against a 66.7 ms grid: the same three phases recur, so a session can have a third of its
-  // samples within tens of microseconds of a tie.) A pick that is not the nearer on its own clock
-  // is a pairing fault, and counts against the 99 %.
-  std::vector<double> tie_margins_us;  // how near a tie the original's choice was
+  // A pick that differs is a tie broken the other way only when the original's own margin (how much
+  // nearer its pick was than the re-recording's, on the original's clock) is within what the
+  // re-recording moved the instants involved: the two frames and the sample's instant, each against
+  // the original less the replay's shift. (The simulated Morph scans every 8 ms against a 66.7 ms
+  // grid: the same three phases recur, so a session can have a third of its samples within tens of
+  // microseconds of a tie.) Any other difference is a pairing fault, and counts against the 99 %.
+  std::vector<double> tie_margins_us;  // how near a tie the original's choice was, for those broken
   auto tie = [&](const std::string& stream, std::int64_t then_device, std::int64_t again_device, std::int64_t at_then,
                  std::int64_t at_again) {
     const auto x = ra_.mapped_ns.find({stream, then_device}), y = ra_.mapped_ns.find({stream, again_device});
     const auto xa = rb_.mapped_ns.find({stream, then_device}), ya = rb_.mapped_ns.find({stream, again_device});
     if (x == ra_.mapped_ns.end() || y == ra_.mapped_ns.end() || xa == rb_.mapped_ns.end() || ya == rb_.mapped_ns.end())
       return false;
-    tie_margins_us.push_back((std::fabs(double(y->second - at_then)) - std::fabs(double(x->second - at_then))) / 1e3);
-    return std::fabs(double(ya->second - at_again)) <= std::fabs(double(xa->second - at_again)) + 1e3;
+    const double margin = std::fabs(double(y->second - at_then)) - std::fabs(double(x->second - at_then));
+    const double moved = std::fabs(double(xa->second - shift - x->second)) +
+                         std::fabs(double(ya->second - shift - y->second)) + std::fabs(double(at_again - shift - at_then));
+    if (margin > moved) return false;
+    tie_margins_us.push_back(margin / 1e3);
+    return true;
   };
   // A frame the original picked that the replay never sent (it was due before that device began
   // streaming: the recorder was not listening yet) cannot be picked again: such samples are not
@@ -289,8 +293,8 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   std::sort(tie_margins_us.begin(), tie_margins_us.end());
   std::printf(
       "as-devices round trip: %zu of %zu samples name the same camera frames and pressure frame "
-      "(%.2f %%; pressure alone %zu); %zu more broke a tie the other way (the re-recording's pick is the "
-      "nearer on its clock; the original's was nearer by at most %.0f us); %zu differ; %zu not compared (a "
+      "(%.2f %%; pressure alone %zu); %zu more broke a tie the other way (the original's pick was nearer by "
+      "no more than the re-recording moved the instants; by at most %.0f us); %zu differ; %zu not compared (a "
       "frame they name was due before its device streamed again)\n",
       same, compared, same_pct, pressure_same, ties, tie_margins_us.empty() ? 0.0 : tie_margins_us.back(), different,
       not_sent);
@@ -411,8 +415,12 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
   std::printf("colour store: %zu samples recorded: %zu without a camera frame, %zu not sampled again, %zu without an "
               "image then, %zu without an image again\n",
               ra.samples.size(), without_camera, not_again, no_image_then, no_image_again);
-  // ~45 samples; under the suite's load fewer are found in both with an image (14 once).
-  ASSERT_GE(differences.size(), 8u);
+  // ~45 samples, each found again with its image but for the replay's first moments (a frame due
+  // before the camera streamed again is not sent). Under the suite's load only 14 once were: the
+  // first 2 s of a recording were mapped by late arrivals until the latch probes spanned 2 s, which
+  // moved a tick's pick to the frame a period away; a camera is now mapped by its first probe.
+  EXPECT_LE(not_again, 2u);
+  ASSERT_GE(differences.size() + 2, ra.samples.size());
   std::sort(differences.begin(), differences.end());
   std::printf(
       "colour store re-served: %zu images compared; mean |again - then| median %.2f, worst %.2f levels "
@@ -454,10 +462,13 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
     EXPECT_GE(double(again_frames), 0.9 * double(recorded_frames)) << cam;
     const auto e = replay_interval_errors_ms(replayed / "sim-truth" / (std::string(cam) + "_replay.csv"), false);
     ASSERT_GT(e.size(), 50u) << cam;
-    std::vector<double> sorted = e;
-    std::sort(sorted.begin(), sorted.end());
-    std::printf("%s: |interval sent - recorded| p50 %.3f ms\n", cam, sorted[sorted.size() / 2]);
-    EXPECT_LT(sorted[sorted.size() / 2], 4.0) << cam;
+    std::printf("%s: |interval sent - recorded| p50 %.3f p95 %.3f ms\n", cam, pct(e, 0.5), pct(e, 0.95));
+    // The free-running replay's median bound: a pulse 10 ms ahead of each frame, the engine woken as
+    // when free-running (p50 0.04-0.12 ms measured, loaded or not). Its tail is wider: p95 0.7-1.3 ms
+    // in six runs against the free-running test's 0.3 (some wakes of the triggered engine come
+    // 0.6-0.9 ms late), so p95 is held at 2 ms, not at the free-running 1 ms.
+    EXPECT_LT(pct(e, 0.5), 0.5) << cam;
+    EXPECT_LT(pct(e, 0.95), 2.0) << cam;
   }
   fs::remove_all(work);
 }
