@@ -139,27 +139,28 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
 
   // Against the truth: every stream on one clock; pairing far better than arrival times.
   const auto e = pvcap::sim::evaluate_sync(dir, 3);
+  std::printf("%s\n", pvcap::sim::format_evaluation(e).c_str());
   ASSERT_EQ(e.streams.size(), 5u);
   for (const auto& s : e.streams) {
     EXPECT_GT(s.frames, 100u) << s.name;
     if (s.is_camera) {
-      // Mapped by timestamp-latch probes (0.003-0.04 ms p99 when the machine is not shared with the
-      // fuzzers); bounds with room for ctest's load.
-      EXPECT_LT(std::fabs(s.bias_ms), 0.5) << s.name;
-      EXPECT_LT(s.p99_ms, 0.5) << s.name << " (the issue's target, 0.1 ms, is checked by eval-sync)";
+      // Mapped by timestamp-latch probes: the target, 0.1 ms p99 (measured 0.001-0.027 ms, alone
+      // and beside two CPU hogs, 2026-11-26).
+      EXPECT_LT(std::fabs(s.bias_ms), 0.1) << s.name;
+      EXPECT_LT(s.p99_ms, 0.1) << s.name;
       EXPECT_LT(s.p99_ms, s.arrival_p99_ms / 4) << s.name << ": mapping must beat the raw arrival stamp";
     } else {
       // No latch: mapped through the lower envelope of arrivals, which a starved reader thread
-      // pushes up. 0.5 ms is the target on an unshared machine (eval-sync, docs/PERFORMANCE.md);
-      // here a bound that ctest's load beside it cannot break, still far below the arrival stamp's.
-      EXPECT_LT(std::fabs(s.bias_ms), 1.0) << s.name;
-      EXPECT_LT(s.p99_ms, 2.0) << s.name;
+      // pushes up. The target, 0.5 ms p99 (measured 0.03-0.11 ms, alone and beside two CPU hogs).
+      EXPECT_LT(std::fabs(s.bias_ms), 0.5) << s.name;
+      EXPECT_LT(s.p99_ms, 0.5) << s.name;
       EXPECT_LT(s.p99_ms, s.arrival_p99_ms / 4) << s.name << ": mapping must beat the raw arrival stamp";
     }
   }
-  // The truly nearest frame for nearly all (99.5 % is eval-sync's target; ctest's load costs some).
-  EXPECT_GE((e.paired_nearest + e.paired_tie + e.rightly_unpaired) * 100, e.samples * 95)
-      << pvcap::sim::format_evaluation(e);
+  // The truly nearest frame for 99.5 % of the samples, eval-sync's target; of a 14 s run's ~180 that
+  // leaves none, so one sample is allowed (beside two CPU hogs one went unpaired: 99.47 %).
+  const auto right = e.paired_nearest + e.paired_tie + e.rightly_unpaired;
+  EXPECT_GE(right * 1000 + 1000, e.samples * 995) << pvcap::sim::format_evaluation(e);
   EXPECT_GT(e.paired_nearest, e.naive_nearest + e.samples / 4) << pvcap::sim::format_evaluation(e);
   std::filesystem::remove_all(root);
 }
