@@ -23,6 +23,12 @@ Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, in
                                                            BoundedQueue<FrameLoss>& losses) {
   std::shared_ptr<AravisStream> self(new AravisStream(queue, losses, camera_index, connection));
   arv::GErrorSlot err;
+  // Not Aravis' packet-socket receiver (used when raw sockets are allowed: root, CAP_NET_RAW): its
+  // socket takes every packet on the interface until its filter is attached, so a stream made while
+  // another camera streams (a reconnection) can assemble that camera's frame as its own
+  // (test_stream_isolation: 6 of 40 streams did). A UDP socket receives only what is sent to its port.
+  if (arv_camera_is_gv_device(camera))
+    arv_camera_gv_set_stream_options(camera, ARV_GV_STREAM_OPTION_PACKET_SOCKET_DISABLED);
   self->stream_.reset(arv_camera_create_stream(camera, nullptr, nullptr, err.out()));
   if (!self->stream_) return Error{fmt::format("cannot create the video stream: {}", err.message())};
   if (ARV_IS_GV_STREAM(self->stream_.get())) {

@@ -148,6 +148,25 @@ VideoCheck check_video(const fs::path& session, const CameraRecord& c) {
                     rows += fmt::format("[id {} device {} true {}] ", t.frame_id, t.device_ns, t.true_ns);
               return rows;
             }()
+                      << "; other cameras' truth rows of that id and device time: " <<
+            [&] {
+              // Is it another camera's frame? (The simulated cameras share a clock function.)
+              std::string found;
+              for (const auto& e : fs::directory_iterator(session / "sim-truth")) {
+                const std::string file = e.path().filename().string();
+                if (file == c.name + "_frames.csv" || file.find("_frames.csv") == std::string::npos) continue;
+                std::ifstream in(e.path());
+                std::string line;
+                while (std::getline(in, line)) {
+                  unsigned id = 0;
+                  long long true_ns = 0, device_ns = 0;
+                  if (std::sscanf(line.c_str(), "%u,%lld,%lld", &id, &true_ns, &device_ns) == 3 &&
+                      id == row->second->frame_id && device_ns == row->second->device_ns)
+                    found += fmt::format("[{} true {}] ", file, true_ns);
+                }
+              }
+              return found.empty() ? std::string("none") : found;
+            }()
                       << "; the index rows around it: " <<
             [&] {
               std::string rows;
