@@ -252,9 +252,15 @@ Status AravisCamera::open() {
 }
 
 Status AravisCamera::start() {
+  std::shared_ptr<AravisStream> stream;
   {
     std::lock_guard lock(mu_);
     if (!link_->camera) return Error{fmt::format("{}: start() before a successful open()", label())};
+    stream = link_->stream;
+  }
+  stream->accept_from_now();  // may wait a moment: not under the lock the probes and the watchdog take
+  {
+    std::lock_guard lock(mu_);
     arv::GErrorSlot err;
     arv_camera_start_acquisition(link_->camera.get(), err.out());
     if (err) return Error{fmt::format("{}: AcquisitionStart failed: {}", label(), err.message())};
@@ -370,9 +376,15 @@ bool AravisCamera::reconnect() {
     return false;
   }
   arv::GErrorSlot err;
+  std::shared_ptr<AravisStream> stream;
   {
     std::lock_guard lock(mu_);
-    arv_camera_start_acquisition(link_->camera.get(), err.out());
+    stream = link_->stream;
+  }
+  if (stream) stream->accept_from_now();
+  {
+    std::lock_guard lock(mu_);
+    if (link_->camera) arv_camera_start_acquisition(link_->camera.get(), err.out());
   }
   if (err) {
     teardown_connection(false);

@@ -38,6 +38,11 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   AravisStream(const AravisStream&) = delete;
   AravisStream& operator=(const AravisStream&) = delete;
 
+  // Frames are taken from now on; what the stream assembled before is not this camera's (it is not
+  // acquiring yet) and is dropped. Call right before AcquisitionStart; waits until the stream is
+  // kSettleNs old (see the definition for why).
+  void accept_from_now();
+  static constexpr std::int64_t kSettleNs = 250'000'000;
   // Stops callbacks from pushing further frames and waits for a running callback to
   // finish, so none can take a new reference afterwards (leases still return buffers);
   // then reports every gap still open. Call before dropping the last owner reference.
@@ -60,7 +65,8 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   BoundedQueue<FrameLoss>& losses_;
   const int camera_index_;
   const std::uint32_t connection_;
-  std::atomic<bool> accepting_{true};
+  std::atomic<bool> accepting_{false};  // from accept_from_now() until quiesce()
+  std::int64_t created_ns_ = 0;
   std::atomic<int> in_callback_{0};
   std::atomic<std::int64_t> last_arrival_ns_{0};
   std::atomic<std::uint64_t> overflows_{0};
