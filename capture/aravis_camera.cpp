@@ -251,14 +251,21 @@ Status AravisCamera::open() {
   return s;
 }
 
-Status AravisCamera::start() {
+void AravisCamera::settle() {
   std::shared_ptr<AravisStream> stream;
   {
     std::lock_guard lock(mu_);
-    if (!link_->camera) return Error{fmt::format("{}: start() before a successful open()", label())};
     stream = link_->stream;
   }
-  stream->accept_from_now();  // may wait a moment: not under the lock the probes and the watchdog take
+  if (stream) stream->accept_from_now();  // may wait a moment: not under the lock the probes and watchdog take
+}
+
+Status AravisCamera::start() {
+  {
+    std::lock_guard lock(mu_);
+    if (!link_->camera) return Error{fmt::format("{}: start() before a successful open()", label())};
+  }
+  settle();
   {
     std::lock_guard lock(mu_);
     arv::GErrorSlot err;
@@ -376,12 +383,7 @@ bool AravisCamera::reconnect() {
     return false;
   }
   arv::GErrorSlot err;
-  std::shared_ptr<AravisStream> stream;
-  {
-    std::lock_guard lock(mu_);
-    stream = link_->stream;
-  }
-  if (stream) stream->accept_from_now();
+  settle();
   {
     std::lock_guard lock(mu_);
     if (link_->camera) arv_camera_start_acquisition(link_->camera.get(), err.out());

@@ -89,6 +89,9 @@ class AravisCamera {
   // Connects, applies the configuration, preflights, allocates buffers. Errors name the
   // camera and the feature that failed.
   Status open();
+  // Waits until the stream may take frames (aravis_stream.h: accept_from_now). start() does it
+  // itself; a rig calls it on every camera first, so the cameras then start together.
+  void settle();
   // Starts acquisition and supervision.
   Status start();
   // Asks the control thread to stop acquisition; returns at once (stop() several cameras

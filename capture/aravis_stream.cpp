@@ -54,7 +54,7 @@ void AravisStream::accept_from_now() {
   // Aravis' packet-socket receiver (used when raw sockets are allowed: root, CAP_NET_RAW) takes every
   // packet on the interface from the moment its socket is made until its filter is attached, so a
   // stream made while another camera streams (a reconnection) can assemble that camera's frames as
-  // its own (test_stream_isolation: 6 of 40 streams did). They are all there by the time the stream
+  // its own (test_stream_isolation: 2-6 such frames in 30-40 streams). They are all there by the time the stream
   // exists, and its thread assembles them at once, or gives an incomplete one up after its frame
   // retention (100 ms). So: nothing before the camera is told to acquire, and that not before the
   // stream is kSettleNs old. (A UDP socket instead needs a receive buffer of several frames, which

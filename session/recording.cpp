@@ -262,6 +262,9 @@ Status Recording::start() {
         CameraPipeline{*cameras_[i], int(i), device_ids_[i], writer, *tallies_[i], *timeline_, *timeline_end_,
                        std::size_t(rig_.store.queue_frames), *previews_[i],
                        int(i) == options_.faults.stall_camera ? options_.faults.camera_pipeline_stall : std::nullopt});
+  // Every camera's stream settled first (a new stream waits before it takes frames), so the cameras
+  // and then the Sensel start together, as before that wait existed.
+  for (auto& cam : cameras_) cam->settle();
   state_.store(kRecording);
   rec_start_ = host_now().ns;
   for (auto& cam : cameras_)
