@@ -142,17 +142,14 @@ StoreConfig parse_store(const YAML::Node& node, const std::filesystem::path& fil
 
 }  // namespace
 
-double sample_rate_hz(const RigConfig& rig) {
-  if (rig.store.video_fps > 0) return rig.store.video_fps;
+double grouping_rate_hz(const RigConfig& rig) {
   double fastest = 0;
   for (const auto& c : rig.cameras) fastest = std::max(fastest, c.frame_rate);
   return fastest > 0 ? fastest : 60.0;
 }
 
-double grouping_rate_hz(const RigConfig& rig) {
-  double fastest = 0;
-  for (const auto& c : rig.cameras) fastest = std::max(fastest, c.frame_rate);
-  return fastest > 0 ? fastest : 60.0;
+double sample_rate_hz(const RigConfig& rig) {
+  return rig.store.video_fps > 0 ? rig.store.video_fps : grouping_rate_hz(rig);
 }
 
 RigConfig parse_rig_config(const std::string& text, const std::filesystem::path& source) {
