@@ -158,12 +158,16 @@ void ReplayCamera::read_ahead() {
                      got.error().message);
       }
     }
-    std::unique_lock lock(mu_);
-    changed_.wait(lock, [&] { return stop_ || ready_.size() < kReadAhead; });
-    if (stop_) return;
-    ready_.emplace_back(f.sample, std::move(mosaic));
-    changed_.notify_all();
-  }
+    std::vector<cv::Mat> retired;
+    {
+      std::unique_lock lock(mu_);
+      changed_.wait(lock, [&] { return stop_ || ready_.size() < kReadAhead; });
+      if (stop_) return;
+      ready_.emplace_back(f.sample, std::move(mosaic));
+      retired.swap(retired_);
+      changed_.notify_all();
+    }
+  }  // (what was retired is freed here, outside the lock)
 }
 
 cv::Mat ReplayCamera::stored_image(std::int64_t sample) {
@@ -221,10 +225,25 @@ void ReplayCamera::fill_buffer(ArvBuffer* buffer) {
   const std::int64_t due = replay_->due_ns(f.t_ns);
   cv::Mat image = f.sample >= 0 ? stored_image(f.sample) : cv::Mat();
   const std::int64_t image_ns = host_now().ns;
-  if (!image.empty())
+  if (!image.empty()) {
+    std::lock_guard lock(mu_);
+    retired_.push_back(std::move(last_));
     last_ = image;
-  else
+  } else {
     image = last_;
+  }
+  // The image is in the buffer before the frame's instant, as a camera's is at the end of its
+  // exposure: what is left at the instant is nothing but the stamp. (Copied after it, two cameras
+  // due at once on a trigger line left 0.3-0.6 ms late at p95, each waiting for the other's copy.)
+  size_t size = 0;
+  auto* data = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &size)));
+  const std::size_t payload = arv_fake_camera_get_payload(fake);
+  if (data) {
+    if (!image.empty() && image.isContinuous())
+      std::memcpy(data, image.data, std::min(payload, image.total() * image.elemSize()));
+    else
+      std::memset(data, 128, payload);
+  }
   // The engine woke just before the frame is due: the rest is slept, but for the last moment
   // (a sleeping thread wakes 30-80 us late here), which is waited without giving up the core.
   if (due - host_now().ns > kSpinNs) {
@@ -234,15 +253,6 @@ void ReplayCamera::fill_buffer(ArvBuffer* buffer) {
     }
   }
   while (host_now().ns < due) {
-  }
-  size_t size = 0;
-  auto* data = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &size)));
-  const std::size_t payload = arv_fake_camera_get_payload(fake);
-  if (data) {
-    if (!image.empty() && image.isContinuous())
-      std::memcpy(data, image.data, std::min(payload, image.total() * image.elemSize()));
-    else
-      std::memset(data, 128, payload);
   }
   arv_buffer_set_frame_id(buffer, f.frame_id);
   arv_buffer_set_timestamp(buffer, guint64(std::max<std::int64_t>(0, f.device_ns)));

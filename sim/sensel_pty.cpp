@@ -64,10 +64,17 @@ void SenselPty::serve() {
     // Answers go out in 64-byte pieces, like USB full-speed bulk packets.
     while (done < out.size() && running_.load()) {
       const ssize_t w = ::write(master_, out.data() + done, std::min<std::size_t>(64, out.size() - done));
-      if (w > 0)
+      if (w > 0) {
         done += std::size_t(w);
-      else if (errno != EAGAIN && errno != EINTR)
+      } else if (errno == EAGAIN) {
+        // The pseudo-terminal is full until the recorder reads: waited for, not spun (at a
+        // real-time priority a spin here held a core from the replayed cameras' engines: half of
+        // their frames late by 0.5-1 ms in the re-recording's first second).
+        pollfd out{master_, POLLOUT, 0};
+        (void)::poll(&out, 1, 5);
+      } else if (errno != EINTR) {
         break;
+      }
     }
   };
   while (running_.load()) {

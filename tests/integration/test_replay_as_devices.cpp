@@ -234,7 +234,8 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
       return false;
     const double margin = std::fabs(double(y->second - at_then)) - std::fabs(double(x->second - at_then));
     const double moved = std::fabs(double(xa->second - shift - x->second)) +
-                         std::fabs(double(ya->second - shift - y->second)) + std::fabs(double(at_again - shift - at_then));
+                         std::fabs(double(ya->second - shift - y->second)) +
+                         std::fabs(double(at_again - shift - at_then));
     if (margin > moved) return false;
     tie_margins_us.push_back(margin / 1e3);
     return true;
@@ -351,12 +352,15 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
       "(%zu intervals); Sensel p50 %.3f p95 %.3f p99 %.3f ms (%zu)\n",
       pct(cam_errors, 0.5), pct(cam_errors, 0.95), pct(cam_errors, 0.99), cam_errors.size(), pct(sensel_errors, 0.5),
       pct(sensel_errors, 0.95), pct(sensel_errors, 0.99), sensel_errors.size());
-  // Frames leave on time: p50 10-60 us, cameras p99 0.3-0.9 ms and the Sensel's 0.1-0.25 ms on
+  // Frames leave on time: p50 10-60 us, cameras p95 0.3-0.5 ms and the Sensel's 0.15-0.2 ms on
   // these 2 cores beside the recorder (docs/replay.md). The bounds are on p95, which this shared
   // machine's hiccups do not reach (one moves ~8 intervals by milliseconds, and two in a run took
   // the cameras' p99 to 2.9 ms), nor the kernel's pseudo-terminal (it can hold a Sensel request
   // back by tens of milliseconds when the cores are saturated); the engine's stall (1 frame in
-  // 8-12 late by 33-100 ms) would fail them.
+  // 8-12 late by 33-100 ms) would fail them. The test runs alone (RUN_SERIAL): beside a unit test
+  // in CI the cameras' p95 was 1.06 ms (2026-11-26), and before the fixes of that day (the image
+  // freed off the engine's thread, the Sensel's full pseudo-terminal waited for, not spun)
+  // 0.6-0.8 ms alone: every frame that brought a new image left 0.3-1.2 ms late.
   EXPECT_LT(pct(cam_errors, 0.95), 1.0);
   EXPECT_LT(pct(cam_errors, 0.5), 0.5);
   EXPECT_LT(pct(sensel_errors, 0.95), 1.0);
@@ -412,9 +416,10 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
     cv::absdiff(x.value(), cv::Scalar::all(128), diff);
     grey_difference = std::max(grey_difference, cv::mean(diff)[0]);
   }
-  std::printf("colour store: %zu samples recorded: %zu without a camera frame, %zu not sampled again, %zu without an "
-              "image then, %zu without an image again\n",
-              ra.samples.size(), without_camera, not_again, no_image_then, no_image_again);
+  std::printf(
+      "colour store: %zu samples recorded: %zu without a camera frame, %zu not sampled again, %zu without an "
+      "image then, %zu without an image again\n",
+      ra.samples.size(), without_camera, not_again, no_image_then, no_image_again);
   // ~45 samples, each found again with its image but for the replay's first moments (a frame due
   // before the camera streamed again is not sent). Under the suite's load only 14 once were: the
   // first 2 s of a recording were mapped by late arrivals until the latch probes spanned 2 s, which
@@ -449,6 +454,7 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
   // Every camera frame recorded (after the replay's first moments) is received again, same id and
   // device time.
   const Recorded ra = read_recorded(recorded), rb = read_recorded(replayed);
+  std::vector<double> both;  // both cameras' interval errors, pooled as the free-running test pools its four
   for (const char* cam : {"cam0", "cam1"}) {
     std::size_t recorded_frames = 0, again_frames = 0;
     for (const auto& [key, t] : ra.mapped_ns)
@@ -463,16 +469,17 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
     const auto e = replay_interval_errors_ms(replayed / "sim-truth" / (std::string(cam) + "_replay.csv"), false);
     ASSERT_GT(e.size(), 50u) << cam;
     std::printf("%s: |interval sent - recorded| p50 %.3f p95 %.3f ms\n", cam, pct(e, 0.5), pct(e, 0.95));
-    // The free-running replay's median bound: a pulse 10 ms ahead of each frame, the engine woken as
-    // when free-running (p50 0.04-0.12 ms measured, loaded or not). Its tail is wider: p95 0.7-1.3 ms
-    // in six runs against the free-running test's 0.3, so p95 is held at 2 ms, not at 1 ms. From the
-    // replay's log: the engines enter their fills on time alike (entered - due p95 0.04-0.06 ms,
-    // triggered or free-running), but a trigger line makes both cameras' frames due at the same
-    // instant, and two engines copying and sending at once beside the recorder on 2 cores wait for
-    // each other (sent - due p95 0.58-0.63 ms against 0.28 for a lone free-running camera).
     EXPECT_LT(pct(e, 0.5), 0.5) << cam;
-    EXPECT_LT(pct(e, 0.95), 2.0) << cam;
+    both.insert(both.end(), e.begin(), e.end());
   }
+  // The free-running replay's bounds: a pulse 10 ms ahead of each frame, the engine woken as when
+  // free-running. (Held at 2 ms p95 until the image was copied before the frame's instant and freed
+  // off the engine's thread, sim/replay_camera.cpp: both cameras' frames fall due at the same
+  // instant on a trigger line, and each engine waited for the other's copy; p95 0.7-1.3 ms then,
+  // 0.12-0.97 ms per camera in six runs after.)
+  std::printf("both cameras: |interval sent - recorded| p50 %.3f p95 %.3f ms (%zu intervals)\n", pct(both, 0.5),
+              pct(both, 0.95), both.size());
+  EXPECT_LT(pct(both, 0.95), 1.0);
   fs::remove_all(work);
 }
 
