@@ -263,22 +263,26 @@ Status Recording::start() {
                        std::size_t(rig_.store.queue_frames), *previews_[i],
                        int(i) == options_.faults.stall_camera ? options_.faults.camera_pipeline_stall : std::nullopt});
   // Every camera's stream settled first (a new stream waits before it takes frames), so the cameras
-  // and then the Sensel start together, as before that wait existed.
+  // start together. The Sensel starts before them and stops after them (finish): pressure brackets
+  // every camera frame, so the first and last samples have their pressure frames however long a
+  // device takes to start or stop on a loaded machine (started after the cameras, the Sensel's
+  // handshake left a first sample without pressure, and stopped first, a last one).
   for (auto& cam : cameras_) cam->settle();
   state_.store(kRecording);
   rec_start_ = host_now().ns;
+  if (sensel_)
+    if (Status s = sensel_->start(writer, sensel_id_, *timeline_); !s.ok()) {
+      spdlog::error("Sensel: {}; stopping", s.error().message);
+      start_failure_ = "the Sensel failed to start: " + s.error().message;
+      request_stop(*start_failure_);
+      return {};
+    }
   for (auto& cam : cameras_)
     if (Status s = cam->start(); !s.ok()) {
       spdlog::error("{}; stopping: every camera of the rig must record", s.error().message);
       start_failure_ = "a camera failed to start: " + s.error().message;
       request_stop(*start_failure_);
       return {};
-    }
-  if (sensel_)
-    if (Status s = sensel_->start(writer, sensel_id_, *timeline_); !s.ok()) {
-      spdlog::error("Sensel: {}; stopping", s.error().message);
-      start_failure_ = "the Sensel failed to start: " + s.error().message;
-      request_stop(*start_failure_);
     }
   return {};
 }
@@ -505,8 +509,8 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   if (timeline_end_) timeline_end_->stopping.store(true);
   // All cameras stop at once; one blocked on a reconnect attempt must not keep the others recording.
   for (auto& cam : cameras_) cam->request_stop();
-  if (sensel_) sensel_->stop();
   for (auto& cam : cameras_) cam->stop();
+  if (sensel_) sensel_->stop();  // last: its pressure covers the cameras' last frames (start() says why)
   if (options_.on_devices_stopped) options_.on_devices_stopped();
   for (auto& w : workers_) w.join();
   workers_.clear();

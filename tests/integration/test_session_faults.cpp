@@ -345,6 +345,19 @@ TEST(SessionFaults, SighupAndSigtermStopTheSessionCleanly) {
     EXPECT_EQ(q.column_text(0), "stopped by operator") << strsignal(sig);
     const auto v = run_pvcap("verify " + session.string());
     EXPECT_EQ(v.exit_code, 0) << strsignal(sig) << ": " << v.output;
+    if (v.exit_code != 0) {  // where a sample without pressure lies against the pressure recorded
+      auto u = db.prepare(
+          "SELECT s.id, (SELECT count(*) FROM samples), s.t_ns - (SELECT min(host_ns) FROM pressure_frames), "
+          "s.t_ns - (SELECT max(host_ns) FROM pressure_frames), coalesce(s.before_offset_ns, 0), "
+          "coalesce(s.after_offset_ns, 0) FROM samples s WHERE s.pressure_sequence IS NULL");
+      while (u.step())
+        std::printf(
+            "sample %lld of %lld without pressure: %.1f ms after the first pressure frame, %.1f ms after the "
+            "last; before %.1f ms, after %.1f ms\n",
+            static_cast<long long>(u.column_int(0)), static_cast<long long>(u.column_int(1)),
+            double(u.column_int(2)) / 1e6, double(u.column_int(3)) / 1e6, double(u.column_int(4)) / 1e6,
+            double(u.column_int(5)) / 1e6);
+    }
     EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind LIKE 'sensel_%'"), 0)
         << "the Morph streamed on, untouched by the listing";
   }
