@@ -19,4 +19,4 @@ if ((quick)); then
     "${args[@]}" || status=$?
   exit "$status"
 fi
-ctest --output-on-failure -j 3 "${args[@]}"  # three lanes on 2 cores (docs/testing.md)
+ctest --output-on-failure -j 2 "${args[@]}"  # lanes: docs/testing.md
