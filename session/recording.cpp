@@ -265,8 +265,9 @@ Status Recording::start() {
   // Every camera's stream settled first (a new stream waits before it takes frames), so the cameras
   // start together. The Sensel starts before them and stops after them (finish): pressure brackets
   // every camera frame, so the first and last samples have their pressure frames however long a
-  // device takes to start or stop on a loaded machine (started after the cameras, the Sensel's
-  // handshake left a first sample without pressure, and stopped first, a last one).
+  // device takes to start or stop on a loaded machine (started after the cameras, a slow Sensel
+  // start once left a full run's first sample without pressure; stopped first, the cameras' last
+  // frames could outlive the pressure).
   for (auto& cam : cameras_) cam->settle();
   state_.store(kRecording);
   rec_start_ = host_now().ns;

@@ -52,9 +52,9 @@ void SenselPty::serve() {
   // the emulated device's latency floor is then the pseudo-terminal's alone.
   prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
   // A Morph answers on its own silicon, whatever the host's load: the emulator's thread takes a
-  // real-time priority where allowed (and a replay's timing is what it re-serves). At a normal
-  // priority, a suite running three tests on 2 cores held its answers back for ~65 ms, a gap in the
-  // pressure no real device makes, and a sample of a clean session went without pressure.
+  // real-time priority where allowed (and a replay's timing is what it re-serves). What it cannot
+  // lift is the pseudo-terminal's kernel worker, at a normal priority: on saturated cores it can
+  // still hold the answers back for 65-100 ms (docs/testing.md, "How the suite is scheduled").
   {
     sched_param rt{};
     rt.sched_priority = 10;
@@ -71,11 +71,10 @@ void SenselPty::serve() {
       if (w > 0) {
         done += std::size_t(w);
       } else if (errno == EAGAIN) {
-        // The pseudo-terminal is full until the recorder reads: waited for, not spun (at a
-        // real-time priority a spin here held a core from the replayed cameras' engines: half of
-        // their frames late by 0.5-1 ms in the re-recording's first second).
-        pollfd out{master_, POLLOUT, 0};
-        (void)::poll(&out, 1, 5);
+        // The pseudo-terminal is full until the recorder reads: waited for, not spun (a spin at
+        // a real-time priority holds a core the recorder that must drain it may be waiting for).
+        pollfd writable{master_, POLLOUT, 0};
+        (void)::poll(&writable, 1, 5);
       } else if (errno != EINTR) {
         break;
       }
