@@ -4,6 +4,10 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 bash "$here/scripts/deps.sh"
 # PVCAP_WERROR=ON (what .ci/run sets): warnings in pvcap's own code fail the build.
-cmake -S "$here" -B "$here/build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+# PVCAP_DEBUG_INFO=OFF (what .ci/run sets): no -g. GCC's code is the same with or without it (-g
+# never changes what is generated); only the build is faster (a heavy file: 37 s -> 26 s).
+flags="-O2 -g -DNDEBUG"  # CMake's RelWithDebInfo, stated so a build without -g does not stick in the cache
+if [[ ${PVCAP_DEBUG_INFO:-ON} == OFF ]]; then flags="-O2 -DNDEBUG"; fi
+cmake -S "$here" -B "$here/build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$flags" \
   ${PVCAP_WERROR:+-DPVCAP_WERROR=$PVCAP_WERROR} >/dev/null
 cmake --build "$here/build" -j "$(nproc)"
