@@ -44,12 +44,7 @@ const Recorded& recorded() {
       EXPECT_FALSE(out.session.empty()) << "ExportFixture.Record did not record into " << shared;
       return out;
     }
-    static const fs::path work = work_dir("export");
-    std::atexit([] {  // shared by the tests of this process, so removed when it ends
-      std::error_code ec;
-      fs::remove_all(work, ec);
-    });
-    return record_export_session(work);
+    return record_export_session(process_work_dir("export"));  // shared by the tests of this process
   }();
   return r;
 }

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include "calib/rig_calibration.h"
 #include "export/sha256.h"
@@ -87,11 +88,59 @@ fs::path write_protocol_rig(const fs::path& dir) {
   return dir / "rig.yaml";
 }
 
-fs::path work_dir(const std::string& name) {
+namespace {
+fs::path fresh_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / fmt::format("pvcap-it-{}-{}", name, getpid());
   fs::remove_all(d);
   fs::create_directories(d);
   return d;
+}
+
+// Removes the folders work_dir() made for a test when it ends, however it ends.
+class WorkDirRemover : public ::testing::EmptyTestEventListener {
+ public:
+  void add(const fs::path& d) { dirs_.push_back(d); }
+
+ private:
+  void OnTestEnd(const ::testing::TestInfo& test) override {
+    const bool keep = test.result()->Failed() && std::getenv("PVCAP_KEEP_FAILED");
+    for (const auto& d : dirs_) {
+      if (keep) {
+        std::printf("PVCAP_KEEP_FAILED: kept %s\n", d.c_str());
+        continue;
+      }
+      std::error_code ignored;
+      fs::remove_all(d, ignored);
+    }
+    dirs_.clear();
+  }
+  std::vector<fs::path> dirs_;
+};
+}  // namespace
+
+fs::path work_dir(const std::string& name) {
+  // Registered at the first call, inside a test (gtest owns and deletes its listeners).
+  static WorkDirRemover* const remover = [] {
+    auto* r = new WorkDirRemover;
+    ::testing::UnitTest::GetInstance()->listeners().Append(r);
+    return r;
+  }();
+  const fs::path d = fresh_dir(name);
+  remover->add(d);
+  return d;
+}
+
+fs::path process_work_dir(const std::string& name) {
+  static std::vector<fs::path> dirs;
+  if (dirs.empty())
+    std::atexit([] {
+      for (const auto& d : dirs) {
+        std::error_code ignored;
+        fs::remove_all(d, ignored);
+      }
+    });
+  dirs.push_back(fresh_dir(name));
+  return dirs.back();
 }
 
 fs::path only_session(const fs::path& root) {

@@ -52,17 +52,13 @@ std::string read_all(const std::filesystem::path& p);
 // such as verify, may leave them; the index's content is session.db's once its last writer closed).
 std::map<std::string, std::string> folder_hashes(const std::filesystem::path& dir,
                                                  bool without_sqlite_sidecars = false);
-// A fresh, empty folder for one test's files: <tmp>/pvcap-it-<name>-<pid>.
+// A fresh, empty folder for one test's files: <tmp>/pvcap-it-<name>-<pid>. It is removed when the
+// test ends, also when an assertion or a failure ends it early (what a test records is a session's
+// size, and /tmp is shared); with PVCAP_KEEP_FAILED=1 a failed test's folders are kept and named.
 std::filesystem::path work_dir(const std::string& name);
-// Removes a test's folder when the test ends, also when an assertion ends it early: what a test
-// records is a session's size, and /tmp is shared.
-struct RemovedAtEnd {
-  std::filesystem::path path;
-  ~RemovedAtEnd() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path, ignored);
-  }
-};
+// The same for a folder the tests of this process share (a fixture recorded once): removed when
+// the process ends.
+std::filesystem::path process_work_dir(const std::string& name);
 // The one session folder pvcap made under `root` (not the simulator's .sim-truth-* while it runs);
 // empty when there is none.
 std::filesystem::path only_session(const std::filesystem::path& root);

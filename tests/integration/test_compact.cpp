@@ -59,7 +59,6 @@ TEST(StoreCompact, KilledAtRandomMomentsTheSessionStillVerifiesAndTheLastRunFini
   const Recorded& rec = recorded();
   ASSERT_FALSE(rec.session.empty());
   const fs::path work = work_dir("compact");
-  const RemovedAtEnd removed{work};
   const fs::path dir = work / "session";
   ASSERT_EQ(std::system(fmt::format("cp -a {} {}", rec.session.string(), dir.string()).c_str()), 0);
   const auto before = verdict(dir);

@@ -107,7 +107,6 @@ std::map<std::string, std::string> files_and_bytes(const fs::path& root) {
 
 TEST(Dataset, ThreeParticipantsAreCataloguedCheckedCompletedSplitReleasedAndOneWithdraws) {
   Lab lab("dataset");
-  RemovedAtEnd cleanup{lab.work};
   const std::string p = fmt::format("--protocol {}", lab.protocol.string());
   // P01: the whole protocol.
   auto before = lab.folders();
@@ -296,7 +295,6 @@ TEST(Dataset, ThreeParticipantsAreCataloguedCheckedCompletedSplitReleasedAndOneW
 
 TEST(Dataset, ASlurmReleaseEqualsTheLocalOneFileForFileAndAResubmissionSkipsWhatIsDone) {
   Lab lab("dataset-slurm");
-  RemovedAtEnd cleanup{lab.work};
   for (const std::string code : {"S01", "S02", "S01"}) {  // S01 twice: each take of theirs twice
     const auto before = lab.folders();
     const auto r =

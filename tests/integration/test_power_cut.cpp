@@ -119,7 +119,6 @@ std::set<std::string> outcomes(const pvcap::power_cut::Trace& t, const fs::path&
 
 TEST(CrashImage, WritesAfterTheLastFsyncAndNamesAfterTheFoldersLastSyncMayEachBeLost) {
   const fs::path work = work_dir("crash-image");
-  const RemovedAtEnd removed{work};
   const fs::path root = work / "root";
   // A file synced with its folder, then written again: its synced bytes always, the later write or not.
   {
@@ -178,7 +177,6 @@ TEST(PowerCut, AProtocolSessionCutAtRandomWritesRecoversVerifiesAndLosesAtMostTh
   std::printf("power cut: seed %llu (PVCAP_POWER_CUT_SEED=%llu repeats it), %zu cut points\n",
               static_cast<unsigned long long>(seed), static_cast<unsigned long long>(seed), points);
   const fs::path work = work_dir("power-cut");
-  const RemovedAtEnd removed{work};
   const fs::path root = work / "sessions", trace_dir = work / "trace";
   fs::create_directories(root);
   fs::create_directories(trace_dir);

@@ -44,7 +44,6 @@ std::int64_t scalar(pvcap::sqlite::Database& db, const std::string& sql, std::in
 
 TEST(Report, AProtocolSessionsReportOpensInABrowserAndItsCountsAreTheStores) {
   const fs::path work = work_dir("report");
-  const RemovedAtEnd removed{work};  // also when chromium is missing and the browser part is skipped
   const auto session_run = run_pvcap(fmt::format(
       "session --rig {} --root {} --protocol {} --auto --fast --participant R01 --skin-tone medium --no-web",
       write_protocol_rig(work).string(), (work / "sessions").string(),

@@ -579,8 +579,7 @@ TEST(SimSession, SenselIsStoredAtFullRateWithItsDeviceAndArrivalTimes) {
 }
 
 TEST(PvcapCommand, BadRigFileNamesFileLineAndKeyAndRecordsNothing) {
-  const fs::path work = fs::temp_directory_path() / ("pvcap-it-badrig-" + std::to_string(getpid()));
-  fs::create_directories(work);
+  const fs::path work = work_dir("badrig");
   std::ofstream(work / "rig.yaml") << "name: x\ncameras:\n  - serial: A\n    framerate: 60\n";
   const auto r = run_pvcap("session --rig " + (work / "rig.yaml").string() + " --root " + (work / "s").string());
   EXPECT_EQ(r.exit_code, 2);
@@ -590,8 +589,7 @@ TEST(PvcapCommand, BadRigFileNamesFileLineAndKeyAndRecordsNothing) {
 }
 
 TEST(PvcapCommand, MissingCameraIsNamedAndLeavesNoSession) {
-  const fs::path work = fs::temp_directory_path() / ("pvcap-it-nocam-" + std::to_string(getpid()));
-  fs::create_directories(work);
+  const fs::path work = work_dir("nocam");
   std::ofstream(work / "rig.yaml") << "name: x\ncameras:\n  - name: top\n    address: 127.0.0.1\n";
   const auto r =
       run_pvcap("session --rig " + (work / "rig.yaml").string() + " --root " + (work / "s").string() + " --duration 1");
@@ -602,8 +600,7 @@ TEST(PvcapCommand, MissingCameraIsNamedAndLeavesNoSession) {
 }
 
 TEST(PvcapCommand, DevicesListsTheSimulatedCamerasAndSensel) {
-  const fs::path work = fs::temp_directory_path() / ("pvcap-it-devices-" + std::to_string(getpid()));
-  fs::create_directories(work);
+  const fs::path work = work_dir("devices");
   std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}, {}, {}}, 320, 240, 10, 15, "free-run", /*sensel=*/true);
   const auto r = run_pvcap("devices --sim " + (work / "rig.yaml").string());
   EXPECT_EQ(r.exit_code, 0) << r.output;

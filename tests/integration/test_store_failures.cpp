@@ -33,6 +33,7 @@ using pvcap::testing::run_pvcap;
 using pvcap::testing::sim_rig_yaml;
 using pvcap::testing::spawn_pvcap;
 using pvcap::testing::wait_for_text;
+using pvcap::testing::work_dir;
 using namespace std::chrono_literals;
 
 namespace {
@@ -50,9 +51,7 @@ TEST(StoreCrash, KillNineAtRandomMomentsLosesAtMostTheLastSecond) {
   std::uniform_real_distribution<double> moment(2.0, 6.5);
   for (int run = 0; run < 3; ++run) {
     SCOPED_TRACE(fmt::format("run {}", run));
-    const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-kill-{}-{}", getpid(), run);
-    fs::remove_all(work);
-    fs::create_directories(work);
+    const fs::path work = work_dir(fmt::format("kill-{}", run));
     // Two-second segments, so kills land in the first, a middle or a fresh segment.
     std::ofstream(work / "rig.yaml") << with_store(
         sim_rig_yaml({{}, {}, {}, {}}, 640, 480, 30, 15, "free-run", /*sensel=*/true), "  segment_seconds: 2\n");
@@ -251,9 +250,7 @@ TEST(StoreCrash, KillNineAtEveryPhaseThenRecoverAndASecondRecoverChangesNothing)
   for (const Phase& phase : phases) {
     const double at_s = std::uniform_real_distribution<double>(0, phase.window_s)(rng);
     SCOPED_TRACE(fmt::format("killed in {} at {:.3f} s (seed {})", phase.name, at_s, seed));
-    const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-phase-{}-{}", getpid(), phase.name);
-    fs::remove_all(work);
-    fs::create_directories(work);
+    const fs::path work = work_dir(fmt::format("phase-{}", phase.name));
     std::ofstream(work / "rig.yaml") << with_store(
         sim_rig_yaml({{}, {}}, 320, 240, 30, phase.slow_encoder ? 0 : 15, "free-run", /*sensel=*/true),
         "  segment_seconds: 2\n");
@@ -327,9 +324,7 @@ TEST(StoreIoErrors, EioAndShortWritesAndFailedFsyncsStopCleanlyNamingTheFile) {
   const fs::path lib = PVCAP_IO_FAULTS_LIB;
   for (const Case& c : cases) {
     SCOPED_TRACE(c.fault);
-    const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-eio-{}", getpid());
-    fs::remove_all(work);
-    fs::create_directories(work);
+    const fs::path work = work_dir("eio");
     std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}}, 320, 240, 30, c.slow_encoder ? 0 : 15, "free-run",
                                                      /*sensel=*/true);
     const std::string env = fmt::format("env LD_PRELOAD={} PVCAP_IO_FAULT={}{}", lib.string(), c.fault,

@@ -27,6 +27,7 @@ using pvcap::testing::run_pvcap;
 using pvcap::testing::sim_rig_yaml;
 using pvcap::testing::spawn_pvcap;
 using pvcap::testing::wait_for_text;
+using pvcap::testing::work_dir;
 using namespace std::chrono_literals;
 
 namespace {
@@ -70,9 +71,7 @@ struct CpuHog {
 // core/fault_injection.h: at most 25 of 30 frames/s on any machine): the encoders fall behind,
 // frames wait in the spill, and none is dropped.
 TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
-  const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-spill-hog-{}", getpid());
-  fs::remove_all(work);
-  fs::create_directories(work);
+  const fs::path work = work_dir("spill-hog");
   std::ofstream(work / "rig.yaml") << store_lines_instead_of_preset(
       sim_rig_yaml({{}, {}, {}, {}}, 1920, 1080, 30, 0, "free-run", /*sensel=*/true),
       "  preset: ultrafast\n  raw_codec: libx264\n  queue_frames: 2\n");
