@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/rig_config.h"
 #include "core/time.h"
@@ -60,7 +61,27 @@ std::pair<std::size_t, std::size_t> members_within(const std::vector<TimedMember
   return best;
 }
 
+std::string done_message(const RealignResult& r, std::int64_t limit) {
+  std::string message = fmt::format("{} samples re-paired with the final clock fits in {:.1f} s", r.samples, r.seconds);
+  if (r.frames_out_of_groups == 0) return message;
+  std::vector<std::string> per_camera;
+  for (const auto& c : r.left_by_camera)
+    per_camera.push_back(fmt::format("{} {} of {}", c.camera, c.left, c.in_samples));
+  return message + fmt::format(
+                       "; {} camera frames left groups the final fits put wider than {:.2f} ms (reason "
+                       "outside_its_group: {})",
+                       r.frames_out_of_groups, double(limit) / 1e6, fmt::join(per_camera, ", "));
+}
+
 }  // namespace
+
+std::string RealignResult::cameras_that_left(double share) const {
+  std::vector<std::string> named;
+  for (const auto& c : left_by_camera)
+    if (double(c.left) > share * double(c.in_samples))
+      named.push_back(fmt::format("{} ({} of its {} sampled frames)", c.camera, c.left, c.in_samples));
+  return fmt::format("{}", fmt::join(named, ", "));
+}
 
 bool realign_pending(SessionIndex& index) { return index.realign_pending(); }
 
@@ -123,6 +144,9 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
   // beyond the grouping rule loses the frames outside it.
   const std::int64_t limit = o.group_limit_ns > 0 ? o.group_limit_ns : recorded_group_limit(index);
   const auto members = index.sample_members();
+  std::map<std::int64_t, RealignResult::CameraLeft> by_camera;
+  for (const auto& m : members)
+    for (const auto& f : m.frames) ++by_camera[f.device_id].in_samples;
   const std::size_t step = std::max<std::size_t>(1, o.samples_per_step);
   for (std::size_t begin = 0; begin < members.size(); begin += step) {
     sqlite::Transaction tx(db);
@@ -143,6 +167,7 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
           if (k < first || k >= last) {
             index.leave_sample(id, timed[k].ref);
             ++result.frames_out_of_groups;
+            ++by_camera[timed[k].ref.device_id].left;
           }
         timed = std::vector<TimedMember>(timed.begin() + std::ptrdiff_t(first), timed.begin() + std::ptrdiff_t(last));
       }
@@ -173,15 +198,14 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
       ++result.samples;
     }
     result.seconds = double(host_now().ns - t0) / 1e9;
-    if (end == members.size())
-      add_event(
-          index, "realign_done",
-          fmt::format("{} samples re-paired with the final clock fits in {:.1f} s{}", result.samples, result.seconds,
-                      result.frames_out_of_groups == 0
-                          ? std::string()
-                          : fmt::format("; {} camera frames left groups the final fits put wider than {:.2f} ms "
-                                        "(reason outside_its_group)",
-                                        result.frames_out_of_groups, double(limit) / 1e6)));
+    if (end == members.size()) {
+      for (auto& [device_id, c] : by_camera)
+        if (c.left > 0) {
+          c.camera = index.device_name(device_id);
+          result.left_by_camera.push_back(c);
+        }
+      add_event(index, "realign_done", done_message(result, limit));
+    }
     tx.commit();
     if (end < members.size()) say(fmt::format("re-mapping: {} of {} samples re-paired", end, members.size()));
   }
@@ -201,8 +225,14 @@ Result<std::vector<std::string>> recover_and_realign(const std::filesystem::path
   auto realigned = realign_if_needed(dir, recovered.value().was_interrupted, progress);
   if (!realigned) return realigned.error();
   auto done = recovered.value().done;
-  if (const auto& r = realigned.value())
+  if (const auto& r = realigned.value()) {
     done.push_back(fmt::format("timeline re-mapped with the stored clock fits: {} samples re-paired", r->samples));
+    if (const std::string cameras = r->cameras_that_left(RealignResult::kManyLeft); !cameras.empty())
+      done.push_back(fmt::format(
+          "frames of {} left their samples: the final clock fits put them beyond the grouping rule (frames.reason "
+          "outside_its_group); the report's sync self-check measures each camera's offset",
+          cameras));
+  }
   return done;
 }
 

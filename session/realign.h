@@ -39,6 +39,16 @@ struct RealignResult {
   std::size_t samples = 0;               // re-paired
   std::size_t segments = 0;              // clock segments applied, over all streams
   std::size_t frames_out_of_groups = 0;  // camera frames the final fits put outside their group
+  // Per camera that lost any: its name, the frames that left, and how many its samples held before.
+  struct CameraLeft {
+    std::string camera;
+    std::size_t left = 0, in_samples = 0;
+  };
+  std::vector<CameraLeft> left_by_camera;
+  // The cameras of left_by_camera that lost more than `share` of their sampled frames: a sign that
+  // its clock fit and the others' disagree (the report's sync self-check measures it), said in one line.
+  std::string cameras_that_left(double share) const;
+  static constexpr double kManyLeft = 0.02;  // a share worth a warning: more than a stray frame at the ends
   double seconds = 0;
 };
 

@@ -310,6 +310,12 @@ std::optional<SessionIndex::RecordedRig> SessionIndex::recorded_rig() {
   return RecordedRig{q.column_text(0), q.column_text(1)};
 }
 
+std::string SessionIndex::device_name(std::int64_t device_id) {
+  auto q = db_->prepare("SELECT name FROM devices WHERE id = ?");
+  q.bind_all(device_id);
+  return q.step() ? q.column_text(0) : fmt::format("device {}", device_id);
+}
+
 void SessionIndex::leave_sample(std::uint64_t sample_id, const SampleFrameRef& f) {
   const auto id = std::int64_t(sample_id);
   const auto connection = std::int64_t(f.connection);

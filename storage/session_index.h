@@ -83,6 +83,8 @@ class SessionIndex {
     std::string text, path;
   };
   std::optional<RecordedRig> recorded_rig();
+  // The device's name in the rig (cam0, sensel); "device N" for an id the session does not know.
+  std::string device_name(std::int64_t device_id);
   // Rewrites a sample's instant, its frames' offsets and its pressure pairing.
   void update_sample(const SampleRecord& s);
   // Takes a camera frame out of its sample (the final clock fits put it outside the group's span

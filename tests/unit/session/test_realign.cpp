@@ -285,6 +285,11 @@ TEST(Realign, AGroupTheFinalFitsWidenLosesTheFramesOutsideTheRuleAndKeepsThemNam
     SessionIndex index = SessionIndex::open_for_update(dir / "session.db");
     const auto r = realign(index, {20 * kMs, 2000, nullptr, kLimit});
     EXPECT_EQ(r.frames_out_of_groups, 2u);
+    ASSERT_EQ(r.left_by_camera.size(), 1u) << "only cam1 lost frames";
+    EXPECT_EQ(r.left_by_camera[0].camera, "cam1");
+    EXPECT_EQ(r.left_by_camera[0].left, 2u);
+    EXPECT_EQ(r.left_by_camera[0].in_samples, 2u);
+    EXPECT_EQ(r.cameras_that_left(0.02), "cam1 (2 of its 2 sampled frames)") << "named for the session's warning";
     auto q = index.db().prepare("SELECT id, t_ns, span_ns, cameras FROM samples ORDER BY id");
     ASSERT_TRUE(q.step());
     EXPECT_EQ(q.column_int(1), host(1)) << "cam0 and cam2 agree";
@@ -309,7 +314,8 @@ TEST(Realign, AGroupTheFinalFitsWidenLosesTheFramesOutsideTheRuleAndKeepsThemNam
     EXPECT_EQ(in_samples.column_int(0), 0) << "cam1's two frames left their samples";
     auto done = index.db().prepare("SELECT message FROM events WHERE kind = 'realign_done'");
     ASSERT_TRUE(done.step());
-    EXPECT_NE(done.column_text(0).find("2 camera frames left groups the final fits put wider than 8.33 ms"),
+    EXPECT_NE(done.column_text(0).find("2 camera frames left groups the final fits put wider than 8.33 ms (reason "
+                                       "outside_its_group: cam1 2 of 2)"),
               std::string::npos)
         << done.column_text(0);
     first = table(index.db());
@@ -318,6 +324,7 @@ TEST(Realign, AGroupTheFinalFitsWidenLosesTheFramesOutsideTheRuleAndKeepsThemNam
     SessionIndex index = SessionIndex::open_for_update(dir / "session.db");
     const auto r = realign(index, {20 * kMs, 2000, nullptr, kLimit});
     EXPECT_EQ(r.frames_out_of_groups, 0u);
+    EXPECT_TRUE(r.cameras_that_left(0.0).empty());
     EXPECT_EQ(table(index.db()), first) << "the same fits give the same groups";
   }
   fs::remove_all(dir);
