@@ -106,8 +106,9 @@ std::array<cv::Point2d, 4> pad_corners_px(const CameraModel& m, const PadLayout&
   return out;
 }
 
-namespace {
 std::vector<double> flat(const cv::Matx33d& m) { return {m.val, m.val + 9}; }
+
+namespace {
 cv::Matx33d matx(const nlohmann::json& j) {
   const auto v = j.get<std::vector<double>>();
   if (v.size() != 9) throw nlohmann::json::other_error::create(501, "a 3x3 matrix needs 9 numbers", &j);

@@ -43,6 +43,9 @@ cv::Matx33d cells_to_ideal(const CameraModel& m, const PadLayout& pad);
 // The grid's outer corners in the (distorted) image, in grid_corners_mm() order.
 std::array<cv::Point2d, 4> pad_corners_px(const CameraModel& m, const PadLayout& pad);
 
+// A 3x3 matrix as the 9 numbers the calibration file writes, row by row.
+std::vector<double> flat(const cv::Matx33d& m);
+
 void to_json(nlohmann::json& j, const CameraModel& m);
 void from_json(const nlohmann::json& j, CameraModel& m);
 

@@ -99,8 +99,6 @@ nlohmann::json to_json_value(const YAML::Node& n) {
   if (YAML::convert<bool>::decode(n, b)) return b;
   return n.Scalar();
 }
-
-std::vector<double> flat(const cv::Matx33d& m) { return {m.val, m.val + 9}; }
 }  // namespace
 
 void to_json(nlohmann::json& j, const CameraCalibration& c) {

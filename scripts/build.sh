@@ -8,6 +8,11 @@ bash "$here/scripts/deps.sh"
 # never changes what is generated); only the build is faster (a heavy file: 37 s -> 26 s).
 flags="-O2 -g -DNDEBUG"  # CMake's RelWithDebInfo, stated so a build without -g does not stick in the cache
 if [[ ${PVCAP_DEBUG_INFO:-ON} == OFF ]]; then flags="-O2 -DNDEBUG"; fi
+# PVCAP_UNITY=OFF: one compiler run per source file, for a developer's incremental builds. The default
+# (ON) compiles each folder's sources in batches of 8, which parses the shared headers (OpenCV, fmt,
+# nlohmann/json, spdlog) once per batch: a clean build on 2 cores in about half the time.
+unity=ON
+if [[ ${PVCAP_UNITY:-ON} == OFF ]]; then unity=OFF; fi
 cmake -S "$here" -B "$here/build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$flags" \
-  ${PVCAP_WERROR:+-DPVCAP_WERROR=$PVCAP_WERROR} >/dev/null
+  -DCMAKE_UNITY_BUILD=$unity -DCMAKE_UNITY_BUILD_BATCH_SIZE=8 ${PVCAP_WERROR:+-DPVCAP_WERROR=$PVCAP_WERROR} >/dev/null
 cmake --build "$here/build" -j "$(nproc)"

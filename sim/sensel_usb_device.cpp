@@ -81,13 +81,14 @@ std::vector<std::uint8_t> string_descriptor(const std::string& ascii) {
   return s;
 }
 
+}  // namespace
+
+// Named (not in the anonymous namespace): Impl, declared in the header, holds one.
 struct GObjectUnref {
   void operator()(gpointer p) const {
     if (p) g_object_unref(p);
   }
 };
-
-}  // namespace
 
 // One submitted URB: the client's usbdevfs_urb and its buffer, both resolved into
 // local copies that umockdev writes back when the URB is reaped.

@@ -15,7 +15,7 @@ using namespace pvcap;
 using namespace pvcap::calib;
 
 namespace {
-const cv::Size k1080p(1920, 1080);
+const cv::Size kImageSize(1920, 1080);
 }
 
 TEST(Charuco, BoardViewsOfTheSimulatedRigRecoverEachLens) {
@@ -28,7 +28,7 @@ TEST(Charuco, BoardViewsOfTheSimulatedRigRecoverEachLens) {
                                 cv::Matx33d(6.0, 0, -0.5, 0, 6.0, -0.5, 0, 0, 1)};
   for (int cam : {0, 1, 2, 3}) {
     SCOPED_TRACE("camera " + std::to_string(cam));
-    const CameraModel truth = sim::sim_camera_model(cam, sim::SimCameraClock{}, k1080p, k1080p);
+    const CameraModel truth = sim::sim_camera_model(cam, sim::SimCameraClock{}, kImageSize, kImageSize);
     const cv::Mat rays = truth.normalised_rays();
     const cv::Mat scene = sim::render_scene_bgr(default_pad_layout(), truth, rays);
     std::vector<BoardView> views;
@@ -42,7 +42,7 @@ TEST(Charuco, BoardViewsOfTheSimulatedRigRecoverEachLens) {
           to_bgr(mosaic.data, mosaic.total(), mosaic.cols, mosaic.rows, ARV_PIXEL_FORMAT_BAYER_RG_8, seen).ok());
       views.push_back(detect_board(seen, spec));
     }
-    auto got = calibrate_intrinsics(views, k1080p, spec);
+    auto got = calibrate_intrinsics(views, kImageSize, spec);
     ASSERT_TRUE(got) << got.error().message;
     const Intrinsics& in = got.value();
     std::string empty;
@@ -61,7 +61,7 @@ TEST(Charuco, BoardViewsOfTheSimulatedRigRecoverEachLens) {
 }
 
 TEST(Charuco, TooFewViewsAreRefusedWithWhatToDo) {
-  auto got = calibrate_intrinsics({BoardView{}, BoardView{}}, k1080p, BoardSpec{});
+  auto got = calibrate_intrinsics({BoardView{}, BoardView{}}, kImageSize, BoardSpec{});
   ASSERT_FALSE(got);
   EXPECT_NE(got.error().message.find("in only 0 frames; at least 8 are needed"), std::string::npos)
       << got.error().message;

@@ -17,7 +17,7 @@ using namespace pvcap;
 
 namespace {
 
-constexpr std::int64_t kMs = 1'000'000;
+constexpr std::int64_t kMillisecond = 1'000'000;
 
 // A camera at 30 Hz whose clock restarts at frame 30 (a reconnect: its device time starts again
 // near zero), a Sensel at 125 Hz, and a sample every other camera frame. Every mapped time is
@@ -37,40 +37,42 @@ struct Fixture {
     index.add_session({1, 0, "test", "rig", "rig.yaml", "", true});
     camera = index.add_device({"camera", "cam0", "", "", "", "", "", ""});
     sensel = index.add_device({"sensel", "sensel", "", "", "", "", "", ""});
-    auto camera_host = [](int i) { return std::int64_t(i) * 33'333'333 + 10 * kMs; };
-    auto camera_device = [&](int i) { return i < 30 ? camera_host(i) - 1000 * kMs : camera_host(i) - 2000 * kMs; };
+    auto camera_host = [](int i) { return std::int64_t(i) * 33'333'333 + 10 * kMillisecond; };
+    auto camera_device = [&](int i) {
+      return i < 30 ? camera_host(i) - 1000 * kMillisecond : camera_host(i) - 2000 * kMillisecond;
+    };
     for (int i = 0; i < 60; ++i) {
       FrameRecord f{camera,
                     0,
                     std::uint64_t(i + 1),
                     std::uint64_t(i + 1),
                     camera_device(i),
-                    camera_host(i) + 3 * kMs,
+                    camera_host(i) + 3 * kMillisecond,
                     0,
                     "good",
                     true,
                     "",
                     {},
                     {},
-                    camera_host(i) + 7 * kMs,
+                    camera_host(i) + 7 * kMillisecond,
                     {}};
       index.add_frame(f);
     }
     for (int k = 0; k < 250; ++k) {
-      const std::int64_t host = std::int64_t(k) * 8 * kMs;
+      const std::int64_t host = std::int64_t(k) * 8 * kMillisecond;
       PressureRecord p{sensel,
                        0,
                        std::uint64_t(k),
                        0,
-                       host - 500 * kMs + kMs / 2,
-                       host + kMs,
+                       host - 500 * kMillisecond + kMillisecond / 2,
+                       host + kMillisecond,
                        0,
                        185,
                        105,
                        1,
                        1,
                        {1, 2, 3},
-                       host + 7 * kMs,
+                       host + 7 * kMillisecond,
                        0,
                        {}};
       index.add_pressure(p);
@@ -79,7 +81,7 @@ struct Fixture {
       SampleRecord s{samples,
                      i / 2,
                      camera_host(i),
-                     camera_host(i) + 7 * kMs,
+                     camera_host(i) + 7 * kMillisecond,
                      0,
                      {{camera, 0, std::uint64_t(i + 1), 0}},
                      std::nullopt,
@@ -93,11 +95,11 @@ struct Fixture {
                    std::int64_t latency) {
       index.add_clock_model({device, host, segment, x0, offset, 0.0, latency, "arrivals", 10, 4, 0, 0});
     };
-    row(camera, camera_host(0), 0, 0, 990 * kMs, 0);  // an early, still imprecise fit
-    row(camera, camera_host(29), 0, 0, 1000 * kMs, 0);
-    row(camera, camera_host(30), 1, 0, 1990 * kMs, 0);
-    row(camera, camera_host(59), 1, 0, 2000 * kMs, 0);
-    row(sensel, 0, 0, 0, 500 * kMs, kMs / 2);
+    row(camera, camera_host(0), 0, 0, 990 * kMillisecond, 0);  // an early, still imprecise fit
+    row(camera, camera_host(29), 0, 0, 1000 * kMillisecond, 0);
+    row(camera, camera_host(30), 1, 0, 1990 * kMillisecond, 0);
+    row(camera, camera_host(59), 1, 0, 2000 * kMillisecond, 0);
+    row(sensel, 0, 0, 0, 500 * kMillisecond, kMillisecond / 2);
   }
   ~Fixture() { fs::remove_all(dir); }
 };
@@ -119,7 +121,7 @@ TEST(Realign, EachSegmentIsMappedWithItsLastStoredFitAndEverySampleRePaired) {
   Fixture f("mapped");
   SessionIndex index = SessionIndex::open_for_update(f.dir / "session.db");
   std::vector<std::string> said;
-  const auto r = realign(index, {20 * kMs, 4, [&](const std::string& s) { said.push_back(s); }});
+  const auto r = realign(index, {20 * kMillisecond, 4, [&](const std::string& s) { said.push_back(s); }});
   EXPECT_EQ(r.samples, f.samples);
   EXPECT_EQ(r.segments, 3u);
   EXPECT_FALSE(realign_pending(index));
@@ -127,13 +129,13 @@ TEST(Realign, EachSegmentIsMappedWithItsLastStoredFitAndEverySampleRePaired) {
   auto q = index.db().prepare("SELECT sequence, mapped_ns, device_ns FROM frames ORDER BY sequence");
   while (q.step()) {
     const auto seq = q.column_int(0);
-    const std::int64_t offset = seq <= 30 ? 1000 * kMs : 2000 * kMs;
+    const std::int64_t offset = seq <= 30 ? 1000 * kMillisecond : 2000 * kMillisecond;
     EXPECT_EQ(q.column_int(1), q.column_int(2) + offset) << "frame " << seq;
   }
   // Pressure: device + 500 ms - 0.5 ms latency, so every sample's nearest frame is within 4 ms.
   for (const auto& s : sample_rows(index.db())) {
     ASSERT_GE(s.pressure_sequence, 0);
-    EXPECT_LE(std::abs(s.pressure_offset_ns), 4 * kMs);
+    EXPECT_LE(std::abs(s.pressure_offset_ns), 4 * kMillisecond);
     auto p = index.db().prepare("SELECT mapped_ns FROM pressure_frames WHERE sequence = ?");
     p.bind_all(s.pressure_sequence);
     ASSERT_TRUE(p.step());
@@ -151,14 +153,14 @@ TEST(Realign, AnInterruptedReMappingIsPendingAndRunningItAgainFinishesIt) {
   {
     Fixture g("reference");  // the same session, re-mapped without interruption
     SessionIndex index = SessionIndex::open_for_update(g.dir / "session.db");
-    realign(index, {20 * kMs, 4, nullptr});
+    realign(index, {20 * kMillisecond, 4, nullptr});
     reference = sample_rows(index.db());
   }
   {
     SessionIndex index = SessionIndex::open_for_update(f.dir / "session.db");
     int steps = 0;
     // Killed after two committed steps of samples (the throw stands for the process dying).
-    EXPECT_THROW(realign(index, {20 * kMs, 4,
+    EXPECT_THROW(realign(index, {20 * kMillisecond, 4,
                                  [&](const std::string&) {
                                    if (++steps == 3) throw std::runtime_error("killed");
                                  }}),
@@ -190,14 +192,14 @@ TEST(Realign, AnInterruptedReMappingIsPendingAndRunningItAgainFinishesIt) {
 // pressure is re-paired against the re-mapped pressure frames, so its offset stays consistent.
 TEST(Realign, ASampleWhoseFramesWereNeverStoredKeepsItsInstantAndIsRePaired) {
   Fixture f("lost");
-  const std::int64_t t = 59 * 33'333'333 + 10 * kMs + 5 * kMs;  // within the pressure stream's span
+  const std::int64_t t = 59 * 33'333'333 + 10 * kMillisecond + 5 * kMillisecond;  // within the pressure stream's span
   {
     SessionIndex index = SessionIndex::open_for_update(f.dir / "session.db");
     SampleRecord s{f.samples, 30, t, t, 0, {{f.camera, 0, 61, 0}}, std::nullopt, std::nullopt, std::nullopt};
     index.add_sample(s);
   }
   SessionIndex index = SessionIndex::open_for_update(f.dir / "session.db");
-  const auto r = realign(index, {20 * kMs, 4, nullptr});
+  const auto r = realign(index, {20 * kMillisecond, 4, nullptr});
   EXPECT_EQ(r.samples, f.samples + 1);
   const auto rows = sample_rows(index.db());
   ASSERT_EQ(rows.size(), f.samples + 1);
@@ -208,7 +210,7 @@ TEST(Realign, ASampleWhoseFramesWereNeverStoredKeepsItsInstantAndIsRePaired) {
   p.bind_all(lost.pressure_sequence);
   ASSERT_TRUE(p.step());
   EXPECT_EQ(p.column_int(0) - t, lost.pressure_offset_ns);
-  EXPECT_LE(std::abs(lost.pressure_offset_ns), 4 * kMs);
+  EXPECT_LE(std::abs(lost.pressure_offset_ns), 4 * kMillisecond);
 }
 
 // A group formed on a poor early fit (a loaded start): cam1's frame one period later than the
@@ -221,7 +223,7 @@ TEST(Realign, AGroupTheFinalFitsWidenLosesTheFramesOutsideTheRuleAndKeepsThemNam
   fs::remove_all(dir);
   fs::create_directories(dir);
   constexpr std::int64_t kPeriod = 16'666'667, kLimit = 8'333'333;
-  auto host = [](int i) { return 100 * kMs + std::int64_t(i) * kPeriod; };
+  auto host = [](int i) { return 100 * kMillisecond + std::int64_t(i) * kPeriod; };
   std::vector<std::int64_t> cams;
   {
     SessionIndex index = SessionIndex::create(dir / "session.db");
@@ -234,8 +236,8 @@ TEST(Realign, AGroupTheFinalFitsWidenLosesTheFramesOutsideTheRuleAndKeepsThemNam
                       0,
                       std::uint64_t(i + 1),
                       std::uint64_t(i + 1),
-                      host(i) - (c + 1) * 1000 * kMs,
-                      host(i) + kMs,
+                      host(i) - (c + 1) * 1000 * kMillisecond,
+                      host(i) + kMillisecond,
                       0,
                       "good",
                       true,
@@ -246,12 +248,13 @@ TEST(Realign, AGroupTheFinalFitsWidenLosesTheFramesOutsideTheRuleAndKeepsThemNam
                       {}};
         index.add_frame(f);
       }
-      index.add_clock_model({cams[c], host(0), 0, 0, double((c + 1) * 1000 * kMs), 0.0, 0, "arrivals", 10, 4, 0, 0});
+      index.add_clock_model(
+          {cams[c], host(0), 0, 0, double((c + 1) * 1000 * kMillisecond), 0.0, 0, "arrivals", 10, 4, 0, 0});
     }
     // Sample 0: cam0 and cam2 at frame 1, cam1 at frame 2; its tick nearer cam1's frame.
     index.add_sample({0,
                       0,
-                      host(1) + 14 * kMs,
+                      host(1) + 14 * kMillisecond,
                       host(1),
                       0,
                       {{cams[0], 0, 2, 0}, {cams[1], 0, 3, 0}, {cams[2], 0, 2, 0}},
@@ -261,7 +264,7 @@ TEST(Realign, AGroupTheFinalFitsWidenLosesTheFramesOutsideTheRuleAndKeepsThemNam
     // Sample 1: cam0 at frame 5, cam1 at frame 6; one against one, its tick nearer cam0's frame.
     index.add_sample({1,
                       1,
-                      host(5) + 2 * kMs,
+                      host(5) + 2 * kMillisecond,
                       host(5),
                       0,
                       {{cams[0], 0, 6, 0}, {cams[1], 0, 7, 0}},
@@ -283,7 +286,7 @@ TEST(Realign, AGroupTheFinalFitsWidenLosesTheFramesOutsideTheRuleAndKeepsThemNam
   std::string first;
   {
     SessionIndex index = SessionIndex::open_for_update(dir / "session.db");
-    const auto r = realign(index, {20 * kMs, 2000, nullptr, kLimit});
+    const auto r = realign(index, {20 * kMillisecond, 2000, nullptr, kLimit});
     EXPECT_EQ(r.frames_out_of_groups, 2u);
     ASSERT_EQ(r.left_by_camera.size(), 1u) << "only cam1 lost frames";
     EXPECT_EQ(r.left_by_camera[0].camera, "cam1");
@@ -322,7 +325,7 @@ TEST(Realign, AGroupTheFinalFitsWidenLosesTheFramesOutsideTheRuleAndKeepsThemNam
   }
   {
     SessionIndex index = SessionIndex::open_for_update(dir / "session.db");
-    const auto r = realign(index, {20 * kMs, 2000, nullptr, kLimit});
+    const auto r = realign(index, {20 * kMillisecond, 2000, nullptr, kLimit});
     EXPECT_EQ(r.frames_out_of_groups, 0u);
     EXPECT_TRUE(r.cameras_that_left(0.0).empty());
     EXPECT_EQ(table(index.db()), first) << "the same fits give the same groups";

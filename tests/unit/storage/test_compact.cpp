@@ -29,7 +29,7 @@ using namespace pvcap;
 
 namespace {
 
-fs::path temp_root(const std::string& name) {
+fs::path compact_root(const std::string& name) {
   const auto d = fs::temp_directory_path() / ("pvcap-test-compact-" + name + "-" + std::to_string(::getpid()));
   fs::remove_all(d);
   return d;
@@ -134,7 +134,7 @@ std::uintmax_t video_bytes(const fs::path& dir) {
 }  // namespace
 
 TEST(Compact, RawSegmentsBecomeSmallerBitExactAndASecondRunChangesNothing) {
-  const auto root = temp_root("exact");
+  const auto root = compact_root("exact");
   const fs::path dir = write_raw_session(root, 3);
   ASSERT_EQ(verify_session(dir).exit_code(), 0);
   const auto before = decode_segments(dir);
@@ -189,7 +189,7 @@ TEST(Compact, RawSegmentsBecomeSmallerBitExactAndASecondRunChangesNothing) {
 }
 
 TEST(Compact, Ffv1OnRequestKeepsThePicturesToo) {
-  const auto root = temp_root("ffv1");
+  const auto root = compact_root("ffv1");
   const fs::path dir = write_raw_session(root, 1);
   const auto before = decode_segments(dir);
   CompactOptions o;
@@ -212,7 +212,7 @@ TEST(Compact, Ffv1OnRequestKeepsThePicturesToo) {
 TEST(Compact, AnInterruptionAfterEveryStepLeavesAReadableSessionAndTheNextRunFinishes) {
   for (const std::string at : {"written", "renamed", "committed"}) {
     SCOPED_TRACE(at);
-    const auto root = temp_root("step-" + at);
+    const auto root = compact_root("step-" + at);
     const fs::path dir = write_raw_session(root, 2);
     const auto before = decode_segments(dir);
     CompactOptions o;
@@ -246,7 +246,7 @@ TEST(Compact, AnInterruptionAfterEveryStepLeavesAReadableSessionAndTheNextRunFin
 }
 
 TEST(Compact, AFrameThatIsNotItsCaptureIsNamedAndItsSegmentLeftAsItWas) {
-  const auto root = temp_root("damaged");
+  const auto root = compact_root("damaged");
   const fs::path dir = write_raw_session(root, 2);
   std::string path;
   {
@@ -274,7 +274,7 @@ TEST(Compact, AFrameThatIsNotItsCaptureIsNamedAndItsSegmentLeftAsItWas) {
 // A store whose names would give two segments one compacted file (not one pvcap names, but a store
 // may come from elsewhere) is refused before anything is written.
 TEST(Compact, ANewNameThatIsAnotherSegmentsIsRefused) {
-  const auto root = temp_root("names");
+  const auto root = compact_root("names");
   const fs::path dir = write_raw_session(root, 2);
   {
     sqlite::Database db(dir / "session.db", sqlite::Database::Mode::ReadWrite);
@@ -297,7 +297,7 @@ TEST(Compact, ANewNameThatIsAnotherSegmentsIsRefused) {
 }
 
 TEST(Compact, ASessionBeingRecordedOrNotClosedIsRefused) {
-  const auto root = temp_root("refused");
+  const auto root = compact_root("refused");
   const fs::path dir = write_raw_session(root, 1);
   {
     const int fd = ::open((dir / "recording.lock").c_str(), O_CREAT | O_WRONLY | O_CLOEXEC, 0644);

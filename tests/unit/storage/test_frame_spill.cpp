@@ -12,7 +12,7 @@ using namespace pvcap;
 using namespace std::chrono_literals;
 
 namespace {
-fs::path temp_dir(const std::string& name) {
+fs::path spill_dir(const std::string& name) {
   const auto d = fs::temp_directory_path() / ("pvcap-test-spill-" + name + "-" + std::to_string(::getpid()));
   fs::remove_all(d);
   fs::create_directories(d);
@@ -51,7 +51,7 @@ std::size_t spill_files(const fs::path& dir) {
 // An encoder that is behind: the frames beyond the memory queue go through the disk, and all come
 // back in order, pixels and rows intact; once caught up, frames stay in memory again.
 TEST(FrameSpill, FramesBeyondMemoryGoThroughTheDiskAndComeBackInOrder) {
-  const fs::path dir = temp_dir("order");
+  const fs::path dir = spill_dir("order");
   std::vector<cv::Mat> images;
   {
     FrameSpillQueue q(dir, "cam0", /*memory_frames=*/4, /*writer_frames=*/64);
@@ -94,7 +94,7 @@ TEST(FrameSpill, FramesBeyondMemoryGoThroughTheDiskAndComeBackInOrder) {
 // Pushes and pops from two threads at once, the encoder slower than the camera for a while: nothing
 // lost, nothing reordered.
 TEST(FrameSpill, ACameraFasterThanItsEncoderLosesNothing) {
-  const fs::path dir = temp_dir("race");
+  const fs::path dir = spill_dir("race");
   {
     // The writer's queue is large enough that a stalled writer thread on a loaded machine refuses
     // nothing: this test is about order and completeness across threads, not the disk's speed.
@@ -129,7 +129,7 @@ TEST(FrameSpill, ACameraFasterThanItsEncoderLosesNothing) {
 // Memory stays bounded when the disk is slower than the camera: with the writer's queue full, a
 // frame is refused (the caller records it as lost) instead of piling up.
 TEST(FrameSpill, AWriterThatCannotKeepUpRefusesInsteadOfGrowing) {
-  const fs::path dir = temp_dir("bound");
+  const fs::path dir = spill_dir("bound");
   {
     FrameSpillQueue q(dir, "cam4", 2, 0);  // no room for the writer: every frame past memory is refused
     EXPECT_TRUE(q.push(image_of(0), row_of(0)));
@@ -149,7 +149,7 @@ TEST(FrameSpill, AWriterThatCannotKeepUpRefusesInsteadOfGrowing) {
 
 // A spill cut by a crash reads up to its last whole record; a foreign file is named as such.
 TEST(FrameSpill, ACutSpillReadsToItsLastWholeRecord) {
-  const fs::path dir = temp_dir("cut");
+  const fs::path dir = spill_dir("cut");
   {
     FrameSpillQueue q(dir, "cam2", 0, 64);  // no memory: every frame goes to the disk
     for (std::uint64_t i = 0; i < 5; ++i) ASSERT_TRUE(q.push(image_of(i), row_of(i)));

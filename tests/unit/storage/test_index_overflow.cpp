@@ -26,7 +26,7 @@ struct TempDir {
   }
 };
 
-fs::path temp_dir(const std::string& name) {
+fs::path overflow_dir(const std::string& name) {
   const auto d = fs::temp_directory_path() / ("pvcap-test-overflow-" + name + "-" + std::to_string(::getpid()));
   fs::remove_all(d);
   fs::create_directories(d);
@@ -104,7 +104,7 @@ TEST(RecordCodec, EveryKindReadsBackAsItWasAndACutRecordIsNoRecord) {
 }
 
 TEST(IndexOverflow, RecordsLeaveInTheirOrderThroughMemoryAndTheFile) {
-  const TempDir scratch{temp_dir("order")};
+  const TempDir scratch{overflow_dir("order")};
   const fs::path& dir = scratch.path;
   const fs::path file = dir / "spill" / kIndexOverflowFile;
   std::vector<std::uint64_t> out;
@@ -134,7 +134,7 @@ TEST(IndexOverflow, RecordsLeaveInTheirOrderThroughMemoryAndTheFile) {
 // The index thread stalls with a queue of 100 records and 200 in memory: 20,000 rows pushed meanwhile
 // all reach session.db, in order, none lost, and the index says it was behind.
 TEST(IndexWriter, AStalledIndexLosesNoRowAndSaysItWasBehind) {
-  const TempDir scratch{temp_dir("stall")};
+  const TempDir scratch{overflow_dir("stall")};
   const fs::path& dir = scratch.path;
   const fs::path file = dir / "spill" / kIndexOverflowFile;
   {
