@@ -14,6 +14,7 @@
 #include "session_under_test.h"
 #include "sim/truth.h"
 #include "storage/session_reader.h"
+#include "storage/sqlite/database.h"
 
 namespace fs = std::filesystem;
 using pvcap::testing::only_session;
@@ -60,6 +61,27 @@ TEST(Calibration, BoardSessionGivesEveryCamerasIntrinsicsWithinTargets) {
                                            (work / "board").string()));
   ASSERT_EQ(board.exit_code, 0) << board.output;
   const fs::path session = only_session(work / "board");
+  {
+    // Every camera's images are in the samples the intrinsics read: CI once found cam2's board in 1 of
+    // its 150 (the cause not in the log). Under a busy machine a camera misses some groups (76 % of
+    // samples at the least beside a second simulated rig); half is far from both.
+    pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+    auto samples = db.prepare("SELECT count(*) FROM samples");
+    ASSERT_TRUE(samples.step());
+    const std::int64_t total = samples.column_int(0);
+    auto done = db.prepare("SELECT message FROM events WHERE kind = 'realign_done'");
+    const std::string realigned = done.step() ? done.column_text(0) : "(no realign_done event)";
+    auto per_camera = db.prepare(
+        "SELECT d.name, (SELECT count(*) FROM sample_frames sf WHERE sf.device_id = d.id) FROM devices d WHERE "
+        "d.kind = 'camera' ORDER BY d.name");
+    int cameras = 0;
+    for (; per_camera.step(); ++cameras)
+      EXPECT_GE(2 * per_camera.column_int(1), total)
+          << per_camera.column_text(0) << " is in " << per_camera.column_int(1) << " of " << total
+          << " samples; the re-mapping said: " << realigned << "\nthe board session said:\n"
+          << board.output;
+    EXPECT_EQ(cameras, 4);
+  }
   const auto intrinsics = run_pvcap(fmt::format("calibrate intrinsics {} --rig {} --ground-truth {}", session.string(),
                                                 rig.string(), (session / "sim-truth").string()));
   // The margins, in the test log whatever the outcome (the principal point's is the thin one).
