@@ -83,6 +83,16 @@ std::string RealignResult::cameras_that_left(double share) const {
   return fmt::format("{}", fmt::join(named, ", "));
 }
 
+std::string RealignResult::many_left_warning() const {
+  const std::string cameras = cameras_that_left(kManyLeft);
+  if (cameras.empty()) return cameras;
+  return fmt::format(
+      "the final clock fits put frames of {} more than {:.2f} ms from the other cameras', so they left their samples "
+      "(frames.reason outside_its_group; their images stay in the videos). The report's sync self-check measures "
+      "each camera's offset",
+      cameras, double(group_limit_ns) / 1e6);
+}
+
 bool realign_pending(SessionIndex& index) { return index.realign_pending(); }
 
 Result<std::optional<RealignResult>> realign_if_needed(const std::filesystem::path& dir, bool interrupted,
@@ -143,6 +153,7 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
   // Step 2: every sample's instant and pairing, committed in steps; a group the final fits widen
   // beyond the grouping rule loses the frames outside it.
   const std::int64_t limit = o.group_limit_ns > 0 ? o.group_limit_ns : recorded_group_limit(index);
+  result.group_limit_ns = limit;
   const auto members = index.sample_members();
   std::map<std::int64_t, RealignResult::CameraLeft> by_camera;
   for (const auto& m : members)
@@ -227,11 +238,7 @@ Result<std::vector<std::string>> recover_and_realign(const std::filesystem::path
   auto done = recovered.value().done;
   if (const auto& r = realigned.value()) {
     done.push_back(fmt::format("timeline re-mapped with the stored clock fits: {} samples re-paired", r->samples));
-    if (const std::string cameras = r->cameras_that_left(RealignResult::kManyLeft); !cameras.empty())
-      done.push_back(fmt::format(
-          "frames of {} left their samples: the final clock fits put them beyond the grouping rule (frames.reason "
-          "outside_its_group); the report's sync self-check measures each camera's offset",
-          cameras));
+    if (const std::string warning = r->many_left_warning(); !warning.empty()) done.push_back(warning);
   }
   return done;
 }

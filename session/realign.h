@@ -49,6 +49,10 @@ struct RealignResult {
   // its clock fit and the others' disagree (the report's sync self-check measures it), said in one line.
   std::string cameras_that_left(double share) const;
   static constexpr double kManyLeft = 0.02;  // a share worth a warning: more than a stray frame at the ends
+  std::int64_t group_limit_ns = 0;           // the grouping rule the groups were held to
+  // What a session's end and `pvcap recover` say when a camera lost more than kManyLeft: one line,
+  // empty when none did.
+  std::string many_left_warning() const;
   double seconds = 0;
 };
 

@@ -524,14 +524,7 @@ RecordingResult Recording::finish(const std::string& end_reason) {
     const auto r =
         realign(index, {max_offset_ns, 2000, [](const std::string& line) { spdlog::info("{}", line); }, limit});
     spdlog::info("timeline: {} samples re-paired with the final clock fits in {:.1f} s", r.samples, r.seconds);
-    // A camera whose frames leave their samples in numbers: its clock fit and the others' disagree
-    // by more than the grouping rule, and the dataset has that camera's images in fewer samples.
-    if (const std::string cameras = r.cameras_that_left(RealignResult::kManyLeft); !cameras.empty())
-      spdlog::warn(
-          "timeline: the final clock fits put frames of {} more than {:.2f} ms from the other cameras', so they "
-          "left their samples (frames.reason outside_its_group; their images stay in the videos). The report's sync "
-          "self-check measures each camera's offset",
-          cameras, double(limit) / 1e6);
+    if (const std::string warning = r.many_left_warning(); !warning.empty()) spdlog::warn("timeline: {}", warning);
   });
   const auto tl = timeline_->counts();
   writer.add_timeline_count("samples", tl.samples);

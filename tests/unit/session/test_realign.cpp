@@ -293,6 +293,9 @@ TEST(Realign, AGroupTheFinalFitsWidenLosesTheFramesOutsideTheRuleAndKeepsThemNam
     EXPECT_EQ(r.left_by_camera[0].left, 2u);
     EXPECT_EQ(r.left_by_camera[0].in_samples, 2u);
     EXPECT_EQ(r.cameras_that_left(0.02), "cam1 (2 of its 2 sampled frames)") << "named for the session's warning";
+    EXPECT_NE(r.many_left_warning().find("frames of cam1 (2 of its 2 sampled frames) more than 8.33 ms"),
+              std::string::npos)
+        << r.many_left_warning();
     auto q = index.db().prepare("SELECT id, t_ns, span_ns, cameras FROM samples ORDER BY id");
     ASSERT_TRUE(q.step());
     EXPECT_EQ(q.column_int(1), host(1)) << "cam0 and cam2 agree";
@@ -328,6 +331,7 @@ TEST(Realign, AGroupTheFinalFitsWidenLosesTheFramesOutsideTheRuleAndKeepsThemNam
     const auto r = realign(index, {20 * kMillisecond, 2000, nullptr, kLimit});
     EXPECT_EQ(r.frames_out_of_groups, 0u);
     EXPECT_TRUE(r.cameras_that_left(0.0).empty());
+    EXPECT_TRUE(r.many_left_warning().empty());
     EXPECT_EQ(table(index.db()), first) << "the same fits give the same groups";
   }
   fs::remove_all(dir);
