@@ -197,9 +197,7 @@ std::vector<TruthFrame> read_truth(const fs::path& csv) {
 
 RecordedSession record(const std::string& test_name, const std::string& rig_yaml, double duration_s) {
   RecordedSession s;
-  const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-{}-{}", test_name, getpid());
-  fs::remove_all(work);
-  fs::create_directories(work);
+  const fs::path work = work_dir(test_name);  // removed when the test ends (kept if it failed, on request)
   std::ofstream(work / "rig.yaml") << rig_yaml;
   s.result = run_pvcap(fmt::format("session --rig {} --root {} --duration {}", (work / "rig.yaml").string(),
                                    (work / "sessions").string(), duration_s));

@@ -49,7 +49,6 @@ TEST(Calibration, TheBoardIsWrittenAsPdfOrPng) {
   r = run_pvcap(fmt::format("calibrate board --out {}", (work / "board.txt").string()));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("the board is written as .pdf or .png"), std::string::npos) << r.output;
-  fs::remove_all(work);
 }
 
 // A board session, then intrinsics from it: focal length within 0.5 % and principal point within
@@ -108,7 +107,6 @@ TEST(Calibration, BoardSessionGivesEveryCamerasIntrinsicsWithinTargets) {
   auto rows = reader.value()->calibrations();
   ASSERT_TRUE(rows);
   EXPECT_EQ(rows.value().size(), 4u);
-  fs::remove_all(work);
 }
 
 // The pad's pose and homography from a recorded session with intrinsics given (the truth's, written
@@ -193,5 +191,4 @@ TEST(Calibration, PadCornersFromASessionMatchTheTruthAndLaterSessionsRecordTheCa
       std::regex_search(third.output, std::regex(R"(rig\.calibration\.yaml:\d+: YAML syntax error.*the session is )"
                                                  R"(recorded without it)")))
       << third.output;
-  fs::remove_all(work);
 }

@@ -94,7 +94,6 @@ TEST(ProtocolSession, TheAutomaticParticipantPerformsEveryTakeAndTheDataAgreeWit
   // The store holds the whole protocol, and reads back clean or lossy, never broken.
   const auto v = run_pvcap("verify " + session.string());
   EXPECT_TRUE(v.exit_code == 0 || v.exit_code == 3) << v.output;
-  fs::remove_all(work);
 }
 
 TEST(ProtocolSession, AKilledSessionResumesAndTogetherTheFoldersCoverTheProtocol) {
@@ -149,7 +148,6 @@ TEST(ProtocolSession, AKilledSessionResumesAndTogetherTheFoldersCoverTheProtocol
   ASSERT_TRUE(reader) << reader.error().message;
   ASSERT_TRUE(reader.value()->info().participant);
   EXPECT_EQ(reader.value()->info().participant->pseudonym, "T02");
-  fs::remove_all(work);
 }
 
 namespace {
@@ -243,5 +241,4 @@ TEST(ProtocolSession, TheOperatorSteersFromTheTerminal) {
   ASSERT_TRUE(info.conditions);
   EXPECT_EQ(info.conditions->lighting, "LCR");
   EXPECT_EQ(info.conditions->sensor_overlay, "unrecorded");
-  fs::remove_all(work);
 }

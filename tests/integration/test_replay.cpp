@@ -167,5 +167,4 @@ TEST(Replay, TheRenderedTakeShowsThePressWhereTheSimulatorPutIt) {
   auto want = composer.value().compose(expected);
   ASSERT_TRUE(want) << want.error().message;
   EXPECT_EQ(cv::norm(seen(cv::Rect(0, 0, Layout::kWidth, Layout::kHeight)), want.value(), cv::NORM_INF), 0.0);
-  fs::remove_all(work);
 }

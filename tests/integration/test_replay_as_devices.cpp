@@ -365,7 +365,6 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   EXPECT_LT(pct(cam_errors, 0.5), 0.5);
   EXPECT_LT(pct(sensel_errors, 0.95), 1.0);
   EXPECT_LT(pct(sensel_errors, 0.5), 0.5);
-  fs::remove_all(work);
 }
 
 // A colour store keeps no mosaics: its images are sampled back into the camera's Bayer pattern and
@@ -433,7 +432,6 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
       differences.size(), differences[differences.size() / 2], differences.back(), grey_difference);
   EXPECT_LT(differences.back(), 8.0);
   EXPECT_GT(grey_difference, 20.0) << "the scene is not grey: the comparison means something";
-  fs::remove_all(work);
 }
 
 // A session recorded with hardware triggers replays with them: the printed rig keeps `trigger:
@@ -480,7 +478,6 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
   std::printf("both cameras: |interval sent - recorded| p50 %.3f p95 %.3f ms (%zu intervals)\n", pct(both, 0.5),
               pct(both, 0.95), both.size());
   EXPECT_LT(pct(both, 0.95), 1.0);
-  fs::remove_all(work);
 }
 
 // `--rate 2`: the same frames (ids, pixels, pressure) come twice as often, their device timestamps
@@ -568,5 +565,4 @@ TEST(ReplayAsDevices, AtRateTwoTheSameFramesComeTwiceAsOften) {
   EXPECT_NEAR(fps, 60.0, 1.0);
   EXPECT_LT(pct(cam, 0.5), 0.5);
   EXPECT_LT(pct(sensel, 0.5), 0.5);
-  fs::remove_all(work);
 }

@@ -138,7 +138,6 @@ TEST(Report, AProtocolSessionsReportOpensInABrowserAndItsCountsAreTheStores) {
   EXPECT_TRUE(browser.screenshot(tab, kScreenshots / "report.png"));
   EXPECT_TRUE(browser.errors().empty()) << browser.errors().front();
   std::printf("report screenshot: %s\n", (kScreenshots / "report.png").c_str());
-  fs::remove_all(work);
 }
 
 // Latencies the rig file does not declare (cam1 +7 ms, cam2 -5 ms; cam0 and cam3 none), injected
@@ -189,5 +188,4 @@ TEST(Report, TheSyncSelfCheckFindsLatenciesTheRigFileDoesNotDeclare) {
     EXPECT_NEAR(cam["offset_ms"].get<double>(), injected[c], 2.0) << cam.dump();
     EXPECT_LT(cam["uncertainty_ms"].get<double>(), 1.0) << cam.dump();
   }
-  fs::remove_all(work);  // some 700 MB of 960 x 540 video
 }

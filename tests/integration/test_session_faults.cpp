@@ -85,7 +85,6 @@ TEST(SessionFaults, ASecondRecorderOnTheSameRigIsRefusedWithTheRunningOnesPidAnd
   const auto third = run_pvcap(
       fmt::format("session --rig {} --root {} --duration 2 --no-web", rig.string(), (work / "third").string()));
   EXPECT_EQ(third.exit_code, 0) << third.output;
-  fs::remove_all(work);
 }
 
 TEST(SessionFaults, ARootThatCannotTakeASessionEndsWithExit1AndAMessage) {
@@ -109,7 +108,6 @@ TEST(SessionFaults, ARootThatCannotTakeASessionEndsWithExit1AndAMessage) {
                                                 (work / "a-file" / "sessions").string()));
   EXPECT_EQ(under_file.exit_code, 1) << under_file.output;
   EXPECT_NE(under_file.output.find((work / "a-file").string()), std::string::npos) << under_file.output;
-  fs::remove_all(work);
 }
 
 namespace {
@@ -162,7 +160,6 @@ ReplugRun record_replug(const std::string& name, const std::string& replug, doub
 TEST(SessionFaults, ASenselPluggedBackIsANewConnectionAndItsAbsenceIsRecordedAsLost) {
   const auto run = record_replug("replug", "", 9);
   ASSERT_FALSE(run.session.empty());
-  const fs::path& work = run.work;
   const fs::path& session = run.session;
   EXPECT_NE(run.output.find("Sensel reconnected (serial SM01164910368), streaming again as connection 1"),
             std::string::npos)
@@ -196,7 +193,6 @@ TEST(SessionFaults, ASenselPluggedBackIsANewConnectionAndItsAbsenceIsRecordedAsL
     auto s = reader.value()->sample(i, pvcap::PressureMode::Interpolated);
     ASSERT_TRUE(s) << i << ": " << s.error().message;
   }
-  fs::remove_all(work);
 }
 
 // The Morph comes back under another name (its first tty is gone, as /dev/ttyACM0 coming back as
@@ -205,7 +201,6 @@ TEST(SessionFaults, ASenselPluggedBackIsANewConnectionAndItsAbsenceIsRecordedAsL
 TEST(SessionFaults, ASenselBackUnderAnotherNameIsFoundByItsSerial) {
   const auto run = record_replug("renamed-morph", ", replug_renamed: true", 8);
   ASSERT_FALSE(run.session.empty());
-  const fs::path& work = run.work;
   const fs::path& session = run.session;
   EXPECT_NE(run.output.find("is gone; the session's Morph (serial SM01164910368) is back on "), std::string::npos)
       << run.output;
@@ -216,14 +211,12 @@ TEST(SessionFaults, ASenselBackUnderAnotherNameIsFoundByItsSerial) {
   pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
   EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_reconnected'"), 1);
   EXPECT_GT(scalar(db, "SELECT count(*) FROM pressure_frames WHERE connection = 1"), 200);
-  fs::remove_all(work);
 }
 
 // Another Morph plugged in where the session's was unplugged is refused, loudly, and not recorded.
 TEST(SessionFaults, ADifferentSenselPluggedInIsRefusedAndNotRecorded) {
   const auto run = record_replug("other-morph", ", replug_serial: SM99999999999", 7);
   ASSERT_FALSE(run.session.empty());
-  const fs::path& work = run.work;
   const fs::path& session = run.session;
   EXPECT_NE(run.output.find("a different Sensel Morph (serial SM99999999999) answered where the session's (serial "
                             "SM01164910368) was unplugged; it is NOT recorded"),
@@ -234,7 +227,6 @@ TEST(SessionFaults, ADifferentSenselPluggedInIsRefusedAndNotRecorded) {
       << "said once, not at every retry";
   EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind = 'sensel_reconnected'"), 0);
   EXPECT_EQ(scalar(db, "SELECT count(*) FROM pressure_frames WHERE connection <> 0"), 0);
-  fs::remove_all(work);
 }
 
 // pvcap's own side falling behind (core/fault_injection.h): the Sensel's worker stalls with a small
@@ -308,7 +300,6 @@ TEST(SessionFaults, PressureFramesLostToASlowPvcapAreCountedAndASlowIndexLosesNo
   }
   EXPECT_GT(cameras, 0);
   EXPECT_FALSE(fs::exists(session / "spill" / "index-rows.overflow")) << "read back and removed";
-  fs::remove_all(work);
 }
 
 // An ssh connection that drops (SIGHUP) and a service manager's stop (SIGTERM) end the session like
@@ -362,7 +353,6 @@ TEST(SessionFaults, SighupAndSigtermStopTheSessionCleanly) {
     EXPECT_EQ(scalar(db, "SELECT count(*) FROM events WHERE kind LIKE 'sensel_%'"), 0)
         << "the Morph streamed on, untouched by the listing";
   }
-  fs::remove_all(work);
 }
 
 // The operator's ssh connection drops, as it really happens: `pvcap session` runs as the job of an
@@ -418,7 +408,6 @@ TEST(SessionFaults, ClosingTheTerminalOfAnInteractiveShellStopsTheSessionCleanly
   }
   const auto v = run_pvcap("verify " + session.string());
   EXPECT_EQ(v.exit_code, 0) << v.output << why_sample_frames_are_not_in_a_video(session);
-  fs::remove_all(work);
 }
 
 // A participant's session is for the lab, not for every user of the machine: run as root (as the
@@ -465,5 +454,4 @@ TEST(SessionFaults, ASessionIsReadableByItsGroupAndByNoOtherUser) {
                                              (work / "rig.yaml").string(), (work / "other").string()));
   EXPECT_NE(refused.exit_code, 0);
   EXPECT_NE(refused.output.find("there is no group 'no-such-lab'"), std::string::npos) << refused.output;
-  fs::remove_all(work);
 }

@@ -283,7 +283,6 @@ TEST(SessionPages, TheParticipantAndOperatorPagesFollowTheRunnerThroughTheTakes)
   ASSERT_TRUE(notes);
   for (const auto& n : notes.value()) noted = noted || n.text == "participant asked for water";
   EXPECT_TRUE(noted);
-  fs::remove_all(work);
 }
 
 // Off loopback the pages need the session's token: generated and printed when not given. The
@@ -330,7 +329,6 @@ TEST(SessionPages, OffLoopbackEveryRequestNeedsTheToken) {
   EXPECT_EQ(u.token.size(), 32u) << "a generated token, printed with the address";
   EXPECT_EQ(codes, (std::vector<int>{401, 401, 401, 401, 401, 200, 200, 401})) << read_all(work / "pvcap.log");
   EXPECT_NE(refusal.find("token"), std::string::npos) << refusal;
-  fs::remove_all(work);
 }
 
 // A real rig's press check needs the fingertip marked by hand: on the operator page a click on a
@@ -444,7 +442,6 @@ TEST(SessionPages, TheOperatorMarksTheFingertipForThePressCheck) {
       << check.output;
   EXPECT_LE(std::stod(m[1]), 1.0) << check.output;
   EXPECT_TRUE(browser.errors().empty()) << fmt::format("{}", fmt::join(browser.errors(), "\n"));
-  fs::remove_all(work);
 }
 
 // Every route of the running pages, probed as another local user or a hostile page would: nothing
@@ -565,7 +562,6 @@ TEST(SessionPages, EveryRouteIsGuardedAndRequestsAreBounded) {
   int status = 0;
   waitpid(pid, &status, 0);
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_all(work / "pvcap.log");
-  fs::remove_all(work);
 }
 
 // The token from a file (not the command line, where `ps` shows it), and --no-web-token, which is
@@ -591,5 +587,4 @@ TEST(SessionPages, TheTokenComesFromAFileAndNoTokenIsForLoopbackOnly) {
                                           rig.string(), (work / "c").string()));
   EXPECT_EQ(none.exit_code, 0) << none.output;
   EXPECT_EQ(none.output.find("?token="), std::string::npos) << none.output;
-  fs::remove_all(work);
 }

@@ -233,7 +233,6 @@ TEST(SimSession, FourCamerasTenSecondsEveryFrameAccountedAndTimecodesMatch) {
     EXPECT_EQ(v.timecode_ok, kept);
     EXPECT_EQ(v.stripe_ok, kept);
   }
-  fs::remove_all(s.dir.parent_path().parent_path());
 }
 
 TEST(SimSession, OnePercentPacketLossNeverStoresACorruptedFrame) {
@@ -268,7 +267,6 @@ TEST(SimSession, OnePercentPacketLossNeverStoresACorruptedFrame) {
   ASSERT_TRUE(q.step());
   EXPECT_GT(q.column_int(0), 0);
   EXPECT_GT(q.column_int(1), 0);
-  fs::remove_all(s.dir.parent_path().parent_path());
 }
 
 TEST(SimSession, KilledCameraIsReportedWithinTwoSecondsAndTheOthersKeepRecording) {
@@ -300,7 +298,6 @@ TEST(SimSession, KilledCameraIsReportedWithinTwoSecondsAndTheOthersKeepRecording
     EXPECT_GT(double(c.frames.size()), 0.8 * duration * 30);
     EXPECT_EQ(account(c).unaccounted, 0u);
   }
-  fs::remove_all(s.dir.parent_path().parent_path());
 }
 
 // Cameras on a trigger line (the simulator's line pulses at the configured 30 Hz, every camera at
@@ -355,7 +352,6 @@ TEST(SimSession, AHardwareTriggeredCameraThatVanishesIsReportedWithinTwoSeconds)
   std::printf("samples with two or more cameras: %lld, of which %lld span under 5 ms\n",
               static_cast<long long>(q.column_int(0)), static_cast<long long>(q.column_int(1)));
   EXPECT_GE(q.column_int(1) * 10, q.column_int(0) * 8) << "frames of one pulse lie within 5 ms of each other";
-  fs::remove_all(s.dir.parent_path().parent_path());
 }
 
 TEST(SimSession, CameraThatComesBackIsReconnectedAndRecordsAgain) {
@@ -388,7 +384,6 @@ TEST(SimSession, CameraThatComesBackIsReconnectedAndRecordsAgain) {
   const VideoCheck v = check_video(s.dir, c);
   EXPECT_GT(v.decoded, 0u);
   EXPECT_EQ(v.timecode_ok, v.decoded);
-  fs::remove_all(s.dir.parent_path().parent_path());
 }
 
 TEST(SimSession, SoftwareTriggeredCameraDeliversAtTheConfiguredRate) {
@@ -398,7 +393,6 @@ TEST(SimSession, SoftwareTriggeredCameraDeliversAtTheConfiguredRate) {
   ASSERT_EQ(s.cameras.size(), 1u);
   EXPECT_NEAR(double(s.cameras[0].frames.size()), duration * fps, duration * fps * 0.2);
   EXPECT_EQ(s.result.output.find("camera lost"), std::string::npos) << s.result.output;
-  fs::remove_all(s.dir.parent_path().parent_path());
 }
 
 // An encoder slower than its camera on any machine (it waits 60 ms before each frame, a fault of
@@ -429,7 +423,6 @@ TEST(SimSession, AnEncoderFallingBehindIsWarnedOnceAndItsFramesWaitOnDisk) {
   EXPECT_EQ(lost_to_the_store, 0u);
   EXPECT_GT(in_video, 60u);
   EXPECT_FALSE(fs::exists(s.dir / "spill"));
-  fs::remove_all(s.dir.parent_path().parent_path());
 }
 
 // A camera worker that falls behind (stalled 1.5 s on purpose, core/fault_injection.h) loses frames
@@ -467,7 +460,6 @@ BehindOutcome record_with_a_stalled_worker(const std::string& name, const std::s
   if (first != std::string::npos)
     std::printf("%s\n", s.result.output.substr(first, s.result.output.find('\n', first) - first).c_str());
   EXPECT_EQ(o.accounting.unaccounted, 0u) << "frames neither stored nor in a drop row";
-  fs::remove_all(s.dir.parent_path().parent_path());
   return o;
 }
 
@@ -575,7 +567,6 @@ TEST(SimSession, SenselIsStoredAtFullRateWithItsDeviceAndArrivalTimes) {
   }
   EXPECT_GT(pressed, 10);
   EXPECT_GT(lifted, 10);
-  fs::remove_all(s.dir.parent_path().parent_path());
 }
 
 TEST(PvcapCommand, BadRigFileNamesFileLineAndKeyAndRecordsNothing) {
@@ -585,7 +576,6 @@ TEST(PvcapCommand, BadRigFileNamesFileLineAndKeyAndRecordsNothing) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("rig.yaml:4: cameras[0].framerate: unknown key"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(work / "s"));
-  fs::remove_all(work);
 }
 
 TEST(PvcapCommand, MissingCameraIsNamedAndLeavesNoSession) {
@@ -596,7 +586,6 @@ TEST(PvcapCommand, MissingCameraIsNamedAndLeavesNoSession) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("top (at 127.0.0.1): no camera answers"), std::string::npos) << r.output;
   EXPECT_TRUE(!fs::exists(work / "s") || fs::is_empty(work / "s"));
-  fs::remove_all(work);
 }
 
 TEST(PvcapCommand, DevicesListsTheSimulatedCamerasAndSensel) {
@@ -610,5 +599,4 @@ TEST(PvcapCommand, DevicesListsTheSimulatedCamerasAndSensel) {
     EXPECT_NE(r.output.find("PVSIM" + std::to_string(i)), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("127.0.0." + std::to_string(i + 2)), std::string::npos) << r.output;
   }
-  fs::remove_all(work);
 }

@@ -113,7 +113,6 @@ TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
   EXPECT_EQ(verified.output.find("ERROR"), std::string::npos) << verified.output;
   EXPECT_EQ(verified.output.find("not encoded in time"), std::string::npos) << verified.output;
   EXPECT_EQ(verified.output.find("never reached"), std::string::npos) << verified.output;
-  fs::remove_all(work);
 }
 
 // The encoder far behind (every frame kept, and each encoder waits 100 ms before every frame, a fault
@@ -121,9 +120,7 @@ TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
 // and the process killed while it drains the spill: `pvcap recover` encodes what the spill
 // still holds, and every spilled frame ends in a video exactly as the camera sent it.
 TEST(StoreSpill, KillDuringTheDrainThenRecoverPutsEverySpilledFrameInAVideo) {
-  const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-spill-kill-{}", getpid());
-  fs::remove_all(work);
-  fs::create_directories(work);
+  const fs::path work = work_dir("spill-kill");
   std::ofstream(work / "rig.yaml") << store_lines_instead_of_preset(
       sim_rig_yaml({{}, {}, {}, {}}, 640, 480, 30, 0, "free-run", /*sensel=*/true),
       "  raw_codec: libx264\n  preset: ultrafast\n  queue_frames: 4\n");
@@ -190,5 +187,4 @@ TEST(StoreSpill, KillDuringTheDrainThenRecoverPutsEverySpilledFrameInAVideo) {
   const auto again = run_pvcap(fmt::format("--log-level warn recover {}", dir.string()));
   EXPECT_EQ(again.exit_code, 0) << again.output;
   EXPECT_EQ(again.output.find("spilled frames encoded"), std::string::npos) << again.output;
-  fs::remove_all(work);
 }

@@ -79,5 +79,4 @@ TEST(StreamIsolation, AStreamMadeWhileAnotherCameraStreamsReceivesNoneOfItsFrame
   std::printf("30 streams made while another camera streamed at 100 Hz: %zu frames delivered to them\n", delivered);
   EXPECT_EQ(delivered, 0u) << "a stream delivered frames of a camera that was not acquiring";
   sim.value().reset();  // stopped before its folder goes
-  fs::remove_all(work);
 }
