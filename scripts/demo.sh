@@ -16,9 +16,9 @@ newest() { ls -1d "$1"/*/ 2>/dev/null | sort | tail -n 1; }
 # camera's lens, then a short session for where the pad lies in each camera. Kept beside the rig
 # file; every later session on the rig records it.
 if ! grep -q "cells_to_ideal_px" "$calibration" 2>/dev/null; then
-  echo "== calibrating the simulated rig (once; about 3 minutes) =="
+  echo "== calibrating the simulated rig (once; about 2 minutes) =="
   rm -rf "$here/sessions/calibration"
-  "$pvcap" session --rig "$rig" --board --duration 52 --root "$here/sessions/calibration" --no-web
+  "$pvcap" session --rig "$rig" --board --duration 26 --root "$here/sessions/calibration" --no-web
   board=$(newest "$here/sessions/calibration")
   "$pvcap" calibrate intrinsics "$board" --rig "$rig" --ground-truth "$board/sim-truth"
   "$pvcap" session --rig "$rig" --duration 6 --root "$here/sessions/calibration/pad" --no-web

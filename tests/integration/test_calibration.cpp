@@ -56,7 +56,7 @@ TEST(Calibration, TheBoardIsWrittenAsPdfOrPng) {
 TEST(Calibration, BoardSessionGivesEveryCamerasIntrinsicsWithinTargets) {
   const fs::path work = work_dir("calibrate-intrinsics");
   const fs::path rig = write_full_size_rig(work);
-  const auto board = run_pvcap(fmt::format("session --rig {} --board --duration 50 --root {} --no-web", rig.string(),
+  const auto board = run_pvcap(fmt::format("session --rig {} --board --duration 25 --root {} --no-web", rig.string(),
                                            (work / "board").string()));
   ASSERT_EQ(board.exit_code, 0) << board.output;
   const fs::path session = only_session(work / "board");
