@@ -84,6 +84,7 @@ Registered add_devices_command(CLI::App& app, AppContext&) {
             if (a->sim.empty()) return cmd_devices(a->json, a->ttys);
             const auto rig = load_rig_config(a->sim);
             if (!rig.simulated) throw UserError(fmt::format("{}: has no sim: section", a->sim));
+            run_under_rig_preload(rig);
             prepare_rig_network(rig);
             return cmd_devices_of_sim(a->json, rig);
           }};

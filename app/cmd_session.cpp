@@ -76,6 +76,7 @@ console::WebOptions web_options(const SessionArgs& a) {
 }
 
 console::SessionSetup setup_from(const SessionArgs& a, const RigConfig& rig) {
+  run_under_rig_preload(rig);  // before the pages' socket is bound: it may start this process again
   console::SessionSetup setup;
   if (!a.no_web) {
     // Bound here, before a simulated rig's private network namespace: the pages stay reachable

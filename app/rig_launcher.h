@@ -2,10 +2,10 @@
 // A rig made ready to record. A real rig is recorded as its file says. A simulated rig (a rig file
 // with a `sim:` section) gets its simulator here, as a child process (`pvcap sim`) in this
 // process's private network namespace, like a separate box on the wire: its `sensel: {tty: sim}`
-// resolved to the simulator's pseudo-terminal, the time its devices take to come up, the steering
-// pipe of its hand (protocol --auto), and its ground truth filed in the session folder once the
-// recording is done. app/ is the one place that starts the simulator; below it, a recording sees
-// only what a real rig speaks (GigE Vision, the Sensel's wire protocol).
+// resolved to the simulator's pseudo-terminal (or its emulated USB bus), the time its devices take to come up, the
+// steering pipe of its hand (protocol --auto), and its ground truth filed in the session folder once the recording is
+// done. app/ is the one place that starts the simulator; below it, a recording sees only what a real rig speaks (GigE
+// Vision, the Sensel's wire protocol).
 //
 //   prepare_rig_network(rig);                   // before any thread starts (a simulated rig: netns)
 //   auto launched = launch_rig(rig, options);   // the simulator serving, the rig resolved
@@ -24,6 +24,12 @@ class SimProcess;
 }
 
 namespace pvcap {
+
+// A simulated rig whose Sensel is on umockdev's emulated USB bus (`sim: {sensel: {transport: usb}}`)
+// is seen only by a process under umockdev's preload library: without it, this process starts itself
+// again under it (same pid, same arguments; the library is loaded only at a program's start). Call
+// before any socket is bound; a real rig, or a simulated one on a pseudo-terminal: nothing.
+void run_under_rig_preload(const RigConfig& rig);
 
 // A simulated rig's cameras need their 127.0.0.x addresses: enters a private network namespace that
 // has them (unless this process already sees them). Call before any thread starts; a real rig: nothing.

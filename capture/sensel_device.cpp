@@ -205,6 +205,9 @@ void SenselDevice::stop() {
     const std::uint8_t off[] = {0};
     (void)write_reg(reg::kScanEnabled, off);
   }
+  // Let go of the Morph as the devices stop (its port or USB interface free at once for the next
+  // program, not when the session object goes).
+  transport_.reset();
   queue_.close();
 }
 

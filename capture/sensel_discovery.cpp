@@ -29,7 +29,15 @@ SenselListing list_sensels(const std::vector<std::string>& extra_ttys) {
       continue;
     }
     auto t = open_usb(serial);
-    if (!t) continue;  // e.g. held by a running session
+    if (!t) {
+      // Held by another program (a running session): named, and left alone as a locked tty is.
+      if (t.error().message.find("another program has it open") != std::string::npos)
+        out.notes.push_back(
+            fmt::format("Sensel Morph {} over USB: in use by another program, such as a running "
+                        "pvcap session (not touched)",
+                        serial.empty() ? "(no USB serial)" : serial));
+      continue;
+    }
     auto info = SenselDevice::probe(std::move(t.value()));
     if (!info) continue;
     auto same = std::find_if(out.found.begin(), out.found.end(),

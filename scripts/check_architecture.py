@@ -138,9 +138,9 @@ def long_functions(path):
 
 OFFLINE = ["pvcap_storage", "pvcap_protocol", "pvcap_report", "pvcap_export", "pvcap_dataset", "pvcap_replay", "pvcap_calib_session",
            "pvcap_codec"]
-NOT_OFFLINE = ["pvcap_session", "pvcap_console", "pvcap_capture", "pvcap_sim", "pvcap_sim_usb", "PkgConfig::ARAVIS",
+NOT_OFFLINE = ["pvcap_session", "pvcap_console", "pvcap_capture", "pvcap_sim", "PkgConfig::ARAVIS",
                "PkgConfig::LIBUSB", "PkgConfig::UMOCKDEV"]
-MAY_LINK_SIM = {"pvcap_sim", "pvcap_sim_usb", "pvcap_app_lib", "pvcap"}
+MAY_LINK_SIM = {"pvcap_sim", "pvcap_app_lib", "pvcap"}
 
 
 def link_graph(dot_file):

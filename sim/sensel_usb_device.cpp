@@ -1,6 +1,8 @@
 #include "sim/sensel_usb_device.h"
 
 #include <linux/usbdevice_fs.h>
+#include <pthread.h>
+#include <sched.h>
 #include <sys/ioctl.h>
 #include <umockdev.h>
 
@@ -10,6 +12,7 @@
 #include <deque>
 #include <filesystem>
 #include <mutex>
+#include <thread>
 #include <vector>
 
 #include <fmt/format.h>
@@ -206,6 +209,14 @@ struct SenselUsbDevice::Impl {
   }
 
   static gboolean on_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer user) {
+    // A Morph answers on its own silicon: umockdev's worker thread, which carries every request
+    // and answer, takes a real-time priority where allowed (as the pseudo-terminal's server does).
+    static thread_local const bool raised = [] {
+      sched_param rt{};
+      rt.sched_priority = 10;
+      return pthread_setschedparam(pthread_self(), SCHED_FIFO, &rt) == 0;
+    }();
+    (void)raised;
     auto* plug = static_cast<Plug*>(user);
     Impl& self = *plug->impl;
     std::lock_guard lock(self.mu);
@@ -432,6 +443,26 @@ struct SenselUsbDevice::Impl {
 
   template <class Done>
   void reap(UMockdevIoctlClient* client, UMockdevIoctlData* slot, Done& done) {
+    complete_due(client);
+    if (reap_one(client, slot)) return done(0, 0);
+    // Nothing to reap. usbdevfs nodes in the testbed are plain files, so the host's poll() never
+    // blocks: the wait is here instead, while an IN transfer of this client waits for its answer,
+    // until the answer is due (at most 2 ms, what an unplug or another client may wait), then the
+    // reap is tried once more. (A 0.5 ms nap and EAGAIN cost the host ~16 round trips per frame.)
+    const bool waiting = std::any_of(urbs.begin(), urbs.end(), [&](const Urb& u) {
+      return u.owner == client && !u.complete && u.get()->endpoint == kBulkIn;
+    });
+    if (!waiting) return done(-1, EAGAIN);
+    std::int64_t wait_ns = 2'000'000;
+    if (!answers.empty()) wait_ns = std::clamp<std::int64_t>(answers.front().deliver_at_ns - host_now().ns, 0, wait_ns);
+    if (wait_ns > 0) std::this_thread::sleep_for(std::chrono::nanoseconds(wait_ns));
+    complete_due(client);
+    if (reap_one(client, slot)) return done(0, 0);
+    done(-1, EAGAIN);
+  }
+
+  // Completes `client`'s IN URBs with the answers that are due, in order.
+  void complete_due(UMockdevIoctlClient* client) {
     const std::int64_t now = host_now().ns;
     if (auto pushed = emu.async_frames_due(now); !pushed.empty())  // async scanning pushes unasked
       answers.push_back({std::move(pushed), now});
@@ -448,11 +479,6 @@ struct SenselUsbDevice::Impl {
       raw->actual_length = int(n);
       u.complete = true;
     }
-    if (reap_one(client, slot)) return done(0, 0);
-    // Nothing to reap. usbdevfs nodes in the testbed are plain files, so the host's poll()
-    // never blocks; a short nap here keeps its event loop from spinning a core.
-    g_usleep(500);
-    done(-1, EAGAIN);
   }
 
   // Hands `client` its oldest completed URB (and its buffer) through the REAPURB slot.
@@ -495,11 +521,11 @@ struct SenselUsbDevice::Impl {
 SenselUsbDevice::SenselUsbDevice(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 
 Result<std::unique_ptr<SenselUsbDevice>> SenselUsbDevice::create(SenselEmulator& emulator, SenselLink link,
-                                                                 SenselUsbIdentity identity) {
+                                                                 SenselUsbIdentity identity, SenselUsbHost host) {
   auto impl = std::make_unique<Impl>(emulator, link, std::move(identity));
   impl->testbed.reset(umockdev_testbed_new());
   // Only meaningful once a testbed exists: the preload library then redirects /sys.
-  if (!umockdev_in_mock_environment())
+  if (host == SenselUsbHost::ThisProcess && !umockdev_in_mock_environment())
     return Error{
         "the emulated USB Sensel needs umockdev's preload library: run under umockdev-wrapper "
         "(LD_PRELOAD=libumockdev-preload.so.0)"};
@@ -519,6 +545,13 @@ SenselUsbDevice::~SenselUsbDevice() {
 }
 
 const SenselUsbIdentity& SenselUsbDevice::identity() const { return impl_->identity; }
+
+std::string SenselUsbDevice::root_dir() const {
+  gchar* root = umockdev_testbed_get_root_dir(impl_->testbed.get());
+  std::string out = root ? root : "";
+  g_free(root);
+  return out;
+}
 
 std::string SenselUsbDevice::devnode() const {
   std::lock_guard lock(impl_->mu);

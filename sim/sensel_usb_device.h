@@ -10,9 +10,12 @@
 // answers paced by SenselPacer. A test can stall the device, unplug it and plug
 // it back in (at a new address, as a real re-enumeration gives).
 //
-// Works only in a process started under umockdev's preload library
-// (LD_PRELOAD=libumockdev-preload.so.0, what umockdev-wrapper sets); create()
-// says so otherwise.
+// The host is this process (a driver test), started under umockdev's preload library
+// (LD_PRELOAD=libumockdev-preload.so.0, what umockdev-wrapper sets; create() says so
+// otherwise), or other processes (a simulated rig's recording): they run under the
+// preload with UMOCKDEV_DIR set to root_dir(), and their ioctls reach the handler here
+// over umockdev's socket (several round trips per transfer: about a third of a core
+// at the Morph's 125 Hz; docs/testing.md).
 #include <memory>
 #include <string>
 
@@ -28,16 +31,20 @@ struct SenselUsbIdentity {
   std::string product = "Sensel Morph";
 };
 
+enum class SenselUsbHost { ThisProcess, OtherProcesses };
+
 class SenselUsbDevice {
  public:
   static Result<std::unique_ptr<SenselUsbDevice>> create(SenselEmulator& emulator, SenselLink link = {},
-                                                         SenselUsbIdentity identity = {});
+                                                         SenselUsbIdentity identity = {},
+                                                         SenselUsbHost host = SenselUsbHost::ThisProcess);
   ~SenselUsbDevice();
   SenselUsbDevice(const SenselUsbDevice&) = delete;
   SenselUsbDevice& operator=(const SenselUsbDevice&) = delete;
 
   const SenselUsbIdentity& identity() const;
   std::string devnode() const;              // /dev/bus/usb/001/NNN of the current plug-in
+  std::string root_dir() const;             // the testbed (a host process's UMOCKDEV_DIR)
   bool cdc_acm_bound(int interface) const;  // the kernel's tty driver holds interface 0 or 1
 
   void stall_for(int ms);  // the next request is lost and nothing answers for `ms`

@@ -67,6 +67,9 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
   }
   if (const YAML::Node sn = r.child("sensel")) {
     MapReader sr(sn, file, "sim.sensel");
+    sr.get("transport", s.sensel.transport);
+    if (s.sensel.transport != "pty" && s.sensel.transport != "usb")
+      sr.fail(sn["transport"], "transport", fmt::format("'{}' is not pty or usb", s.sensel.transport));
     sr.get_in_range("press_x_mm", s.sensel.press_x_mm, 0.0, 230.0);
     sr.get_in_range("press_y_mm", s.sensel.press_y_mm, 0.0, 130.0);
     sr.get_in_range("peak_grams", s.sensel.peak_grams, 0.0, 4000.0);
@@ -90,6 +93,8 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
       double v = 0;
       sr.get_in_range("replug_after_s", v, 0.0, 1e7);
       if (!s.sensel.unplug_at_s) sr.fail(sn["replug_after_s"], "replug_after_s", "needs an unplug_at_s before it");
+      if (s.sensel.transport != "pty")
+        sr.fail(sn["replug_after_s"], "replug_after_s", "a Sensel plugged back in is emulated on transport: pty only");
       s.sensel.replug_after_s = v;
     }
     if (sr.has("replug_serial")) {

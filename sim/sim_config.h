@@ -15,6 +15,13 @@
 namespace pvcap::sim {
 
 struct SimSenselConfig {
+  // How the emulated Morph reaches the recording: "pty", a pseudo-terminal (as /dev/ttyACM0), or
+  // "usb", umockdev's emulated USB bus (as over libusb; the recording starts itself again under
+  // umockdev's preload library). Both can hold the Morph's bytes back on a saturated machine (the
+  // pty's kernel worker runs at a normal priority; umockdev's preload takes a process-wide lock
+  // around every ioctl and path call), and usb costs about a third of a core in socket round
+  // trips: docs/testing.md has the measurements.
+  std::string transport = "pty";
   double press_x_mm = 115, press_y_mm = 65;    // where the simulated fingertip presses (sensor mm)
   double peak_grams = 300;                     // on its centre cell
   double period_s = 2.0;                       // one press and release per period
@@ -25,8 +32,8 @@ struct SimSenselConfig {
   double drop_fraction = 0;                // frames the device scans but loses (its counter skips them)
   std::optional<double> clock_reset_at_s;  // the device clock restarts at 0 this long after start
   // Unplugged this long after start, and plugged back (power-cycled: counter and clock restart) after
-  // `replug_after_s` on a new pseudo-terminal, as `replug_serial` if given (another Morph), and under
-  // another name if `replug_renamed` (its first name is gone, as ttyACM0 coming back as ttyACM1).
+  // `replug_after_s` on a new pseudo-terminal (transport pty only), as `replug_serial` if given (another Morph), and
+  // under another name if `replug_renamed` (its first name is gone, as ttyACM0 coming back as ttyACM1).
   std::optional<double> unplug_at_s, replug_after_s;
   std::optional<std::string> replug_serial;
   bool replug_renamed = false;

@@ -100,7 +100,9 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
     if (Status s = self->serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, self->sim_.seed});
         !s.ok())
       return s.error();
-    truth["sensel"] = {{"tty", self->sensel_pty_->slave_path()},
+    truth["sensel"] = {{"transport", ss.transport},
+                       {"tty", self->sensel_pty_ ? self->sensel_pty_->slave_path() : ""},
+                       {"usb", self->sensel_usb_ ? self->sensel_usb_->root_dir() : ""},
                        {"press_x_mm", ss.press_x_mm},
                        {"press_y_mm", ss.press_y_mm},
                        {"peak_grams", ss.peak_grams},
@@ -151,7 +153,9 @@ Result<std::unique_ptr<SimRig>> SimRig::create_replay(const RigConfig& rig, cons
     self->sensel_truth_ << "counter,device_us,due_ns,sent_ns,asked_ns\n";
     self->sensel_->set_truth_log(&self->sensel_truth_);
     if (Status s = self->serve_sensel(SenselLink{0, 0, 1}); !s.ok()) return s.error();
-    truth["sensel"] = {{"tty", self->sensel_pty_->slave_path()},
+    truth["sensel"] = {{"transport", sim.sensel.transport},
+                       {"tty", self->sensel_pty_ ? self->sensel_pty_->slave_path() : ""},
+                       {"usb", self->sensel_usb_ ? self->sensel_usb_->root_dir() : ""},
                        {"frames", self->replay_->pressure_frames().size()},
                        {"serial", self->replay_->sensel_serial()}};
   }
@@ -174,6 +178,7 @@ void SimRig::steer(const HandCommand& c) {
 
 SimRig::~SimRig() {
   sensel_pty_.reset();  // stops serving before the emulator goes
+  sensel_usb_.reset();
   sensel_.reset();
   replay_cameras_.clear();
 }
@@ -181,10 +186,20 @@ SimRig::~SimRig() {
 // Serves sensel_ on a new pseudo-terminal and publishes it as truth_dir/<name> (atomically, so a
 // driver reopening the link finds the old terminal or the new one, never none).
 Status SimRig::serve_sensel(SenselLink link, const std::string& name) {
+  std::error_code ec;
+  if (sim_.sensel.transport == "usb") {  // the recording finds the testbed through the link
+    auto usb = SenselUsbDevice::create(*sensel_, link, {}, SenselUsbHost::OtherProcesses);
+    if (!usb) return usb.error();
+    sensel_usb_ = std::move(usb.value());
+    const auto published = truth_dir_ / "sensel.usb";
+    std::filesystem::create_symlink(sensel_usb_->root_dir(), published, ec);
+    if (ec)
+      return Error{fmt::format("cannot publish the emulated USB bus as {}: {}", published.string(), ec.message())};
+    return {};
+  }
   auto pty = SenselPty::create(*sensel_, link);
   if (!pty) return pty.error();
   sensel_pty_ = std::move(pty.value());
-  std::error_code ec;
   const auto published = truth_dir_ / name, fresh = truth_dir_ / (name + ".new");
   std::filesystem::remove(fresh, ec);
   std::filesystem::create_symlink(sensel_pty_->slave_path(), fresh, ec);
@@ -223,10 +238,11 @@ void SimRig::run(const std::atomic<bool>& stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     const double elapsed_s = double(host_now().ns - t0_ns_) / 1e9;
     const SimSenselConfig& ss = sim_.sensel;
-    if (sensel_pty_ && ss.unplug_at_s && !sensel_unplugged_ && elapsed_s >= *ss.unplug_at_s) {
+    if ((sensel_pty_ || sensel_usb_) && ss.unplug_at_s && !sensel_unplugged_ && elapsed_s >= *ss.unplug_at_s) {
       sensel_unplugged_ = true;
       spdlog::warn("sim: the Sensel is unplugged now (unplug_at_s = {})", *ss.unplug_at_s);
       sensel_pty_.reset();  // the master closes: the driver's tty reads fail, as after a USB unplug
+      if (sensel_usb_) sensel_usb_->unplug();
     }
     if (sensel_unplugged_ && !sensel_replugged_ && ss.replug_after_s && elapsed_s >= *ss.replug_after_s) {
       sensel_replugged_ = true;

@@ -4,8 +4,9 @@
 // the config gives. Writes the ground truth of the run into `truth_dir`:
 // rig.json (clocks, homographies, pad geometry) and <camera>_frames.csv. With a
 // `sensel: {tty: sim}` it also serves an emulated Sensel Morph on a pseudo-terminal,
-// linked as truth_dir/sensel.tty, logging sensel_frames.csv. With `sim: {replay: SESSION}`
-// the devices re-serve a recorded session instead (sim/session_replay.h).
+// linked as truth_dir/sensel.tty, or (`sim: {sensel: {transport: usb}}`) on umockdev's
+// emulated USB bus, its testbed linked as truth_dir/sensel.usb; it logs sensel_frames.csv. With `sim: {replay:
+// SESSION}` the devices re-serve a recorded session instead (sim/session_replay.h).
 #include <atomic>
 #include <filesystem>
 #include <fstream>
@@ -19,6 +20,7 @@
 #include "sim/replay_camera.h"
 #include "sim/sensel_emulator.h"
 #include "sim/sensel_pty.h"
+#include "sim/sensel_usb_device.h"
 #include "sim/session_replay.h"
 #include "sim/sim_camera.h"
 #include "sim/sim_config.h"
@@ -52,6 +54,7 @@ class SimRig {
   std::ofstream sensel_truth_;
   std::unique_ptr<SenselEmulator> sensel_;
   std::unique_ptr<SenselPty> sensel_pty_;
+  std::unique_ptr<SenselUsbDevice> sensel_usb_;
   bool sensel_unplugged_ = false, sensel_replugged_ = false;
   void replug_sensel();
   Status serve_sensel(SenselLink link, const std::string& name = "sensel.tty");

@@ -302,6 +302,48 @@ TEST(SessionFaults, PressureFramesLostToASlowPvcapAreCountedAndASlowIndexLosesNo
   EXPECT_FALSE(fs::exists(session / "spill" / "index-rows.overflow")) << "read back and removed";
 }
 
+// The Morph over libusb in a whole session: the simulator serves it on umockdev's emulated USB bus
+// (`sim: {sensel: {transport: usb}}`) and pvcap starts itself again under umockdev's preload library
+// to see it. Pressure is recorded from the Morph "on usb", and `pvcap devices` run beside the session
+// names that Morph as in use and leaves it alone. (The suite's other sessions use the pseudo-terminal:
+// docs/testing.md says why.)
+TEST(SessionFaults, AMorphOnTheUsbBusIsRecordedOverLibusbAndNamedAsInUse) {
+  const fs::path work = work_dir("usb-morph");
+  std::string yaml = sim_rig_yaml({{}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  const std::string from = "sensel: {press_x_mm";
+  const auto at = yaml.find(from);
+  ASSERT_NE(at, std::string::npos);
+  yaml.replace(at, from.size(), "sensel: {transport: usb, press_x_mm");
+  std::ofstream(work / "rig.yaml") << yaml;
+  const fs::path root = work / "sessions", log = work / "session.log";
+  const pid_t pid = spawn_pvcap(
+      fmt::format("session --rig {} --root {} --duration 60 --no-web", (work / "rig.yaml").string(), root.string()),
+      log);
+  ASSERT_TRUE(wait_for_text(log, " s | cam0", std::chrono::seconds(60))) << read_all(log);
+  const fs::path usb = root / fmt::format(".sim-truth-{}", pid) / "sensel.usb";
+  EXPECT_TRUE(fs::is_symlink(usb)) << usb;
+  std::error_code ec;
+  const fs::path testbed = fs::read_symlink(usb, ec);
+  // On the bus the session sees, from the session's own network namespace.
+  const auto listed = run_pvcap(
+      "devices", fmt::format("nsenter --net=/proc/{}/ns/net env LD_PRELOAD=libumockdev-preload.so.0 UMOCKDEV_DIR={}",
+                             pid, testbed.string()));
+  EXPECT_EQ(listed.exit_code, 0) << listed.output;
+  EXPECT_NE(listed.output.find("over USB: in use by another program, such as a running pvcap session (not touched)"),
+            std::string::npos)
+      << listed.output;
+  ASSERT_EQ(kill(pid, SIGINT), 0);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  const std::string said = read_all(log);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << said;
+  EXPECT_NE(said.find(" on usb, grid 47x27"), std::string::npos) << said;
+  const fs::path session = only_session(root);
+  ASSERT_FALSE(session.empty()) << said;
+  pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  EXPECT_GT(scalar(db, "SELECT count(*) FROM pressure_frames"), 200) << "about 2 s or more at ~125 Hz";
+}
+
 // An ssh connection that drops (SIGHUP) and a service manager's stop (SIGTERM) end the session like
 // Ctrl-C: stopped by the operator, everything closed, exit 0. (And `pvcap devices` run beside a
 // session does not touch its Morph.)

@@ -61,3 +61,20 @@ TEST(SimConfig, SimCameraLensAndPlaceAreReadAndChecked) {
   e = error_of("name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  cameras:\n    - {distortion: [a, 0, 0, 0, 0]}\n");
   EXPECT_NE(e.find("'a' is not a number"), std::string::npos) << e;
 }
+
+// The Sensel's transport: pty (the default) or usb; anything else, or a replug on usb (emulated on the
+// pseudo-terminal only), is named with its line.
+TEST(SimConfig, TheSenselTransportIsPtyOrUsb) {
+  const std::string rig = "name: x\ncameras:\n  - address: 127.0.0.2\nsim:\n  sensel: ";
+  auto sim = sim_config_of(rig + "{}\n", "rig.yaml");
+  ASSERT_TRUE(sim);
+  EXPECT_EQ(sim->sensel.transport, "pty");
+  sim = sim_config_of(rig + "{transport: usb}\n", "rig.yaml");
+  ASSERT_TRUE(sim);
+  EXPECT_EQ(sim->sensel.transport, "usb");
+  std::string e = error_of(rig + "{transport: serial}\n");
+  EXPECT_NE(e.find("rig.yaml:5"), std::string::npos) << e;
+  EXPECT_NE(e.find("'serial' is not pty or usb"), std::string::npos) << e;
+  e = error_of(rig + "{transport: usb, unplug_at_s: 2, replug_after_s: 3}\n");
+  EXPECT_NE(e.find("emulated on transport: pty only"), std::string::npos) << e;
+}
