@@ -203,9 +203,14 @@ Status close_cut_segment(SessionIndex& index, const std::filesystem::path& dir, 
   const fs::path file = dir / path;
   const fs::path tmp = file.string() + ".recovering";
   const std::string aside = interrupted_name(path);
-  if (!fs::exists(file) && fs::exists(tmp) && fs::exists(dir / aside)) {
-    // An earlier recover stopped between its two renames: finish it.
-    fs::rename(tmp, file);
+  // An earlier recover killed after it moved the cut original aside: between its two renames (the
+  // closed copy still under its temporary name), or after both, before the index said so (the
+  // segment under its name is the closed copy). Finish it; never close the copy again.
+  const bool between_renames = !fs::exists(file) && fs::exists(tmp);
+  const bool after_renames = fs::exists(file) && !fs::exists(tmp);
+  if (fs::exists(dir / aside) && (between_renames || after_renames)) {
+    if (between_renames) fs::rename(tmp, file);
+    if (Status d = sync_to_disk(dir); !d.ok()) return d.error();
     const auto r = reconcile_video_file(index, dir, id, "lost_at_interruption", "recovered");
     report.done.push_back(
         fmt::format("{}: closed with {} frames (finishing an earlier recover)", path, r.frames_in_file));

@@ -29,6 +29,13 @@ using namespace pvcap;
 
 namespace {
 
+std::string read_file(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream out;
+  out << in.rdbuf();
+  return out.str();
+}
+
 // What pvcap logs at warning level or above while one of these is alive.
 class LoggedProblems {
  public:
@@ -311,6 +318,22 @@ TEST(SessionStore, RecoverClosesACutSegmentAndMarksWhatWasLost) {
   ASSERT_TRUE(finish) << finish.error().message;
   ASSERT_EQ(finish.value().done.size(), 1u);
   EXPECT_NE(finish.value().done[0].find("finishing an earlier recover"), std::string::npos) << finish.value().done[0];
+  EXPECT_EQ(verify_session(st.dir).exit_code(), 3);
+
+  // A recover killed after both renames, before the index said so (the closed copy under the segment's
+  // name, the original aside): the next one completes it and leaves both files as they are. (CI's
+  // StoreCrash test once killed a recover there: "cam1-000.interrupted.mkv: already exists".)
+  {
+    sqlite::Database db(st.dir / "session.db", sqlite::Database::Mode::ReadWrite);
+    db.prepare("UPDATE video_files SET state = 'open' WHERE path = ?").bind_all(last).run();
+  }
+  const std::string closed_copy = read_file(st.dir / last);
+  auto finish_after = recover_session(st.dir);
+  ASSERT_TRUE(finish_after) << finish_after.error().message;
+  ASSERT_EQ(finish_after.value().done.size(), 1u);
+  EXPECT_NE(finish_after.value().done[0].find("finishing an earlier recover"), std::string::npos)
+      << finish_after.value().done[0];
+  EXPECT_EQ(read_file(st.dir / last), closed_copy) << "the closed copy is not closed again";
   EXPECT_EQ(verify_session(st.dir).exit_code(), 3);
 
   // A second run finds nothing to do.
