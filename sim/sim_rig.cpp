@@ -184,7 +184,8 @@ SimRig::~SimRig() {
 }
 
 // Serves sensel_ on a new pseudo-terminal and publishes it as truth_dir/<name> (atomically, so a
-// driver reopening the link finds the old terminal or the new one, never none).
+// driver reopening the link finds the old terminal or the new one, never none); or, with transport
+// usb, on umockdev's emulated bus, its testbed published as truth_dir/sensel.usb.
 Status SimRig::serve_sensel(SenselLink link, const std::string& name) {
   std::error_code ec;
   if (sim_.sensel.transport == "usb") {  // the recording finds the testbed through the link
