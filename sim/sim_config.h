@@ -18,9 +18,9 @@ struct SimSenselConfig {
   // How the emulated Morph reaches the recording: "pty", a pseudo-terminal (as /dev/ttyACM0), or
   // "usb", umockdev's emulated USB bus (as over libusb; the recording starts itself again under
   // umockdev's preload library). Both can hold the Morph's bytes back on a saturated machine (the
-  // pty's kernel worker runs at a normal priority; umockdev's preload takes a process-wide lock
-  // around every ioctl and path call), and usb costs about a third of a core in socket round
-  // trips: docs/testing.md has the measurements.
+  // pty's kernel worker runs at a normal priority; umockdev's preload guards its ioctl and path
+  // handling with process-wide mutexes, the likely cause there), and usb costs about a third of a
+  // core in socket round trips: docs/testing.md has the measurements.
   std::string transport = "pty";
   double press_x_mm = 115, press_y_mm = 65;    // where the simulated fingertip presses (sensor mm)
   double peak_grams = 300;                     // on its centre cell
