@@ -24,6 +24,11 @@ namespace {
 // A simulated rig's devices take a moment to come up after the simulator starts.
 constexpr double kSimulatedDeviceWaitS = 10.0;
 
+bool under_umockdev_preload() {
+  const char* preload = std::getenv("LD_PRELOAD");
+  return preload && std::string(preload).find("libumockdev-preload") != std::string::npos;
+}
+
 // Where the simulator serves its Sensel: a pseudo-terminal (truth_dir/sensel.tty) or, with
 // `sim: {sensel: {transport: usb}}`, umockdev's emulated USB bus (truth_dir/sensel.usb, its testbed).
 // The bus is this process's to see only under umockdev's preload library, with UMOCKDEV_DIR naming
@@ -39,8 +44,7 @@ Status resolve_simulated_sensel(SenselRigConfig& sensel, const std::filesystem::
     sensel.tty = tty.string();
     return {};
   }
-  const char* preload = std::getenv("LD_PRELOAD");
-  if (!preload || std::string(preload).find("libumockdev-preload") == std::string::npos)
+  if (!under_umockdev_preload())
     return Error{
         "the simulated rig serves its Sensel on an emulated USB bus (sim: sensel: transport: usb), which this "
         "process sees only under umockdev's preload library: run pvcap as "
@@ -58,10 +62,10 @@ void run_under_rig_preload(const RigConfig& rig) {
   if (!rig.simulated || !rig.sensel || rig.sensel->tty != "sim") return;
   const auto sim = sim::load_sim_config(rig);
   if (!sim || sim->sensel.transport != "usb") return;
+  if (under_umockdev_preload()) return;
   constexpr const char* kPreload = "libumockdev-preload.so.0";
   const char* now = std::getenv("LD_PRELOAD");
   const std::string preload = now ? now : "";
-  if (preload.find("libumockdev-preload") != std::string::npos) return;
   std::ifstream in("/proc/self/cmdline", std::ios::binary);
   const std::string cmdline((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   std::vector<char*> argv;

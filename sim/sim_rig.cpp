@@ -100,18 +100,16 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
     if (Status s = self->serve_sensel(SenselLink{ss.usb_jitter_mean_ms, ss.usb_jitter_max_ms, self->sim_.seed});
         !s.ok())
       return s.error();
-    truth["sensel"] = {{"transport", ss.transport},
-                       {"tty", self->sensel_pty_ ? self->sensel_pty_->slave_path() : ""},
-                       {"usb", self->sensel_usb_ ? self->sensel_usb_->root_dir() : ""},
-                       {"press_x_mm", ss.press_x_mm},
-                       {"press_y_mm", ss.press_y_mm},
-                       {"peak_grams", ss.peak_grams},
-                       {"period_s", ss.period_s},
-                       {"clock_start_us", ss.clock_start_us},
-                       {"drift_ppm", ss.drift_ppm},
-                       {"usb_jitter_mean_ms", ss.usb_jitter_mean_ms},
-                       {"usb_jitter_max_ms", ss.usb_jitter_max_ms},
-                       {"drop_fraction", ss.drop_fraction}};
+    truth["sensel"] = self->sensel_link();
+    truth["sensel"].update({{"press_x_mm", ss.press_x_mm},
+                            {"press_y_mm", ss.press_y_mm},
+                            {"peak_grams", ss.peak_grams},
+                            {"period_s", ss.period_s},
+                            {"clock_start_us", ss.clock_start_us},
+                            {"drift_ppm", ss.drift_ppm},
+                            {"usb_jitter_mean_ms", ss.usb_jitter_mean_ms},
+                            {"usb_jitter_max_ms", ss.usb_jitter_max_ms},
+                            {"drop_fraction", ss.drop_fraction}});
     if (ss.clock_reset_at_s) truth["sensel"]["clock_reset_at_s"] = *ss.clock_reset_at_s;
   }
   std::ofstream(truth_dir / "rig.json") << truth.dump(2) << '\n';
@@ -153,11 +151,9 @@ Result<std::unique_ptr<SimRig>> SimRig::create_replay(const RigConfig& rig, cons
     self->sensel_truth_ << "counter,device_us,due_ns,sent_ns,asked_ns\n";
     self->sensel_->set_truth_log(&self->sensel_truth_);
     if (Status s = self->serve_sensel(SenselLink{0, 0, 1}); !s.ok()) return s.error();
-    truth["sensel"] = {{"transport", sim.sensel.transport},
-                       {"tty", self->sensel_pty_ ? self->sensel_pty_->slave_path() : ""},
-                       {"usb", self->sensel_usb_ ? self->sensel_usb_->root_dir() : ""},
-                       {"frames", self->replay_->pressure_frames().size()},
-                       {"serial", self->replay_->sensel_serial()}};
+    truth["sensel"] = self->sensel_link();
+    truth["sensel"].update(
+        {{"frames", self->replay_->pressure_frames().size()}, {"serial", self->replay_->sensel_serial()}});
   }
   std::ofstream(truth_dir / "rig.json") << truth.dump(2) << '\n';
   spdlog::info("sim: replaying {} through {} cameras ({}){}", self->replay_->dir().string(),
@@ -181,6 +177,13 @@ SimRig::~SimRig() {
   sensel_usb_.reset();
   sensel_.reset();
   replay_cameras_.clear();
+}
+
+// Where the emulated Morph is served, for rig.json: its transport, pseudo-terminal or testbed.
+nlohmann::json SimRig::sensel_link() const {
+  return {{"transport", sim_.sensel.transport},
+          {"tty", sensel_pty_ ? sensel_pty_->slave_path() : ""},
+          {"usb", sensel_usb_ ? sensel_usb_->root_dir() : ""}};
 }
 
 // Serves sensel_ on a new pseudo-terminal and publishes it as truth_dir/<name> (atomically, so a

@@ -14,6 +14,8 @@
 #include <mutex>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "sim/hand.h"
@@ -58,6 +60,7 @@ class SimRig {
   bool sensel_unplugged_ = false, sensel_replugged_ = false;
   void replug_sensel();
   Status serve_sensel(SenselLink link, const std::string& name = "sensel.tty");
+  nlohmann::json sensel_link() const;
   std::vector<std::unique_ptr<SimCamera>> cameras_;
   // A replayed session (`sim: {replay: SESSION}`) instead of the scene.
   std::shared_ptr<SessionReplay> replay_;
