@@ -16,7 +16,17 @@ namespace pvcap {
 
 namespace {
 
+int evaluate_again(const EvalSyncOptions& o) {
+  if (!std::filesystem::is_directory(o.evaluate / "sim-truth"))
+    throw UserError(fmt::format("{}: not a session recorded on the simulated rig (it has no sim-truth folder)",
+                                o.evaluate.string()));
+  const sim::SyncEvaluation e = sim::evaluate_sync(o.evaluate, o.warmup_s);
+  fmt::print("{}", sim::format_evaluation(e));
+  return e.missed.empty() ? 0 : 1;
+}
+
 int eval_sync(const EvalSyncOptions& o, AppContext& ctx) {
+  if (!o.evaluate.empty()) return evaluate_again(o);
   const bool temporary = o.root.empty();
   const std::filesystem::path root =
       temporary ? std::filesystem::temp_directory_path() / fmt::format("pvcap-eval-sync-{}", getpid()) : o.root;
@@ -74,6 +84,10 @@ Registered add_eval_sync_command(CLI::App& app, AppContext& ctx) {
   e->add_option("--root", o->root,
                 "folder for the scenario and its session (default: a temporary one, removed at "
                 "the end)");
+  e->add_option("--evaluate", o->evaluate,
+                "measure a session eval-sync recorded before (kept with --root: ROOT/sessions/NAME) again, "
+                "recording nothing")
+      ->excludes("--root");
   return {e, [o, &ctx] { return eval_sync(*o, ctx); }};
 }
 

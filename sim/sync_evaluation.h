@@ -23,12 +23,19 @@ struct SyncEvaluation {
   std::size_t samples = 0, samples_complete = 0;
   std::size_t paired = 0, paired_nearest = 0;  // pvcap: samples with pressure; with the truly nearest frame
   std::size_t paired_tie = 0;                  // of the others: the chosen frame is as near, within the tie tolerance
-  std::size_t rightly_unpaired = 0;            // no pressure, and truly no stored frame within the allowed offset
-  std::size_t naive_nearest = 0;               // arrival-time pairing: with the truly nearest frame
+  // Of the others: truly farther by more than the tie tolerance, but by no more than the measured
+  // errors of the times compared (the sample's instant's and both frames'); the largest such excess.
+  std::size_t paired_within_error = 0;
+  double within_error_max_ms = 0;
+  std::size_t rightly_unpaired = 0;  // no pressure, and truly no stored frame within the allowed offset
+  std::size_t naive_nearest = 0;     // arrival-time pairing: with the truly nearest frame
   std::size_t naive_tie = 0;
   double warmup_s = 0;  // excluded from the timing errors
   double tie_ms = 0;
   std::vector<std::string> missed;  // targets not met, in words
+  // Samples paired right: the truly nearest frame, a tie, one within the timestamps' errors, or
+  // rightly none.
+  std::size_t right() const { return paired_nearest + paired_tie + paired_within_error + rightly_unpaired; }
 };
 
 struct SyncTargets {

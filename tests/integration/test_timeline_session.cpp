@@ -157,10 +157,14 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
       EXPECT_LT(s.p99_ms, s.arrival_p99_ms / 4) << s.name << ": mapping must beat the raw arrival stamp";
     }
   }
-  // The truly nearest frame for 99.5 % of the samples, eval-sync's target; of a 14 s run's ~180 that
-  // leaves none, so one sample is allowed (beside two CPU hogs one went unpaired: 99.47 %).
-  const auto right = e.paired_nearest + e.paired_tie + e.rightly_unpaired;
+  // Paired right for 99.5 % of the samples, eval-sync's target; of a 14 s run's ~180 that leaves
+  // none, so one sample is allowed (beside two CPU hogs one went unpaired: 99.47 %). Right includes
+  // a pick truly farther than the nearest by no more than the measured errors of its times (the
+  // Sensel's unseen constant latency, 0.06-0.11 ms, decides near-midpoint samples: CI once saw 21 of
+  // 172); such a pick is never farther than the Sensel's timing target.
+  const auto right = e.right();
   EXPECT_GE(right * 1000 + 1000, e.samples * 995) << pvcap::sim::format_evaluation(e);
+  EXPECT_LT(e.within_error_max_ms, 0.5) << pvcap::sim::format_evaluation(e);
   EXPECT_GT(e.paired_nearest, e.naive_nearest + e.samples / 4) << pvcap::sim::format_evaluation(e);
   std::filesystem::remove_all(root);
 }
