@@ -166,5 +166,15 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
   EXPECT_GE(right * 1000 + 1000, e.samples * 995) << pvcap::sim::format_evaluation(e);
   EXPECT_LT(e.within_error_max_ms, 0.5) << pvcap::sim::format_evaluation(e);
   EXPECT_GT(e.paired_nearest, e.naive_nearest + e.samples / 4) << pvcap::sim::format_evaluation(e);
+
+  // `--evaluate` measures the kept session again: the same figures, the same verdict; a folder
+  // without the simulator's truth is named.
+  const auto again = pvcap::testing::run_pvcap(fmt::format("eval-sync --evaluate {}", dir.string()));
+  EXPECT_EQ(again.exit_code, e.missed.empty() ? 0 : 1) << again.output;
+  EXPECT_NE(again.output.find(pvcap::sim::format_evaluation(e)), std::string::npos) << again.output;
+  const auto foreign = pvcap::testing::run_pvcap(fmt::format("eval-sync --evaluate {}", root.string()));
+  EXPECT_NE(foreign.exit_code, 0);
+  EXPECT_NE(foreign.output.find(root.string() + ": not a session recorded on the simulated rig"), std::string::npos)
+      << foreign.output;
   std::filesystem::remove_all(root);
 }
