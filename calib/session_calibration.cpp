@@ -329,8 +329,11 @@ namespace {
 
 // The presses: runs of samples whose total pressure is above 30 % of the session's highest, each
 // represented by its peak sample; at most `most` of them, spread over the session.
+// One entry per press: its samples, the one of highest pressure first (the press's peak), then the
+// others of the press by falling pressure. A camera whose frame the peak's sample lacks (a group left
+// incomplete on a loaded capture PC) or in which the fingertip is hidden is checked at the next.
 struct Presses {
-  std::vector<std::size_t> samples;
+  std::vector<std::vector<std::size_t>> samples;
   double highest = 0;  // the session's highest total pressure (counts)
 };
 
@@ -350,18 +353,24 @@ Presses find_presses(SessionReader& session, std::size_t most) {
     if (i % 64 == 0) progress("finding presses", i, session.sample_count());
   }
   progress("finding presses", session.sample_count(), session.sample_count());
-  std::optional<std::pair<std::size_t, double>> peak;
+  std::vector<std::pair<std::size_t, double>> press;  // the samples of the press under way
+  const auto close_press = [&] {
+    if (press.empty()) return;
+    std::stable_sort(press.begin(), press.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
+    std::vector<std::size_t> by_pressure;
+    for (const auto& [i, total] : press) by_pressure.push_back(i);
+    found.samples.push_back(std::move(by_pressure));
+    press.clear();
+  };
   for (const auto& [i, total] : totals) {
-    if (total > 0.3 * found.highest) {
-      if (!peak || total > peak->second) peak = {i, total};
-    } else if (peak) {
-      found.samples.push_back(peak->first);
-      peak.reset();
-    }
+    if (total > 0.3 * found.highest)
+      press.emplace_back(i, total);
+    else
+      close_press();
   }
-  if (peak) found.samples.push_back(peak->first);
+  close_press();
   if (found.samples.size() > most) {
-    std::vector<std::size_t> some;
+    std::vector<std::vector<std::size_t>> some;
     for (std::size_t k : spread(found.samples.size(), most)) some.push_back(found.samples[k]);
     found.samples = std::move(some);
   }
@@ -422,21 +431,24 @@ void print_disagreements(const std::string& camera, const char* what, const Disa
 Disagreements check_found_fingertips(SessionReader& session, std::size_t c, const calib::CameraCalibration& entry,
                                      const calib::PadLayout& pad, const Presses& presses, nlohmann::json& each) {
   Disagreements out;
-  for (std::size_t i : presses.samples) {
-    auto s = session.sample(i, PressureMode::Nearest);
-    if (!s) throw UserError(s.error().message);
-    const auto& pf = s.value().pressure;
-    if (!pf || s.value().images.size() <= c || s.value().images[c].empty()) continue;
-    const auto centroid = calib::pressure_centroid(s.value().pressure_image, pf->grid_xscale, pf->grid_yscale);
-    const auto tip = calib::find_fingertip(s.value().images[c], *entry.pad_corners_px);
-    if (!centroid || !tip) continue;
-    const auto d = calib::press_disagreement(entry.model, pad, *centroid, *tip);
-    out.add(d);
-    each.push_back({{"sample", i},
-                    {"centroid_cells", {centroid->x, centroid->y}},
-                    {"fingertip_px", {tip->x, tip->y}},
-                    {"px", d.px},
-                    {"mm", d.mm}});
+  for (const std::vector<std::size_t>& press : presses.samples) {
+    for (std::size_t i : press) {  // the peak first; the next sample of the press where it has no view
+      auto s = session.sample(i, PressureMode::Nearest);
+      if (!s) throw UserError(s.error().message);
+      const auto& pf = s.value().pressure;
+      if (!pf || s.value().images.size() <= c || s.value().images[c].empty()) continue;
+      const auto centroid = calib::pressure_centroid(s.value().pressure_image, pf->grid_xscale, pf->grid_yscale);
+      const auto tip = calib::find_fingertip(s.value().images[c], *entry.pad_corners_px);
+      if (!centroid || !tip) continue;
+      const auto d = calib::press_disagreement(entry.model, pad, *centroid, *tip);
+      out.add(d);
+      each.push_back({{"sample", i},
+                      {"centroid_cells", {centroid->x, centroid->y}},
+                      {"fingertip_px", {tip->x, tip->y}},
+                      {"px", d.px},
+                      {"mm", d.mm}});
+      break;  // one per press
+    }
   }
   return out;
 }
