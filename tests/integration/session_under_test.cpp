@@ -3,8 +3,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
+#include <cctype>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -172,6 +175,25 @@ bool wait_for_text(const fs::path& log, const std::string& needle, std::chrono::
   const auto end = std::chrono::steady_clock::now() + timeout;
   while (std::chrono::steady_clock::now() < end) {
     if (read_all(log).find(needle) != std::string::npos) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return false;
+}
+
+double recorded_seconds_shown(const std::string& text) {
+  double most = 0;
+  for (auto bar = text.find(" s | "); bar != std::string::npos; bar = text.find(" s | ", bar + 1)) {
+    auto start = bar;
+    while (start > 0 && (std::isdigit(static_cast<unsigned char>(text[start - 1])) || text[start - 1] == '.')) --start;
+    if (start < bar) most = std::max(most, std::atof(text.substr(start, bar - start).c_str()));
+  }
+  return most;
+}
+
+bool wait_for_recorded_seconds(const fs::path& log, double seconds, std::chrono::seconds timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < end) {
+    if (recorded_seconds_shown(read_all(log)) >= seconds) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   return false;

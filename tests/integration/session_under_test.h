@@ -64,6 +64,12 @@ std::filesystem::path process_work_dir(const std::string& name);
 std::filesystem::path only_session(const std::filesystem::path& root);
 // Waits until `log` contains `needle`; false after `timeout`.
 bool wait_for_text(const std::filesystem::path& log, const std::string& needle, std::chrono::seconds timeout);
+// The most seconds of recording `pvcap session`'s progress lines ("   6.1 s | cam0 ...") show in
+// `text`; 0 before the first. (A line is printed every ~2 s, its time the session's own, so a
+// test waits for "at least", never for one exact figure.)
+double recorded_seconds_shown(const std::string& text);
+// Waits until `log` shows at least `seconds` of recording; false after `timeout`.
+bool wait_for_recorded_seconds(const std::filesystem::path& log, double seconds, std::chrono::seconds timeout);
 
 struct TruthFrame {
   std::uint16_t frame_id;

@@ -32,6 +32,7 @@ using pvcap::testing::read_all;
 using pvcap::testing::run_pvcap;
 using pvcap::testing::sim_rig_yaml;
 using pvcap::testing::spawn_pvcap;
+using pvcap::testing::wait_for_recorded_seconds;
 using pvcap::testing::wait_for_text;
 using pvcap::testing::work_dir;
 using namespace std::chrono_literals;
@@ -396,7 +397,7 @@ TEST(StoreReadOnly, AFilesystemTurnedReadOnlyMidSessionStopsItCleanlyAndWhatWasC
   const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 60 --no-web",
                                             (work / "rig.yaml").string(), (disk / "sessions").string()),
                                 log);
-  ASSERT_TRUE(wait_for_text(log, "4.0 s |", 60s)) << read_all(log);
+  ASSERT_TRUE(wait_for_recorded_seconds(log, 4.0, 60s)) << read_all(log);
   std::ofstream(trigger) << "pvcap test: the disk failed";
   int status = 0;
   for (int i = 0; i < 600 && waitpid(pid, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(100ms);
