@@ -40,8 +40,8 @@ struct Group {
 
 // Groups camera frames by instant. The earliest pending frame anchors a group; every
 // other camera contributes its earliest pending frame if that lies within `limit_ns`
-// (half a frame period) of the anchor and is nearer the anchor than that camera's next
-// frame is (so each frame goes to the instant it is closest to). Frames are used once,
+// (half a frame period) of the anchor and is not nearer the anchor's next frame (so each
+// frame goes to the instant it is closest to). Frames are used once,
 // groups come out in time order. A group is decided once every camera has shown a frame
 // past anchor + limit, or the `horizon` (latest mapped time minus `wait_ns`) has passed
 // it, so a silent camera delays nothing by more than `wait_ns`.
