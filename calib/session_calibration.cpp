@@ -3,10 +3,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <mutex>
+#include <thread>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -190,15 +193,58 @@ int write_board(const std::filesystem::path& out) {
   return 0;
 }
 
+// Every camera's intrinsics from its board views, the cameras shared among the machine's cores
+// (each reads through its own SessionReader: a reader decodes with state of its own). A lab's PC
+// has a core per camera, and the board search and the fit are a camera's alone: four cameras take
+// the time of one. Results come back in camera order; the first error is rethrown here.
+std::vector<Result<calib::Intrinsics>> intrinsics_of_cameras(const CalibrationRun& run,
+                                                             const SessionCalibrationOptions& o) {
+  const std::vector<CameraInfo>& cameras = run.session->cameras();
+  const calib::BoardSpec spec;
+  std::vector<std::optional<Result<calib::Intrinsics>>> results(cameras.size());
+  std::atomic<std::size_t> next_camera{0};
+  std::size_t frames_done = 0;
+  const std::size_t frames_total = cameras.size() * run.samples.size();
+  std::mutex mutex;  // guards frames_done, the progress line and failure
+  std::exception_ptr failure;
+  auto work = [&] {
+    try {
+      std::unique_ptr<SessionReader> session = open_session(o.session);
+      for (std::size_t c = next_camera++; c < cameras.size(); c = next_camera++) {
+        std::vector<calib::BoardView> views;
+        for (std::size_t i : run.samples) {
+          auto image = session->image(i, c);
+          if (!image) throw UserError(image.error().message);
+          if (!image.value().empty()) views.push_back(calib::detect_board(image.value(), spec));
+          const std::lock_guard lock(mutex);  // one line, its count rising
+          progress("finding the board (all cameras)", ++frames_done, frames_total);
+        }
+        results[c] = calib::calibrate_intrinsics(views, {cameras[c].width, cameras[c].height}, spec);
+      }
+    } catch (...) {
+      const std::lock_guard lock(mutex);
+      if (!failure) failure = std::current_exception();
+      next_camera = cameras.size();  // the others stop at their next camera
+    }
+  };
+  const std::size_t threads =
+      std::clamp<std::size_t>(std::thread::hardware_concurrency(), 1, std::max<std::size_t>(cameras.size(), 1));
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+  std::vector<Result<calib::Intrinsics>> out;
+  for (auto& r : results) out.push_back(std::move(*r));
+  return out;
+}
+
 int intrinsics_from_session(const SessionCalibrationOptions& o) {
   CalibrationRun run(o, 150);
-  const calib::BoardSpec spec;
+  std::vector<Result<calib::Intrinsics>> intrinsics = intrinsics_of_cameras(run, o);
   for (std::size_t c = 0; c < run.session->cameras().size(); ++c) {
     const CameraInfo& camera = run.session->cameras()[c];
-    std::vector<calib::BoardView> views;
-    for_each_image(*run.session, c, run.samples, "finding the board",
-                   [&](const cv::Mat& image) { views.push_back(calib::detect_board(image, spec)); });
-    auto got = calib::calibrate_intrinsics(views, {camera.width, camera.height}, spec);
+    auto& got = intrinsics[c];
     if (!got) {  // the other cameras' results are still kept
       run.failed.push_back(fmt::format("{}: {}", camera.name, got.error().message));
       continue;
