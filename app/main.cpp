@@ -2,7 +2,6 @@
 // Thin: each subcommand registers its own options (app/command.h); main parses the line, sets up
 // logging and signals, and runs the one given. See docs/ for the user guide.
 #include <fcntl.h>
-#include <malloc.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -10,12 +9,15 @@
 #include <atomic>
 #include <cstdlib>
 #include <filesystem>
+#include <set>
+#include <string>
 #include <vector>
 
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
 #include "app/command.h"
+#include "core/allocator.h"
 #include "core/log.h"
 #include "core/result.h"
 #include "core/version.h"
@@ -74,21 +76,16 @@ pvcap::FaultPlan read_faults() {
   return plan;
 }
 
-// pvcap's offline work allocates and frees an image-sized buffer (1-6 MB) per frame: decoded
-// planes, demosaicked copies, OpenCV's temporaries. glibc serves blocks that size with mmap and
-// trims freed heap tops back to the kernel, so each frame's buffers were fresh pages, faulted in and
-// zeroed: 18 % of `calibrate intrinsics` was page faults. Up to 32 MB (a 4K colour image) stays in
-// the heap and is reused; at most 128 MB of free heap is kept per arena. Measured on a 25 s board
-// session of four 1080p cameras: 25.8 s -> 15.4 s, peak memory 172 -> 184 MB.
-void keep_image_buffers_in_the_heap() {
-  mallopt(M_MMAP_THRESHOLD, 32 << 20);
-  mallopt(M_TRIM_THRESHOLD, 128 << 20);
+// The commands that work through recorded images, frame after frame, and record nothing
+// (core/allocator.h: what keeping image buffers in the heap gains them, and why a recorder does not).
+bool works_offline_on_images(const CLI::App& command) {
+  static const std::set<std::string> offline = {"calibrate", "export", "replay", "report", "compact", "dataset"};
+  return offline.count(command.get_name()) > 0;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  keep_image_buffers_in_the_heap();
   CLI::App app{"pvcap: capture and synchronization for visual hand-pressure datasets", "pvcap"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(pvcap::kVersion));
@@ -119,7 +116,10 @@ int main(int argc, char** argv) {
   ctx.faults = read_faults();
   try {
     for (const auto& c : commands)
-      if (*c.command) return c.run();
+      if (*c.command) {
+        if (works_offline_on_images(*c.command)) pvcap::keep_image_buffers_in_heap();
+        return c.run();
+      }
   } catch (const pvcap::UserError& e) {
     spdlog::error("{}", e.what());
     return 2;
