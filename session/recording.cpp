@@ -512,9 +512,13 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   for (auto& cam : cameras_) cam->request_stop();
   for (auto& cam : cameras_) cam->stop();
   if (sensel_) sensel_->stop();  // last: its pressure covers the cameras' last frames (start() says why)
-  if (options_.on_devices_stopped) options_.on_devices_stopped();
   for (auto& w : workers_) w.join();
   workers_.clear();
+  // Only now: a camera's stream lives until its last frame buffer comes back from the workers, and
+  // on going it tells its device to stop sending, waiting 500 ms a try for an answer. Before the
+  // workers had drained, a simulator stopped here turned a short session's close into 8 s of those
+  // waits (four cameras, their streams still held by the start's backlog).
+  if (options_.on_devices_stopped) options_.on_devices_stopped();
   // At close: every frame re-mapped with its stream's final clock fit, every sample re-paired,
   // from the fits the store holds (each stream's final one written now), in committed steps.
   timeline_->final_snapshots();

@@ -57,8 +57,8 @@ struct RecordingOptions {
   std::optional<ConditionsRecord> conditions;
   bool board_session = false;  // recording a calibration board session
   FaultPlan faults;            // a test's faults (core/fault_injection.h); empty on a real session
-  // Called once every device has stopped streaming, before the store is drained and closed (what
-  // served the devices may stop then).
+  // Called once every device has stopped streaming and every frame is handed to the store, before
+  // the store is drained and closed (what served the devices may stop then).
   std::function<void()> on_devices_stopped;
 };
 
