@@ -5,8 +5,10 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <sstream>
+#include <thread>
 #include <vector>
 
 #include <fmt/format.h>
@@ -77,6 +79,40 @@ std::string job_id(const std::string& sbatch_output) {
   return id;
 }
 
+// `Key=value` from `scontrol show job -o` (one line of space-separated fields); empty when absent.
+std::string job_field(const std::string& line, const std::string& key) {
+  for (auto at = line.find(key + "="); at != std::string::npos; at = line.find(key + "=", at + 1)) {
+    if (at != 0 && line[at - 1] != ' ') continue;  // `Key=` inside another field's value
+    const auto from = at + key.size() + 1;
+    return line.substr(from, line.find_first_of(" \n", from) - from);
+  }
+  return {};
+}
+
+// Follows a job until it ends, once a second: `sbatch --wait` polls after 2, 4, 8 and then every 10 s,
+// so a release waited up to 10 s past its end. Ok when the job COMPLETED; otherwise an Error with its
+// state and exit code, and where its log is.
+Status wait_for_job(const std::string& id, const fs::path& logs) {
+  int unreadable = 0;
+  for (;;) {
+    auto r = run({"scontrol", "show", "job", "-o", id});
+    if (!r) {
+      if (++unreadable >= 5) return Error{fmt::format("cannot follow Slurm job {}: {}", id, r.error().message)};
+    } else {
+      unreadable = 0;
+      const std::string state = job_field(r.value(), "JobState");
+      if (state == "COMPLETED") return {};
+      static const char* const kEnded[] = {"FAILED",    "CANCELLED",     "TIMEOUT",  "NODE_FAIL",   "PREEMPTED",
+                                           "BOOT_FAIL", "OUT_OF_MEMORY", "DEADLINE", "SPECIAL_EXIT"};
+      for (const char* ended : kEnded)
+        if (state == ended)
+          return Error{fmt::format("Slurm job {} ended {} (exit code {}, reason {}); its log is in {}", id, state,
+                                   job_field(r.value(), "ExitCode"), job_field(r.value(), "Reason"), logs.string())};
+    }
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+  }
+}
+
 }  // namespace
 
 Result<SlurmSubmission> submit_to_slurm(const fs::path& pvcap, const fs::path& dataset_dir, const ReleasePlan& plan,
@@ -116,11 +152,12 @@ Result<SlurmSubmission> submit_to_slurm(const fs::path& pvcap, const fs::path& d
     args.push_back("--dependency=afterok:" + s.array_job);
     args.push_back("--kill-on-invalid-dep=yes");  // a failed task ends the final job, never leaves it waiting
   }
-  if (wait) args.push_back("--wait");
   args.push_back(final_script.string());
   auto r = run(args);
   if (!r) return r.error();
   s.final_job = job_id(r.value());
+  if (wait)
+    if (Status w = wait_for_job(s.final_job, logs); !w.ok()) return w.error();
   return s;
 }
 

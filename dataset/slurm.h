@@ -3,7 +3,8 @@
 // session folder, each running `pvcap dataset release-job`), and a final job, dependent on every
 // task of the array, that runs `pvcap dataset release-finish`. Resubmitting submits only what is
 // not done. The batch scripts are written into the release's bookkeeping folder in the dataset
-// (with the tasks' logs), so what ran can be read afterwards. sbatch is found on PATH.
+// (with the tasks' logs), so what ran can be read afterwards. sbatch (and scontrol, to wait) are found
+// on PATH.
 #include <filesystem>
 #include <string>
 
@@ -19,8 +20,8 @@ struct SlurmSubmission {
 };
 
 // `pvcap` is this program's path (the tasks run it on the cluster's nodes: a shared file system is
-// assumed, as for the sessions and the release folder). `wait`: sbatch --wait on the final job, so
-// this returns once the release is finished (or failed).
+// assumed, as for the sessions and the release folder). `wait`: follows the final job (scontrol,
+// once a second), so this returns once the release is finished, or an Error when it failed.
 Result<SlurmSubmission> submit_to_slurm(const std::filesystem::path& pvcap, const std::filesystem::path& dataset_dir,
                                         const ReleasePlan& plan, bool wait);
 
