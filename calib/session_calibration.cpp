@@ -377,9 +377,9 @@ namespace {
 
 // The presses: runs of samples whose total pressure is above 30 % of the session's highest; at most
 // `most` of them, spread over the session. One entry per press: its samples, the one of highest
-// pressure first (the press's peak), then the others of the press by falling pressure. A camera whose frame the peak's
-// sample lacks (a group left incomplete on a loaded capture PC) or in which the fingertip is hidden is checked at the
-// next.
+// pressure first (the press's peak), then the others of the press by falling pressure. A camera
+// whose frame the peak's sample lacks (a group left incomplete on a loaded capture PC), or in which
+// the fingertip is hidden, is checked at the next.
 struct Presses {
   std::vector<std::vector<std::size_t>> samples;
   double highest = 0;  // the session's highest total pressure (counts)
