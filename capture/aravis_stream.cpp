@@ -1,5 +1,11 @@
 #include "capture/aravis_stream.h"
 
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <fstream>
+#include <string>
 #include <thread>
 
 #include <fmt/format.h>
@@ -24,7 +30,7 @@ Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, in
   std::shared_ptr<AravisStream> self(new AravisStream(queue, losses, camera_index, connection));
   arv::GErrorSlot err;
   self->created_ns_ = host_now().ns;
-  self->stream_.reset(arv_camera_create_stream(camera, nullptr, nullptr, err.out()));
+  self->stream_.reset(arv_camera_create_stream(camera, &AravisStream::on_stream_event, self.get(), err.out()));
   if (!self->stream_) return Error{fmt::format("cannot create the video stream: {}", err.message())};
   if (ARV_IS_GV_STREAM(self->stream_.get())) {
     g_object_set(self->stream_.get(), "packet-resend",
@@ -59,9 +65,44 @@ void AravisStream::accept_from_now() {
   // retention (100 ms). So: nothing before the camera is told to acquire, and that not before the
   // stream is kSettleNs old. (A UDP socket instead needs a receive buffer of several frames, which
   // Linux's default limit of 208 KiB does not allow: 9 of 450 1080p frames came through.)
-  const std::int64_t wait = created_ns_ + kSettleNs - host_now().ns;
-  if (wait > 0) std::this_thread::sleep_for(std::chrono::nanoseconds(wait));
+  // Age alone is not enough on a loaded machine: a stream thread that gets the CPU late assembles
+  // them late (a suite run on 2 cores: 4 foreign frames in 30 streams). So also until the thread
+  // sleeps in poll() with no frame half-assembled: the kernel hands it the ring block holding the
+  // stale packets once the block is 5 ms old (without the age, the check alone let 2-7 frames in,
+  // each 7-14 ms after its stream was made), and poll() does not sleep while that block is unread.
+  // Left: a kernel whose timers run that block's retirement later than kSettleNs.
+  const std::int64_t deadline = created_ns_ + kMaxSettleNs;
+  for (;;) {
+    const std::int64_t now = host_now().ns;
+    if (now >= deadline) break;
+    if (now >= created_ns_ + kSettleNs && stream_thread_idle()) break;
+    std::this_thread::sleep_for(
+        std::chrono::nanoseconds(std::clamp<std::int64_t>(created_ns_ + kSettleNs - now, 5'000'000, deadline - now)));
+  }
   accepting_.store(true);
+}
+
+void AravisStream::on_stream_event(void* self_ptr, ArvStreamCallbackType type, ArvBuffer*) {
+  auto* self = static_cast<AravisStream*>(self_ptr);
+  if (type == ARV_STREAM_CALLBACK_TYPE_INIT)
+    self->stream_tid_.store(int(::syscall(SYS_gettid)));
+  else if (type == ARV_STREAM_CALLBACK_TYPE_START_BUFFER)
+    self->frames_started_.fetch_add(1, std::memory_order_relaxed);
+  else if (type == ARV_STREAM_CALLBACK_TYPE_BUFFER_DONE)
+    self->frames_finished_.fetch_add(1, std::memory_order_relaxed);
+}
+
+bool AravisStream::stream_thread_idle() const {
+  if (frames_started_.load() != frames_finished_.load()) return false;
+  const int tid = stream_tid_.load();
+  if (tid == 0) return true;  // no INIT seen: nothing to wait for
+  // The thread's state, the field after the command name: 'S' while it sleeps in poll().
+  std::ifstream in("/proc/self/task/" + std::to_string(tid) + "/stat");
+  std::string stat;
+  std::getline(in, stat);
+  const auto name_end = stat.rfind(')');
+  if (name_end == std::string::npos || name_end + 2 >= stat.size()) return true;  // gone, or unreadable
+  return stat[name_end + 2] == 'S';
 }
 
 void AravisStream::quiesce() {

@@ -40,9 +40,11 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
 
   // Frames are taken from now on; what the stream assembled before is not this camera's (it is not
   // acquiring yet) and is dropped. Call right before AcquisitionStart; waits until the stream is
-  // kSettleNs old (see the definition for why).
+  // kSettleNs old and its thread has assembled or given up all it received (see the definition
+  // for why), at most kMaxSettleNs.
   void accept_from_now();
   static constexpr std::int64_t kSettleNs = 250'000'000;
+  static constexpr std::int64_t kMaxSettleNs = 3'000'000'000;
   // Stops callbacks from pushing further frames and waits for a running callback to
   // finish, so none can take a new reference afterwards (leases still return buffers);
   // then reports every gap still open. Call before dropping the last owner reference.
@@ -58,6 +60,9 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
                std::uint32_t connection)
       : queue_(queue), losses_(losses), camera_index_(camera_index), connection_(connection), sequencer_(connection) {}
   static void on_new_buffer(ArvStream* stream, void* self);
+  static void on_stream_event(void* self, ArvStreamCallbackType type, ArvBuffer* buffer);
+  // True once Aravis' stream thread waits for packets with no frame half-assembled.
+  bool stream_thread_idle() const;
   void handle(ArvBuffer* buffer);
 
   arv::GPtr<ArvStream> stream_;
@@ -69,6 +74,9 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   std::int64_t created_ns_ = 0;
   std::atomic<int> in_callback_{0};
   std::atomic<std::int64_t> last_arrival_ns_{0};
+  std::atomic<int> stream_tid_{0};                 // Aravis' stream thread (its INIT event)
+  std::atomic<std::uint64_t> frames_started_{0};   // frames the stream thread began to assemble
+  std::atomic<std::uint64_t> frames_finished_{0};  // ... and completed or gave up
   std::atomic<std::uint64_t> overflows_{0};
   FrameSequencer sequencer_;
   std::mutex settle_mu_;               // settle_losses() runs on the stream and the control thread
