@@ -75,6 +75,28 @@ TEST(Sha256, MatchesTheStandardsVectors) {
   EXPECT_EQ(sha256_hex("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq"),
             "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
   EXPECT_EQ(sha256_hex(std::string(1000000, 'a')), "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
+  Sha256 portable(Sha256::Engine::Portable);
+  portable.update("abc", 3);
+  EXPECT_EQ(portable.hex(), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+}
+
+// The CPU's SHA instructions and the portable code give the same digest for every length around
+// the block and padding boundaries, fed whole or in uneven pieces.
+TEST(Sha256, TheCpusShaInstructionsAndThePortableCodeAgree) {
+  std::printf("this CPU %s SHA instructions\n", Sha256::cpu_has_sha_instructions() ? "has" : "has no");
+  std::string bytes(5000, '\0');
+  std::uint32_t x = 12345;
+  for (char& c : bytes) c = char((x = x * 1103515245u + 12345u) >> 24);
+  for (std::size_t n : {0, 1, 55, 56, 63, 64, 65, 119, 120, 127, 128, 129, 1000, 4096, 5000}) {
+    Sha256 fast, portable(Sha256::Engine::Portable), pieces;
+    fast.update(bytes.data(), n);
+    portable.update(bytes.data(), n);
+    for (std::size_t at = 0, step = 1; at < n; at += step, step = step * 3 % 97 + 1)
+      pieces.update(bytes.data() + at, std::min(step, n - at));
+    const std::string expected = portable.hex();
+    EXPECT_EQ(fast.hex(), expected) << n << " bytes";
+    EXPECT_EQ(pieces.hex(), expected) << n << " bytes in pieces";
+  }
 }
 
 TEST(PvGeometry, TheLoadersCornersAreFittedToTheMeasuredOnes) {
