@@ -76,6 +76,14 @@ const json* participant(const json& status, const std::string& code) {
   return nullptr;
 }
 
+// The kinds of flag on one session folder.
+std::set<std::string> folder_flags(const json& status, const fs::path& folder) {
+  std::set<std::string> out;
+  for (const auto& f : status["flags"])
+    if (fs::path(f["folder"].get<std::string>()) == folder) out.insert(f["kind"].get<std::string>());
+  return out;
+}
+
 std::set<std::string> flags_of(const json& status, const std::string& code) {
   std::set<std::string> out;
   for (const auto& f : status["flags"])
@@ -175,7 +183,20 @@ TEST(Dataset, ThreeParticipantsAreCataloguedCheckedCompletedSplitReleasedAndOneW
     EXPECT_FALSE(flags_of(s, code).count("losses")) << s["flags"].dump(1);
     EXPECT_FALSE(flags_of(s, code).count("take_check")) << s["flags"].dump(1);
   }
-  EXPECT_FALSE(flags_of(s, "P01").count("not_verified_clean")) << s["flags"].dump(1);
+  // "not verified clean" is `pvcap verify`'s verdict on each folder: the flag exactly where verify does
+  // not say clean (exit 0). The folders recorded whole are clean on an idle machine; on a loaded one a
+  // sample can lack pressure (the simulated Morph's pseudo-terminal passes a kernel worker of normal
+  // priority, docs/testing.md "How the suite is scheduled"), and then the flag must name it. At least
+  // one of them must be clean, so the clean case is checked too.
+  std::size_t clean = 0;
+  for (const fs::path& folder : {p01, p02b, p03}) {
+    const auto v = run_pvcap("--log-level warn verify " + folder.string());
+    clean += v.exit_code == 0;
+    EXPECT_EQ(folder_flags(s, folder).count("not_verified_clean") == 1, v.exit_code != 0)
+        << folder << ": verify exited " << v.exit_code << "\n"
+        << v.output << s["flags"].dump(1);
+  }
+  EXPECT_GE(clean, 1u) << "no folder recorded whole verified clean, so the unflagged case went unchecked";
   {  // The page a person reads: the matrix as the JSON says it, in a real browser.
     HeadlessBrowser browser(1200, 900);
     ASSERT_TRUE(browser.ok()) << "chromium is not installed (scripts/deps.sh --tests installs it)";
