@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>  // renameat2
 #include <cstring>
 #include <type_traits>
 
@@ -99,31 +100,53 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
           fmt::format("{}: store.group: there is no group '{}' on this machine", rig.source.string(), rig.store.group)};
     lab_group = g->gr_gid;
   }
-  std::unique_ptr<SessionWriter> w(new SessionWriter());
+  // The folder is made under a hidden name with its index (schema and session row) and renamed
+  // into place whole: a session killed in between leaves a hidden `.starting-*` folder that no
+  // reader takes for a session, never a session folder whose index is empty (kill -9 in start-up,
+  // StoreCrash.KillNineAtEveryPhase...: "not a pvcap session index").
   const std::string base = format_utc_compact(started_wall_ns) + "_" + safe_name(rig.name);
+  const std::filesystem::path staging = root / fmt::format(".starting-{}-{}", base, getpid());
+  if (mkdir(staging.c_str(), 0750) != 0)
+    return Error{fmt::format("{}: cannot create the session folder: {}", staging.string(), std::strerror(errno))};
+  auto unstage = [&staging](Error e) -> Error {
+    std::error_code ignored;
+    std::filesystem::remove_all(staging, ignored);
+    return e;
+  };
+  // The lab's group reads the session: the folder is the group's, and setgid, so what is made in
+  // it is the group's too (the umask leaves files 0640).
+  if (lab_group && (chown(staging.c_str(), uid_t(-1), *lab_group) != 0 || chmod(staging.c_str(), 02750) != 0))
+    return unstage(Error{fmt::format("{}: cannot give the session folder to group '{}' (store.group): {}",
+                                     staging.string(), rig.store.group, std::strerror(errno))});
+  try {
+    SessionIndex index = SessionIndex::create(staging / "session.db");
+    index.add_session(
+        {started_wall_ns, started_host_ns, kVersion, rig.name, rig.source.string(), rig.text, rig.simulated});
+  } catch (const sqlite::SqliteError& e) {
+    return unstage(Error{e.what()});
+  }
+  std::filesystem::path dir;
   for (int n = 1;; ++n) {
     const auto candidate = root / (n == 1 ? base : fmt::format("{}-{}", base, n));
-    if (mkdir(candidate.c_str(), 0750) == 0) {  // atomic: never reuses an existing session
-      w->dir_ = candidate;
+    // Atomic and never over an existing session (RENAME_NOREPLACE).
+    if (renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, candidate.c_str(), RENAME_NOREPLACE) == 0) {
+      dir = candidate;
       break;
     }
     if (errno != EEXIST || n > 999)
-      return Error{fmt::format("{}: cannot create the session folder: {}", candidate.string(), std::strerror(errno))};
+      return unstage(
+          Error{fmt::format("{}: cannot create the session folder: {}", candidate.string(), std::strerror(errno))});
   }
   // The session folder's name is an entry of the sessions folder: until that is synced, a power cut
   // can lose the whole session however often its files are (found by the power-cut test).
   if (Status s = sync_to_disk(root); !s.ok()) {
-    std::filesystem::remove(w->dir_);
+    std::error_code ignored;
+    std::filesystem::remove_all(dir, ignored);
     return s.error();
   }
-  // The lab's group reads the session: the folder is the group's, and setgid, so what is made in
-  // it is the group's too (the umask leaves files 0640).
-  if (lab_group && (chown(w->dir_.c_str(), uid_t(-1), *lab_group) != 0 || chmod(w->dir_.c_str(), 02750) != 0)) {
-    const std::string why = std::strerror(errno);
-    std::filesystem::remove(w->dir_);
-    return Error{fmt::format("{}: cannot give the session folder to group '{}' (store.group): {}", w->dir_.string(),
-                             rig.store.group, why)};
-  }
+  // Made only now: a writer that exists closes its session when it goes.
+  std::unique_ptr<SessionWriter> w(new SessionWriter());
+  w->dir_ = dir;
   w->started_host_ns_ = started_host_ns;
   w->store_ = rig.store;
   // A start that fails from here on leaves nothing behind: the folder is the one just made, and
@@ -153,9 +176,7 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
     w->reserve_held_.store(true);
   }
   try {
-    w->index_.emplace(SessionIndex::create(w->dir_ / "session.db"));
-    SessionRecord s{started_wall_ns, started_host_ns, kVersion, rig.name, rig.source.string(), rig.text, rig.simulated};
-    w->index_->add_session(s);
+    w->index_.emplace(SessionIndex::open_for_update(w->dir_ / "session.db"));
   } catch (const sqlite::SqliteError& e) {
     return abandon(Error{e.what()});
   }
