@@ -76,8 +76,8 @@ void AravisStream::accept_from_now() {
     const std::int64_t now = host_now().ns;
     if (now >= deadline) break;
     if (now >= created_ns_ + kSettleNs && stream_thread_idle()) break;
-    std::this_thread::sleep_for(
-        std::chrono::nanoseconds(std::clamp<std::int64_t>(created_ns_ + kSettleNs - now, 5'000'000, deadline - now)));
+    const std::int64_t nap = std::max<std::int64_t>(created_ns_ + kSettleNs - now, 5'000'000);
+    std::this_thread::sleep_for(std::chrono::nanoseconds(std::min(nap, deadline - now)));
   }
   accepting_.store(true);
 }

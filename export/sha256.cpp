@@ -124,7 +124,7 @@ void Sha256::update(const void* data, std::size_t size) {
   }
   blocks(p, size / 64);  // whole blocks straight from the caller's bytes
   p += size / 64 * 64, size %= 64;
-  std::memcpy(buffer_, p, size);
+  if (size > 0) std::memcpy(buffer_, p, size);
   used_ = size;
 }
 
