@@ -7,24 +7,22 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
-#include <condition_variable>
 #include <cstring>
 #include <fstream>
 #include <map>
-#include <mutex>
 #include <set>
 #include <sstream>
-#include <thread>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "calib/projection.h"
 #include "capture/sensel_units.h"
+#include "export/jpeg_lanes.h"
 #include "export/numpy_files.h"
 #include "export/pv_geometry.h"
 #include "export/sha256.h"
+#include "export/whole_file.h"
 #include "protocol/takes.h"
 #include "report/session_calibration.h"
 #include "storage/session_reader.h"
@@ -38,26 +36,6 @@ namespace {
 
 // kPa = counts / 2.7125 in the loaders (1736 counts per newton on a 1.25 mm cell).
 constexpr double kLoaderCountsPerKpa = 1736.0 * 1.25e-3 * 1.25e-3 * 1000.0;
-
-// Written beside its final name and renamed over it: readers and resumed runs see whole files.
-Status write_atomically(const fs::path& path, const std::string& bytes) {
-  const fs::path tmp = path.string() + fmt::format(".tmp-{}", getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), std::streamsize(bytes.size()));
-    out.flush();
-    if (!out) {
-      const std::string why = std::strerror(errno);
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      return Error{fmt::format("{}: could not be written ({}; is the disk full?)", path.string(), why)};
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) return Error{fmt::format("{}: could not be written: {}", path.string(), ec.message())};
-  return {};
-}
 
 // A name a folder of the export is made from (a pseudonym, a take, a mapped folder), as it comes
 // from a store or an output folder that may have been crafted: letters, digits and - _ ( ) only,
@@ -400,7 +378,7 @@ class SessionExport {
     for (std::size_t k = 0; k < cameras_.size(); ++k) fs::create_directories(dir / fmt::format("camera_{}", k), ec);
     fs::create_directories(dir / "force", ec);
     if (ec) return Error{fmt::format("{}: cannot be made: {}", dir.string(), ec.message())};
-    Sums sums;
+    FileSums sums;
     json timesteps = json::array();
     if (Status s = write_frames(p, dir, sums, timesteps); !s.ok()) return s;
     if (result_.interrupted) {
@@ -413,105 +391,22 @@ class SessionExport {
     return {};
   }
 
-  // Checksums of what this run wrote (name in the sequence -> bytes, SHA-256), taken from memory.
-  using Sums = std::map<std::string, std::pair<std::size_t, std::string>>;
-
-  // The cameras' frames are written by lanes, one per core, each with a reader of its own: lane l
-  // decodes, encodes, writes and hashes cameras l, l + L, ... sample after sample, so both cores
-  // stay busy (a reader is one thread's; decoding in one place while others encode left a core
-  // waiting: 1.9x the JPEG encoder alone). This thread writes the force files and follows the
-  // lanes for the progress shown.
-  struct Lane {
-    std::vector<std::size_t> cameras;  // indices into cameras_
-    std::vector<std::pair<std::string, std::pair<std::size_t, std::string>>> sums;
-    std::vector<std::uint8_t> wrote;  // per sample: a JPEG written by this lane
-    Status status;
-    std::atomic<std::size_t> finished{0};  // samples done
-  };
-
-  Status open_lane_readers() {
-    const std::size_t lanes =
-        std::clamp<std::size_t>(std::thread::hardware_concurrency(), 1, std::max<std::size_t>(cameras_.size(), 1));
-    while (lane_readers_.size() < lanes) {
-      auto opened = SessionReader::open(session_);
+  // The sequence's JPEGs by the lanes (export/jpeg_lanes.h) while this thread writes the force files
+  // and shows each sample's progress once every lane has passed it.
+  Status write_frames(const PlannedSequence& p, const fs::path& dir, FileSums& sums, json& timesteps) {
+    if (!jpegs_) {
+      auto opened = JpegLanes::open(session_, {cameras_, crops_, o_.paper_crop, o_.jpeg_quality});
       if (!opened) return opened.error();
-      lane_readers_.push_back(std::move(opened.value()));
+      jpegs_ = std::move(opened.value());
     }
-    return {};
+    jpegs_->start(p.samples, dir, stop_);
+    const Status forces = write_forces(p, dir, sums, timesteps);
+    const Status jpegs = jpegs_->finish(/*abandon=*/!forces.ok(), sums);
+    return forces.ok() ? jpegs : forces;
   }
 
-  void run_lane(SessionReader& reader, const PlannedSequence& p, const fs::path& dir, Lane& lane,
-                const std::atomic<bool>& failed, std::mutex& mu, std::condition_variable& cv) {
-    for (std::size_t t = 0; t < p.samples.size() && !stop_.load() && !failed.load(); ++t) {
-      for (std::size_t k : lane.cameras) {
-        const fs::path jpg = dir / fmt::format("camera_{}", k) / fmt::format("{:05d}.jpg", t);
-        if (fs::exists(jpg)) continue;
-        auto image = reader.image(p.samples[t], cameras_[k]);
-        if (!image) {
-          lane.status = image.error();
-          break;
-        }
-        const cv::Mat frame = o_.paper_crop ? calib::apply_crop(image.value(), crops_[k]) : image.value();
-        std::vector<std::uint8_t> bytes;
-        if (!cv::imencode(".jpg", frame, bytes, {cv::IMWRITE_JPEG_QUALITY, o_.jpeg_quality})) {
-          lane.status = Error{fmt::format("{}: the JPEG encoder refused the frame", jpg.string())};
-          break;
-        }
-        const std::string encoded(bytes.begin(), bytes.end());
-        if (auto w = write_atomically(jpg, encoded); !w.ok()) {
-          lane.status = w;
-          break;
-        }
-        lane.sums.push_back({fs::relative(jpg, dir).string(), {encoded.size(), sha256_hex(encoded)}});
-        lane.wrote[t] = 1;
-      }
-      {
-        std::lock_guard lock(mu);
-        lane.finished.store(t + 1);
-      }
-      cv.notify_all();
-      if (!lane.status.ok()) break;
-    }
-    std::lock_guard lock(mu);
-    lane.finished.store(p.samples.size());  // done, stopped or failed: the follower waits no more
-    cv.notify_all();
-  }
-
-  Status write_frames(const PlannedSequence& p, const fs::path& dir, Sums& sums, json& timesteps) {
-    if (Status s = open_lane_readers(); !s.ok()) return s;
-    std::vector<Lane> lanes(lane_readers_.size());
-    for (std::size_t k = 0; k < cameras_.size(); ++k) lanes[k % lanes.size()].cameras.push_back(k);
-    for (auto& lane : lanes) lane.wrote.assign(p.samples.size(), 0);
-    std::atomic<bool> failed{false};
-    std::mutex mu;
-    std::condition_variable cv;
-    std::vector<std::thread> threads;
-    for (std::size_t l = 0; l < lanes.size(); ++l)
-      threads.emplace_back([&, l] {
-        try {
-          run_lane(*lane_readers_[l], p, dir, lanes[l], failed, mu, cv);
-        } catch (const std::exception& e) {  // OpenCV's, or memory: the export stops with it
-          std::lock_guard lock(mu);
-          lanes[l].status = Error{fmt::format("{}: {}", dir.string(), e.what())};
-          lanes[l].finished.store(p.samples.size());
-          cv.notify_all();
-        }
-        if (!lanes[l].status.ok()) failed.store(true);
-      });
-    Status status = write_forces(p, dir, sums, timesteps, lanes, mu, cv);
-    if (!status.ok()) failed.store(true);
-    for (auto& t : threads) t.join();
-    for (auto& lane : lanes) {
-      if (status.ok() && !lane.status.ok()) status = lane.status;
-      for (auto& [name, sum] : lane.sums) sums[name] = std::move(sum);
-    }
-    return status;
-  }
-
-  // The force files, then each sample's progress once every lane has passed it. A stop leaves the
-  // sequence interrupted (resumed by the next run) unless every sample was done.
-  Status write_forces(const PlannedSequence& p, const fs::path& dir, Sums& sums, json& timesteps,
-                      std::vector<Lane>& lanes, std::mutex& mu, std::condition_variable& cv) {
+  // A stop leaves the sequence interrupted (resumed by the next run) unless every sample was done.
+  Status write_forces(const PlannedSequence& p, const fs::path& dir, FileSums& sums, json& timesteps) {
     const std::string force_ext = o_.npy ? "npy" : "pkl";
     for (std::size_t t = 0; t < p.samples.size(); ++t) {
       const SampleInfo& s = samples_[p.samples[t]];
@@ -526,18 +421,13 @@ class SessionExport {
         sums[fs::relative(force, dir).string()] = {bytes.size(), sha256_hex(bytes)};
         wrote = true;
       }
-      std::unique_lock lock(mu);
-      cv.wait(lock, [&] {
-        return std::all_of(lanes.begin(), lanes.end(), [&](const Lane& l) { return l.finished.load() > t; });
-      });
-      lock.unlock();
+      const bool lanes_ok = jpegs_->wait_past(t);
       if (stop_.load()) {
         result_.interrupted = true;
         return {};
       }
-      for (const auto& lane : lanes)
-        if (!lane.status.ok()) return {};  // the lane's error is returned once the lanes are joined
-      for (const auto& lane : lanes) wrote = wrote || lane.wrote[t];
+      if (!lanes_ok) return {};  // the lane's error is returned by finish()
+      wrote = wrote || jpegs_->wrote(t);
       ++(wrote ? result_.frames_written : result_.frames_found);
       if (o_.progress) o_.progress(++done_, total_);
     }
@@ -546,7 +436,7 @@ class SessionExport {
 
   // The manifest (written before the metadata: a sequence is complete once its metadata exists).
   // Files an earlier run wrote are read back for their checksums.
-  Status write_manifest(const fs::path& dir, const Sums& sums) {
+  Status write_manifest(const fs::path& dir, const FileSums& sums) {
     json manifest = {{"algorithm", "sha256"}, {"files", json::object()}};
     std::vector<fs::path> files;
     for (const auto& e : fs::recursive_directory_iterator(dir))
@@ -625,7 +515,7 @@ class SessionExport {
   const std::atomic<bool>& stop_;
   const std::string here_;
   std::unique_ptr<SessionReader> reader_;
-  std::vector<std::unique_ptr<SessionReader>> lane_readers_;  // one per lane (write_frames)
+  std::unique_ptr<JpegLanes> jpegs_;  // opened for the first sequence with frames to write
   std::vector<std::size_t> cameras_;
   json pv_cameras_ = json::object();
   std::vector<std::array<cv::Point2d, 4>> measured_pv_order_;
