@@ -273,6 +273,11 @@ Status AravisCamera::start() {
     if (err) return Error{fmt::format("{}: AcquisitionStart failed: {}", label(), err.message())};
   }
   started_at_ = host_now();
+  // The first frames' instants come from this probe: mapped by their arrivals instead, they were 4-14
+  // ms late on an idle machine (more when loaded) until the probe loop's first probe, a quarter second
+  // on, and a sample chosen on that clock may take the other of a camera's two frames near its tick.
+  for (int attempt = 0; attempt < 3 && probe_clock(/*at_start=*/true) == Probe::Failed; ++attempt) {
+  }
   running_.store(true);
   control_thread_ = std::thread([this] { control_loop(); });
   if (config_.trigger == TriggerMode::Software) trigger_thread_ = std::thread([this] { trigger_loop(); });
@@ -393,6 +398,7 @@ bool AravisCamera::reconnect() {
     return false;
   }
   started_at_ = host_now();
+  (void)probe_clock(/*at_start=*/true);
   emit(CameraEvent::Kind::Reconnected, fmt::format("{}: reconnected, recording again", label()));
   return true;
 }
@@ -406,7 +412,7 @@ bool AravisCamera::has_timestamp_latch() const {
 // latch command and the time the new value was read back (a camera latches while it handles
 // the command; one that latches later is waited for, briefly). Runs on its own thread: GVCP
 // to a camera that just vanished blocks for its timeouts, and the watchdog must not wait.
-AravisCamera::Probe AravisCamera::probe_clock() {
+AravisCamera::Probe AravisCamera::probe_clock(bool at_start) {
   arv::GPtr<ArvCamera> cam;
   std::string command, value;
   double tick_hz = 1e9;
@@ -415,7 +421,7 @@ AravisCamera::Probe AravisCamera::probe_clock() {
     std::lock_guard lock(mu_);
     if (!link_->camera || latch_command_.empty()) return Probe::NotStreaming;
     const HostNs last = link_->stream ? link_->stream->last_arrival() : HostNs{0};
-    if (last.ns == 0 || host_now().ns - last.ns > 100'000'000) return Probe::NotStreaming;
+    if (!at_start && (last.ns == 0 || host_now().ns - last.ns > 100'000'000)) return Probe::NotStreaming;
     cam.reset(ARV_CAMERA(g_object_ref(link_->camera.get())));
     command = latch_command_;
     value = latch_value_;

@@ -128,7 +128,9 @@ class AravisCamera {
   bool reconnect();
   void trigger_loop();  // TriggerMode::Software: one AcquisitionSoftwareTrigger per frame period
   enum class Probe { Taken, NotStreaming, Failed };
-  Probe probe_clock();
+  // `at_start`: right after AcquisitionStart, before any frame (so the first frames are mapped by a
+  // probe, not by their arrivals); otherwise only while frames flow (a vanished camera is not asked).
+  Probe probe_clock(bool at_start = false);
   void probe_loop();  // its own thread: the probes while streaming
   void emit(CameraEvent::Kind kind, std::string message);
 

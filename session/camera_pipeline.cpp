@@ -152,10 +152,14 @@ class CameraWorker {
       }
   }
 
-  // Timestamp-latch probes of this camera's clock (cameras that have the latch).
+  // Timestamp-latch probes of this camera's clock (cameras that have the latch). A connection's
+  // first probe is taken as acquisition starts, before its first frame: the clock model keeps the
+  // session's first for the segment its first frame begins; a reconnection's joins the current
+  // segment, where a probe of a clock reset meanwhile lies far back and is dropped. Probes of a
+  // connection already left behind are not taken.
   void take_clock_probes() {
     while (auto probe = p_.camera.clock_probes().pop_for(0ms))
-      if (probe->connection == connection_)
+      if (connection_ == UINT32_MAX || probe->connection >= connection_)
         p_.timeline.camera_probe(p_.index, probe->device, probe->host_lo, probe->host_hi);
   }
 

@@ -91,8 +91,15 @@ Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& c
   // 1/trigger_frequency: paced like the free-running engine's frame period (plan_next_tick), it wakes
   // just before each frame is due, after the line's pulse (10 ms ahead); the fill waits the rest.
   arv_fake_camera_set_trigger_frequency(fake, 100.0);
+  // A latch read before any frame (the recorder probes as acquisition starts) fixes the replay's shift
+  // as a first frame would: a clock read before the shift is fixed would not be the one its frames
+  // carry.
   serve_features(
-      raw, fake, [raw](std::int64_t host_ns) { return raw->replay_->camera_device_time(raw->index_, host_ns); },
+      raw, fake,
+      [raw](std::int64_t host_ns) {
+        (void)raw->replay_->start(host_ns);
+        return raw->replay_->camera_device_time(raw->index_, host_ns);
+      },
       [raw](std::int64_t host_ns) { return raw->line_pulse(host_ns); });
   spdlog::info("replay: {} re-serves {} recorded frames on {}", camera.name,
                raw->replay_->camera_frames(raw->index_).size(), camera.address);

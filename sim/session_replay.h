@@ -52,8 +52,8 @@ class SessionReplay {
   const std::vector<ReplayPressureFrame>& pressure_frames() const { return pressure_; }
   const std::string& sensel_serial() const { return sensel_serial_; }
 
-  // A device starts streaming at `now_ns`: the first call fixes the shift, so that the session's
-  // first frame leaves 0.2 s later; every call returns it.
+  // A device starts streaming, or its clock is read, at `now_ns`: the first call fixes the shift,
+  // so that the session's first frame leaves 0.2 s later; every call returns it.
   std::int64_t start(std::int64_t now_ns);
   bool started() const;
   // When a frame recorded at session time `t_ns` leaves (host CLOCK_MONOTONIC); before start(),

@@ -132,6 +132,14 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
                    "SELECT count(DISTINCT m.device_id) FROM clock_models m JOIN devices v ON v.id = m.device_id "
                    "WHERE v.kind = 'camera' AND m.source = 'latch'"),
             4);
+  // From each camera's first frame on: a probe taken as its acquisition starts maps the first frames
+  // (by their arrivals they were 4-14 ms late on an idle machine, 20-110 ms at a loaded 1080p start,
+  // and a sample chosen on that clock took a group its tick's neighbour should have had).
+  EXPECT_EQ(scalar(db,
+                   "SELECT count(*) FROM clock_models m JOIN devices v ON v.id = m.device_id WHERE v.kind = "
+                   "'camera' AND m.source = 'latch' AND m.host_ns = (SELECT min(host_ns) FROM clock_models WHERE "
+                   "device_id = m.device_id)"),
+            4);
   EXPECT_EQ(scalar(db,
                    "SELECT count(*) FROM clock_models m JOIN devices v ON v.id = m.device_id WHERE "
                    "v.kind = 'sensel' AND m.source <> 'arrivals'"),
