@@ -276,8 +276,7 @@ Status AravisCamera::start() {
   // The first frames' instants come from this probe: mapped by their arrivals instead, they were 4-14
   // ms late on an idle machine (more when loaded) until the probe loop's first probe, a quarter second
   // on, and a sample chosen on that clock may take the other of a camera's two frames near its tick.
-  for (int attempt = 0; attempt < 3 && probe_clock(/*at_start=*/true) == Probe::Failed; ++attempt) {
-  }
+  probe_clock_at_start();
   running_.store(true);
   control_thread_ = std::thread([this] { control_loop(); });
   if (config_.trigger == TriggerMode::Software) trigger_thread_ = std::thread([this] { trigger_loop(); });
@@ -398,7 +397,7 @@ bool AravisCamera::reconnect() {
     return false;
   }
   started_at_ = host_now();
-  (void)probe_clock(/*at_start=*/true);
+  probe_clock_at_start();
   emit(CameraEvent::Kind::Reconnected, fmt::format("{}: reconnected, recording again", label()));
   return true;
 }
@@ -412,7 +411,14 @@ bool AravisCamera::has_timestamp_latch() const {
 // latch command and the time the new value was read back (a camera latches while it handles
 // the command; one that latches later is waited for, briefly). Runs on its own thread: GVCP
 // to a camera that just vanished blocks for its timeouts, and the watchdog must not wait.
-AravisCamera::Probe AravisCamera::probe_clock(bool at_start) {
+void AravisCamera::probe_clock_at_start() {
+  for (int attempt = 0; attempt < 5; ++attempt) {
+    std::int64_t width = INT64_MAX;
+    if (probe_clock(/*at_start=*/true, &width) == Probe::Taken && width <= 2'000'000) return;
+  }
+}
+
+AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width_ns) {
   arv::GPtr<ArvCamera> cam;
   std::string command, value;
   double tick_hz = 1e9;
@@ -442,6 +448,7 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start) {
       const HostNs hi = host_now();
       ClockProbe probe{connection, DeviceNs{std::int64_t(double(ticks) * (1e9 / tick_hz))}, lo, hi};
       (void)probes_.try_push(probe);  // a full queue (nobody reading) loses a probe, nothing else
+      if (width_ns) *width_ns = hi.ns - lo.ns;
       return Probe::Taken;
     }
     std::this_thread::sleep_for(200us);
