@@ -1,7 +1,8 @@
 #pragma once
 // One simulated GigE Vision camera: Aravis' own fake-camera engine
 // (ArvGvFakeCamera) serves real GVCP/GVSP on an address, while pvcap supplies
-// the pixels (scene + timecode) and the device clock (offset, drift, jitter).
+// the pixels (scene + timecode; a board session's without it) and the device clock (offset, drift,
+// jitter).
 // Every emitted frame is logged to a ground-truth CSV as it happens.
 //
 // It also has the GenICam timestamp latch real GigE cameras offer
