@@ -40,6 +40,7 @@ struct Intrinsics {
   double rms_px = 0;                  // OpenCV's reprojection RMS over every corner used
   int views = 0;                      // board views used
   int rejected_views = 0;             // left out: their error was far above the others'
+  int repeated_views = 0;             // left out: the view before them again (the board held still)
   int corners = 0;                    // corners used
   std::array<double, 4> deviation{};  // the fit's own standard deviation of fx, fy, cx, cy (px)
   // Corners per image region (coverage_rows x coverage_cols, row-major), and the regions with none.

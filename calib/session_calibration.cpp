@@ -267,6 +267,7 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
                         std::nullopt,
                         {{"views", in.views},
                          {"rejected_views", in.rejected_views},
+                         {"repeated_views", in.repeated_views},
                          {"deviation_fx_fy_cx_cy_px", in.deviation},
                          {"corners", in.corners},
                          {"coverage", in.coverage},
@@ -274,10 +275,10 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
                          {"empty_regions", in.empty_regions}}};
     entry->intrinsics = m;
     fmt::print(
-        "{}: {} views ({} left out), {} corners, RMS {:.3f} px; fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f} "
-        "(the fit's standard deviation: focal {:.1f}, cx {:.1f}, cy {:.1f} px)\n",
-        camera.name, in.views, in.rejected_views, in.corners, in.rms_px, in.model.K(0, 0), in.model.K(1, 1),
-        in.model.K(0, 2), in.model.K(1, 2),
+        "{}: {} views ({} left out, {} repeats of a still board skipped), {} corners, RMS {:.3f} px; fx {:.1f} fy "
+        "{:.1f} cx {:.1f} cy {:.1f} (the fit's standard deviation: focal {:.1f}, cx {:.1f}, cy {:.1f} px)\n",
+        camera.name, in.views, in.rejected_views, in.repeated_views, in.corners, in.rms_px, in.model.K(0, 0),
+        in.model.K(1, 1), in.model.K(0, 2), in.model.K(1, 2),
         // with fx = fy fixed, OpenCV reports the focal length's deviation under one of the two
         std::max(in.deviation[0], in.deviation[1]), in.deviation[2], in.deviation[3]);
     std::string grid;
