@@ -397,7 +397,9 @@ bool AravisCamera::reconnect() {
     return false;
   }
   started_at_ = host_now();
-  probe_clock_at_start();
+  // One probe only: this is the watchdog's thread, and a camera gone again would hold it for GVCP's
+  // timeouts (the probe loop takes the rest once frames flow).
+  (void)probe_clock(/*at_start=*/true);
   emit(CameraEvent::Kind::Reconnected, fmt::format("{}: reconnected, recording again", label()));
   return true;
 }
@@ -441,7 +443,9 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width
   const HostNs lo = host_now();
   arv_device_execute_command(dev, command.c_str(), err.out());
   if (err) return Probe::Failed;
-  for (int attempt = 0; attempt < 20; ++attempt) {
+  // At the start a slow latch is waited for longer (20 ms): a wide bracket still bounds the first
+  // frames' instants, no reading leaves them to their arrivals.
+  for (int attempt = 0, attempts = at_start ? 100 : 20; attempt < attempts; ++attempt) {
     const gint64 ticks = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
     if (err) return Probe::Failed;
     if (ticks != before) {

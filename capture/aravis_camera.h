@@ -132,7 +132,7 @@ class AravisCamera {
   // probe, not by their arrivals); otherwise only while frames flow (a vanished camera is not asked).
   // `width_ns`, when given, gets the taken probe's bracket (how well it pins the clock).
   Probe probe_clock(bool at_start = false, std::int64_t* width_ns = nullptr);
-  // At a connection's start: probes until one's bracket is within 2 ms (at most five, each kept:
+  // At acquisition start: probes until one's bracket is within 2 ms (at most five, each kept:
   // the clock model narrows to what all of them leave open). The first frames are mapped by these
   // alone, to half the tightest bracket: a GVCP answer held up 30 ms on a busy machine would put
   // them 15 ms off, out of their groups.

@@ -21,7 +21,7 @@ struct BoardPose {
   cv::Matx33d R;
   cv::Vec3d t;
 };
-BoardPose board_pose(int index, double board_w_mm, double board_h_mm);
+BoardPose board_pose(int hold, double board_w_mm, double board_h_mm);
 // The hold shown at `seconds` (0, 1, 2...: each a pose of its own, see board_pose).
 inline int board_pose_index(double seconds) { return int(seconds / kBoardHoldSeconds); }
 

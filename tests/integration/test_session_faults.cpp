@@ -60,13 +60,18 @@ std::string why_sample_frames_are_not_in_a_video(const fs::path& session) {
 TEST(SessionFaults, ASecondRecorderOnTheSameRigIsRefusedWithTheRunningOnesPidAndFolder) {
   const fs::path work = work_dir("one-recorder");
   const fs::path rig = write_rig(work);
+  // The first records until it is stopped (Ctrl-C) after the second has tried: with a fixed 12 s it
+  // had ended once before a loaded CI machine's second recorder reached the lock (its simulated rig
+  // took 20 s to start), and the second then rightly recorded.
   const pid_t first = spawn_pvcap(
-      fmt::format("session --rig {} --root {} --duration 12 --no-web", rig.string(), (work / "first").string()),
+      fmt::format("session --rig {} --root {} --duration 300 --no-web", rig.string(), (work / "first").string()),
       work / "first.log");
   ASSERT_TRUE(wait_for_text(work / "first.log", "recording session", std::chrono::seconds(60)))
       << read_all(work / "first.log");
   const auto second = run_pvcap(
       fmt::format("session --rig {} --root {} --duration 3 --no-web", rig.string(), (work / "second").string()));
+  EXPECT_EQ(read_all(work / "first.log").find("ended:"), std::string::npos) << "the first still records";
+  ASSERT_EQ(kill(first, SIGINT), 0);
   int status = 0;
   ASSERT_EQ(waitpid(first, &status, 0), first);
   const auto running = sessions_in(work / "first");

@@ -344,14 +344,46 @@ TEST(SimSession, AHardwareTriggeredCameraThatVanishesIsReportedWithinTwoSeconds)
     EXPECT_EQ(events("camera_no_trigger", s.cameras[i].device_id).first, 0);
     EXPECT_EQ(account(s.cameras[i]).unaccounted, 0u);
   }
-  // (Every camera's engine looks for the pending trigger at the same instants, within 1/120 s of
-  // the pulse; a loaded machine adds its own delays. Measured: 97-98 of 99-100 under 5 ms.)
-  auto q = db.prepare("SELECT count(*), sum(span_ns < 5000000) FROM samples WHERE cameras >= 2");
-  ASSERT_TRUE(q.step());
-  EXPECT_GT(q.column_int(0), 60);
-  std::printf("samples with two or more cameras: %lld, of which %lld span under 5 ms\n",
-              static_cast<long long>(q.column_int(0)), static_cast<long long>(q.column_int(1)));
-  EXPECT_GE(q.column_int(1) * 10, q.column_int(0) * 8) << "frames of one pulse lie within 5 ms of each other";
+  // Each sample holds the frames of one pulse, and its span is the one the frames truly had. (How far
+  // apart the simulated cameras take one pulse's frames is the simulator's: each engine looks for the
+  // pending trigger within 1/120 s of the pulse, and a loaded machine adds its own delays: 97-98 of
+  // 99-100 under 5 ms alone, 81 of 106 in a slow CI run. What pvcap answers for is grouping them and
+  // stating their span, so that is what is held here, against the truth.)
+  std::map<std::pair<std::int64_t, std::uint64_t>, std::int64_t> true_ns;  // (device, sequence) -> true instant
+  for (const auto& cam : s.cameras) {
+    std::map<std::uint16_t, std::int64_t> by_id;
+    for (const auto& t : cam.truth) by_id[t.frame_id] = t.true_ns;
+    for (const auto& f : cam.frames)
+      if (auto it = by_id.find(std::uint16_t(f.frame_id)); it != by_id.end())
+        true_ns[{cam.device_id, f.sequence}] = it->second;
+  }
+  auto q = db.prepare(
+      "SELECT s.id, s.span_ns, sf.device_id, sf.sequence FROM samples s JOIN sample_frames sf ON sf.sample_id = s.id "
+      "WHERE s.cameras >= 2 ORDER BY s.id");
+  std::map<std::int64_t, std::pair<std::int64_t, std::vector<std::int64_t>>> samples;  // id -> (span, true instants)
+  while (q.step()) {
+    auto& entry = samples[q.column_int(0)];
+    entry.first = q.column_int(1);
+    const auto it = true_ns.find({q.column_int(2), std::uint64_t(q.column_int(3))});
+    if (it != true_ns.end()) entry.second.push_back(it->second);
+  }
+  EXPECT_GT(samples.size(), 60u);
+  std::size_t one_pulse = 0, span_true = 0, under_5ms = 0;
+  for (const auto& [id, entry] : samples) {
+    const auto& [span, instants] = entry;
+    if (instants.size() < 2) continue;
+    const auto [lo, hi] = std::minmax_element(instants.begin(), instants.end());
+    const std::int64_t true_span = *hi - *lo;
+    one_pulse += true_span < 1'000'000'000 / 60;  // half the line's period
+    span_true += std::llabs(span - true_span) <= 1'000'000;
+    under_5ms += true_span < 5'000'000;
+  }
+  std::printf(
+      "samples with two or more cameras: %zu; frames of one pulse in %zu; span within 1 ms of the true one in %zu; "
+      "truly under 5 ms in %zu\n",
+      samples.size(), one_pulse, span_true, under_5ms);
+  EXPECT_EQ(one_pulse, samples.size()) << "a sample holds frames of two pulses";
+  EXPECT_GE(span_true * 100, samples.size() * 95) << "the stored span is the frames' true one";
 }
 
 TEST(SimSession, CameraThatComesBackIsReconnectedAndRecordsAgain) {
