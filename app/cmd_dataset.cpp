@@ -17,6 +17,7 @@
 #include "dataset/slurm.h"
 #include "dataset/splits.h"
 #include "protocol/protocol.h"
+#include "storage/durable_folder.h"
 #include "storage/records.h"
 
 namespace pvcap {
@@ -118,7 +119,7 @@ void write_remaining(const Loaded& l) {
       fs::remove(file, ec);
       continue;
     }
-    if (auto w = dataset::write_file_atomically(file, text); !w.ok()) throw UserError(w.error().message);
+    if (auto w = write_file_atomically(file, text, Durability::Synced); !w.ok()) throw UserError(w.error().message);
   }
 }
 
@@ -142,7 +143,8 @@ int run_status(const DatasetArgs& a, const std::atomic<bool>& stop) {
   const auto leaks = leakage(l);
   write_remaining(l);
   const json j = dataset::status_json(l.status);
-  if (auto w = dataset::write_file_atomically(l.config.dir / "dataset.html", dataset::render_dataset_html(j, leaks));
+  if (auto w = write_file_atomically(l.config.dir / "dataset.html", dataset::render_dataset_html(j, leaks),
+                                     Durability::Synced);
       !w.ok())
     throw UserError(w.error().message);
   if (a.json_out) {
@@ -169,8 +171,8 @@ int run_split(const DatasetArgs& a, const std::atomic<bool>& stop) {
       candidates.push_back({p.code, p.skin_tone, p.lighting.empty() ? "unrecorded" : p.lighting.front()});
   const std::uint64_t seed = a.seed >= 0 ? std::uint64_t(a.seed) : std::random_device{}();
   const auto s = dataset::make_splits(candidates, a.test, a.val, seed);
-  if (auto w = dataset::write_file_atomically(l.config.dir / "splits.json",
-                                              dataset::splits_json(s, candidates).dump(2) + "\n");
+  if (auto w = write_file_atomically(l.config.dir / "splits.json", dataset::splits_json(s, candidates).dump(2) + "\n",
+                                     Durability::Synced);
       !w.ok())
     throw UserError(w.error().message);
   fmt::print("splits (seed {}; --seed {} makes them again):\n  train: {}\n  val:   {}\n  test:  {}\n", seed, seed,
@@ -288,7 +290,7 @@ int run_withdraw(const DatasetArgs& a, const std::atomic<bool>& stop) {
     j["train"] = splits->train;
     j["val"] = splits->val;
     j["test"] = splits->test;
-    if (auto s = dataset::write_file_atomically(l.config.dir / "splits.json", j.dump(2) + "\n"); !s.ok())
+    if (auto s = write_file_atomically(l.config.dir / "splits.json", j.dump(2) + "\n", Durability::Synced); !s.ok())
       throw UserError(s.error().message);
   }
   load(a.dir, true, stop);  // the scan forgets the withdrawn participant's folders
@@ -303,7 +305,8 @@ int run_withdraw(const DatasetArgs& a, const std::atomic<bool>& stop) {
     if (ec) throw UserError(fmt::format("{}: cannot be removed: {}", (fs::path(out) / folder).string(), ec.message()));
     json map = dataset::read_json_file(fs::path(out) / "participants.json", json::object());
     map.erase(a.participant);
-    if (auto s = dataset::write_file_atomically(fs::path(out) / "participants.json", map.dump(2) + "\n"); !s.ok())
+    if (auto s = write_file_atomically(fs::path(out) / "participants.json", map.dump(2) + "\n", Durability::Synced);
+        !s.ok())
       throw UserError(s.error().message);
     auto sums = dataset::write_sha256sums(out);
     if (!sums) throw UserError(sums.error().message);

@@ -111,27 +111,7 @@ Status write_dataset(const DatasetConfig& c) {
       "# catalog.db is derived from them. `participants` (codes) and `conditions` (lighting) are what is\n"
       "# planned, for the completeness matrix; license, url and creators go into the release's metadata.\n{}\n",
       y.c_str());
-  return write_file_atomically(file, text);
-}
-
-Status write_file_atomically(const fs::path& file, const std::string& text) {
-  const fs::path tmp = file.string() + fmt::format(".tmp-{}", getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(text.data(), std::streamsize(text.size()));
-    out.flush();
-    if (!out) {
-      const std::string why = std::strerror(errno);
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      return Error{fmt::format("{}: could not be written ({}; is the disk full?)", file.string(), why)};
-    }
-  }
-  if (auto s = sync_to_disk(tmp); !s.ok()) return s;
-  std::error_code ec;
-  fs::rename(tmp, file, ec);
-  if (ec) return Error{fmt::format("{}: could not be written: {}", file.string(), ec.message())};
-  return sync_to_disk(file.parent_path().empty() ? fs::path(".") : file.parent_path());
+  return write_file_atomically(file, text, Durability::Synced);
 }
 
 json read_json_file(const fs::path& file, const json& otherwise) {
@@ -209,7 +189,7 @@ Status add_withdrawal(const fs::path& dir, const Withdrawal& w) {
                {"wall_ns", w.wall_ns},
                {"releases_named", w.releases_named},
                {"purged", w.purged}});
-  return write_file_atomically(dir / "withdrawals.json", j.dump(2) + "\n");
+  return write_file_atomically(dir / "withdrawals.json", j.dump(2) + "\n", Durability::Synced);
 }
 
 bool is_withdrawn(const std::vector<Withdrawal>& w, const std::string& participant) {
@@ -243,7 +223,7 @@ Status record_release(const fs::path& dir, const ReleaseRecord& r) {
     if (e.out != r.out)  // made again into the same folder: the new record
       kept.push_back({{"out", e.out}, {"wall_ns", e.wall_ns}, {"participants", e.participants}});
   kept.push_back({{"out", r.out}, {"wall_ns", r.wall_ns}, {"participants", r.participants}});
-  return write_file_atomically(dir / "releases.json", kept.dump(2) + "\n");
+  return write_file_atomically(dir / "releases.json", kept.dump(2) + "\n", Durability::Synced);
 }
 
 }  // namespace pvcap::dataset

@@ -78,8 +78,6 @@ class RecordReader {
   std::filesystem::path file_;
 };
 
-// A file written whole or not at all (temporary name, fsync, rename).
-Status write_file_atomically(const std::filesystem::path& file, const std::string& text);
 nlohmann::json read_json_file(const std::filesystem::path& file, const nlohmann::json& otherwise);
 
 }  // namespace pvcap::dataset

@@ -16,6 +16,7 @@
 #include "export/dataset_export.h"
 #include "export/sha256.h"
 #include "storage/compact.h"
+#include "storage/durable_folder.h"
 
 namespace pvcap::dataset {
 
@@ -237,7 +238,7 @@ Result<ReleasePlan> prepare_release(const fs::path& dataset_dir, const std::vect
           "{}: holds a release of other sessions, another layout or another --compact; release into an empty "
           "folder (or remove it)",
           plan.out.string())};
-  } else if (auto w = write_file_atomically(plan_file, j.dump(2) + "\n"); !w.ok()) {
+  } else if (auto w = write_file_atomically(plan_file, j.dump(2) + "\n", Durability::Synced); !w.ok()) {
     return w.error();
   }
   // Participant folders fixed by code order before any job runs (the export takes these).
@@ -247,7 +248,8 @@ Result<ReleasePlan> prepare_release(const fs::path& dataset_dir, const std::vect
     if (folder.is_string()) next = std::max(next, std::atoi(folder.get<std::string>().substr(0, 4).c_str()) + 1);
   for (const auto& code : plan.participants)
     if (!map.contains(code)) map[code] = fmt::format("{:04d}_{}", next++, code);
-  if (auto w = write_file_atomically(plan.out / "participants.json", map.dump(2) + "\n"); !w.ok()) return w.error();
+  if (auto w = write_file_atomically(plan.out / "participants.json", map.dump(2) + "\n", Durability::Synced); !w.ok())
+    return w.error();
   return plan;
 }
 
@@ -307,7 +309,7 @@ Status run_release_job(const ReleasePlan& plan, std::size_t i, const std::atomic
   } else if (r.value().interrupted) {
     return Error{fmt::format("{}: interrupted; run the release again to finish it", plan.sessions[i])};
   }
-  return write_file_atomically(done_marker(plan, i), plan.sessions[i] + "\n");
+  return write_file_atomically(done_marker(plan, i), plan.sessions[i] + "\n", Durability::Synced);
 }
 
 Status run_local(const ReleasePlan& plan, int workers,
@@ -358,7 +360,7 @@ Result<std::size_t> write_sha256sums(const fs::path& out) {
     if (!h) return h.error();
     sums += h.value() + "  " + f + "\n";
   }
-  if (auto w = write_file_atomically(out / "SHA256SUMS", sums); !w.ok()) return w.error();
+  if (auto w = write_file_atomically(out / "SHA256SUMS", sums, Durability::Synced); !w.ok()) return w.error();
   return files.size();
 }
 
@@ -469,15 +471,18 @@ Result<ReleaseSummary> finish_release(const DatasetConfig& c, const ReleasePlan&
                                        {"test", released_splits.test}}
                                       .dump(2) +
                                   "\n";
-  if (auto w = write_file_atomically(plan.out / "splits.json", splits_text); !w.ok()) return w.error();
+  if (auto w = write_file_atomically(plan.out / "splits.json", splits_text, Durability::Synced); !w.ok())
+    return w.error();
   const auto seqs = released_sequences(plan.out, plan.layout == "pressurevision-plus" ? "meta.json" : "metadata.json");
   auto protocol_sha = exporting::sha256_file(c.protocol);
   const std::string readme =
       datasheet(c, plan, status, released_splits, sessions, seqs, protocol_sha ? protocol_sha.value() : "unreadable");
-  if (auto w = write_file_atomically(plan.out / "README.md", readme); !w.ok()) return w.error();
+  if (auto w = write_file_atomically(plan.out / "README.md", readme, Durability::Synced); !w.ok()) return w.error();
   const json croissant =
       croissant_metadata(c, plan, utc_date(), exporting::sha256_hex(readme), exporting::sha256_hex(splits_text));
-  if (auto w = write_file_atomically(plan.out / "croissant.json", croissant.dump(2) + "\n"); !w.ok()) return w.error();
+  if (auto w = write_file_atomically(plan.out / "croissant.json", croissant.dump(2) + "\n", Durability::Synced);
+      !w.ok())
+    return w.error();
   auto files = write_sha256sums(plan.out);
   if (!files) return files.error();
   ReleaseSummary sum;

@@ -13,6 +13,8 @@
 
 #include <fmt/format.h>
 
+#include "storage/durable_folder.h"
+
 namespace pvcap::dataset {
 
 namespace fs = std::filesystem;
@@ -67,7 +69,7 @@ std::string quoted(const std::string& s) {
 }
 
 Status write_script(const fs::path& file, const std::string& text) {
-  if (auto w = write_file_atomically(file, text); !w.ok()) return w;
+  if (auto w = write_file_atomically(file, text, Durability::Synced); !w.ok()) return w;
   std::error_code ec;
   fs::permissions(file, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add, ec);
   return {};

@@ -22,9 +22,9 @@
 #include "export/numpy_files.h"
 #include "export/pv_geometry.h"
 #include "export/sha256.h"
-#include "export/whole_file.h"
 #include "protocol/takes.h"
 #include "report/session_calibration.h"
+#include "storage/durable_folder.h"
 #include "storage/session_reader.h"
 
 namespace pvcap::exporting {
@@ -83,7 +83,7 @@ Result<std::string> participant_folder(const fs::path& out, const std::string& p
   if (next > 9999) return Error{fmt::format("{}: no 4-digit participant id left", map_path.string())};
   const std::string folder = fmt::format("{:04d}_{}", next, pseudonym);
   map[pseudonym] = folder;
-  if (auto w = write_atomically(map_path, map.dump(2) + "\n"); !w.ok()) return w.error();
+  if (auto w = write_file_atomically(map_path, map.dump(2) + "\n", Durability::Renamed); !w.ok()) return w.error();
   return folder;
 }
 
@@ -325,7 +325,7 @@ class SessionExport {
         fs::create_directories(dir, ec);
         if (ec) return Error{fmt::format("{}: cannot be made: {}", dir.string(), ec.message())};
         if (!fs::exists(marker))
-          if (auto w = write_atomically(marker, source.dump(2) + "\n"); !w.ok()) return w;
+          if (auto w = write_file_atomically(marker, source.dump(2) + "\n", Durability::Renamed); !w.ok()) return w;
         p.folder = name;
         taken.insert(name);
         break;
@@ -351,7 +351,7 @@ class SessionExport {
     fs::create_directories(dir, ec);
     if (ec) return Error{fmt::format("{}: cannot be made: {}", dir.string(), ec.message())};
     if (!fs::exists(marker))
-      if (auto w = write_atomically(marker, source.dump(2) + "\n"); !w.ok()) return w;
+      if (auto w = write_file_atomically(marker, source.dump(2) + "\n", Durability::Renamed); !w.ok()) return w;
     p.folder = name;
     return {};
   }
@@ -386,7 +386,9 @@ class SessionExport {
       return {};
     }
     if (Status s = write_manifest(dir, sums); !s.ok()) return s;
-    if (auto w = write_atomically(dir / meta_name(), metadata(p, timesteps).dump(1) + "\n"); !w.ok()) return w;
+    if (auto w = write_file_atomically(dir / meta_name(), metadata(p, timesteps).dump(1) + "\n", Durability::Renamed);
+        !w.ok())
+      return w;
     result_.sequences.push_back(seq);
     return {};
   }
@@ -417,7 +419,7 @@ class SessionExport {
         auto f = loader_force(*reader_, *s.pressure);
         if (!f) return f.error();
         const std::string bytes = o_.npy ? numpy_npy(f.value()) : numpy_pickle(f.value());
-        if (auto w = write_atomically(force, bytes); !w.ok()) return w;
+        if (auto w = write_file_atomically(force, bytes, Durability::Renamed); !w.ok()) return w;
         sums[fs::relative(force, dir).string()] = {bytes.size(), sha256_hex(bytes)};
         wrote = true;
       }
@@ -454,7 +456,7 @@ class SessionExport {
       if (!sum) return sum.error();
       manifest["files"][name] = {{"bytes", fs::file_size(f)}, {"sha256", sum.value()}};
     }
-    return write_atomically(dir / "manifest.json", manifest.dump(1) + "\n");
+    return write_file_atomically(dir / "manifest.json", manifest.dump(1) + "\n", Durability::Renamed);
   }
 
   json metadata(const PlannedSequence& p, const json& timesteps) const {

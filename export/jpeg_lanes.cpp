@@ -7,7 +7,7 @@
 
 #include "calib/projection.h"
 #include "export/sha256.h"
-#include "export/whole_file.h"
+#include "storage/durable_folder.h"
 
 namespace pvcap::exporting {
 
@@ -62,7 +62,7 @@ Status JpegLanes::write_one(SessionReader& reader, std::size_t sample, std::size
   if (!cv::imencode(".jpg", frame, bytes, {cv::IMWRITE_JPEG_QUALITY, settings_.quality}))
     return Error{fmt::format("{}: the JPEG encoder refused the frame", jpg.string())};
   const std::string encoded(bytes.begin(), bytes.end());
-  if (Status w = write_atomically(jpg, encoded); !w.ok()) return w;
+  if (Status w = write_file_atomically(jpg, encoded, Durability::Renamed); !w.ok()) return w;
   lane.sums.push_back({fs::relative(jpg, dir).string(), {encoded.size(), sha256_hex(encoded)}});
   return {};
 }

@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <fstream>
 #include <set>
 
 #include <fmt/format.h>
@@ -48,6 +49,29 @@ Status sync_to_disk(const std::filesystem::path& path) {
   Status s = fsync_path_fd(fd, path, "fsync");
   ::close(fd);
   return s;
+}
+
+Status write_file_atomically(const std::filesystem::path& file, const std::string& bytes, Durability durability) {
+  namespace fs = std::filesystem;
+  const fs::path tmp = file.string() + fmt::format(".tmp-{}", getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), std::streamsize(bytes.size()));
+    out.flush();
+    if (!out) {
+      const std::string why = std::strerror(errno);
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      return Error{fmt::format("{}: could not be written ({}; is the disk full?)", file.string(), why)};
+    }
+  }
+  if (durability == Durability::Synced)
+    if (Status s = sync_to_disk(tmp); !s.ok()) return s;
+  std::error_code ec;
+  fs::rename(tmp, file, ec);
+  if (ec) return Error{fmt::format("{}: could not be written: {}", file.string(), ec.message())};
+  if (durability == Durability::Renamed) return {};
+  return sync_to_disk(file.parent_path().empty() ? fs::path(".") : file.parent_path());
 }
 
 DurableFolder::DurableFolder(std::filesystem::path dir, std::vector<std::string> subfolders) : dir_(std::move(dir)) {

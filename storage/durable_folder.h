@@ -23,6 +23,13 @@ namespace pvcap {
 // just changed. The failure names the path and the error.
 Status sync_to_disk(const std::filesystem::path& path);
 
+// A file written whole or not at all: `bytes` go to a temporary name beside `file` and are renamed
+// over it, so a reader or a resumed run never sees half of it. Synced also puts the file and its
+// folder's entry on the disk before returning (a power cut keeps it: a dataset's own files);
+// Renamed leaves that to the kernel (an export's thousands of JPEGs, which a resumed export checks).
+enum class Durability { Renamed, Synced };
+Status write_file_atomically(const std::filesystem::path& file, const std::string& bytes, Durability durability);
+
 class DurableFolder {
  public:
   // `dir` and its `subfolders` (created later is fine: they are synced once they exist).
