@@ -68,6 +68,44 @@ std::string cookie_value(const std::string& cookies, const std::string& name) {
   return {};
 }
 
+// Whether text is well-formed UTF-8 (RFC 3629: no overlong forms, no surrogates, nothing past U+10FFFF).
+// A page sends nothing else; other bytes would be stored in the session's events and make its JSON unwritable.
+bool well_formed_utf8(const std::string& text) {
+  const auto* s = reinterpret_cast<const unsigned char*>(text.data());
+  const std::size_t n = text.size();
+  for (std::size_t i = 0; i < n;) {
+    const unsigned char c = s[i];
+    std::size_t length = 0;
+    unsigned char low = 0x80, high = 0xBF;  // the bounds of the second byte
+    if (c < 0x80) {
+      ++i;
+      continue;
+    } else if (c >= 0xC2 && c <= 0xDF) {
+      length = 2;
+    } else if (c >= 0xE0 && c <= 0xEF) {
+      length = 3;
+      if (c == 0xE0) low = 0xA0;   // overlong
+      if (c == 0xED) high = 0x9F;  // surrogates
+    } else if (c >= 0xF0 && c <= 0xF4) {
+      length = 4;
+      if (c == 0xF0) low = 0x90;   // overlong
+      if (c == 0xF4) high = 0x8F;  // past U+10FFFF
+    } else {
+      return false;
+    }
+    if (i + length > n || s[i + 1] < low || s[i + 1] > high) return false;
+    for (std::size_t k = 2; k < length; ++k)
+      if (s[i + k] < 0x80 || s[i + k] > 0xBF) return false;
+    i += length;
+  }
+  return true;
+}
+
+bool parameters_are_text(const httplib::Request& req) {
+  return std::all_of(req.params.begin(), req.params.end(),
+                     [](const auto& p) { return well_formed_utf8(p.first) && well_formed_utf8(p.second); });
+}
+
 // A number in a route's path (\d+ matched); one too long to be an index is no index (a 404).
 std::size_t index_in_path(const std::string& digits) {
   return digits.size() > 6 ? SIZE_MAX : std::size_t(std::stoul(digits));
@@ -463,6 +501,11 @@ void WebConsole::route_commands() {
   // The operator's commands, the same as the terminal's keys. Acknowledged only once committed.
   s.Post("/command", [this](const httplib::Request& req, httplib::Response& res) {
     nlohmann::json reply;
+    if (!parameters_are_text(req)) {
+      res.status = 400;
+      res.set_content(nlohmann::json{{"ok", false}, {"message", "a command is UTF-8 text"}}.dump(), "application/json");
+      return;
+    }
     const auto c = protocol::parse_command(req.get_param_value("command"));
     if (!runner_) {
       res.status = 409;
@@ -481,6 +524,11 @@ void WebConsole::route_commands() {
 
   // The participant page says when it has put a prompt on the screen: logged on the capture clock.
   s.Post("/shown", [this](const httplib::Request& req, httplib::Response& res) {
+    if (!parameters_are_text(req)) {
+      res.status = 400;
+      res.set_content("expected the step, sequence, phase and screen as UTF-8 text\n", "text/plain");
+      return;
+    }
     ProtocolEventRecord e;
     e.kind = "prompt_shown";
     const std::string step = req.get_param_value("step");

@@ -503,6 +503,22 @@ TEST(SessionPages, EveryRouteIsGuardedAndRequestsAreBounded) {
   auto huge_index = c.Get("/pictogram/99999999999999999999999?" + token);
   ASSERT_TRUE(huge_index);
   EXPECT_EQ(huge_index->status, 404);
+  // A command, note or shown prompt that is not UTF-8 text (no page sends one): refused (400), never
+  // stored (the session's events would no longer be writable as JSON) and never an error page.
+  for (const char* body : {"command=pa%FF%FFus", "command=note&argument=%ED%A0%80", "command=note&argument=%C0%AF"}) {
+    auto r = c.Post("/command?" + token, body, "application/x-www-form-urlencoded");
+    ASSERT_TRUE(r) << body;
+    EXPECT_EQ(r->status, 400) << body << ": " << r->body;
+    EXPECT_NE(r->body.find("a command is UTF-8 text"), std::string::npos) << r->body;
+  }
+  auto shown = c.Post("/shown?" + token, "step=1&sequence=%FF&phase=prompt&screen=participant",
+                      "application/x-www-form-urlencoded");
+  ASSERT_TRUE(shown);
+  EXPECT_EQ(shown->status, 400) << shown->body;
+  auto note =
+      c.Post("/command?" + token, "command=note&argument=caf%C3%A9+%F0%9F%91%8D", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(note);
+  EXPECT_NE(note->status, 400) << "well-formed UTF-8 (an accent, an emoji) is text: " << note->body;
 
   // A 100 MB POST: refused on its headers (413), the recorder's memory unchanged.
   const std::int64_t rss_before = rss_kib(pid);
