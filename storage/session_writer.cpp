@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <grp.h>
+#include <signal.h>
 #include <sys/file.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -11,6 +12,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>  // renameat2
 #include <cstring>
 #include <type_traits>
@@ -61,6 +63,43 @@ std::int64_t free_bytes(const std::filesystem::path& dir) {
 
 constexpr std::int64_t kMiB = 1024 * 1024;
 
+// A start killed between its hidden folder and the rename (kill -9, a power cut) leaves
+// `.starting-<name>-<pid>` holding only an index with nothing recorded. Removed at the next start in
+// the same sessions folder once its process is gone and it is a minute old (a start takes
+// milliseconds; another machine starting in a shared folder has a pid this one does not know).
+// One with anything else in it is kept and named.
+void remove_start_leftovers(const std::filesystem::path& root) {
+  std::error_code ec;
+  const auto now = std::filesystem::file_time_type::clock::now();
+  for (const auto& entry : std::filesystem::directory_iterator(root, ec)) {
+    const std::string name = entry.path().filename().string();
+    std::error_code e;
+    if (name.rfind(".starting-", 0) != 0 || !entry.is_directory(e)) continue;
+    const std::string pid_text = name.substr(name.rfind('-') + 1);
+    if (pid_text.empty() || pid_text.size() > 9 || pid_text.find_first_not_of("0123456789") != std::string::npos)
+      continue;
+    const auto pid = pid_t(std::stol(pid_text));
+    if (pid <= 0 || kill(pid, 0) == 0 || errno != ESRCH) continue;  // its process may still be starting
+    const auto modified = std::filesystem::last_write_time(entry.path(), e);
+    if (e || now - modified < std::chrono::minutes(1)) continue;
+    bool only_index = true;
+    for (const auto& f : std::filesystem::directory_iterator(entry.path(), e)) {
+      const std::string n = f.path().filename().string();
+      only_index &= n == "session.db" || n == "session.db-wal" || n == "session.db-shm" || n == "session.db-journal";
+    }
+    if (e || !only_index) {
+      spdlog::warn(
+          "{}: left by a session start that did not finish, and it holds more than an empty index: kept "
+          "(look inside, then remove it)",
+          entry.path().string());
+      continue;
+    }
+    if (std::filesystem::remove_all(entry.path(), e) > 0 && !e)
+      spdlog::info("removed {}: left by a session start killed before it recorded anything (an empty index)",
+                   entry.path().string());
+  }
+}
+
 // A direct write to the index (before start(), on the caller's thread), with SQLite's exception
 // turned into the Error this class returns: Status for writes, Result<T> for writes that give an id.
 template <typename F>
@@ -104,6 +143,7 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
   // into place whole: a session killed in between leaves a hidden `.starting-*` folder that no
   // reader takes for a session, never a session folder whose index is empty (kill -9 in start-up,
   // StoreCrash.KillNineAtEveryPhase...: "not a pvcap session index").
+  remove_start_leftovers(root);
   const std::string base = format_utc_compact(started_wall_ns) + "_" + safe_name(rig.name);
   const std::filesystem::path staging = root / fmt::format(".starting-{}-{}", base, getpid());
   if (mkdir(staging.c_str(), 0750) != 0)

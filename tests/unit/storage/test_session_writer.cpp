@@ -1,9 +1,13 @@
 #include <gtest/gtest.h>
 
 #include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <csignal>
 #include <filesystem>
+#include <fstream>
 
 #include "core/rig_config.h"
 #include "core/time.h"
@@ -88,5 +92,40 @@ TEST(SessionWriter, AFailedStartSaysWhyAndLeavesNoSessionFolder) {
   ASSERT_FALSE(w);
   EXPECT_NE(w.error().message.find("space reserve"), std::string::npos) << w.error().message;
   EXPECT_TRUE(fs::is_empty(root)) << "a failed start left " << fs::directory_iterator(root)->path();
+  fs::remove_all(root);
+}
+
+// A start killed between its hidden folder and the rename leaves `.starting-<name>-<pid>` with an empty
+// index: the next start in the sessions folder removes it once its process is gone and it is a
+// minute old, and keeps (and names) one that holds anything else.
+TEST(SessionWriter, AStartLeftoverOfAKilledProcessIsRemovedAtTheNextStart) {
+  const auto root = fs::temp_directory_path() / ("pvcap-test-sw4-" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  fs::create_directories(root);
+  const pid_t child = fork();
+  if (child == 0) _exit(0);
+  ASSERT_GT(child, 0);
+  waitpid(child, nullptr, 0);  // a pid whose process is gone
+  const auto old = fs::file_time_type::clock::now() - std::chrono::minutes(2);
+  auto leftover = [&](const std::string& tag, pid_t pid, bool is_old, bool recorded) {
+    const fs::path dir = root / (".starting-20260101-000000_" + tag + "-" + std::to_string(pid));
+    fs::create_directories(dir);
+    std::ofstream(dir / "session.db") << "index";
+    if (recorded) std::ofstream(dir / "cam0-000.mkv") << "video";
+    if (is_old) fs::last_write_time(dir, old);
+    return dir;
+  };
+  const fs::path gone = leftover("gone", child, true, false);
+  const fs::path young = leftover("young", child, false, false);
+  const fs::path alive = leftover("alive", ::getpid(), true, false);
+  const fs::path holds_more = leftover("more", child, true, true);
+  const auto rig = parse_rig_config("name: r\ncameras:\n  - address: 10.0.0.1\n", "r.yaml");
+  auto w = SessionWriter::create(root, rig, wall_now_ns(), host_now().ns);
+  ASSERT_TRUE(w) << w.error().message;
+  EXPECT_FALSE(fs::exists(gone)) << "its process gone, a minute old, an index alone";
+  EXPECT_TRUE(fs::exists(young)) << "a start may be under way on another machine sharing the folder";
+  EXPECT_TRUE(fs::exists(alive)) << "its process is still there";
+  EXPECT_TRUE(fs::exists(holds_more / "cam0-000.mkv")) << "more than an index is never removed";
+  EXPECT_TRUE(w.value()->close("test").ok());
   fs::remove_all(root);
 }
