@@ -67,8 +67,8 @@ constexpr std::int64_t kMiB = 1024 * 1024;
 // `.starting-<name>-<pid>` holding only an index with nothing recorded. Removed at the next start in
 // the same sessions folder once its process is gone and it is a minute old (a start takes
 // milliseconds; another machine starting in a shared folder has a pid this one does not know).
-// One with anything else in it is kept and named.
-void remove_start_leftovers(const std::filesystem::path& root) {
+// One with anything else in it is kept and named. A tidy-up: nothing here stops a start.
+void remove_start_leftovers(const std::filesystem::path& root) try {
   std::error_code ec;
   const auto now = std::filesystem::file_time_type::clock::now();
   for (const auto& entry : std::filesystem::directory_iterator(root, ec)) {
@@ -98,6 +98,8 @@ void remove_start_leftovers(const std::filesystem::path& root) {
       spdlog::info("removed {}: left by a session start killed before it recorded anything (an empty index)",
                    entry.path().string());
   }
+} catch (const std::filesystem::filesystem_error& e) {  // a folder listing that failed part-way
+  spdlog::debug("looking for start-up leftovers in {}: {}", root.string(), e.what());
 }
 
 // A direct write to the index (before start(), on the caller's thread), with SQLite's exception

@@ -216,8 +216,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const int status = status_of(reply.text);
   if (reply.text.size() >= 12 && status == 0) __builtin_trap();  // an answer that is not HTTP
   // A 500's body is judged only when the answer came whole: the CI once had a 500's status line
-  // without its body, the answer cut by the deadline on a loaded machine (between httplib's writes of
-  // the head and of the body).
+  // without its body, most likely the answer cut by the deadline on a loaded machine (httplib writes
+  // the head and the body separately).
   if (status == 500 && reply.complete &&
       reply.text.find("the request could not be answered (pvcap's log says why)") == std::string::npos)
     __builtin_trap();
