@@ -1,5 +1,6 @@
 #include "session_under_test.h"
 
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -275,3 +276,31 @@ std::string write_truth_lenses(const std::filesystem::path& session, const std::
 }
 
 }  // namespace pvcap::testing
+
+namespace {
+
+// Each test process ends by printing the CPU it and the processes it waited for used, beside its wall
+// time: what tells a test that waits on the clock (a session recorded in real time) from one that
+// keeps the cores busy, which is how the suite's lanes are chosen (tests/CMakeLists.txt).
+class CpuTimePrinter : public ::testing::Environment {
+ public:
+  void SetUp() override { start_ = std::chrono::steady_clock::now(); }
+  void TearDown() override {
+    rusage self{}, children{};
+    getrusage(RUSAGE_SELF, &self);
+    getrusage(RUSAGE_CHILDREN, &children);
+    const auto seconds = [](const timeval& a, const timeval& b) {
+      return double(a.tv_sec + b.tv_sec) + double(a.tv_usec + b.tv_usec) / 1e6;
+    };
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    const double cpu = seconds(self.ru_utime, children.ru_utime) + seconds(self.ru_stime, children.ru_stime);
+    std::printf("[ cpu ] %.1f s of CPU in %.1f s (%.2f cores)\n", cpu, wall, wall > 0 ? cpu / wall : 0.0);
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_;
+};
+
+[[maybe_unused]] const auto* const kCpuTimePrinter = ::testing::AddGlobalTestEnvironment(new CpuTimePrinter);
+
+}  // namespace
