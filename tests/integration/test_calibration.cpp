@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "calib/rig_calibration.h"
+#include "core/time.h"
 #include "session_under_test.h"
 #include "sim/truth.h"
 #include "storage/session_reader.h"
@@ -52,7 +53,8 @@ int count(const std::string& text, const std::string& needle) {
 // the instant they were taken (arrival minus the final clock fit, which the re-mapping found within
 // a fraction of a millisecond of the truth), and how many came after their instant was decided. A
 // camera out of most samples whose frames arrived on time was mapped wrong live; one whose frames
-// arrived late was late.
+// arrived late was late: then the leader packet's lateness (Aravis stamps it on the wall clock) tells
+// a frame the simulator sent late from one whose transfer took long.
 std::string lateness_by_camera(pvcap::sqlite::Database& db) {
   std::string out;
   auto cameras = db.prepare("SELECT id, name FROM devices WHERE kind = 'camera' ORDER BY name");
@@ -66,23 +68,30 @@ std::string lateness_by_camera(pvcap::sqlite::Database& db) {
     const std::int64_t x0 = fit.column_int(0), latency = fit.column_int(3);
     const double offset = fit.column_double(1), skew = fit.column_double(2);
     auto frames = db.prepare(
-        "SELECT device_ns, host_ns, reason = 'late_for_its_instant' FROM frames WHERE device_id = ?1 AND connection = "
-        "(SELECT max(connection) FROM frames WHERE device_id = ?1)");
+        "SELECT device_ns, host_ns, aravis_system_ns, reason = 'late_for_its_instant', connection FROM frames WHERE "
+        "device_id = ?1 AND connection = (SELECT max(connection) FROM frames WHERE device_id = ?1)");
     frames.bind_all(id);
-    std::vector<double> late_ms;
+    const std::int64_t wall_to_host = pvcap::host_now().ns - pvcap::wall_now_ns();
+    std::vector<double> late_ms, leader_ms;
     int too_late = 0;
+    std::int64_t connection = 0;
     while (frames.step()) {
       const std::int64_t taken = pvcap::sync::map_device_time(frames.column_int(0), x0, offset, skew, latency);
       late_ms.push_back(double(frames.column_int(1) - taken) / 1e6);
-      too_late += int(frames.column_int(2));
+      if (frames.column_int(2) > 0) leader_ms.push_back(double(frames.column_int(2) + wall_to_host - taken) / 1e6);
+      too_late += int(frames.column_int(3));
+      connection = frames.column_int(4);
     }
     if (late_ms.empty()) continue;
-    std::sort(late_ms.begin(), late_ms.end());
+    const auto median = [](std::vector<double>& v) {
+      std::sort(v.begin(), v.end());
+      return v.empty() ? 0.0 : v[v.size() / 2];
+    };
+    const double late_p50 = median(late_ms), late_p90 = late_ms[late_ms.size() * 9 / 10];
     out += fmt::format(
-        "{}: {} frames of its last connection arrived {:.1f} ms (median), {:.1f} ms (90 %) after "
-        "their instant; {} came after it was decided\n",
-        cameras.column_text(1), late_ms.size(), late_ms[late_ms.size() / 2], late_ms[late_ms.size() * 9 / 10],
-        too_late);
+        "{}: {} frames of its connection {} arrived {:.1f} ms (median), {:.1f} ms (90 %) after their instant, "
+        "their leader packets {:.1f} ms (median); {} came after it was decided\n",
+        cameras.column_text(1), late_ms.size(), connection, late_p50, late_p90, median(leader_ms), too_late);
   }
   return out;
 }
