@@ -281,7 +281,7 @@ namespace {
 
 // Each test process ends by printing the CPU it and the processes it waited for used, beside its wall
 // time: what tells a test that waits on the clock (a session recorded in real time) from one that
-// keeps the cores busy, which is how the suite's lanes are chosen (tests/CMakeLists.txt).
+// keeps the cores busy (docs/testing.md, "How the suite is scheduled", weighs the lanes by it).
 class CpuTimePrinter : public ::testing::Environment {
  public:
   void SetUp() override { start_ = std::chrono::steady_clock::now(); }

@@ -49,12 +49,12 @@ int count(const std::string& text, const std::string& needle) {
   return n;
 }
 
-// For a failure's message: how late each camera's frames of its last connection reached pvcap after
-// the instant they were taken (arrival minus the final clock fit, which the re-mapping found within
-// a fraction of a millisecond of the truth), and how many came after their instant was decided. A
-// camera out of most samples whose frames arrived on time was mapped wrong live; one whose frames
-// arrived late was late: then the leader packet's lateness (Aravis stamps it on the wall clock) tells
-// a frame the simulator sent late from one whose transfer took long.
+// Printed with the board test's figures, and in its failure's message: how late each camera's frames of its last
+// connection reached pvcap after the instant they were taken (arrival minus the final clock fit, which the re-mapping
+// found within a fraction of a millisecond of the truth), and how many came after their instant was decided. A camera
+// out of most samples whose frames arrived on time was mapped wrong live; one whose frames arrived late was late: then
+// the leader packet's lateness (Aravis stamps it on the wall clock) tells a frame the simulator sent late from one
+// whose transfer took long.
 std::string lateness_by_camera(pvcap::sqlite::Database& db) {
   std::string out;
   auto cameras = db.prepare("SELECT id, name FROM devices WHERE kind = 'camera' ORDER BY name");
