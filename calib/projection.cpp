@@ -29,15 +29,35 @@ PressureProjector::PressureProjector(const CameraModel& camera, const PadLayout&
       out[x] = q[2] > 1e-12 ? cv::Vec2f(float(q[0] / q[2]), float(q[1] / q[2])) : cv::Vec2f(-1e6f, -1e6f);
     }
   }
+  cells_ = cv::Size(pad.cols, pad.rows);
+  find_footprint();
+}
+
+void PressureProjector::find_footprint() {
+  // Bilinear resampling with a zero border gives a pixel pressure only when its point lies within
+  // one cell of the grid; two cells of margin also cover the fixed-point map's 1/32-cell rounding.
+  int x0 = map_.cols, y0 = map_.rows, x1 = -1, y1 = -1;
+  for (int y = 0; y < map_.rows; ++y) {
+    const auto* m = map_.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < map_.cols; ++x)
+      if (m[x][0] > -2 && m[x][0] < cells_.width + 1 && m[x][1] > -2 && m[x][1] < cells_.height + 1) {
+        x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+      }
+  }
+  footprint_ = x1 < 0 ? cv::Rect() : cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
 }
 
 cv::Mat PressureProjector::project(const cv::Mat& pressure) const {
   CV_Assert(pressure.type() == CV_32F);
-  cv::Mat out;
+  // A pressure image of the pad's grid reaches only the footprint: the rest is zero, unsampled.
+  const cv::Rect r = pressure.size() == cells_ ? footprint_ : cv::Rect({0, 0}, map_.size());
+  cv::Mat out(map_.size(), CV_32F, cv::Scalar(0));
+  if (r.empty()) return out;
+  cv::Mat part = out(r);
   if (!fixed_map_.empty())  // the off-pad marker saturates to -32768: still far outside the pressure image
-    cv::remap(pressure, out, fixed_map_, fixed_fraction_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+    cv::remap(pressure, part, fixed_map_(r), fixed_fraction_(r), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
   else
-    cv::remap(pressure, out, map_, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+    cv::remap(pressure, part, map_(r), cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
   return out;
 }
 
@@ -47,6 +67,8 @@ PressureProjector PressureProjector::scaled(cv::Size view) const {
   // off the pad, so the view shows no pressure there either.
   cv::resize(map_, out.map_, view, 0, 0, cv::INTER_LINEAR);
   cv::convertMaps(out.map_, cv::noArray(), out.fixed_map_, out.fixed_fraction_, CV_16SC2);
+  out.cells_ = cells_;
+  out.find_footprint();
   return out;
 }
 

@@ -27,11 +27,17 @@ class PressureProjector {
   // the ray of the image point at its centre. For display: its map is fixed-point (1/32 cell), which
   // remaps about twice as fast.
   PressureProjector scaled(cv::Size view) const;
+  // The part of the image a pressure image of the pad's grid can reach (project() is zero outside
+  // it): the pad's footprint with a cell of margin. project() resamples only there.
+  cv::Rect footprint() const { return footprint_; }
 
  private:
   PressureProjector() = default;
+  void find_footprint();
   cv::Mat map_;                         // CV_32FC2: image pixel -> pressure-image coordinates (outside: -1e6)
   cv::Mat fixed_map_, fixed_fraction_;  // scaled(): map_ as cv::convertMaps makes it, CV_16SC2 + CV_16UC1
+  cv::Size cells_;                      // the pad's grid (columns x rows)
+  cv::Rect footprint_;
 };
 
 // The area on the pad (mm^2) each image pixel covers under `cells_to_image` (CV_32F of `size`;

@@ -123,6 +123,8 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i, std::vector<cv::Mat> imag
   s.images = std::move(images);
   cv::Mat canvas(Layout::kHeight, Layout::kWidth, CV_8UC3, kBackground);
   const cv::Mat kpa = s.pressure ? pressure_kpa(*s.pressure) : cv::Mat();
+  double peak_kpa = 0;
+  if (!kpa.empty()) cv::minMaxLoc(kpa, nullptr, &peak_kpa);
   for (std::size_t c = 0; c < reader_->cameras().size() && c < 4; ++c) {
     cv::Mat tile = canvas(Layout::view(c));
     const std::string& name = reader_->cameras()[c].name;
@@ -137,7 +139,7 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i, std::vector<cv::Mat> imag
     const cv::Rect fit = Layout::fitted({info.width, info.height});
     cv::Mat view;
     cv::resize(s.images[c], view, fit.size(), 0, 0, cv::INTER_LINEAR);  // from half size: a small step down
-    if (!kpa.empty() && projectors_[c])
+    if (peak_kpa > 0 && projectors_[c])                                 // nothing pressed, nothing drawn
       view = calib::overlay_pressure(view, projectors_[c]->project(kpa), full_scale_kpa_);
     view.copyTo(tile(fit));
     const std::string label = name + (projectors_[c] ? "" : " (no calibration: no overlay)");
@@ -172,15 +174,7 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i, std::vector<cv::Mat> imag
   if (kpa.empty())
     line("pressure: none", 0.6, kDim);
   else
-    line(fmt::format(
-             "peak {:.0f} kPa (scale {:.0f})",
-             [&] {
-               double top = 0;
-               cv::minMaxLoc(kpa, nullptr, &top);
-               return top;
-             }(),
-             full_scale_kpa_),
-         0.6, kText);
+    line(fmt::format("peak {:.0f} kPa (scale {:.0f})", peak_kpa, full_scale_kpa_), 0.6, kText);
   y += 10;
   if (const auto take = take_at(i)) {
     line(take->action, 0.7, kText, 2);

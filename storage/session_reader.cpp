@@ -127,11 +127,11 @@ Result<SampleInfo> SessionReader::sample_info(std::size_t i) {
   if (i >= sample_ids_.size())
     return Error{fmt::format("{}: no sample {} (the session has {})", dir_.string(), i, sample_ids_.size())};
   return guarded(dir_, [&]() -> Result<SampleInfo> {
-    auto q = db_->prepare(std::string(kSampleColumns) + "WHERE id = ?");
+    auto q = db_->cached(std::string(kSampleColumns) + "WHERE id = ?");
     q.bind_all(std::int64_t(sample_ids_[i]));
     if (!q.step()) return Error{fmt::format("{}: sample {} vanished from the index", dir_.string(), i)};
     SampleInfo s = sample_row(q);
-    auto f = db_->prepare(
+    auto f = db_->cached(
         "SELECT sf.device_id, sf.connection, sf.sequence, sf.offset_ns, f.kept, f.reason FROM sample_frames sf "
         "LEFT JOIN frames f USING (device_id, connection, sequence) WHERE sf.sample_id = ? ORDER BY sf.device_id");
     f.bind_all(std::int64_t(s.index));
@@ -146,7 +146,7 @@ Result<SampleInfo> SessionReader::sample_info(std::size_t i) {
 Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) {
   return guarded(dir_, [&]() -> Result<cv::Mat> {
     // Stores before version 5 have no checksums.
-    auto q = db_->prepare(fmt::format(
+    auto q = db_->cached(fmt::format(
         "SELECT f.video_file_id, f.host_ns, v.path, f.video_pts_ms, {} FROM frames f JOIN video_files v ON v.id = "
         "f.video_file_id "
         "WHERE f.device_id = ? AND f.connection = ? AND f.sequence = ? AND f.kept = 1",
@@ -217,7 +217,7 @@ Result<PressureFrame> pressure_row(sqlite::Statement& q, const std::filesystem::
 Result<PressureFrame> SessionReader::pressure_frame(std::uint64_t sequence, std::uint32_t connection) {
   if (!pressure_device_) return Error{fmt::format("{}: the session has no pressure sensor", dir_.string())};
   return guarded(dir_, [&]() -> Result<PressureFrame> {
-    auto q = db_->prepare(std::string(kPressureColumns) + "WHERE device_id = ? AND connection = ? AND sequence = ?");
+    auto q = db_->cached(std::string(kPressureColumns) + "WHERE device_id = ? AND connection = ? AND sequence = ?");
     q.bind_all(pressure_device_->device_id, std::int64_t(connection), sequence);
     if (!q.step()) return Error{fmt::format("{}: no pressure frame {}", dir_.string(), sequence)};
     return pressure_row(q, dir_);

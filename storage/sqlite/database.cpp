@@ -1,6 +1,7 @@
 #include "storage/sqlite/database.h"
 
 #include <cstring>
+#include <utility>
 
 #include <sqlite3.h>
 
@@ -32,8 +33,13 @@ Statement::Statement(sqlite3* db, std::string_view sql) : db_(db) {
   const int rc = sqlite3_prepare_v2(db, sql.data(), int(sql.size()), &stmt_, nullptr);
   if (rc != SQLITE_OK) fail(db, rc, fmt::format("cannot prepare '{}'", sql.substr(0, 60)));
 }
-Statement::~Statement() { sqlite3_finalize(stmt_); }
-Statement::Statement(Statement&& o) noexcept : db_(o.db_), stmt_(o.stmt_) { o.stmt_ = nullptr; }
+Statement::~Statement() {
+  if (home_ && stmt_)
+    home_->give_back(stmt_);
+  else
+    sqlite3_finalize(stmt_);
+}
+Statement::Statement(Statement&& o) noexcept : db_(o.db_), stmt_(o.stmt_), home_(o.home_) { o.stmt_ = nullptr; }
 
 Statement& Statement::bind(int i, std::int64_t v) {
   if (int rc = sqlite3_bind_int64(stmt_, i, v); rc != SQLITE_OK) fail(db_, rc, "bind");
@@ -100,7 +106,33 @@ Database::Database(const std::filesystem::path& path, Mode mode) : path_(path) {
   sqlite3_busy_timeout(db_, 2000);
 }
 
-Database::~Database() { sqlite3_close_v2(db_); }
+Database::~Database() {
+  for (auto& [sql, idle] : cache_)
+    for (sqlite3_stmt* s : idle) sqlite3_finalize(s);
+  sqlite3_close_v2(db_);
+}
+
+Statement Database::cached(std::string_view sql) {
+  if (auto it = cache_.find(std::string(sql)); it != cache_.end() && !it->second.empty()) {
+    sqlite3_stmt* s = it->second.back();
+    it->second.pop_back();
+    return Statement(db_, s, this);
+  }
+  Statement fresh(db_, sql);
+  sqlite3_stmt* s = std::exchange(fresh.stmt_, nullptr);
+  return Statement(db_, s, this);
+}
+
+void Database::give_back(sqlite3_stmt* stmt) {
+  // Reset: it holds no read transaction open while idle, and binds nothing stale.
+  sqlite3_reset(stmt);
+  sqlite3_clear_bindings(stmt);
+  auto& idle = cache_[sqlite3_sql(stmt)];
+  if (idle.size() < 4)
+    idle.push_back(stmt);
+  else
+    sqlite3_finalize(stmt);
+}
 
 void Database::apply_resilient_pragmas() {
   exec("PRAGMA journal_mode=WAL");

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
 struct sqlite3;
@@ -25,6 +26,8 @@ class SqliteError : public std::runtime_error {
  private:
   int code_;
 };
+
+class Database;
 
 class Statement {
  public:
@@ -65,8 +68,11 @@ class Statement {
   std::vector<std::uint8_t> column_blob(int col) const;
 
  private:
+  friend class Database;
+  Statement(sqlite3* db, sqlite3_stmt* stmt, Database* home) : db_(db), stmt_(stmt), home_(home) {}
   sqlite3* db_;
   sqlite3_stmt* stmt_ = nullptr;
+  Database* home_ = nullptr;  // cached(): handed back to this database's cache, not finalized
 };
 
 class Database {
@@ -82,6 +88,10 @@ class Database {
   void apply_resilient_pragmas();
   void exec(std::string_view sql);
   Statement prepare(std::string_view sql) { return Statement(db_, sql); }
+  // The same, prepared once per connection and kept for the next call with the same SQL: for
+  // queries run per sample or per frame, where preparing costs as much as the query. Handed back
+  // reset when the Statement is destroyed. Like the connection itself, for one thread at a time.
+  Statement cached(std::string_view sql);
   int user_version();
   void set_user_version(int v);
   std::int64_t last_insert_rowid() const;
@@ -93,8 +103,11 @@ class Database {
   const std::filesystem::path& path() const { return path_; }
 
  private:
+  friend class Statement;
+  void give_back(sqlite3_stmt* stmt);
   sqlite3* db_ = nullptr;
   std::filesystem::path path_;
+  std::unordered_map<std::string, std::vector<sqlite3_stmt*>> cache_;  // idle statements by their SQL
 };
 
 // Holds one transaction; commits on commit(), rolls back when destroyed without it.

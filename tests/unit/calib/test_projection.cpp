@@ -69,3 +69,26 @@ TEST(Projection, ProjectorFollowsTheLens) {
   const cv::Point2d want = m.project({20 * pad.pitch_mm, 90 * pad.pitch_mm, 0});
   EXPECT_LT(cv::norm(centroid - want), 0.5) << centroid << " vs " << want;
 }
+
+// project() resamples only the pad's footprint. The whole pad pressed at once must stay strictly
+// inside it (a footprint cut too tight shows as pressure reaching its edge), unless both meet the
+// image's own edge.
+TEST(Projection, ThePadsFootprintHoldsEveryPixelItsPressureReaches) {
+  const PadLayout pad = default_pad_layout();
+  const cv::Size size(960, 540);
+  const cv::Mat ones(pad.rows, pad.cols, CV_32F, cv::Scalar(1));
+  for (int camera = 0; camera < 4; ++camera) {
+    const CameraModel m = sim::sim_camera_model(camera, sim::SimCameraClock{}, size, size);
+    const PressureProjector whole(m, pad);
+    for (const PressureProjector& pp : {whole, whole.scaled({640, 360})}) {
+      const cv::Mat img = pp.project(ones);
+      const cv::Rect f = pp.footprint(), reached = cv::boundingRect(img > 0);
+      ASSERT_FALSE(reached.empty()) << "camera " << camera;
+      EXPECT_LT(f.area(), img.size().area()) << "camera " << camera << ": the pad fills only part of the view";
+      EXPECT_TRUE(reached.x > f.x || reached.x == 0) << camera << ": " << reached << " in " << f;
+      EXPECT_TRUE(reached.y > f.y || reached.y == 0) << camera << ": " << reached << " in " << f;
+      EXPECT_TRUE(reached.br().x < f.br().x || reached.br().x == img.cols) << camera << ": " << reached << " in " << f;
+      EXPECT_TRUE(reached.br().y < f.br().y || reached.br().y == img.rows) << camera << ": " << reached << " in " << f;
+    }
+  }
+}
