@@ -137,11 +137,14 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i, std::vector<cv::Mat> imag
     }
     const CameraInfo& info = reader_->cameras()[c];
     const cv::Rect fit = Layout::fitted({info.width, info.height});
-    cv::Mat view;
+    cv::Mat view = tile(fit);  // resized straight into the canvas (same size and type: no new buffer)
     cv::resize(s.images[c], view, fit.size(), 0, 0, cv::INTER_LINEAR);  // from half size: a small step down
-    if (peak_kpa > 0 && projectors_[c])                                 // nothing pressed, nothing drawn
-      view = calib::overlay_pressure(view, projectors_[c]->project(kpa), full_scale_kpa_);
-    view.copyTo(tile(fit));
+    if (peak_kpa > 0 && projectors_[c]) {                               // nothing pressed, nothing drawn
+      // Drawn only over the pad's footprint: the pressure is zero elsewhere.
+      const cv::Rect pad = projectors_[c]->footprint() & cv::Rect({0, 0}, view.size());
+      const cv::Mat projected = projectors_[c]->project(kpa);
+      if (!pad.empty()) calib::overlay_pressure(view(pad), projected(pad), full_scale_kpa_).copyTo(view(pad));
+    }
     const std::string label = name + (projectors_[c] ? "" : " (no calibration: no overlay)");
     int base = 0;
     const cv::Size size = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, 0.6, 1, &base);
