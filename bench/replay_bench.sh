@@ -2,9 +2,9 @@
 # `pvcap replay --out` against real time: a simulated session on the full-size rig (4 x 1080p at
 # 30 Hz, raw store, the Sensel), its pad calibrated with the simulator's lenses (so every view has
 # its overlay), rendered whole at the sample rate (15 Hz, four views) on this machine's cores. The
-# goal is >= 2x real time. The reference in the same run: the ffmpeg command line decoding the same
-# four raw videos and nothing else (what the rendering cannot beat). Also the render's peak memory
-# for 10 s and for the whole session.
+# goal is >= 3x real time (issue: performance; 2x before). The reference in the same run: the
+# ffmpeg command line decoding the same four raw videos and nothing else (what the rendering cannot
+# beat). Also the render's peak memory for 10 s and for the whole session.
 #
 #   bash bench/replay_bench.sh [seconds | SESSION_FOLDER]   (default 60; recording needs root)
 set -euo pipefail
@@ -48,7 +48,7 @@ short_mb, whole_mb = (int(open(p).read()) / 1024 for p in sys.argv[5:7])
 m = re.search(r"showing ([\d.]+) s of the session, rendered in ([\d.]+) s \(([\d.]+) x real time\)", text)
 t0, t1, frames = float(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4])
 decode = frames / 15.0 / (t1 - t0)
-print(f"replay --out, 4 views at 15 Hz: {m.group(3)} x real time ({m.group(1)} s of session in {m.group(2)} s; goal >= 2)")
+print(f"replay --out, 4 views at 15 Hz: {m.group(3)} x real time ({m.group(1)} s of session in {m.group(2)} s; goal >= 3)")
 print(f"ffmpeg command line decoding the same four raw videos, nothing else: {decode:.2f} x real time; ratio {float(m.group(3)) / decode:.2f}")
 print(f"replay --out peak memory: {short_mb:.0f} MB rendering 10 s, {whole_mb:.0f} MB rendering all {m.group(1)} s (goal < 2048 MB, not growing with length)")
 PY
