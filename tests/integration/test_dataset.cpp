@@ -316,10 +316,12 @@ TEST(Dataset, ThreeParticipantsAreCataloguedCheckedCompletedSplitReleasedAndOneW
 
 TEST(Dataset, ASlurmReleaseEqualsTheLocalOneFileForFileAndAResubmissionSkipsWhatIsDone) {
   Lab lab("dataset-slurm");
-  for (const std::string code : {"S01", "S02", "S01"}) {  // S01 twice: each take of theirs twice
+  // S01 does the whole protocol, then S02 and S01 again one take of it (the release names S01's
+  // second take of that name "(2)"): three sessions, as many Slurm tasks, in half the recording.
+  const fs::path one_take = write_press_protocol(lab.work / "one-take", "[low], hands: [right]", 0.4, 0.3, 1.5, 0.3);
+  for (const auto& [code, protocol] : {std::pair{"S01", lab.protocol}, {"S02", one_take}, {"S01", one_take}}) {
     const auto before = lab.folders();
-    const auto r =
-        run_pvcap(lab.session_args(code, fmt::format("--protocol {} --lighting LCR", lab.protocol.string())));
+    const auto r = run_pvcap(lab.session_args(code, fmt::format("--protocol {} --lighting LCR", protocol.string())));
     ASSERT_EQ(r.exit_code, 0) << r.output;
     lab.calibrate(lab.newest_since(before));
   }
