@@ -46,8 +46,8 @@ struct Folder {
   ~Folder() { fs::remove_all(dir); }
 };
 
-CatalogSession session(const std::string& folder, const std::string& participant, const json& facts = json::object(),
-                       int verify_exit = 0) {
+CatalogSession catalog_session(const std::string& folder, const std::string& participant,
+                               const json& facts = json::object(), int verify_exit = 0) {
   CatalogSession s;
   s.folder = folder;
   s.original = folder;
@@ -97,7 +97,7 @@ TEST(DatasetStatus, ACellIsItsBestTakeAndWhatIsNotDoneRemainsInPlanOrder) {
   Folder f;
   DatasetConfig c;
   c.name = "t";
-  const std::vector<CatalogSession> sessions = {session("/s/a", "P01")};
+  const std::vector<CatalogSession> sessions = {catalog_session("/s/a", "P01")};
   const std::vector<CatalogTake> takes = {
       take("/s/a", "press_low", "right", "superseded"),  take("/s/a", "press_low", "right", "done"),
       take("/s/a", "press_high", "right", "bad", false), take("/s/a", "press_high", "right", "superseded"),
@@ -132,11 +132,11 @@ TEST(DatasetStatus, EveryFlagFiresOnWhatItNamesAndOnlyThere) {
                           {{"name", "cam1"}, {"offset_ms", 3.5}, {"uncertainty_ms", 1.0}},
                           {{"name", "cam2"}, {"offset_ms", nullptr}, {"uncertainty_ms", nullptr}}}}};
   const json uncalibrated = {{"calibration", {{{"name", "cam0"}, {"pad_calibrated", false}}}}};
-  auto lit_otherwise = session("/s/d", "P02");
+  auto lit_otherwise = catalog_session("/s/d", "P02");
   lit_otherwise.lighting = "L-R";
-  const std::vector<CatalogSession> sessions = {session("/s/a", "P01", losses, 3), session("/s/b", "P01", offsets),
-                                                session("/s/c", "P02", uncalibrated, 1), lit_otherwise,
-                                                session("/s/e", "P05")};
+  const std::vector<CatalogSession> sessions = {
+      catalog_session("/s/a", "P01", losses, 3), catalog_session("/s/b", "P01", offsets),
+      catalog_session("/s/c", "P02", uncalibrated, 1), lit_otherwise, catalog_session("/s/e", "P05")};
   const std::vector<CatalogTake> takes = {take("/s/a", "pull", "left", "done"), take("/s/b", "pull", "left", "done")};
   const auto s = compute_status(c, f.protocol, sessions, takes, {});
   std::map<std::string, std::vector<std::string>> messages;
@@ -169,7 +169,7 @@ TEST(DatasetStatus, TheRemainingProtocolPlansExactlyTheMissingTakes) {
   Folder f;
   DatasetConfig c;
   c.name = "t";
-  const std::vector<CatalogSession> sessions = {session("/s/a", "P01")};
+  const std::vector<CatalogSession> sessions = {catalog_session("/s/a", "P01")};
   const std::vector<CatalogTake> takes = {take("/s/a", "press_low", "right", "done"),
                                           take("/s/a", "press_high", "right", "done"),
                                           take("/s/a", "press_low", "left", "done")};
@@ -244,7 +244,8 @@ TEST(DatasetSplits, TheLeakageCheckNamesEachWayAParticipantCanLeak) {
   Splits s;
   s.train = {"P01", "P02"};
   s.test = {"P02", "P03"};
-  std::vector<CatalogSession> sessions = {session("/s/a", "P01"), session("/s/b", "P04"), session("/s/c", "P05")};
+  std::vector<CatalogSession> sessions = {catalog_session("/s/a", "P01"), catalog_session("/s/b", "P04"),
+                                          catalog_session("/s/c", "P05")};
   sessions[2].original = "/s/b";  // a continuation of P04's session recorded under another code
   const auto problems = leakage_problems(s, sessions, {{"P03", "withdrew", 1, {}, false}});
   std::string all;
@@ -262,10 +263,10 @@ TEST(DatasetCatalogue, RowsRoundTripAFolderNoLongerFoundIsForgottenAndAnotherVer
   {
     auto db = CatalogDb::open(file);
     ASSERT_TRUE(db) << db.error().message;
-    auto s = session("/s/a", "P01");
+    auto s = catalog_session("/s/a", "P01");
     s.fingerprint = "session.db:10:1.0;";
     ASSERT_TRUE(db.value()->put(s, {take("/s/a", "pull", "left", "done", std::nullopt)}).ok());
-    ASSERT_TRUE(db.value()->put(session("/s/b", "P02"), {take("/s/b", "pull", "right", "bad", false)}).ok());
+    ASSERT_TRUE(db.value()->put(catalog_session("/s/b", "P02"), {take("/s/b", "pull", "right", "bad", false)}).ok());
     EXPECT_EQ(db.value()->fingerprint("/s/a"), "session.db:10:1.0;");
     EXPECT_FALSE(db.value()->fingerprint("/s/z"));
     const auto takes = db.value()->takes();
@@ -336,7 +337,8 @@ TEST(DatasetRelease, TheCroissantMetadataHoldsTheFieldsItsSpecificationRequires)
 
 TEST(DatasetRelease, APlansFoldersAreFixedBeforeAnyJobRunsAndASecondTakeOfANameIsTheSecondFolder) {
   Folder f;
-  std::vector<CatalogSession> sessions = {session("/s/a", "P01"), session("/s/b", "P01"), session("/s/c", "P02")};
+  std::vector<CatalogSession> sessions = {catalog_session("/s/a", "P01"), catalog_session("/s/b", "P01"),
+                                          catalog_session("/s/c", "P02")};
   sessions[0].started_wall_ns = 1;
   sessions[1].started_wall_ns = 2;
   auto at = [](CatalogTake t, int step, std::int64_t start) {
