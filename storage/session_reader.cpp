@@ -14,6 +14,10 @@ namespace pvcap {
 namespace {
 constexpr int kMaxGridSide = 1024;  // the Morph's grids are at most 185 x 105: anything bigger is damage
 constexpr std::size_t kMaxOpenVideos = 16;
+// A camera's segments are read in order: its current one and the one before stay open (a step
+// back across the boundary), not every segment read so far (each holds ~10 MB of decoder and
+// picture buffers, and an hour-long session has dozens per camera).
+constexpr std::size_t kMaxOpenVideosPerCamera = 2;
 
 // Everything below turns SQLite's exceptions into an Error naming the store.
 template <typename F>
@@ -162,20 +166,28 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) 
       return Error{fmt::format("{}: video path '{}' leaves the session folder", dir_.string(), rel)};
     auto it = videos_.find(file_id);
     if (it == videos_.end()) {
-      if (videos_.size() >= kMaxOpenVideos) videos_.erase(videos_.begin());
+      // The earliest of this camera's open segments goes first, then the earliest of all.
+      std::size_t of_camera = 0;
+      auto earliest_of_camera = videos_.end();
+      for (auto v = videos_.begin(); v != videos_.end(); ++v)
+        if (v->second.device_id == c.device_id && of_camera++ == 0) earliest_of_camera = v;
+      if (of_camera >= kMaxOpenVideosPerCamera)
+        videos_.erase(earliest_of_camera);
+      else if (videos_.size() >= kMaxOpenVideos)
+        videos_.erase(videos_.begin());
       auto opened = VideoReader::open(dir_ / rel);
       if (!opened) return opened.error();
-      it = videos_.emplace(file_id, std::move(opened.value())).first;
+      it = videos_.emplace(file_id, OpenVideo{c.device_id, std::move(opened.value())}).first;
     }
-    it->second->set_demosaic(demosaic_);
+    VideoReader& video = *it->second.reader;
+    video.set_demosaic(demosaic_);
     cv::Mat bgr;
-    auto found = mosaic ? it->second->read_raw_at(ts.ms, bgr, ts.tolerance_ms)
-                        : it->second->read_at(ts.ms, bgr, ts.tolerance_ms);
+    auto found = mosaic ? video.read_raw_at(ts.ms, bgr, ts.tolerance_ms) : video.read_at(ts.ms, bgr, ts.tolerance_ms);
     if (!found) return found.error();
     if (!found.value())
       return Error{fmt::format("{}: no frame at {} ms in {}", dir_.string(), ts.ms, (dir_ / rel).string())};
     if (check_checksums_ && checksum) {
-      const auto crc = it->second->decoded_picture_crc();
+      const auto crc = video.decoded_picture_crc();
       if (crc && *crc != std::uint32_t(*checksum))
         return Error{fmt::format(
             "{}: frame {} (connection {}) of device {} at {} ms: its pixels are not the bytes the "

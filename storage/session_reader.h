@@ -173,6 +173,8 @@ class SessionReader {
   // bytes got at capture (docs/store.md, Checksums): a frame whose pixels differ is an Error naming
   // it, never handed out. Off by default (one CRC per frame read: ~1 ms per 1080p frame).
   void set_check_checksums(bool on) { check_checksums_ = on; }
+  // Videos held open for reading: a camera's current segment and the one before, at most.
+  std::size_t open_videos() const { return videos_.size(); }
   // The sample nearest `t_ns` on the session clock (info().started_host_ns + seconds * 1e9).
   Result<std::size_t> sample_at(std::int64_t t_ns) const;
   Result<PressureFrame> pressure_frame(std::uint64_t sequence, std::uint32_t connection = 0);
@@ -212,7 +214,11 @@ class SessionReader {
   std::optional<PressureDeviceInfo> pressure_device_;
   std::vector<std::int64_t> sample_times_;  // t_ns by position (samples ordered by id)
   std::vector<std::uint64_t> sample_ids_;
-  std::map<std::int64_t, std::unique_ptr<VideoReader>> videos_;  // by video file id, opened on use
+  struct OpenVideo {
+    std::int64_t device_id = 0;
+    std::unique_ptr<VideoReader> reader;
+  };
+  std::map<std::int64_t, OpenVideo> videos_;  // by video file id, opened on use
 };
 
 }  // namespace pvcap
