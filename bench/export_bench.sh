@@ -5,15 +5,17 @@
 # alone on the same frames.
 #
 #   bash bench/export_bench.sh [minutes | SESSION_FOLDER]   (recording needs root)
+# A session it records is removed at the end (PVCAP_BENCH_KEEP=1 keeps it).
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
+source "$here/bench/work_dir.sh"
 pvcap=$here/build/app/pvcap
 [ -x "$here/build/bench/export_bench" ] || { echo "build first: bash scripts/build.sh" >&2; exit 1; }
 arg=${1:-10}
 if [ -d "$arg" ]; then
   session=$(cd "$arg" && pwd)
 else
-  work=$(mktemp -d /tmp/pvcap-export-bench-XXXXXX)
+  bench_work_dir export-bench
   echo "recording $arg minutes of the protocol into $work (log: $work/pvcap.log)"
   "$pvcap" session --rig "$here/rig-configs/sim.yaml" --root "$work/sessions" --duration $((arg * 60)) --no-web \
     --protocol "$here/rig-configs/protocols/pressurevision.yaml" --auto --participant BENCH01 --skin-tone light \

@@ -4,12 +4,14 @@
 # size, and how long the end-of-session re-mapping takes. Memory must not grow with time.
 #
 #   bash bench/long_session.sh [minutes]      (default 20; needs root: the simulated rig's namespace)
+# The session is removed at the end (PVCAP_BENCH_KEEP=1 keeps it).
 set -euo pipefail
 minutes=${1:-20}
 here=$(cd "$(dirname "$0")/.." && pwd)
 pvcap=$here/build/app/pvcap
 [ -x "$pvcap" ] || { echo "build first: bash scripts/build.sh" >&2; exit 1; }
-work=$(mktemp -d /tmp/pvcap-long-session-XXXXXX)
+source "$here/bench/work_dir.sh"
+bench_work_dir long-session
 sed 's/width: 1920/width: 640/; s/height: 1080/height: 480/' "$here/rig-configs/sim.yaml" > "$work/rig.yaml"
 "$pvcap" session --rig "$work/rig.yaml" --root "$work/sessions" --duration $((minutes * 60)) --no-web \
   > "$work/pvcap.log" 2>&1 &
@@ -42,4 +44,3 @@ echo "index (session.db):        $(( $(stat -c %s "$session/session.db") / 1024 
 echo "videos:                    $(du -sm --exclude=session.db* "$session" | cut -f1) MB"
 grep -o "re-paired with the final clock fits in [0-9.]* s" "$work/pvcap.log" | sed 's/^/re-mapping: /'
 grep -A6 "camera    received" "$work/pvcap.log" || true
-echo "(session and log in $work)"

@@ -9,10 +9,11 @@
 #   bash bench/replay_bench.sh [seconds | SESSION_FOLDER]   (default 60; recording needs root)
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
+source "$here/bench/work_dir.sh"
 pvcap=$here/build/app/pvcap
 [ -x "$pvcap" ] || { echo "build first: bash scripts/build.sh" >&2; exit 1; }
 arg=${1:-60}
-work=$(mktemp -d /tmp/pvcap-replay-bench-XXXXXX)
+bench_work_dir replay-bench  # its renders, and a session it records (PVCAP_BENCH_KEEP=1 keeps them)
 if [ -d "$arg" ]; then
   session=$(cd "$arg" && pwd)
 else
@@ -52,4 +53,3 @@ print(f"replay --out, 4 views at 15 Hz: {m.group(3)} x real time ({m.group(1)} s
 print(f"ffmpeg command line decoding the same four raw videos, nothing else: {decode:.2f} x real time; ratio {float(m.group(3)) / decode:.2f}")
 print(f"replay --out peak memory: {short_mb:.0f} MB rendering 10 s, {whole_mb:.0f} MB rendering all {m.group(1)} s (goal < 2048 MB, not growing with length)")
 PY
-[ -d "$arg" ] || rm -rf "$work"

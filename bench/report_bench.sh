@@ -5,15 +5,17 @@
 # (so the self-check and the overlay thumbnails have a calibration to work through).
 #
 #   bash bench/report_bench.sh [minutes | SESSION_FOLDER]   (default 10; recording needs root)
+# A session it records is removed at the end (PVCAP_BENCH_KEEP=1 keeps it).
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
+source "$here/bench/work_dir.sh"
 pvcap=$here/build/app/pvcap
 [ -x "$pvcap" ] || { echo "build first: bash scripts/build.sh" >&2; exit 1; }
 arg=${1:-10}
 if [ -d "$arg" ]; then
   session=$(cd "$arg" && pwd)
 else
-  work=$(mktemp -d /tmp/pvcap-report-bench-XXXXXX)
+  bench_work_dir report-bench
   echo "recording $arg minutes into $work (log: $work/pvcap.log)"
   "$pvcap" session --rig "$here/rig-configs/sim.yaml" --root "$work/sessions" --duration $((arg * 60)) --no-web \
     > "$work/pvcap.log" 2>&1 || { echo "the session failed: $work/pvcap.log" >&2; exit 1; }
