@@ -71,7 +71,7 @@ pid_t spawn_pvcap(const std::string& args, const fs::path& log, const std::strin
 }
 
 fs::path write_press_protocol(const fs::path& dir, const std::string& forces, double prompt_s, double countdown_s,
-                              double record_s, double rest_s) {
+                              double record_s, double rest_s, const std::string& hands) {
   // A protocol's pictograms live in its own folder (protocol/protocol.cpp refuses others).
   fs::create_directories(dir / "pictograms");
   fs::copy_file(fs::path(PVCAP_SOURCE_DIR) / "rig-configs/protocols/pictograms/press_index_finger.svg",
@@ -82,8 +82,8 @@ fs::path write_press_protocol(const fs::path& dir, const std::string& forces, do
       "actions:\n"
       "  - {{name: press_index_finger, text: Press with your index finger, pictogram: "
       "pictograms/press_index_finger.svg,\n"
-      "      forces: {}, repetitions: 2}}\n",
-      prompt_s, countdown_s, record_s, rest_s, forces);
+      "      forces: {}, repetitions: 2{}}}\n",
+      prompt_s, countdown_s, record_s, rest_s, forces, hands.empty() ? "" : ", hands: " + hands);
   return dir / "protocol.yaml";
 }
 

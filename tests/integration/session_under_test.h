@@ -26,9 +26,11 @@ std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, i
                          const std::string& trigger = "free-run", bool sensel = false);
 
 // A protocol of one press (index finger) at the given force levels ("[low, high]"), 2 repetitions,
-// with the given fast timings; written as dir/protocol.yaml.
+// with the given fast timings; written as dir/protocol.yaml. `hands` ("[right]") limits it to one
+// hand; empty: both.
 std::filesystem::path write_press_protocol(const std::filesystem::path& dir, const std::string& forces, double prompt_s,
-                                           double countdown_s, double record_s, double rest_s);
+                                           double countdown_s, double record_s, double rest_s,
+                                           const std::string& hands = "");
 // Four 320x240 cameras at 30 Hz and a Sensel: the protocol tests' rig, written as dir/rig.yaml.
 std::filesystem::path write_protocol_rig(const std::filesystem::path& dir);
 

@@ -318,7 +318,7 @@ TEST(Dataset, ASlurmReleaseEqualsTheLocalOneFileForFileAndAResubmissionSkipsWhat
   Lab lab("dataset-slurm");
   // S01 does the whole protocol, then S02 and S01 again one take of it (the release names S01's
   // second take of that name "(2)"): three sessions, as many Slurm tasks, in half the recording.
-  const fs::path one_take = write_press_protocol(lab.work / "one-take", "[low], hands: [right]", 0.4, 0.3, 1.5, 0.3);
+  const fs::path one_take = write_press_protocol(lab.work / "one-take", "[low]", 0.4, 0.3, 1.5, 0.3, "[right]");
   for (const auto& [code, protocol] : {std::pair{"S01", lab.protocol}, {"S02", one_take}, {"S01", one_take}}) {
     const auto before = lab.folders();
     const auto r = run_pvcap(lab.session_args(code, fmt::format("--protocol {} --lighting LCR", protocol.string())));
