@@ -21,9 +21,26 @@
 #include "sim/fingertip.h"
 #include "sim/hand.h"
 #include "sim/scene.h"
+#include "sim/scene_cache.h"
 #include "sim/timecode.h"
 
 namespace pvcap::sim {
+
+namespace {
+// Everything the scene's render reads besides the code (sim/scene_cache.h): the camera's model,
+// exactly (hexadecimal floats), and the pixel format.
+std::string scene_key(const calib::CameraModel& m, const std::string& pixel_format) {
+  std::string key = fmt::format("pad scene, {} {}x{}\nK", pixel_format, m.image_size.width, m.image_size.height);
+  for (double v : m.K.val) key += fmt::format(" {:a}", v);
+  key += "\ndistortion";
+  for (double v : m.distortion) key += fmt::format(" {:a}", v);
+  key += "\nR";
+  for (double v : m.R.val) key += fmt::format(" {:a}", v);
+  key += "\nt";
+  for (double v : m.t.val) key += fmt::format(" {:a}", v);
+  return key + "\n";
+}
+}  // namespace
 
 Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConfig& camera, const SimCameraClock& clock,
                                                      std::int64_t t0_ns, std::uint64_t seed,
@@ -124,9 +141,11 @@ const cv::Mat& SimCamera::base_image(int width, int height, ArvPixelFormat forma
   auto it = bases_.find(key);
   if (it == bases_.end()) {
     const std::string pfnc = pixel_format_name(format);
-    const cv::Size size(width, height);
-    const cv::Mat bgr = render_scene_bgr(calib::default_pad_layout(), model(size));
-    it = bases_.emplace(key, to_sensor_format(bgr, pfnc)).first;
+    const calib::CameraModel m = model(cv::Size(width, height));
+    cv::Mat image = cached_scene(scene_cache_dir(), scene_key(m, pfnc), [&] {
+      return to_sensor_format(render_scene_bgr(calib::default_pad_layout(), m), pfnc);
+    });
+    it = bases_.emplace(key, std::move(image)).first;
     spdlog::debug("sim {}: rendered the scene at {}x{} {}", name_, width, height, pfnc);
   }
   return it->second;

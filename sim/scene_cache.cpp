@@ -1,0 +1,155 @@
+#include "sim/scene_cache.h"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <random>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "storage/frame_checksum.h"
+
+namespace pvcap::sim {
+
+namespace {
+namespace fs = std::filesystem;
+constexpr char kMagic[8] = {'P', 'V', 'S', 'C', 'E', 'N', 'E', '1'};
+
+// The running executable, as the key's first line: rebuilt, it names another file.
+const std::string& executable_identity() {
+  static const std::string id = [] {
+    struct stat st {};
+    if (stat("/proc/self/exe", &st) != 0) return std::string("exe unknown\n");
+    return fmt::format("exe {}:{}:{}:{}.{}\n", st.st_dev, st.st_ino, st.st_size, st.st_mtim.tv_sec, st.st_mtim.tv_nsec);
+  }();
+  return id;
+}
+
+std::uint64_t fnv1a(const std::string& s) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+template <typename T>
+void put(std::string& out, T v) {
+  out.append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+
+template <typename T>
+bool get(const std::string& in, std::size_t& at, T& v) {
+  if (in.size() - at < sizeof v) return false;
+  std::memcpy(&v, in.data() + at, sizeof v);
+  at += sizeof v;
+  return true;
+}
+
+std::optional<cv::Mat> read_scene(const fs::path& file, const std::string& key) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return std::nullopt;
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::size_t at = sizeof kMagic;
+  if (bytes.size() < at || std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0) return std::nullopt;
+  std::uint32_t key_size = 0;
+  if (!get(bytes, at, key_size) || bytes.size() - at < key_size || bytes.compare(at, key_size, key) != 0 ||
+      key_size != key.size())
+    return std::nullopt;
+  at += key_size;
+  std::int32_t rows = 0, cols = 0, type = 0;
+  std::uint64_t size = 0;
+  if (!get(bytes, at, rows) || !get(bytes, at, cols) || !get(bytes, at, type) || !get(bytes, at, size))
+    return std::nullopt;
+  if (rows <= 0 || cols <= 0 || type < 0 || type >= CV_DEPTH_MAX * CV_CN_MAX) return std::nullopt;
+  const std::uint64_t expected = std::uint64_t(rows) * std::uint64_t(cols) * CV_ELEM_SIZE(type);
+  std::uint32_t crc = 0;
+  if (size != expected || bytes.size() - at != size + sizeof crc) return std::nullopt;
+  cv::Mat image(rows, cols, type);
+  std::memcpy(image.data, bytes.data() + at, size);
+  at += size;
+  if (!get(bytes, at, crc) || crc != crc32_of(image.data, size)) return std::nullopt;
+  return image;
+}
+
+void write_scene(const fs::path& dir, const fs::path& file, const std::string& key, const cv::Mat& image) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return;
+  const cv::Mat packed = image.isContinuous() ? image : image.clone();
+  const std::uint64_t size = packed.total() * packed.elemSize();
+  std::string head(kMagic, sizeof kMagic);
+  put(head, std::uint32_t(key.size()));
+  head += key;
+  put(head, std::int32_t(packed.rows));
+  put(head, std::int32_t(packed.cols));
+  put(head, std::int32_t(packed.type()));
+  put(head, size);
+  // A file of its own, renamed over the name when whole: a reader finds the old file, the new one or
+  // none, and two simulators writing the same scene at once both succeed.
+  const fs::path tmp = dir / fmt::format(".{}.{}-{}.tmp", file.filename().string(), getpid(), std::random_device{}());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out.write(head.data(), std::streamsize(head.size()));
+    out.write(reinterpret_cast<const char*>(packed.data), std::streamsize(size));
+    const std::uint32_t crc = crc32_of(packed.data, size);
+    out.write(reinterpret_cast<const char*>(&crc), sizeof crc);
+    if (!out.flush()) {
+      out.close();
+      fs::remove(tmp, ec);
+      return;
+    }
+  }
+  fs::rename(tmp, file, ec);
+  if (ec) fs::remove(tmp, ec);
+}
+
+// Keeps the newest kMaxSceneFiles scenes (a read refreshes a scene's time).
+void evict(const fs::path& dir) {
+  std::error_code ec;
+  std::vector<std::pair<fs::file_time_type, fs::path>> scenes;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("scene-", 0) != 0 || e.path().extension() != ".bin") continue;
+    std::error_code tec;
+    const auto t = e.last_write_time(tec);
+    if (!tec) scenes.emplace_back(t, e.path());
+  }
+  if (scenes.size() <= std::size_t(kMaxSceneFiles)) return;
+  std::sort(scenes.begin(), scenes.end());
+  for (std::size_t i = 0; i + kMaxSceneFiles < scenes.size(); ++i) fs::remove(scenes[i].second, ec);
+}
+}  // namespace
+
+std::optional<fs::path> scene_cache_dir() {
+  if (const char* set = std::getenv("PVCAP_SIM_CACHE")) {
+    const std::string v = set;
+    if (v.empty() || v == "off") return std::nullopt;
+    return fs::path(v);
+  }
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return fs::path(xdg) / "pvcap" / "sim-scenes";
+  if (const char* home = std::getenv("HOME"); home && *home) return fs::path(home) / ".cache" / "pvcap" / "sim-scenes";
+  return std::nullopt;
+}
+
+cv::Mat cached_scene(const std::optional<fs::path>& dir, const std::string& key,
+                     const std::function<cv::Mat()>& render) {
+  if (!dir) return render();
+  const std::string full_key = executable_identity() + key;
+  const fs::path file = *dir / fmt::format("scene-{:016x}.bin", fnv1a(full_key));
+  if (auto image = read_scene(file, full_key)) {
+    std::error_code ec;
+    fs::last_write_time(file, fs::file_time_type::clock::now(), ec);
+    return *image;
+  }
+  cv::Mat image = render();
+  write_scene(*dir, file, full_key, image);
+  evict(*dir);
+  return image;
+}
+
+}  // namespace pvcap::sim
