@@ -15,12 +15,12 @@
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "calib/charuco.h"
 #include "calib/pad_calibration.h"
 #include "calib/press_check.h"
 #include "calib/rig_calibration.h"
+#include "capture/image_files.h"
 #include "core/result.h"
 #include "storage/session_index.h"
 #include "storage/session_reader.h"
@@ -183,8 +183,7 @@ int write_board(const std::filesystem::path& out) {
     f << calib::board_pdf(spec);
     if (!f.flush()) throw UserError(fmt::format("cannot write {}", out.string()));
   } else if (ext == ".png") {
-    if (!cv::imwrite(out.string(), calib::board_image(spec, 12.0)))
-      throw UserError(fmt::format("cannot write {}", out.string()));
+    if (Status s = write_image(out, calib::board_image(spec, 12.0)); !s.ok()) throw UserError(s.error().message);
   } else {
     throw UserError(fmt::format("{}: the board is written as .pdf or .png", out.string()));
   }

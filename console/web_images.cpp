@@ -3,17 +3,18 @@
 #include <algorithm>
 #include <vector>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "capture/image_files.h"
 #include "capture/sensel_units.h"
 
 namespace pvcap::console {
 
 std::optional<std::string> camera_jpeg(const cv::Mat& image, bool full) {
-  std::vector<unsigned char> jpg;
-  if (image.empty() || !cv::imencode(".jpg", image, jpg, {cv::IMWRITE_JPEG_QUALITY, full ? 92 : 80})) return {};
-  return std::string(jpg.begin(), jpg.end());
+  if (image.empty()) return {};
+  auto jpg = encode_jpeg(image, full ? 92 : 80);
+  if (!jpg) return {};
+  return std::string(jpg.value().begin(), jpg.value().end());
 }
 
 std::optional<std::string> pressure_png(const session::PressureSnapshot& p) {
@@ -28,9 +29,9 @@ std::optional<std::string> pressure_png(const session::PressureSnapshot& p) {
   cv::applyColorMap(level, colour, cv::COLORMAP_INFERNO);
   colour.setTo(cv::Scalar(0, 0, 0), level == 0);
   cv::resize(colour, colour, {}, 4, 4, cv::INTER_NEAREST);
-  std::vector<unsigned char> png;
-  if (!cv::imencode(".png", colour, png)) return {};
-  return std::string(png.begin(), png.end());
+  auto png = encode_png(colour);
+  if (!png) return {};
+  return std::string(png.value().begin(), png.value().end());
 }
 
 }  // namespace pvcap::console

@@ -3,9 +3,9 @@
 #include <algorithm>
 
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "calib/projection.h"
+#include "capture/image_files.h"
 #include "export/sha256.h"
 #include "storage/durable_folder.h"
 
@@ -58,10 +58,9 @@ Status JpegLanes::write_one(SessionReader& reader, std::size_t sample, std::size
   auto image = reader.image(sample, settings_.cameras[k]);
   if (!image) return image.error();
   const cv::Mat frame = settings_.crop ? calib::apply_crop(image.value(), settings_.crops[k]) : image.value();
-  std::vector<std::uint8_t> bytes;
-  if (!cv::imencode(".jpg", frame, bytes, {cv::IMWRITE_JPEG_QUALITY, settings_.quality}))
-    return Error{fmt::format("{}: the JPEG encoder refused the frame", jpg.string())};
-  const std::string encoded(bytes.begin(), bytes.end());
+  const auto bytes = encode_jpeg(frame, settings_.quality);
+  if (!bytes) return Error{fmt::format("{}: {}", jpg.string(), bytes.error().message)};
+  const std::string encoded(bytes.value().begin(), bytes.value().end());
   if (Status w = write_file_atomically(jpg, encoded, Durability::Renamed); !w.ok()) return w;
   lane.sums.push_back({fs::relative(jpg, dir).string(), {encoded.size(), sha256_hex(encoded)}});
   return {};

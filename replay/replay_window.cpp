@@ -4,9 +4,9 @@
 
 #include <fmt/format.h>
 #include <opencv2/highgui.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "capture/image_files.h"
 #include "core/time.h"
 #include "replay/replay_composer.h"
 #include "replay/replay_player.h"
@@ -86,8 +86,8 @@ Result<WindowSummary> run_replay_window(const std::filesystem::path& session, co
     player.press(key_from_code(code), host_now().ns);
   }
   summary.last_sample = shown;
-  if (!options.snapshot.empty() && !last.empty() && !cv::imwrite(options.snapshot.string(), last))
-    return Error{fmt::format("cannot write {}", options.snapshot.string())};
+  if (!options.snapshot.empty() && !last.empty())
+    if (Status s = write_image(options.snapshot, last); !s.ok()) return s.error();
   cv::destroyAllWindows();
   return summary;
 }

@@ -7,12 +7,12 @@
 #include <set>
 
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "calib/press_check.h"
 #include "calib/projection.h"
 #include "calib/rig_calibration.h"
+#include "capture/image_files.h"
 #include "capture/sensel_units.h"
 #include "core/time.h"
 #include "protocol/takes.h"
@@ -99,9 +99,9 @@ std::string base64(const std::vector<std::uint8_t>& bytes) {
 std::string jpeg_data_uri(const cv::Mat& bgr, int width) {
   cv::Mat small;
   cv::resize(bgr, small, {width, std::max(1, bgr.rows * width / std::max(1, bgr.cols))}, 0, 0, cv::INTER_AREA);
-  std::vector<std::uint8_t> jpeg;
-  cv::imencode(".jpg", small, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80});
-  return "data:image/jpeg;base64," + base64(jpeg);
+  auto jpeg = encode_jpeg(small, 80);
+  if (!jpeg) throw UserError(fmt::format("the report's camera view: {}", jpeg.error().message));
+  return "data:image/jpeg;base64," + base64(jpeg.value());
 }
 
 // Captured and lost, per stream, with the identities that must hold between the store's tables.

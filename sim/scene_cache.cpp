@@ -19,7 +19,7 @@ namespace pvcap::sim {
 
 namespace {
 namespace fs = std::filesystem;
-constexpr char kMagic[8] = {'P', 'V', 'S', 'C', 'E', 'N', 'E', '1'};
+constexpr char kSceneMagic[8] = {'P', 'V', 'S', 'C', 'E', 'N', 'E', '1'};
 
 // The running executable, as the key's first line: rebuilt, it names another file.
 const std::string& executable_identity() {
@@ -31,19 +31,19 @@ const std::string& executable_identity() {
   return id;
 }
 
-std::uint64_t fnv1a(const std::string& s) {
+std::uint64_t scene_key_hash(const std::string& s) {
   std::uint64_t h = 1469598103934665603ull;
   for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
   return h;
 }
 
 template <typename T>
-void put(std::string& out, T v) {
+void append_raw(std::string& out, T v) {
   out.append(reinterpret_cast<const char*>(&v), sizeof v);
 }
 
 template <typename T>
-bool get(const std::string& in, std::size_t& at, T& v) {
+bool read_raw(const std::string& in, std::size_t& at, T& v) {
   if (in.size() - at < sizeof v) return false;
   std::memcpy(&v, in.data() + at, sizeof v);
   at += sizeof v;
@@ -54,16 +54,17 @@ std::optional<cv::Mat> read_scene(const fs::path& file, const std::string& key) 
   std::ifstream in(file, std::ios::binary);
   if (!in) return std::nullopt;
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  std::size_t at = sizeof kMagic;
-  if (bytes.size() < at || std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0) return std::nullopt;
+  std::size_t at = sizeof kSceneMagic;
+  if (bytes.size() < at || std::memcmp(bytes.data(), kSceneMagic, sizeof kSceneMagic) != 0) return std::nullopt;
   std::uint32_t key_size = 0;
-  if (!get(bytes, at, key_size) || bytes.size() - at < key_size || bytes.compare(at, key_size, key) != 0 ||
+  if (!read_raw(bytes, at, key_size) || bytes.size() - at < key_size || bytes.compare(at, key_size, key) != 0 ||
       key_size != key.size())
     return std::nullopt;
   at += key_size;
   std::int32_t rows = 0, cols = 0, type = 0;
   std::uint64_t size = 0;
-  if (!get(bytes, at, rows) || !get(bytes, at, cols) || !get(bytes, at, type) || !get(bytes, at, size))
+  if (!read_raw(bytes, at, rows) || !read_raw(bytes, at, cols) || !read_raw(bytes, at, type) ||
+      !read_raw(bytes, at, size))
     return std::nullopt;
   if (rows <= 0 || cols <= 0 || type < 0 || type >= CV_DEPTH_MAX * CV_CN_MAX) return std::nullopt;
   const std::uint64_t expected = std::uint64_t(rows) * std::uint64_t(cols) * CV_ELEM_SIZE(type);
@@ -72,7 +73,7 @@ std::optional<cv::Mat> read_scene(const fs::path& file, const std::string& key) 
   cv::Mat image(rows, cols, type);
   std::memcpy(image.data, bytes.data() + at, size);
   at += size;
-  if (!get(bytes, at, crc) || crc != crc32_of(image.data, size)) return std::nullopt;
+  if (!read_raw(bytes, at, crc) || crc != crc32_of(image.data, size)) return std::nullopt;
   return image;
 }
 
@@ -82,13 +83,13 @@ void write_scene(const fs::path& dir, const fs::path& file, const std::string& k
   if (ec) return;
   const cv::Mat packed = image.isContinuous() ? image : image.clone();
   const std::uint64_t size = packed.total() * packed.elemSize();
-  std::string head(kMagic, sizeof kMagic);
-  put(head, std::uint32_t(key.size()));
+  std::string head(kSceneMagic, sizeof kSceneMagic);
+  append_raw(head, std::uint32_t(key.size()));
   head += key;
-  put(head, std::int32_t(packed.rows));
-  put(head, std::int32_t(packed.cols));
-  put(head, std::int32_t(packed.type()));
-  put(head, size);
+  append_raw(head, std::int32_t(packed.rows));
+  append_raw(head, std::int32_t(packed.cols));
+  append_raw(head, std::int32_t(packed.type()));
+  append_raw(head, size);
   // A file of its own, renamed over the name when whole: a reader finds the old file, the new one or
   // none, and two simulators writing the same scene at once both succeed.
   const fs::path tmp = dir / fmt::format(".{}.{}-{}.tmp", file.filename().string(), getpid(), std::random_device{}());
@@ -109,7 +110,7 @@ void write_scene(const fs::path& dir, const fs::path& file, const std::string& k
 }
 
 // Keeps the newest kMaxSceneFiles scenes (a read refreshes a scene's time).
-void evict(const fs::path& dir) {
+void evict_old_scenes(const fs::path& dir) {
   std::error_code ec;
   std::vector<std::pair<fs::file_time_type, fs::path>> scenes;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
@@ -140,7 +141,7 @@ cv::Mat cached_scene(const std::optional<fs::path>& dir, const std::string& key,
                      const std::function<cv::Mat()>& render) {
   if (!dir) return render();
   const std::string full_key = executable_identity() + key;
-  const fs::path file = *dir / fmt::format("scene-{:016x}.bin", fnv1a(full_key));
+  const fs::path file = *dir / fmt::format("scene-{:016x}.bin", scene_key_hash(full_key));
   if (auto image = read_scene(file, full_key)) {
     std::error_code ec;
     fs::last_write_time(file, fs::file_time_type::clock::now(), ec);
@@ -148,7 +149,7 @@ cv::Mat cached_scene(const std::optional<fs::path>& dir, const std::string& key,
   }
   cv::Mat image = render();
   write_scene(*dir, file, full_key, image);
-  evict(*dir);
+  evict_old_scenes(*dir);
   return image;
 }
 
