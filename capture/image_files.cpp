@@ -1,5 +1,8 @@
 #include "capture/image_files.h"
 
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <csetjmp>
 #include <cstdio>
 #include <cstdlib>

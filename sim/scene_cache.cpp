@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -109,16 +110,20 @@ void write_scene(const fs::path& dir, const fs::path& file, const std::string& k
   if (ec) fs::remove(tmp, ec);
 }
 
-// Keeps the newest kMaxSceneFiles scenes (a read refreshes a scene's time).
+// Keeps the newest kMaxSceneFiles scenes (a read refreshes a scene's time), and removes what a
+// simulator killed while writing left (a file of its own, an hour old).
 void evict_old_scenes(const fs::path& dir) {
   std::error_code ec;
   std::vector<std::pair<fs::file_time_type, fs::path>> scenes;
+  const auto an_hour_ago = fs::file_time_type::clock::now() - std::chrono::hours(1);
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();
-    if (name.rfind("scene-", 0) != 0 || e.path().extension() != ".bin") continue;
     std::error_code tec;
     const auto t = e.last_write_time(tec);
-    if (!tec) scenes.emplace_back(t, e.path());
+    if (tec) continue;
+    if (name.rfind(".scene-", 0) == 0 && e.path().extension() == ".tmp" && t < an_hour_ago) fs::remove(e.path(), tec);
+    if (name.rfind("scene-", 0) != 0 || e.path().extension() != ".bin") continue;
+    scenes.emplace_back(t, e.path());
   }
   if (scenes.size() <= std::size_t(kMaxSceneFiles)) return;
   std::sort(scenes.begin(), scenes.end());

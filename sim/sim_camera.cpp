@@ -146,7 +146,8 @@ const cv::Mat& SimCamera::base_image(int width, int height, ArvPixelFormat forma
       return to_sensor_format(render_scene_bgr(calib::default_pad_layout(), m), pfnc);
     });
     it = bases_.emplace(key, std::move(image)).first;
-    spdlog::debug("sim {}: the scene at {}x{} {} is ready (rendered, or from sim/scene_cache.h)", name_, width, height, pfnc);
+    spdlog::debug("sim {}: the scene at {}x{} {} is ready (rendered, or from sim/scene_cache.h)", name_, width, height,
+                  pfnc);
   }
   return it->second;
 }

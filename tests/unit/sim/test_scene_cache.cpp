@@ -99,6 +99,14 @@ TEST(SceneCache, KeepsTheMostRecentlyUsedScenesOnly) {
   EXPECT_EQ(renders, 0);
   (void)cached_scene(cache.dir, "scene 0", counted);  // the oldest: removed
   EXPECT_EQ(renders, 1);
+  // What a simulator killed while writing left: removed once it is an hour old, not before.
+  const fs::path stale = cache.dir / ".scene-0000000000000001.bin.1-2.tmp", fresh = cache.dir / ".scene-2.bin.3-4.tmp";
+  std::ofstream(stale) << "cut";
+  std::ofstream(fresh) << "being written";
+  fs::last_write_time(stale, fs::file_time_type::clock::now() - std::chrono::hours(2));
+  (void)cached_scene(cache.dir, "one more", render);
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::exists(fresh));
 }
 
 TEST(SceneCache, TheFolderComesFromTheEnvironmentAndCanBeTurnedOff) {
