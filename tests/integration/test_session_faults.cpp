@@ -180,10 +180,24 @@ TEST(SessionFaults, ASenselPluggedBackIsANewConnectionAndItsAbsenceIsRecordedAsL
             0)
       << "a sequence repeated within a connection";
   // Away from the unplug (3 s) to the reconnect (4.5 s, then the driver's next try, once a second):
-  // 1.5-2.5 s at ~125 Hz.
+  // 1.5-2.5 s, and the frames lost are that time at the rate the Morph kept before it went. Polled
+  // (sync mode), it scans when asked, so on a loaded machine that rate is below its ~125 Hz: a CI run
+  // beside a busy rig measured 116 lost for ~1.5 s away, which a bound at 125 Hz (> 150) failed.
   const auto lost = scalar(db, "SELECT sum(count) FROM drops WHERE reason = 'unplugged' AND connection = 1");
-  EXPECT_GT(lost, 150);
-  EXPECT_LT(lost, 400);
+  const double away_s = double(scalar(db, "SELECT (SELECT host_ns FROM events WHERE kind = 'sensel_reconnected') - "
+                                          "(SELECT host_ns FROM events WHERE kind = 'sensel_unplugged')")) /
+                        1e9;
+  const double period_s =
+      double(scalar(db, "SELECT (max(device_ns) - min(device_ns)) / (count(*) - 1) FROM pressure_frames WHERE "
+                        "connection = 0")) /
+      1e9;
+  std::printf("away %.3f s, connection 0 scanned every %.2f ms: %lld frames lost\n", away_s, period_s * 1e3,
+              static_cast<long long>(lost));
+  EXPECT_GE(away_s, 1.45);
+  EXPECT_LE(away_s, 3.2);
+  EXPECT_GT(period_s, 0.007);  // the emulator's medium-detail rate at most, ~125 Hz
+  // The driver's own estimate of the rate counts the frames it read, the store those it kept: 3 %.
+  EXPECT_NEAR(double(lost), away_s / period_s, 1 + 0.03 * away_s / period_s);
   // Samples on both sides pair with their own connection's frames, and each reads back.
   EXPECT_GT(scalar(db, "SELECT count(*) FROM samples WHERE pressure_connection = 1"), 20);
   EXPECT_EQ(scalar(db,
