@@ -110,11 +110,16 @@ void write_scene(const fs::path& dir, const fs::path& file, const std::string& k
   if (ec) fs::remove(tmp, ec);
 }
 
-// Keeps the newest kMaxSceneFiles scenes (a read refreshes a scene's time), and removes what a
-// simulator killed while writing left (a file of its own, an hour old).
-void evict_old_scenes(const fs::path& dir) {
+// Keeps the newest scenes within `budget` bytes (a read refreshes a scene's time), and removes what
+// a simulator killed while writing left (a file of its own, an hour old).
+void evict_old_scenes(const fs::path& dir, std::uintmax_t budget) {
   std::error_code ec;
-  std::vector<std::pair<fs::file_time_type, fs::path>> scenes;
+  struct Scene {
+    fs::file_time_type time;
+    fs::path path;
+    std::uintmax_t bytes;
+  };
+  std::vector<Scene> scenes;
   const auto an_hour_ago = fs::file_time_type::clock::now() - std::chrono::hours(1);
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();
@@ -123,11 +128,15 @@ void evict_old_scenes(const fs::path& dir) {
     if (tec) continue;
     if (name.rfind(".scene-", 0) == 0 && e.path().extension() == ".tmp" && t < an_hour_ago) fs::remove(e.path(), tec);
     if (name.rfind("scene-", 0) != 0 || e.path().extension() != ".bin") continue;
-    scenes.emplace_back(t, e.path());
+    const std::uintmax_t bytes = e.file_size(tec);
+    if (!tec) scenes.push_back({t, e.path(), bytes});
   }
-  if (scenes.size() <= std::size_t(kMaxSceneFiles)) return;
-  std::sort(scenes.begin(), scenes.end());
-  for (std::size_t i = 0; i + kMaxSceneFiles < scenes.size(); ++i) fs::remove(scenes[i].second, ec);
+  std::sort(scenes.begin(), scenes.end(), [](const Scene& a, const Scene& b) { return a.time > b.time; });
+  std::uintmax_t kept = 0;
+  for (const Scene& s : scenes) {
+    kept += s.bytes;
+    if (kept > budget) fs::remove(s.path, ec);
+  }
 }
 }  // namespace
 
@@ -142,8 +151,8 @@ std::optional<fs::path> scene_cache_dir() {
   return std::nullopt;
 }
 
-cv::Mat cached_scene(const std::optional<fs::path>& dir, const std::string& key,
-                     const std::function<cv::Mat()>& render) {
+cv::Mat cached_scene(const std::optional<fs::path>& dir, const std::string& key, const std::function<cv::Mat()>& render,
+                     std::uintmax_t budget) {
   if (!dir) return render();
   const std::string full_key = executable_identity() + key;
   const fs::path file = *dir / fmt::format("scene-{:016x}.bin", scene_key_hash(full_key));
@@ -154,7 +163,7 @@ cv::Mat cached_scene(const std::optional<fs::path>& dir, const std::string& key,
   }
   cv::Mat image = render();
   write_scene(*dir, file, full_key, image);
-  evict_old_scenes(*dir);
+  evict_old_scenes(*dir, budget);
   return image;
 }
 

@@ -9,7 +9,10 @@
 // anything else is rendered again. A cache only: any failure to read or write it costs the render.
 //
 // Where: $PVCAP_SIM_CACHE (empty or "off": no cache), else $XDG_CACHE_HOME/pvcap/sim-scenes, else
-// ~/.cache/pvcap/sim-scenes. At most kMaxSceneFiles scenes, the least recently used removed first.
+// ~/.cache/pvcap/sim-scenes. At most kSceneCacheBytes of scenes (~120 of 1080p Bayer), the least
+// recently used removed first. A rebuilt pvcap's scenes are new files, so a developer's cache fills
+// with old builds' scenes until they are evicted (the test suite uses 21 different scenes).
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -19,14 +22,15 @@
 
 namespace pvcap::sim {
 
-inline constexpr int kMaxSceneFiles = 32;
+inline constexpr std::uintmax_t kSceneCacheBytes = 256ull << 20;
 
 // The cache folder as configured, or nothing when caching is off or no folder can be named.
 std::optional<std::filesystem::path> scene_cache_dir();
 
 // The picture stored under `key` in `dir`, or `render()`'s (then stored, best effort). `key`
 // names the inputs; the executable's identity is added here.
+// `budget`: the bytes of scenes the folder keeps.
 cv::Mat cached_scene(const std::optional<std::filesystem::path>& dir, const std::string& key,
-                     const std::function<cv::Mat()>& render);
+                     const std::function<cv::Mat()>& render, std::uintmax_t budget = kSceneCacheBytes);
 
 }  // namespace pvcap::sim

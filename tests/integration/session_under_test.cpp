@@ -305,7 +305,7 @@ class CpuTimePrinter : public ::testing::Environment {
 
 // The simulators the tests start keep their rendered scenes in the build tree (sim/scene_cache.h):
 // rendered once per build instead of once per session (~1.4 s of a core each), and gone with the
-// build, not left in the home folder. At most 32 scenes (~2 MB each at 1080p).
+// build, not left in the home folder. At most 256 MB (a 1080p Bayer scene is 2 MB).
 class SimSceneCache : public ::testing::Environment {
  public:
   void SetUp() override { setenv("PVCAP_SIM_CACHE", PVCAP_BINARY_DIR "/test-fixtures/sim-scenes", 0); }

@@ -84,27 +84,32 @@ TEST(SceneCache, ADamagedOrCutFileIsRenderedAgainAndReplaced) {
 
 TEST(SceneCache, KeepsTheMostRecentlyUsedScenesOnly) {
   CacheDir cache;
-  auto render = [] { return cv::Mat(4, 4, CV_8UC1, cv::Scalar(7)); };
-  for (int i = 0; i < kMaxSceneFiles + 3; ++i) {
-    (void)cached_scene(cache.dir, fmt::format("scene {}", i), render);
+  auto render = [] { return cv::Mat(100, 100, CV_8UC1, cv::Scalar(7)); };
+  // Room for ten and a half scenes of one file's size (its pixels, key and header).
+  (void)cached_scene(cache.dir, "scene 0", render);
+  ASSERT_EQ(cache.scenes().size(), 1u);
+  const std::uintmax_t size = fs::file_size(cache.scenes().front());
+  const std::uintmax_t budget = 10 * size + size / 2;
+  for (int i = 1; i < 13; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));  // past the file system's clock tick
+    (void)cached_scene(cache.dir, fmt::format("scene {}", i), render, budget);
   }
-  EXPECT_EQ(cache.scenes().size(), std::size_t(kMaxSceneFiles));
+  EXPECT_EQ(cache.scenes().size(), 10u);
   int renders = 0;
   auto counted = [&] {
     ++renders;
     return render();
   };
-  (void)cached_scene(cache.dir, fmt::format("scene {}", kMaxSceneFiles + 2), counted);  // the newest: kept
+  (void)cached_scene(cache.dir, "scene 12", counted, budget);  // the newest: kept
   EXPECT_EQ(renders, 0);
-  (void)cached_scene(cache.dir, "scene 0", counted);  // the oldest: removed
+  (void)cached_scene(cache.dir, "scene 0", counted, budget);  // the oldest: removed
   EXPECT_EQ(renders, 1);
   // What a simulator killed while writing left: removed once it is an hour old, not before.
   const fs::path stale = cache.dir / ".scene-0000000000000001.bin.1-2.tmp", fresh = cache.dir / ".scene-2.bin.3-4.tmp";
   std::ofstream(stale) << "cut";
   std::ofstream(fresh) << "being written";
   fs::last_write_time(stale, fs::file_time_type::clock::now() - std::chrono::hours(2));
-  (void)cached_scene(cache.dir, "one more", render);
+  (void)cached_scene(cache.dir, "one more", render, budget);
   EXPECT_FALSE(fs::exists(stale));
   EXPECT_TRUE(fs::exists(fresh));
 }
