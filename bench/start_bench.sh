@@ -30,7 +30,10 @@ for i in $(seq 5); do
   t=$(date +%s%N)
   "$pvcap" --log-level warn sim --rig "$here/rig-configs/sim.yaml" --truth "$work/truth" 2> "$work/sim.err" &
   pid=$!
-  until grep -q "serving" "$work/sim.err" 2> /dev/null; do sleep 0.01; done
+  until grep -q "serving" "$work/sim.err" 2> /dev/null; do
+    kill -0 "$pid" 2> /dev/null || { echo "pvcap sim ended without serving:" >&2; cat "$work/sim.err" >&2; exit 1; }
+    sleep 0.01
+  done
   ms "$t" >> "$work/serving.ms"
   sleep 1
   t=$(date +%s%N); kill -TERM "$pid"; wait "$pid" || true; ms "$t" >> "$work/exit.ms"

@@ -181,8 +181,8 @@ TEST(SessionFaults, ASenselPluggedBackIsANewConnectionAndItsAbsenceIsRecordedAsL
       << "a sequence repeated within a connection";
   // Away from the unplug (3 s) to the reconnect (4.5 s, then the driver's next try, once a second):
   // 1.5-2.5 s, and the frames lost are that time at the rate the Morph kept before it went. Polled
-  // (sync mode), it scans when asked, so on a loaded machine that rate is below its ~125 Hz: a CI run
-  // beside a busy rig measured 116 lost for ~1.5 s away, which a bound at 125 Hz (> 150) failed.
+  // (sync mode), it scans when asked, so on a loaded machine that rate is below its ~125 Hz: a fresh
+  // clone's run beside a busy rig counted 116 lost, which a bound at 125 Hz (> 150) failed.
   const auto lost = scalar(db, "SELECT sum(count) FROM drops WHERE reason = 'unplugged' AND connection = 1");
   const double away_s = double(scalar(db, "SELECT (SELECT host_ns FROM events WHERE kind = 'sensel_reconnected') - "
                                           "(SELECT host_ns FROM events WHERE kind = 'sensel_unplugged')")) /
