@@ -1,7 +1,6 @@
 #include "sim/scene_cache.h"
 
 #include <sys/stat.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -9,11 +8,11 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
-#include <random>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "storage/durable_folder.h"
 #include "storage/frame_checksum.h"
 
 namespace pvcap::sim {
@@ -91,27 +90,15 @@ void write_scene(const fs::path& dir, const fs::path& file, const std::string& k
   append_raw(head, std::int32_t(packed.cols));
   append_raw(head, std::int32_t(packed.type()));
   append_raw(head, size);
-  // A file of its own, renamed over the name when whole: a reader finds the old file, the new one or
-  // none, and two simulators writing the same scene at once both succeed.
-  const fs::path tmp = dir / fmt::format(".{}.{}-{}.tmp", file.filename().string(), getpid(), std::random_device{}());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(head.data(), std::streamsize(head.size()));
-    out.write(reinterpret_cast<const char*>(packed.data), std::streamsize(size));
-    const std::uint32_t crc = crc32_of(packed.data, size);
-    out.write(reinterpret_cast<const char*>(&crc), sizeof crc);
-    if (!out.flush()) {
-      out.close();
-      fs::remove(tmp, ec);
-      return;
-    }
-  }
-  fs::rename(tmp, file, ec);
-  if (ec) fs::remove(tmp, ec);
+  head.append(reinterpret_cast<const char*>(packed.data), size);
+  append_raw(head, crc32_of(packed.data, size));
+  // Written beside its name (file.tmp-PID) and renamed over it when whole: a reader finds the old
+  // file, the new one or none, and two simulators writing the same scene at once both succeed.
+  (void)write_file_atomically(file, head, Durability::Renamed);  // a cache: a failure costs a render
 }
 
 // Keeps the newest scenes within `budget` bytes (a read refreshes a scene's time), and removes what
-// a simulator killed while writing left (a file of its own, an hour old).
+// a simulator killed while writing left (its scene-*.bin.tmp-PID, an hour old).
 void evict_old_scenes(const fs::path& dir, std::uintmax_t budget) {
   std::error_code ec;
   struct Scene {
@@ -126,7 +113,8 @@ void evict_old_scenes(const fs::path& dir, std::uintmax_t budget) {
     std::error_code tec;
     const auto t = e.last_write_time(tec);
     if (tec) continue;
-    if (name.rfind(".scene-", 0) == 0 && e.path().extension() == ".tmp" && t < an_hour_ago) fs::remove(e.path(), tec);
+    if (name.rfind("scene-", 0) == 0 && name.find(".bin.tmp-") != std::string::npos && t < an_hour_ago)
+      fs::remove(e.path(), tec);
     if (name.rfind("scene-", 0) != 0 || e.path().extension() != ".bin") continue;
     const std::uintmax_t bytes = e.file_size(tec);
     if (!tec) scenes.push_back({t, e.path(), bytes});

@@ -105,7 +105,7 @@ TEST(SceneCache, KeepsTheMostRecentlyUsedScenesOnly) {
   (void)cached_scene(cache.dir, "scene 0", counted, budget);  // the oldest: removed
   EXPECT_EQ(renders, 1);
   // What a simulator killed while writing left: removed once it is an hour old, not before.
-  const fs::path stale = cache.dir / ".scene-0000000000000001.bin.1-2.tmp", fresh = cache.dir / ".scene-2.bin.3-4.tmp";
+  const fs::path stale = cache.dir / "scene-0000000000000001.bin.tmp-12", fresh = cache.dir / "scene-2.bin.tmp-34";
   std::ofstream(stale) << "cut";
   std::ofstream(fresh) << "being written";
   fs::last_write_time(stale, fs::file_time_type::clock::now() - std::chrono::hours(2));
