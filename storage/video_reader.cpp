@@ -32,6 +32,7 @@ struct VideoReader::Impl {  // members are freed in reverse: the scaler first, t
   FramePool images{4};  // the BGR images handed out: reused once the caller has dropped them
   int stream = -1;
   bool draining = false;
+  bool intra_only = false;  // every frame decodes alone (HuffYUV, MagicYUV; not FFV1): reads skip, not decode
 };
 
 Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::path& path) {
@@ -75,6 +76,8 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
       return Error{fmt::format("{}: raw video of '{}' at {} bits is not one this pvcap reads", path.string(),
                                r->bayer_format_, depth)};
   }
+  const AVCodecDescriptor* descriptor = avcodec_descriptor_get(codec->id);
+  im.intra_only = descriptor && (descriptor->props & AV_CODEC_PROP_INTRA_ONLY) != 0;
   im.dec.ptr = avcodec_alloc_context3(codec);
   avcodec_parameters_to_context(im.dec.ptr, im.fmt.ptr->streams[im.stream]->codecpar);
   // Slice threads: the store writes several slices per frame, so one frame decodes on two cores
@@ -201,7 +204,7 @@ Status VideoReader::to_bgr(cv::Mat& bgr) {
 }
 
 // Decodes the next frame into the decoder's own frame, without converting it.
-Result<bool> VideoReader::decode_next(std::int64_t& pts_ms) {
+Result<bool> VideoReader::decode_next(std::int64_t& pts_ms, std::int64_t skip_before_ms) {
   Impl& im = *impl_;
   for (;;) {
     const int rc = avcodec_receive_frame(im.dec.ptr, im.frame.ptr);
@@ -209,6 +212,7 @@ Result<bool> VideoReader::decode_next(std::int64_t& pts_ms) {
       const AVRational tb = im.fmt.ptr->streams[im.stream]->time_base;
       pts_ms = av_rescale_q(im.frame.ptr->best_effort_timestamp, tb, AVRational{1, 1000});
       last_pts_ms_ = pts_ms;
+      ++frames_decoded_;
       return true;
     }
     if (rc == AVERROR_EOF) return false;
@@ -222,7 +226,14 @@ Result<bool> VideoReader::decode_next(std::int64_t& pts_ms) {
         avcodec_send_packet(im.dec.ptr, nullptr);
         break;
       }
-      if (im.packet.ptr->stream_index == im.stream) {
+      const AVPacket* pkt = im.packet.ptr;
+      if (pkt->stream_index == im.stream && im.intra_only && skip_before_ms != INT64_MIN &&
+          pkt->pts != AV_NOPTS_VALUE &&
+          av_rescale_q(pkt->pts, im.fmt.ptr->streams[im.stream]->time_base, AVRational{1, 1000}) < skip_before_ms) {
+        av_packet_unref(im.packet.ptr);  // a frame before the one asked for, which nothing refers to
+        continue;
+      }
+      if (pkt->stream_index == im.stream) {
         const int sr = avcodec_send_packet(im.dec.ptr, im.packet.ptr);
         av_packet_unref(im.packet.ptr);
         if (sr < 0 && sr != AVERROR(EAGAIN)) return Error{fmt::format("{}: corrupt video packet", path_.string())};
@@ -256,8 +267,10 @@ Result<bool> VideoReader::seek_and_convert(std::int64_t pts_ms, cv::Mat& out, st
   };
   auto decode_up_to = [&]() -> Result<bool> {
     std::int64_t at = 0;
-    for (;;) {  // frames before the one asked for are decoded (they are its references), not converted
-      auto more = decode_next(at);
+    // Frames before the one asked for are decoded (they are its references), not converted; an
+    // intra-only video's are not even decoded (a calibration reading every third sample decoded all).
+    for (;;) {
+      auto more = decode_next(at, pts_ms - tolerance_ms);
       if (!more) return more.error();
       if (!more.value()) return false;
       if (at >= pts_ms - tolerance_ms) {

@@ -32,6 +32,9 @@ class VideoReader {
   // A raw video: the CRC-32 of the stored picture last decoded (by any read), as
   // storage/frame_checksum.h takes it at capture; nullopt for a colour video or before a read.
   std::optional<std::uint32_t> decoded_picture_crc() const;
+  // Frames decoded so far by any read (what random access costs: an intra-only video decodes only
+  // the frames asked for).
+  std::uint64_t frames_decoded() const { return frames_decoded_; }
   // Without decoding: the next packet of the video stream (one per frame here: no B-frames),
   // its timestamp and whether it is a key frame; false at the end. Do not mix with next().
   Result<bool> next_packet(std::int64_t& pts_ms, bool& key);
@@ -55,7 +58,9 @@ class VideoReader {
 
  private:
   VideoReader() = default;
-  Result<bool> decode_next(std::int64_t& pts_ms);
+  // `skip_before_ms`: packets stamped earlier are read past, not decoded, where no frame refers to
+  // another (intra-only codecs: the raw store's); other codecs decode every frame (references).
+  Result<bool> decode_next(std::int64_t& pts_ms, std::int64_t skip_before_ms = INT64_MIN);
   Result<bool> seek_and_convert(std::int64_t pts_ms, cv::Mat& out, std::int64_t tolerance_ms, bool as_mosaic);
   Status to_bgr(cv::Mat& bgr);
   Status to_mosaic(cv::Mat& mosaic);
@@ -63,6 +68,7 @@ class VideoReader {
   std::unique_ptr<Impl> impl_;
   std::filesystem::path path_;
   std::int64_t last_pts_ms_ = INT64_MIN;  // of the frame next() returned last
+  std::uint64_t frames_decoded_ = 0;
   std::string bayer_format_;
   int bit_depth_ = 8;
   Demosaic demosaic_ = Demosaic::Bilinear;
