@@ -162,10 +162,14 @@ Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::S
   const cv::TermCriteria until(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-9);
   // `again`: from the fit before, not from OpenCV's fresh start (its first guess from the views'
   // homographies once led a refit without a few bad views to a 16 px RMS minimum).
+  // CALIB_USE_LU: each step solves for the lens and some 50 views' poses (~300 unknowns) by LU instead of
+  // SVD; the system is the normal equations plus damping (symmetric, positive definite), where both
+  // give the same answer: on a 25-s board session the four cameras' K, distortion and RMS agreed to
+  // 1e-8 px, and the fit's share of `pvcap calibrate intrinsics` fell from 21 s of CPU to 2.
   auto calibrate = [&](bool again = false) {
     return cv::aruco::calibrateCameraCharuco(
         corners, ids, make_board(spec), size, K, dist, rvecs, tvecs, deviations, cv::noArray(), per_view,
-        cv::CALIB_FIX_ASPECT_RATIO | (again ? cv::CALIB_USE_INTRINSIC_GUESS : 0), until);
+        cv::CALIB_FIX_ASPECT_RATIO | cv::CALIB_USE_LU | (again ? cv::CALIB_USE_INTRINSIC_GUESS : 0), until);
   };
   try {
     out.rms_px = calibrate();
