@@ -427,10 +427,15 @@ void add_thumbnails(SessionReader& r, json& calibration,
     for (int d : {0, -1, 1, -2, 2, -3, 3}) {
       const std::int64_t i = std::int64_t(centre.value()) + d;
       if (i < 0 || i >= std::int64_t(r.sample_count())) continue;
-      auto s = r.sample(std::size_t(i), PressureMode::Nearest);
-      if (!s || !s.value().pressure || c >= s.value().images.size() || s.value().images[c].empty()) continue;
-      const PressureFrame& p = *s.value().pressure;
-      const cv::Mat& image = s.value().images[c];
+      // Only this camera's picture: a whole sample would decode every camera's, four times over.
+      auto info = r.sample_info(std::size_t(i));
+      if (!info || !info.value().pressure) continue;
+      auto decoded = r.image(std::size_t(i), c);
+      if (!decoded || decoded.value().empty()) continue;
+      auto pressure = r.pressure_frame(info.value().pressure->sequence, info.value().pressure->connection);
+      if (!pressure) continue;
+      const PressureFrame& p = pressure.value();
+      const cv::Mat& image = decoded.value();
       cv::Mat shown = image;
       if (cal[c] && cal[c]->model.image_size == image.size()) {
         const sensel::Grid grid{p.grid_cols, p.grid_rows, p.grid_xscale, p.grid_yscale};
