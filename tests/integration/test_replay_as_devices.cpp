@@ -7,12 +7,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <optional>
 #include <set>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
@@ -115,23 +118,73 @@ std::vector<double> replay_interval_errors_ms(const fs::path& log, bool sensel) 
   return errors;
 }
 
-// Records `rig_yaml` for `seconds`, writes its replay rig, and records that for `again_seconds`:
-// the two sessions and the re-recording's output (empty paths, with the failure said, on an error).
+// The sessions the tests replay: what each records first. Only the re-recording of a replay is timed
+// (its intervals against the original's device times), so under ctest the originals are recorded
+// beside the other tests, by ReplayAsDevicesFixture.Record into $PVCAP_REPLAY_ORIGINALS, and only the
+// replays run alone (tests/CMakeLists.txt); a test run directly records its own.
+struct OriginalSpec {
+  std::string name;
+  std::string rig_yaml;
+  double seconds;
+};
+std::vector<OriginalSpec> original_specs() {
+  std::string colour = sim_rig_yaml({{}}, 640, 480, 30, 15);
+  const std::string preset = "  preset: ultrafast\n";
+  colour.replace(colour.find(preset), preset.size(), preset + "  video_mode: color\n");
+  return {{"devices",
+           sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000},
+                         {.drift_ppm = -65, .offset_ms = 12500},
+                         {.drift_ppm = 90, .offset_ms = 800},
+                         {.drift_ppm = -15, .offset_ms = 31000}},
+                        640, 480, 30, 15, "free-run", /*sensel=*/true),
+           8},
+          {"colour", colour, 3},
+          {"hardware", sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000}, {}}, 640, 480, 30, 15, "hardware"), 3},
+          {"rate", sim_rig_yaml({{.drift_ppm = 40}}, 640, 480, 30, 15, "free-run", true), 5}};
+}
+
+// Records original `spec` under `dir` (dir/recorded/<session>); its session folder, or empty with
+// the failure said.
+fs::path record_original(const fs::path& dir, const OriginalSpec& spec) {
+  fs::create_directories(dir);
+  std::ofstream(dir / "rig.yaml") << spec.rig_yaml;
+  const auto first = run_pvcap(fmt::format("session --rig {} --root {} --duration {} --no-web",
+                                           (dir / "rig.yaml").string(), (dir / "recorded").string(), spec.seconds));
+  const fs::path session = only_session(dir / "recorded");
+  if (first.exit_code != 0 || session.empty()) {
+    ADD_FAILURE() << "recording the original '" << spec.name << "': " << first.output;
+    return {};
+  }
+  return session;
+}
+
+// Original `name`: the fixture's recording under ctest, else recorded now into `work`.
+fs::path original(const std::string& name, const fs::path& work) {
+  for (const auto& spec : original_specs())
+    if (spec.name == name) {
+      if (const char* shared = std::getenv("PVCAP_REPLAY_ORIGINALS")) {
+        const fs::path session = only_session(fs::path(shared) / name / "recorded");
+        if (session.empty())
+          ADD_FAILURE() << "ReplayAsDevicesFixture.Record did not record '" << name << "' into " << shared;
+        return session;
+      }
+      return record_original(work / "original", spec);
+    }
+  ADD_FAILURE() << "no original named " << name;
+  return {};
+}
+
+// Replays original `name` as devices and records that for `again_seconds`: the two sessions and
+// the re-recording's output (empty paths, with the failure said, on an error).
 struct RoundTrip {
   fs::path recorded, replayed, replay_rig;
   std::string rig_output, again_output;
 };
-RoundTrip record_twice(const fs::path& work, const std::string& rig_yaml, double seconds, double again_seconds,
-                       const std::string& replay_options = "") {
+RoundTrip replay_and_record(const fs::path& work, const std::string& name, double again_seconds,
+                            const std::string& replay_options = "") {
   RoundTrip r;
-  std::ofstream(work / "rig.yaml") << rig_yaml;
-  const auto first = run_pvcap(fmt::format("session --rig {} --root {} --duration {} --no-web",
-                                           (work / "rig.yaml").string(), (work / "recorded").string(), seconds));
-  r.recorded = only_session(work / "recorded");
-  if (first.exit_code != 0 || r.recorded.empty()) {
-    ADD_FAILURE() << first.output;
-    return {};
-  }
+  r.recorded = original(name, work);
+  if (r.recorded.empty()) return {};
   r.replay_rig = work / "replay.yaml";
   const auto rig = run_pvcap(fmt::format("replay {} --as-devices --rig-out {} {}", r.recorded.string(),
                                          r.replay_rig.string(), replay_options));
@@ -153,18 +206,17 @@ RoundTrip record_twice(const fs::path& work, const std::string& rig_yaml, double
 
 }  // namespace
 
+// Under ctest: the originals, recorded once beside the other tests (the replays then run alone).
+TEST(ReplayAsDevicesFixture, Record) {
+  const char* dir = std::getenv("PVCAP_REPLAY_ORIGINALS");
+  if (!dir) GTEST_SKIP() << "PVCAP_REPLAY_ORIGINALS is not set: each ReplayAsDevices test records its own original";
+  for (const auto& spec : original_specs()) EXPECT_FALSE(record_original(fs::path(dir) / spec.name, spec).empty());
+}
+
 TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   const fs::path work = work_dir("replay-devices");
-  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000},
-                                                    {.drift_ppm = -65, .offset_ms = 12500},
-                                                    {.drift_ppm = 90, .offset_ms = 800},
-                                                    {.drift_ppm = -15, .offset_ms = 31000}},
-                                                   640, 480, 30, 15, "free-run", /*sensel=*/true);
-  const auto first = run_pvcap(fmt::format("session --rig {} --root {} --duration 8 --no-web",
-                                           (work / "rig.yaml").string(), (work / "recorded").string()));
-  ASSERT_EQ(first.exit_code, 0) << first.output;
-  const fs::path recorded = only_session(work / "recorded");
-  ASSERT_FALSE(recorded.empty()) << first.output;
+  const fs::path recorded = original("devices", work);  // 8 s, four drifting cameras and the Sensel
+  ASSERT_FALSE(recorded.empty());
 
   const auto rig =
       run_pvcap(fmt::format("replay {} --as-devices --rig-out {}", recorded.string(), (work / "replay.yaml").string()));
@@ -418,10 +470,7 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
 // and a second demosaicing allow.
 TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
   const fs::path work = work_dir("replay-colour");
-  std::string yaml = sim_rig_yaml({{}}, 640, 480, 30, 15);
-  const std::string preset = "  preset: ultrafast\n";
-  yaml.replace(yaml.find(preset), preset.size(), preset + "  video_mode: color\n");
-  const RoundTrip trip = record_twice(work, yaml, 3, 3.5);
+  const RoundTrip trip = replay_and_record(work, "colour", 3.5);
   ASSERT_FALSE(trip.replayed.empty());
   EXPECT_NE(trip.again_output.find("sampled back into BayerRG8"), std::string::npos) << trip.again_output;
   const fs::path &recorded = trip.recorded, &replayed = trip.replayed;
@@ -487,8 +536,7 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
 // receives the same frames (ids and device times) at the recorded intervals.
 TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
   const fs::path work = work_dir("replay-hardware");
-  const RoundTrip trip = record_twice(
-      work, sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000}, {}}, 640, 480, 30, 15, "hardware"), 3, 3.5);
+  const RoundTrip trip = replay_and_record(work, "hardware", 3.5);
   ASSERT_FALSE(trip.replayed.empty());
   std::stringstream printed;
   printed << std::ifstream(trip.replay_rig).rdbuf();
@@ -533,8 +581,7 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
 // half the time.
 TEST(ReplayAsDevices, AtRateTwoTheSameFramesComeTwiceAsOften) {
   const fs::path work = work_dir("replay-rate");
-  const RoundTrip trip =
-      record_twice(work, sim_rig_yaml({{.drift_ppm = 40}}, 640, 480, 30, 15, "free-run", true), 5, 3.1, "--rate 2");
+  const RoundTrip trip = replay_and_record(work, "rate", 3.1, "--rate 2");
   ASSERT_FALSE(trip.replayed.empty());
   const std::string printed = "pvcap session --rig " + trip.replay_rig.string() + " --duration ";
   const auto at = trip.rig_output.find(printed);
