@@ -9,15 +9,15 @@
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "calib/rig_calibration.h"
 #include "core/time.h"
-#include "session_under_test.h"
 #include "sim/truth.h"
 #include "storage/session_reader.h"
 #include "storage/sqlite/database.h"
 #include "sync/clock_fit.h"
+#include "tests/integration/picture_files.h"
+#include "tests/integration/session_under_test.h"
 
 namespace fs = std::filesystem;
 using pvcap::testing::only_session;
@@ -113,7 +113,7 @@ TEST(Calibration, TheBoardIsWrittenAsPdfOrPng) {
   EXPECT_EQ(read_all(work / "board.pdf").rfind("%PDF-1.4", 0), 0u);
   r = run_pvcap(fmt::format("calibrate board --out {}", (work / "board.png").string()));
   EXPECT_EQ(r.exit_code, 0) << r.output;
-  const cv::Mat png = cv::imread((work / "board.png").string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat png = pvcap::testing::read_picture(work / "board.png", /*grey=*/true);
   // 10 x 7 squares of 25 mm and a 12 mm margin at 12 px/mm.
   EXPECT_EQ(png.size(), cv::Size(int(274 * 12), int(199 * 12)));
   r = run_pvcap(fmt::format("calibrate board --out {}", (work / "board.txt").string()));

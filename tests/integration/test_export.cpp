@@ -16,7 +16,6 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "calib/rig_calibration.h"
@@ -26,6 +25,7 @@
 #include "storage/session_reader.h"
 #include "storage/sqlite/database.h"
 #include "tests/integration/export_fixture.h"
+#include "tests/integration/picture_files.h"
 
 namespace fs = std::filesystem;
 using pvcap::testing::only_session;
@@ -275,7 +275,7 @@ TEST(Export, ThePapersCropKeepsTheLoadersGeometryOnTheCroppedFrames) {
   const std::size_t first_sample = meta["pvcap"]["samples"][0];
   for (std::size_t k = 0; k < 4; ++k) {
     SCOPED_TRACE(k);
-    const cv::Mat jpg = cv::imread((dir / fmt::format("camera_{}", k) / "00000.jpg").string());
+    const cv::Mat jpg = pvcap::testing::read_picture(dir / fmt::format("camera_{}", k) / "00000.jpg");
     ASSERT_EQ(jpg.size(), cv::Size(480, 384));
     const json box = meta["pvcap"]["cameras"][k]["crop_box"];
     const cv::Rect r(box[0], box[1], box[2], box[3]);

@@ -9,7 +9,6 @@
 #include <sstream>
 
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "replay/replay_composer.h"
@@ -17,6 +16,7 @@
 #include "sim/truth.h"
 #include "storage/session_reader.h"
 #include "storage/video_reader.h"
+#include "tests/integration/picture_files.h"
 #include "tests/integration/session_under_test.h"
 
 namespace fs = std::filesystem;
@@ -161,7 +161,7 @@ TEST(Replay, TheRenderedTakeShowsThePressWhereTheSimulatorPutIt) {
   unsetenv("QT_QPA_PLATFORM");
   ASSERT_EQ(window.exit_code, 0) << window.output;
   EXPECT_NE(window.output.find(fmt::format("the last of sample {}", expected)), std::string::npos) << window.output;
-  const cv::Mat seen = cv::imread(shot.string());
+  const cv::Mat seen = pvcap::testing::read_picture(shot);
   ASSERT_FALSE(seen.empty());
   ASSERT_GT(seen.rows, Layout::kHeight) << "the status line under the picture";
   auto want = composer.value().compose(expected);
