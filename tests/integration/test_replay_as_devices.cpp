@@ -210,6 +210,7 @@ RoundTrip replay_and_record(const fs::path& work, const std::string& name, doubl
 TEST(ReplayAsDevicesFixture, Record) {
   const char* dir = std::getenv("PVCAP_REPLAY_ORIGINALS");
   if (!dir) GTEST_SKIP() << "PVCAP_REPLAY_ORIGINALS is not set: each ReplayAsDevices test records its own original";
+  fs::remove_all(dir);  // a killed run's originals would stand beside the new ones
   for (const auto& spec : original_specs()) EXPECT_FALSE(record_original(fs::path(dir) / spec.name, spec).empty());
 }
 
