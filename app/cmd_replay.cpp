@@ -24,7 +24,8 @@ bool display_available() {
 }
 
 // The devices start re-serving 0.2-0.3 s after the recording starts them (sim/session_replay.h):
-// a session this much longer than the replay records all of it and stops before they fall silent.
+// a session this much longer than the replay up to the cameras' last frame records every frame a
+// sample can hold and stops before the cameras fall silent (sim::ReplayRig::record_seconds).
 constexpr double kReplayStartS = 0.5;
 
 int replay_as_devices(const ReplayCommand& c) {
@@ -39,7 +40,7 @@ int replay_as_devices(const ReplayCommand& c) {
       "its simulated devices re-serve {:.1f} s of {} ({:.1f} s at rate {:g}) through the GigE Vision and "
       "Sensel protocols.\nrecord it again with:\n  pvcap session --rig {} --duration {:.1f}\n",
       v.rig_file.string(), v.session_seconds, c.session.string(), v.replay_seconds, c.rate, v.rig_file.string(),
-      std::ceil(10 * (v.replay_seconds + kReplayStartS)) / 10);
+      std::ceil(10 * (v.record_seconds + kReplayStartS)) / 10);
   return 0;
 }
 }  // namespace

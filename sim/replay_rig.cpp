@@ -70,20 +70,23 @@ Result<ReplayRig> write_replay_rig(const std::filesystem::path& session_dir, std
   }
   ReplayRig r;
   r.rig_file = out;
-  std::int64_t first = INT64_MAX, last = INT64_MIN;
+  std::int64_t first = INT64_MAX, last = INT64_MIN, last_camera = INT64_MIN;
   for (std::size_t c = 0; c < rig["cameras"].size(); ++c)
     if (auto i = replay.value()->camera_index(rig["cameras"][c]["name"].as<std::string>())) {
       const auto& frames = replay.value()->camera_frames(i.value());
       if (frames.empty()) continue;
       first = std::min(first, frames.front().t_ns);
-      last = std::max(last, frames.back().t_ns);
+      last_camera = std::max(last_camera, frames.back().t_ns);
     }
+  last = last_camera;
   for (const auto& p : replay.value()->pressure_frames()) {
     first = std::min(first, p.t_ns);
     last = std::max(last, p.t_ns);
   }
   r.session_seconds = last > first ? double(last - first) / 1e9 : 0;
   r.replay_seconds = r.session_seconds / rate;
+  const std::int64_t record_end = last_camera > first ? last_camera : last;  // a Sensel-only session: all of it
+  r.record_seconds = record_end > first ? double(record_end - first) / 1e9 / rate : 0;
   return r;
 }
 

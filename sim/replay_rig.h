@@ -13,6 +13,11 @@ struct ReplayRig {
   std::filesystem::path rig_file;
   double session_seconds = 0;  // from the first recorded frame to the last
   double replay_seconds = 0;   // at the chosen rate
+  // At the chosen rate, from the first recorded frame to the cameras' last (every frame a sample can
+  // hold): what a re-recording should last. The Sensel recorded on while the cameras stopped (it
+  // stops last); a re-recording that waited for that tail too would leave its cameras silent for as
+  // long, toward their stall limit (0.5 s at 30 fps), past which they are called lost.
+  double record_seconds = 0;
 };
 
 // Writes `out` (default: ./<session folder name>-replay.yaml): the session's own rig, its cameras on
