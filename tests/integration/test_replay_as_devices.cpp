@@ -117,11 +117,12 @@ std::vector<double> replay_interval_errors_ms(const fs::path& log, bool sensel) 
   return errors;
 }
 
-// The sessions the tests replay, recorded by each test alone (RUN_SERIAL): tried on 2026-11-27,
-// recording them once beside the other tests (a ctest fixture) saved ~24 s of the run, but an original
-// recorded under load holds picks the re-recording, alone, does not repeat: the colour test found 8
-// of 45 samples not again in one fresh clone of five, and the fixture's sessions beside the board
-// session's start made that test's loaded-start failure likelier (docs/testing.md).
+// The sessions the tests replay, recorded by each test alone (RUN_SERIAL). Tried on 2026-11-27:
+// recorded once beside the other tests (a ctest fixture), they took ~24 s out of the time tests run
+// alone (~12 s of the run), but an original recorded under load holds picks the re-recording, alone,
+// does not repeat (the colour test found 8 of 45 samples not again in one fresh clone of five), and
+// the fixture's sessions beside the board session's start made that test's loaded-start failure
+// likelier (docs/testing.md).
 struct OriginalSpec {
   std::string name;
   std::string rig_yaml;
