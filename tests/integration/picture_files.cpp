@@ -21,8 +21,8 @@ struct JpegErrors {
 
 void jpeg_failed(j_common_ptr info) { std::longjmp(reinterpret_cast<JpegErrors*>(info->err)->jump, 1); }
 
-// Decompresses into `out` (allocated by the caller once the size is known through `size`); no C++
-// object lives in this frame across the setjmp. False on a damaged file.
+// Decompresses into `out` (the caller's, sized here once the header is read): no C++ object lives in
+// this frame across the setjmp that libjpeg's errors jump back to. False on a damaged file.
 bool decompress(const std::vector<unsigned char>& bytes, bool grey, jpeg_decompress_struct& info, JpegErrors& errors,
                 cv::Mat& out) {
   info.err = jpeg_std_error(&errors.mgr);
