@@ -117,32 +117,12 @@ std::vector<double> replay_interval_errors_ms(const fs::path& log, bool sensel) 
   return errors;
 }
 
-// The sessions the tests replay, recorded by each test alone (RUN_SERIAL). Tried on 2026-11-27:
-// recorded once beside the other tests (a ctest fixture), they took ~24 s out of the time tests run
-// alone (~12 s of the run), but an original recorded under load holds picks the re-recording, alone,
-// does not repeat (the colour test found 8 of 45 samples not again in one fresh clone of five), and
-// the fixture's sessions beside the board session's start made that test's loaded-start failure
-// likelier (docs/testing.md).
+// A session a test replays: its rig file and length, recorded by the test itself, alone (RUN_SERIAL:
+// recorded beside other tests, an original held picks its re-recording did not repeat; docs/testing.md).
 struct OriginalSpec {
-  std::string name;
   std::string rig_yaml;
   double seconds;
 };
-std::vector<OriginalSpec> original_specs() {
-  std::string colour = sim_rig_yaml({{}}, 640, 480, 30, 15);
-  const std::string preset = "  preset: ultrafast\n";
-  colour.replace(colour.find(preset), preset.size(), preset + "  video_mode: color\n");
-  return {{"devices",
-           sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000},
-                         {.drift_ppm = -65, .offset_ms = 12500},
-                         {.drift_ppm = 90, .offset_ms = 800},
-                         {.drift_ppm = -15, .offset_ms = 31000}},
-                        640, 480, 30, 15, "free-run", /*sensel=*/true),
-           8},
-          {"colour", colour, 3},
-          {"hardware", sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000}, {}}, 640, 480, 30, 15, "hardware"), 3},
-          {"rate", sim_rig_yaml({{.drift_ppm = 40}}, 640, 480, 30, 15, "free-run", true), 5}};
-}
 
 // Records original `spec` under `dir` (dir/recorded/<session>); its session folder, or empty with
 // the failure said.
@@ -153,30 +133,22 @@ fs::path record_original(const fs::path& dir, const OriginalSpec& spec) {
                                            (dir / "rig.yaml").string(), (dir / "recorded").string(), spec.seconds));
   const fs::path session = only_session(dir / "recorded");
   if (first.exit_code != 0 || session.empty()) {
-    ADD_FAILURE() << "recording the original '" << spec.name << "': " << first.output;
+    ADD_FAILURE() << "recording the original: " << first.output;
     return {};
   }
   return session;
 }
 
-// Original `name`, recorded now into `work`.
-fs::path original(const std::string& name, const fs::path& work) {
-  for (const auto& spec : original_specs())
-    if (spec.name == name) return record_original(work / "original", spec);
-  ADD_FAILURE() << "no original named " << name;
-  return {};
-}
-
-// Replays original `name` as devices and records that for `again_seconds`: the two sessions and
+// Replays `original` as devices and records that for `again_seconds`: the two sessions and
 // the re-recording's output (empty paths, with the failure said, on an error).
 struct RoundTrip {
   fs::path recorded, replayed, replay_rig;
   std::string rig_output, again_output;
 };
-RoundTrip replay_and_record(const fs::path& work, const std::string& name, double again_seconds,
+RoundTrip replay_and_record(const fs::path& work, const OriginalSpec& original, double again_seconds,
                             const std::string& replay_options = "") {
   RoundTrip r;
-  r.recorded = original(name, work);
+  r.recorded = record_original(work / "original", original);
   if (r.recorded.empty()) return {};
   r.replay_rig = work / "replay.yaml";
   const auto rig = run_pvcap(fmt::format("replay {} --as-devices --rig-out {} {}", r.recorded.string(),
@@ -201,7 +173,14 @@ RoundTrip replay_and_record(const fs::path& work, const std::string& name, doubl
 
 TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   const fs::path work = work_dir("replay-devices");
-  const fs::path recorded = original("devices", work);  // 8 s, four drifting cameras and the Sensel
+  // 8 s, four drifting cameras and the Sensel.
+  const fs::path recorded =
+      record_original(work / "original", {sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000},
+                                                        {.drift_ppm = -65, .offset_ms = 12500},
+                                                        {.drift_ppm = 90, .offset_ms = 800},
+                                                        {.drift_ppm = -15, .offset_ms = 31000}},
+                                                       640, 480, 30, 15, "free-run", /*sensel=*/true),
+                                          8});
   ASSERT_FALSE(recorded.empty());
 
   const auto rig =
@@ -462,7 +441,10 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
 // and a second demosaicing allow.
 TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
   const fs::path work = work_dir("replay-colour");
-  const RoundTrip trip = replay_and_record(work, "colour", 3.5);
+  std::string yaml = sim_rig_yaml({{}}, 640, 480, 30, 15);
+  const std::string preset = "  preset: ultrafast\n";
+  yaml.replace(yaml.find(preset), preset.size(), preset + "  video_mode: color\n");
+  const RoundTrip trip = replay_and_record(work, {yaml, 3}, 3.5);
   ASSERT_FALSE(trip.replayed.empty());
   EXPECT_NE(trip.again_output.find("sampled back into BayerRG8"), std::string::npos) << trip.again_output;
   const fs::path &recorded = trip.recorded, &replayed = trip.replayed;
@@ -528,7 +510,8 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
 // receives the same frames (ids and device times) at the recorded intervals.
 TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
   const fs::path work = work_dir("replay-hardware");
-  const RoundTrip trip = replay_and_record(work, "hardware", 3.5);
+  const RoundTrip trip = replay_and_record(
+      work, {sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000}, {}}, 640, 480, 30, 15, "hardware"), 3}, 3.5);
   ASSERT_FALSE(trip.replayed.empty());
   std::stringstream printed;
   printed << std::ifstream(trip.replay_rig).rdbuf();
@@ -573,7 +556,8 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
 // half the time.
 TEST(ReplayAsDevices, AtRateTwoTheSameFramesComeTwiceAsOften) {
   const fs::path work = work_dir("replay-rate");
-  const RoundTrip trip = replay_and_record(work, "rate", 3.1, "--rate 2");
+  const RoundTrip trip = replay_and_record(
+      work, {sim_rig_yaml({{.drift_ppm = 40}}, 640, 480, 30, 15, "free-run", true), 5}, 3.1, "--rate 2");
   ASSERT_FALSE(trip.replayed.empty());
   const std::string printed = "pvcap session --rig " + trip.replay_rig.string() + " --duration ";
   const auto at = trip.rig_output.find(printed);
