@@ -152,29 +152,12 @@ const cv::Mat& SimCamera::base_image(int width, int height, ArvPixelFormat forma
   return it->second;
 }
 
-const cv::Mat& SimCamera::board_image(int width, int height, ArvPixelFormat format, std::int64_t true_ns) {
-  BoardView& v = board_views_[std::make_tuple(width, height, std::uint32_t(format))];
-  const calib::CameraModel m = model({width, height});
-  if (v.rays.empty()) {
-    v.rays = m.normalised_rays();
-    v.scene_bgr = render_scene_bgr(calib::default_pad_layout(), m, v.rays);
-  }
+cv::Mat SimCamera::board_image(int width, int height, ArvPixelFormat format, std::int64_t true_ns) {
   const int pose = board_pose_index(double(true_ns - clock_.t0_ns) * 1e-9);
-  if (pose != v.pose) {
-    static const calib::BoardSpec spec;
-    static const PlaneTexture board = [] {
-      constexpr double kPxPerMm = 6.0;
-      cv::Mat bgr;
-      cv::cvtColor(calib::board_image(spec, kPxPerMm), bgr, cv::COLOR_GRAY2BGR);
-      return PlaneTexture{bgr, cv::Matx33d(kPxPerMm, 0, -0.5, 0, kPxPerMm, -0.5, 0, 0, 1)};
-    }();
-    const BoardPose p = board_pose(pose, spec.width_mm(), spec.height_mm());
-    cv::Mat bgr = v.scene_bgr.clone();
-    draw_plane(bgr, v.rays, m.R * p.R, m.R * p.t + m.t, board);
-    v.frame = to_sensor_format(bgr, pixel_format_name(format));
-    v.pose = pose;
-  }
-  return v.frame;
+  auto& view = board_views_[std::make_tuple(width, height, std::uint32_t(format))];
+  // Made at start for the configured format; another one a client asks for is made on first use.
+  if (!view) view = std::make_unique<BoardFrames>(model({width, height}), pixel_format_name(format), pose);
+  return view->frame(pose);
 }
 
 // Aravis' engine sends an acquisition's first frame when its idle wait ends, then the others at
@@ -216,7 +199,7 @@ void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t t
   // arv_buffer_get_data reports the received size, which is 0 while filling; the fake camera
   // has already checked that the allocation holds the payload (width x height x pixel size).
   auto* data = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, nullptr)));
-  const cv::Mat& base = board_ ? board_image(width, height, format, true_ns) : base_image(width, height, format);
+  const cv::Mat base = board_ ? board_image(width, height, format, true_ns) : base_image(width, height, format);
   if (!data) return;
   std::memcpy(data, base.data, base.total() * base.elemSize());
   const auto frame_id = std::uint16_t(arv_buffer_get_frame_id(buffer));

@@ -25,6 +25,7 @@
 #include "capture/aravis_handles.h"
 #include "core/result.h"
 #include "core/rig_config.h"
+#include "sim/board_frames.h"
 #include "sim/engine_kicker.h"
 #include "sim/sim_config.h"
 
@@ -90,14 +91,10 @@ class SimCamera {
   std::uint64_t emitted_ = 0;
   std::shared_ptr<const Hand> hand_;
   bool board_ = false;
-  // Board sessions: per image size, the rays, the scene without the board, and the frame of the
-  // board pose shown last (a pose is held for a second: rendered once, copied after).
-  struct BoardView {
-    cv::Mat rays, scene_bgr, frame;
-    int pose = -1;
-  };
-  std::map<std::tuple<int, int, std::uint32_t>, BoardView> board_views_;
-  const cv::Mat& board_image(int width, int height, ArvPixelFormat format, std::int64_t true_ns);
+  // Board sessions: per image size and format, the board's poses rendered ahead of the engine
+  // (sim/board_frames.h).
+  std::map<std::tuple<int, int, std::uint32_t>, std::unique_ptr<BoardFrames>> board_views_;
+  cv::Mat board_image(int width, int height, ArvPixelFormat format, std::int64_t true_ns);
 };
 
 }  // namespace pvcap::sim
