@@ -10,9 +10,7 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <opencv2/imgproc.hpp>
 
-#include "calib/charuco.h"
 #include "capture/pixel_format.h"
 #include "core/time.h"
 #include "sim/board_motion.h"
