@@ -280,9 +280,9 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
     return rb_.mapped_ns.count({stream, device_ns}) > 0;
   };
   // A tick takes the group whose time (the mean of its frames' instants) is nearest. Where a session's
-  // groups sit near half way between two ticks' lattice phase (cameras at 30 fps, ticks at 15 Hz), the
-  // re-recording's tick may take the other neighbour: then no frame of the original's sample is in any
-  // sample of the re-recording, and the decision is judged at the tick like any other.
+  // ticks lie near half way between two groups (cameras at 30 fps, ticks at 15 Hz), the re-recording's
+  // tick may take the other neighbour: then no frame of the original's sample is in any sample of the
+  // re-recording, and the decision is judged at the tick like any other.
   std::map<std::int64_t, const SampleKey*> b_by_tick;
   for (const auto& s : b) b_by_tick[s.tick_ns - shift] = &s;
   auto group_time = [&](const Recorded& r, const SampleKey& s, double minus) -> std::optional<double> {
