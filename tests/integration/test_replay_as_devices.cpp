@@ -169,6 +169,66 @@ RoundTrip replay_and_record(const fs::path& work, const OriginalSpec& original, 
   return r;
 }
 
+// A frame's instant in a recording (its mapped time), by stream name and device time.
+std::optional<double> instant(const Recorded& r, const std::string& stream, std::int64_t device_ns) {
+  const auto it = r.mapped_ns.find({stream, device_ns});
+  if (it == r.mapped_ns.end()) return std::nullopt;
+  return double(it->second);
+}
+
+// How near a tie an original's choice was, and how far the re-recording moved the instants it
+// compares: margin <= moved is a tie broken the other way (docs/replay.md).
+struct Decision {
+  double margin = 0, moved = 0;
+  bool tie() const { return margin <= moved; }
+};
+
+// The re-recording's clock is the original's plus whole sample periods: the median of the tick
+// shifts of the samples that hold a frame found in both.
+std::int64_t replay_shift(const Recorded& ra, const Recorded& rb) {
+  std::map<std::pair<std::string, std::int64_t>, std::int64_t> b_tick_by_frame;
+  for (const auto& s : rb.samples)
+    for (const auto& [name, frame] : s.cameras) b_tick_by_frame[{name, frame.second}] = s.tick_ns;
+  std::vector<std::int64_t> shifts;
+  for (const auto& s : ra.samples)
+    for (const auto& [name, frame] : s.cameras)
+      if (auto it = b_tick_by_frame.find({name, frame.second}); it != b_tick_by_frame.end())
+        shifts.push_back(it->second - s.tick_ns);
+  if (shifts.empty()) return 0;
+  std::nth_element(shifts.begin(), shifts.begin() + std::ptrdiff_t(shifts.size() / 2), shifts.end());
+  return shifts[shifts.size() / 2];
+}
+
+// A tick takes the group whose time (the mean of its frames' instants) is nearest. Where a session's
+// ticks lie near half way between two groups (cameras at 30 fps, ticks at 15 Hz; the simulated
+// cameras' frames keep one phase against the sample lattice for as long as the host's real-time and
+// monotonic clocks keep theirs, so a host can sit near that tie for hours), the re-recording's tick
+// may take the other neighbour: then no frame of the original's sample `s` is in any sample of the
+// re-recording. Its decision against the group the re-recording's tick took, both seen on both
+// clocks; none when that tick has no sample or a frame is not in both recordings.
+std::optional<Decision> tick_decision(const Recorded& ra, const Recorded& rb, std::int64_t shift, const SampleKey& s) {
+  const SampleKey* y = nullptr;
+  for (const auto& b : rb.samples)
+    if (b.tick_ns - shift == s.tick_ns) y = &b;
+  if (!y) return std::nullopt;
+  auto group_time = [](const Recorded& r, const SampleKey& g, double minus) -> std::optional<double> {
+    double sum = 0;
+    for (const auto& [name, frame] : g.cameras) {
+      const auto t = instant(r, name, frame.second);
+      if (!t) return std::nullopt;
+      sum += *t - minus;
+    }
+    if (g.cameras.empty()) return std::nullopt;
+    return sum / double(g.cameras.size());
+  };
+  const auto x_then = group_time(ra, s, 0), y_then = group_time(ra, *y, 0);
+  const auto x_again = group_time(rb, s, double(shift)), y_again = group_time(rb, *y, double(shift));
+  if (!x_then || !y_then || !x_again || !y_again) return std::nullopt;
+  const double tick = double(s.tick_ns);
+  return Decision{std::fabs(*y_then - tick) - std::fabs(*x_then - tick),
+                  std::fabs(*y_again - *y_then) + std::fabs(*x_again - *x_then)};
+}
+
 }  // namespace
 
 TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
@@ -214,14 +274,8 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   // The re-recording's clock is the original's plus whole sample periods: how well does it put every
   // frame where the original did? (The Sensel's part includes the emulator's pseudo-terminal latency,
   // which the recording's own latency floor absorbed and the replay adds again: docs/replay.md.)
-  std::vector<std::int64_t> shifts;
-  for (const auto& s : a)
-    for (const auto& [name, frame] : s.cameras)
-      if (auto it = b_by_frame.find({name, frame.second}); it != b_by_frame.end())
-        shifts.push_back(it->second->tick_ns - s.tick_ns);
-  ASSERT_FALSE(shifts.empty());
-  std::nth_element(shifts.begin(), shifts.begin() + std::ptrdiff_t(shifts.size() / 2), shifts.end());
-  const std::int64_t shift = shifts[shifts.size() / 2];
+  const std::int64_t shift = replay_shift(ra_, rb_);
+  ASSERT_NE(shift, 0) << "no frame of the original is in a sample of the re-recording";
   const double period_ns = 1e9 / 15.0;
   EXPECT_LT(std::fabs(double(shift) / period_ns - std::round(double(shift) / period_ns)), 1e-6)
       << "the replay is shifted by whole sample periods";
@@ -252,17 +306,8 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   // microseconds of a tie.) Anything else counts against the 99 %, and is said with its figures.
   std::vector<double> tie_margins_us;  // how near a tie the original's choice was, for those broken
   std::string differences;             // each sample not explained, and why (also in the failure message)
-  auto instant = [](const Recorded& r, const std::string& stream, std::int64_t device_ns) -> std::optional<double> {
-    const auto it = r.mapped_ns.find({stream, device_ns});
-    if (it == r.mapped_ns.end()) return std::nullopt;
-    return double(it->second);
-  };
   // The original's margin for x over y as seen from `at`, and what the re-recording moved them
-  // against it: margin <= moved is a tie broken the other way.
-  struct Decision {
-    double margin = 0, moved = 0;
-    bool tie() const { return margin <= moved; }
-  };
+  // against it.
   auto decision = [&](const std::string& stream, std::int64_t x_device, std::int64_t y_device, double at_then,
                       double at_again) -> std::optional<Decision> {
     const auto x = instant(ra_, stream, x_device), y = instant(ra_, stream, y_device);
@@ -279,22 +324,6 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   auto sent_again = [&](const std::string& stream, std::int64_t device_ns) {
     return rb_.mapped_ns.count({stream, device_ns}) > 0;
   };
-  // A tick takes the group whose time (the mean of its frames' instants) is nearest. Where a session's
-  // ticks lie near half way between two groups (cameras at 30 fps, ticks at 15 Hz), the re-recording's
-  // tick may take the other neighbour: then no frame of the original's sample is in any sample of the
-  // re-recording, and the decision is judged at the tick like any other.
-  std::map<std::int64_t, const SampleKey*> b_by_tick;
-  for (const auto& s : b) b_by_tick[s.tick_ns - shift] = &s;
-  auto group_time = [&](const Recorded& r, const SampleKey& s, double minus) -> std::optional<double> {
-    double sum = 0;
-    for (const auto& [name, frame] : s.cameras) {
-      const auto t = instant(r, name, frame.second);
-      if (!t) return std::nullopt;
-      sum += *t - minus;
-    }
-    if (s.cameras.empty()) return std::nullopt;
-    return sum / double(s.cameras.size());
-  };
   std::size_t same = 0, pressure_same = 0, ties = 0, different = 0, not_sent = 0;
   std::vector<std::pair<std::int64_t, std::int64_t>> matched;  // sample indexes, recorded -> replayed
   for (const auto& s : a) {
@@ -308,18 +337,7 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
     for (const auto& [name, frame] : s.cameras)
       if (auto it = b_by_frame.find({name, frame.second}); it != b_by_frame.end()) twin = it->second;
     if (!twin) {
-      // The original's group x against the one the re-recording's tick took, y, both seen on both clocks.
-      const auto at_tick = b_by_tick.find(s.tick_ns);
-      std::optional<Decision> d;
-      if (at_tick != b_by_tick.end()) {
-        const SampleKey& y = *at_tick->second;
-        const auto x_then = group_time(ra_, s, 0), y_then = group_time(ra_, y, 0);
-        const auto x_again = group_time(rb_, s, double(shift)), y_again = group_time(rb_, y, double(shift));
-        const double tick = double(s.tick_ns);
-        if (x_then && y_then && x_again && y_again)
-          d = Decision{std::fabs(*y_then - tick) - std::fabs(*x_then - tick),
-                       std::fabs(*y_again - *y_then) + std::fabs(*x_again - *x_then)};
-      }
+      const auto d = tick_decision(ra_, rb_, shift, s);  // the tick took the neighbouring group?
       if (d && d->tie()) {
         tie_margins_us.push_back(d->margin / 1e3);
         ++ties;
@@ -496,8 +514,9 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
   ASSERT_TRUE(a && b);
   std::vector<double> differences;  // mean |again - then| per image (8-bit levels)
   double grey_difference = 0;       // what a grey frame would have differed by
-  std::size_t without_camera = 0, not_again = 0, no_image_then = 0, no_image_again = 0;
+  std::size_t without_camera = 0, not_again = 0, ties = 0, no_image_then = 0, no_image_again = 0;
   std::string missing;  // "index at t s" of each sample not found again, for a failure's message
+  const std::int64_t shift = replay_shift(ra, rb);
   for (const auto& s : ra.samples) {
     if (s.cameras.empty()) {
       ++without_camera;
@@ -505,6 +524,11 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
     }
     const auto it = b_by_device.find(s.cameras.begin()->second.second);
     if (it == b_by_device.end()) {
+      // Its tick may have taken the neighbouring frame again, at a tie (tick_decision).
+      if (const auto d = tick_decision(ra, rb, shift, s); d && d->tie()) {
+        ++ties;
+        continue;
+      }
       ++not_again;
       missing += fmt::format(" #{} at {:.3f} s", s.index, double(s.tick_ns - ra.samples.front().tick_ns) / 1e9);
       continue;
@@ -525,15 +549,16 @@ TEST(ReplayAsDevices, AColourStoreIsReServedAsItsImagesNotGrey) {
     grey_difference = std::max(grey_difference, cv::mean(diff)[0]);
   }
   std::printf(
-      "colour store: %zu samples recorded: %zu without a camera frame, %zu not sampled again, %zu without an "
-      "image then, %zu without an image again\n",
-      ra.samples.size(), without_camera, not_again, no_image_then, no_image_again);
+      "colour store: %zu samples recorded: %zu without a camera frame, %zu not sampled again (and %zu more whose "
+      "tick took the neighbouring frame at a tie), %zu without an image then, %zu without an image again\n",
+      ra.samples.size(), without_camera, not_again, ties, no_image_then, no_image_again);
   // ~45 samples, each found again with its image but for the replay's first moments (a frame due
   // before the camera streamed again is not sent). Under the suite's load only 14 once were: the
   // first 2 s of a recording were mapped by late arrivals until the latch probes spanned 2 s, which
   // moved a tick's pick to the frame a period away; a camera is now mapped by its first probe.
   EXPECT_LE(not_again, 2u) << "not found again:" << missing;
-  ASSERT_GE(differences.size() + 2, ra.samples.size());
+  ASSERT_GE(differences.size() + 2 + ties, ra.samples.size());
+  ASSERT_GE(2 * differences.size(), ra.samples.size()) << "most samples compared image for image";
   std::sort(differences.begin(), differences.end());
   std::printf(
       "colour store re-served: %zu images compared; mean |again - then| median %.2f, worst %.2f levels "
