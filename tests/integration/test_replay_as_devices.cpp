@@ -139,13 +139,15 @@ fs::path record_original(const fs::path& dir, const OriginalSpec& spec) {
   return session;
 }
 
-// Replays `original` as devices and records that for `again_seconds`: the two sessions and
+// Replays `original` as devices and records that for `again_seconds`, or for the duration the replay
+// printed (as a user would run it) when none is given: the two sessions, the printed duration and
 // the re-recording's output (empty paths, with the failure said, on an error).
 struct RoundTrip {
   fs::path recorded, replayed, replay_rig;
   std::string rig_output, again_output;
+  double printed_seconds = 0;  // the duration in the printed `pvcap session` command; 0 when none
 };
-RoundTrip replay_and_record(const fs::path& work, const OriginalSpec& original, double again_seconds,
+RoundTrip replay_and_record(const fs::path& work, const OriginalSpec& original, std::optional<double> again_seconds,
                             const std::string& replay_options = "") {
   RoundTrip r;
   r.recorded = record_original(work / "original", original);
@@ -158,8 +160,15 @@ RoundTrip replay_and_record(const fs::path& work, const OriginalSpec& original, 
     ADD_FAILURE() << rig.output;
     return {};
   }
+  const std::string printed = "pvcap session --rig " + r.replay_rig.string() + " --duration ";
+  if (const auto at = rig.output.find(printed); at != std::string::npos)
+    r.printed_seconds = std::stod(rig.output.substr(at + printed.size()));
+  if (!again_seconds && r.printed_seconds <= 0) {
+    ADD_FAILURE() << "no `" << printed << "` command printed:\n" << rig.output;
+    return {};
+  }
   const auto again = run_pvcap(fmt::format("session --rig {} --root {} --duration {} --no-web", r.replay_rig.string(),
-                                           (work / "replayed").string(), again_seconds));
+                                           (work / "replayed").string(), again_seconds.value_or(r.printed_seconds)));
   r.again_output = again.output;
   r.replayed = only_session(work / "replayed");
   if (again.exit_code != 0 || r.replayed.empty()) {
@@ -233,34 +242,23 @@ std::optional<Decision> tick_decision(const Recorded& ra, const Recorded& rb, st
 
 TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   const fs::path work = work_dir("replay-devices");
-  // 8 s, four drifting cameras and the Sensel.
-  const fs::path recorded =
-      record_original(work / "original", {sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000},
-                                                        {.drift_ppm = -65, .offset_ms = 12500},
-                                                        {.drift_ppm = 90, .offset_ms = 800},
-                                                        {.drift_ppm = -15, .offset_ms = 31000}},
-                                                       640, 480, 30, 15, "free-run", /*sensel=*/true),
-                                          8});
-  ASSERT_FALSE(recorded.empty());
-
-  const auto rig =
-      run_pvcap(fmt::format("replay {} --as-devices --rig-out {}", recorded.string(), (work / "replay.yaml").string()));
-  ASSERT_EQ(rig.exit_code, 0) << rig.output;
-  // The printed command, as a user would run it.
-  const std::string printed = "pvcap session --rig " + (work / "replay.yaml").string() + " --duration ";
-  const auto at = rig.output.find(printed);
-  ASSERT_NE(at, std::string::npos) << rig.output;
-  const double duration = std::stod(rig.output.substr(at + printed.size()));
-  EXPECT_GT(duration, 8.0);
-  EXPECT_LT(duration, 9.0);
-  const auto again = run_pvcap(fmt::format("session --rig {} --root {} --duration {} --no-web",
-                                           (work / "replay.yaml").string(), (work / "replayed").string(), duration));
-  ASSERT_EQ(again.exit_code, 0) << again.output;
+  // 8 s, four drifting cameras and the Sensel, recorded again for the printed duration.
+  const RoundTrip trip = replay_and_record(work,
+                                           {sim_rig_yaml({{.drift_ppm = 40, .offset_ms = 5000},
+                                                          {.drift_ppm = -65, .offset_ms = 12500},
+                                                          {.drift_ppm = 90, .offset_ms = 800},
+                                                          {.drift_ppm = -15, .offset_ms = 31000}},
+                                                         640, 480, 30, 15, "free-run", /*sensel=*/true),
+                                            8},
+                                           std::nullopt);
+  ASSERT_FALSE(trip.replayed.empty());
+  const fs::path &recorded = trip.recorded, &replayed = trip.replayed;
+  const std::string& again_output = trip.again_output;
+  EXPECT_GT(trip.printed_seconds, 8.0);
+  EXPECT_LT(trip.printed_seconds, 9.0);
   // The printed duration ends the session before the cameras fall silent (sim::ReplayRig::record_seconds).
-  EXPECT_EQ(again.output.find("camera lost"), std::string::npos) << "the session ends before the replay falls silent:\n"
-                                                                 << again.output;
-  const fs::path replayed = only_session(work / "replayed");
-  ASSERT_FALSE(replayed.empty()) << again.output;
+  EXPECT_EQ(again_output.find("camera lost"), std::string::npos) << "the session ends before the replay falls silent:\n"
+                                                                 << again_output;
 
   // Every recorded sample, found in the re-recording by any of its camera frames, names the same
   // frame of every camera and the same pressure frame.
@@ -422,7 +420,7 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
       not_sent);
   EXPECT_LE(not_sent, 3u) << "only the session's first moments";
   EXPECT_GE(100.0 * double(same + ties) / double(compared), 99.0) << differences << "the re-recording said:\n"
-                                                                  << again.output;
+                                                                  << again_output;
 
   // Every recorded pressure payload up to the cameras' last frame (what a sample can hold, and what the
   // printed duration re-records; the Sensel recorded on while the cameras stopped) came back bit for bit.
@@ -622,12 +620,8 @@ TEST(ReplayAsDevices, AtRateTwoTheSameFramesComeTwiceAsOften) {
   const RoundTrip trip = replay_and_record(
       work, {sim_rig_yaml({{.drift_ppm = 40}}, 640, 480, 30, 15, "free-run", true), 5}, 3.1, "--rate 2");
   ASSERT_FALSE(trip.replayed.empty());
-  const std::string printed = "pvcap session --rig " + trip.replay_rig.string() + " --duration ";
-  const auto at = trip.rig_output.find(printed);
-  ASSERT_NE(at, std::string::npos) << trip.rig_output;
-  const double duration = std::stod(trip.rig_output.substr(at + printed.size()));
-  EXPECT_GT(duration, 2.5);
-  EXPECT_LT(duration, 3.2);
+  EXPECT_GT(trip.printed_seconds, 2.5) << trip.rig_output;
+  EXPECT_LT(trip.printed_seconds, 3.2);
   // The clocks tick as devices' do: the recorder sees no clock reset and no odd rate.
   EXPECT_EQ(trip.again_output.find("clock was reset"), std::string::npos) << trip.again_output;
 
