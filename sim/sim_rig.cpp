@@ -224,6 +224,7 @@ Status SimRig::serve_sensel(SenselLink link, const std::string& name) {
   if (!ec) std::filesystem::rename(fresh, published, ec);
   if (ec)
     return Error{fmt::format("cannot publish the Sensel emulator's tty as {}: {}", published.string(), ec.message())};
+  sensel_tty_link_ = published;
   return {};
 }
 
@@ -259,7 +260,15 @@ void SimRig::run(const std::atomic<bool>& stop) {
     if ((sensel_pty_ || sensel_usb_) && ss.unplug_at_s && !sensel_unplugged_ && elapsed_s >= *ss.unplug_at_s) {
       sensel_unplugged_ = true;
       spdlog::warn("sim: the Sensel is unplugged now (unplug_at_s = {})", *ss.unplug_at_s);
-      sensel_pty_.reset();  // the master closes: the driver's tty reads fail, as after a USB unplug
+      // As after a USB unplug, the device's name goes, then the device: the driver's tty reads fail and
+      // its reopening finds nothing. Kept, the link would name a freed pseudo-terminal number, which the
+      // kernel hands to the next one opened: in a suite run another rig's emulated Morph (same default
+      // serial) was found there and taken for this one come back, before this one was plugged back in.
+      if (sensel_pty_) {
+        std::error_code ec;
+        std::filesystem::remove(sensel_tty_link_, ec);
+      }
+      sensel_pty_.reset();
       if (sensel_usb_) sensel_usb_->unplug();
     }
     if (sensel_unplugged_ && !sensel_replugged_ && ss.replug_after_s && elapsed_s >= *ss.replug_after_s) {

@@ -56,6 +56,7 @@ class SimRig {
   std::ofstream sensel_truth_;
   std::unique_ptr<SenselEmulator> sensel_;
   std::unique_ptr<SenselPty> sensel_pty_;
+  std::filesystem::path sensel_tty_link_;  // where sensel_pty_ is published (truth_dir/<name>)
   std::unique_ptr<SenselUsbDevice> sensel_usb_;
   bool sensel_unplugged_ = false, sensel_replugged_ = false;
   void replug_sensel();
