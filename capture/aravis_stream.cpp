@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstring>
 #include <fstream>
 #include <string>
 #include <thread>
@@ -39,8 +40,15 @@ Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, in
       g_object_set(self->stream_.get(), "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_FIXED, "socket-buffer-size",
                    socket_buffer_bytes, nullptr);
   }
-  for (std::size_t i = 0; i < buffer_count; ++i)
-    arv_stream_push_buffer(self->stream_.get(), arv_buffer_new_allocate(payload));
+  for (std::size_t i = 0; i < buffer_count; ++i) {
+    ArvBuffer* buffer = arv_buffer_new_allocate(payload);
+    // Touched now, before the camera acquires: the first write into a fresh buffer page-faults it
+    // in, 2-7 ms for 2 MB on the project's VMs, and that would fall on the stream thread while it
+    // reassembles the first second's frames (docs/PERFORMANCE.md, "The first second").
+    std::size_t size = 0;
+    if (void* data = const_cast<void*>(arv_buffer_get_data(buffer, &size))) std::memset(data, 0, size);
+    arv_stream_push_buffer(self->stream_.get(), buffer);
+  }
   self->signal_id_ =
       g_signal_connect(self->stream_.get(), "new-buffer", G_CALLBACK(&AravisStream::on_new_buffer), self.get());
   arv_stream_set_emit_signals(self->stream_.get(), TRUE);

@@ -1,6 +1,7 @@
 #include "session/camera_pipeline.h"
 
 #include <climits>
+#include <cmath>
 #include <cstring>
 #include <map>
 #include <string_view>
@@ -58,6 +59,8 @@ class CameraWorker {
       : p_(p), raw_video_(p.writer.stores_raw(p.device_id)), images_(p.encoder_queue + 2), stall_(p.stall) {}
 
   void run() {
+    warm_up();
+    if (p_.warmed) p_.warmed->count_down();
     auto& queue = p_.camera.frames();
     while (!queue.closed_and_empty() || !p_.camera.losses().closed_and_empty()) {
       auto frame = queue.pop_for(100ms);
@@ -79,6 +82,26 @@ class CameraWorker {
   }
 
  private:
+  // The buffers the first second needs, written once before the camera starts: the first touch of a
+  // fresh 2 MB buffer page-faults it in (2-7 ms on the project's VMs), and taken as frames came, that
+  // fell on the first second, beside every camera's stream starting: 1-5 frames per camera were lost
+  // at the start (docs/PERFORMANCE.md, "The first second"). Enough copies for the frames held while
+  // the timeline decides (about a quarter second) with room, and a few images for the encoder.
+  void warm_up() {
+    const CameraSettings s = p_.camera.settings();
+    const std::uint32_t format = pixel_format_code(s.pixel_format);
+    if (s.payload == 0 || s.width <= 0 || s.height <= 0) return;
+    const std::size_t held = std::min<std::size_t>(kMaxSpare, std::size_t(std::ceil(s.frame_rate * 0.5)) + 4);
+    while (spare_.size() < held) spare_.emplace_back(s.payload);  // value-initialised: every page written
+    const bool raw = raw_video_ && is_bayer(format);
+    const int type = !raw ? CV_8UC3 : bayer_bit_depth(format) > 8 ? CV_16UC1 : CV_8UC1;
+    std::vector<cv::Mat> images;
+    for (std::size_t i = 0; i < std::min<std::size_t>(4, p_.encoder_queue + 2); ++i) {
+      images.push_back(images_.acquire(s.height, s.width, type));
+      images.back().setTo(0);
+    }
+  }
+
   // The frames the driver knows were lost, each run with its reason: a row in the store at once.
   void record_losses() {
     while (auto loss = p_.camera.losses().pop_for(0ms)) {
@@ -248,7 +271,7 @@ class CameraWorker {
 
   // Pixel buffers are reused: a fresh 2 MB allocation per frame costs page faults by the thousand.
   void recycle(std::vector<std::uint8_t>&& pixels) {
-    if (spare_.size() < 32) spare_.push_back(std::move(pixels));
+    if (spare_.size() < kMaxSpare) spare_.push_back(std::move(pixels));
   }
 
   const CameraPipeline& p_;
@@ -256,6 +279,7 @@ class CameraWorker {
   // So are the images for the encoder (mosaics or debayered): one for each it can hold, and the one
   // being filled.
   FramePool images_;
+  static constexpr std::size_t kMaxSpare = 32;
   std::optional<Stall> stall_;
   std::map<std::pair<std::uint32_t, std::uint64_t>, HeldFrame> held_;
   std::vector<std::vector<std::uint8_t>> spare_;

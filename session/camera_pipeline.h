@@ -6,6 +6,7 @@
 // to the index with its reason, every loss as a drop row. Never waits on the store.
 #include <atomic>
 #include <cstdint>
+#include <latch>
 #include <mutex>
 
 #include <opencv2/core.hpp>
@@ -60,7 +61,8 @@ struct CameraPipeline {
   TimelineEnd& end;
   std::size_t encoder_queue;  // the store's queue_frames: how many images the encoder can hold
   Preview& preview;
-  std::optional<Stall> stall;  // a test's fault (core/fault_injection.h): the worker sleeps once
+  std::optional<Stall> stall;    // a test's fault (core/fault_injection.h): the worker sleeps once
+  std::latch* warmed = nullptr;  // counted down once the worker's buffers are ready, before its first frame
 };
 
 // Runs until the camera's frame queue is closed and drained (after the camera stopped).

@@ -255,13 +255,7 @@ Status Recording::start() {
   timeline_ = std::make_unique<sync::SessionTimeline>(tc, on_sample, on_clock);
   timeline_end_ = std::make_unique<TimelineEnd>();
   timeline_end_->feeding.store(int(cameras_.size()));
-
-  for (std::size_t i = 0; i < cameras_.size(); ++i)
-    workers_.emplace_back(
-        run_camera_pipeline,
-        CameraPipeline{*cameras_[i], int(i), device_ids_[i], writer, *tallies_[i], *timeline_, *timeline_end_,
-                       std::size_t(rig_.store.queue_frames), *previews_[i],
-                       int(i) == options_.faults.stall_camera ? options_.faults.camera_pipeline_stall : std::nullopt});
+  start_camera_workers(writer);
   // Every camera's stream settled first (a new stream waits before it takes frames), so the cameras
   // start together. The Sensel starts before them and stops after them (finish): pressure brackets
   // every camera frame, so the first and last samples have their pressure frames however long a
@@ -286,6 +280,23 @@ Status Recording::start() {
       return {};
     }
   return {};
+}
+
+void Recording::start_camera_workers(SessionWriter& writer) {
+  workers_warmed_ = std::make_unique<std::latch>(std::ptrdiff_t(cameras_.size()));
+  for (std::size_t i = 0; i < cameras_.size(); ++i)
+    workers_.emplace_back(
+        run_camera_pipeline,
+        CameraPipeline{*cameras_[i], int(i), device_ids_[i], writer, *tallies_[i], *timeline_, *timeline_end_,
+                       std::size_t(rig_.store.queue_frames), *previews_[i],
+                       int(i) == options_.faults.stall_camera ? options_.faults.camera_pipeline_stall : std::nullopt,
+                       workers_warmed_.get()});
+  // The workers write their buffers before the first frame comes (camera_pipeline.cpp, warm_up): a
+  // fraction of a second here rather than page faults in the first second's frames. Bounded, so a
+  // slower machine still starts.
+  for (const auto give_up = std::chrono::steady_clock::now() + 3s;
+       !workers_warmed_->try_wait() && std::chrono::steady_clock::now() < give_up;)
+    std::this_thread::sleep_for(5ms);
 }
 
 void Recording::request_stop(std::string reason) {

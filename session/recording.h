@@ -17,6 +17,7 @@
 #include <deque>
 #include <filesystem>
 #include <functional>
+#include <latch>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -111,6 +112,8 @@ class Recording {
   void warn(std::string message);
   void log_progress(double elapsed_s);
   void record_rig_calibration(SessionWriter& writer);
+  // One worker per camera, started, and waited for until their buffers are ready (at most 3 s).
+  void start_camera_workers(SessionWriter& writer);
 
   RigConfig rig_;
   RecordingOptions options_;
@@ -126,6 +129,7 @@ class Recording {
   std::int64_t sensel_id_ = 0;
   std::unique_ptr<sync::SessionTimeline> timeline_;
   std::unique_ptr<TimelineEnd> timeline_end_;
+  std::unique_ptr<std::latch> workers_warmed_;  // the camera workers' buffers are written (start_camera_workers)
   std::int64_t pressure_max_offset_ns_ = 0;
   double sample_hz_ = 0;
   std::vector<std::thread> workers_;
