@@ -5,6 +5,7 @@
 #include "capture/camera_watchdog.h"
 #include "capture/gvcp_ping.h"
 #include "capture/pixel_format.h"
+#include "core/thread_name.h"
 
 #include <cmath>
 #include <fstream>
@@ -193,6 +194,7 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
                     label(), err.message().empty() ? "not found" : err.message())};
   std::lock_guard lock(mu_);
   link_->camera = std::move(cam);
+  last_latch_.known = false;
   if (!config_.serial.empty()) {
     const char* serial = arv_camera_get_device_serial_number(link_->camera.get(), nullptr);
     if (!serial || config_.serial != serial) {
@@ -278,9 +280,19 @@ Status AravisCamera::start() {
   // on, and a sample chosen on that clock may take the other of a camera's two frames near its tick.
   probe_clock_at_start();
   running_.store(true);
-  control_thread_ = std::thread([this] { control_loop(); });
-  if (config_.trigger == TriggerMode::Software) trigger_thread_ = std::thread([this] { trigger_loop(); });
-  probe_thread_ = std::thread([this] { probe_loop(); });
+  control_thread_ = std::thread([this] {
+    name_this_thread("watch-" + config_.name);
+    control_loop();
+  });
+  if (config_.trigger == TriggerMode::Software)
+    trigger_thread_ = std::thread([this] {
+      name_this_thread("trigger-" + config_.name);
+      trigger_loop();
+    });
+  probe_thread_ = std::thread([this] {
+    name_this_thread("probe-" + config_.name);
+    probe_loop();
+  });
   return {};
 }
 
@@ -333,11 +345,12 @@ void AravisCamera::control_loop() {
   while (running_.load()) {
     {
       std::unique_lock lock(wake_mu_);
-      // While frames flow, five looks a second (every 50 ms cost as much CPU as the latch probes:
-      // docs/PERFORMANCE.md, "Capture path"); once a camera is silent, or not connected, twenty, so a
-      // lost camera is named as soon as the watchdog decides. A stop and Aravis' control-lost signal
-      // wake it at once.
-      wake_.wait_for(lock, streaming ? 200ms : 50ms, [&] { return !running_.load() || control_lost_.load(); });
+      // While frames flow, two looks a second (each wake-up costs ~50 us of CPU here: docs/PERFORMANCE.md,
+      // "Capture path"); once a camera is silent, or not connected, twenty, so a lost camera is named as
+      // soon as the watchdog decides: a look at most 0.5 s after the last frame finds it silent (the
+      // stall timeout is at least 0.5 s) and looks every 50 ms from then on. A stop and Aravis'
+      // control-lost signal wake it at once.
+      wake_.wait_for(lock, streaming ? 500ms : 50ms, [&] { return !running_.load() || control_lost_.load(); });
     }
     if (!running_.load()) break;
     const HostNs now = host_now();
@@ -425,6 +438,7 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width
   std::string command, value;
   double tick_hz = 1e9;
   std::uint32_t connection = 0;
+  std::optional<gint64> before;
   {
     std::lock_guard lock(mu_);
     if (!link_->camera || latch_command_.empty()) return Probe::NotStreaming;
@@ -435,11 +449,16 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width
     value = latch_value_;
     if (settings_.timestamp_tick_hz) tick_hz = double(settings_.timestamp_tick_hz);
     connection = connection_.load();
+    if (last_latch_.known && last_latch_.connection == connection) before = last_latch_.value;
   }
   ArvDevice* dev = arv_camera_get_device(cam.get());
   arv::GErrorSlot err;
-  const gint64 before = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
-  if (err) return Probe::Failed;
+  // What the latch holds now, so its new value can be told from it: the last probe's value on this
+  // connection, or read (a GVCP round trip, ~20-150 us of CPU each here).
+  if (!before) {
+    before = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
+    if (err) return Probe::Failed;
+  }
   const HostNs lo = host_now();
   arv_device_execute_command(dev, command.c_str(), err.out());
   if (err) return Probe::Failed;
@@ -448,8 +467,12 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width
   for (int attempt = 0, attempts = at_start ? 100 : 20; attempt < attempts; ++attempt) {
     const gint64 ticks = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
     if (err) return Probe::Failed;
-    if (ticks != before) {
+    if (ticks != *before) {
       const HostNs hi = host_now();
+      {
+        std::lock_guard lock(mu_);
+        last_latch_ = {true, connection, ticks};
+      }
       ClockProbe probe{connection, DeviceNs{std::int64_t(double(ticks) * (1e9 / tick_hz))}, lo, hi};
       (void)probes_.try_push(probe);  // a full queue (nobody reading) loses a probe, nothing else
       if (width_ns) *width_ns = hi.ns - lo.ns;

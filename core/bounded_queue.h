@@ -33,7 +33,9 @@ class BoundedQueue {
   // closed and drained.
   std::optional<T> pop_for(std::chrono::milliseconds timeout) {
     std::unique_lock lock(mu_);
-    cv_.wait_for(lock, timeout, [&] { return !items_.empty() || closed_; });
+    // A zero timeout only looks: a wait, even one already timed out, is a futex call (workers look at
+    // their losses and probes queues once per frame).
+    if (timeout.count() > 0) cv_.wait_for(lock, timeout, [&] { return !items_.empty() || closed_; });
     if (items_.empty()) return std::nullopt;
       // GCC 12 reports moving a nested optional<vector> out of a deque as "used uninitialized"
       // (a known false positive at -O2); the element is fully constructed.

@@ -12,6 +12,7 @@
 
 #include "capture/pixel_format.h"
 #include "core/frame_pool.h"
+#include "core/thread_name.h"
 #include "core/time.h"
 #include "storage/frame_checksum.h"
 
@@ -289,6 +290,9 @@ class CameraWorker {
 
 }  // namespace
 
-void run_camera_pipeline(const CameraPipeline& p) { CameraWorker(p).run(); }
+void run_camera_pipeline(const CameraPipeline& p) {
+  name_this_thread("work-" + p.camera.config().name);
+  CameraWorker(p).run();
+}
 
 }  // namespace pvcap::session

@@ -21,6 +21,7 @@
 #include <spdlog/spdlog.h>
 
 #include "capture/pixel_format.h"
+#include "core/thread_name.h"
 #include "core/time.h"
 #include "core/version.h"
 #include "storage/bayer_planes.h"
@@ -298,11 +299,21 @@ Result<std::int64_t> SessionWriter::add_calibration(const CalibrationRecord& c) 
 
 void SessionWriter::start() {
   index_writer_->start();
-  for (auto& cam : cameras_) cam->thread = std::thread([this, c = cam.get()] { encode_loop(*c); });
-  watcher_ = std::thread([this] { watch_free_space(); });
+  for (auto& cam : cameras_)
+    cam->thread = std::thread([this, c = cam.get()] {
+      name_this_thread("encode-" + c->name);
+      encode_loop(*c);
+    });
+  watcher_ = std::thread([this] {
+    name_this_thread("disk-space");
+    watch_free_space();
+  });
   if (store_.sync_interval_s > 0) {
     durable_ = std::make_unique<DurableFolder>(dir_, std::vector<std::string>{kSpillFolder});
-    syncer_ = std::thread([this] { keep_durable(); });
+    syncer_ = std::thread([this] {
+      name_this_thread("fsync");
+      keep_durable();
+    });
   }
 }
 

@@ -41,3 +41,17 @@ TEST(BoundedQueue, ConsumerWakesOnPush) {
   ASSERT_TRUE(got.has_value());
   EXPECT_EQ(*got, 42);
 }
+
+TEST(BoundedQueue, AZeroTimeoutOnlyLooks) {
+  pvcap::BoundedQueue<int> q(4);
+  EXPECT_FALSE(q.pop_for(0ms).has_value());  // empty: nothing, and no wait
+  int a = 5, b = 6;
+  ASSERT_TRUE(q.try_push(a));
+  ASSERT_TRUE(q.try_push(b));
+  EXPECT_EQ(q.pop_for(0ms).value(), 5);  // in order
+  EXPECT_EQ(q.pop_for(0ms).value(), 6);
+  EXPECT_FALSE(q.pop_for(0ms).has_value());
+  q.close();
+  EXPECT_FALSE(q.pop_for(0ms).has_value());
+  EXPECT_TRUE(q.closed_and_empty());
+}
