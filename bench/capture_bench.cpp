@@ -2,9 +2,11 @@
 // private network namespace; the simulator is a separate process, so its CPU is not counted):
 //  1. CPU per received 1920x1080 frame: a bare Aravis receive loop (pop, push back) against
 //     pvcap's capture path (AravisCamera + a consumer that unwraps ids and releases buffers,
-//     as the recorder's worker does before debayering), on the same simulated stream; the ratio.
+//     as the recorder's worker does before debayering), on the same simulated stream; the ratio,
+//     and where each one's CPU goes, thread by thread.
 //  2. The highest cameras x fps the capture path sustains here with zero drops.
 // Usage: capture_bench [SECONDS=8 per measurement] [ROUNDS=3 of the ratio] [ratio: only step 1]
+#include <dirent.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -13,6 +15,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <thread>
 
 #include <arv.h>
@@ -21,6 +24,7 @@
 
 #include "capture/aravis_camera.h"
 #include "capture/aravis_handles.h"
+#include "core/thread_name.h"
 #include "sim/netns.h"
 #include "sim/sim_process.h"
 
@@ -34,6 +38,52 @@ double cpu_seconds() {
   rusage ru{};
   getrusage(RUSAGE_SELF, &ru);
   return double(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) + double(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec) / 1e6;
+}
+
+// Each of this process's threads: its name and CPU seconds so far (its CPU-time clock, exact to the
+// nanosecond; /proc's tick counts are 10 ms coarse).
+struct ThreadCpu {
+  std::string name;
+  double seconds = 0;
+};
+std::map<int, ThreadCpu> thread_cpu() {
+  std::map<int, ThreadCpu> out;
+  DIR* dir = opendir("/proc/self/task");
+  if (!dir) return out;
+  while (const dirent* e = readdir(dir)) {
+    const int tid = std::atoi(e->d_name);
+    if (tid <= 0) continue;
+    timespec ts{};
+    const clockid_t clock = ((~clockid_t(tid)) * 8) | 6;  // Linux's MAKE_THREAD_CPUCLOCK(tid, CPUCLOCK_SCHED)
+    if (clock_gettime(clock, &ts) != 0) continue;         // ended meanwhile
+    ThreadCpu t;
+    std::ifstream(fmt::format("/proc/self/task/{}/comm", tid)) >> t.name;
+    t.seconds = double(ts.tv_sec) + double(ts.tv_nsec) / 1e9;
+    out[tid] = t;
+  }
+  closedir(dir);
+  return out;
+}
+
+// A round's CPU by role, us per frame: each thread's CPU since `before`, under the role its name
+// gives it (pvcap names its threads: core/thread_name.h). Aravis' own threads other than the stream's
+// (the heartbeat) are "other".
+using CpuByRole = std::map<std::string, double>;
+CpuByRole cpu_by_role(const std::map<int, ThreadCpu>& before, std::uint64_t frames, const char* main_role) {
+  CpuByRole roles;
+  if (frames == 0) return roles;
+  for (const auto& [tid, now] : thread_cpu()) {
+    const auto was = before.find(tid);
+    const double us = (now.seconds - (was == before.end() ? 0.0 : was->second.seconds)) / double(frames) * 1e6;
+    const std::string role = tid == getpid()                    ? main_role
+                             : now.name == "arv_gv_stream"      ? "stream thread"
+                             : now.name == "consumer"           ? "consumer"
+                             : now.name.rfind("watch-", 0) == 0 ? "watchdog"
+                             : now.name.rfind("probe-", 0) == 0 ? "clock probes"
+                                                                : "other";
+    roles[role] += us;
+  }
+  return roles;
 }
 
 std::string rig_yaml(int cameras, int width, int height, double fps) {
@@ -92,10 +142,16 @@ arv::GPtr<ArvCamera> open_bare(const std::string& address) {
   return nullptr;
 }
 
+struct RoundResult {
+  double cpu = 0;
+  std::uint64_t good = 0, lost = 0;  // lost: incomplete + never received + queue overflows
+  CpuByRole roles;
+};
+
 // The reference: Aravis' own receive loop, nothing else.
-std::pair<double, std::uint64_t> bare_aravis(const CameraConfig& c, double seconds) {
+RoundResult bare_aravis(const CameraConfig& c, double seconds) {
   auto cam = open_bare(c.address);
-  if (!cam) return {0, 0};
+  if (!cam) return {};
   arv_camera_set_pixel_format_from_string(cam.get(), "BayerRG8", nullptr);
   arv_camera_set_region(cam.get(), 0, 0, c.width, c.height, nullptr);
   arv_camera_set_frame_rate(cam.get(), c.frame_rate, nullptr);
@@ -105,28 +161,32 @@ std::pair<double, std::uint64_t> bare_aravis(const CameraConfig& c, double secon
   for (std::size_t i = 0; i < buffer_count_for(c); ++i)
     arv_stream_push_buffer(stream.get(), arv_buffer_new(payload, nullptr));
   arv_camera_start_acquisition(cam.get(), nullptr);
-  std::this_thread::sleep_for(500ms);  // warm-up
+  // The loop runs through the warm-up too, counting nothing, as pvcap's consumer does: a loop that
+  // slept through it would find a warm-up's worth of frames waiting (all its buffers) and count them
+  // against CPU it spent before the measurement began (~3 % of a 15-s round at 30 fps).
   std::uint64_t frames = 0;
-  const double cpu0 = cpu_seconds();
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  while (std::chrono::steady_clock::now() < end) {
+  const auto warm_end = std::chrono::steady_clock::now() + 500ms;
+  const auto end = warm_end + std::chrono::duration<double>(seconds);
+  double cpu0 = -1;
+  std::map<int, ThreadCpu> threads0;
+  for (auto now = std::chrono::steady_clock::now(); now < end; now = std::chrono::steady_clock::now()) {
+    if (cpu0 < 0 && now >= warm_end) {
+      cpu0 = cpu_seconds();
+      threads0 = thread_cpu();
+    }
     if (ArvBuffer* b = arv_stream_timeout_pop_buffer(stream.get(), 100000)) {
-      if (arv_buffer_get_status(b) == ARV_BUFFER_STATUS_SUCCESS) ++frames;
+      if (cpu0 >= 0 && arv_buffer_get_status(b) == ARV_BUFFER_STATUS_SUCCESS) ++frames;
       arv_stream_push_buffer(stream.get(), b);
     }
   }
   const double cpu = cpu_seconds() - cpu0;
+  RoundResult r{cpu, frames, 0, cpu_by_role(threads0, frames, "receive loop")};
   arv_camera_stop_acquisition(cam.get(), nullptr);
-  return {cpu, frames};
+  return r;
 }
 
-struct PathResult {
-  double cpu = 0;
-  std::uint64_t good = 0, lost = 0;  // lost: incomplete + never received + queue overflows
-};
-
 // pvcap's capture path: AravisCamera and a consumer per camera.
-PathResult pvcap_path(const std::vector<CameraConfig>& configs, double seconds) {
+RoundResult pvcap_path(const std::vector<CameraConfig>& configs, double seconds) {
   std::vector<std::unique_ptr<AravisCamera>> cams;
   for (std::size_t i = 0; i < configs.size(); ++i) {
     cams.push_back(std::make_unique<AravisCamera>(int(i), configs[i], nullptr));
@@ -146,6 +206,7 @@ PathResult pvcap_path(const std::vector<CameraConfig>& configs, double seconds) 
   std::vector<std::thread> consumers;
   for (auto& cam : cams)
     consumers.emplace_back([&, c = cam.get()] {
+      name_this_thread("consumer");
       while (!c->frames().closed_and_empty()) {
         auto f = c->frames().pop_for(100ms);
         while (c->losses().pop_for(0ms)) {
@@ -168,15 +229,17 @@ PathResult pvcap_path(const std::vector<CameraConfig>& configs, double seconds) 
   }();
   counting.store(true);
   const double cpu0 = cpu_seconds();
+  const auto threads0 = thread_cpu();
   std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
   const double cpu = cpu_seconds() - cpu0;
   counting.store(false);
+  CpuByRole roles = cpu_by_role(threads0, good.load(), "main (waits)");
   std::uint64_t overflow = 0;
   for (auto& c : cams) overflow += c->counters().queue_overflows + c->counters().underruns;
   for (auto& c : cams) c->request_stop();
   for (auto& c : cams) c->stop();
   for (auto& t : consumers) t.join();
-  return {cpu, good.load(), lost.load() + (overflow - overflow0)};
+  return {cpu, good.load(), lost.load() + (overflow - overflow0), std::move(roles)};
 }
 
 }  // namespace
@@ -207,15 +270,18 @@ int main(int argc, char** argv) {
     // swings by tens of percent on a shared machine.
     const auto per_frame_us = [](double cpu, std::uint64_t n) { return n ? cpu / double(n) * 1e6 : 0.0; };
     std::vector<double> bare_us, ours_us;
+    std::map<std::string, std::vector<double>> bare_roles, ours_roles;
     std::uint64_t bare_frames = 0, ours_frames = 0;
     for (int round = 0; round < rounds; ++round) {
       const auto bare = bare_aravis(camera(0, 1920, 1080, fps), seconds);
-      bare_us.push_back(per_frame_us(bare.first, bare.second));
-      bare_frames += bare.second;
+      bare_us.push_back(per_frame_us(bare.cpu, bare.good));
+      bare_frames += bare.good;
+      for (const auto& [role, us] : bare.roles) bare_roles[role].push_back(us);
       std::this_thread::sleep_for(300ms);
       const auto ours = pvcap_path({camera(0, 1920, 1080, fps)}, seconds);
       ours_us.push_back(per_frame_us(ours.cpu, ours.good));
       ours_frames += ours.good;
+      for (const auto& [role, us] : ours.roles) ours_roles[role].push_back(us);
       std::this_thread::sleep_for(300ms);
     }
     std::sort(bare_us.begin(), bare_us.end());
@@ -226,6 +292,20 @@ int main(int argc, char** argv) {
         "({} frames), pvcap capture path {:.0f} us [{:.0f}..{:.0f}] ({} frames), ratio pvcap/bare {:.2f}\n",
         fps, rounds, bare_us[mid], bare_us.front(), bare_us.back(), bare_frames, ours_us[mid], ours_us.front(),
         ours_us.back(), ours_frames, bare_us[mid] > 0 ? ours_us[mid] / bare_us[mid] : 0.0);
+    // Where it goes: the threads' own CPU clocks, by role, each role's median over the rounds.
+    const auto by_role = [](std::map<std::string, std::vector<double>> roles) {
+      std::vector<std::pair<double, std::string>> medians;
+      for (auto& [role, us] : roles) {
+        std::sort(us.begin(), us.end());
+        medians.emplace_back(us[us.size() / 2], role);
+      }
+      std::sort(medians.rbegin(), medians.rend());
+      std::string line;
+      for (const auto& [us, role] : medians) line += fmt::format("{}{} {:.1f}", line.empty() ? "" : ", ", role, us);
+      return line;
+    };
+    fmt::print("  us per frame by thread (medians): bare: {}\n", by_role(bare_roles));
+    fmt::print("  us per frame by thread (medians): pvcap: {}\n", by_role(ours_roles));
   }
   if (ratio_only) return 0;
 
