@@ -459,14 +459,21 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width
     before = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
     if (err) return Probe::Failed;
   }
+  // A probe that fails once the command may have reached the camera may leave a value latched after
+  // `before`, outside any bracket: the next probe then reads what the latch holds first.
+  const auto failed = [&] {
+    std::lock_guard lock(mu_);
+    last_latch_.known = false;
+    return Probe::Failed;
+  };
   const HostNs lo = host_now();
   arv_device_execute_command(dev, command.c_str(), err.out());
-  if (err) return Probe::Failed;
+  if (err) return failed();
   // At the start a slow latch is waited for longer (20 ms): a wide bracket still bounds the first
   // frames' instants, no reading leaves them to their arrivals.
   for (int attempt = 0, attempts = at_start ? 100 : 20; attempt < attempts; ++attempt) {
     const gint64 ticks = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
-    if (err) return Probe::Failed;
+    if (err) return failed();
     if (ticks != *before) {
       const HostNs hi = host_now();
       {
@@ -480,7 +487,7 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width
     }
     std::this_thread::sleep_for(200us);
   }
-  return Probe::Failed;  // the value never changed: a latch that does not work; try again later
+  return failed();  // the value never changed: a latch that does not work, or a slow one; try again later
 }
 
 void AravisCamera::probe_loop() {
