@@ -1,5 +1,7 @@
 #include "sim/board_frames.h"
 
+#include <iterator>
+
 #include <opencv2/imgproc.hpp>
 
 #include "calib/charuco.h"
@@ -56,10 +58,14 @@ cv::Mat BoardFrames::render(int pose) const {
 cv::Mat BoardFrames::frame(int pose) {
   std::lock_guard lock(mu_);
   if (pose > shown_) {
-    if (frames_.count(pose)) {
-      shown_ = pose;
+    // The newest rendered pose up to `pose`. Only `pose` itself, as it once was, held the board still
+    // for a whole session when every render took longer than a pose lasts: each finished after the
+    // engine had moved on (a loaded suite run's board session: three cameras saw 0-5 distinct views).
+    auto newest = frames_.upper_bound(pose);
+    if (newest != frames_.begin() && std::prev(newest)->first > shown_) {
+      shown_ = std::prev(newest)->first;
       ++poses_shown_;
-      frames_.erase(frames_.begin(), frames_.find(pose));
+      frames_.erase(frames_.begin(), frames_.find(shown_));
     }
     if (pose > wanted_) {
       wanted_ = pose;
@@ -67,6 +73,11 @@ cv::Mat BoardFrames::frame(int pose) {
     }
   }
   return frames_.at(shown_);
+}
+
+bool BoardFrames::rendered(int pose) const {
+  std::lock_guard lock(mu_);
+  return pose > shown_ && frames_.count(pose) > 0;
 }
 
 int BoardFrames::poses_shown() const {

@@ -30,12 +30,16 @@ class BoardFrames {
   BoardFrames(const BoardFrames&) = delete;
   BoardFrames& operator=(const BoardFrames&) = delete;
 
-  // The frame (sensor format) of `pose` if it is rendered, else of the pose shown last: the board
-  // is held a little longer rather than a frame sent late. Asks the renderer for `pose` and the one
+  // The frame (sensor format) of the newest pose rendered up to `pose`: `pose` itself once rendered;
+  // else a pose rendered late, after the engine had already moved past it; else the pose shown last.
+  // The board is held a little longer rather than a frame sent late, and a renderer that stays
+  // slower than the poses change still moves the board. Asks the renderer for `pose` and the one
   // after. Poses only move forward: an older pose than the one shown is answered with the shown.
   cv::Mat frame(int pose);
   // How many poses have been shown (rendered in time for at least one frame).
   int poses_shown() const;
+  // Whether `pose` is rendered and not yet passed (for tests: the renderer's progress).
+  bool rendered(int pose) const;
 
   // The frame of `pose` rendered here and now (what the renderer's thread does).
   cv::Mat render(int pose) const;

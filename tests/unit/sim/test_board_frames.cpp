@@ -14,6 +14,13 @@ namespace {
 bool equal_pixels(const cv::Mat& a, const cv::Mat& b) {
   return a.size() == b.size() && a.type() == b.type() && cv::countNonZero(a != b) == 0;
 }
+// Waits (at most 10 s) until the renderer has `pose` ready.
+bool wait_rendered(const sim::BoardFrames& frames, int pose) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!frames.rendered(pose) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  return frames.rendered(pose);
+}
 }  // namespace
 
 TEST(BoardFrames, APoseNotRenderedYetHoldsTheLastOneAndThenComesExact) {
@@ -23,10 +30,13 @@ TEST(BoardFrames, APoseNotRenderedYetHoldsTheLastOneAndThenComesExact) {
   const cv::Mat pose0 = frames.render(0), pose5 = frames.render(5);
   ASSERT_FALSE(equal_pixels(pose0, pose5)) << "two poses of the board look different";
   EXPECT_TRUE(equal_pixels(frames.frame(0), pose0)) << "the first pose is rendered before the engine starts";
-  // Pose 5 was never asked for (the renderer works one pose ahead of the last asked: pose 1), so the
-  // engine is given pose 0 again, at once, rather than waiting.
-  EXPECT_TRUE(equal_pixels(frames.frame(5), pose0));
-  EXPECT_EQ(frames.poses_shown(), 1);
+  // Pose 7 was never asked for (the renderer works one pose ahead of the last asked: pose 1), so the
+  // engine is given pose 0 again, at once, rather than waiting, while pose 1 is not ready...
+  ASSERT_FALSE(frames.rendered(7));
+  // ...and pose 1 once it is: the newest rendered up to the one asked for.
+  ASSERT_TRUE(wait_rendered(frames, 1)) << "pose 1 rendered ahead within 10 s";
+  EXPECT_TRUE(equal_pixels(frames.frame(5), frames.render(1)));
+  EXPECT_EQ(frames.poses_shown(), 2);
   // Asked for, it is rendered on the renderer's thread, the same as rendered here.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   cv::Mat got = frames.frame(5);
@@ -35,7 +45,24 @@ TEST(BoardFrames, APoseNotRenderedYetHoldsTheLastOneAndThenComesExact) {
     got = frames.frame(5);
   }
   EXPECT_TRUE(equal_pixels(got, pose5)) << "pose 5 rendered within 10 s";
-  EXPECT_EQ(frames.poses_shown(), 2);
+  EXPECT_EQ(frames.poses_shown(), 3);
   // Poses only move forward: a later look at an earlier instant keeps the board where it is.
   EXPECT_TRUE(equal_pixels(frames.frame(3), pose5));
+}
+
+// A renderer slower than the poses change (a loaded machine) still moves the board: a pose that
+// was rendered after the engine moved past it is shown, rather than the board held where it was
+// until a render finishes in time (which, at that pace, none does).
+TEST(BoardFrames, APoseRenderedLateIsShownRatherThanTheBoardHeldStill) {
+  const cv::Size size(480, 270);
+  const calib::CameraModel m = sim::sim_camera_model(1, sim::SimCameraClock{}, size, size);
+  sim::BoardFrames frames(m, "BayerRG8", 0);
+  ASSERT_TRUE(wait_rendered(frames, 1)) << "pose 1 rendered ahead within 10 s";
+  // The engine is at pose 3 already: pose 1 is the newest rendered, and the renderer starts on 3 and 4.
+  EXPECT_TRUE(equal_pixels(frames.frame(3), frames.render(1)));
+  ASSERT_TRUE(wait_rendered(frames, 4)) << "poses 3 and 4 rendered within 10 s";
+  // Both came too late for pose 3's frames; the engine is at pose 9 now, which nobody rendered:
+  // the newest of them is shown.
+  EXPECT_TRUE(equal_pixels(frames.frame(9), frames.render(4)));
+  EXPECT_EQ(frames.poses_shown(), 3);  // 0, 1, 4
 }
