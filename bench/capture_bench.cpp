@@ -6,7 +6,6 @@
 //     and where each one's CPU goes, thread by thread.
 //  2. The highest cameras x fps the capture path sustains here with zero drops.
 // Usage: capture_bench [SECONDS=8 per measurement] [ROUNDS=3 of the ratio] [ratio: only step 1]
-#include <dirent.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -48,20 +47,18 @@ struct ThreadCpu {
 };
 std::map<int, ThreadCpu> thread_cpu() {
   std::map<int, ThreadCpu> out;
-  DIR* dir = opendir("/proc/self/task");
-  if (!dir) return out;
-  while (const dirent* e = readdir(dir)) {
-    const int tid = std::atoi(e->d_name);
+  std::error_code ec;
+  for (const auto& task : fs::directory_iterator("/proc/self/task", ec)) {
+    const int tid = std::atoi(task.path().filename().c_str());
     if (tid <= 0) continue;
     timespec ts{};
     const clockid_t clock = ((~clockid_t(tid)) * 8) | 6;  // Linux's MAKE_THREAD_CPUCLOCK(tid, CPUCLOCK_SCHED)
     if (clock_gettime(clock, &ts) != 0) continue;         // ended meanwhile
     ThreadCpu t;
-    std::ifstream(fmt::format("/proc/self/task/{}/comm", tid)) >> t.name;
+    std::ifstream(task.path() / "comm") >> t.name;
     t.seconds = double(ts.tv_sec) + double(ts.tv_nsec) / 1e9;
     out[tid] = t;
   }
-  closedir(dir);
   return out;
 }
 

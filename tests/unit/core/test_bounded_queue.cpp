@@ -42,7 +42,7 @@ TEST(BoundedQueue, ConsumerWakesOnPush) {
   EXPECT_EQ(*got, 42);
 }
 
-TEST(BoundedQueue, AZeroTimeoutOnlyLooks) {
+TEST(BoundedQueue, AZeroTimeoutTakesWhatIsThereInOrderAndNothingWhenEmptyOrClosed) {
   pvcap::BoundedQueue<int> q(4);
   EXPECT_FALSE(q.pop_for(0ms).has_value());  // empty: nothing, and no wait
   int a = 5, b = 6;
