@@ -117,6 +117,53 @@ std::vector<double> replay_interval_errors_ms(const fs::path& log, bool sensel) 
   return errors;
 }
 
+// A camera's replay log (sim-truth/camN_replay.csv): per frame, what it was, when it was due,
+// when it left, when the engine entered the fill, when its stored image was at hand (host ns).
+struct ReplayedFrame {
+  std::int64_t frame_id, device_ns, due_ns, sent_ns, entered_ns, image_ns;
+};
+std::vector<ReplayedFrame> read_camera_replay_log(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line;
+  std::getline(in, line);  // frame_id,device_ns,due_ns,sent_ns,entered_ns,image_ns
+  std::vector<ReplayedFrame> frames;
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string field;
+    std::vector<std::int64_t> v;
+    while (std::getline(ss, field, ',')) v.push_back(std::stoll(field));
+    if (v.size() >= 6) frames.push_back({v[0], v[1], v[2], v[3], v[4], v[5]});
+  }
+  return frames;
+}
+
+// The frames whose interval missed its recorded one by more than `late_ms`, each with where its
+// time went (ms from the instant it was due), so a failed bound says whether the engine woke
+// late, the image was late, or the frame left late.
+std::string late_camera_frames(const fs::path& log, double late_ms) {
+  const auto frames = read_camera_replay_log(log);
+  std::string out;
+  for (std::size_t i = 1; i < frames.size(); ++i) {
+    const ReplayedFrame &f = frames[i], &p = frames[i - 1];
+    const double error_ms = std::fabs(double((f.sent_ns - p.sent_ns) - (f.device_ns - p.device_ns))) / 1e6;
+    if (error_ms > late_ms)
+      out += fmt::format("\n  {}: frame {}: interval off by {:.3f} ms; entered {:+.3f}, image {:+.3f}, left {:+.3f} ms",
+                         log.filename().string(), f.frame_id, error_ms, double(f.entered_ns - f.due_ns) / 1e6,
+                         double(f.image_ns - f.due_ns) / 1e6, double(f.sent_ns - f.due_ns) / 1e6);
+  }
+  return out;
+}
+
+// How long each frame took to leave once its fill had begun and it was due (ms, sent -
+// max(entered, due)): the replay's own time (its image, its copy), without the host's wake of the
+// engine, which is not the replay's.
+std::vector<double> fill_delays_ms(const fs::path& log) {
+  std::vector<double> delays;
+  for (const ReplayedFrame& f : read_camera_replay_log(log))
+    delays.push_back(double(f.sent_ns - std::max(f.due_ns, f.entered_ns)) / 1e6);
+  return delays;
+}
+
 // A session a test replays: its rig file and length, recorded by the test itself, alone (RUN_SERIAL:
 // recorded beside other tests, an original held picks its re-recording did not repeat; docs/testing.md).
 struct OriginalSpec {
@@ -602,14 +649,29 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
     EXPECT_LT(pct(e, 0.5), 0.5) << cam;
     both.insert(both.end(), e.begin(), e.end());
   }
-  // The free-running replay's bounds: a pulse 10 ms ahead of each frame, the engine woken as when
-  // free-running. (Held at 2 ms p95 until the image was copied before the frame's instant and freed
-  // off the engine's thread, sim/replay_camera.cpp: both cameras' frames fall due at the same
-  // instant on a trigger line, and each engine waited for the other's copy; p95 0.7-1.3 ms then,
-  // 0.12-0.97 ms per camera in six runs after.)
-  std::printf("both cameras: |interval sent - recorded| p50 %.3f p95 %.3f ms (%zu intervals)\n", pct(both, 0.5),
-              pct(both, 0.95), both.size());
-  EXPECT_LT(pct(both, 0.95), 1.0);
+  // A pulse 10 ms ahead of each frame, the engine woken as when free-running: p50 as the
+  // free-running replay's. The intervals' p95 is looser (docs/replay.md, "The trigger line and an
+  // idle core's wake"): both cameras fall due at one instant, so each time this VM is slow to wake
+  // an idle core (up to 3.7 ms, for a real-time thread too) four of the ~175 pooled intervals move
+  // together, and nine make the p95. Pooled p95 0.08-0.80 ms here in thirteen runs, 1.94 ms in CI
+  // (2026-11-28, its late frames entering their fill 0.7-2 ms late). A trigger missed or the
+  // engine's stall (a frame a period late, 33 ms) in 1 of 40 frames exceeds it. What the replay
+  // itself adds, once the engine runs, is bounded as tightly as before: the time from the later of
+  // due and the fill's start to the frame leaving, p95 0.075-0.127 ms in four runs. Frames that
+  // waited for each other's copy (fixed in sim/replay_camera.cpp) took 0.3-1.2 ms there in half
+  // of them.
+  std::printf("both cameras: |interval sent - recorded| p50 %.3f p90 %.3f p95 %.3f ms (%zu intervals)\n",
+              pct(both, 0.5), pct(both, 0.9), pct(both, 0.95), both.size());
+  std::printf("intervals more than 0.5 ms off:%s%s\n",
+              late_camera_frames(replayed / "sim-truth" / "cam0_replay.csv", 0.5).c_str(),
+              late_camera_frames(replayed / "sim-truth" / "cam1_replay.csv", 0.5).c_str());
+  std::vector<double> fill = fill_delays_ms(replayed / "sim-truth" / "cam0_replay.csv");
+  for (double d : fill_delays_ms(replayed / "sim-truth" / "cam1_replay.csv")) fill.push_back(d);
+  std::printf("both cameras: left after due and in the fill, p50 %.3f p95 %.3f max %.3f ms (%zu frames)\n",
+              pct(fill, 0.5), pct(fill, 0.95), pct(fill, 1.0), fill.size());
+  EXPECT_LT(pct(both, 0.5), 0.5);
+  EXPECT_LT(pct(both, 0.95), 2.5);
+  EXPECT_LT(pct(fill, 0.95), 0.5);
 }
 
 // `--rate 2`: the same frames (ids, pixels, pressure) come twice as often, their device timestamps
