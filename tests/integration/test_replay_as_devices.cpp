@@ -657,9 +657,10 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
   // (2026-11-28, its late frames entering their fill 0.7-2 ms late). A trigger missed or the
   // engine's stall (a frame a period late, 33 ms) in 1 of 40 frames exceeds it. What the replay
   // itself adds, once the engine runs, is bounded as tightly as before: the time from the later of
-  // due and the fill's start to the frame leaving, p95 0.075-0.127 ms in four runs. Frames that
-  // waited for each other's copy (fixed in sim/replay_camera.cpp) took 0.3-1.2 ms there in half
-  // of them.
+  // due and the fill's start to the frame leaving, p95 0.075-0.127 ms in four runs. The defects
+  // fixed in sim/replay_camera.cpp spent their time there: each frame that brought a new image left
+  // 0.3-1.2 ms late (the one before freed on the engine's thread), and on a trigger line each
+  // camera waited for the other's copy.
   std::printf("both cameras: |interval sent - recorded| p50 %.3f p90 %.3f p95 %.3f ms (%zu intervals)\n",
               pct(both, 0.5), pct(both, 0.9), pct(both, 0.95), both.size());
   std::printf("intervals more than 0.5 ms off:%s%s\n",
