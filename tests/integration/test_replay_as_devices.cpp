@@ -522,17 +522,30 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
       "(%zu intervals); Sensel p50 %.3f p95 %.3f p99 %.3f ms (%zu)\n",
       pct(cam_errors, 0.5), pct(cam_errors, 0.95), pct(cam_errors, 0.99), cam_errors.size(), pct(sensel_errors, 0.5),
       pct(sensel_errors, 0.95), pct(sensel_errors, 0.99), sensel_errors.size());
-  // Frames leave on time: p50 10-60 us, cameras p95 0.3-0.5 ms and the Sensel's 0.15-0.2 ms on
-  // these 2 cores beside the recorder (docs/replay.md). The bounds are on p95, which this shared
-  // machine's hiccups do not reach (one moves ~8 intervals by milliseconds, and two in a run took
-  // the cameras' p99 to 2.9 ms), nor the kernel's pseudo-terminal (it can hold a Sensel request
-  // back by tens of milliseconds when the cores are saturated); the engine's stall (1 frame in
-  // 8-12 late by 33-100 ms) would fail them. The test runs alone (RUN_SERIAL): beside a unit test
-  // in CI the cameras' p95 was 1.06 ms (2026-11-26), and before the fixes of that day (the image
-  // freed off the engine's thread, the Sensel's full pseudo-terminal waited for, not spun)
-  // 0.6-0.8 ms alone: every frame that brought a new image left 0.3-1.2 ms late.
-  EXPECT_LT(pct(cam_errors, 0.95), 1.0);
+  std::vector<double> fill;
+  std::string late;
+  for (const char* cam : {"cam0", "cam1", "cam2", "cam3"}) {
+    const fs::path log = replayed / "sim-truth" / (std::string(cam) + "_replay.csv");
+    for (double d : fill_delays_ms(log)) fill.push_back(d);
+    late += late_camera_frames(log, 1.0);
+  }
+  std::printf("cameras: left after due and in the fill, p50 %.3f p95 %.3f max %.3f ms (%zu frames)\n", pct(fill, 0.5),
+              pct(fill, 0.95), pct(fill, 1.0), fill.size());
+  // Frames leave on time: p50 10-60 us, Sensel p95 0.08-0.2 ms beside the recorder on these 2
+  // cores (docs/replay.md). The cameras' p95 was 0.3-0.5 ms on 2026-11-26; on 2026-11-28 0.16-0.90
+  // ms in six runs here and 1.34 ms in CI, most of its late frames entering their fill 1-5 ms
+  // late: this VM wakes a halted core up to 3.7 ms late, a real-time thread too (docs/replay.md,
+  // "The trigger line and an idle core's wake"), and a camera's engine sleeps 33 ms between frames.
+  // So what the replay adds once its engine runs is bounded apart (p95 0.11-0.14 ms in three
+  // runs; the defects fixed on 2026-11-26 spent their time there: each frame that brought a new
+  // image left 0.3-1.2 ms late), and the intervals' p95 at 2.5 ms. The engine's stall (1 frame
+  // in 8-12 late by 33-100 ms) fails the intervals' p95. The kernel's pseudo-terminal can hold a
+  // Sensel request back by tens of milliseconds on saturated cores; the p95 does not reach it. The
+  // test runs alone (RUN_SERIAL): beside a unit test in CI the cameras' p95 was 1.06 ms
+  // (2026-11-26).
   EXPECT_LT(pct(cam_errors, 0.5), 0.5);
+  EXPECT_LT(pct(cam_errors, 0.95), 2.5) << "intervals more than 1 ms off:" << late;
+  EXPECT_LT(pct(fill, 0.95), 0.5) << "intervals more than 1 ms off:" << late;
   EXPECT_LT(pct(sensel_errors, 0.95), 1.0);
   EXPECT_LT(pct(sensel_errors, 0.5), 0.5);
 }
@@ -663,16 +676,15 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
   // camera waited for the other's copy.
   std::printf("both cameras: |interval sent - recorded| p50 %.3f p90 %.3f p95 %.3f ms (%zu intervals)\n",
               pct(both, 0.5), pct(both, 0.9), pct(both, 0.95), both.size());
-  std::printf("intervals more than 0.5 ms off:%s%s\n",
-              late_camera_frames(replayed / "sim-truth" / "cam0_replay.csv", 0.5).c_str(),
-              late_camera_frames(replayed / "sim-truth" / "cam1_replay.csv", 0.5).c_str());
+  const std::string late = late_camera_frames(replayed / "sim-truth" / "cam0_replay.csv", 0.5) +
+                           late_camera_frames(replayed / "sim-truth" / "cam1_replay.csv", 0.5);
   std::vector<double> fill = fill_delays_ms(replayed / "sim-truth" / "cam0_replay.csv");
   for (double d : fill_delays_ms(replayed / "sim-truth" / "cam1_replay.csv")) fill.push_back(d);
   std::printf("both cameras: left after due and in the fill, p50 %.3f p95 %.3f max %.3f ms (%zu frames)\n",
               pct(fill, 0.5), pct(fill, 0.95), pct(fill, 1.0), fill.size());
   EXPECT_LT(pct(both, 0.5), 0.5);
-  EXPECT_LT(pct(both, 0.95), 2.5);
-  EXPECT_LT(pct(fill, 0.95), 0.5);
+  EXPECT_LT(pct(both, 0.95), 2.5) << "intervals more than 0.5 ms off:" << late;
+  EXPECT_LT(pct(fill, 0.95), 0.5) << "intervals more than 0.5 ms off:" << late;
 }
 
 // `--rate 2`: the same frames (ids, pixels, pressure) come twice as often, their device timestamps
