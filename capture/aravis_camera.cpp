@@ -194,7 +194,6 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
                     label(), err.message().empty() ? "not found" : err.message())};
   std::lock_guard lock(mu_);
   link_->camera = std::move(cam);
-  last_latch_.known = false;
   if (!config_.serial.empty()) {
     const char* serial = arv_camera_get_device_serial_number(link_->camera.get(), nullptr);
     if (!serial || config_.serial != serial) {
@@ -438,7 +437,6 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width
   std::string command, value;
   double tick_hz = 1e9;
   std::uint32_t connection = 0;
-  std::optional<gint64> before;
   {
     std::lock_guard lock(mu_);
     if (!link_->camera || latch_command_.empty()) return Probe::NotStreaming;
@@ -449,37 +447,26 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width
     value = latch_value_;
     if (settings_.timestamp_tick_hz) tick_hz = double(settings_.timestamp_tick_hz);
     connection = connection_.load();
-    if (last_latch_.known && last_latch_.connection == connection) before = last_latch_.value;
   }
   ArvDevice* dev = arv_camera_get_device(cam.get());
   arv::GErrorSlot err;
-  // What the latch holds now, so its new value can be told from it: the last probe's value on this
-  // connection, or read (a GVCP round trip, ~20-150 us of CPU each here).
-  if (!before) {
-    before = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
-    if (err) return Probe::Failed;
-  }
-  // A probe that fails once the command may have reached the camera may leave a value latched after
-  // `before`, outside any bracket: the next probe then reads what the latch holds first.
-  const auto failed = [&] {
-    std::lock_guard lock(mu_);
-    last_latch_.known = false;
-    return Probe::Failed;
-  };
+  // What the latch holds now, so its new value can be told from it. The read also wakes the path
+  // (the host's and the device's side) just before the command, so the bracket's two legs meet it
+  // alike: without it the command met a path asleep since the last probe, the latch fell late in
+  // its bracket, and the simulated cameras' mapped times were biased early by 0.01-0.105 ms
+  // (0.05 at most with it, in three runs; docs/PERFORMANCE.md, "Capture path").
+  const gint64 before = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
+  if (err) return Probe::Failed;
   const HostNs lo = host_now();
   arv_device_execute_command(dev, command.c_str(), err.out());
-  if (err) return failed();
+  if (err) return Probe::Failed;
   // At the start a slow latch is waited for longer (20 ms): a wide bracket still bounds the first
   // frames' instants, no reading leaves them to their arrivals.
   for (int attempt = 0, attempts = at_start ? 100 : 20; attempt < attempts; ++attempt) {
     const gint64 ticks = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
-    if (err) return failed();
-    if (ticks != *before) {
+    if (err) return Probe::Failed;
+    if (ticks != before) {
       const HostNs hi = host_now();
-      {
-        std::lock_guard lock(mu_);
-        last_latch_ = {true, connection, ticks};
-      }
       ClockProbe probe{connection, DeviceNs{std::int64_t(double(ticks) * (1e9 / tick_hz))}, lo, hi};
       (void)probes_.try_push(probe);  // a full queue (nobody reading) loses a probe, nothing else
       if (width_ns) *width_ns = hi.ns - lo.ns;
@@ -487,7 +474,7 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width
     }
     std::this_thread::sleep_for(200us);
   }
-  return failed();  // the value never changed: a latch that does not work, or a slow one; try again later
+  return Probe::Failed;  // the value never changed: a latch that does not work, or a slow one; try again later
 }
 
 void AravisCamera::probe_loop() {

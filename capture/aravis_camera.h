@@ -154,11 +154,6 @@ class AravisCamera {
   CameraSettings settings_;
   StreamCounters past_counters_;
   std::string latch_command_, latch_value_;  // the latch's feature names, empty without one
-  struct LastLatch {
-    bool known = false;  // forgotten on each (re)connection
-    std::uint32_t connection = 0;
-    std::int64_t value = 0;
-  } last_latch_;  // what the latch last gave: the next probe waits for a change from it
   BoundedQueue<ClockProbe> probes_{256};
 
   std::atomic<bool> control_lost_{false};
