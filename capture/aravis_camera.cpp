@@ -454,7 +454,7 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width
   // (the host's and the device's side) just before the command, so the bracket's two legs meet it
   // alike: without it the command met a path asleep since the last probe, the latch fell late in
   // its bracket, and the simulated cameras' mapped times were biased early by 0.01-0.105 ms
-  // (0.05 at most with it, in three runs; docs/PERFORMANCE.md, "Capture path").
+  // (0.05 at most with it, in six runs; docs/PERFORMANCE.md, "Capture path").
   const gint64 before = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
   if (err) return Probe::Failed;
   const HostNs lo = host_now();
