@@ -667,7 +667,7 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
   // idle core's wake"): both cameras fall due at one instant, so each time this VM is slow to wake
   // an idle core (up to 3.7 ms, for a real-time thread too) four of the ~175 pooled intervals move
   // together, and nine make the p95. Pooled p95 0.08-0.99 ms here in fifteen runs, 1.94 ms in CI
-  // (2026-11-28, its late frames entering their fill 0.7-2 ms late). A trigger missed or the
+  // (2026-11-28; here the late frames entered their fill 0.7-2 ms late). A trigger missed or the
   // engine's stall (a frame a period late, 33 ms) in 1 of 40 frames exceeds it. What the replay
   // itself adds, once the engine runs, is bounded as tightly as before: the time from the later of
   // due and the fill's start to the frame leaving, p95 0.075-0.127 ms in four runs. The defects
