@@ -61,11 +61,11 @@ cv::Mat BoardFrames::frame(int pose) {
     // The newest rendered pose up to `pose`. Only `pose` itself, as it once was, held the board still
     // for a whole session when every render took longer than a pose lasts: each finished after the
     // engine had moved on (a loaded suite run's board session: three cameras saw 0-5 distinct views).
-    auto newest = frames_.upper_bound(pose);
-    if (newest != frames_.begin() && std::prev(newest)->first > shown_) {
-      shown_ = std::prev(newest)->first;
+    if (auto newest = frames_.upper_bound(pose); newest != frames_.begin() && std::prev(newest)->first > shown_) {
+      --newest;
+      shown_ = newest->first;
       ++poses_shown_;
-      frames_.erase(frames_.begin(), frames_.find(shown_));
+      frames_.erase(frames_.begin(), newest);
     }
     if (pose > wanted_) {
       wanted_ = pose;
