@@ -62,8 +62,13 @@ Status half_size_from_planes(const cv::Mat planes[4], const std::string& bayer_f
   int g[2], n = 0;
   for (int k = 0; k < 4; ++k)
     if (k != r && k != b) g[n++] = k;
+  if (planes[r].empty() || planes[b].empty() || (planes[g[0]].empty() && planes[g[1]].empty()))
+    return Error{"a half-size image needs the red, the blue and a green plane"};
   cv::Mat green;
-  cv::addWeighted(planes[g[0]], 0.5, planes[g[1]], 0.5, 0, green);
+  if (planes[g[0]].empty() || planes[g[1]].empty())  // one green only (a reader that skipped the other)
+    green = planes[g[0]].empty() ? planes[g[1]] : planes[g[0]];
+  else
+    cv::addWeighted(planes[g[0]], 0.5, planes[g[1]], 0.5, 0, green);
   const cv::Mat bgr_planes[3] = {planes[b], green, planes[r]};
   cv::merge(bgr_planes, 3, bgr);
   return {};

@@ -22,7 +22,8 @@ Result<Demosaic> parse_demosaic(const std::string& name);
 // into `bgr` (CV_8UC3 or CV_16UC3).
 Status debayer(const cv::Mat& mosaic, const std::string& bayer_format, Demosaic method, cv::Mat& bgr);
 // Demosaic::HalfSize from the cell's four planes (top-left, top-right, bottom-left, bottom-right),
-// each W/2 x H/2: what a raw video already holds, so it needs no splitting.
+// each W/2 x H/2: what a raw video already holds, so it needs no splitting. One green may be empty
+// (a reader that decoded three planes): the other is then the green alone.
 Status half_size_from_planes(const cv::Mat planes[4], const std::string& bayer_format, cv::Mat& bgr);
 
 }  // namespace pvcap

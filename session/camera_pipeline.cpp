@@ -57,7 +57,11 @@ namespace {
 class CameraWorker {
  public:
   explicit CameraWorker(const CameraPipeline& p)
-      : p_(p), raw_video_(p.writer.stores_raw(p.device_id)), images_(p.encoder_queue + 2), stall_(p.stall) {}
+      : p_(p),
+        raw_video_(p.writer.stores_raw(p.device_id)),
+        plane_order_(p.writer.raw_plane_order(p.device_id)),
+        images_(p.encoder_queue + 2),
+        stall_(p.stall) {}
 
   void run() {
     warm_up();
@@ -150,7 +154,7 @@ class CameraWorker {
       std::memcpy(image.data, h.pixels.data(), bytes);
       // The frame's checksum, taken from the camera's bytes before anything encodes them: verify and
       // the reader compare every decoded frame with it (storage/frame_checksum.h).
-      h.rec.checksum = stored_mosaic_crc(image);
+      h.rec.checksum = stored_mosaic_crc(image, plane_order_);
     }
     recycle(std::move(h.pixels));
     if (!converted) {
@@ -277,6 +281,7 @@ class CameraWorker {
 
   const CameraPipeline& p_;
   const bool raw_video_;
+  const PlaneOrder plane_order_;  // how the raw video stacks the planes the checksum runs over
   // So are the images for the encoder (mosaics or debayered): one for each it can hold, and the one
   // being filled.
   FramePool images_;

@@ -229,6 +229,7 @@ class SegmentCompactor {
     VideoSettings vs;
     vs.bayer_format = in.bayer_format();
     vs.bit_depth = in.bit_depth();
+    vs.layout = in.layout();  // the planes stay where the capture checksums have them
     vs.raw_codec = codec;
     vs.preset = o_.preset;
     vs.gop_frames = o_.gop_frames;
@@ -256,7 +257,7 @@ class SegmentCompactor {
                           old_file.string(), k, crc, c->second)};
         ++copied.checked_against_capture;
       }
-      unpack_bayer_planes(picture, mosaic);
+      unpack_bayer_planes(picture, mosaic, in.plane_order());
       auto w = writer.value()->write(mosaic, pts_ms * 1000);
       if (!w) return w.error();
       if (writer.value()->last_pts_ms() != pts_ms)
@@ -338,7 +339,7 @@ Result<CompactReport> compact_session(const fs::path& dir, const CompactOptions&
     std::vector<Segment> todo;
     for (const auto& s : segments) {
       if (const std::string codec = target_codec(s.bit_depth, o);
-          s.layout != "bayer_planes" || s.codec == codec || (s.state != "closed" && s.state != "recovered")) {
+          !is_bayer_planes_layout(s.layout) || s.codec == codec || (s.state != "closed" && s.state != "recovered")) {
         ++report.segments_kept;
         continue;
       }

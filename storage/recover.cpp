@@ -49,14 +49,17 @@ Result<SpillSegment> open_next_segment(SessionIndex& index, const std::filesyste
                                        std::int64_t device_id) {
   auto& db = index.db();
   auto q = db.prepare(
-      "SELECT path, width, height, bayer_format, segment FROM video_files WHERE device_id = ? ORDER BY segment DESC "
-      "LIMIT 1");
+      "SELECT path, width, height, bayer_format, segment, layout FROM video_files WHERE device_id = ? "
+      "ORDER BY segment DESC LIMIT 1");
   q.bind_all(device_id);
   if (!q.step()) return Error{fmt::format("device {} has no video file to follow", device_id)};
   const std::string last = q.column_text(0);
   const std::string bayer = q.column_null(3) ? "" : q.column_text(3);
   VideoSettings vs = camera_video_settings(store, int(q.column_int(1)), int(q.column_int(2)), bayer);
   if (bayer.empty()) vs.bayer_format.clear();
+  // The spilled frames' checksums were taken in the layout the session was recording with.
+  if (const std::string layout = q.column_null(5) ? "" : q.column_text(5); is_bayer_planes_layout(layout))
+    vs.layout = layout;
   const int segment = int(q.column_int(4)) + 1;
   q.reset();
   SpillSegment o;
@@ -66,7 +69,7 @@ Result<SpillSegment> open_next_segment(SessionIndex& index, const std::filesyste
   o.video = std::move(opened.value());
   VideoFileRecord rec{0, device_id, o.path, vs.stored_codec(), vs.stored_pixel_format(), vs.width, vs.height, segment};
   if (vs.raw()) {
-    rec.layout = kBayerPlanesLayout;
+    rec.layout = vs.layout;
     rec.bayer_format = vs.bayer_format;
     rec.bit_depth = vs.bit_depth;
   }

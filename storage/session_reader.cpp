@@ -164,7 +164,19 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) 
     const std::optional<std::int64_t> checksum = opt_int(q, 4);
     if (rel.empty() || rel.find("..") != std::string::npos || rel.front() == '/')
       return Error{fmt::format("{}: video path '{}' leaves the session folder", dir_.string(), rel)};
+    // A viewer's read (half-size colour, nothing checked) skips a raw video's second green where
+    // the video allows it (storage/video_reader.h); a read that wants the mosaic or its checksum
+    // needs it whole. Which, depends on the read and the file alone, never on the reads before: the
+    // same read gives the same image.
+    const bool views_only = !mosaic && demosaic_ == Demosaic::HalfSize && !(check_checksums_ && checksum);
     auto it = videos_.find(file_id);
+    if (it != videos_.end()) {
+      const VideoReader& open = *it->second.reader;
+      if (open.decodes_three_planes() != (views_only && open.can_decode_three_planes())) {
+        videos_.erase(it);
+        it = videos_.end();
+      }
+    }
     if (it == videos_.end()) {
       // The earliest of this camera's open segments goes first, then the earliest of all.
       std::size_t of_camera = 0;
@@ -175,7 +187,9 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) 
         videos_.erase(earliest_of_camera);
       else if (videos_.size() >= kMaxOpenVideos)
         videos_.erase(videos_.begin());
-      auto opened = VideoReader::open(dir_ / rel);
+      VideoReader::Options options;
+      options.half_size_colour_only = views_only;
+      auto opened = VideoReader::open(dir_ / rel, options);
       if (!opened) return opened.error();
       it = videos_.emplace(file_id, OpenVideo{c.device_id, std::move(opened.value())}).first;
     }

@@ -24,7 +24,6 @@
 #include "core/thread_name.h"
 #include "core/time.h"
 #include "core/version.h"
-#include "storage/bayer_planes.h"
 #include "storage/frame_spill.h"
 #include "storage/video_repair.h"
 
@@ -250,7 +249,7 @@ Status SessionWriter::open_segment(Camera& cam, std::int64_t first_pts_us, bool 
                       cam.settings.height,
                       segment};
   if (cam.settings.raw()) {
-    rec.layout = kBayerPlanesLayout;
+    rec.layout = cam.settings.layout;
     rec.bayer_format = cam.settings.bayer_format;
     rec.bit_depth = cam.settings.bit_depth;
   }
@@ -493,6 +492,13 @@ VideoSettings camera_video_settings(const StoreConfig& store, int width, int hei
   vs.nominal_fps = store.video_fps > 0 ? store.video_fps : 30;
   vs.gop_frames = std::max(1, int(vs.nominal_fps * store.gop_seconds_x10 / 10.0));
   return vs;
+}
+
+PlaneOrder SessionWriter::raw_plane_order(std::int64_t device_id) const {
+  for (const auto& cam : cameras_)
+    if (cam->device_id == device_id && cam->settings.raw())
+      if (auto order = plane_order(cam->settings.layout, cam->settings.bayer_format)) return order.value();
+  return kCellOrder;
 }
 
 bool SessionWriter::stores_raw(std::int64_t device_id) const {

@@ -73,6 +73,8 @@ class SessionWriter {
                                   const std::string& pixel_format = "");
   // Whether this camera's video takes the sensor's mosaic (CV_8UC1) rather than BGR images.
   bool stores_raw(std::int64_t device_id) const;
+  // How its raw video stacks the mosaic's planes: the order its capture checksums run over.
+  PlaneOrder raw_plane_order(std::int64_t device_id) const;
   // Registers a non-video device (the Sensel); returns its device id.
   Result<std::int64_t> add_device(const DeviceRecord& device);
   // Session conditions and calibrations, written before start().

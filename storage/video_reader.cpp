@@ -35,7 +35,7 @@ struct VideoReader::Impl {  // members are freed in reverse: the scaler first, t
   bool intra_only = false;  // every frame decodes alone (HuffYUV, MagicYUV; not FFV1): reads skip, not decode
 };
 
-Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::path& path) {
+Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::path& path, const Options& options) {
   route_ffmpeg_log();
   const FfmpegLogQuiet quiet;
   std::unique_ptr<VideoReader> r(new VideoReader());
@@ -66,15 +66,19 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
     return e ? e->value : "";
   };
   if (const std::string layout = tag("PVCAP_LAYOUT"); !layout.empty()) {
-    if (layout != kBayerPlanesLayout)
+    if (!is_bayer_planes_layout(layout))
       return Error{
           fmt::format("{}: picture layout '{}' is not one this pvcap reads (update pvcap)", path.string(), layout)};
+    r->layout_ = layout;
     r->bayer_format_ = tag("PVCAP_BAYER_FORMAT");
     const std::string depth = tag("PVCAP_BIT_DEPTH");
     r->bit_depth_ = depth.size() == 1 || depth.size() == 2 ? std::atoi(depth.c_str()) : 0;
     if (r->bayer_format_.rfind("Bayer", 0) != 0 || r->bit_depth_ < 8 || r->bit_depth_ > 16)
       return Error{fmt::format("{}: raw video of '{}' at {} bits is not one this pvcap reads", path.string(),
                                r->bayer_format_, depth)};
+    auto order = pvcap::plane_order(layout, r->bayer_format_);
+    if (!order) return Error{fmt::format("{}: {}", path.string(), order.error().message)};
+    r->order_ = order.value();
   }
   const AVCodecDescriptor* descriptor = avcodec_descriptor_get(codec->id);
   im.intra_only = descriptor && (descriptor->props & AV_CODEC_PROP_INTRA_ONLY) != 0;
@@ -84,10 +88,21 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
   // (frame threads would add a frame of delay to every random access).
   im.dec.ptr->thread_count = 2;
   im.dec.ptr->thread_type = FF_THREAD_SLICE;
+  r->stacked_height_ = im.dec.ptr->height;
+  if (r->raw() && (r->stacked_height_ <= 0 || r->stacked_height_ % 4 != 0))
+    return Error{fmt::format("{}: a raw video's picture must stack four planes", path.string())};
+  // HuffYUV codes a grey picture's rows in order, each from the one before, and stops at the height
+  // it is told: told 3/4 of it, it decodes the first three planes exactly and skips the fourth (a
+  // second green in the green-last layout). Other codecs split a picture into slices by its height.
+  r->three_planes_possible_ = r->raw() && r->bit_depth_ == 8 && r->layout_ == kBayerPlanesGreenLastLayout &&
+                              (codec->id == AV_CODEC_ID_FFVHUFF || codec->id == AV_CODEC_ID_HUFFYUV);
+  r->three_planes_ = options.half_size_colour_only && r->three_planes_possible_;
+  if (r->three_planes_) {
+    im.dec.ptr->height = r->stacked_height_ / 4 * 3;
+    r->demosaic_ = Demosaic::HalfSize;
+  }
   if (avcodec_open2(im.dec.ptr, codec, nullptr) < 0)
     return Error{fmt::format("{}: cannot open decoder", path.string())};
-  if (r->raw() && im.dec.ptr->height % 4 != 0)
-    return Error{fmt::format("{}: a raw video's picture must stack four planes", path.string())};
   im.frame.ptr = av_frame_alloc();
   im.packet.ptr = av_packet_alloc();
   return r;
@@ -95,7 +110,7 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
 
 VideoReader::~VideoReader() = default;
 int VideoReader::width() const { return raw() ? impl_->dec.ptr->width * 2 : impl_->dec.ptr->width; }
-int VideoReader::height() const { return raw() ? impl_->dec.ptr->height / 2 : impl_->dec.ptr->height; }
+int VideoReader::height() const { return raw() ? stacked_height_ / 2 : impl_->dec.ptr->height; }
 
 Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
   const FfmpegLogQuiet quiet;
@@ -121,6 +136,8 @@ Result<cv::Mat> stored_picture(const AVFrame* f, int bit_depth, const std::files
 
 Result<bool> VideoReader::next_stored(cv::Mat& picture, std::int64_t& pts_ms, bool& key) {
   if (!raw()) return Error{fmt::format("{}: a colour video keeps no stored picture to check", path_.string())};
+  if (three_planes_)
+    return Error{fmt::format("{}: opened for half-size colour images only: no stored picture", path_.string())};
   const FfmpegLogQuiet quiet;
   auto more = decode_next(pts_ms);
   if (!more || !more.value()) return more;
@@ -132,30 +149,34 @@ Result<bool> VideoReader::next_stored(cv::Mat& picture, std::int64_t& pts_ms, bo
 }
 
 std::optional<std::uint32_t> VideoReader::decoded_picture_crc() const {
-  if (!raw() || last_pts_ms_ == INT64_MIN || !impl_->frame.ptr->data[0]) return std::nullopt;
+  if (!raw() || three_planes_ || last_pts_ms_ == INT64_MIN || !impl_->frame.ptr->data[0]) return std::nullopt;
   auto p = stored_picture(impl_->frame.ptr, bit_depth_, path_);
   if (!p) return std::nullopt;
   return picture_crc(p.value());
 }
 
 Status VideoReader::to_mosaic(cv::Mat& mosaic) {
+  if (three_planes_)
+    return Error{fmt::format("{}: opened for half-size colour images only: no mosaic", path_.string())};
   auto planes = stored_picture(impl_->frame.ptr, bit_depth_, path_);
   if (!planes) return planes.error();
   if (planes.value().rows % 4 != 0 || planes.value().cols <= 0)
     return Error{fmt::format("{}: a raw video's pictures must hold four planes stacked", path_.string())};
-  unpack_bayer_planes(planes.value(), mosaic);
+  unpack_bayer_planes(planes.value(), mosaic, order_);
   return {};
 }
 
 Status VideoReader::to_bgr(cv::Mat& bgr) {
   Impl& im = *impl_;
   if (raw() && demosaic_ == Demosaic::HalfSize && bit_depth_ == 8 && im.frame.ptr->format == AV_PIX_FMT_GRAY8) {
-    // The decoded picture already holds the four planes: no mosaic in between.
+    // The decoded picture already holds the planes (three of them when the decoder stopped before
+    // the second green): no mosaic in between.
     const AVFrame* f = im.frame.ptr;
-    const int h = f->height / 4;
+    const int h = stacked_height_ / 4;
     const cv::Mat stacked(f->height, f->width, CV_8UC1, f->data[0], std::size_t(f->linesize[0]));
-    const cv::Mat planes[4] = {stacked.rowRange(0, h), stacked.rowRange(h, 2 * h), stacked.rowRange(2 * h, 3 * h),
-                               stacked.rowRange(3 * h, 4 * h)};
+    cv::Mat planes[4];  // by cell
+    for (int k = 0; k < 4; ++k)
+      if ((k + 1) * h <= f->height) planes[order_[std::size_t(k)]] = stacked.rowRange(k * h, (k + 1) * h);
     bgr = im.images.acquire(h, f->width, CV_8UC3);
     if (Status s = half_size_from_planes(planes, bayer_format_, bgr); !s.ok())
       return Error{fmt::format("{}: {}", path_.string(), s.error().message)};

@@ -13,12 +13,22 @@
 
 #include "capture/demosaic.h"
 #include "core/result.h"
+#include "storage/bayer_planes.h"
 
 namespace pvcap {
 
 class VideoReader {
  public:
-  static Result<std::unique_ptr<VideoReader>> open(const std::filesystem::path& path);
+  struct Options {
+    // The reader will only be asked for half-size colour images (a viewer's: the replay's views).
+    // An 8-bit raw video whose layout stacks its second green last, coded with HuffYUV, then
+    // decodes its first three planes only (a quarter less work; the half-size green is the first
+    // green alone, not the mean of both). Such a reader gives no stored picture, mosaic or
+    // checksum. Other videos read as without it.
+    bool half_size_colour_only = false;
+  };
+  static Result<std::unique_ptr<VideoReader>> open(const std::filesystem::path& path, const Options& options);
+  static Result<std::unique_ptr<VideoReader>> open(const std::filesystem::path& path) { return open(path, Options{}); }
   ~VideoReader();
   VideoReader(const VideoReader&) = delete;
   VideoReader& operator=(const VideoReader&) = delete;
@@ -46,15 +56,24 @@ class VideoReader {
   // The same frame as the sensor's mosaic (CV_8UC1; CV_16UC1 above 8 bits), exactly as captured. An
   // Error for a colour video. (Colour images are always 8-bit: a deeper mosaic's top 8 bits.)
   Result<bool> read_raw_at(std::int64_t pts_ms, cv::Mat& mosaic, std::int64_t tolerance_ms = 1);
-  // How raw videos become colour (bilinear unless set; colour videos ignore it).
-  void set_demosaic(Demosaic method) { demosaic_ = method; }
+  // How raw videos become colour (bilinear unless set; colour videos ignore it; a reader that
+  // decodes three planes stays at half size).
+  void set_demosaic(Demosaic method) {
+    if (!three_planes_) demosaic_ = method;
+  }
   // The image size (a raw video's mosaic size, not its stacked planes).
   int width() const;
   int height() const;
   // A raw video's Bayer pattern ("BayerRG8"); empty for a colour video.
   const std::string& bayer_format() const { return bayer_format_; }
   bool raw() const { return !bayer_format_.empty(); }
-  int bit_depth() const { return bit_depth_; }  // a raw video's bits per sample
+  int bit_depth() const { return bit_depth_; }           // a raw video's bits per sample
+  const std::string& layout() const { return layout_; }  // a raw video's plane stacking (storage/bayer_planes.h)
+  const PlaneOrder& plane_order() const { return order_; }
+  // Whether this reader decodes only the first three planes (Options::half_size_colour_only took),
+  // and whether the video allows it (so a reader opened without the option can tell).
+  bool decodes_three_planes() const { return three_planes_; }
+  bool can_decode_three_planes() const { return three_planes_possible_; }
 
  private:
   VideoReader() = default;
@@ -70,6 +89,11 @@ class VideoReader {
   std::int64_t last_pts_ms_ = INT64_MIN;  // of the frame next() returned last
   std::uint64_t frames_decoded_ = 0;
   std::string bayer_format_;
+  std::string layout_;
+  PlaneOrder order_ = kCellOrder;
+  int stacked_height_ = 0;              // a raw video's whole stacked picture, whatever the decoder is told
+  bool three_planes_possible_ = false;  // an 8-bit green-last HuffYUV video
+  bool three_planes_ = false;           // the decoder stops before the last plane (the second green)
   int bit_depth_ = 8;
   Demosaic demosaic_ = Demosaic::Bilinear;
 };

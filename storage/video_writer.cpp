@@ -55,6 +55,11 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
                              s.bayer_format)};
   if (s.raw() && (s.bit_depth < 8 || s.bit_depth > 16))
     return Error{fmt::format("{}: a raw video of {} bits per sample is not possible", where, s.bit_depth)};
+  if (s.raw()) {
+    auto order = plane_order(s.layout, s.bayer_format);
+    if (!order) return Error{fmt::format("{}: {}", where, order.error().message)};
+    w->order_ = order.value();
+  }
   if (s.raw() && (s.width % 2 != 0 || s.height % 2 != 0))
     return Error{
         fmt::format("{}: a {} mosaic of {}x{} has no whole 2x2 cells; raw video needs an even width and "
@@ -99,7 +104,7 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   im.stream = avformat_new_stream(im.fmt.ptr, nullptr);
   if (s.raw()) {
     // The file says what it holds, so a raw video is readable without the index.
-    av_dict_set(&im.stream->metadata, "PVCAP_LAYOUT", kBayerPlanesLayout, 0);
+    av_dict_set(&im.stream->metadata, "PVCAP_LAYOUT", s.layout.c_str(), 0);
     av_dict_set(&im.stream->metadata, "PVCAP_BAYER_FORMAT", s.bayer_format.c_str(), 0);
     av_dict_set(&im.stream->metadata, "PVCAP_BIT_DEPTH", std::to_string(s.bit_depth).c_str(), 0);
     av_dict_set(&im.stream->metadata, "PVCAP_SIZE", fmt::format("{}x{}", s.width, s.height).c_str(), 0);
@@ -177,7 +182,7 @@ Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us)
   if (raw_) {
     cv::Mat planes(im.enc.ptr->height, im.enc.ptr->width, input_type_, im.frame.ptr->data[0],
                    std::size_t(im.frame.ptr->linesize[0]));
-    pack_bayer_planes(bgr, planes);
+    pack_bayer_planes(bgr, planes, order_);
   } else if (im.enc.ptr->pix_fmt == AV_PIX_FMT_YUV444P) {
     // The default format, converted here rather than by swscale (3x faster for this pair): BT.601
     // limited range, the coefficients swscale uses, straight into the frame's three planes.

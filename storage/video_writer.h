@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/result.h"
+#include "storage/bayer_planes.h"
 
 namespace pvcap {
 
@@ -22,6 +23,9 @@ struct VideoSettings {
   // `codec` with `crf`, `preset` and `pixel_format`).
   std::string bayer_format;
   int bit_depth = 8;  // raw mode: bits per sample; above 8 the mosaic comes in CV_16UC1 (stored as 16-bit grey)
+  // Raw mode: how the planes are stacked (storage/bayer_planes.h). New recordings take the second
+  // green last; a re-encode keeps its source's layout, so the capture checksums still hold.
+  std::string layout = kBayerPlanesGreenLastLayout;
   std::string raw_codec = "ffvhuff";
   std::string codec = "libx264";
   int crf = 10;
@@ -67,7 +71,8 @@ class VideoWriter {
   std::int64_t last_pts_ms_ = 0;
   bool closed_ = false;
   bool raw_ = false;
-  int input_type_ = 0;  // what write() takes
+  PlaneOrder order_ = kCellOrder;  // raw mode: the planes' stacking
+  int input_type_ = 0;             // what write() takes
   int width_ = 0, height_ = 0;
 };
 

@@ -46,7 +46,7 @@ int write_raw_store(const fs::path& out, bool interrupted) {
     cv::Mat mosaic(32, 64, CV_8UC1);
     cv::randu(mosaic, 0, 255);
     FrameRecord fr{cam, 0, std::uint64_t(i), std::uint64_t(i), i, t, 0, "good", false, "", {}, {}, t};
-    fr.checksum = stored_mosaic_crc(mosaic);
+    fr.checksum = stored_mosaic_crc(mosaic, writer.raw_plane_order(cam));
     writer.submit_video(cam, mosaic, fr);
     sensel::Frame f;
     f.content = sensel::kPressure;

@@ -90,8 +90,8 @@ TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
     pvcap::sqlite::Database db(dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
     EXPECT_EQ(count(db, "SELECT count(*) FROM frames WHERE reason = 'encoder_behind'"), 0) << result.output;
     EXPECT_EQ(count(db, "SELECT count(*) FROM frames WHERE reason LIKE 'spill%'"), 0);
-    EXPECT_EQ(count(db, "SELECT count(*) FROM video_files WHERE layout != 'bayer_planes'"), 0)
-        << "Bayer cameras are stored raw by default";
+    EXPECT_EQ(count(db, "SELECT count(*) FROM video_files WHERE layout != 'bayer_planes_green_last'"), 0)
+        << "Bayer cameras are stored raw by default, the second green last";
     const std::int64_t spill_events = count(db, "SELECT count(*) FROM events WHERE kind = 'spill'");
     EXPECT_GT(spill_events, 0) << "the spill was used: " << result.output;
     auto q = db.prepare("SELECT message FROM events WHERE kind = 'spill'");

@@ -67,7 +67,7 @@ fs::path write_raw_session(const fs::path& root, double seconds) {
     const std::int64_t t = t0 + 10'000'000 + i * 66'666'667;
     cv::Mat mosaic = scene_mosaic(i);
     FrameRecord f{cam.value(), 0, std::uint64_t(i), std::uint64_t(i), i * 1000, t, 0, "good", false, "", {}, {}, t};
-    f.checksum = stored_mosaic_crc(mosaic);
+    f.checksum = stored_mosaic_crc(mosaic, writer.raw_plane_order(cam.value()));
     EXPECT_TRUE(writer.submit_video(cam.value(), mosaic, f));
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }

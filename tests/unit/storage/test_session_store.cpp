@@ -17,6 +17,7 @@
 #include "core/rig_config.h"
 #include "core/time.h"
 #include "sim/scene.h"
+#include "storage/frame_checksum.h"
 #include "storage/pressure_blob.h"
 #include "storage/recover.h"
 #include "storage/session_reader.h"
@@ -143,7 +144,10 @@ WrittenStore write_store(const fs::path& root, double seconds, bool raw_first = 
     for (std::size_t c = 0; c < out.cams.size(); ++c) {
       FrameRecord f{out.cams[c], 0, std::uint64_t(i), std::uint64_t(i), i * 1000, t, 0, "good", false, "", {}, {}, t};
       cv::Mat image = noise_frame(int(c), i);
-      if (writer.stores_raw(out.cams[c])) image = sim::to_sensor_format(image, "BayerRG8");
+      if (writer.stores_raw(out.cams[c])) {
+        image = sim::to_sensor_format(image, "BayerRG8");
+        f.checksum = stored_mosaic_crc(image, writer.raw_plane_order(out.cams[c]));
+      }
       EXPECT_TRUE(writer.submit_video(out.cams[c], image, f));
       s.cameras.push_back({out.cams[c], 0, std::uint64_t(i), 0});
     }
@@ -448,6 +452,41 @@ TEST(SessionStore, AVersion3StoreIsReadWithoutAnUpgrade) {
   EXPECT_TRUE(s.value().pressure);
   auto raw = r.value()->raw_image(3, 0);
   ASSERT_FALSE(raw) << "a colour video has no mosaic";
+  fs::remove_all(root);
+}
+
+// A viewer's half-size reads of a raw camera skip the second green (storage/video_reader.h): the
+// image is the mosaic's R, first green and B. A mosaic read, or a checked read, of the same frame
+// then opens the video whole and gets every bit.
+TEST(SessionStore, HalfSizeViewsSkipTheSecondGreenAndMosaicReadsStillGetEveryBit) {
+  const auto root = temp_root("three-planes");
+  const auto st = write_store(root, 1.5, /*raw_first=*/true);
+  auto r = SessionReader::open(st.dir);
+  ASSERT_TRUE(r) << r.error().message;
+  r.value()->set_demosaic(Demosaic::HalfSize);
+  for (const std::size_t i : {3u, 12u, 4u}) {
+    auto view = r.value()->image(i, 0);
+    ASSERT_TRUE(view) << view.error().message;
+    auto mosaic = r.value()->raw_image(i, 0);
+    ASSERT_TRUE(mosaic) << mosaic.error().message;
+    const cv::Mat& m = mosaic.value();
+    ASSERT_EQ(view.value().size(), cv::Size(m.cols / 2, m.rows / 2));
+    // BayerRG: R G / G B; the first row's green is the one kept.
+    std::vector<cv::Mat> bgr(3);
+    cv::extractChannel(cv::Mat(m.rows / 2, m.cols / 2, CV_8UC2, m.data + m.step[0], m.step[0] * 2), bgr[0], 1);
+    cv::extractChannel(cv::Mat(m.rows / 2, m.cols / 2, CV_8UC2, m.data, m.step[0] * 2), bgr[1], 1);
+    cv::extractChannel(cv::Mat(m.rows / 2, m.cols / 2, CV_8UC2, m.data, m.step[0] * 2), bgr[2], 0);
+    cv::Mat expected;
+    cv::merge(bgr, expected);
+    EXPECT_EQ(cv::norm(view.value(), expected, cv::NORM_INF), 0.0) << "sample " << i;
+    // Checked reads decode the whole picture: its checksum holds.
+    r.value()->set_check_checksums(true);
+    auto checked = r.value()->image(i, 0);
+    ASSERT_TRUE(checked) << checked.error().message;
+    EXPECT_GT(cv::norm(checked.value(), expected, cv::NORM_INF), 0.0) << "the mean of both greens, not one";
+    r.value()->set_check_checksums(false);
+  }
+  EXPECT_LE(r.value()->open_videos(), 4u);
   fs::remove_all(root);
 }
 

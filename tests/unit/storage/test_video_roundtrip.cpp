@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <set>
 
 #include <opencv2/imgproc.hpp>
 
@@ -224,7 +226,9 @@ TEST(VideoRoundTrip, RawVideoKeepsTheMosaicBitExactAndDemosaicsOnRead) {
       cv::Mat mosaic;
       ASSERT_TRUE(ahead.value()->read_raw_at(((i + 1) * 66'667 + 500) / 1000, mosaic).value()) << i;
       EXPECT_EQ(cv::norm(mosaic, mosaics[std::size_t(i)], cv::NORM_INF), 0.0) << "frame " << i;
-      EXPECT_EQ(ahead.value()->decoded_picture_crc(), stored_mosaic_crc(mosaics[std::size_t(i)])) << "frame " << i;
+      EXPECT_EQ(ahead.value()->decoded_picture_crc(),
+                stored_mosaic_crc(mosaics[std::size_t(i)], ahead.value()->plane_order()))
+          << "frame " << i;
     }
     EXPECT_EQ(ahead.value()->frames_decoded(), codec == "libx264" || codec == "ffv1" ? 6u : 3u);
     // Another demosaicing, on request: a different image of the same mosaic.
@@ -337,22 +341,120 @@ TEST(VideoReader, ForeignFileIsAnErrorNotACrash) {
 }
 
 TEST(BayerPlanes, PackAndUnpackAreInverseAndPutEachCellPositionInItsOwnPlane) {
-  for (int type : {CV_8UC1, CV_16UC1}) {
-    cv::Mat mosaic(6, 8, type);
-    cv::randu(mosaic, 0, type == CV_8UC1 ? 256 : 4096);
-    cv::Mat planes, back;
-    pack_bayer_planes(mosaic, planes);
-    ASSERT_EQ(planes.size(), cv::Size(4, 12));
-    for (int y = 0; y < 3; ++y)
-      for (int x = 0; x < 4; ++x)
-        for (int p = 0; p < 4; ++p) {  // p: the cell's top-left, top-right, bottom-left, bottom-right
-          const int my = 2 * y + p / 2, mx = 2 * x + p % 2;
-          if (type == CV_8UC1)
-            EXPECT_EQ(planes.at<std::uint8_t>(p * 3 + y, x), mosaic.at<std::uint8_t>(my, mx));
-          else
-            EXPECT_EQ(planes.at<std::uint16_t>(p * 3 + y, x), mosaic.at<std::uint16_t>(my, mx));
-        }
-    unpack_bayer_planes(planes, back);
-    EXPECT_EQ(cv::norm(back, mosaic, cv::NORM_INF), 0.0);
+  for (const PlaneOrder order : {kCellOrder, PlaneOrder{0, 1, 3, 2}})
+    for (int type : {CV_8UC1, CV_16UC1}) {
+      cv::Mat mosaic(6, 8, type);
+      cv::randu(mosaic, 0, type == CV_8UC1 ? 256 : 4096);
+      cv::Mat planes, back;
+      pack_bayer_planes(mosaic, planes, order);
+      ASSERT_EQ(planes.size(), cv::Size(4, 12));
+      for (int y = 0; y < 3; ++y)
+        for (int x = 0; x < 4; ++x)
+          for (int k = 0; k < 4; ++k) {  // k: the stacked plane, holding cell p (0 top-left ... 3 bottom-right)
+            const int p = order[std::size_t(k)], my = 2 * y + p / 2, mx = 2 * x + p % 2;
+            if (type == CV_8UC1)
+              EXPECT_EQ(planes.at<std::uint8_t>(k * 3 + y, x), mosaic.at<std::uint8_t>(my, mx));
+            else
+              EXPECT_EQ(planes.at<std::uint16_t>(k * 3 + y, x), mosaic.at<std::uint16_t>(my, mx));
+          }
+      unpack_bayer_planes(planes, back, order);
+      EXPECT_EQ(cv::norm(back, mosaic, cv::NORM_INF), 0.0);
+      // The capture checksum runs over the planes in the order the video stacks them.
+      EXPECT_EQ(stored_mosaic_crc(mosaic, order), picture_crc(planes));
+    }
+}
+
+// The green-last layout puts a green last for every pattern, and the first layout keeps the cell's order.
+TEST(BayerPlanes, TheGreenLastLayoutEndsInAGreenForEveryPattern) {
+  // Where the greens are in the cell, by pattern: RG/BG on the anti-diagonal, GR/GB on the diagonal.
+  const std::map<std::string, std::set<int>> greens{
+      {"BayerRG8", {1, 2}}, {"BayerBG8", {1, 2}}, {"BayerGR8", {0, 3}}, {"BayerGB8", {0, 3}}, {"BayerRG12", {1, 2}}};
+  for (const auto& [format, green] : greens) {
+    auto order = plane_order(kBayerPlanesGreenLastLayout, format);
+    ASSERT_TRUE(order) << order.error().message;
+    EXPECT_TRUE(green.count(order.value()[3])) << format;
+    EXPECT_EQ(std::set<int>(order.value().begin(), order.value().end()), (std::set<int>{0, 1, 2, 3})) << format;
+    EXPECT_EQ(plane_order(kBayerPlanesLayout, format).value(), kCellOrder) << format;
   }
+  EXPECT_FALSE(plane_order(kBayerPlanesGreenLastLayout, "Mono8"));
+  auto unknown = plane_order("bayer_planes_v9", "BayerRG8");
+  ASSERT_FALSE(unknown);
+  EXPECT_NE(unknown.error().message.find("update pvcap"), std::string::npos) << unknown.error().message;
+}
+
+// A viewer's reader (half-size colour only) of a green-last HuffYUV video decodes three planes of
+// four: its images are the first green's, exactly; the full reader's are the mean of both greens,
+// and a video of the first layout, or of another codec, reads as without the option.
+TEST(VideoRoundTrip, AViewersReaderDecodesThreePlanesOfAGreenLastHuffYuvVideo) {
+  cv::RNG rng(31);
+  for (const std::string format : {"BayerRG8", "BayerGB8"})
+    for (const std::string codec : {"ffvhuff", "magicyuv"})
+      for (const std::string layout : {kBayerPlanesGreenLastLayout, kBayerPlanesLayout}) {
+        SCOPED_TRACE(format + " " + codec + " " + layout);
+        const auto dir = temp_dir("three-planes");
+        VideoSettings s = raw_settings(format, codec);
+        s.layout = layout;
+        auto w = VideoWriter::open(dir / "v.mkv", s);
+        ASSERT_TRUE(w) << w.error().message;
+        std::vector<cv::Mat> mosaics;
+        for (int i = 0; i < 4; ++i) {
+          cv::Mat m = sim::to_sensor_format(frame_with_timecode(i), format), noise(m.size(), CV_8SC1);
+          rng.fill(noise, cv::RNG::NORMAL, 0, 2);
+          cv::add(m, noise, m, cv::noArray(), CV_8U);
+          mosaics.push_back(m);
+          ASSERT_TRUE(w.value()->write(m, (i + 1) * 66'667));
+        }
+        ASSERT_TRUE(w.value()->close().ok());
+
+        VideoReader::Options views;
+        views.half_size_colour_only = true;
+        auto viewer = VideoReader::open(dir / "v.mkv", views);
+        auto whole = VideoReader::open(dir / "v.mkv");
+        ASSERT_TRUE(viewer && whole);
+        const bool three = codec == "ffvhuff" && layout == kBayerPlanesGreenLastLayout;
+        EXPECT_EQ(viewer.value()->decodes_three_planes(), three);
+        EXPECT_FALSE(whole.value()->decodes_three_planes());
+        EXPECT_EQ(viewer.value()->layout(), layout);
+        EXPECT_EQ(viewer.value()->width(), 320);
+        EXPECT_EQ(viewer.value()->height(), 180);
+        whole.value()->set_demosaic(Demosaic::HalfSize);
+        viewer.value()->set_demosaic(Demosaic::HalfSize);  // as a viewer does: the option alone does not halve
+        for (int i = 0; i < 4; ++i) {
+          const std::int64_t pts_ms = ((i + 1) * 66'667 + 500) / 1000;
+          cv::Mat seen, full;
+          ASSERT_TRUE(viewer.value()->read_at(pts_ms, seen).value()) << i;
+          ASSERT_TRUE(whole.value()->read_at(pts_ms, full).value()) << i;
+          ASSERT_EQ(seen.size(), cv::Size(160, 90));
+          // The expected image, from the mosaic itself: each cell's R, B and green(s).
+          const cv::Mat& m = mosaics[std::size_t(i)];
+          const bool green_first = format == "BayerGB8";  // GB: G B / R G; RG: R G / G B
+          cv::Mat b(90, 160, CV_8UC1), g1(90, 160, CV_8UC1), g2(90, 160, CV_8UC1), r(90, 160, CV_8UC1);
+          for (int y = 0; y < 90; ++y)
+            for (int x = 0; x < 160; ++x) {
+              const auto at = [&](int dy, int dx) { return m.at<std::uint8_t>(2 * y + dy, 2 * x + dx); };
+              r.at<std::uint8_t>(y, x) = green_first ? at(1, 0) : at(0, 0);
+              b.at<std::uint8_t>(y, x) = green_first ? at(0, 1) : at(1, 1);
+              g1.at<std::uint8_t>(y, x) = green_first ? at(0, 0) : at(0, 1);  // the first row's green
+              g2.at<std::uint8_t>(y, x) = green_first ? at(1, 1) : at(1, 0);
+            }
+          cv::Mat mean_g, expected_full, expected_seen;
+          cv::addWeighted(g1, 0.5, g2, 0.5, 0, mean_g);
+          cv::merge(std::vector<cv::Mat>{b, mean_g, r}, expected_full);
+          cv::merge(std::vector<cv::Mat>{b, g1, r}, expected_seen);
+          EXPECT_EQ(cv::norm(full, expected_full, cv::NORM_INF), 0.0) << "frame " << i;
+          EXPECT_EQ(cv::norm(seen, three ? expected_seen : expected_full, cv::NORM_INF), 0.0) << "frame " << i;
+        }
+        // What a three-plane reader cannot give, it says; the whole reader gives the mosaic.
+        cv::Mat mosaic;
+        auto raw = viewer.value()->read_raw_at(67, mosaic);
+        EXPECT_EQ(bool(raw), !three);
+        if (three) {
+          EXPECT_NE(raw.error().message.find("half-size colour images only"), std::string::npos) << raw.error().message;
+          EXPECT_EQ(viewer.value()->decoded_picture_crc(), std::nullopt);
+        }
+        ASSERT_TRUE(whole.value()->read_raw_at(67, mosaic).value());
+        EXPECT_EQ(cv::norm(mosaic, mosaics[0], cv::NORM_INF), 0.0);
+        EXPECT_EQ(whole.value()->decoded_picture_crc(), stored_mosaic_crc(mosaics[0], whole.value()->plane_order()));
+        fs::remove_all(dir);
+      }
 }
