@@ -83,6 +83,19 @@ void read_video(const std::filesystem::path& path) {
     auto more = v.value()->next(bgr, pts);
     if (!more || !more.value()) break;
   }
+  // A viewer's reader: a green-last HuffYUV video's decoder told the picture is 3/4 as tall.
+  pvcap::VideoReader::Options views;
+  views.half_size_colour_only = true;
+  auto viewer = pvcap::VideoReader::open(path, views);
+  if (!viewer) return;
+  viewer.value()->set_demosaic(pvcap::Demosaic::HalfSize);
+  (void)viewer.value()->read_at(200, bgr);
+  for (int n = 0; n < 32; ++n) {
+    auto more = viewer.value()->next(bgr, pts);
+    if (!more || !more.value()) break;
+  }
+  cv::Mat mosaic;
+  (void)viewer.value()->read_raw_at(0, mosaic);  // refused, not crashed, by a three-plane reader
 }
 }  // namespace
 
