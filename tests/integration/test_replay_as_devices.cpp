@@ -122,28 +122,64 @@ std::vector<double> camera_interval_errors_ms(const fs::path& log) {
   return errors;
 }
 
-// The same for the Sensel, from its replay log (sim-truth/sensel_replay.csv: counter,device_us,
-// due_ns,sent_ns, ...): its device clock counts 32-bit microseconds.
-std::vector<double> sensel_interval_errors_ms(const fs::path& log) {
+// The Sensel's replay log (sim-truth/sensel_replay.csv): per frame, its device clock (32-bit
+// microseconds), when it was due, when it left, and when pvcap's request for it came (host ns).
+struct ReplayedPressure {
+  std::int64_t device_us, due_ns, sent_ns, asked_ns;
+};
+std::vector<ReplayedPressure> read_sensel_replay_log(const fs::path& log) {
   std::ifstream in(log);
   std::string line;
-  std::getline(in, line);  // header
-  std::vector<double> errors;
-  bool have_prev = false;
-  std::int64_t prev_device = 0, prev_sent = 0;
+  std::getline(in, line);  // counter,device_us,due_ns,sent_ns,asked_ns
+  std::vector<ReplayedPressure> frames;
   while (std::getline(in, line)) {
     std::stringstream ss(line);
-    std::string a, b, c, d;
-    if (!std::getline(ss, a, ',') || !std::getline(ss, b, ',') || !std::getline(ss, c, ',') || !std::getline(ss, d))
-      continue;
-    const std::int64_t device = std::stoll(b), sent = std::stoll(d);
-    if (have_prev) {
-      const double device_interval = double(std::uint32_t(std::uint64_t(device) - std::uint64_t(prev_device))) * 1e3;
-      errors.push_back(std::fabs(double(sent - prev_sent) - device_interval) / 1e6);
-    }
-    have_prev = true, prev_device = device, prev_sent = sent;
+    std::string field;
+    std::vector<std::int64_t> v;
+    while (std::getline(ss, field, ',')) v.push_back(std::stoll(field));
+    if (v.size() >= 5) frames.push_back({v[1], v[2], v[3], v[4]});
   }
+  return frames;
+}
+
+// |interval between two pressure frames leaving - their recorded device interval| (ms).
+double interval_error_ms(const ReplayedPressure& before, const ReplayedPressure& f) {
+  const double device_interval =
+      double(std::uint32_t(std::uint64_t(f.device_us) - std::uint64_t(before.device_us))) * 1e3;
+  return std::fabs(double(f.sent_ns - before.sent_ns) - device_interval) / 1e6;
+}
+
+// That error for each of the Sensel's frames but its first.
+std::vector<double> sensel_interval_errors_ms(const fs::path& log) {
+  const auto frames = read_sensel_replay_log(log);
+  std::vector<double> errors;
+  for (std::size_t i = 1; i < frames.size(); ++i) errors.push_back(interval_error_ms(frames[i - 1], frames[i]));
   return errors;
+}
+
+// What the emulator itself adds: from the later of due and pvcap's request to the frame leaving (ms).
+std::vector<double> sensel_own_delays_ms(const fs::path& log) {
+  std::vector<double> out;
+  for (const ReplayedPressure& f : read_sensel_replay_log(log))
+    out.push_back(double(f.sent_ns - std::max(f.due_ns, f.asked_ns)) / 1e6);
+  return out;
+}
+
+// The pressure frames whose interval missed by more than `late_ms`, with when pvcap asked for each
+// and when it left, from the instant it was due (ms): a late request is pvcap's reader (or its
+// core) waking late, a late send with the request in time the emulator's.
+std::string late_sensel_frames(const fs::path& log, double late_ms) {
+  const auto frames = read_sensel_replay_log(log);
+  std::string out;
+  for (std::size_t i = 1; i < frames.size(); ++i) {
+    const ReplayedPressure& f = frames[i];
+    const double error_ms = interval_error_ms(frames[i - 1], f);
+    if (error_ms <= late_ms) continue;
+    out += fmt::format("\n  {}: frame {}: interval off by {:.3f} ms; asked {:+.3f}, left {:+.3f} ms",
+                       log.filename().string(), i, error_ms, double(f.asked_ns - f.due_ns) / 1e6,
+                       double(f.sent_ns - f.due_ns) / 1e6);
+  }
+  return out;
 }
 
 // The frames whose interval missed its recorded one by more than `late_ms`, each with where its
@@ -540,23 +576,32 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   }
   std::printf("cameras: left after due and in the fill, p50 %.3f p95 %.3f max %.3f ms (%zu frames)\n", pct(fill, 0.5),
               pct(fill, 0.95), pct(fill, 1.0), fill.size());
+  const fs::path sensel_log = replayed / "sim-truth" / "sensel_replay.csv";
+  const auto sensel_own = sensel_own_delays_ms(sensel_log);
+  std::printf("Sensel: left after the later of due and asked, p50 %.3f p95 %.3f max %.3f ms (%zu frames)\n",
+              pct(sensel_own, 0.5), pct(sensel_own, 0.95), pct(sensel_own, 1.0), sensel_own.size());
   // Frames leave on time: p50 10-60 us, Sensel p95 0.08-0.2 ms beside the recorder on these 2
   // cores (docs/replay.md). The cameras' p95 was 0.3-0.5 ms on 2026-11-26; on 2026-11-28 0.16-0.90
   // ms in six runs here and 1.34 ms in CI, most of its late frames entering their fill 1-5 ms
   // late: this VM wakes a halted core up to 3.7 ms late, a real-time thread too (docs/replay.md,
   // "The trigger line and an idle core's wake"), and a camera's engine sleeps 33 ms between frames.
-  // So what the replay adds once its engine runs is bounded apart (p95 0.11-0.14 ms in three
-  // runs; the defects fixed on 2026-11-26 spent their time there: each frame that brought a new
-  // image left 0.3-1.2 ms late), and the intervals' p95 at 2.5 ms. The engine's stall (1 frame
-  // in 8-12 late by 33-100 ms) fails the intervals' p95. The kernel's pseudo-terminal can hold a
-  // Sensel request back by tens of milliseconds on saturated cores; the p95 does not reach it. The
-  // test runs alone (RUN_SERIAL): beside a unit test in CI the cameras' p95 was 1.06 ms
-  // (2026-11-26).
+  // So what the replay adds once its engine runs is bounded apart (p95 0.11-0.24 ms; the defects
+  // fixed on 2026-11-26 spent their time there: each frame that brought a new image left 0.3-1.2
+  // ms late), and so is the Sensel emulator's own part (from the later of due and pvcap's request
+  // to the frame leaving: p95 0.11-0.18 ms). The intervals' p95 is a guard against gross failures
+  // at 5 ms: the engine's stall (1 frame in 8-12 late by 33-100 ms) fails it; the VM's wake does
+  // not (the later VM of 2026-11-28 gave cameras 0.21-2.29 ms in six runs, the Sensel 0.07-0.24 and
+  // 1.34 ms in a suite run whose cameras' p50 was three times its usual). The kernel's
+  // pseudo-terminal can hold a Sensel request back by tens of milliseconds on saturated cores; the
+  // p95 does not reach it. The test runs alone (RUN_SERIAL): beside a unit test in CI the cameras'
+  // p95 was 1.06 ms (2026-11-26).
   EXPECT_LT(pct(cam_errors, 0.5), 0.5);
-  EXPECT_LT(pct(cam_errors, 0.95), 2.5) << "intervals more than 1 ms off:" << late;
+  EXPECT_LT(pct(cam_errors, 0.95), 5.0) << "intervals more than 1 ms off:" << late;
   EXPECT_LT(pct(fill, 0.95), 0.5) << "intervals more than 1 ms off:" << late;
-  EXPECT_LT(pct(sensel_errors, 0.95), 1.0);
+  const std::string sensel_late = late_sensel_frames(sensel_log, 1.0);
   EXPECT_LT(pct(sensel_errors, 0.5), 0.5);
+  EXPECT_LT(pct(sensel_errors, 0.95), 5.0) << "intervals more than 1 ms off:" << sensel_late;
+  EXPECT_LT(pct(sensel_own, 0.95), 0.5) << "intervals more than 1 ms off:" << sensel_late;
 }
 
 // A colour store keeps no mosaics: its images are sampled back into the camera's Bayer pattern and
@@ -676,8 +721,9 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
   // idle core's wake"): both cameras fall due at one instant, so each time this VM is slow to wake
   // an idle core (up to 3.7 ms, for a real-time thread too) four of the ~175 pooled intervals move
   // together, and nine make the p95. Pooled p95 0.08-0.99 ms here in fifteen runs, 1.94 ms in CI
-  // (2026-11-28; here the late frames entered their fill 0.7-2 ms late). A trigger missed or the
-  // engine's stall (a frame a period late, 33 ms) in 1 of 40 frames exceeds it. What the replay
+  // (2026-11-28; here the late frames entered their fill 0.7-2 ms late), 1.77 and 1.92 ms on the
+  // later, slower VM of that day; so the bound is 5 ms, a guard against gross failures: a trigger
+  // missed or the engine's stall (a frame a period late, 33 ms) in 1 of 40 frames exceeds it. What the replay
   // itself adds, once the engine runs, is bounded as tightly as before: the time from the later of
   // due and the fill's start to the frame leaving, p95 0.075-0.127 ms in four runs. The defects
   // fixed in sim/replay_camera.cpp spent their time there: each frame that brought a new image left
@@ -691,7 +737,7 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
   for (double d : fill_delays_ms(replayed / "sim-truth" / "cam1_replay.csv")) fill.push_back(d);
   std::printf("both cameras: left after due and in the fill, p50 %.3f p95 %.3f max %.3f ms (%zu frames)\n",
               pct(fill, 0.5), pct(fill, 0.95), pct(fill, 1.0), fill.size());
-  EXPECT_LT(pct(both, 0.95), 2.5) << "intervals more than 0.5 ms off:" << late;
+  EXPECT_LT(pct(both, 0.95), 5.0) << "intervals more than 0.5 ms off:" << late;
   EXPECT_LT(pct(fill, 0.95), 0.5) << "intervals more than 0.5 ms off:" << late;
 }
 
