@@ -15,6 +15,7 @@
 #include "core/time.h"
 #include "core/version.h"
 #include "storage/bayer_planes.h"
+#include "storage/camera_video_settings.h"
 #include "storage/durable_folder.h"
 #include "storage/frame_spill.h"
 #include "storage/index_overflow.h"

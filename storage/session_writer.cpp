@@ -20,10 +20,10 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "capture/pixel_format.h"
 #include "core/thread_name.h"
 #include "core/time.h"
 #include "core/version.h"
+#include "storage/camera_video_settings.h"
 #include "storage/frame_spill.h"
 #include "storage/video_repair.h"
 
@@ -476,43 +476,28 @@ std::optional<std::string> SessionWriter::failure() const {
   return std::nullopt;
 }
 
-VideoSettings camera_video_settings(const StoreConfig& store, int width, int height, const std::string& pixel_format) {
-  VideoSettings vs;
-  if (store.video_mode == "raw" && is_bayer(pixel_format_code(pixel_format))) {
-    vs.bayer_format = pixel_format;
-    vs.bit_depth = bayer_bit_depth(pixel_format_code(pixel_format));
-  }
-  vs.raw_codec = store.raw_codec;
-  vs.codec = store.video_codec;
-  vs.crf = store.crf;
-  vs.preset = store.preset;
-  vs.pixel_format = store.video_pixel_format;
-  vs.width = width;
-  vs.height = height;
-  vs.nominal_fps = store.video_fps > 0 ? store.video_fps : 30;
-  vs.gop_frames = std::max(1, int(vs.nominal_fps * store.gop_seconds_x10 / 10.0));
-  return vs;
+const SessionWriter::Camera* SessionWriter::camera(std::int64_t device_id) const {
+  for (const auto& cam : cameras_)
+    if (cam->device_id == device_id) return cam.get();
+  return nullptr;
 }
 
 PlaneOrder SessionWriter::raw_plane_order(std::int64_t device_id) const {
-  for (const auto& cam : cameras_)
-    if (cam->device_id == device_id && cam->settings.raw())
-      if (auto order = plane_order(cam->settings.layout, cam->settings.bayer_format)) return order.value();
+  if (const Camera* cam = camera(device_id); cam && cam->settings.raw())
+    if (auto order = plane_order(cam->settings.layout, cam->settings.bayer_format)) return order.value();
   return kCellOrder;
 }
 
 bool SessionWriter::stores_raw(std::int64_t device_id) const {
-  for (const auto& cam : cameras_)
-    if (cam->device_id == device_id) return cam->settings.raw();
-  return false;
+  const Camera* cam = camera(device_id);
+  return cam && cam->settings.raw();
 }
 
 CameraStoreStats SessionWriter::camera_stats(std::int64_t device_id) const {
-  for (const auto& cam : cameras_)
-    if (cam->device_id == device_id)
-      return {cam->in_video.load(),  cam->encoder_drops.load(), cam->segments.load(),
-              cam->queue->backlog(), cam->queue->on_disk(),     cam->queue->spilled_total()};
-  return {};
+  const Camera* cam = camera(device_id);
+  if (!cam) return {};
+  return {cam->in_video.load(),  cam->encoder_drops.load(), cam->segments.load(),
+          cam->queue->backlog(), cam->queue->on_disk(),     cam->queue->spilled_total()};
 }
 
 Status SessionWriter::close(const std::string& end_reason) {

@@ -44,10 +44,6 @@ struct CameraStoreStats {
   std::uint64_t spilled = 0;        // frames that went through the spill so far
 };
 
-// A camera's video settings from the rig file's store section: raw for a Bayer `pixel_format`
-// (PFNC name) when store.video_mode is raw, colour otherwise. Used by the writer and by recover.
-VideoSettings camera_video_settings(const StoreConfig& store, int width, int height, const std::string& pixel_format);
-
 // How the writer's threads run: the index queue's size, and a test's faults (core/fault_injection.h).
 struct WriterOptions {
   std::size_t index_queue_records = IndexWriter::kQueueRecords;
@@ -145,6 +141,7 @@ class SessionWriter {
   std::optional<SessionIndex> index_;
   std::unique_ptr<IndexWriter> index_writer_;
   std::vector<std::unique_ptr<Camera>> cameras_;
+  const Camera* camera(std::int64_t device_id) const;  // nullptr: not one of this session's cameras
   std::atomic<std::int64_t> next_video_file_id_{1};
   std::vector<StreamStatsRecord> stream_stats_;
   std::vector<std::pair<std::string, std::uint64_t>> timeline_counts_;

@@ -94,18 +94,25 @@ double pct(std::vector<double> v, double q) {
 struct ReplayedFrame {
   std::int64_t frame_id, device_ns, due_ns, sent_ns, entered_ns, image_ns;
 };
-std::vector<ReplayedFrame> read_camera_replay_log(const fs::path& log) {
+// A replay log's rows of integers, its header line skipped.
+std::vector<std::vector<std::int64_t>> integer_rows(const fs::path& log) {
   std::ifstream in(log);
   std::string line;
-  std::getline(in, line);  // frame_id,device_ns,due_ns,sent_ns,entered_ns,image_ns
-  std::vector<ReplayedFrame> frames;
+  std::getline(in, line);
+  std::vector<std::vector<std::int64_t>> rows;
   while (std::getline(in, line)) {
     std::stringstream ss(line);
     std::string field;
-    std::vector<std::int64_t> v;
+    auto& v = rows.emplace_back();
     while (std::getline(ss, field, ',')) v.push_back(std::stoll(field));
-    if (v.size() >= 6) frames.push_back({v[0], v[1], v[2], v[3], v[4], v[5]});
   }
+  return rows;
+}
+
+std::vector<ReplayedFrame> read_camera_replay_log(const fs::path& log) {
+  std::vector<ReplayedFrame> frames;  // frame_id,device_ns,due_ns,sent_ns,entered_ns,image_ns
+  for (const auto& v : integer_rows(log))
+    if (v.size() >= 6) frames.push_back({v[0], v[1], v[2], v[3], v[4], v[5]});
   return frames;
 }
 
@@ -114,31 +121,15 @@ double interval_error_ms(const ReplayedFrame& before, const ReplayedFrame& f) {
   return std::fabs(double((f.sent_ns - before.sent_ns) - (f.device_ns - before.device_ns))) / 1e6;
 }
 
-// That error for each of a camera's frames but its first.
-std::vector<double> camera_interval_errors_ms(const fs::path& log) {
-  const auto frames = read_camera_replay_log(log);
-  std::vector<double> errors;
-  for (std::size_t i = 1; i < frames.size(); ++i) errors.push_back(interval_error_ms(frames[i - 1], frames[i]));
-  return errors;
-}
-
-// The Sensel's replay log (sim-truth/sensel_replay.csv): per frame, its device clock (32-bit
-// microseconds), when it was due, when it left, and when pvcap's request for it came (host ns).
+// The Sensel's replay log (sim-truth/sensel_replay.csv): per frame, its counter, its device clock
+// (32-bit microseconds), when it was due, when it left, and when pvcap's request for it came (host ns).
 struct ReplayedPressure {
-  std::int64_t device_us, due_ns, sent_ns, asked_ns;
+  std::int64_t counter, device_us, due_ns, sent_ns, asked_ns;
 };
 std::vector<ReplayedPressure> read_sensel_replay_log(const fs::path& log) {
-  std::ifstream in(log);
-  std::string line;
-  std::getline(in, line);  // counter,device_us,due_ns,sent_ns,asked_ns
-  std::vector<ReplayedPressure> frames;
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string field;
-    std::vector<std::int64_t> v;
-    while (std::getline(ss, field, ',')) v.push_back(std::stoll(field));
-    if (v.size() >= 5) frames.push_back({v[1], v[2], v[3], v[4]});
-  }
+  std::vector<ReplayedPressure> frames;  // counter,device_us,due_ns,sent_ns,asked_ns
+  for (const auto& v : integer_rows(log))
+    if (v.size() >= 5) frames.push_back({v[0], v[1], v[2], v[3], v[4]});
   return frames;
 }
 
@@ -149,12 +140,51 @@ double interval_error_ms(const ReplayedPressure& before, const ReplayedPressure&
   return std::fabs(double(f.sent_ns - before.sent_ns) - device_interval) / 1e6;
 }
 
-// That error for each of the Sensel's frames but its first.
-std::vector<double> sensel_interval_errors_ms(const fs::path& log) {
-  const auto frames = read_sensel_replay_log(log);
+std::int64_t frame_number(const ReplayedFrame& f) { return f.frame_id; }
+std::int64_t frame_number(const ReplayedPressure& f) { return f.counter; }
+
+// That error for each of a log's frames but its first.
+template <class Frame>
+std::vector<double> interval_errors_ms(const std::vector<Frame>& frames) {
   std::vector<double> errors;
   for (std::size_t i = 1; i < frames.size(); ++i) errors.push_back(interval_error_ms(frames[i - 1], frames[i]));
   return errors;
+}
+std::vector<double> camera_interval_errors_ms(const fs::path& log) {
+  return interval_errors_ms(read_camera_replay_log(log));
+}
+std::vector<double> sensel_interval_errors_ms(const fs::path& log) {
+  return interval_errors_ms(read_sensel_replay_log(log));
+}
+
+// The frames whose interval missed its recorded one by more than `late_ms`, each with where its
+// time went (`anatomy`: ms from the instant it was due), so a failed bound says what was late.
+template <class Frame, class Anatomy>
+std::string late_frames(const fs::path& log, const std::vector<Frame>& frames, double late_ms, Anatomy anatomy) {
+  std::string out;
+  for (std::size_t i = 1; i < frames.size(); ++i) {
+    const double error_ms = interval_error_ms(frames[i - 1], frames[i]);
+    if (error_ms > late_ms)
+      out += fmt::format("\n  {}: frame {}: interval off by {:.3f} ms; {}", log.filename().string(),
+                         frame_number(frames[i]), error_ms, anatomy(frames[i]));
+  }
+  return out;
+}
+double ms_after(std::int64_t ns, std::int64_t due_ns) { return double(ns - due_ns) / 1e6; }
+
+// A camera's: whether the engine woke late (entered), the image was late, or the frame left late.
+std::string late_camera_frames(const fs::path& log, double late_ms) {
+  return late_frames(log, read_camera_replay_log(log), late_ms, [](const ReplayedFrame& f) {
+    return fmt::format("entered {:+.3f}, image {:+.3f}, left {:+.3f} ms", ms_after(f.entered_ns, f.due_ns),
+                       ms_after(f.image_ns, f.due_ns), ms_after(f.sent_ns, f.due_ns));
+  });
+}
+// The Sensel's: a late request is pvcap's reader (or its core) waking late, a late send with the
+// request in time the emulator's.
+std::string late_sensel_frames(const fs::path& log, double late_ms) {
+  return late_frames(log, read_sensel_replay_log(log), late_ms, [](const ReplayedPressure& f) {
+    return fmt::format("asked {:+.3f}, left {:+.3f} ms", ms_after(f.asked_ns, f.due_ns), ms_after(f.sent_ns, f.due_ns));
+  });
 }
 
 // What the emulator itself adds: from the later of due and pvcap's request to the frame leaving (ms).
@@ -162,40 +192,6 @@ std::vector<double> sensel_own_delays_ms(const fs::path& log) {
   std::vector<double> out;
   for (const ReplayedPressure& f : read_sensel_replay_log(log))
     out.push_back(double(f.sent_ns - std::max(f.due_ns, f.asked_ns)) / 1e6);
-  return out;
-}
-
-// The pressure frames whose interval missed by more than `late_ms`, with when pvcap asked for each
-// and when it left, from the instant it was due (ms): a late request is pvcap's reader (or its
-// core) waking late, a late send with the request in time the emulator's.
-std::string late_sensel_frames(const fs::path& log, double late_ms) {
-  const auto frames = read_sensel_replay_log(log);
-  std::string out;
-  for (std::size_t i = 1; i < frames.size(); ++i) {
-    const ReplayedPressure& f = frames[i];
-    const double error_ms = interval_error_ms(frames[i - 1], f);
-    if (error_ms <= late_ms) continue;
-    out += fmt::format("\n  {}: frame {}: interval off by {:.3f} ms; asked {:+.3f}, left {:+.3f} ms",
-                       log.filename().string(), i, error_ms, double(f.asked_ns - f.due_ns) / 1e6,
-                       double(f.sent_ns - f.due_ns) / 1e6);
-  }
-  return out;
-}
-
-// The frames whose interval missed its recorded one by more than `late_ms`, each with where its
-// time went (ms from the instant it was due), so a failed bound says whether the engine woke
-// late, the image was late, or the frame left late.
-std::string late_camera_frames(const fs::path& log, double late_ms) {
-  const auto frames = read_camera_replay_log(log);
-  std::string out;
-  for (std::size_t i = 1; i < frames.size(); ++i) {
-    const ReplayedFrame& f = frames[i];
-    const double error_ms = interval_error_ms(frames[i - 1], f);
-    if (error_ms > late_ms)
-      out += fmt::format("\n  {}: frame {}: interval off by {:.3f} ms; entered {:+.3f}, image {:+.3f}, left {:+.3f} ms",
-                         log.filename().string(), f.frame_id, error_ms, double(f.entered_ns - f.due_ns) / 1e6,
-                         double(f.image_ns - f.due_ns) / 1e6, double(f.sent_ns - f.due_ns) / 1e6);
-  }
   return out;
 }
 
