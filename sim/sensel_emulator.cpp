@@ -186,14 +186,14 @@ std::optional<std::int64_t> SenselEmulator::replay_due(std::int64_t now_ns) {
   return replay_->due_ns(frames[replay_next_].t_ns);
 }
 
-void SenselEmulator::replay_sent(std::int64_t asked_ns, std::int64_t host_ns) {
+void SenselEmulator::replay_sent(std::int64_t asked_ns, std::int64_t woke_ns, std::int64_t host_ns) {
   if (!replay_ || !truth_ || replay_next_ == 0) return;
   const ReplayPressureFrame& f = replay_->pressure_frames()[replay_next_ - 1];
   if (f.payload.size() < 6) return;
   std::uint32_t device_us = 0;
   for (int i = 0; i < 4; ++i) device_us |= std::uint32_t(f.payload[2 + std::size_t(i)]) << (8 * i);
   *truth_ << int(f.payload[1]) << ',' << device_us << ',' << replay_->due_ns(f.t_ns) << ',' << host_ns << ','
-          << asked_ns << '\n';
+          << asked_ns << ',' << woke_ns << '\n';
   if (++replay_logged_ % 32 == 0) truth_->flush();
 }
 

@@ -80,9 +80,10 @@ class SenselEmulator {
   // and passes over frames due before it. Empty when the recording is over.
   std::optional<std::int64_t> replay_due(std::int64_t now_ns);
   // The last replayed frame left the transport at `host_ns`: logged to the truth log (set_truth_log)
-  // as "counter,device_us,due_ns,sent_ns,asked_ns" (asked: when its read request came in; a
-  // request that comes after the frame is due makes it late).
-  void replay_sent(std::int64_t asked_ns, std::int64_t host_ns);
+  // as "counter,device_us,due_ns,sent_ns,asked_ns,woke_ns" (asked: when its read request came in;
+  // a request that comes after the frame is due makes it late; woke: when the transport's thread,
+  // asleep until the frame was due, ran again: a late wake is the host's, not the emulator's).
+  void replay_sent(std::int64_t asked_ns, std::int64_t woke_ns, std::int64_t host_ns);
 
   sensel::Grid grid() const;  // of the current scan detail
   // Ground truth: one line "counter,true_ns,device_us" per frame sent (flushed every 32).

@@ -95,8 +95,9 @@ void SenselPty::serve() {
     const auto answer = pacer.answer(std::span<const std::uint8_t>(buf, std::size_t(n)), asked_ns);
     if (const std::int64_t wait_ns = answer.deliver_at_ns - host_now().ns; wait_ns > 0)
       std::this_thread::sleep_for(std::chrono::nanoseconds(wait_ns));
+    const std::int64_t woke_ns = host_now().ns;
     send(answer.bytes);
-    if (answer.replayed) emu_.replay_sent(asked_ns, host_now().ns);
+    if (answer.replayed) emu_.replay_sent(asked_ns, woke_ns, host_now().ns);
   }
 }
 

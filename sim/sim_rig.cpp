@@ -148,7 +148,7 @@ Result<std::unique_ptr<SimRig>> SimRig::create_replay(const RigConfig& rig, cons
         self->replay_->sensel_serial().empty() ? SenselEmulator::kDefaultSerial : self->replay_->sensel_serial());
     self->sensel_->set_replay(self->replay_);
     self->sensel_truth_.open(truth_dir / "sensel_replay.csv");
-    self->sensel_truth_ << "counter,device_us,due_ns,sent_ns,asked_ns\n";
+    self->sensel_truth_ << "counter,device_us,due_ns,sent_ns,asked_ns,woke_ns\n";
     self->sensel_->set_truth_log(&self->sensel_truth_);
     if (Status s = self->serve_sensel(SenselLink{0, 0, 1}); !s.ok()) return s.error();
     truth["sensel"] = self->sensel_link();

@@ -121,15 +121,16 @@ double interval_error_ms(const ReplayedFrame& before, const ReplayedFrame& f) {
   return std::fabs(double((f.sent_ns - before.sent_ns) - (f.device_ns - before.device_ns))) / 1e6;
 }
 
-// The Sensel's replay log (sim-truth/sensel_replay.csv): per frame, its counter, its device clock
-// (32-bit microseconds), when it was due, when it left, and when pvcap's request for it came (host ns).
+// The Sensel's replay log (sim-truth/sensel_replay.csv): per frame, its row (its 8-bit counter
+// repeats), its device clock (32-bit microseconds), when it was due, when it left, when pvcap's
+// request for it came and when the emulator's thread woke from waiting for it to be due (host ns).
 struct ReplayedPressure {
-  std::int64_t counter, device_us, due_ns, sent_ns, asked_ns;
+  std::int64_t row, device_us, due_ns, sent_ns, asked_ns, woke_ns;
 };
 std::vector<ReplayedPressure> read_sensel_replay_log(const fs::path& log) {
-  std::vector<ReplayedPressure> frames;  // counter,device_us,due_ns,sent_ns,asked_ns
+  std::vector<ReplayedPressure> frames;  // counter,device_us,due_ns,sent_ns,asked_ns,woke_ns
   for (const auto& v : integer_rows(log))
-    if (v.size() >= 5) frames.push_back({v[0], v[1], v[2], v[3], v[4]});
+    if (v.size() >= 6) frames.push_back({std::int64_t(frames.size()), v[1], v[2], v[3], v[4], v[5]});
   return frames;
 }
 
@@ -141,7 +142,7 @@ double interval_error_ms(const ReplayedPressure& before, const ReplayedPressure&
 }
 
 std::int64_t frame_number(const ReplayedFrame& f) { return f.frame_id; }
-std::int64_t frame_number(const ReplayedPressure& f) { return f.counter; }
+std::int64_t frame_number(const ReplayedPressure& f) { return f.row; }
 
 // That error for each of a log's frames but its first.
 template <class Frame>
@@ -179,19 +180,22 @@ std::string late_camera_frames(const fs::path& log, double late_ms) {
                        ms_after(f.image_ns, f.due_ns), ms_after(f.sent_ns, f.due_ns));
   });
 }
-// The Sensel's: a late request is pvcap's reader (or its core) waking late, a late send with the
-// request in time the emulator's.
+// The Sensel's: a late request is pvcap's reader (or its core) waking late, a late wake the host
+// waking the emulator's thread late from its wait for the frame to be due, a late send after both
+// the emulator's own.
 std::string late_sensel_frames(const fs::path& log, double late_ms) {
   return late_frames(log, read_sensel_replay_log(log), late_ms, [](const ReplayedPressure& f) {
-    return fmt::format("asked {:+.3f}, left {:+.3f} ms", ms_after(f.asked_ns, f.due_ns), ms_after(f.sent_ns, f.due_ns));
+    return fmt::format("asked {:+.3f}, woke {:+.3f}, left {:+.3f} ms", ms_after(f.asked_ns, f.due_ns),
+                       ms_after(f.woke_ns, f.due_ns), ms_after(f.sent_ns, f.due_ns));
   });
 }
 
-// What the emulator itself adds: from the later of due and pvcap's request to the frame leaving (ms).
+// What the emulator itself adds: from the latest of due, pvcap's request and its thread's wake to
+// the frame leaving (ms): the cameras' fill, for the Sensel.
 std::vector<double> sensel_own_delays_ms(const fs::path& log) {
   std::vector<double> out;
   for (const ReplayedPressure& f : read_sensel_replay_log(log))
-    out.push_back(double(f.sent_ns - std::max(f.due_ns, f.asked_ns)) / 1e6);
+    out.push_back(double(f.sent_ns - std::max({f.due_ns, f.asked_ns, f.woke_ns})) / 1e6);
   return out;
 }
 
@@ -574,7 +578,7 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
               pct(fill, 0.95), pct(fill, 1.0), fill.size());
   const fs::path sensel_log = replayed / "sim-truth" / "sensel_replay.csv";
   const auto sensel_own = sensel_own_delays_ms(sensel_log);
-  std::printf("Sensel: left after the later of due and asked, p50 %.3f p95 %.3f max %.3f ms (%zu frames)\n",
+  std::printf("Sensel: left after the latest of due, asked and woke, p50 %.3f p95 %.3f max %.3f ms (%zu frames)\n",
               pct(sensel_own, 0.5), pct(sensel_own, 0.95), pct(sensel_own, 1.0), sensel_own.size());
   // Frames leave on time: p50 10-60 us, Sensel p95 0.08-0.2 ms beside the recorder on these 2
   // cores (docs/replay.md). The cameras' p95 was 0.3-0.5 ms on 2026-11-26; on 2026-11-28 0.16-0.90
