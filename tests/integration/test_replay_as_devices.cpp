@@ -587,14 +587,13 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   // "The trigger line and an idle core's wake"), and a camera's engine sleeps 33 ms between frames.
   // So what the replay adds once its engine runs is bounded apart (p95 0.11-0.24 ms; the defects
   // fixed on 2026-11-26 spent their time there: each frame that brought a new image left 0.3-1.2
-  // ms late), and so is the Sensel emulator's own part (from the later of due and pvcap's request
-  // to the frame leaving: p95 0.11-0.18 ms). The intervals' p95 is a guard against gross failures
-  // at 5 ms: the engine's stall (1 frame in 8-12 late by 33-100 ms) fails it; the VM's wake does
-  // not (the later VM of 2026-11-28 gave cameras 0.21-2.29 ms in six runs, the Sensel 0.07-0.24 and
-  // 1.34 ms in a suite run whose cameras' p50 was three times its usual). The kernel's
-  // pseudo-terminal can hold a Sensel request back by tens of milliseconds on saturated cores; the
-  // p95 does not reach it. The test runs alone (RUN_SERIAL): beside a unit test in CI the cameras'
-  // p95 was 1.06 ms (2026-11-26).
+  // ms late), and so is the Sensel emulator's own part (from the latest of due, pvcap's request
+  // and its thread's wake to the frame leaving: p95 0.045-0.072 ms). The intervals' p95 is a guard against gross
+  // failures at 5 ms: the engine's stall (1 frame in 8-12 late by 33-100 ms) fails it; the VM's wake does not (the
+  // later VM of 2026-11-28 gave cameras 0.21-2.29 ms in six runs, the Sensel 0.07-0.24 and 1.34 ms in a suite run whose
+  // cameras' p50 was three times its usual). The kernel's pseudo-terminal can hold a Sensel request back by tens of
+  // milliseconds on saturated cores; the p95 does not reach it. The test runs alone (RUN_SERIAL): beside a unit test in
+  // CI the cameras' p95 was 1.06 ms (2026-11-26).
   EXPECT_LT(pct(cam_errors, 0.5), 0.5);
   EXPECT_LT(pct(cam_errors, 0.95), 5.0) << "intervals more than 1 ms off:" << late;
   EXPECT_LT(pct(fill, 0.95), 0.5) << "intervals more than 1 ms off:" << late;
