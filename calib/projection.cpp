@@ -54,11 +54,22 @@ cv::Mat PressureProjector::project(const cv::Mat& pressure) const {
   cv::Mat out(map_.size(), CV_32F, cv::Scalar(0));
   if (r.empty()) return out;
   cv::Mat part = out(r);
-  if (!fixed_map_.empty())  // the off-pad marker saturates to -32768: still far outside the pressure image
-    cv::remap(pressure, part, fixed_map_(r), fixed_fraction_(r), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
-  else
-    cv::remap(pressure, part, map_(r), cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  resample(pressure, r, part);
   return out;
+}
+
+cv::Mat PressureProjector::project_footprint(const cv::Mat& pressure) const {
+  CV_Assert(pressure.type() == CV_32F);
+  cv::Mat out(footprint_.size(), CV_32F);
+  if (!footprint_.empty()) resample(pressure, footprint_, out);
+  return out;
+}
+
+void PressureProjector::resample(const cv::Mat& pressure, cv::Rect where, cv::Mat& out) const {
+  if (!fixed_map_.empty())  // the off-pad marker saturates to -32768: still far outside the pressure image
+    cv::remap(pressure, out, fixed_map_(where), fixed_fraction_(where), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  else
+    cv::remap(pressure, out, map_(where), cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
 }
 
 PressureProjector PressureProjector::scaled(cv::Size view) const {
@@ -89,6 +100,19 @@ cv::Mat pixel_area_mm2(const cv::Matx33d& cells_to_image, cv::Size size, const P
   return out;
 }
 
+cv::Mat inferno(const cv::Mat& level) {
+  CV_Assert(level.type() == CV_8U);
+  static const cv::Mat table = [] {
+    cv::Mat ramp(256, 1, CV_8U), colours;
+    for (int i = 0; i < 256; ++i) ramp.at<uchar>(i) = uchar(i);
+    cv::applyColorMap(ramp, colours, cv::COLORMAP_INFERNO);
+    return colours;
+  }();
+  cv::Mat colour;
+  cv::applyColorMap(level, colour, table);
+  return colour;
+}
+
 cv::Mat overlay_pressure(const cv::Mat& bgr, const cv::Mat& pressure, double full_scale, double opacity) {
   CV_Assert(bgr.type() == CV_8UC3 && pressure.type() == CV_32F && bgr.size() == pressure.size());
   cv::Mat out = bgr.clone();
@@ -96,9 +120,9 @@ cv::Mat overlay_pressure(const cv::Mat& bgr, const cv::Mat& pressure, double ful
   // Only where there is pressure (a few fingertips: a small part of the image) is anything drawn.
   const cv::Rect roi = cv::boundingRect(pressure > 0);
   if (roi.empty()) return out;
-  cv::Mat level, colour;
+  cv::Mat level;
   pressure(roi).convertTo(level, CV_8U, 255.0 / full_scale);
-  cv::applyColorMap(level, colour, cv::COLORMAP_INFERNO);
+  const cv::Mat colour = inferno(level);
   for (int y = 0; y < roi.height; ++y) {
     const float* p = pressure.ptr<float>(roi.y + y) + roi.x;
     const auto* c = colour.ptr<cv::Vec3b>(y);

@@ -23,6 +23,9 @@ class PressureProjector {
  public:
   PressureProjector(const CameraModel& camera, const PadLayout& pad);
   cv::Mat project(const cv::Mat& pressure) const;  // CV_32F of the camera's image size
+  // project() over footprint() only (CV_32F of its size; all a pressure image of the pad's grid can
+  // reach): for a display that draws nothing elsewhere, without zeroing the rest of a view each frame.
+  cv::Mat project_footprint(const cv::Mat& pressure) const;
   // The same projection for the image shown at another size (a scaled view): each view pixel takes
   // the ray of the image point at its centre. For display: its map is fixed-point (1/32 cell), which
   // remaps about twice as fast.
@@ -34,6 +37,7 @@ class PressureProjector {
  private:
   PressureProjector() = default;
   void find_footprint();
+  void resample(const cv::Mat& pressure, cv::Rect where, cv::Mat& out) const;  // out: where's size
   cv::Mat map_;                         // CV_32FC2: image pixel -> pressure-image coordinates (outside: -1e6)
   cv::Mat fixed_map_, fixed_fraction_;  // scaled(): map_ as cv::convertMaps makes it, CV_16SC2 + CV_16UC1
   cv::Size cells_;                      // the pad's grid (columns x rows)
@@ -55,6 +59,9 @@ cv::Mat warp_pressure_conserving(const cv::Mat& pressure_kpa, const cv::Matx33d&
 // the faint tails of the interpolation do not paint a dark halo; untouched where it is zero.
 // `full_scale` is the pressure at the colormap's top (same unit as `pressure_in_image`, CV_32F of
 // the image's size, e.g. PressureProjector::project's output).
+// A level image (CV_8U, 0-255) in OpenCV's inferno colormap (BGR). The table is built once: a named
+// cv::applyColorMap rebuilds it on every call (0.3 ms here, whatever the image's size).
+cv::Mat inferno(const cv::Mat& level);
 cv::Mat overlay_pressure(const cv::Mat& bgr, const cv::Mat& pressure_in_image, double full_scale,
                          double opacity = 0.75);
 

@@ -138,12 +138,13 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i, std::vector<cv::Mat> imag
     const CameraInfo& info = reader_->cameras()[c];
     const cv::Rect fit = Layout::fitted({info.width, info.height});
     cv::Mat view = tile(fit);  // resized straight into the canvas (same size and type: no new buffer)
-    cv::resize(s.images[c], view, fit.size(), 0, 0, cv::INTER_LINEAR);  // from half size: a small step down
-    if (peak_kpa > 0 && projectors_[c]) {                               // nothing pressed, nothing drawn
+    // From half size, a small step down (render_replay's images come at this size: then a copy).
+    cv::resize(s.images[c], view, fit.size(), 0, 0, cv::INTER_LINEAR);
+    if (peak_kpa > 0 && projectors_[c]) {  // nothing pressed, nothing drawn
       // Drawn only over the pad's footprint: the pressure is zero elsewhere.
-      const cv::Rect pad = projectors_[c]->footprint() & cv::Rect({0, 0}, view.size());
-      const cv::Mat projected = projectors_[c]->project(kpa);
-      if (!pad.empty()) calib::overlay_pressure(view(pad), projected(pad), full_scale_kpa_).copyTo(view(pad));
+      const cv::Rect pad = projectors_[c]->footprint();
+      if (!pad.empty() && (pad & cv::Rect({0, 0}, view.size())) == pad)
+        calib::overlay_pressure(view(pad), projectors_[c]->project_footprint(kpa), full_scale_kpa_).copyTo(view(pad));
     }
     const std::string label = name + (projectors_[c] ? "" : " (no calibration: no overlay)");
     int base = 0;
@@ -158,11 +159,10 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i, std::vector<cv::Mat> imag
   const int x0 = 2 * Layout::kViewWidth + 15;
   const cv::Rect pressure_box(x0, 15, 370, 210);
   if (!kpa.empty()) {
-    cv::Mat level, colour, big;
+    cv::Mat level;
     kpa.convertTo(level, CV_8U, 255.0 / full_scale_kpa_);
-    cv::applyColorMap(level, colour, cv::COLORMAP_INFERNO);
-    cv::resize(colour, big, pressure_box.size(), 0, 0, cv::INTER_NEAREST);
-    big.copyTo(canvas(pressure_box));
+    cv::Mat box = canvas(pressure_box);  // resized straight into its place
+    cv::resize(calib::inferno(level), box, pressure_box.size(), 0, 0, cv::INTER_NEAREST);
   } else {
     text(canvas, "no pressure frame", {x0 + 90, 125}, 0.6, kDim);
   }

@@ -92,3 +92,33 @@ TEST(Projection, ThePadsFootprintHoldsEveryPixelItsPressureReaches) {
     }
   }
 }
+
+// What the replay draws: the footprint's part of project(), resampled alone (no full view zeroed),
+// the same to the bit, for the full-size projector and a scaled view's fixed-point one.
+TEST(Projection, TheFootprintAloneIsProjectOverTheFootprint) {
+  const PadLayout pad = default_pad_layout();
+  const cv::Size size(960, 540);
+  cv::Mat p(pad.rows, pad.cols, CV_32F, cv::Scalar(0));
+  cv::circle(p, {40, 30}, 6, cv::Scalar(80), cv::FILLED);
+  cv::circle(p, {150, 80}, 3, cv::Scalar(20), cv::FILLED);
+  const CameraModel m = sim::sim_camera_model(2, sim::SimCameraClock{}, size, size);
+  const PressureProjector whole(m, pad);
+  for (const PressureProjector& pp : {whole, whole.scaled({640, 360})}) {
+    const cv::Mat part = pp.project_footprint(p);
+    ASSERT_EQ(part.size(), pp.footprint().size());
+    ASSERT_GT(cv::countNonZero(part), 0);
+    EXPECT_EQ(cv::norm(part, pp.project(p)(pp.footprint()), cv::NORM_INF), 0.0);
+  }
+}
+
+// The colour table built once gives OpenCV's own inferno, every level.
+TEST(Projection, InfernoIsOpenCvsColormap) {
+  cv::Mat level(16, 16, CV_8U);
+  for (int i = 0; i < 256; ++i) level.at<uchar>(i / 16, i % 16) = uchar(i);
+  cv::Mat want;
+  cv::applyColorMap(level, want, cv::COLORMAP_INFERNO);
+  const cv::Mat got = inferno(level);
+  ASSERT_EQ(got.type(), CV_8UC3);
+  EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0.0);
+  EXPECT_NE(cv::norm(got.row(0).col(0), got.row(15).col(15), cv::NORM_INF), 0.0);  // not one colour
+}
