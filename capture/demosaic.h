@@ -25,5 +25,15 @@ Status debayer(const cv::Mat& mosaic, const std::string& bayer_format, Demosaic 
 // each W/2 x H/2: what a raw video already holds, so it needs no splitting. One green may be empty
 // (a reader that decoded three planes): the other is then the green alone.
 Status half_size_from_planes(const cv::Mat planes[4], const std::string& bayer_format, cv::Mat& bgr);
+// The same scaled to `size` (bilinear). Exactly two thirds of the half size (a 1080p mosaic's 960 x 540
+// to 640 x 360, a replay's view) is one pass straight from the planes, no half-size image in
+// between; any other size is the half-size image resized.
+Status scaled_half_size_from_planes(const cv::Mat planes[4], const std::string& bayer_format, cv::Size size,
+                                    cv::Mat& bgr);
+// Three 8-bit grey planes (blue, green, red; W x H, both multiples of 3) as one colour image two
+// thirds their size each way, bilinear: each 3 x 3 block becomes 2 x 2 pixels, each 9:3:3:1 / 16 of
+// its four nearest source pixels, rounded half up (cv::resize's INTER_LINEAR puts its output pixels
+// at the same places and differs from this by at most 1).
+void two_thirds_bgr(const cv::Mat planes_bgr[3], cv::Mat& bgr);
 
 }  // namespace pvcap

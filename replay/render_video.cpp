@@ -8,7 +8,6 @@
 #include <thread>
 
 #include <fmt/format.h>
-#include <opencv2/imgproc.hpp>
 
 #include "replay/replay_composer.h"
 #include "storage/session_reader.h"
@@ -19,8 +18,8 @@ namespace pvcap::replay {
 namespace {
 // One camera's images of samples [first, end), decoded ahead on a thread and a reader of its own
 // (at most `depth` waiting): four of these keep both cores busy while the pictures are composed
-// and encoded. Each image is scaled to its view here, while it is still in this core's cache: on the
-// composing thread the same resize cost about twice the CPU (docs/replay.md "Speed").
+// and encoded. Each image is made at its view's size here, straight from the decoded planes
+// (docs/replay.md "Speed").
 class CameraPrefetch {
  public:
   CameraPrefetch(const std::filesystem::path& dir, std::size_t camera, std::size_t first, std::size_t end,
@@ -47,15 +46,13 @@ class CameraPrefetch {
  private:
   void run(const std::filesystem::path& dir, std::size_t camera, std::size_t first, std::size_t end) {
     auto reader = SessionReader::open(dir);
-    if (reader) reader.value()->set_demosaic(Demosaic::HalfSize);
+    if (reader) {
+      reader.value()->set_demosaic(Demosaic::HalfSize);
+      const CameraInfo& info = reader.value()->cameras()[camera];
+      reader.value()->set_image_size(Layout::fitted({info.width, info.height}).size());
+    }
     for (std::size_t i = first; i < end; ++i) {
       Result<cv::Mat> image = reader ? reader.value()->image(i, camera) : Result<cv::Mat>(reader.error());
-      if (image && !image.value().empty()) {
-        const CameraInfo& info = reader.value()->cameras()[camera];
-        cv::Mat view;
-        cv::resize(image.value(), view, Layout::fitted({info.width, info.height}).size(), 0, 0, cv::INTER_LINEAR);
-        image = std::move(view);
-      }
       std::unique_lock lock(mu_);
       cv_.wait(lock, [&] { return stop_ || queue_.size() < depth_; });
       if (stop_) return;

@@ -91,6 +91,8 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i) {
     auto r = SessionReader::open(dir_);
     if (!r) return r.error();
     r.value()->set_demosaic(Demosaic::HalfSize);
+    const CameraInfo& info = reader_->cameras()[k];
+    r.value()->set_image_size(Layout::fitted({info.width, info.height}).size());  // made at its view's size
     camera_readers_.push_back(std::move(r.value()));
   }
   // Every camera's frame decoded on its own reader, in parallel.
@@ -138,7 +140,7 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i, std::vector<cv::Mat> imag
     const CameraInfo& info = reader_->cameras()[c];
     const cv::Rect fit = Layout::fitted({info.width, info.height});
     cv::Mat view = tile(fit);  // resized straight into the canvas (same size and type: no new buffer)
-    // From half size, a small step down (render_replay's images come at this size: then a copy).
+    // The readers make images at this size (then this is a copy); any other size is scaled.
     cv::resize(s.images[c], view, fit.size(), 0, 0, cv::INTER_LINEAR);
     if (peak_kpa > 0 && projectors_[c]) {  // nothing pressed, nothing drawn
       // Drawn only over the pad's footprint: the pressure is zero elsewhere.

@@ -195,6 +195,7 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) 
     }
     VideoReader& video = *it->second.reader;
     video.set_demosaic(demosaic_);
+    video.set_image_size(image_size_);
     cv::Mat bgr;
     auto found = mosaic ? video.read_raw_at(ts.ms, bgr, ts.tolerance_ms) : video.read_at(ts.ms, bgr, ts.tolerance_ms);
     if (!found) return found.error();

@@ -169,6 +169,9 @@ class SessionReader {
   // How raw videos become the colour images above: bilinear (the default, as the capture path's
   // previews), edge-aware or VNG (capture/pixel_format.h).
   void set_demosaic(Demosaic method);
+  // Colour images (image, sample) scaled to `size` (bilinear; empty, the default: their own size):
+  // a viewer's, made at its size where the pixels are decoded (VideoReader::set_image_size).
+  void set_image_size(cv::Size size) { image_size_ = size; }
   // Checks each raw video frame read (image, raw_image, sample) against the checksum its camera's
   // bytes got at capture (docs/store.md, Checksums): a frame whose pixels differ is an Error naming
   // it, never handed out. Off by default (one CRC per frame read: ~1 ms per 1080p frame).
@@ -206,6 +209,7 @@ class SessionReader {
   Result<cv::Mat> camera_image(const SampleCamera& c, bool mosaic = false);
   Result<cv::Mat> one_image(std::size_t i, std::size_t camera, bool mosaic);
   Demosaic demosaic_ = Demosaic::Bilinear;
+  cv::Size image_size_;
   bool check_checksums_ = false;
   std::filesystem::path dir_;
   std::unique_ptr<sqlite::Database> db_;

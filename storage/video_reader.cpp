@@ -167,6 +167,16 @@ Status VideoReader::to_mosaic(cv::Mat& mosaic) {
 }
 
 Status VideoReader::to_bgr(cv::Mat& bgr) {
+  if (Status s = convert_to_bgr(bgr); !s.ok()) return s;
+  if (!image_size_.empty() && bgr.size() != image_size_) {
+    cv::Mat scaled = impl_->images.acquire(image_size_.height, image_size_.width, CV_8UC3);
+    cv::resize(bgr, scaled, image_size_, 0, 0, cv::INTER_LINEAR);
+    bgr = scaled;
+  }
+  return {};
+}
+
+Status VideoReader::convert_to_bgr(cv::Mat& bgr) {
   Impl& im = *impl_;
   if (raw() && demosaic_ == Demosaic::HalfSize && bit_depth_ == 8 && im.frame.ptr->format == AV_PIX_FMT_GRAY8) {
     // The decoded picture already holds the planes (three of them when the decoder stopped before
@@ -177,8 +187,9 @@ Status VideoReader::to_bgr(cv::Mat& bgr) {
     cv::Mat planes[4];  // by cell
     for (int k = 0; k < 4; ++k)
       if ((k + 1) * h <= f->height) planes[order_[std::size_t(k)]] = stacked.rowRange(k * h, (k + 1) * h);
-    bgr = im.images.acquire(h, f->width, CV_8UC3);
-    if (Status s = half_size_from_planes(planes, bayer_format_, bgr); !s.ok())
+    const cv::Size size = image_size_.empty() ? cv::Size(f->width, h) : image_size_;
+    bgr = im.images.acquire(size.height, size.width, CV_8UC3);
+    if (Status s = scaled_half_size_from_planes(planes, bayer_format_, size, bgr); !s.ok())
       return Error{fmt::format("{}: {}", path_.string(), s.error().message)};
     return {};
   }
@@ -195,7 +206,7 @@ Status VideoReader::to_bgr(cv::Mat& bgr) {
   bgr = im.images.acquire(im.frame.ptr->height, im.frame.ptr->width, CV_8UC3);
   if (demosaic_ == Demosaic::HalfSize) {  // a colour video asked for half size: converted, then halved
     demosaic_ = Demosaic::Bilinear;
-    Status s = to_bgr(bgr);
+    Status s = convert_to_bgr(bgr);
     demosaic_ = Demosaic::HalfSize;
     if (s.ok()) cv::resize(cv::Mat(bgr), bgr, {}, 0.5, 0.5, cv::INTER_AREA);
     return s;

@@ -61,6 +61,9 @@ class VideoReader {
   void set_demosaic(Demosaic method) {
     if (!three_planes_) demosaic_ = method;
   }
+  // Colour images scaled to `size` (bilinear; empty, the default: their own size). A raw video's
+  // half-size image is made at that size straight from its planes (capture/demosaic.h).
+  void set_image_size(cv::Size size) { image_size_ = size; }
   // The image size (a raw video's mosaic size, not its stacked planes).
   int width() const;
   int height() const;
@@ -82,6 +85,7 @@ class VideoReader {
   Result<bool> decode_next(std::int64_t& pts_ms, std::int64_t skip_before_ms = INT64_MIN);
   Result<bool> seek_and_convert(std::int64_t pts_ms, cv::Mat& out, std::int64_t tolerance_ms, bool as_mosaic);
   Status to_bgr(cv::Mat& bgr);
+  Status convert_to_bgr(cv::Mat& bgr);  // to_bgr before scaling to image_size_
   Status to_mosaic(cv::Mat& mosaic);
   struct Impl;
   std::unique_ptr<Impl> impl_;
@@ -96,6 +100,7 @@ class VideoReader {
   bool three_planes_ = false;           // the decoder stops before the last plane (the second green)
   int bit_depth_ = 8;
   Demosaic demosaic_ = Demosaic::Bilinear;
+  cv::Size image_size_;
 };
 
 }  // namespace pvcap

@@ -485,6 +485,17 @@ TEST(SessionStore, HalfSizeViewsSkipTheSecondGreenAndMosaicReadsStillGetEveryBit
     ASSERT_TRUE(checked) << checked.error().message;
     EXPECT_GT(cv::norm(checked.value(), expected, cv::NORM_INF), 0.0) << "the mean of both greens, not one";
     r.value()->set_check_checksums(false);
+    // At a viewer's size: the same image, scaled (bilinear). A colour camera's too.
+    r.value()->set_image_size({20, 15});
+    auto small = r.value()->image(i, 0);
+    ASSERT_TRUE(small) << small.error().message;
+    cv::Mat want;
+    cv::resize(expected, want, {20, 15}, 0, 0, cv::INTER_LINEAR);
+    EXPECT_EQ(cv::norm(small.value(), want, cv::NORM_INF), 0.0) << "sample " << i;
+    auto colour = r.value()->image(i, 1);
+    ASSERT_TRUE(colour) << colour.error().message;
+    EXPECT_EQ(colour.value().size(), cv::Size(20, 15));
+    r.value()->set_image_size({});
   }
   EXPECT_LE(r.value()->open_videos(), 4u);
   fs::remove_all(root);
