@@ -54,14 +54,15 @@ double sensor_force_n(const cv::Mat& pressure_kpa, const PadLayout& pad);
 cv::Mat warp_pressure_conserving(const cv::Mat& pressure_kpa, const cv::Matx33d& cells_to_image, cv::Size size,
                                  const PadLayout& pad);
 
+// A level image (CV_8U, 0-255) in OpenCV's inferno colormap (BGR). The table is built once: a named
+// cv::applyColorMap rebuilds it on every call (0.3 ms here, whatever the image's size).
+cv::Mat inferno(const cv::Mat& level);
+
 // Pressure drawn over a camera image (BGR): a perceptual colormap (inferno, black = no pressure)
 // blended in where the pressure is above zero, fading in over the lowest tenth of the scale so
 // the faint tails of the interpolation do not paint a dark halo; untouched where it is zero.
 // `full_scale` is the pressure at the colormap's top (same unit as `pressure_in_image`, CV_32F of
 // the image's size, e.g. PressureProjector::project's output).
-// A level image (CV_8U, 0-255) in OpenCV's inferno colormap (BGR). The table is built once: a named
-// cv::applyColorMap rebuilds it on every call (0.3 ms here, whatever the image's size).
-cv::Mat inferno(const cv::Mat& level);
 cv::Mat overlay_pressure(const cv::Mat& bgr, const cv::Mat& pressure_in_image, double full_scale,
                          double opacity = 0.75);
 

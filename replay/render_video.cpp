@@ -49,7 +49,8 @@ class CameraPrefetch {
     if (reader) {
       reader.value()->set_demosaic(Demosaic::HalfSize);
       const CameraInfo& info = reader.value()->cameras()[camera];
-      reader.value()->set_image_size(Layout::fitted({info.width, info.height}).size());
+      if (info.width > 0 && info.height > 0)
+        reader.value()->set_image_size(Layout::fitted({info.width, info.height}).size());
     }
     for (std::size_t i = first; i < end; ++i) {
       Result<cv::Mat> image = reader ? reader.value()->image(i, camera) : Result<cv::Mat>(reader.error());

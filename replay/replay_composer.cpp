@@ -92,7 +92,8 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i) {
     if (!r) return r.error();
     r.value()->set_demosaic(Demosaic::HalfSize);
     const CameraInfo& info = reader_->cameras()[k];
-    r.value()->set_image_size(Layout::fitted({info.width, info.height}).size());  // made at its view's size
+    if (info.width > 0 && info.height > 0)  // made at its view's size
+      r.value()->set_image_size(Layout::fitted({info.width, info.height}).size());
     camera_readers_.push_back(std::move(r.value()));
   }
   // Every camera's frame decoded on its own reader, in parallel.
