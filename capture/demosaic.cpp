@@ -44,11 +44,17 @@ int opencv_bayer_code(const std::string& pattern, Demosaic method) {
   return it == codes.end() ? -1 : it->second[std::size_t(method)];
 }
 
+}  // namespace
+
+std::string_view bayer_pattern(std::string_view bayer_format) {
+  return bayer_format.substr(0, 5) == "Bayer" && bayer_format.size() >= 7 ? bayer_format.substr(5, 2) : "";
+}
+
+namespace {
 // The half-size image's blue, green and red planes from the cell's four.
 Status colour_planes(const cv::Mat planes[4], const std::string& bayer_format, cv::Mat bgr_planes[3]) {
   // Where R and B sit in the 2x2 cell (the G are the other two), by PFNC's pattern name.
-  const std::string pattern =
-      bayer_format.rfind("Bayer", 0) == 0 && bayer_format.size() >= 7 ? bayer_format.substr(5, 2) : "";
+  const std::string_view pattern = bayer_pattern(bayer_format);
   int r = -1, b = -1;
   if (pattern == "RG")
     r = 0, b = 3;
@@ -182,9 +188,8 @@ Status debayer(const cv::Mat& mosaic, const std::string& bayer_format, Demosaic 
     planes[0] = top[0], planes[1] = top[1], planes[2] = bottom[0], planes[3] = bottom[1];
     return half_size_from_planes(planes, bayer_format, bgr);
   }
-  const int code = bayer_format.rfind("Bayer", 0) == 0 && bayer_format.size() >= 7
-                       ? opencv_bayer_code(bayer_format.substr(5, 2), method)
-                       : -1;
+  const std::string_view pattern = bayer_pattern(bayer_format);
+  const int code = pattern.empty() ? -1 : opencv_bayer_code(std::string(pattern), method);
   if (code < 0) return Error{fmt::format("'{}' is not a Bayer pattern pvcap knows", bayer_format)};
   if (mosaic.channels() != 1 || (mosaic.depth() != CV_8U && mosaic.depth() != CV_16U))
     return Error{fmt::format("a {} mosaic has one 8- or 16-bit channel", bayer_format)};

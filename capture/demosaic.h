@@ -3,6 +3,7 @@
 // capture path (previews, colour video) and by the store's readers (raw video). No Aravis here, so
 // readers and their fuzz targets link without it.
 #include <string>
+#include <string_view>
 
 #include <opencv2/core.hpp>
 
@@ -17,6 +18,9 @@ enum class Demosaic { Bilinear, EdgeAware, Vng, HalfSize };
 const char* to_string(Demosaic d);
 // "bilinear", "edge-aware", "vng"; an Error naming the choices otherwise.
 Result<Demosaic> parse_demosaic(const std::string& name);
+
+// The 2x2 pattern of a Bayer format as PFNC names it ("BayerRG8" -> "RG"); empty for any other name.
+std::string_view bayer_pattern(std::string_view bayer_format);
 
 // Demosaics `mosaic` (CV_8UC1 or CV_16UC1, one Bayer pattern named as PFNC names it, e.g. "BayerRG8")
 // into `bgr` (CV_8UC3 or CV_16UC3).

@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include "capture/demosaic.h"
+
 namespace pvcap {
 
 namespace {
@@ -30,8 +32,7 @@ Result<PlaneOrder> plane_order(std::string_view layout, std::string_view bayer_f
   if (layout == kBayerPlanesLayout) return kCellOrder;
   if (layout != kBayerPlanesGreenLastLayout)
     return Error{fmt::format("picture layout '{}' is not one this pvcap reads (update pvcap)", layout)};
-  const std::string_view pattern =
-      bayer_format.substr(0, 5) == "Bayer" && bayer_format.size() >= 7 ? bayer_format.substr(5, 2) : "";
+  const std::string_view pattern = bayer_pattern(bayer_format);
   // RG/BG: the second row is G then B (or R), so its green comes first and is moved last.
   if (pattern == "RG" || pattern == "BG") return PlaneOrder{0, 1, 3, 2};
   if (pattern == "GR" || pattern == "GB") return kCellOrder;  // its second row ends in green already

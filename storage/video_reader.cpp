@@ -208,7 +208,8 @@ Status VideoReader::convert_to_bgr(cv::Mat& bgr) {
     demosaic_ = Demosaic::Bilinear;
     Status s = convert_to_bgr(bgr);
     demosaic_ = Demosaic::HalfSize;
-    if (s.ok()) cv::resize(cv::Mat(bgr), bgr, {}, 0.5, 0.5, cv::INTER_AREA);
+    // Straight to the image size when one is set: one resize, not two.
+    if (s.ok()) cv::resize(cv::Mat(bgr), bgr, image_size_, 0.5, 0.5, cv::INTER_AREA);
     return s;
   }
   if (im.frame.ptr->format == AV_PIX_FMT_YUV444P && im.frame.ptr->color_range != AVCOL_RANGE_JPEG &&
