@@ -29,12 +29,16 @@ Result<Demosaic> parse_demosaic(const std::string& name) {
   return Error{fmt::format("demosaicing '{}' is not one of bilinear, edge-aware, vng, half-size", name)};
 }
 
+std::string_view bayer_pattern(std::string_view bayer_format) {
+  return bayer_format.substr(0, 5) == "Bayer" && bayer_format.size() >= 7 ? bayer_format.substr(5, 2) : "";
+}
+
 namespace {
 // OpenCV names Bayer patterns by the second row's first two pixels, so a sensor whose
 // top-left 2x2 is R G / G B (PFNC BayerRG) is OpenCV's BayerBG (checked by a test).
 // `pattern` is PFNC's two letters (RG, BG, GR, GB); -1 when unknown.
-int opencv_bayer_code(const std::string& pattern, Demosaic method) {
-  static const std::map<std::string, std::array<int, 3>> codes = {
+int opencv_bayer_code(std::string_view pattern, Demosaic method) {
+  static const std::map<std::string, std::array<int, 3>, std::less<>> codes = {
       {"RG", {cv::COLOR_BayerBG2BGR, cv::COLOR_BayerBG2BGR_EA, cv::COLOR_BayerBG2BGR_VNG}},
       {"BG", {cv::COLOR_BayerRG2BGR, cv::COLOR_BayerRG2BGR_EA, cv::COLOR_BayerRG2BGR_VNG}},
       {"GR", {cv::COLOR_BayerGB2BGR, cv::COLOR_BayerGB2BGR_EA, cv::COLOR_BayerGB2BGR_VNG}},
@@ -44,13 +48,6 @@ int opencv_bayer_code(const std::string& pattern, Demosaic method) {
   return it == codes.end() ? -1 : it->second[std::size_t(method)];
 }
 
-}  // namespace
-
-std::string_view bayer_pattern(std::string_view bayer_format) {
-  return bayer_format.substr(0, 5) == "Bayer" && bayer_format.size() >= 7 ? bayer_format.substr(5, 2) : "";
-}
-
-namespace {
 // The half-size image's blue, green and red planes from the cell's four.
 Status colour_planes(const cv::Mat planes[4], const std::string& bayer_format, cv::Mat bgr_planes[3]) {
   // Where R and B sit in the 2x2 cell (the G are the other two), by PFNC's pattern name.
@@ -188,8 +185,7 @@ Status debayer(const cv::Mat& mosaic, const std::string& bayer_format, Demosaic 
     planes[0] = top[0], planes[1] = top[1], planes[2] = bottom[0], planes[3] = bottom[1];
     return half_size_from_planes(planes, bayer_format, bgr);
   }
-  const std::string_view pattern = bayer_pattern(bayer_format);
-  const int code = pattern.empty() ? -1 : opencv_bayer_code(std::string(pattern), method);
+  const int code = opencv_bayer_code(bayer_pattern(bayer_format), method);
   if (code < 0) return Error{fmt::format("'{}' is not a Bayer pattern pvcap knows", bayer_format)};
   if (mosaic.channels() != 1 || (mosaic.depth() != CV_8U && mosaic.depth() != CV_16U))
     return Error{fmt::format("a {} mosaic has one 8- or 16-bit channel", bayer_format)};
