@@ -141,7 +141,7 @@ arv::GPtr<ArvCamera> open_bare(const std::string& address) {
 
 struct RoundResult {
   double cpu = 0;
-  std::uint64_t good = 0, lost = 0;  // lost: incomplete + never received + queue overflows
+  std::uint64_t good = 0, lost = 0;  // lost: incomplete + never received + buffer underruns
   CpuByRole roles;
 };
 
@@ -204,8 +204,8 @@ RoundResult pvcap_path(const std::vector<CameraConfig>& configs, double seconds)
   for (auto& cam : cams)
     consumers.emplace_back([&, c = cam.get()] {
       name_this_thread("consumer");
-      while (!c->frames().closed_and_empty()) {
-        auto f = c->frames().pop_for(100ms);
+      while (!c->frames_done()) {
+        auto f = c->next_frame(100ms);
         while (c->losses().pop_for(0ms)) {
         }  // counted from lost_before below
         if (!f) continue;
@@ -221,7 +221,7 @@ RoundResult pvcap_path(const std::vector<CameraConfig>& configs, double seconds)
   std::this_thread::sleep_for(500ms);  // warm-up
   const std::uint64_t overflow0 = [&] {
     std::uint64_t n = 0;
-    for (auto& c : cams) n += c->counters().queue_overflows + c->counters().underruns;
+    for (auto& c : cams) n += c->counters().underruns;
     return n;
   }();
   counting.store(true);
@@ -232,7 +232,7 @@ RoundResult pvcap_path(const std::vector<CameraConfig>& configs, double seconds)
   counting.store(false);
   CpuByRole roles = cpu_by_role(threads0, good.load(), "main (waits)");
   std::uint64_t overflow = 0;
-  for (auto& c : cams) overflow += c->counters().queue_overflows + c->counters().underruns;
+  for (auto& c : cams) overflow += c->counters().underruns;
   for (auto& c : cams) c->request_stop();
   for (auto& c : cams) c->stop();
   for (auto& t : consumers) t.join();

@@ -68,12 +68,8 @@ struct AravisCamera::Link {
   }
 };
 
-AravisCamera::AravisCamera(int index, CameraConfig config, EventHandler on_event, std::size_t queue_frames)
-    : index_(index),
-      config_(std::move(config)),
-      on_event_(std::move(on_event)),
-      queue_(queue_frames ? queue_frames : buffer_count_for(config_) + kQueueFramesBeyondBuffers),
-      link_(std::make_unique<Link>()) {
+AravisCamera::AravisCamera(int index, CameraConfig config, EventHandler on_event)
+    : index_(index), config_(std::move(config)), on_event_(std::move(on_event)), link_(std::make_unique<Link>()) {
   arv::route_glib_logs_to_spdlog();
 }
 
@@ -213,12 +209,16 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
     return s;
   }
   auto stream = AravisStream::create(link_->camera.get(), index_, connection, settings_.payload, settings_.buffer_count,
-                                     config_.packet_resend, config_.socket_buffer_bytes, queue_, losses_);
+                                     config_.packet_resend, config_.socket_buffer_bytes, losses_);
   if (!stream) {
     link_->camera.reset();
     return Error{fmt::format("{}: {}", label(), stream.error().message)};
   }
   link_->stream = std::move(stream.value());
+  {
+    std::lock_guard feed(feed_mu_);
+    feed_ = link_->stream;
+  }
   ArvDevice* dev = arv_camera_get_device(link_->camera.get());
   latch_command_.clear();
   latch_value_.clear();
@@ -321,12 +321,49 @@ void AravisCamera::teardown_connection(bool camera_reachable) {
     camera = std::move(link_->camera);
     if (stream) past_counters_ += stream->counters();
   }
+  if (stream) {
+    std::lock_guard feed(feed_mu_);
+    feed_.reset();
+    retired_.push_back(stream);  // the consumer takes its last frames, then its last losses
+  }
   if (camera && camera_reachable) arv_camera_stop_acquisition(camera.get(), nullptr);
   if (stream) stream->quiesce();
   if (camera && link_->control_lost_id)
     g_signal_handler_disconnect(arv_camera_get_device(camera.get()), link_->control_lost_id);
   link_->control_lost_id = 0;
   // `stream` stays alive while frames leased from it are still queued or being encoded.
+}
+
+std::optional<CameraFrame> AravisCamera::next_frame(std::chrono::milliseconds timeout) {
+  std::shared_ptr<AravisStream> stream;
+  bool retired = false, stopped = false;
+  {
+    std::lock_guard feed(feed_mu_);
+    retired = !retired_.empty();
+    stream = retired ? retired_.front() : feed_;
+    stopped = stopped_;
+  }
+  if (retired) {
+    // A frame stamped before quiesce() may reach Aravis' queue a moment after its stamp (Aravis'
+    // order varies): a short wait takes them all (bounded, so a stream that never delivers what
+    // it stamped cannot hold the next connection's frames back).
+    const auto until = std::chrono::steady_clock::now() + std::min<std::chrono::milliseconds>(timeout, 200ms);
+    do {
+      if (auto frame = stream->take_frame(std::chrono::milliseconds(1))) return frame;
+    } while (!stream->drained() && std::chrono::steady_clock::now() < until);
+    if (!stream->drained()) return std::nullopt;  // asked again on the next call
+    stream->settle_losses(host_now(), /*all=*/true);
+    std::lock_guard feed(feed_mu_);
+    retired_.pop_front();
+    return std::nullopt;
+  }
+  if (stream) return stream->take_frame(timeout);
+  if (stopped) {
+    if (!frames_done_.exchange(true)) losses_.close();
+    return std::nullopt;
+  }
+  std::this_thread::sleep_for(std::min<std::chrono::milliseconds>(timeout, 20ms));  // between connections
+  return std::nullopt;
 }
 
 void AravisCamera::control_loop() {
@@ -511,8 +548,10 @@ void AravisCamera::stop() {
     control_thread_.join();  // its loop tears the connection down
   else
     teardown_connection(true);  // opened but never started
-  queue_.close();
-  losses_.close();
+  {
+    std::lock_guard feed(feed_mu_);
+    stopped_ = true;  // the consumer closes the losses once it has taken every frame
+  }
   probes_.close();
 }
 

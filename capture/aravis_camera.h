@@ -1,20 +1,24 @@
 #pragma once
 // One GigE Vision camera of the rig, through Aravis: connect, apply the rig
-// config as GenICam features, check the link budget, stream into a bounded
-// queue, watch for loss and reconnect.
+// config as GenICam features, check the link budget, stream, hand each frame to
+// one consumer with its number and its losses, watch for loss and reconnect.
 //
 // Threads: open()/start()/stop() are called from the app's thread. Frames are
-// produced on Aravis' stream thread (see aravis_stream.h). A control thread per
+// assembled on Aravis' stream thread and taken by one consumer thread with
+// next_frame() (see aravis_stream.h). A control thread per
 // camera watches for a stalled stream or a lost control channel, reports it
 // through the event handler within `stall_timeout()`, and tries to reconnect
 // every second; it may block on network timeouts, which is why it is not the
 // stream thread and not shared with other cameras. In software-trigger mode a
 // trigger thread per camera sends one trigger per frame period.
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -71,17 +75,13 @@ struct ClockProbe {
   HostNs host_lo, host_hi;
 };
 
+class AravisStream;
+
 class AravisCamera {
  public:
   using EventHandler = std::function<void(const CameraEvent&)>;
 
-  // Frames the queue holds beyond the buffer pool (a good frame holds a buffer, so those are bounded
-  // by the pool; the slack carries records of failed frames).
-  static constexpr std::size_t kQueueFramesBeyondBuffers = 256;
-
-  // `queue_frames`: the frame queue's size; 0 for the buffer count plus kQueueFramesBeyondBuffers
-  // (a test shrinks it to meet a queue that overflows).
-  AravisCamera(int index, CameraConfig config, EventHandler on_event, std::size_t queue_frames = 0);
+  AravisCamera(int index, CameraConfig config, EventHandler on_event);
   ~AravisCamera();
   AravisCamera(const AravisCamera&) = delete;
   AravisCamera& operator=(const AravisCamera&) = delete;
@@ -97,13 +97,18 @@ class AravisCamera {
   // Asks the control thread to stop acquisition; returns at once (stop() several cameras
   // in parallel by calling this on each first).
   void request_stop();
-  // Stops acquisition and supervision and waits for it; closes the frame queue (the
-  // consumer drains it).
+  // Stops acquisition and supervision and waits for it; the consumer then takes what is left.
   void stop();
 
-  // Each frame numbered in the camera's own sequence (frame_sequencer.h), and the frames lost,
-  // with their reasons. Both close after stop().
-  BoundedQueue<CameraFrame>& frames() { return queue_; }
+  // The consumer's side, one thread: the next frame, numbered in the camera's own sequence
+  // (frame_sequencer.h), waiting up to `timeout`; none when the wait ran out. A torn-down
+  // connection's frames come before the next one's, then its last losses. Frames wait in the
+  // stream's buffers (Aravis' own queue): a consumer that falls behind meets buffer underruns.
+  std::optional<CameraFrame> next_frame(std::chrono::milliseconds timeout);
+  // True once the camera is stopped and next_frame has taken every frame (the losses queue is
+  // closed then).
+  bool frames_done() const { return frames_done_.load(); }
+  // The frames lost, with their reasons; closed once frames_done().
   BoundedQueue<FrameLoss>& losses() { return losses_; }
   // Timestamp-latch probes while streaming (four a second for a connection's first 5 s, while its
   // clock model converges; then one a second), from cameras that have the SFNC
@@ -143,7 +148,6 @@ class AravisCamera {
   const int index_;
   const CameraConfig config_;
   EventHandler on_event_;
-  BoundedQueue<CameraFrame> queue_;
   BoundedQueue<FrameLoss> losses_{4096};
 
   // The connection to the device (Aravis' camera, its stream, the control-lost signal): defined in
@@ -151,6 +155,14 @@ class AravisCamera {
   struct Link;
   mutable std::mutex mu_;  // guards link_'s camera and stream, settings_, past_counters_
   std::unique_ptr<Link> link_;
+  // What the consumer takes frames from, under a lock of its own (mu_ is held through a
+  // reconnection's configuration): the connection's stream, and torn-down connections' streams
+  // whose frames it has not all taken, oldest first.
+  std::mutex feed_mu_;
+  std::shared_ptr<AravisStream> feed_;
+  std::deque<std::shared_ptr<AravisStream>> retired_;
+  bool stopped_ = false;
+  std::atomic<bool> frames_done_{false};
   CameraSettings settings_;
   StreamCounters past_counters_;
   std::string latch_command_, latch_value_;  // the latch's feature names, empty without one

@@ -26,9 +26,8 @@ StreamCounters& StreamCounters::operator+=(const StreamCounters& o) {
 Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, int camera_index,
                                                            std::uint32_t connection, std::size_t payload,
                                                            std::size_t buffer_count, bool packet_resend,
-                                                           int socket_buffer_bytes, BoundedQueue<CameraFrame>& queue,
-                                                           BoundedQueue<FrameLoss>& losses) {
-  std::shared_ptr<AravisStream> self(new AravisStream(queue, losses, camera_index, connection));
+                                                           int socket_buffer_bytes, BoundedQueue<FrameLoss>& losses) {
+  std::shared_ptr<AravisStream> self(new AravisStream(losses, camera_index, connection, buffer_count));
   arv::GErrorSlot err;
   self->created_ns_ = host_now().ns;
   self->stream_.reset(arv_camera_create_stream(camera, &AravisStream::on_stream_event, self.get(), err.out()));
@@ -41,7 +40,7 @@ Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, in
                    socket_buffer_bytes, nullptr);
   }
   for (std::size_t i = 0; i < buffer_count; ++i) {
-    ArvBuffer* buffer = arv_buffer_new_allocate(payload);
+    ArvBuffer* buffer = arv_buffer_new_full(payload, nullptr, &self->arrivals_[i], nullptr);
     // Touched now, before the camera acquires: the first write into a fresh buffer page-faults it
     // in, 2-7 ms for 2 MB on the project's VMs, and that would fall on the stream thread while it
     // reassembles the first second's frames (docs/PERFORMANCE.md, "The first second").
@@ -49,17 +48,12 @@ Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, in
     if (void* data = const_cast<void*>(arv_buffer_get_data(buffer, &size))) std::memset(data, 0, size);
     arv_stream_push_buffer(self->stream_.get(), buffer);
   }
-  self->signal_id_ =
-      g_signal_connect(self->stream_.get(), "new-buffer", G_CALLBACK(&AravisStream::on_new_buffer), self.get());
-  arv_stream_set_emit_signals(self->stream_.get(), TRUE);
   return self;
 }
 
 AravisStream::~AravisStream() {
   if (!stream_) return;
   accepting_.store(false);
-  arv_stream_set_emit_signals(stream_.get(), FALSE);
-  g_signal_handler_disconnect(stream_.get(), signal_id_);
   // Joins Aravis' stream thread and frees the buffers: no lease is out by now.
   stream_.reset();
 }
@@ -90,14 +84,46 @@ void AravisStream::accept_from_now() {
   accepting_.store(true);
 }
 
-void AravisStream::on_stream_event(void* self_ptr, ArvStreamCallbackType type, ArvBuffer*) {
+void AravisStream::on_stream_event(void* self_ptr, ArvStreamCallbackType type, ArvBuffer* buffer) {
   auto* self = static_cast<AravisStream*>(self_ptr);
-  if (type == ARV_STREAM_CALLBACK_TYPE_INIT)
+  if (type == ARV_STREAM_CALLBACK_TYPE_INIT) {
     self->stream_tid_.store(int(::syscall(SYS_gettid)));
-  else if (type == ARV_STREAM_CALLBACK_TYPE_START_BUFFER)
+  } else if (type == ARV_STREAM_CALLBACK_TYPE_START_BUFFER) {
     self->frames_started_.fetch_add(1, std::memory_order_relaxed);
-  else if (type == ARV_STREAM_CALLBACK_TYPE_BUFFER_DONE)
+  } else if (type == ARV_STREAM_CALLBACK_TYPE_BUFFER_DONE) {
+    if (buffer) self->stamp(buffer);
     self->frames_finished_.fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
+// Runs on Aravis' stream thread as it finishes a buffer: the arrival, and whether the frame is taken.
+void AravisStream::stamp(ArvBuffer* buffer) {
+  in_callback_.fetch_add(1);
+  const HostNs arrival = host_now();
+  last_arrival_ns_.store(arrival.ns, std::memory_order_relaxed);
+  if (auto* slot = static_cast<Arrival*>(const_cast<void*>(arv_buffer_get_user_data(buffer)))) {
+    const bool accepted = accepting_.load(std::memory_order_relaxed);
+    slot->accepted.store(accepted, std::memory_order_relaxed);
+    slot->ns.store(arrival.ns, std::memory_order_relaxed);
+    slot->stamps.fetch_add(1, std::memory_order_release);
+    if (accepted) accepted_.fetch_add(1, std::memory_order_relaxed);
+  }
+  in_callback_.fetch_sub(1);
+}
+
+std::pair<HostNs, bool> AravisStream::arrival_of(ArvBuffer* buffer) {
+  auto* slot = static_cast<Arrival*>(const_cast<void*>(arv_buffer_get_user_data(buffer)));
+  if (!slot) return {host_now(), accepting_.load()};
+  const std::uint64_t take = ++slot->takes;
+  // Queued before its callback, a buffer is stamped within microseconds: the stream thread runs the
+  // callback next. Waited for at most 2 ms (a stream thread preempted in between); then this take is
+  // stamped here, and the late stamp stays paired with this take, never with the next fill's.
+  const std::int64_t give_up = host_now().ns + 2'000'000;
+  while (slot->stamps.load(std::memory_order_acquire) < take) {
+    if (host_now().ns > give_up) return {host_now(), accepting_.load()};
+    std::this_thread::yield();
+  }
+  return {HostNs{slot->ns.load(std::memory_order_relaxed)}, slot->accepted.load(std::memory_order_relaxed)};
 }
 
 bool AravisStream::stream_thread_idle() const {
@@ -116,8 +142,10 @@ bool AravisStream::stream_thread_idle() const {
 void AravisStream::quiesce() {
   accepting_.store(false);
   while (in_callback_.load() > 0) std::this_thread::yield();
-  settle_losses(host_now(), /*all=*/true);
+  quiesced_.store(true);
 }
+
+bool AravisStream::drained() const { return quiesced_.load() && delivered_.load() >= accepted_.load(); }
 
 void AravisStream::settle_losses(HostNs now, bool all) {
   if (!all && !sequencer_.has_due(now)) return;
@@ -131,21 +159,29 @@ void AravisStream::settle_losses(HostNs now, bool all) {
   unreported_.erase(unreported_.begin(), unreported_.begin() + std::ptrdiff_t(sent));
 }
 
-void AravisStream::on_new_buffer(ArvStream* stream, void* self_ptr) {
-  auto* self = static_cast<AravisStream*>(self_ptr);
-  self->in_callback_.fetch_add(1);
-  if (ArvBuffer* buffer = arv_stream_try_pop_buffer(stream)) self->handle(buffer);
-  self->in_callback_.fetch_sub(1);
+void AravisStream::give_back(ArvBuffer* buffer) { arv_stream_push_buffer(stream_.get(), buffer); }
+
+std::optional<CameraFrame> AravisStream::take_frame(std::chrono::microseconds timeout) {
+  const std::int64_t deadline = host_now().ns + std::chrono::nanoseconds(timeout).count();
+  for (;;) {
+    const std::int64_t left_us = std::max<std::int64_t>(0, (deadline - host_now().ns) / 1000);
+    ArvBuffer* buffer = left_us > 0 ? arv_stream_timeout_pop_buffer(stream_.get(), guint64(left_us))
+                                    : arv_stream_try_pop_buffer(stream_.get());
+    if (!buffer) return std::nullopt;
+    const auto [arrival, accepted] = arrival_of(buffer);
+    if (!accepted) {
+      give_back(buffer);
+      continue;
+    }
+    CameraFrame frame = frame_of(buffer, arrival);
+    delivered_.fetch_add(1);
+    sequencer_.identify(frame);
+    settle_losses(host_now());
+    return frame;
+  }
 }
 
-// Runs on Aravis' stream thread: stamp, push, return. Never waits.
-void AravisStream::handle(ArvBuffer* buffer) {
-  const HostNs arrival = host_now();
-  last_arrival_ns_.store(arrival.ns, std::memory_order_relaxed);
-  if (!accepting_.load(std::memory_order_relaxed)) {
-    arv_stream_push_buffer(stream_.get(), buffer);
-    return;
-  }
+CameraFrame AravisStream::frame_of(ArvBuffer* buffer, HostNs arrival) {
   CameraFrame frame;
   frame.camera = camera_index_;
   frame.connection = connection_;
@@ -154,56 +190,43 @@ void AravisStream::handle(ArvBuffer* buffer) {
   frame.host_ts = arrival;
   frame.aravis_system_ns = std::int64_t(arv_buffer_get_system_timestamp(buffer));
   const ArvBufferStatus status = arv_buffer_get_status(buffer);
-  std::shared_ptr<AravisStream> keep = weak_from_this().lock();
-  if (status == ARV_BUFFER_STATUS_SUCCESS && keep) {
+  if (status == ARV_BUFFER_STATUS_SUCCESS) {
     frame.status = FrameStatus::Good;
     frame.pixel_format = arv_buffer_get_image_pixel_format(buffer);
     frame.width = arv_buffer_get_image_width(buffer);
     frame.height = arv_buffer_get_image_height(buffer);
     frame.data = static_cast<const std::uint8_t*>(arv_buffer_get_image_data(buffer, &frame.size));
     frame.lease = BufferLease(
-        [](void* pool, void* buf) {
-          arv_stream_push_buffer(static_cast<AravisStream*>(pool)->stream_.get(), static_cast<ArvBuffer*>(buf));
-        },
-        std::move(keep), buffer);
-  } else {
-    frame.status = FrameStatus::Incomplete;
-    const char* name = nullptr;
-    switch (status) {
-      case ARV_BUFFER_STATUS_MISSING_PACKETS:
-        name = "missing_packets";
-        break;
-      case ARV_BUFFER_STATUS_TIMEOUT:
-        name = "timeout";
-        break;
-      case ARV_BUFFER_STATUS_SIZE_MISMATCH:
-        name = "size_mismatch";
-        break;
-      case ARV_BUFFER_STATUS_ABORTED:
-        name = "aborted";
-        break;
-      case ARV_BUFFER_STATUS_WRONG_PACKET_ID:
-        name = "wrong_packet_id";
-        break;
-      case ARV_BUFFER_STATUS_CLEARED:
-        name = "cleared";
-        break;
-      case ARV_BUFFER_STATUS_SUCCESS:
-        name = "stream_closing";
-        break;
-      default:
-        name = "failed";
-        break;
-    }
-    frame.detail = name;
-    arv_stream_push_buffer(stream_.get(), buffer);
+        [](void* pool, void* buf) { static_cast<AravisStream*>(pool)->give_back(static_cast<ArvBuffer*>(buf)); },
+        shared_from_this(), buffer);
+    return frame;
   }
-  sequencer_.identify(frame);
-  if (!queue_.try_push(frame)) {  // `frame` releases its buffer; the frame is a loss
-    overflows_.fetch_add(1, std::memory_order_relaxed);
-    sequencer_.dropped(frame);
+  frame.status = FrameStatus::Incomplete;
+  switch (status) {
+    case ARV_BUFFER_STATUS_MISSING_PACKETS:
+      frame.detail = "missing_packets";
+      break;
+    case ARV_BUFFER_STATUS_TIMEOUT:
+      frame.detail = "timeout";
+      break;
+    case ARV_BUFFER_STATUS_SIZE_MISMATCH:
+      frame.detail = "size_mismatch";
+      break;
+    case ARV_BUFFER_STATUS_ABORTED:
+      frame.detail = "aborted";
+      break;
+    case ARV_BUFFER_STATUS_WRONG_PACKET_ID:
+      frame.detail = "wrong_packet_id";
+      break;
+    case ARV_BUFFER_STATUS_CLEARED:
+      frame.detail = "cleared";
+      break;
+    default:
+      frame.detail = "failed";
+      break;
   }
-  settle_losses(arrival);
+  give_back(buffer);
+  return frame;
 }
 
 StreamCounters AravisStream::counters() const {
@@ -219,8 +242,7 @@ StreamCounters AravisStream::counters() const {
     c.resent_packets = resent;
     c.missing_packets = missing;
   }
-  c.queue_overflows = overflows_.load();
-  return c;
+  return c;  // queue_overflows stays 0: frames wait in Aravis' own queue, holding their buffers
 }
 
 }  // namespace pvcap

@@ -1,18 +1,25 @@
 #pragma once
-// One GVSP stream of one camera connection: its buffer pool and the callback
-// that runs on Aravis' stream thread.
+// One GVSP stream of one camera connection: its buffer pool, the arrival stamp
+// of each buffer, and the frames taken from Aravis' own output queue.
 //
-// Thread rules (as in arvstream.h): `on_new_buffer` runs on Aravis' stream
-// thread and does four things only: stamp the arrival time, give the frame its
-// sequence (frame_sequencer.h), push it into the bounded queue (without
-// waiting), report settled losses; then return. Buffers go back to the pool
-// when the consumer drops the frame's lease, from any thread. The object stays
-// alive while any lease is out (leases hold a shared_ptr), so a reconnection
-// can replace the stream while old frames are still being encoded.
+// Thread rules (as in arvstream.h): Aravis' stream thread reassembles frames,
+// puts each finished buffer in its output queue (waking the consumer) and calls
+// `on_stream_event`, which only stamps the buffer's arrival time into its slot
+// (the buffer's user data) and returns. The consumer's thread takes
+// frames with `take_frame`: it builds the frame, gives it its sequence
+// (frame_sequencer.h) and reports settled losses. No signal, no second queue,
+// nothing else on the stream thread: the bare receive loop's path
+// (docs/PERFORMANCE.md, "Capture path"). Buffers go back to the pool when the
+// consumer drops the frame's lease, from any thread. The object stays alive
+// while any lease is out (leases hold a shared_ptr), so a reconnection can
+// replace the stream while old frames are still being encoded.
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <utility>
 #include <vector>
 
 #include <arv.h>
@@ -27,13 +34,11 @@ namespace pvcap {
 
 class AravisStream : public std::enable_shared_from_this<AravisStream> {
  public:
-  // Creates the stream on `camera` with `buffer_count` buffers of `payload` bytes. Frames go
-  // to `queue` stamped with `camera_index` and `connection`; frames lost, with their reason,
-  // to `losses`.
+  // Creates the stream on `camera` with `buffer_count` buffers of `payload` bytes. Frames are
+  // stamped with `camera_index` and `connection`; frames lost, with their reason, go to `losses`.
   static Result<std::shared_ptr<AravisStream>> create(ArvCamera* camera, int camera_index, std::uint32_t connection,
                                                       std::size_t payload, std::size_t buffer_count, bool packet_resend,
-                                                      int socket_buffer_bytes, BoundedQueue<CameraFrame>& queue,
-                                                      BoundedQueue<FrameLoss>& losses);
+                                                      int socket_buffer_bytes, BoundedQueue<FrameLoss>& losses);
   ~AravisStream();
   AravisStream(const AravisStream&) = delete;
   AravisStream& operator=(const AravisStream&) = delete;
@@ -45,10 +50,16 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   void accept_from_now();
   static constexpr std::int64_t kSettleNs = 250'000'000;
   static constexpr std::int64_t kMaxSettleNs = 3'000'000'000;
-  // Stops callbacks from pushing further frames and waits for a running callback to
-  // finish, so none can take a new reference afterwards (leases still return buffers);
-  // then reports every gap still open. Call before dropping the last owner reference.
+  // The consumer's side (one thread at a time): the next frame Aravis finished, waiting up to
+  // `timeout` for one; none when the wait ran out. Buffers finished before accept_from_now() or
+  // after quiesce() go straight back to the pool.
+  std::optional<CameraFrame> take_frame(std::chrono::microseconds timeout);
+  // Stops frames from being taken from buffers finished from now on, and waits for a running
+  // stamp to finish. Frames finished before stay in Aravis' queue for take_frame.
   void quiesce();
+  // After quiesce(): true once take_frame has taken every frame finished before it (the consumer
+  // then reports the last gaps with settle_losses(now, true)).
+  bool drained() const;
   // Reports the losses settled by `now` (the control thread calls it, so a silent camera's
   // gaps are reported too).
   void settle_losses(HostNs now, bool all = false);
@@ -56,32 +67,51 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   HostNs last_arrival() const { return HostNs{last_arrival_ns_.load(std::memory_order_relaxed)}; }
 
  private:
-  AravisStream(BoundedQueue<CameraFrame>& queue, BoundedQueue<FrameLoss>& losses, int camera_index,
-               std::uint32_t connection)
-      : queue_(queue), losses_(losses), camera_index_(camera_index), connection_(connection), sequencer_(connection) {}
-  static void on_new_buffer(ArvStream* stream, void* self);
+  // A buffer's arrival, written by the stream thread when Aravis finishes it. Aravis may queue the
+  // buffer before or after its callback (the GigE stream's order changed between versions), so
+  // the consumer pairs its n-th take of the buffer with the n-th stamp, not with whatever the
+  // slot holds: the stream thread stamps a buffer's fills in order, each before the next fill.
+  struct Arrival {
+    std::atomic<std::int64_t> ns{0};
+    std::atomic<bool> accepted{false};
+    std::atomic<std::uint64_t> stamps{0};  // fills stamped (stream thread)
+    std::uint64_t takes = 0;               // fills taken (consumer's thread only)
+  };
+
+  AravisStream(BoundedQueue<FrameLoss>& losses, int camera_index, std::uint32_t connection, std::size_t buffer_count)
+      : losses_(losses),
+        camera_index_(camera_index),
+        connection_(connection),
+        arrivals_(buffer_count),
+        sequencer_(connection) {}
   static void on_stream_event(void* self, ArvStreamCallbackType type, ArvBuffer* buffer);
   // True once Aravis' stream thread waits for packets with no frame half-assembled.
   bool stream_thread_idle() const;
-  void handle(ArvBuffer* buffer);
+  void stamp(ArvBuffer* buffer);
+  // The arrival and acceptance of the fill just taken: its stamp, waited for a moment if the
+  // callback has not run yet; else now and whether frames are taken now.
+  std::pair<HostNs, bool> arrival_of(ArvBuffer* buffer);
+  void give_back(ArvBuffer* buffer);
+  CameraFrame frame_of(ArvBuffer* buffer, HostNs arrival);
 
   arv::GPtr<ArvStream> stream_;
-  BoundedQueue<CameraFrame>& queue_;
   BoundedQueue<FrameLoss>& losses_;
   const int camera_index_;
   const std::uint32_t connection_;
   std::atomic<bool> accepting_{false};  // from accept_from_now() until quiesce()
+  std::atomic<bool> quiesced_{false};
   std::int64_t created_ns_ = 0;
+  std::vector<Arrival> arrivals_;  // one per buffer, its user data; sized once, never moved
   std::atomic<int> in_callback_{0};
+  std::atomic<std::uint64_t> accepted_{0};   // buffers stamped while accepting
+  std::atomic<std::uint64_t> delivered_{0};  // ... and taken by take_frame
   std::atomic<std::int64_t> last_arrival_ns_{0};
   std::atomic<int> stream_tid_{0};                 // Aravis' stream thread (its INIT event)
   std::atomic<std::uint64_t> frames_started_{0};   // frames the stream thread began to assemble
   std::atomic<std::uint64_t> frames_finished_{0};  // ... and completed or gave up
-  std::atomic<std::uint64_t> overflows_{0};
   FrameSequencer sequencer_;
-  std::mutex settle_mu_;               // settle_losses() runs on the stream and the control thread
+  std::mutex settle_mu_;               // settle_losses() runs on the consumer's and the control thread
   std::vector<FrameLoss> unreported_;  // settled, not yet taken by the losses queue
-  gulong signal_id_ = 0;
 };
 
 }  // namespace pvcap

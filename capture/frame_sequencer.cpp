@@ -8,7 +8,7 @@ FrameSequencer::FrameSequencer(std::uint32_t connection, std::int64_t grace_ns)
     : connection_(connection),
       grace_ns_(grace_ns),
       gaps_(grace_ns, [this](const GapTracker::Gap& g) { report_gap(g); }) {
-  settled_.reserve(64);  // the stream thread rarely allocates
+  settled_.reserve(64);  // the consumer's thread rarely allocates
 }
 
 void FrameSequencer::identify(CameraFrame& frame) {
@@ -35,23 +35,6 @@ void FrameSequencer::identify(CameraFrame& frame) {
   }
 }
 
-void FrameSequencer::dropped(const CameraFrame& frame) {
-  if (frame.identity != FrameIdentity::Own) return;  // a record, not a frame: nothing is lost
-  std::lock_guard lock(mu_);
-  overflow_last_ = frame.host_ts;
-  if (overflow_run_ && overflow_run_->first + overflow_run_->count == frame.sequence) {
-    ++overflow_run_->count;
-    return;
-  }
-  close_overflow_run();
-  overflow_run_ = FrameLoss{connection_, frame.sequence, 1, "queue_overflow", frame.host_ts};
-}
-
-void FrameSequencer::close_overflow_run() {
-  if (overflow_run_) settled_.push_back(*overflow_run_);
-  overflow_run_.reset();
-}
-
 void FrameSequencer::report_gap(const GapTracker::Gap& g) {
   // Frames Aravis had no free buffer for are gaps too; its counter says how many, not which: the
   // first ones of the gaps settled after it grew are charged to it.
@@ -65,23 +48,15 @@ void FrameSequencer::report_gap(const GapTracker::Gap& g) {
     settled_.push_back(FrameLoss{connection_, g.first + by_underrun, g.count - by_underrun, "not_received", noticed});
 }
 
-// A run of queue drops is reported once no drop has joined it for a while: one row per burst,
-// yet in the store within a second of its end.
-bool FrameSequencer::overflow_run_settled(HostNs now) const {
-  return overflow_run_ && now.ns - overflow_last_.ns >= 100'000'000;
-}
-
 bool FrameSequencer::has_due(HostNs now) const {
   std::lock_guard lock(mu_);
-  return !settled_.empty() || overflow_run_settled(now) ||
-         gaps_.oldest_noticed_ns().value_or(now.ns) <= now.ns - grace_ns_;
+  return !settled_.empty() || gaps_.oldest_noticed_ns().value_or(now.ns) <= now.ns - grace_ns_;
 }
 
 void FrameSequencer::settle(HostNs now, std::uint64_t underruns, std::vector<FrameLoss>& out, bool all) {
   std::lock_guard lock(mu_);
   underruns_now_ = underruns;
   gaps_.settle(now.ns, all);
-  if (all || overflow_run_settled(now)) close_overflow_run();
   for (auto& loss : settled_) out.push_back(loss);
   settled_.clear();
 }

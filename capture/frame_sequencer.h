@@ -4,14 +4,14 @@
 // frame id unwrapped into a sequence, the ids skipped before it, and whether the
 // buffer is the frame it claims to be. Frames that never reach the consumer are
 // reported as losses with their true reason:
-//  - queue_overflow: received, but the driver's queue was full (their ids are known);
-//  - buffer_underrun: sent while Aravis had no free buffer (its underrun counter grew);
+//  - buffer_underrun: sent while Aravis had no free buffer (its underrun counter grew: the
+//    consumer held every buffer, or had not taken the frames waiting in them);
 //  - not_received: lost on the link, or never sent.
 // A gap is held open for a grace period before it is reported, because GigE
 // Vision delivers a timed-out incomplete frame after its successor.
 //
-// Threads: identify()/dropped() run on Aravis' stream thread; settle() also on the
-// camera's control thread. A mutex held for microseconds guards the state.
+// Threads: identify() runs on the consumer's thread; settle() also on the camera's
+// control thread. A mutex held for microseconds guards the state.
 #include <cstdint>
 #include <mutex>
 #include <optional>
@@ -27,7 +27,7 @@ struct FrameLoss {
   std::uint32_t connection = 0;
   std::uint64_t first = 0;  // sequence of the first frame lost
   std::uint64_t count = 0;
-  const char* reason = "";  // queue_overflow, buffer_underrun or not_received
+  const char* reason = "";  // buffer_underrun or not_received
   HostNs noticed;
 };
 
@@ -37,8 +37,6 @@ class FrameSequencer {
 
   // Sets the frame's sequence, lost_before and identity from its frame id.
   void identify(CameraFrame& frame);
-  // The identified frame could not be queued: its frame is lost to the queue.
-  void dropped(const CameraFrame& frame);
   // Moves the losses that are settled (gaps older than the grace; every gap when `all`) to
   // `out`. `underruns` is the stream's underrun counter now: gaps it grew during are frames
   // Aravis had no buffer for.
@@ -49,16 +47,12 @@ class FrameSequencer {
 
  private:
   void report_gap(const GapTracker::Gap& g);
-  void close_overflow_run();
-  bool overflow_run_settled(HostNs now) const;
 
   const std::uint32_t connection_;
   const std::int64_t grace_ns_;
   mutable std::mutex mu_;
   SequenceUnwrapper unwrap_{16, /*zero_is_skipped=*/true};
   GapTracker gaps_;
-  std::optional<FrameLoss> overflow_run_;  // consecutive frames the queue had no room for
-  HostNs overflow_last_;                   // when the run last grew
   std::vector<FrameLoss> settled_;
   std::uint64_t underruns_seen_ = 0, underrun_credit_ = 0, underruns_now_ = 0;
 };

@@ -51,7 +51,6 @@ FaultPlan parse_faults(std::string_view spec, std::vector<std::string>& problems
   plan.stall_camera = int(take("camera_pipeline.stall_camera").value_or(0));
   plan.sensel_pipeline_stall = stall("sensel_pipeline.stall_s", "sensel_pipeline.stall_after_s");
   plan.index_writer_stall = stall("index_writer.stall_s", "index_writer.stall_after_s");
-  plan.camera_queue_frames = count("camera.queue_frames");
   plan.sensel_queue_frames = count("sensel.queue_frames");
   plan.index_queue_records = count("index_writer.queue_records");
   plan.index_overflow_memory_records = count("index_writer.overflow_memory_records");

@@ -2,7 +2,7 @@
 // Faults a test can switch on in a real `pvcap session`, to meet the failures a lab meets rarely (a
 // consumer thread that falls behind, a queue that fills) through the code that would run on the rig.
 // A test sets them in the environment:
-//   PVCAP_FAULTS="camera_pipeline.stall_s=1.5,camera.queue_frames=4"
+//   PVCAP_FAULTS="camera_pipeline.stall_s=1.5,sensel.queue_frames=16"
 // app/ reads the variable once (parse_faults) and passes the plan down as a plain value, like any
 // other setting; no module below app/ reads the environment. Empty, nothing changes; a process
 // given a plan says so once, at warning level, so it is never on unnoticed.
@@ -11,7 +11,6 @@
 //   camera_pipeline.stall_s        the worker of camera `stall_camera` sleeps this long, once,
 //   camera_pipeline.stall_camera   (default 0) `stall_after_s` (default 2) after its first frame
 //   camera_pipeline.stall_after_s
-//   camera.queue_frames            each camera driver's frame queue holds this many frames
 //   sensel_pipeline.stall_s        the Sensel's worker sleeps this long, once, `stall_after_s`
 //   sensel_pipeline.stall_after_s  (default 2) after its first frame
 //   sensel.queue_frames            the Sensel driver's frame queue holds this many frames
@@ -41,8 +40,7 @@ struct FaultPlan {
   int stall_camera = 0;  // which camera's worker stalls
   std::optional<Stall> sensel_pipeline_stall;
   std::optional<Stall> index_writer_stall;
-  std::optional<std::size_t> camera_queue_frames, sensel_queue_frames, index_queue_records,
-      index_overflow_memory_records;
+  std::optional<std::size_t> sensel_queue_frames, index_queue_records, index_overflow_memory_records;
   std::chrono::milliseconds encoder_frame_delay{0};
   std::string spec;  // as given, for the warning and the log
   bool empty() const { return spec.empty(); }

@@ -66,9 +66,8 @@ class CameraWorker {
   void run() {
     warm_up();
     if (p_.warmed) p_.warmed->count_down();
-    auto& queue = p_.camera.frames();
-    while (!queue.closed_and_empty() || !p_.camera.losses().closed_and_empty()) {
-      auto frame = queue.pop_for(100ms);
+    while (!p_.camera.frames_done() || !p_.camera.losses().closed_and_empty()) {
+      auto frame = p_.camera.next_frame(100ms);
       record_losses();
       apply_decisions();
       if (!p_.end.stopping.load()) give_up_undecided(host_now().ns - 5'000'000'000);
@@ -111,9 +110,7 @@ class CameraWorker {
   void record_losses() {
     while (auto loss = p_.camera.losses().pop_for(0ms)) {
       const std::string_view reason = loss->reason;
-      auto& counter = reason == "queue_overflow"    ? p_.tally.queue_overflow
-                      : reason == "buffer_underrun" ? p_.tally.buffer_underrun
-                                                    : p_.tally.not_received;
+      auto& counter = reason == "buffer_underrun" ? p_.tally.buffer_underrun : p_.tally.not_received;
       counter.fetch_add(loss->count, std::memory_order_relaxed);
       p_.writer.record(
           DropRecord{p_.device_id, loss->connection, loss->first, loss->count, loss->reason, loss->noticed.ns});

@@ -20,7 +20,6 @@ namespace pvcap::session {
 // Per-camera counts the operator sees, filled by that camera's worker thread.
 struct CameraTally {
   std::atomic<std::uint64_t> received{0}, good{0}, incomplete{0}, not_received{0}, encoder_behind{0}, lost_events{0};
-  std::atomic<std::uint64_t> queue_overflow{0};   // frames the driver received and dropped, its queue full
   std::atomic<std::uint64_t> buffer_underrun{0};  // frames sent while the stream had no free buffer
   std::atomic<std::uint64_t> unidentified{0};     // buffers without their own id/timestamp, or duplicate ids
   std::atomic<std::int64_t> last_good_host_ns{0};

@@ -119,8 +119,7 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
       if (SessionWriter* w = self->events_writer_.load())
         w->record(EventRecord{e.at.ns, kind, self->device_ids_[i], e.message});
     };
-    r->cameras_.push_back(std::make_unique<AravisCamera>(int(i), rig.cameras[i], on_event,
-                                                         options.faults.camera_queue_frames.value_or(0)));
+    r->cameras_.push_back(std::make_unique<AravisCamera>(int(i), rig.cameras[i], on_event));
   }
   for (auto& cam : r->cameras_)
     if (Status s = open_with_wait(*cam, options.device_wait_s, cancel); !s.ok())
@@ -331,16 +330,14 @@ std::string Recording::wait(const std::atomic<bool>& interrupt, std::optional<do
                         rig_.cameras[i].name));
       }
       // Frames pvcap itself was too slow to take from the camera: its worker fell behind.
-      if (const auto behind = tallies_[i]->queue_overflow.load() + tallies_[i]->buffer_underrun.load();
-          !warned_behind_[i] && behind > 0) {
+      if (const auto behind = tallies_[i]->buffer_underrun.load(); !warned_behind_[i] && behind > 0) {
         warned_behind_[i] = true;
         warn(
-            fmt::format("{}: {} frame{} lost because pvcap did not take {} from the camera in time ({}): this PC is "
-                        "too busy for the rig. Close other programs, or lower frame_rate or the resolution in the "
-                        "rig file; raising the camera's buffer_count rides out short stalls",
-                        rig_.cameras[i].name, behind, behind == 1 ? "" : "s", behind == 1 ? "it" : "them",
-                        tallies_[i]->queue_overflow.load() > 0 ? "its frame queue was full"
-                                                               : "the camera's stream had no free buffer"));
+            fmt::format("{}: {} frame{} lost because pvcap did not take {} from the camera in time (the camera's "
+                        "stream had no free buffer): this PC is too busy for the rig. Close other programs, or lower "
+                        "frame_rate or the resolution in the rig file; raising the camera's buffer_count rides out "
+                        "short stalls",
+                        rig_.cameras[i].name, behind, behind == 1 ? "" : "s", behind == 1 ? "it" : "them"));
       }
       if (!warned_encoder_[i] && tallies_[i]->encoder_behind.load() > 0) {
         warned_encoder_[i] = true;
@@ -386,10 +383,10 @@ void Recording::log_progress(double elapsed_s) {
   std::string line = fmt::format("{:6.1f} s", elapsed_s);
   for (std::size_t i = 0; i < cameras_.size(); ++i) {
     const auto& t = *tallies_[i];
-    line += fmt::format(" | {} {} rx, {} video, {} lost", rig_.cameras[i].name, t.received.load(),
-                        writer_->camera_stats(device_ids_[i]).frames_in_video,
-                        t.not_received.load() + t.queue_overflow.load() + t.buffer_underrun.load() +
-                            t.incomplete.load() + t.encoder_behind.load());
+    line +=
+        fmt::format(" | {} {} rx, {} video, {} lost", rig_.cameras[i].name, t.received.load(),
+                    writer_->camera_stats(device_ids_[i]).frames_in_video,
+                    t.not_received.load() + t.buffer_underrun.load() + t.incomplete.load() + t.encoder_behind.load());
   }
   if (sensel_) line += fmt::format(" | sensel {} frames", sensel_->stored());
   line += fmt::format(" | {} samples", samples_.load());
@@ -447,7 +444,6 @@ RecordingStatus Recording::status() const {
     s.good = t.good.load();
     s.incomplete = t.incomplete.load();
     s.not_received = t.not_received.load();
-    s.queue_overflow = t.queue_overflow.load();
     s.buffer_underrun = t.buffer_underrun.load();
     s.encoder_behind = t.encoder_behind.load();
     s.connection_losses = t.lost_events.load();

@@ -47,7 +47,7 @@ TEST(StreamIsolation, AStreamMadeWhileAnotherCameraStreamsReceivesNoneOfItsFrame
   ASSERT_TRUE(streaming.start().ok());
   std::atomic<bool> done{false};
   std::thread drain([&] {
-    while (!done.load()) (void)streaming.frames().pop_for(20ms);
+    while (!done.load()) (void)streaming.next_frame(20ms);
   });
 
   // cam1 never acquires: whatever its streams deliver is another camera's.
@@ -59,13 +59,12 @@ TEST(StreamIsolation, AStreamMadeWhileAnotherCameraStreamsReceivesNoneOfItsFrame
   ASSERT_TRUE(idle);
   arv_camera_set_region(idle.get(), 0, 0, 320, 240, nullptr);
   const auto payload = std::size_t(arv_camera_get_payload(idle.get(), nullptr));
-  BoundedQueue<CameraFrame> frames(1000);
   BoundedQueue<FrameLoss> losses(1000);
   std::size_t delivered = 0;
   std::string what;  // each delivered frame: its round, id, status and age of its stream
   for (int round = 0; round < 30; ++round) {
     const std::int64_t made_ns = host_now().ns;
-    auto stream = AravisStream::create(idle.get(), 1, std::uint32_t(round), payload, 8, true, 0, frames, losses);
+    auto stream = AravisStream::create(idle.get(), 1, std::uint32_t(round), payload, 8, true, 0, losses);
     if (!stream) {
       ADD_FAILURE() << stream.error().message;
       break;
@@ -73,7 +72,7 @@ TEST(StreamIsolation, AStreamMadeWhileAnotherCameraStreamsReceivesNoneOfItsFrame
     stream.value()->accept_from_now();  // as AravisCamera does right before AcquisitionStart
     std::this_thread::sleep_for(50ms);
     stream.value()->quiesce();
-    while (auto f = frames.pop_for(0ms)) {
+    while (auto f = stream.value()->take_frame(0ms)) {
       ++delivered;
       what += fmt::format("\n  round {}: frame id {}, {}, {:.0f} ms after its stream was made", round, f->frame_id,
                           f->status == FrameStatus::Good ? "complete" : "incomplete",
