@@ -102,7 +102,9 @@ void AravisStream::stamp(ArvBuffer* buffer) {
   const HostNs arrival = host_now();
   last_arrival_ns_.store(arrival.ns, std::memory_order_relaxed);
   if (auto* slot = static_cast<Arrival*>(const_cast<void*>(arv_buffer_get_user_data(buffer)))) {
-    const bool accepted = accepting_.load(std::memory_order_relaxed);
+    // Sequentially consistent, as in_callback_ and quiesce()'s store are: a stamp quiesce() did not
+    // wait for sees it (a plain load on x86).
+    const bool accepted = accepting_.load();
     slot->accepted.store(accepted, std::memory_order_relaxed);
     slot->ns.store(arrival.ns, std::memory_order_relaxed);
     slot->stamps.fetch_add(1, std::memory_order_release);
