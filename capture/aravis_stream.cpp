@@ -120,10 +120,12 @@ std::pair<HostNs, bool> AravisStream::arrival_of(ArvBuffer* buffer) {
   // Queued before its callback, a buffer is stamped within microseconds: the stream thread runs the
   // callback next. Waited for at most 2 ms (a stream thread preempted in between); then this take is
   // stamped here, and the late stamp stays paired with this take, never with the next fill's.
-  const std::int64_t give_up = host_now().ns + 2'000'000;
-  while (slot->stamps.load(std::memory_order_acquire) < take) {
-    if (host_now().ns > give_up) return {host_now(), accepting_.load()};
-    std::this_thread::yield();
+  if (slot->stamps.load(std::memory_order_acquire) < take) {
+    const std::int64_t give_up = host_now().ns + 2'000'000;
+    while (slot->stamps.load(std::memory_order_acquire) < take) {
+      if (host_now().ns > give_up) return {host_now(), accepting_.load()};
+      std::this_thread::yield();
+    }
   }
   return {HostNs{slot->ns.load(std::memory_order_relaxed)}, slot->accepted.load(std::memory_order_relaxed)};
 }

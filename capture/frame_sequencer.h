@@ -14,7 +14,6 @@
 // control thread. A mutex held for microseconds guards the state.
 #include <cstdint>
 #include <mutex>
-#include <optional>
 #include <vector>
 
 #include "capture/camera_frame.h"
