@@ -328,6 +328,7 @@ void AravisCamera::teardown_connection(bool camera_reachable) {
   }
   if (camera && camera_reachable) arv_camera_stop_acquisition(camera.get(), nullptr);
   if (stream) stream->quiesce();
+  if (stream && !camera_reachable) stream->device_unreachable();
   if (camera && link_->control_lost_id)
     g_signal_handler_disconnect(arv_camera_get_device(camera.get()), link_->control_lost_id);
   link_->control_lost_id = 0;
@@ -430,6 +431,12 @@ void AravisCamera::control_loop() {
 }
 
 bool AravisCamera::reconnect() {
+  // Opening a camera that is not there holds this thread for Aravis' timeouts (2.5 s a try here),
+  // and a stop waits for it: a camera that does not answer one read in 250 ms is not tried.
+  if (is_ipv4(settings().address) && !gvcp_answers(settings().address, 250ms)) {
+    spdlog::debug("{}: reconnect attempt: no answer from {}", label(), settings().address);
+    return false;
+  }
   Status s = connect_and_configure(++connection_);
   if (!s.ok()) {
     spdlog::debug("{}: reconnect attempt failed: {}", label(), s.error().message);

@@ -1,6 +1,7 @@
 #pragma once
 // The GObject/GError edge of Aravis, wrapped so the rest of pvcap never calls
 // g_object_unref or g_error_free by hand.
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -33,6 +34,14 @@ class GErrorSlot {
  private:
   GError* error_ = nullptr;
 };
+
+// Runs `release` on a thread of its own, after the releases handed over before it. Finalizing the
+// stream of a camera that no longer answers waits on GVCP's timeouts (Aravis 0.8.26 writes the
+// stream channel register, then the device joins its heartbeat's read and leaves control: 5 tries of
+// 500 ms each, 10 s measured here), and no capture, encoding or stopping thread may wait for that. A
+// release still waiting when the process exits is abandoned: the camera is gone, nothing is left to
+// tell it.
+void release_in_background(std::function<void()> release);
 
 // Aravis reports through GLib's log; route it into spdlog once per process.
 void route_glib_logs_to_spdlog();

@@ -27,7 +27,8 @@ Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, in
                                                            std::uint32_t connection, std::size_t payload,
                                                            std::size_t buffer_count, bool packet_resend,
                                                            int socket_buffer_bytes, BoundedQueue<FrameLoss>& losses) {
-  std::shared_ptr<AravisStream> self(new AravisStream(losses, camera_index, connection, buffer_count));
+  std::shared_ptr<AravisStream> self(new AravisStream(losses, camera_index, connection, buffer_count),
+                                     &AravisStream::destroy);
   arv::GErrorSlot err;
   self->created_ns_ = host_now().ns;
   self->stream_.reset(arv_camera_create_stream(camera, &AravisStream::on_stream_event, self.get(), err.out()));
@@ -56,6 +57,13 @@ AravisStream::~AravisStream() {
   accepting_.store(false);
   // Joins Aravis' stream thread and frees the buffers: no lease is out by now.
   stream_.reset();
+}
+
+void AravisStream::destroy(AravisStream* stream) {
+  if (stream->device_unreachable_.load())
+    arv::release_in_background([stream] { delete stream; });
+  else
+    delete stream;
 }
 
 void AravisStream::accept_from_now() {

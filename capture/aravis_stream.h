@@ -57,6 +57,9 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   // Stops frames from being taken from buffers finished from now on, and waits for a running
   // stamp to finish. Frames finished before stay in Aravis' queue for take_frame.
   void quiesce();
+  // The camera stopped answering: when the last frame leased from this stream goes, the stream is
+  // finalized in the background (arv::release_in_background says why), not on that frame's thread.
+  void device_unreachable() { device_unreachable_.store(true); }
   // After quiesce(): true once take_frame has taken every frame finished before it (the consumer
   // then reports the last gaps with settle_losses(now, true)).
   bool drained() const;
@@ -85,6 +88,7 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
         arrivals_(buffer_count),
         sequencer_(connection) {}
   static void on_stream_event(void* self, ArvStreamCallbackType type, ArvBuffer* buffer);
+  static void destroy(AravisStream* stream);  // the shared_ptr's deleter
   // True once Aravis' stream thread waits for packets with no frame half-assembled.
   bool stream_thread_idle() const;
   void stamp(ArvBuffer* buffer);
@@ -100,6 +104,7 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   const std::uint32_t connection_;
   std::atomic<bool> accepting_{false};  // from accept_from_now() until quiesce()
   std::atomic<bool> quiesced_{false};
+  std::atomic<bool> device_unreachable_{false};
   std::int64_t created_ns_ = 0;
   std::vector<Arrival> arrivals_;  // one per buffer, its user data; sized once, never moved
   std::atomic<int> in_callback_{0};
