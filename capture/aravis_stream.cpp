@@ -109,33 +109,22 @@ void AravisStream::stamp(ArvBuffer* buffer) {
   in_callback_.fetch_add(1);
   const HostNs arrival = host_now();
   last_arrival_ns_.store(arrival.ns, std::memory_order_relaxed);
-  if (auto* slot = static_cast<Arrival*>(const_cast<void*>(arv_buffer_get_user_data(buffer)))) {
+  if (auto* slot = static_cast<ArrivalSlot*>(const_cast<void*>(arv_buffer_get_user_data(buffer)))) {
     // Sequentially consistent, as in_callback_ and quiesce()'s store are: a stamp quiesce() did not
     // wait for sees it (a plain load on x86).
     const bool accepted = accepting_.load();
-    slot->accepted.store(accepted, std::memory_order_relaxed);
-    slot->ns.store(arrival.ns, std::memory_order_relaxed);
-    slot->stamps.fetch_add(1, std::memory_order_release);
+    slot->stamp(arrival, accepted);
     if (accepted) accepted_.fetch_add(1, std::memory_order_relaxed);
   }
   in_callback_.fetch_sub(1);
 }
 
-std::pair<HostNs, bool> AravisStream::arrival_of(ArvBuffer* buffer) {
-  auto* slot = static_cast<Arrival*>(const_cast<void*>(arv_buffer_get_user_data(buffer)));
-  if (!slot) return {host_now(), accepting_.load()};
-  const std::uint64_t take = ++slot->takes;
+ArrivalSlot::Arrival AravisStream::arrival_of(ArvBuffer* buffer) {
+  auto* slot = static_cast<ArrivalSlot*>(const_cast<void*>(arv_buffer_get_user_data(buffer)));
+  if (!slot) return {host_now(), accepting_.load(), true};
   // Queued before its callback, a buffer is stamped within microseconds: the stream thread runs the
-  // callback next. Waited for at most 2 ms (a stream thread preempted in between); then this take is
-  // stamped here, and the late stamp stays paired with this take, never with the next fill's.
-  if (slot->stamps.load(std::memory_order_acquire) < take) {
-    const std::int64_t give_up = host_now().ns + 2'000'000;
-    while (slot->stamps.load(std::memory_order_acquire) < take) {
-      if (host_now().ns > give_up) return {host_now(), accepting_.load()};
-      std::this_thread::yield();
-    }
-  }
-  return {HostNs{slot->ns.load(std::memory_order_relaxed)}, slot->accepted.load(std::memory_order_relaxed)};
+  // callback next. 2 ms covers a stream thread preempted in between.
+  return slot->take(std::chrono::milliseconds(2), accepting_);
 }
 
 bool AravisStream::stream_thread_idle() const {
@@ -180,12 +169,13 @@ std::optional<CameraFrame> AravisStream::take_frame(std::chrono::microseconds ti
     ArvBuffer* buffer = left_us > 0 ? arv_stream_timeout_pop_buffer(stream_.get(), guint64(left_us))
                                     : arv_stream_try_pop_buffer(stream_.get());
     if (!buffer) return std::nullopt;
-    const auto [arrival, accepted] = arrival_of(buffer);
-    if (!accepted) {
+    const ArrivalSlot::Arrival arrived = arrival_of(buffer);
+    if (!arrived.accepted) {
       give_back(buffer);
       continue;
     }
-    CameraFrame frame = frame_of(buffer, arrival);
+    CameraFrame frame = frame_of(buffer, arrived.at);
+    frame.arrival_late = arrived.late;
     delivered_.fetch_add(1);
     sequencer_.identify(frame);
     settle_losses(host_now());

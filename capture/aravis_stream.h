@@ -25,6 +25,7 @@
 #include <arv.h>
 
 #include "capture/aravis_handles.h"
+#include "capture/arrival_slot.h"
 #include "capture/camera_frame.h"
 #include "capture/frame_sequencer.h"
 #include "core/bounded_queue.h"
@@ -70,17 +71,6 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   HostNs last_arrival() const { return HostNs{last_arrival_ns_.load(std::memory_order_relaxed)}; }
 
  private:
-  // A buffer's arrival, written by the stream thread when Aravis finishes it. Aravis may queue the
-  // buffer before or after its callback (the GigE stream's order changed between versions), so
-  // the consumer pairs its n-th take of the buffer with the n-th stamp, not with whatever the
-  // slot holds: the stream thread stamps a buffer's fills in order, each before the next fill.
-  struct Arrival {
-    std::atomic<std::int64_t> ns{0};
-    std::atomic<bool> accepted{false};
-    std::atomic<std::uint64_t> stamps{0};  // fills stamped (stream thread)
-    std::uint64_t takes = 0;               // fills taken (consumer's thread only)
-  };
-
   AravisStream(BoundedQueue<FrameLoss>& losses, int camera_index, std::uint32_t connection, std::size_t buffer_count)
       : losses_(losses),
         camera_index_(camera_index),
@@ -92,9 +82,8 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   // True once Aravis' stream thread waits for packets with no frame half-assembled.
   bool stream_thread_idle() const;
   void stamp(ArvBuffer* buffer);
-  // The arrival and acceptance of the fill just taken: its stamp, waited for a moment if the
-  // callback has not run yet; else now and whether frames are taken now.
-  std::pair<HostNs, bool> arrival_of(ArvBuffer* buffer);
+  // The arrival of the fill just taken (arrival_slot.h); a buffer without a slot has none: now, late.
+  ArrivalSlot::Arrival arrival_of(ArvBuffer* buffer);
   void give_back(ArvBuffer* buffer);
   CameraFrame frame_of(ArvBuffer* buffer, HostNs arrival);
 
@@ -106,7 +95,7 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   std::atomic<bool> quiesced_{false};
   std::atomic<bool> device_unreachable_{false};
   std::int64_t created_ns_ = 0;
-  std::vector<Arrival> arrivals_;  // one per buffer, its user data; sized once, never moved
+  std::vector<ArrivalSlot> arrivals_;  // one per buffer, its user data; sized once, never moved
   std::atomic<int> in_callback_{0};
   std::atomic<std::uint64_t> accepted_{0};   // buffers stamped while accepting
   std::atomic<std::uint64_t> delivered_{0};  // ... and taken by take_frame

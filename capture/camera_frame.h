@@ -67,6 +67,7 @@ struct CameraFrame {
   std::uint64_t frame_id = 0;         // as the camera sent it (16-bit on GigE Vision 1.x)
   DeviceNs device_ts;                 // the camera's timestamp, as converted by Aravis to ns
   HostNs host_ts;                     // pvcap's arrival stamp (CLOCK_MONOTONIC)
+  bool arrival_late = false;          // its stamp came > 2 ms after Aravis queued it: host_ts is its take
   std::int64_t aravis_system_ns = 0;  // Aravis' own wall-clock arrival stamp, kept for diagnosis
   FrameStatus status = FrameStatus::Good;
   // The frame's place in the camera's numbering (set by the driver, see frame_sequencer.h):

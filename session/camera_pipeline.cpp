@@ -197,6 +197,7 @@ class CameraWorker {
       stall_.reset();
     }
     p_.tally.received.fetch_add(1, std::memory_order_relaxed);
+    if (frame.arrival_late) p_.tally.arrivals_late.fetch_add(1, std::memory_order_relaxed);
     connection_ = frame.connection;
     FrameRecord rec{p_.device_id,
                     frame.connection,

@@ -544,6 +544,14 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   writer.add_timeline_count("camera_frames_late_for_their_instant", tl.late_camera_frames);
   writer.add_timeline_count("ticks_without_a_group", tl.missed_ticks);
   for (const auto& [why, n] : tl.unpaired) writer.add_timeline_count("unpaired: " + why, n);
+  for (std::size_t i = 0; i < cameras_.size(); ++i)
+    if (const auto late = tallies_[i]->arrivals_late.load(); late > 0) {
+      // Rare by design (the stream thread stamps a buffer microseconds after queueing it); counted,
+      // since such a frame's arrival carries the worker's delay into the clock fit's arrivals.
+      writer.add_timeline_count(fmt::format("camera_arrivals_stamped_late: {}", rig_.cameras[i].name), late);
+      spdlog::warn("{}: {} frames' arrival is the moment pvcap took them (their stamp came more than 2 ms late)",
+                   rig_.cameras[i].name, late);
+    }
   for (std::size_t i = 0; i < tl.clock_resets.size(); ++i)
     if (tl.clock_resets[i])
       writer.add_timeline_count(
