@@ -31,8 +31,8 @@ struct JpegJob {
   jpeg_error_mgr errors{};
   std::jmp_buf jump{};
   char message[JMSG_LENGTH_MAX] = {};
-  unsigned char* out = nullptr;  // jpeg_mem_dest's buffer (malloc'd by libjpeg)
-  unsigned long size = 0;
+  unsigned char* out = nullptr;  // jpeg_mem_dest's buffer: the caller's, or malloc'd by libjpeg when it was too small
+  unsigned long size = 0;        // in: the caller's buffer's size; out: the JPEG's
 };
 
 void on_jpeg_error(j_common_ptr info) {
@@ -72,15 +72,33 @@ bool compress_jpeg(JpegJob& job, const cv::Mat& image, int quality) {
 
 }  // namespace
 
-Result<std::vector<std::uint8_t>> encode_jpeg(const cv::Mat& image, int quality) {
+Result<std::size_t> encode_jpeg_into(const cv::Mat& image, int quality, std::vector<std::uint8_t>& buffer) {
   if (image.empty() || image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3))
     return Error{fmt::format("JPEG: cannot encode a picture of {} (8-bit grey or BGR only)", describe(image))};
+  // At least one byte per pixel: a JPEG of a natural picture is rarely larger, so libjpeg writes into
+  // the buffer as it is (it allocates its own, copied back below, only when it runs out).
+  const std::size_t room = std::max<std::size_t>(image.total() * image.channels() / 2 + 65536, 1 << 16);
+  if (buffer.size() < room) buffer.resize(room);
   JpegJob job;
+  job.out = buffer.data();
+  job.size = buffer.size();
   const bool ok = compress_jpeg(job, image, std::clamp(quality, 1, 100));
-  std::vector<std::uint8_t> bytes;
-  if (ok) bytes.assign(job.out, job.out + job.size);
-  std::free(job.out);
+  const bool own = job.out != buffer.data();  // libjpeg ran out of the buffer and took memory of its own
+  std::size_t size = 0;
+  if (ok) {
+    size = job.size;
+    if (own) buffer.assign(job.out, job.out + job.size);
+  }
+  if (own) std::free(job.out);
   if (!ok) return Error{fmt::format("JPEG: {}", job.message)};
+  return size;
+}
+
+Result<std::vector<std::uint8_t>> encode_jpeg(const cv::Mat& image, int quality) {
+  std::vector<std::uint8_t> bytes;
+  auto size = encode_jpeg_into(image, quality, bytes);
+  if (!size) return size.error();
+  bytes.resize(size.value());
   return bytes;
 }
 

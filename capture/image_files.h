@@ -17,6 +17,10 @@ namespace pvcap {
 
 // `image`: 8-bit, 1 channel (grey) or 3 (BGR); PNG also takes 4 (BGRA). Any row stride.
 Result<std::vector<std::uint8_t>> encode_jpeg(const cv::Mat& image, int quality);
+// The same JPEG into `buffer`, which is grown when too small and otherwise reused: a caller that
+// encodes thousands (the export) allocates and faults in no fresh memory per picture. Returns the
+// JPEG's length (the buffer's first bytes).
+Result<std::size_t> encode_jpeg_into(const cv::Mat& image, int quality, std::vector<std::uint8_t>& buffer);
 Result<std::vector<std::uint8_t>> encode_png(const cv::Mat& image);
 
 // Writes `image` as `file`'s extension says (.png, .jpg or .jpeg; JPEG at quality 95).

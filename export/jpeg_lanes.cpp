@@ -1,6 +1,7 @@
 #include "export/jpeg_lanes.h"
 
 #include <algorithm>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -58,11 +59,11 @@ Status JpegLanes::write_one(SessionReader& reader, std::size_t sample, std::size
   auto image = reader.image(sample, settings_.cameras[k]);
   if (!image) return image.error();
   const cv::Mat frame = settings_.crop ? calib::apply_crop(image.value(), settings_.crops[k]) : image.value();
-  const auto bytes = encode_jpeg(frame, settings_.quality);
-  if (!bytes) return Error{fmt::format("{}: {}", jpg.string(), bytes.error().message)};
-  const std::string encoded(bytes.value().begin(), bytes.value().end());
+  const auto size = encode_jpeg_into(frame, settings_.quality, lane.jpeg);
+  if (!size) return Error{fmt::format("{}: {}", jpg.string(), size.error().message)};
+  const std::string_view encoded(reinterpret_cast<const char*>(lane.jpeg.data()), size.value());
   if (Status w = write_file_atomically(jpg, encoded, Durability::Renamed); !w.ok()) return w;
-  lane.sums.push_back({fs::relative(jpg, dir).string(), {encoded.size(), sha256_hex(encoded)}});
+  lane.sums.push_back({jpg.lexically_relative(dir).string(), {encoded.size(), sha256_hex(encoded)}});
   return {};
 }
 

@@ -52,6 +52,7 @@ class JpegLanes {
     std::vector<std::size_t> cameras;  // indices into Settings::cameras
     std::vector<std::pair<std::string, std::pair<std::size_t, std::string>>> sums;
     std::vector<std::uint8_t> wrote;  // per sample
+    std::vector<std::uint8_t> jpeg;   // the lane's JPEG buffer, reused picture after picture
     Status status;
     std::size_t finished = 0;  // samples done (under mu_)
   };

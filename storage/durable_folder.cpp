@@ -51,7 +51,7 @@ Status sync_to_disk(const std::filesystem::path& path) {
   return s;
 }
 
-Status write_file_atomically(const std::filesystem::path& file, const std::string& bytes, Durability durability) {
+Status write_file_atomically(const std::filesystem::path& file, std::string_view bytes, Durability durability) {
   namespace fs = std::filesystem;
   const fs::path tmp = file.string() + fmt::format(".tmp-{}", getpid());
   {

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/result.h"
@@ -28,7 +29,7 @@ Status sync_to_disk(const std::filesystem::path& path);
 // folder's entry on the disk before returning (a power cut keeps it: a dataset's own files);
 // Renamed leaves that to the kernel (an export's thousands of JPEGs, which a resumed export checks).
 enum class Durability { Renamed, Synced };
-Status write_file_atomically(const std::filesystem::path& file, const std::string& bytes, Durability durability);
+Status write_file_atomically(const std::filesystem::path& file, std::string_view bytes, Durability durability);
 
 class DurableFolder {
  public:

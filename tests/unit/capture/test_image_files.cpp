@@ -39,6 +39,27 @@ TEST(ImageFiles, AJpegIsTheSameBytesAsOpenCvsImencode) {
   }
 }
 
+// The export's path: one buffer reused picture after picture, grown when a JPEG outgrows it (pure noise
+// at quality 100 is larger than the room reserved), the same bytes every time.
+TEST(ImageFiles, AJpegIntoAReusedBufferIsTheSameBytes) {
+  cv::Mat noise(720, 1280, CV_8UC3);
+  cv::randu(noise, 0, 256);
+  std::vector<std::uint8_t> buffer;
+  for (const auto& [image, quality] : std::vector<std::pair<cv::Mat, int>>{
+           {scene_bgr(), 95}, {noise, 100}, {cv::Mat(scene_bgr(), cv::Rect(7, 5, 201, 99)), 80}, {scene_bgr(), 95}}) {
+    SCOPED_TRACE(fmt::format("{}x{}, quality {}", image.cols, image.rows, quality));
+    const auto size = encode_jpeg_into(image, quality, buffer);
+    ASSERT_TRUE(size) << size.error().message;
+    std::vector<std::uint8_t> opencv;
+    ASSERT_TRUE(cv::imencode(".jpg", image, opencv, {cv::IMWRITE_JPEG_QUALITY, quality}));
+    ASSERT_EQ(size.value(), opencv.size());
+    EXPECT_TRUE(std::equal(opencv.begin(), opencv.end(), buffer.begin()));
+    if (quality == 100) {
+      EXPECT_GT(size.value(), noise.total() * 3 / 2 + 65536) << "the buffer was not outgrown";
+    }
+  }
+}
+
 TEST(ImageFiles, APngDecodesToThePictureItWasMadeFrom) {
   const cv::Mat bgr = scene_bgr();
   cv::Mat grey, bgra;
