@@ -35,10 +35,10 @@ class ArrivalSlot {
   // Consumer (one thread): the arrival of the fill just taken. A late one says whether `accepting`
   // holds at the moment it gives up.
   Arrival take(std::chrono::nanoseconds wait, const std::atomic<bool>& accepting) {
-    const std::uint64_t take = ++takes_;
-    if (stamps_.load(std::memory_order_acquire) < take) {
+    const std::uint64_t nth = ++takes_;
+    if (stamps_.load(std::memory_order_acquire) < nth) {
       const std::int64_t give_up = host_now().ns + wait.count();
-      while (stamps_.load(std::memory_order_acquire) < take) {
+      while (stamps_.load(std::memory_order_acquire) < nth) {
         if (const HostNs now = host_now(); now.ns > give_up) return {now, accepting.load(), true};
         std::this_thread::yield();
       }
