@@ -9,7 +9,6 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 source "$here/bench/work_dir.sh"
-pvcap=$here/build/app/pvcap
 [ -x "$here/build/bench/export_bench" ] || { echo "build first: bash scripts/build.sh" >&2; exit 1; }
 arg=${1:-10}
 if [ -d "$arg" ]; then
@@ -17,12 +16,7 @@ if [ -d "$arg" ]; then
 else
   bench_work_dir export-bench
   echo "recording $arg minutes of the protocol into $work (log: $work/pvcap.log)"
-  "$pvcap" session --rig "$here/rig-configs/sim.yaml" --root "$work/sessions" --duration $((arg * 60)) --no-web \
-    --protocol "$here/rig-configs/protocols/pressurevision.yaml" --auto --participant BENCH01 --skin-tone light \
-    --hand-order right_first --lighting LCR --overlay white_vinyl > "$work/pvcap.log" 2>&1 \
-    || { echo "the session failed: $work/pvcap.log" >&2; exit 1; }
-  session=$(ls -d "$work"/sessions/*/ | head -1)
-  session=${session%/}
+  session=$(bash "$here/bench/record_protocol_session.sh" "$work" "$arg")
 fi
-bash "$here/bench/calibrate_sim_pad.sh" "$session"
+bash "$here/bench/calibrate_sim_pad.sh" "$session"  # a session given: calibrated once
 "$here/build/bench/export_bench" "$session"

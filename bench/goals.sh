@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# The performance issue's goals in one run, each measured beside its reference on the same machine
+# in the same run, then printed as one table (docs/PERFORMANCE.md, "The goals in one run"):
+#   capture   pvcap's capture path / the bare Aravis receive loop, CPU per 1080p frame   <= 1.10
+#   store     real-time factor of the default store, four noisy 1080p cameras at 15 Hz    >= 1.5
+#   compact   MB per noisy 1080p frame after `pvcap compact`, bit-exact                   <= 0.75
+#             (and on a recorded protocol session of the simulated rig's scene)
+#   export    `pvcap export` / the JPEG encoder alone on the same frames                  <= 1.3
+#   replay    `pvcap replay --out`, four 1080p views, x real time                          >= 3
+# Each bench's own lines are kept in the work folder's logs and repeated under the table.
+#
+#   bash bench/goals.sh [minutes=2]   (as root: the capture bench makes a network namespace)
+# About 17 minutes for the default 2-minute session; everything it records is removed at the end
+# (PVCAP_BENCH_KEEP=1 keeps it).
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+source "$here/bench/work_dir.sh"
+pvcap=$here/build/app/pvcap
+for b in capture_bench store_bench export_bench; do
+  [ -x "$here/build/bench/$b" ] || { echo "build first: bash scripts/build.sh (no build/bench/$b)" >&2; exit 1; }
+done
+minutes=${1:-2}
+bench_work_dir goals
+step() { echo "[$(date +%H:%M:%S)] $*" >&2; }
+
+step "capture bench: 5 rounds of 20 s per path"
+"$here/build/bench/capture_bench" 20 5 ratio > "$work/capture.txt" 2>&1
+step "store bench: 90 noisy frames per camera, then compact"
+"$here/build/bench/store_bench" > "$work/store.txt" 2>&1
+step "recording a $minutes-minute protocol session (log: $work/pvcap.log)"
+session=$(bash "$here/bench/record_protocol_session.sh" "$work" "$minutes")
+step "export bench on it"
+"$here/build/bench/export_bench" "$session" > "$work/export.txt" 2>&1
+step "replay bench on it"
+bash "$here/bench/replay_bench.sh" "$session" > "$work/replay.txt" 2>&1
+step "pvcap compact on it"
+"$pvcap" --log-level warn compact "$session" > "$work/compact.txt" 2>&1
+
+/usr/bin/python3 - "$work" <<'PY'
+import re, sys
+work = sys.argv[1]
+def text(name):
+    return open(f"{work}/{name}.txt").read()
+def find(name, pattern):
+    m = re.search(pattern, text(name))
+    if not m:
+        sys.exit(f"goals: no '{pattern}' in {work}/{name}.txt")
+    return m
+capture = find("capture", r"ratio pvcap/bare ([\d.]+)")
+store = find("store", r"real-time factor ([\d.]+) for 4 x 1080p")
+compact = find("store", r"compact \(.*?\): ([\d.]+) -> ([\d.]+) MB per 1080p frame.*?read back: (bit-exact|[^\n]*)")
+export = find("export", r"ratio export / encoder alone: ([\d.]+)")
+replay = find("replay", r"4 views at 15 Hz: ([\d.]+) x real time")
+session = find("compact", r"compacted \d+ segments, (\d+) frames in [\d.]+ s \([\d.]+ frames/s\): ([\d.]+) -> ([\d.]+) MB")
+frames, before, after = int(session.group(1)), float(session.group(2)), float(session.group(3))
+rows = [
+    ("capture path / bare Aravis loop", "<= 1.10", float(capture.group(1)), lambda v: v <= 1.10, "{:.2f}"),
+    ("store real-time factor, 4 noisy cameras", ">= 1.5", float(store.group(1)), lambda v: v >= 1.5, "{:.2f}"),
+    ("compact, MB per noisy 1080p frame", "<= 0.75", float(compact.group(2)), lambda v: v <= 0.75, "{:.2f}"),
+    ("compact, MB per frame, recorded session", "<= 0.75", after / frames if frames else float("nan"),
+     lambda v: v <= 0.75, "{:.3f}"),
+    ("export / JPEG encoder alone", "<= 1.3", float(export.group(1)), lambda v: v <= 1.3, "{:.2f}"),
+    ("replay, x real time (four 1080p views)", ">= 3", float(replay.group(1)), lambda v: v >= 3, "{:.2f}"),
+]
+print(f"{'goal':42} {'target':>8} {'measured':>9}  status")
+for name, target, value, ok, form in rows:
+    print(f"{name:42} {target:>8} {form.format(value):>9}  {'met' if ok(value) else 'NOT MET'}")
+print(f"compact read back: {compact.group(3)} (store bench); recorded session {before:.1f} -> {after:.1f} MB for {frames} frames")
+print("as printed by the benches:")
+for name, pattern in [("capture", r"cpu per 1080p frame.*"), ("store", r"pipeline, 4 cameras.*"),
+                      ("store", r"compact \(.*"), ("compact", r"compacted \d+ segments.*"),
+                      ("export", r"export: .*"), ("export", r"JPEG encoder alone.*"),
+                      ("replay", r"replay --out, 4 views.*"), ("replay", r"ffmpeg command line.*")]:
+    print("  " + re.search(pattern, text(name)).group(0))
+PY
