@@ -13,5 +13,5 @@ minutes=$2
   --participant BENCH01 --skin-tone light --hand-order right_first --lighting LCR --overlay white_vinyl \
   > "$dir/pvcap.log" 2>&1 || { echo "the session failed: $dir/pvcap.log" >&2; exit 1; }
 session=$(find "$dir/sessions" -mindepth 1 -maxdepth 1 -type d | sort | head -1)
-bash "$here/bench/calibrate_sim_pad.sh" "$session"
+bash "$here/bench/calibrate_sim_pad.sh" "$session" >&2  # stdout is the folder alone
 echo "$session"
