@@ -22,19 +22,25 @@ done
 minutes=${1:-2}
 bench_work_dir goals
 step() { echo "[$(date +%H:%M:%S)] $*" >&2; }
+# run NAME COMMAND...: COMMAND's output into $work/NAME.txt; a failure names that file and stops.
+run() {
+  local name=$1
+  shift
+  "$@" > "$work/$name.txt" 2>&1 || { echo "goals: the $name step failed; its output: $work/$name.txt" >&2; exit 1; }
+}
 
 step "capture bench: 5 rounds of 20 s per path"
-"$here/build/bench/capture_bench" 20 5 ratio > "$work/capture.txt" 2>&1
+run capture "$here/build/bench/capture_bench" 20 5 ratio
 step "store bench: 90 noisy frames per camera, then compact"
-"$here/build/bench/store_bench" > "$work/store.txt" 2>&1
+run store "$here/build/bench/store_bench"
 step "recording a $minutes-minute protocol session (log: $work/pvcap.log)"
 session=$(bash "$here/bench/record_protocol_session.sh" "$work" "$minutes")
 step "export bench on it"
-"$here/build/bench/export_bench" "$session" > "$work/export.txt" 2>&1
+run export "$here/build/bench/export_bench" "$session"
 step "replay bench on it"
-bash "$here/bench/replay_bench.sh" "$session" > "$work/replay.txt" 2>&1
+run replay bash "$here/bench/replay_bench.sh" "$session"
 step "pvcap compact on it"
-"$pvcap" --log-level warn compact "$session" > "$work/compact.txt" 2>&1
+run compact "$pvcap" --log-level warn compact "$session"
 
 /usr/bin/python3 - "$work" <<'PY'
 import re, sys
