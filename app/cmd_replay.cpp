@@ -56,6 +56,7 @@ int cmd_replay(const ReplayCommand& c, const std::atomic<bool>& stop) {
   if (c.options.out.empty()) {
     replay::WindowOptions w = c.window;
     w.pressure_full_scale_kpa = c.options.pressure_full_scale_kpa;
+    w.from_raw = c.options.from_raw;
     if (!display_available()) {
       spdlog::error(
           "pvcap replay: no display to open the window on (DISPLAY is not set); render the session with "
@@ -129,6 +130,9 @@ Registered add_replay_command(CLI::App& app, AppContext& ctx) {
   r->add_option("--to", a->to, "up to this many seconds after the session's start");
   r->add_option("--speed", a->c.options.speed, "playback speed (2: twice as fast; default 1)")
       ->check(CLI::PositiveNumber);
+  r->add_flag("--from-raw", a->c.options.from_raw,
+              "show the cameras from their lossless videos, not from the small view videos recorded beside them "
+              "(slower; the same frames)");
   r->add_option("--pressure-max", a->c.options.pressure_full_scale_kpa,
                 "pressure at the colour map's top, kPa "
                 "(default 60)")

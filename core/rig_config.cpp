@@ -136,6 +136,7 @@ StoreConfig parse_store(const YAML::Node& node, const std::filesystem::path& fil
   r.get_in_range("reserve_mb", s.reserve_mb, 0, 100'000);
   r.get_in_range("sync_interval_s", s.sync_interval_s, 0.0, 60.0);
   r.get("group", s.group);
+  r.get("view_videos", s.view_videos);
   r.finish();
   return s;
 }

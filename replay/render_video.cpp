@@ -23,8 +23,8 @@ namespace {
 class CameraPrefetch {
  public:
   CameraPrefetch(const std::filesystem::path& dir, std::size_t camera, std::size_t first, std::size_t end,
-                 std::size_t depth)
-      : depth_(depth), thread_([=, this] { run(dir, camera, first, end); }) {}
+                 std::size_t depth, bool view_videos)
+      : depth_(depth), thread_([=, this] { run(dir, camera, first, end, view_videos); }) {}
   ~CameraPrefetch() {
     {
       std::lock_guard lock(mu_);
@@ -44,10 +44,11 @@ class CameraPrefetch {
   }
 
  private:
-  void run(const std::filesystem::path& dir, std::size_t camera, std::size_t first, std::size_t end) {
+  void run(const std::filesystem::path& dir, std::size_t camera, std::size_t first, std::size_t end, bool view_videos) {
     auto reader = SessionReader::open(dir);
     if (reader) {
       reader.value()->set_demosaic(Demosaic::HalfSize);
+      reader.value()->set_view_videos(view_videos);
       const CameraInfo& info = reader.value()->cameras()[camera];
       if (info.width > 0 && info.height > 0)
         reader.value()->set_image_size(Layout::fitted({info.width, info.height}).size());
@@ -134,7 +135,7 @@ Result<RenderResult> render_replay(const std::filesystem::path& session, const R
   RenderResult r;
   std::vector<std::unique_ptr<CameraPrefetch>> cameras;
   for (std::size_t c = 0; c < reader.cameras().size() && c < 4; ++c)
-    cameras.push_back(std::make_unique<CameraPrefetch>(session, c, first, end, 6));
+    cameras.push_back(std::make_unique<CameraPrefetch>(session, c, first, end, 6, !o.from_raw));
   std::int64_t last_t = t_first.value();
   for (std::size_t i = first; i < end; ++i) {
     std::vector<cv::Mat> images;

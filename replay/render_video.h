@@ -19,6 +19,9 @@ struct RenderOptions {
   std::optional<double> from_s, to_s;  // seconds from the session's start
   double speed = 1.0;                  // 2: the video plays twice as fast as the session went
   double pressure_full_scale_kpa = 60;
+  // The views from the cameras' own (lossless) videos, not from their view videos
+  // (storage/view_video.h): slower, for a session whose view videos are in doubt.
+  bool from_raw = false;
 };
 
 struct RenderResult {

@@ -91,6 +91,7 @@ Result<cv::Mat> ReplayComposer::compose(std::size_t i) {
     auto r = SessionReader::open(dir_);
     if (!r) return r.error();
     r.value()->set_demosaic(Demosaic::HalfSize);
+    r.value()->set_view_videos(view_videos_);
     const CameraInfo& info = reader_->cameras()[k];
     if (info.width > 0 && info.height > 0)  // made at its view's size
       r.value()->set_image_size(Layout::fitted({info.width, info.height}).size());

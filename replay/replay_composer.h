@@ -66,6 +66,9 @@ class ReplayComposer {
   // The first sample of every take (retakes too), in order: what the window's next/previous take
   // keys jump between.
   std::vector<std::size_t> take_starts() const;
+  // Whether compose(i) reads the cameras' view videos where the session has them (the default), or
+  // always their own videos (storage/view_video.h).
+  void set_view_videos(bool on) { view_videos_ = on; }
   // Whether camera c has a calibration to draw the pressure through.
   bool calibrated(std::size_t camera) const { return camera < projectors_.size() && projectors_[camera].has_value(); }
 
@@ -76,6 +79,7 @@ class ReplayComposer {
   // One more reader per camera, so the cameras' frames decode in parallel (a reader is one thread's).
   std::vector<std::unique_ptr<SessionReader>> camera_readers_;
   double full_scale_kpa_ = 60;
+  bool view_videos_ = true;
   std::vector<std::optional<calib::PressureProjector>> projectors_;  // per camera, at the view's size
   struct Take {
     TakeLabel label;

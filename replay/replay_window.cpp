@@ -40,6 +40,7 @@ Result<WindowSummary> run_replay_window(const std::filesystem::path& session, co
   if (!reader) return reader.error();
   auto composer = ReplayComposer::open(*reader.value(), session, options.pressure_full_scale_kpa);
   if (!composer) return composer.error();
+  composer.value().set_view_videos(!options.from_raw);
   auto infos = reader.value()->sample_infos();
   if (!infos) return infos.error();
   if (infos.value().empty()) return Error{fmt::format("{}: the session has no samples to show", session.string())};

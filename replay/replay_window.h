@@ -19,6 +19,7 @@ struct WindowOptions {
   // Keys pressed in this order, one after each picture shown, before the keyboard is read (key
   // names as replay_player.h's key_from_name: demos, and tests under a headless display).
   std::vector<std::string> keys;
+  bool from_raw = false;           // the views from the cameras' own videos, not their view videos
   std::filesystem::path snapshot;  // set: the last picture shown is written here (PNG) at the end
 };
 

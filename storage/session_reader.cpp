@@ -4,10 +4,12 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include "storage/pressure_blob.h"
 #include "storage/sqlite/database.h"
 #include "storage/video_reader.h"
+#include "storage/view_video.h"
 
 namespace pvcap {
 
@@ -168,6 +170,8 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) 
     // the video allows it (storage/video_reader.h); a read that wants the mosaic or its checksum
     // needs it whole. Which, depends on the read and the file alone, never on the reads before: the
     // same read gives the same image.
+    if (view_videos_ && !mosaic && !(check_checksums_ && checksum))
+      if (auto view = view_image(file_id, rel, ts.ms, ts.tolerance_ms)) return std::move(*view);
     const bool views_only = !mosaic && demosaic_ == Demosaic::HalfSize && !(check_checksums_ && checksum);
     auto it = videos_.find(file_id);
     if (it != videos_.end()) {
@@ -211,6 +215,40 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) 
     }
     return bgr;
   });
+}
+
+std::optional<cv::Mat> SessionReader::view_image(std::int64_t file_id, const std::string& segment, std::int64_t ms,
+                                                 std::int64_t tolerance_ms) {
+  if (without_view_.count(file_id)) return std::nullopt;
+  auto it = views_.find(file_id);
+  if (it == views_.end()) {
+    const std::filesystem::path path = dir_ / view_video_path(segment);
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) {
+      without_view_.insert(file_id);
+      return std::nullopt;
+    }
+    auto opened = VideoReader::open(path);
+    if (!opened) {
+      spdlog::warn("{} (read from the camera's own video instead)", opened.error().message);
+      without_view_.insert(file_id);
+      return std::nullopt;
+    }
+    if (views_.size() >= kMaxOpenVideos) views_.erase(views_.begin());  // the earliest segment's
+    it = views_.emplace(file_id, std::move(opened.value())).first;
+  }
+  VideoReader& view = *it->second;
+  view.set_image_size(image_size_);
+  cv::Mat bgr;
+  auto found = view.read_at(ms, bgr, tolerance_ms);
+  if (!found) {
+    spdlog::warn("{} (read from the camera's own video from here)", found.error().message);
+    views_.erase(it);
+    without_view_.insert(file_id);
+    return std::nullopt;
+  }
+  if (!found.value() || bgr.empty()) return std::nullopt;  // not in the view: an encoder that was behind
+  return bgr;
 }
 
 namespace {

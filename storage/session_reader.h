@@ -15,6 +15,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -176,6 +177,10 @@ class SessionReader {
   // bytes got at capture (docs/store.md, Checksums): a frame whose pixels differ is an Error naming
   // it, never handed out. Off by default (one CRC per frame read: ~1 ms per 1080p frame).
   void set_check_checksums(bool on) { check_checksums_ = on; }
+  // image() and sample() read a camera's frame from its view video (storage/view_video.h: a third
+  // of its size, lossy) where the session has one, and from its own video otherwise: for viewers
+  // that show it at that size or smaller. Off by default; raw_image() and checked reads never do.
+  void set_view_videos(bool on) { view_videos_ = on; }
   // Videos held open for reading: a camera's current segment and the one before, at most.
   std::size_t open_videos() const { return videos_.size(); }
   // The sample nearest `t_ns` on the session clock (info().started_host_ns + seconds * 1e9).
@@ -207,6 +212,10 @@ class SessionReader {
  private:
   SessionReader() = default;
   Result<cv::Mat> camera_image(const SampleCamera& c, bool mosaic = false);
+  // The frame at `ms` from the view video of the segment `segment` (file id `file_id`); nullopt
+  // when there is none, it lacks that frame, or it cannot be read (then not asked again).
+  std::optional<cv::Mat> view_image(std::int64_t file_id, const std::string& segment, std::int64_t ms,
+                                    std::int64_t tolerance_ms);
   Result<cv::Mat> one_image(std::size_t i, std::size_t camera, bool mosaic);
   Demosaic demosaic_ = Demosaic::Bilinear;
   cv::Size image_size_;
@@ -223,6 +232,9 @@ class SessionReader {
     std::unique_ptr<VideoReader> reader;
   };
   std::map<std::int64_t, OpenVideo> videos_;  // by video file id, opened on use
+  bool view_videos_ = false;
+  std::map<std::int64_t, std::unique_ptr<VideoReader>> views_;  // by the segment's file id, opened on use
+  std::set<std::int64_t> without_view_;                         // segments whose view video is absent or unreadable
 };
 
 }  // namespace pvcap

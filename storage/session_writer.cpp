@@ -26,6 +26,7 @@
 #include "storage/camera_video_settings.h"
 #include "storage/frame_spill.h"
 #include "storage/video_repair.h"
+#include "storage/view_video.h"
 
 namespace pvcap {
 
@@ -39,6 +40,10 @@ struct SessionWriter::Camera {
   int segment = -1;
   std::int64_t segment_start_us = 0;
   std::vector<std::int64_t> failed_files;  // segments a write failed in: reconciled at close
+  // The open segment's view video (storage/view_video.h), when store.view_videos; null when it
+  // could not be written (the lossless video goes on without it).
+  std::unique_ptr<VideoWriter> view;
+  cv::Mat view_image;
   std::unique_ptr<FrameSpillQueue> queue;  // made at add_camera, when the session folder exists
   std::thread thread;
   std::atomic<std::uint64_t> in_video{0}, encoder_drops{0}, segments{0};
@@ -260,6 +265,7 @@ Status SessionWriter::open_segment(Camera& cam, std::int64_t first_pts_us, bool 
   }
   cam.video = std::move(video.value());
   cam.video_file_id = rec.id;
+  open_view(cam, file);
   cam.segment = segment;
   cam.segment_start_us = first_pts_us;
   cam.segments.fetch_add(1);
@@ -326,6 +332,44 @@ bool SessionWriter::submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecor
   return false;
 }
 
+// The segment's view video, when the store keeps them; a failure is said once and costs nothing else.
+void SessionWriter::open_view(Camera& cam, const std::string& segment_file) {
+  close_view(cam);
+  if (!store_.view_videos) return;
+  const std::filesystem::path path = dir_ / view_video_path(segment_file);
+  std::error_code ec;
+  std::filesystem::create_directories(path.parent_path(), ec);
+  auto view = VideoWriter::open(path, view_video_settings(cam.settings));
+  if (!view) {
+    spdlog::warn("{}: no view video for the replay ({}); the camera's video is not affected", cam.name,
+                 view.error().message);
+    return;
+  }
+  cam.view = std::move(view.value());
+}
+
+void SessionWriter::write_view(Camera& cam, const cv::Mat& frame, std::int64_t pts_us) {
+  Status s = make_view_image(frame, cam.video->stored_planes(), cam.video->plane_order(), cam.settings, cam.view_image);
+  if (s.ok()) {
+    if (auto w = cam.view->write(cam.view_image, pts_us); !w) s = w.error();
+  }
+  if (!s.ok()) {
+    spdlog::warn(
+        "{}: its view video stops here ({}); the camera's video is not affected, the replay reads "
+        "it instead",
+        cam.name, s.error().message);
+    close_view(cam);
+  }
+}
+
+void SessionWriter::close_view(Camera& cam) {
+  if (!cam.view) return;
+  if (Status s = cam.view->close(); !s.ok())
+    spdlog::warn("{}: its view video may be cut short ({}); the replay reads the camera's video where it is", cam.name,
+                 s.error().message);
+  cam.view.reset();
+}
+
 void SessionWriter::encode_loop(Camera& cam) {
   // The encoder is the one stage allowed to fall behind (its frames wait in the spill), so on a
   // busy machine it yields to the threads that may not: capture, the spill's writer, the index.
@@ -376,6 +420,7 @@ void SessionWriter::encode_loop(Camera& cam) {
         pts_us - cam.segment_start_us >= segment_us) {
       // Next segment: the finished one gets its trailer (cues, duration) and is final on disk.
       const std::int64_t id = cam.video_file_id, frames = cam.video->frames_written();
+      close_view(cam);
       if (Status s = cam.video->close(); !s.ok()) {
         cam.failed_files.push_back(id);
         cam.failed.store(true);
@@ -398,6 +443,8 @@ void SessionWriter::encode_loop(Camera& cam) {
         rec.video_index = index.value();
         rec.video_pts_ms = cam.video->last_pts_ms();
         cam.in_video.fetch_add(1);
+        // The view copy only while the encoder keeps up: frames waiting on disk come first.
+        if (cam.view && queue.on_disk() == 0) write_view(cam, bgr, pts_us);
       } else {
         cam.failed_files.push_back(cam.video_file_id);
         cam.failed.store(true);
@@ -407,6 +454,7 @@ void SessionWriter::encode_loop(Camera& cam) {
     if (!rec.kept) rec.reason = "video_write_failed";
     index_writer_->push(std::move(rec));
   }
+  close_view(cam);
   const double drain_s =
       drain_started ? std::chrono::duration<double>(std::chrono::steady_clock::now() - *drain_started).count() : 0;
   if (drain_from_disk)

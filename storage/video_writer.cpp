@@ -56,7 +56,7 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   if (s.raw() && (s.bit_depth < 8 || s.bit_depth > 16))
     return Error{fmt::format("{}: a raw video of {} bits per sample is not possible", where, s.bit_depth)};
   if (s.raw()) {
-    auto order = plane_order(s.layout, s.bayer_format);
+    auto order = pvcap::plane_order(s.layout, s.bayer_format);
     if (!order) return Error{fmt::format("{}: {}", where, order.error().message)};
     w->order_ = order.value();
   }
@@ -200,6 +200,12 @@ Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us)
   im.frame.ptr->pts = pts_us;
   if (Status s = encode(false); !s.ok()) return s.error();
   return frames_++;
+}
+
+cv::Mat VideoWriter::stored_planes() const {
+  if (!raw_ || frames_ == 0 || !impl_) return {};
+  return cv::Mat(impl_->enc.ptr->height, impl_->enc.ptr->width, input_type_, impl_->frame.ptr->data[0],
+                 std::size_t(impl_->frame.ptr->linesize[0]));
 }
 
 Status VideoWriter::close() {

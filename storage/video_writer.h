@@ -60,6 +60,10 @@ class VideoWriter {
   // container's milliseconds, moved 1 ms on when it would not be after the one before.
   std::int64_t last_pts_ms() const { return last_pts_ms_; }
   const std::filesystem::path& path() const { return path_; }
+  // Raw mode: the last frame's planes as they were handed to the codec (bayer_planes_size, stacked
+  // in plane_order()), until the next write; empty before the first write and in colour mode.
+  cv::Mat stored_planes() const;
+  const PlaneOrder& plane_order() const { return order_; }
 
  private:
   VideoWriter() = default;

@@ -24,6 +24,7 @@
 #include "storage/session_writer.h"
 #include "storage/sqlite/database.h"
 #include "storage/verify.h"
+#include "storage/view_video.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;
@@ -93,11 +94,14 @@ struct WrittenStore {
 };
 
 // `raw_first`: the first camera is a Bayer camera stored raw (its frames the mosaic of the noise).
-WrittenStore write_store(const fs::path& root, double seconds, bool raw_first = false) {
+// `view_videos`: the store's setting (storage/view_video.h).
+WrittenStore write_store(const fs::path& root, double seconds, bool raw_first = false, bool view_videos = true) {
   WrittenStore out;
   const auto rig = parse_rig_config(
-      "name: store-test\ncameras:\n  - {name: camA, address: 10.0.0.1}\n  - {name: camB, address: 10.0.0.2}\n"
-      "store: {video_codec: ffv1, video_pixel_format: bgr0, segment_seconds: 1, min_free_mb: 0, reserve_mb: 1}\n",
+      fmt::format("name: store-test\ncameras:\n  - {{name: camA, address: 10.0.0.1}}\n  - {{name: camB, address: "
+                  "10.0.0.2}}\nstore: {{video_codec: ffv1, video_pixel_format: bgr0, segment_seconds: 1, min_free_mb: "
+                  "0, reserve_mb: 1, view_videos: {}}}\n",
+                  view_videos),
       "store-test.yaml");
   out.t0 = host_now().ns;
   auto w = SessionWriter::create(root, rig, wall_now_ns(), out.t0);
@@ -498,6 +502,96 @@ TEST(SessionStore, HalfSizeViewsSkipTheSecondGreenAndMosaicReadsStillGetEveryBit
     r.value()->set_image_size({});
   }
   EXPECT_LE(r.value()->open_videos(), 4u);
+  fs::remove_all(root);
+}
+
+// The view videos beside the lossless ones (storage/view_video.h): one per segment, read by a viewer
+// in their place (the same frame, lossy, a third of the size), and never by a read that wants the
+// record; a view video that is missing or cut short is read past, from the lossless video.
+TEST(SessionStore, ViewVideosStandInForTheLosslessOnesAndNeverForTheRecord) {
+  const auto root = temp_root("views");
+  const auto st = write_store(root, 2.5, /*raw_first=*/true);
+  std::vector<std::string> segments, of_camera_a;
+  {
+    sqlite::Database db(st.dir / "session.db", sqlite::Database::Mode::ReadOnly);
+    auto q = db.prepare("SELECT path, device_id FROM video_files ORDER BY segment, device_id");
+    while (q.step()) {
+      segments.push_back(q.column_text(0));
+      if (q.column_int(1) == st.cams[0]) of_camera_a.push_back(q.column_text(0));
+    }
+  }
+  ASSERT_GE(of_camera_a.size(), 3u) << "2.5 s in 1 s segments";
+  for (const auto& seg : segments) EXPECT_TRUE(fs::exists(st.dir / "views" / seg)) << seg;
+  EXPECT_EQ(view_video_path("cam0-002.x264.mkv"), fs::path("views/cam0-002.mkv")) << "a compacted segment's";
+
+  // The lossless images at the viewer's size, and the same read through the view videos.
+  const cv::Size size = view_video_size(64, 48);
+  ASSERT_EQ(size, cv::Size(20, 16));
+  auto lossless = SessionReader::open(st.dir);
+  auto viewed = SessionReader::open(st.dir);
+  ASSERT_TRUE(lossless && viewed);
+  for (auto* r : {lossless.value().get(), viewed.value().get()}) {
+    r->set_demosaic(Demosaic::HalfSize);
+    r->set_image_size(size);
+  }
+  viewed.value()->set_view_videos(true);
+  auto image = [](SessionReader& r, std::size_t i, std::size_t c) {
+    auto m = r.image(i, c);
+    EXPECT_TRUE(m) << m.error().message;
+    return m ? m.value() : cv::Mat();
+  };
+  const std::size_t n = std::size_t(st.samples);
+  for (std::size_t c = 0; c < 2; ++c)
+    for (std::size_t i = 1; i + 1 < n; ++i) {
+      const cv::Mat v = image(*viewed.value(), i, c);
+      ASSERT_EQ(v.size(), size);
+      const cv::Mat own = image(*lossless.value(), i, c);
+      // Lossy, and its own frame: nearer the lossless image of its sample than its neighbours'.
+      const double err = cv::norm(v, own, cv::NORM_L1);
+      EXPECT_GT(err, 0.0) << "camera " << c << " sample " << i << ": read from the lossless video";
+      EXPECT_LT(err, cv::norm(v, image(*lossless.value(), i - 1, c), cv::NORM_L1)) << "camera " << c << " sample " << i;
+      EXPECT_LT(err, cv::norm(v, image(*lossless.value(), i + 1, c), cv::NORM_L1)) << "camera " << c << " sample " << i;
+    }
+  EXPECT_EQ(viewed.value()->open_videos(), 0u) << "no lossless video opened: every frame came from a view";
+
+  // The record is never read from a view: mosaics, and reads that check the capture checksums.
+  for (const std::size_t i : {2u, 20u}) {
+    auto mosaic = viewed.value()->raw_image(i, 0);
+    auto want = lossless.value()->raw_image(i, 0);
+    ASSERT_TRUE(mosaic && want);
+    EXPECT_EQ(cv::norm(mosaic.value(), want.value(), cv::NORM_INF), 0.0);
+    viewed.value()->set_check_checksums(true);
+    lossless.value()->set_check_checksums(true);
+    EXPECT_EQ(cv::norm(image(*viewed.value(), i, 0), image(*lossless.value(), i, 0), cv::NORM_INF), 0.0);
+    viewed.value()->set_check_checksums(false);
+    lossless.value()->set_check_checksums(false);
+  }
+
+  // Camera A's first view video gone, its second cut to a third (a cut file cannot seek: it is read
+  // past whole): every read still answers, what the views lack comes from the lossless video,
+  // exactly, and the third segment's frames from its view.
+  fs::remove(st.dir / view_video_path(of_camera_a[0]));
+  const fs::path cut = st.dir / view_video_path(of_camera_a[1]);
+  ASSERT_TRUE(fs::exists(cut)) << cut;
+  fs::resize_file(cut, fs::file_size(cut) / 3);
+  auto after = SessionReader::open(st.dir);
+  ASSERT_TRUE(after);
+  after.value()->set_demosaic(Demosaic::HalfSize);
+  after.value()->set_image_size(size);
+  after.value()->set_view_videos(true);
+  std::size_t exact = 0, from_views = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const cv::Mat v = image(*after.value(), i, 0);
+    ASSERT_EQ(v.size(), size) << "sample " << i;
+    (cv::norm(v, image(*lossless.value(), i, 0), cv::NORM_INF) == 0.0 ? exact : from_views)++;
+  }
+  EXPECT_GE(exact, 30u) << "the first two seconds' frames";
+  EXPECT_GE(from_views, 5u) << "the last half second's";
+
+  // A store told not to keep them has none.
+  const auto without = write_store(temp_root("no-views"), 0.5, true, /*view_videos=*/false);
+  EXPECT_FALSE(fs::exists(without.dir / "views"));
+  fs::remove_all(without.dir.parent_path());
   fs::remove_all(root);
 }
 
