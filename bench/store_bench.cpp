@@ -33,6 +33,7 @@
 #include "storage/compact.h"
 #include "storage/session_reader.h"
 #include "storage/session_writer.h"
+#include "storage/view_video.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;
@@ -296,10 +297,14 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
     if (!clean.empty()) std::printf("; worst %.1f dB against the noise-free scene", worst_clean);
     std::printf("\n");
   }
-  std::uintmax_t bytes = 0;
-  for (const auto& e : fs::directory_iterator(session)) bytes += e.is_regular_file() ? e.file_size() : 0;
-  std::printf("store size: %.1f MB for %d samples of 4 cameras (%.2f MB per 1080p frame)\n", double(bytes) / 1e6, n,
-              double(bytes) / 1e6 / (4.0 * n));
+  std::uintmax_t bytes = 0, view_bytes = 0;
+  for (const auto& e : fs::recursive_directory_iterator(session))
+    if (e.is_regular_file()) (e.path().parent_path().filename() == kViewFolder ? view_bytes : bytes) += e.file_size();
+  std::printf(
+      "store size: %.1f MB for %d samples of 4 cameras (%.2f MB per 1080p frame), and %.1f MB of view videos "
+      "(%.3f MB per frame)\n",
+      double(bytes) / 1e6, n, double(bytes) / 1e6 / (4.0 * n), double(view_bytes) / 1e6,
+      double(view_bytes) / 1e6 / (4.0 * n));
   if (raw) bench_compact(session, frames[0]);
 }
 }  // namespace

@@ -77,8 +77,8 @@ struct StoreConfig {
   // The group a session folder belongs to (its files follow: the folder is setgid), for a lab whose
   // members read each other's sessions; empty: the recorder's own group. Others read nothing.
   std::string group;
-  // Beside each camera's video, a small colour copy of its frames (a third of the size each way,
-  // H.264, storage/view_video.h) that the replay shows instead of decoding the whole picture. Never
+  // Beside each camera's video, a small colour copy of its frames (at most 640 x 360, H.264,
+  // storage/view_video.h) that the replay shows instead of decoding the whole picture. Never
   // written while the camera's frames wait on disk for its encoder.
   bool view_videos = true;
 };

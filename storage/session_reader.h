@@ -177,9 +177,9 @@ class SessionReader {
   // bytes got at capture (docs/store.md, Checksums): a frame whose pixels differ is an Error naming
   // it, never handed out. Off by default (one CRC per frame read: ~1 ms per 1080p frame).
   void set_check_checksums(bool on) { check_checksums_ = on; }
-  // image() and sample() read a camera's frame from its view video (storage/view_video.h: a third
-  // of its size, lossy) where the session has one, and from its own video otherwise: for viewers
-  // that show it at that size or smaller. Off by default; raw_image() and checked reads never do.
+  // image() and sample() read a camera's frame from its view video (storage/view_video.h: at most
+  // 640 x 360, lossy) where the session has one, and from its own video otherwise: for viewers that
+  // show it at that size or smaller. Off by default; raw_image() and checked reads never do.
   void set_view_videos(bool on) { view_videos_ = on; }
   // Videos held open for reading: a camera's current segment and the one before, at most.
   std::size_t open_videos() const { return videos_.size(); }

@@ -1,5 +1,7 @@
 #include "storage/view_video.h"
 
+#include <algorithm>
+
 #include <opencv2/imgproc.hpp>
 
 #include "capture/demosaic.h"
@@ -12,7 +14,10 @@ std::filesystem::path view_video_path(const std::filesystem::path& segment) {
 }
 
 cv::Size view_video_size(int camera_width, int camera_height) {
-  return {std::max(2, camera_width / 3 / 2 * 2), std::max(2, camera_height / 3 / 2 * 2)};
+  const double half_w = std::max(1, camera_width / 2), half_h = std::max(1, camera_height / 2);
+  const double scale = std::min({1.0, kViewWidth / half_w, kViewHeight / half_h});
+  auto even = [](double v) { return std::max(2, int(v + 1e-9) / 2 * 2); };
+  return {even(half_w * scale), even(half_h * scale)};
 }
 
 VideoSettings view_video_settings(const VideoSettings& camera) {

@@ -111,42 +111,70 @@ TEST(Replay, TheRenderedTakeShowsThePressWhereTheSimulatorPutIt) {
   auto truth = pvcap::sim::read_rig_truth(session / "sim-truth");
   ASSERT_TRUE(truth) << truth.error().message;
 
-  // In each view: the pixels the overlay changed (the rendering against the same image without it),
+  // In each view: the pixels the overlay changed (the rendering against the same image without it,
+  // read as the render read it: from the view videos, or with --from-raw from the lossless videos),
   // their centroid against the truth's press projected through the camera's true lens.
-  r.set_demosaic(pvcap::Demosaic::HalfSize);
-  const cv::Mat& picture = pictures[peak - first];
-  for (std::size_t c = 0; c < 4; ++c) {
-    const auto& cam = r.cameras()[c];
-    const cv::Rect fit = Layout::fitted({cam.width, cam.height});
-    const cv::Rect where(Layout::view(c).tl() + fit.tl(), fit.size());
-    auto image = r.image(peak, c);
-    ASSERT_TRUE(image && !image.value().empty()) << c;
-    cv::Mat plain, diff, mask;
-    cv::resize(image.value(), plain, fit.size(), 0, 0, cv::INTER_LINEAR);
-    cv::absdiff(picture(where), plain, diff);
-    cv::transform(diff, mask, cv::Matx13f(1, 1, 1));
-    mask = mask > 90;
-    mask(cv::Rect(0, fit.height - 32, fit.width, 32)).setTo(0);  // the camera's name label
-    // The largest blob: the video's coding also changes a few pixels along the markers' sharp edges.
-    cv::Mat labels, stats, centroids;
-    const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids);
-    int best = 0;
-    for (int k = 1; k < n; ++k)
-      if (best == 0 || stats.at<int>(k, cv::CC_STAT_AREA) > stats.at<int>(best, cv::CC_STAT_AREA)) best = k;
-    ASSERT_GT(best, 0) << "camera " << c << ": no overlay found";
-    const int area = stats.at<int>(best, cv::CC_STAT_AREA);
-    ASSERT_GT(area, 20) << "camera " << c << ": no overlay found";
-    const cv::Point2d hot(centroids.at<double>(best, 0), centroids.at<double>(best, 1));
-    const auto* t = truth.value().camera(cam.name);
-    ASSERT_NE(t, nullptr);
-    const cv::Point2d px = t->model.project({press->x_mm, press->y_mm, 0.0});
-    const double scale = double(fit.width) / cam.width;
-    const cv::Point2d expected((px.x + 0.5) * scale - 0.5, (px.y + 0.5) * scale - 0.5);
-    const double off = cv::norm(hot - expected);
-    std::printf("%s: overlay centre (%.1f, %.1f), truth (%.1f, %.1f): %.2f view px (%d pixels hot)\n", cam.name.c_str(),
-                hot.x, hot.y, expected.x, expected.y, off, area);
-    EXPECT_LT(off, 4.0) << cam.name;
+  const fs::path out_raw = work / "take-from-raw.mp4";
+  const auto rendered_raw =
+      run_pvcap(fmt::format("replay {} --out {} --take {} --from-raw", session.string(), out_raw.string(), take));
+  ASSERT_EQ(rendered_raw.exit_code, 0) << rendered_raw.output;
+  cv::Mat picture_raw;
+  {
+    auto v = pvcap::VideoReader::open(out_raw);
+    ASSERT_TRUE(v) << v.error().message;
+    std::int64_t at = 0;
+    for (std::size_t k = first; k <= peak; ++k) {
+      auto more = v.value()->next(picture_raw, at);
+      ASSERT_TRUE(more && more.value()) << "sample " << k;
+    }
   }
+  r.set_demosaic(pvcap::Demosaic::HalfSize);
+  for (const bool from_views : {true, false}) {
+    const cv::Mat& picture = from_views ? pictures[peak - first] : picture_raw;
+    r.set_view_videos(from_views);
+    for (std::size_t c = 0; c < 4; ++c) {
+      const auto& cam = r.cameras()[c];
+      const cv::Rect fit = Layout::fitted({cam.width, cam.height});
+      const cv::Rect where(Layout::view(c).tl() + fit.tl(), fit.size());
+      r.set_image_size(fit.size());
+      auto image = r.image(peak, c);
+      ASSERT_TRUE(image && !image.value().empty()) << c;
+      const cv::Mat& plain = image.value();
+      ASSERT_EQ(plain.size(), fit.size());
+      cv::Mat diff, mask;
+      cv::absdiff(picture(where), plain, diff);
+      cv::transform(diff, mask, cv::Matx13f(1, 1, 1));
+      mask = mask > 90;
+      mask(cv::Rect(0, fit.height - 32, fit.width, 32)).setTo(0);  // the camera's name label
+      // The largest blob: the video's coding also changes a few pixels along the markers' sharp edges.
+      cv::Mat labels, stats, centroids;
+      const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids);
+      int best = 0;
+      for (int k = 1; k < n; ++k)
+        if (best == 0 || stats.at<int>(k, cv::CC_STAT_AREA) > stats.at<int>(best, cv::CC_STAT_AREA)) best = k;
+      ASSERT_GT(best, 0) << "camera " << c << ": no overlay found";
+      const int area = stats.at<int>(best, cv::CC_STAT_AREA);
+      ASSERT_GT(area, 20) << "camera " << c << ": no overlay found";
+      const cv::Point2d hot(centroids.at<double>(best, 0), centroids.at<double>(best, 1));
+      const auto* t = truth.value().camera(cam.name);
+      ASSERT_NE(t, nullptr);
+      const cv::Point2d px = t->model.project({press->x_mm, press->y_mm, 0.0});
+      const double scale = double(fit.width) / cam.width;
+      const cv::Point2d expected((px.x + 0.5) * scale - 0.5, (px.y + 0.5) * scale - 0.5);
+      const double off = cv::norm(hot - expected);
+      std::printf("%s (%s): overlay centre (%.1f, %.1f), truth (%.1f, %.1f): %.2f view px (%d pixels hot)\n",
+                  cam.name.c_str(), from_views ? "view videos" : "--from-raw", hot.x, hot.y, expected.x, expected.y,
+                  off, area);
+      EXPECT_LT(off, 4.0) << cam.name << (from_views ? " (view videos)" : " (--from-raw)");
+    }
+  }
+  // The two renders show the same session: alike, but not the same bytes.
+  const double psnr = cv::PSNR(pictures[peak - first], picture_raw);
+  std::printf("view videos against --from-raw, the peak's picture: PSNR %.1f dB\n", psnr);
+  EXPECT_GT(psnr, 28.0);
+  EXPECT_LT(psnr, 99.0) << "--from-raw read the view videos";
+  r.set_view_videos(false);
+  r.set_image_size({});
 
   // The window, on Qt's headless display: to the next take, two samples on, quit. What it showed
   // last is that sample's picture, with the status line under it.

@@ -526,7 +526,9 @@ TEST(SessionStore, ViewVideosStandInForTheLosslessOnesAndNeverForTheRecord) {
 
   // The lossless images at the viewer's size, and the same read through the view videos.
   const cv::Size size = view_video_size(64, 48);
-  ASSERT_EQ(size, cv::Size(20, 16));
+  ASSERT_EQ(size, cv::Size(32, 24)) << "the half size: smaller than a replay's view";
+  EXPECT_EQ(view_video_size(1920, 1080), cv::Size(640, 360));
+  EXPECT_EQ(view_video_size(2448, 2048), cv::Size(430, 360));
   auto lossless = SessionReader::open(st.dir);
   auto viewed = SessionReader::open(st.dir);
   ASSERT_TRUE(lossless && viewed);
@@ -567,9 +569,9 @@ TEST(SessionStore, ViewVideosStandInForTheLosslessOnesAndNeverForTheRecord) {
     lossless.value()->set_check_checksums(false);
   }
 
-  // Camera A's first view video gone, its second cut to a third (a cut file cannot seek: it is read
-  // past whole): every read still answers, what the views lack comes from the lossless video,
-  // exactly, and the third segment's frames from its view.
+  // Camera A's first view video gone, its second cut to a third (what it still holds before the cut
+  // may be read, then it is read past): every read still answers, what the views lack comes from the
+  // lossless video, exactly, and the third segment's frames from its view.
   fs::remove(st.dir / view_video_path(of_camera_a[0]));
   const fs::path cut = st.dir / view_video_path(of_camera_a[1]);
   ASSERT_TRUE(fs::exists(cut)) << cut;
@@ -585,7 +587,7 @@ TEST(SessionStore, ViewVideosStandInForTheLosslessOnesAndNeverForTheRecord) {
     ASSERT_EQ(v.size(), size) << "sample " << i;
     (cv::norm(v, image(*lossless.value(), i, 0), cv::NORM_INF) == 0.0 ? exact : from_views)++;
   }
-  EXPECT_GE(exact, 30u) << "the first two seconds' frames";
+  EXPECT_GE(exact, 20u) << "the first second's frames and the cut view video's tail";
   EXPECT_GE(from_views, 5u) << "the last half second's";
 
   // A store told not to keep them has none.
