@@ -76,6 +76,7 @@ print("as printed by the benches:")
 for name, pattern in [("capture", r"cpu per 1080p frame.*"), ("store", r"pipeline, 4 cameras.*"),
                       ("store", r"compact \(.*"), ("compact", r"compacted \d+ segments.*"),
                       ("export", r"export: .*"), ("export", r"JPEG encoder alone.*"),
-                      ("replay", r"replay --out, 4 views.*"), ("replay", r"ffmpeg command line.*")]:
+                      ("replay", r"replay --out, 4 views.*"), ("replay", r"ffmpeg command line.*view videos.*"),
+                      ("replay", r"replay --out --from-raw.*"), ("replay", r"ffmpeg command line.*raw videos.*")]:
     print("  " + re.search(pattern, text(name)).group(0))
 PY

@@ -18,6 +18,7 @@
 #include "calib/projection.h"
 #include "core/result.h"
 #include "storage/session_reader.h"
+#include "storage/view_video.h"
 
 namespace pvcap::replay {
 
@@ -38,6 +39,10 @@ struct Layout {
     return {(kViewWidth - w) / 2, (kViewHeight - h) / 2, w, h};
   }
 };
+
+// The view videos are recorded for this tile: a 1080p camera's fills it without scaling.
+static_assert(Layout::kViewWidth == pvcap::kViewWidth && Layout::kViewHeight == pvcap::kViewHeight,
+              "storage/view_video.h makes view videos of the replay's tile size");
 
 // The take a sample belongs to, as the operator page names it.
 struct TakeLabel {

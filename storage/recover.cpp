@@ -23,6 +23,7 @@
 #include "storage/session_writer.h"
 #include "storage/video_repair.h"
 #include "storage/video_writer.h"
+#include "storage/view_video.h"
 
 namespace pvcap {
 
@@ -199,6 +200,35 @@ void drain_spills(SessionIndex& index, const std::filesystem::path& dir,
   fs::remove(folder, ec);  // when empty
 }
 
+// The view video of a segment a crash left open (storage/view_video.h) is cut too: a cut file cannot
+// seek, so the replay would read past it whole. Its readable frames go into a finished file that
+// replaces it (it is a viewer's copy: nothing is kept aside); one with none is removed.
+void close_cut_view(const std::filesystem::path& dir, const std::string& segment, RecoverReport& report) {
+  namespace fs = std::filesystem;
+  const fs::path view = dir / view_video_path(segment);
+  std::error_code ec;
+  if (!fs::is_regular_file(view, ec)) return;
+  const fs::path tmp = view.string() + ".recovering";
+  fs::remove(tmp, ec);
+  const std::string name = view_video_path(segment).string();
+  auto frames = count_video_frames(view);
+  if (!frames || frames.value() == 0) {
+    fs::remove(view, ec);
+    report.done.push_back(fmt::format("{}: no readable frame; removed (the replay reads {})", name, segment));
+    return;
+  }
+  if (Status m = remux_prefix(view, tmp, frames.value()); !m.ok()) {
+    fs::remove(tmp, ec);
+    fs::remove(view, ec);
+    report.done.push_back(
+        fmt::format("{}: could not be closed ({}); removed (the replay reads {})", name, m.error().message, segment));
+    return;
+  }
+  fs::rename(tmp, view, ec);
+  report.done.push_back(ec ? fmt::format("{}: could not be replaced ({})", name, ec.message())
+                           : fmt::format("{}: closed with {} frames", name, frames.value()));
+}
+
 // Closes one segment a crash left open: a finished copy of its leading frames that are their index
 // rows' frames replaces it (the cut original kept beside it), and rows past them are marked lost.
 Status close_cut_segment(SessionIndex& index, const std::filesystem::path& dir, std::int64_t id,
@@ -220,6 +250,7 @@ Status close_cut_segment(SessionIndex& index, const std::filesystem::path& dir, 
         fmt::format("{}: closed with {} frames (finishing an earlier recover)", path, r.frames_in_file));
     return {};
   }
+  close_cut_view(dir, path, report);  // once: a recover finishing an earlier one leaves the view as it is
   std::int64_t indexed = 0;
   {
     auto rows = index.db().prepare("SELECT count(*) FROM frames WHERE video_file_id = ? AND kept = 1");

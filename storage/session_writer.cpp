@@ -355,8 +355,8 @@ void SessionWriter::write_view(Camera& cam, const cv::Mat& frame, std::int64_t p
   }
   if (!s.ok()) {
     spdlog::warn(
-        "{}: its view video stops here ({}); the camera's video is not affected, the replay reads "
-        "it instead",
+        "{}: its view video stops here until the next segment ({}); the camera's video is not affected, "
+        "the replay reads it instead",
         cam.name, s.error().message);
     close_view(cam);
   }

@@ -24,6 +24,8 @@
 #include "storage/session_writer.h"
 #include "storage/sqlite/database.h"
 #include "storage/verify.h"
+#include "storage/video_reader.h"
+#include "storage/video_repair.h"
 #include "storage/view_video.h"
 
 namespace fs = std::filesystem;
@@ -281,6 +283,9 @@ TEST(SessionStore, RecoverClosesACutSegmentAndMarksWhatWasLost) {
     db.exec("UPDATE session SET ended_host_ns = NULL, end_reason = NULL");
   }
   fs::resize_file(st.dir / last, fs::file_size(st.dir / last) * 6 / 10);
+  const fs::path view = st.dir / view_video_path(last);  // its view video, cut with it
+  ASSERT_TRUE(fs::exists(view));
+  fs::resize_file(view, fs::file_size(view) * 6 / 10);
   {
     // A cut file is what verify and recover expect: their reports say it, FFmpeg's complaints
     // about it ("File ended prematurely") are not errors on the operator's console.
@@ -293,6 +298,24 @@ TEST(SessionStore, RecoverClosesACutSegmentAndMarksWhatWasLost) {
     EXPECT_EQ(logged.text(), "");
   }
   EXPECT_TRUE(fs::exists(st.dir / (last.substr(0, last.size() - 4) + ".interrupted.mkv"))) << "the original is kept";
+  {
+    // The view video finished too: its readable frames, and a frame past its first found by seeking
+    // (a cut file cannot seek).
+    auto frames = count_video_frames(view);
+    ASSERT_TRUE(frames) << frames.error().message;
+    ASSERT_GE(frames.value(), 2);
+    auto first = VideoReader::open(view);
+    ASSERT_TRUE(first) << first.error().message;
+    cv::Mat image;
+    std::int64_t ms = 0;
+    ASSERT_TRUE(first.value()->next(image, ms).value());
+    ASSERT_TRUE(first.value()->next(image, ms).value());
+    auto again = VideoReader::open(view);
+    ASSERT_TRUE(again);
+    auto found = again.value()->read_at(ms, image);
+    ASSERT_TRUE(found) << found.error().message;
+    EXPECT_TRUE(found.value());
+  }
   const auto after = verify_session(st.dir);
   EXPECT_EQ(after.exit_code(), 3) << format_report(st.dir, after);
   for (const auto& e : after.errors) ADD_FAILURE() << e;
