@@ -189,14 +189,17 @@ TEST(Dataset, ThreeParticipantsAreCataloguedCheckedCompletedSplitReleasedAndOneW
   // priority, docs/testing.md "How the suite is scheduled"), and then the flag must name it. At least
   // one of them must be clean, so the clean case is checked too.
   std::size_t clean = 0;
+  std::string verdicts;  // said when none is clean: why each was not
   for (const fs::path& folder : {p01, p02b, p03}) {
     const auto v = run_pvcap("--log-level warn verify " + folder.string());
     clean += v.exit_code == 0;
+    verdicts += fmt::format("{}: exit {}\n{}\n", folder.string(), v.exit_code, v.output);
     EXPECT_EQ(folder_flags(s, folder).count("not_verified_clean") == 1, v.exit_code != 0)
         << folder << ": verify exited " << v.exit_code << "\n"
         << v.output << s["flags"].dump(1);
   }
-  EXPECT_GE(clean, 1u) << "no folder recorded whole verified clean, so the unflagged case went unchecked";
+  EXPECT_GE(clean, 1u) << "no folder recorded whole verified clean, so the unflagged case went unchecked:\n"
+                       << verdicts;
   {  // The page a person reads: the matrix as the JSON says it, in a real browser.
     HeadlessBrowser browser(1200, 900);
     ASSERT_TRUE(browser.ok()) << "chromium is not installed (scripts/deps.sh --tests installs it)";
