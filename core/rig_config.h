@@ -78,8 +78,8 @@ struct StoreConfig {
   // members read each other's sessions; empty: the recorder's own group. Others read nothing.
   std::string group;
   // Beside each camera's video, a small colour copy of its frames (at most 640 x 360, H.264,
-  // storage/view_video.h) that the replay shows instead of decoding the whole picture. Never
-  // written while the camera's frames wait on disk for its encoder.
+  // storage/view_video.h) that the replay shows instead of decoding the whole picture. Skipped
+  // while more than two of the camera's frames wait for its encoder.
   bool view_videos = true;
 };
 

@@ -228,6 +228,7 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
     return abandon(Error{e.what()});
   }
   w->encoder_frame_delay_ = options.encoder_frame_delay;
+  w->view_backlog_frames_ = options.view_backlog_frames;
   w->index_writer_ = std::make_unique<IndexWriter>(
       *w->index_, options.index_queue_records, std::chrono::milliseconds(250), options.index_stall,
       w->dir_ / kSpillFolder / kIndexOverflowFile, options.index_overflow_memory_records);
@@ -335,7 +336,7 @@ bool SessionWriter::submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecor
 // The segment's view video, when the store keeps them; a failure is said once and costs nothing else.
 void SessionWriter::open_view(Camera& cam, const std::string& segment_file) {
   close_view(cam);
-  if (!store_.view_videos) return;
+  if (!store_.view_videos || views_stopped_.load()) return;
   const std::filesystem::path path = dir_ / view_video_path(segment_file);
   std::error_code ec;
   std::filesystem::create_directories(path.parent_path(), ec);
@@ -362,8 +363,19 @@ void SessionWriter::write_view(Camera& cam, const cv::Mat& frame, std::int64_t p
   }
 }
 
+// After a storage failure: the open view video is removed, not finished (the disk may be full).
+void SessionWriter::drop_view(Camera& cam) {
+  if (!cam.view) return;
+  const std::filesystem::path path = cam.view->path();
+  cam.view.reset();
+  std::error_code ec;
+  std::filesystem::remove(path, ec);
+  spdlog::info("{}: its view video stopped with the storage failure (the replay reads the camera's video)", cam.name);
+}
+
 void SessionWriter::close_view(Camera& cam) {
   if (!cam.view) return;
+  if (views_stopped_.load()) return drop_view(cam);
   if (Status s = cam.view->close(); !s.ok())
     spdlog::warn("{}: its view video may be cut short ({}); the replay reads the camera's video where it is", cam.name,
                  s.error().message);
@@ -443,8 +455,10 @@ void SessionWriter::encode_loop(Camera& cam) {
         rec.video_index = index.value();
         rec.video_pts_ms = cam.video->last_pts_ms();
         cam.in_video.fetch_add(1);
-        // The view copy only while the encoder keeps up: frames waiting on disk come first.
-        if (cam.view && queue.on_disk() == 0) write_view(cam, bgr, pts_us);
+        // The view copy only while the encoder keeps up: on a busy machine it is the first work to
+        // go, before any frame has to wait on disk (the replay reads those frames losslessly).
+        if (views_stopped_.load()) drop_view(cam);
+        if (cam.view && queue.backlog() <= view_backlog_frames_) write_view(cam, bgr, pts_us);
       } else {
         cam.failed_files.push_back(cam.video_file_id);
         cam.failed.store(true);
@@ -469,6 +483,7 @@ void SessionWriter::encode_loop(Camera& cam) {
 
 void SessionWriter::set_failure(std::string message) {
   spdlog::error("{}", message);
+  views_stopped_.store(true);
   release_reserve();  // whatever failed, close() must be able to finish what is captured
   std::lock_guard lock(failure_mu_);
   if (!failure_) failure_ = std::move(message);

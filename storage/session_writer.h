@@ -52,6 +52,9 @@ struct WriterOptions {
   // Each encoder waits this long before every frame: an encoder slower than its camera on any
   // machine, so the spill is exercised deterministically rather than by a slow codec preset.
   std::chrono::milliseconds encoder_frame_delay{0};
+  // An encoder with more of its camera's frames waiting than this skips their view copies
+  // (storage/view_video.h): on a busy machine they are the first work to go.
+  std::size_t view_backlog_frames = 2;
 };
 
 class SessionWriter {
@@ -131,6 +134,7 @@ class SessionWriter {
   void open_view(Camera& cam, const std::string& segment_file);
   void write_view(Camera& cam, const cv::Mat& frame, std::int64_t pts_us);
   void close_view(Camera& cam);
+  void drop_view(Camera& cam);
   Status open_segment(Camera& cam, std::int64_t first_pts_us, bool direct);
   void set_failure(std::string message);
   void watch_free_space();
@@ -140,6 +144,7 @@ class SessionWriter {
   std::filesystem::path dir_;
   std::int64_t started_host_ns_ = 0;
   std::chrono::milliseconds encoder_frame_delay_{0};
+  std::size_t view_backlog_frames_ = 2;
   StoreConfig store_;
   std::optional<SessionIndex> index_;
   std::unique_ptr<IndexWriter> index_writer_;
@@ -154,6 +159,9 @@ class SessionWriter {
   int lock_fd_ = -1;  // flock on <dir>/recording.lock while recording: recover refuses a live session
   std::filesystem::path reserve_path_;
   mutable std::atomic<bool> reserve_held_{false};
+  // Set with the first failure: the view videos stop and their open files go, so what space is left
+  // finishes the lossless videos and the index.
+  std::atomic<bool> views_stopped_{false};
   mutable std::mutex failure_mu_;
   std::optional<std::string> failure_;  // the writer's own (video, free space); the index's is its own
   std::thread watcher_;

@@ -18,6 +18,8 @@
 #include "storage/frame_spill.h"
 #include "storage/sqlite/database.h"
 #include "storage/video_reader.h"
+#include "storage/video_repair.h"
+#include "storage/view_video.h"
 #include "tests/integration/session_under_test.h"
 
 namespace fs = std::filesystem;
@@ -106,6 +108,24 @@ TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
                 "(device_id, connection, sequence) WHERE f.kept = 0");
   }
   EXPECT_FALSE(fs::exists(dir / pvcap::kSpillFolder)) << "a drained spill leaves nothing behind";
+  {
+    // An encoder behind skips the view copies (storage/view_video.h): fewer frames in the view videos
+    // than in the lossless ones, whose every frame the replay then reads instead.
+    pvcap::sqlite::Database db(dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+    const std::int64_t kept = count(db, "SELECT count(*) FROM frames WHERE kept = 1");
+    std::int64_t in_views = 0;
+    auto q = db.prepare("SELECT path FROM video_files");
+    while (q.step()) {
+      const fs::path view = dir / pvcap::view_video_path(q.column_text(0));
+      ASSERT_TRUE(fs::exists(view)) << view;
+      auto frames = pvcap::count_video_frames(view);
+      ASSERT_TRUE(frames) << frames.error().message;
+      in_views += frames.value();
+    }
+    std::printf("%lld of %lld kept frames in the view videos\n", static_cast<long long>(in_views),
+                static_cast<long long>(kept));
+    EXPECT_LT(in_views, kept);
+  }
   // The videos and the index agree frame for frame. (Under the hog the Sensel's stream may leave an
   // edge sample without pressure, which verify reports as lossy: not the video's doing.)
   const auto verified = run_pvcap(fmt::format("--log-level off verify {}", dir.string()));

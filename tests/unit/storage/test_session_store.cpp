@@ -106,7 +106,9 @@ WrittenStore write_store(const fs::path& root, double seconds, bool raw_first = 
                   view_videos),
       "store-test.yaml");
   out.t0 = host_now().ns;
-  auto w = SessionWriter::create(root, rig, wall_now_ns(), out.t0);
+  WriterOptions options;
+  options.view_backlog_frames = SIZE_MAX;  // every frame in its view video, however loaded the machine
+  auto w = SessionWriter::create(root, rig, wall_now_ns(), out.t0, options);
   EXPECT_TRUE(w) << w.error().message;
   auto& writer = *w.value();
   for (const char* name : {"camA", "camB"}) {
