@@ -363,7 +363,8 @@ void SessionWriter::write_view(Camera& cam, const cv::Mat& frame, std::int64_t p
   }
 }
 
-// After a storage failure: the open view video is removed, not finished (the disk may be full).
+// After a storage failure: the open view video is removed (its space, on a full disk, is what the
+// lossless videos and the index need to finish; its trailer may fail to be written first).
 void SessionWriter::drop_view(Camera& cam) {
   if (!cam.view) return;
   const std::filesystem::path path = cam.view->path();
