@@ -27,6 +27,7 @@
 #include "storage/frame_spill.h"
 #include "storage/video_repair.h"
 #include "storage/view_video.h"
+#include "storage/view_video_writer.h"
 
 namespace pvcap {
 
@@ -40,10 +41,8 @@ struct SessionWriter::Camera {
   int segment = -1;
   std::int64_t segment_start_us = 0;
   std::vector<std::int64_t> failed_files;  // segments a write failed in: reconciled at close
-  // The open segment's view video (storage/view_video.h), when store.view_videos; null when it
-  // could not be written (the lossless video goes on without it).
-  std::unique_ptr<VideoWriter> view;
-  cv::Mat view_image;
+  // The open segment's view video (storage/view_video.h), when store.view_videos.
+  std::unique_ptr<ViewVideoWriter> view;
   std::unique_ptr<FrameSpillQueue> queue;  // made at add_camera, when the session folder exists
   std::thread thread;
   std::atomic<std::uint64_t> in_video{0}, encoder_drops{0}, segments{0};
@@ -279,6 +278,7 @@ Result<std::int64_t> SessionWriter::add_camera(const DeviceRecord& device, int w
   cam->name = device.name;
   cam->queue = std::make_unique<FrameSpillQueue>(dir_, safe_name(device.name), std::size_t(store_.queue_frames));
   cam->settings = camera_video_settings(store_, width, height, pixel_format);
+  cam->view = std::make_unique<ViewVideoWriter>(cam->name, cam->settings);
   auto id = index_write([&] { return index_->add_device(device); });
   if (!id) return id.error();
   cam->device_id = id.value();
@@ -333,54 +333,17 @@ bool SessionWriter::submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecor
   return false;
 }
 
-// The segment's view video, when the store keeps them; a failure is said once and costs nothing else.
+// The segment's view video, when the store keeps them and no storage failure has stopped them.
 void SessionWriter::open_view(Camera& cam, const std::string& segment_file) {
   close_view(cam);
-  if (!store_.view_videos || views_stopped_.load()) return;
-  const std::filesystem::path path = dir_ / view_video_path(segment_file);
-  std::error_code ec;
-  std::filesystem::create_directories(path.parent_path(), ec);
-  auto view = VideoWriter::open(path, view_video_settings(cam.settings));
-  if (!view) {
-    spdlog::warn("{}: no view video for the replay ({}); the camera's video is not affected", cam.name,
-                 view.error().message);
-    return;
-  }
-  cam.view = std::move(view.value());
-}
-
-void SessionWriter::write_view(Camera& cam, const cv::Mat& frame, std::int64_t pts_us) {
-  Status s = make_view_image(frame, cam.video->stored_planes(), cam.video->plane_order(), cam.settings, cam.view_image);
-  if (s.ok()) {
-    if (auto w = cam.view->write(cam.view_image, pts_us); !w) s = w.error();
-  }
-  if (!s.ok()) {
-    spdlog::warn(
-        "{}: its view video stops here until the next segment ({}); the camera's video is not affected, "
-        "the replay reads it instead",
-        cam.name, s.error().message);
-    close_view(cam);
-  }
-}
-
-// After a storage failure: the open view video is removed (its space, on a full disk, is what the
-// lossless videos and the index need to finish; its trailer may fail to be written first).
-void SessionWriter::drop_view(Camera& cam) {
-  if (!cam.view) return;
-  const std::filesystem::path path = cam.view->path();
-  cam.view.reset();
-  std::error_code ec;
-  std::filesystem::remove(path, ec);
-  spdlog::info("{}: its view video stopped with the storage failure (the replay reads the camera's video)", cam.name);
+  if (store_.view_videos && !views_stopped_.load()) cam.view->open(dir_ / view_video_path(segment_file));
 }
 
 void SessionWriter::close_view(Camera& cam) {
-  if (!cam.view) return;
-  if (views_stopped_.load()) return drop_view(cam);
-  if (Status s = cam.view->close(); !s.ok())
-    spdlog::warn("{}: its view video may be cut short ({}); the replay reads the camera's video where it is", cam.name,
-                 s.error().message);
-  cam.view.reset();
+  if (views_stopped_.load())
+    cam.view->drop();
+  else
+    cam.view->close();
 }
 
 void SessionWriter::encode_loop(Camera& cam) {
@@ -458,8 +421,8 @@ void SessionWriter::encode_loop(Camera& cam) {
         cam.in_video.fetch_add(1);
         // The view copy only while the encoder keeps up: on a busy machine it is the first work to
         // go, before any frame has to wait on disk (the replay reads those frames losslessly).
-        if (views_stopped_.load()) drop_view(cam);
-        if (cam.view && queue.backlog() <= view_backlog_frames_) write_view(cam, bgr, pts_us);
+        if (views_stopped_.load()) cam.view->drop();
+        if (queue.backlog() <= view_backlog_frames_) cam.view->write(bgr, *cam.video, pts_us);
       } else {
         cam.failed_files.push_back(cam.video_file_id);
         cam.failed.store(true);

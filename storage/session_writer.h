@@ -132,9 +132,7 @@ class SessionWriter {
   struct Camera;
   void encode_loop(Camera& cam);
   void open_view(Camera& cam, const std::string& segment_file);
-  void write_view(Camera& cam, const cv::Mat& frame, std::int64_t pts_us);
   void close_view(Camera& cam);
-  void drop_view(Camera& cam);
   Status open_segment(Camera& cam, std::int64_t first_pts_us, bool direct);
   void set_failure(std::string message);
   void watch_free_space();
