@@ -9,7 +9,6 @@
 #include "storage/pressure_blob.h"
 #include "storage/sqlite/database.h"
 #include "storage/video_reader.h"
-#include "storage/view_video.h"
 
 namespace pvcap {
 
@@ -75,6 +74,7 @@ Result<std::unique_ptr<SessionReader>> SessionReader::open(const std::filesystem
     return Error{fmt::format("{}: not a session folder (no session.db)", dir.string())};
   std::unique_ptr<SessionReader> r(new SessionReader());
   r->dir_ = dir;
+  r->views_ = ViewVideoReader(dir);
   auto loaded = guarded(dir, [&]() -> Status {
     r->db_ = std::make_unique<sqlite::Database>(db_path, sqlite::Database::Mode::ReadOnly);
     auto& db = *r->db_;
@@ -171,7 +171,7 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) 
     // needs it whole. Which, depends on the read and the file alone, never on the reads before: the
     // same read gives the same image.
     if (view_videos_ && !mosaic && !(check_checksums_ && checksum))
-      if (auto view = view_image(file_id, rel, ts.ms, ts.tolerance_ms)) return std::move(*view);
+      if (auto view = views_.image(file_id, rel, ts.ms, ts.tolerance_ms, image_size_)) return std::move(*view);
     const bool views_only = !mosaic && demosaic_ == Demosaic::HalfSize && !(check_checksums_ && checksum);
     auto it = videos_.find(file_id);
     if (it != videos_.end()) {
@@ -215,40 +215,6 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) 
     }
     return bgr;
   });
-}
-
-std::optional<cv::Mat> SessionReader::view_image(std::int64_t file_id, const std::string& segment, std::int64_t ms,
-                                                 std::int64_t tolerance_ms) {
-  if (without_view_.count(file_id)) return std::nullopt;
-  auto it = views_.find(file_id);
-  if (it == views_.end()) {
-    const std::filesystem::path path = dir_ / view_video_path(segment);
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) {
-      without_view_.insert(file_id);
-      return std::nullopt;
-    }
-    auto opened = VideoReader::open(path);
-    if (!opened) {
-      spdlog::warn("{} (read from the camera's own video instead)", opened.error().message);
-      without_view_.insert(file_id);
-      return std::nullopt;
-    }
-    if (views_.size() >= kMaxOpenVideos) views_.erase(views_.begin());  // the earliest segment's
-    it = views_.emplace(file_id, std::move(opened.value())).first;
-  }
-  VideoReader& view = *it->second;
-  view.set_image_size(image_size_);
-  cv::Mat bgr;
-  auto found = view.read_at(ms, bgr, tolerance_ms);
-  if (!found) {
-    spdlog::warn("{} (read from the camera's own video from here)", found.error().message);
-    views_.erase(it);
-    without_view_.insert(file_id);
-    return std::nullopt;
-  }
-  if (!found.value() || bgr.empty()) return std::nullopt;  // not in the view: an encoder that was behind
-  return bgr;
 }
 
 namespace {

@@ -24,6 +24,7 @@
 #include "capture/demosaic.h"
 #include "core/result.h"
 #include "storage/session_index.h"
+#include "storage/view_video_reader.h"
 
 namespace pvcap {
 
@@ -212,10 +213,6 @@ class SessionReader {
  private:
   SessionReader() = default;
   Result<cv::Mat> camera_image(const SampleCamera& c, bool mosaic = false);
-  // The frame at `ms` from the view video of the segment `segment` (file id `file_id`); nullopt
-  // when there is none, it lacks that frame, or it cannot be read (then not asked again).
-  std::optional<cv::Mat> view_image(std::int64_t file_id, const std::string& segment, std::int64_t ms,
-                                    std::int64_t tolerance_ms);
   Result<cv::Mat> one_image(std::size_t i, std::size_t camera, bool mosaic);
   Demosaic demosaic_ = Demosaic::Bilinear;
   cv::Size image_size_;
@@ -233,8 +230,7 @@ class SessionReader {
   };
   std::map<std::int64_t, OpenVideo> videos_;  // by video file id, opened on use
   bool view_videos_ = false;
-  std::map<std::int64_t, std::unique_ptr<VideoReader>> views_;  // by the segment's file id, opened on use
-  std::set<std::int64_t> without_view_;                         // segments whose view video is absent or unreadable
+  ViewVideoReader views_{""};  // the session folder's, set at open()
 };
 
 }  // namespace pvcap
