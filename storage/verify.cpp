@@ -12,6 +12,7 @@
 #include "storage/session_index.h"
 #include "storage/sqlite/database.h"
 #include "storage/video_reader.h"
+#include "storage/view_video.h"
 
 namespace pvcap {
 
@@ -92,6 +93,7 @@ class Verifier {
     if (frames_checked_)
       r_.facts.push_back(fmt::format("video frames: {} checked against their capture checksum, {} damaged",
                                      frames_checked_, frames_damaged_));
+    report_view_videos(videos.size());
   }
 
   // A video's kept rows, in video order.
@@ -143,6 +145,7 @@ class Verifier {
         ((cut_early ? r_.losses : r_.errors))
             .push_back(
                 fmt::format("{}: {}; {} indexed frames cannot be read", path, reader.error().message, kept.size()));
+      check_view_video(path, kept);
       return;
     }
     // A raw video is decoded frame by frame and each picture checked against the checksum its
@@ -177,6 +180,7 @@ class Verifier {
       ++n;
     }
     report_video(path, n, kept, key_frames, checked, wrong_time, read_error, clean_end_ && finished);
+    check_view_video(path, kept);
     for (std::size_t i = 0; i < damaged.size() && i < kMaxNamed; ++i) r_.errors.push_back(damaged[i]);
     if (damaged.size() > kMaxNamed)
       r_.errors.push_back(fmt::format("{}: {} more damaged frames", path, damaged.size() - kMaxNamed));
@@ -203,6 +207,47 @@ class Verifier {
       missing.push_back(fmt::format("{}: {} frames in the video have no index row", path, n - kept.size()));
     if (wrong_time)
       r_.errors.push_back(fmt::format("{}: {} frames carry another timestamp than their index row", path, wrong_time));
+  }
+
+  // A segment's view video (storage/view_video.h): the kept frames the replay finds in it. It is not
+  // the record, so what it lacks or cannot be read is said as a fact, never as a loss.
+  void check_view_video(const std::string& path, const std::vector<KeptRow>& kept) {
+    views_.kept += kept.size();
+    const std::filesystem::path view = view_video_path(path);
+    if (!std::filesystem::exists(dir_ / view)) return;
+    ++views_.segments;
+    auto reader = VideoReader::open(dir_ / view);
+    if (!reader) {
+      r_.facts.push_back(fmt::format("{}: cannot be read ({}); the replay reads {} from the lossless video",
+                                     view.string(), reader.error().message, path));
+      return;
+    }
+    // Both in time order: a view packet counts when it is a kept frame's (a view skips frames whose
+    // encoder was behind, and ends where a crash cut it).
+    std::size_t k = 0;
+    for (std::int64_t pts_ms = 0;;) {
+      bool key = false;
+      auto more = reader.value()->next_packet(pts_ms, key);
+      if (!more || !more.value()) break;
+      while (k < kept.size() && kept[k].ts.ms + kept[k].ts.tolerance_ms < pts_ms) ++k;
+      if (k < kept.size() && std::llabs(pts_ms - kept[k].ts.ms) <= kept[k].ts.tolerance_ms) {
+        ++views_.frames;
+        ++k;
+      }
+    }
+  }
+
+  void report_view_videos(std::size_t segments) {
+    if (!segments) return;
+    if (!views_.segments) {
+      r_.facts.push_back(
+          "view videos: none (recorded without them, or by an older pvcap); the replay decodes the lossless videos");
+      return;
+    }
+    r_.facts.push_back(fmt::format(
+        "view videos (the replay's small copies, not the record): {} of {} segments, {} of {} kept frames{}",
+        views_.segments, segments, views_.frames, views_.kept,
+        views_.frames < views_.kept ? "; the replay reads the others from the lossless videos" : ""));
   }
 
   // The device payload parses on its grid, and the portable counts beside it hold the same image.
@@ -305,6 +350,9 @@ class Verifier {
   std::int64_t started_ = 0;
   bool clean_end_ = true;
   std::size_t frames_checked_ = 0, frames_damaged_ = 0;
+  struct {
+    std::size_t segments = 0, frames = 0, kept = 0;  // with a view video; in them; kept in all segments
+  } views_;
   static constexpr std::size_t kMaxNamed = 20;  // damaged frames named one by one, per file
 };
 

@@ -547,6 +547,25 @@ TEST(SessionStore, ViewVideosStandInForTheLosslessOnesAndNeverForTheRecord) {
   }
   ASSERT_GE(of_camera_a.size(), 3u) << "2.5 s in 1 s segments";
   for (const auto& seg : segments) EXPECT_TRUE(fs::exists(st.dir / "views" / seg)) << seg;
+  std::int64_t kept = 0;
+  {
+    sqlite::Database db(st.dir / "session.db", sqlite::Database::Mode::ReadOnly);
+    auto q = db.prepare("SELECT count(*) FROM frames WHERE kept = 1 AND video_file_id IS NOT NULL");
+    ASSERT_TRUE(q.step());
+    kept = q.column_int(0);
+  }
+  // What verify says of them: a fact (they are not the record), with the kept frames they hold.
+  auto view_fact = [&] {
+    const VerifyReport report = verify_session(st.dir);
+    EXPECT_EQ(report.exit_code(), 0) << format_report(st.dir, report);
+    std::string found;
+    for (const auto& f : report.facts)
+      if (f.rfind("view videos", 0) == 0 || f.rfind("views/", 0) == 0) found += f + "\n";
+    return found;
+  };
+  EXPECT_EQ(view_fact(), fmt::format("view videos (the replay's small copies, not the record): {} of {} segments, "
+                                     "{} of {} kept frames\n",
+                                     segments.size(), segments.size(), kept, kept));
   EXPECT_EQ(view_video_path("cam0-002.x264.mkv"), fs::path("views/cam0-002.mkv")) << "a compacted segment's";
 
   // The lossless images at the viewer's size, and the same read through the view videos.
@@ -614,10 +633,22 @@ TEST(SessionStore, ViewVideosStandInForTheLosslessOnesAndNeverForTheRecord) {
   }
   EXPECT_GE(exact, 20u) << "the first second's frames and the cut view video's tail";
   EXPECT_GE(from_views, 5u) << "the last half second's";
+  // Verify counts what the views still hold, and names one that cannot be read; the session is clean.
+  const std::string after_cut = view_fact();
+  EXPECT_NE(after_cut.find(fmt::format("{} of {} segments", segments.size() - 1, segments.size())), std::string::npos)
+      << after_cut;
+  EXPECT_NE(after_cut.find("the replay reads the others from the lossless videos"), std::string::npos) << after_cut;
+  std::ofstream(st.dir / view_video_path(of_camera_a[0])) << "not a video";
+  const std::string unreadable = view_fact();
+  EXPECT_NE(unreadable.find(view_video_path(of_camera_a[0]).string() + ": cannot be read"), std::string::npos)
+      << unreadable;
 
   // A store told not to keep them has none.
   const auto without = write_store(temp_root("no-views"), 0.5, true, /*view_videos=*/false);
   EXPECT_FALSE(fs::exists(without.dir / "views"));
+  const VerifyReport without_report = verify_session(without.dir);
+  EXPECT_NE(format_report(without.dir, without_report).find("view videos: none"), std::string::npos)
+      << format_report(without.dir, without_report);
   fs::remove_all(without.dir.parent_path());
   fs::remove_all(root);
 }
