@@ -1,7 +1,11 @@
 #include "storage/verify.h"
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdlib>
+#include <mutex>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -38,6 +42,7 @@ class Verifier {
 
  private:
   void say(const std::string& step) const {
+    const std::lock_guard lock(progress_mutex_);
     if (progress_) progress_(step);
   }
 
@@ -82,18 +87,42 @@ class Verifier {
     return true;
   }
 
-  // Videos against the index.
+  // Videos against the index, several at once: decoding a raw video and checking its frames keeps
+  // one core busy, so a session's videos (a camera's each) are checked side by side, and what each
+  // found is said in the index's order.
   void check_videos() {
     auto files = db_.prepare(
         "SELECT v.id, v.path, d.name, v.state FROM video_files v JOIN devices d ON d.id = v.device_id ORDER BY v.id");
-    std::vector<std::tuple<std::int64_t, std::string, std::string, std::string>> videos;
+    std::vector<VideoJob> jobs;
     while (files.step())
-      videos.emplace_back(files.column_int(0), files.column_text(1), files.column_text(2), files.column_text(3));
-    for (const auto& [id, path, camera, state] : videos) check_video(id, path, camera, state);
-    if (frames_checked_)
-      r_.facts.push_back(fmt::format("video frames: {} checked against their capture checksum, {} damaged",
-                                     frames_checked_, frames_damaged_));
-    report_view_videos(videos.size());
+      jobs.push_back({files.column_int(0), files.column_text(1), files.column_text(2), files.column_text(3), {}});
+    for (VideoJob& job : jobs) job.kept = kept_rows(job.id);
+    std::vector<VideoFindings> found(jobs.size());
+    std::atomic<std::size_t> next{0};
+    auto work = [&] {
+      for (std::size_t i = next++; i < jobs.size(); i = next++) try {
+          check_video(jobs[i], found[i]);
+        } catch (const std::exception& e) {  // out of memory, say: that video is not checked
+          found[i].errors.push_back(fmt::format("{}: could not be checked: {}", jobs[i].path, e.what()));
+        }
+    };
+    const std::size_t threads = std::clamp<std::size_t>(std::thread::hardware_concurrency(), 1, kMaxVideoThreads);
+    std::vector<std::thread> pool;
+    for (std::size_t t = 1; t < std::min(threads, jobs.size()); ++t) pool.emplace_back(work);
+    work();
+    for (auto& t : pool) t.join();
+
+    std::size_t checked = 0, damaged = 0;
+    for (const VideoFindings& f : found) {
+      for (auto [from, to] : {std::pair{&f.facts, &r_.facts}, {&f.losses, &r_.losses}, {&f.errors, &r_.errors}})
+        to->insert(to->end(), from->begin(), from->end());
+      checked += f.checked;
+      damaged += f.damaged;
+    }
+    if (checked)
+      r_.facts.push_back(
+          fmt::format("video frames: {} checked against their capture checksum, {} damaged", checked, damaged));
+    report_view_videos(found);
   }
 
   // A video's kept rows, in video order.
@@ -102,6 +131,20 @@ class Verifier {
     VideoTimestamp ts;
     std::optional<std::uint32_t> checksum;
     std::int64_t connection = 0, sequence = 0;
+  };
+
+  struct VideoJob {
+    std::int64_t id = 0;
+    std::string path, camera, state;
+    std::vector<KeptRow> kept;
+  };
+
+  // What checking one video found, said in the report in the index's order of videos.
+  struct VideoFindings {
+    std::vector<std::string> facts, losses, errors;
+    std::size_t checked = 0, damaged = 0;          // frames checked against their capture checksum
+    bool has_view = false;                         // a view video beside it
+    std::size_t view_frames = 0, kept_frames = 0;  // kept frames in its view video; in the index
   };
 
   std::vector<KeptRow> kept_rows(std::int64_t file_id) {
@@ -123,35 +166,37 @@ class Verifier {
     return kept;
   }
 
-  void check_video(std::int64_t id, const std::string& path, const std::string& camera, const std::string& state) {
+  // One video against its index rows (no member of this class is written: several run at once).
+  void check_video(const VideoJob& job, VideoFindings& f) const {
+    const std::string& path = job.path;
+    const std::vector<KeptRow>& kept = job.kept;
     // A segment left open by a crash, or cut by a failed write, may hold frames whose rows were
     // never committed, or miss frames whose rows were: losses, not damage. A closed one may not.
-    const bool finished = state == "closed" || state == "recovered";
-    if (state == "open" && !clean_end_)
-      r_.losses.push_back(
+    const bool finished = job.state == "closed" || job.state == "recovered";
+    if (job.state == "open" && !clean_end_)
+      f.losses.push_back(
           fmt::format("{}: was being written when the recording stopped; 'pvcap recover' closes it", path));
     say(fmt::format("checking {}", path));
-    const std::vector<KeptRow> kept = kept_rows(id);
     auto reader = VideoReader::open(dir_ / path);
     if (!reader) {
       // Cut before its first frame reached the disk, or before any of its frames had a committed
       // row (recover then closes it with none: a file without frames, which no reader opens): a
       // loss when nothing indexed is in it or the recording was interrupted; damage otherwise.
-      const bool cut_early = (state == "open" && !clean_end_) || state == "unreadable";
+      const bool cut_early = (job.state == "open" && !clean_end_) || job.state == "unreadable";
       if (kept.empty())
-        r_.losses.push_back(fmt::format("{}: holds no readable frame and no indexed one ({})", path,
-                                        cut_early ? "cut before its first frame was written" : reader.error().message));
+        f.losses.push_back(fmt::format("{}: holds no readable frame and no indexed one ({})", path,
+                                       cut_early ? "cut before its first frame was written" : reader.error().message));
       else
-        ((cut_early ? r_.losses : r_.errors))
+        ((cut_early ? f.losses : f.errors))
             .push_back(
                 fmt::format("{}: {}; {} indexed frames cannot be read", path, reader.error().message, kept.size()));
-      check_view_video(path, kept);
+      check_view_video(path, kept, f);
       return;
     }
     // A raw video is decoded frame by frame and each picture checked against the checksum its
     // camera's bytes got at capture; a colour (lossy) one is read packet by packet.
     VideoReader& video = *reader.value();
-    std::size_t n = 0, wrong_time = 0, key_frames = 0, checked = 0;
+    std::size_t n = 0, wrong_time = 0, key_frames = 0;
     std::vector<std::string> damaged;
     std::int64_t pts_ms = 0;
     bool key = false;
@@ -168,58 +213,58 @@ class Verifier {
         const KeptRow& row = kept[n];
         if (std::llabs(pts_ms - row.ts.ms) > row.ts.tolerance_ms) ++wrong_time;
         if (video.raw() && row.checksum) {
-          ++checked;
+          ++f.checked;
           if (const std::uint32_t crc = picture_crc(picture); crc != *row.checksum)
             damaged.push_back(
                 fmt::format("{}: frame {} ({} connection {} sequence {}): its pixels are not the bytes "
                             "the camera sent (checksum at capture {:08x}, stored picture {:08x})",
-                            path, n, camera, row.connection, row.sequence, *row.checksum, crc));
+                            path, n, job.camera, row.connection, row.sequence, *row.checksum, crc));
         }
       }
       key_frames += key;
       ++n;
     }
-    report_video(path, n, kept, key_frames, checked, wrong_time, read_error, clean_end_ && finished);
-    check_view_video(path, kept);
-    for (std::size_t i = 0; i < damaged.size() && i < kMaxNamed; ++i) r_.errors.push_back(damaged[i]);
+    report_video(path, n, kept, key_frames, f.checked, wrong_time, read_error, clean_end_ && finished, f);
+    for (std::size_t i = 0; i < damaged.size() && i < kMaxNamed; ++i) f.errors.push_back(damaged[i]);
     if (damaged.size() > kMaxNamed)
-      r_.errors.push_back(fmt::format("{}: {} more damaged frames", path, damaged.size() - kMaxNamed));
-    frames_checked_ += checked;
-    frames_damaged_ += damaged.size();
+      f.errors.push_back(fmt::format("{}: {} more damaged frames", path, damaged.size() - kMaxNamed));
+    f.damaged = damaged.size();
+    check_view_video(path, kept, f);
   }
 
-  void report_video(const std::string& path, std::size_t n, const std::vector<KeptRow>& kept, std::size_t key_frames,
-                    std::size_t checked, std::size_t wrong_time, const std::string& read_error, bool must_be_whole) {
+  static void report_video(const std::string& path, std::size_t n, const std::vector<KeptRow>& kept,
+                           std::size_t key_frames, std::size_t checked, std::size_t wrong_time,
+                           const std::string& read_error, bool must_be_whole, VideoFindings& f) {
     bool contiguous = true;
     for (std::size_t i = 0; i < kept.size(); ++i) contiguous &= kept[i].video_index == std::int64_t(i);
-    r_.facts.push_back(
+    f.facts.push_back(
         fmt::format("{}: {} frames in the video, {} kept in the index, {} key frames, {} checked against "
                     "their capture checksum",
                     path, n, kept.size(), key_frames, checked));
-    if (!read_error.empty()) r_.errors.push_back(read_error);
-    if (!contiguous) r_.errors.push_back(fmt::format("{}: the index's video positions are not 0, 1, 2, ...", path));
+    if (!read_error.empty()) f.errors.push_back(read_error);
+    if (!contiguous) f.errors.push_back(fmt::format("{}: the index's video positions are not 0, 1, 2, ...", path));
     // A session that did not end cleanly may lose the open part of a video; one that did, may not.
-    auto& missing = must_be_whole ? r_.errors : r_.losses;
+    auto& missing = must_be_whole ? f.errors : f.losses;
     if (n < kept.size())
       missing.push_back(fmt::format("{}: {} indexed frames are missing from the video (it ends at frame {})", path,
                                     kept.size() - n, n));
     if (n > kept.size())
       missing.push_back(fmt::format("{}: {} frames in the video have no index row", path, n - kept.size()));
     if (wrong_time)
-      r_.errors.push_back(fmt::format("{}: {} frames carry another timestamp than their index row", path, wrong_time));
+      f.errors.push_back(fmt::format("{}: {} frames carry another timestamp than their index row", path, wrong_time));
   }
 
   // A segment's view video (storage/view_video.h): the kept frames the replay finds in it. It is not
   // the record, so what it lacks or cannot be read is said as a fact, never as a loss.
-  void check_view_video(const std::string& path, const std::vector<KeptRow>& kept) {
-    views_.kept += kept.size();
+  void check_view_video(const std::string& path, const std::vector<KeptRow>& kept, VideoFindings& f) const {
+    f.kept_frames = kept.size();
     const std::filesystem::path view = view_video_path(path);
     if (!std::filesystem::exists(dir_ / view)) return;
-    ++views_.segments;
+    f.has_view = true;
     auto reader = VideoReader::open(dir_ / view);
     if (!reader) {
-      r_.facts.push_back(fmt::format("{}: cannot be read ({}); the replay reads {} from the lossless video",
-                                     view.string(), reader.error().message, path));
+      f.facts.push_back(fmt::format("{}: cannot be read ({}); the replay reads {} from the lossless video",
+                                    view.string(), reader.error().message, path));
       return;
     }
     // Both in time order: a view packet counts when it is a kept frame's (a view skips frames whose
@@ -231,23 +276,28 @@ class Verifier {
       if (!more || !more.value()) break;
       while (k < kept.size() && kept[k].ts.ms + kept[k].ts.tolerance_ms < pts_ms) ++k;
       if (k < kept.size() && std::llabs(pts_ms - kept[k].ts.ms) <= kept[k].ts.tolerance_ms) {
-        ++views_.frames;
+        ++f.view_frames;
         ++k;
       }
     }
   }
 
-  void report_view_videos(std::size_t segments) {
-    if (!segments) return;
-    if (!views_.segments) {
+  void report_view_videos(const std::vector<VideoFindings>& found) {
+    std::size_t segments = 0, frames = 0, kept = 0;
+    for (const VideoFindings& f : found) {
+      segments += f.has_view;
+      frames += f.view_frames;
+      kept += f.kept_frames;
+    }
+    if (found.empty()) return;
+    if (!segments) {
       r_.facts.push_back(
           "view videos: none (recorded without them, or by an older pvcap); the replay decodes the lossless videos");
       return;
     }
     r_.facts.push_back(fmt::format(
-        "view videos (the replay's small copies, not the record): {} of {} segments, {} of {} kept frames{}",
-        views_.segments, segments, views_.frames, views_.kept,
-        views_.frames < views_.kept ? "; the replay reads the others from the lossless videos" : ""));
+        "view videos (the replay's small copies, not the record): {} of {} segments, {} of {} kept frames{}", segments,
+        found.size(), frames, kept, frames < kept ? "; the replay reads the others from the lossless videos" : ""));
   }
 
   // The device payload parses on its grid, and the portable counts beside it hold the same image.
@@ -349,11 +399,9 @@ class Verifier {
   sqlite::Database db_;
   std::int64_t started_ = 0;
   bool clean_end_ = true;
-  std::size_t frames_checked_ = 0, frames_damaged_ = 0;
-  struct {
-    std::size_t segments = 0, frames = 0, kept = 0;  // with a view video; in them; kept in all segments
-  } views_;
-  static constexpr std::size_t kMaxNamed = 20;  // damaged frames named one by one, per file
+  mutable std::mutex progress_mutex_;                 // videos are checked on several threads
+  static constexpr std::size_t kMaxNamed = 20;        // damaged frames named one by one, per file
+  static constexpr std::size_t kMaxVideoThreads = 4;  // a rig's cameras; more would only seek the disk
 };
 
 }  // namespace

@@ -4,7 +4,8 @@
 // its timestamp; no frame more, none less), every pressure frame decodes, every
 // sample names frames that are in the videos, the schema is one this pvcap reads.
 // Losses recorded during capture (drops, incomplete frames, encoder behind, samples
-// without pressure, an unclean end) make it "lossy but readable", not failed.
+// without pressure, an unclean end) make it "lossy but readable", not failed. The videos are
+// checked side by side (up to four at once); `progress` is called from those threads, one at a time.
 #include <filesystem>
 #include <functional>
 #include <string>

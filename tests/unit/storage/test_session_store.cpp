@@ -266,6 +266,26 @@ TEST(SessionStore, WrittenInSegmentsAndReadBackExactly) {
 
   const auto report = verify_session(st.dir);
   EXPECT_EQ(report.exit_code(), 0) << format_report(st.dir, report);
+  // The videos are checked side by side, and said in the index's order, each with all its frames.
+  std::vector<std::string> said;
+  for (const auto& f : report.facts)
+    if (f.find(" frames in the video, ") != std::string::npos) said.push_back(f.substr(0, f.find(':')));
+  sqlite::Database index(st.dir / "session.db", sqlite::Database::Mode::ReadOnly);
+  auto q = index.prepare(
+      "SELECT path, (SELECT count(*) FROM frames f WHERE f.video_file_id = v.id AND f.kept = 1) FROM "
+      "video_files v ORDER BY id");
+  std::vector<std::string> indexed;
+  while (q.step()) {
+    indexed.push_back(q.column_text(0));
+    const std::string want =
+        fmt::format("{}: {} frames in the video, {} kept", indexed.back(), q.column_int(1), q.column_int(1));
+    EXPECT_TRUE(std::any_of(report.facts.begin(), report.facts.end(),
+                            [&](const std::string& f) { return f.rfind(want, 0) == 0; }))
+        << want << "\n"
+        << format_report(st.dir, report);
+  }
+  EXPECT_GE(indexed.size(), 4u);
+  EXPECT_EQ(said, indexed);
   EXPECT_FALSE(reader.sample(reader.sample_count()));
   fs::remove_all(root);
 }
