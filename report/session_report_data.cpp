@@ -1,10 +1,16 @@
 #include "report/session_report_data.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
+#include <functional>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
+#include <thread>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
@@ -328,45 +334,21 @@ std::optional<cv::Rect> contact_roi(const calib::CameraModel& m, const calib::Pa
   return roi;
 }
 
-json self_check_section(SessionReader& r, const std::vector<std::optional<calib::CameraCalibration>>& cal,
-                        const calib::PadLayout& pad, const std::vector<SampleInfo>& samples,
-                        const std::vector<PressureTotal>& totals, const ReportOptions& o) {
-  json out = {{"cameras", json::array()}};
-  out["method"] =
-      "image change near the contact against total pressure on the presses' flanks: the offset at which "
-      "one curve fits the rising and the falling edges; uncertainty: jackknife over presses (1 standard "
-      "error)";
-  const PressFinding found = find_presses(totals);
-  out["presses_found"] = found.presses;
-  out["presses_isolated"] = found.isolated.size();
-  std::vector<PressWindow> use = found.isolated;
-  if (int(use.size()) > o.max_self_check_presses) {
-    std::vector<PressWindow> some;
-    for (int k = 0; k < o.max_self_check_presses; ++k)
-      some.push_back(use[std::size_t(k) * use.size() / std::size_t(o.max_self_check_presses)]);
-    use = std::move(some);
-  }
-  out["presses_used"] = use.size();
-  // Each press: its pressure (from the totals) and, per camera, the image change near its centroid.
-  std::vector<std::vector<PressSignals>> per_camera(r.cameras().size());
-  std::size_t done = 0;
-  for (const PressWindow& w : use) {
-    if (o.progress) o.progress("sync self-check", done++, use.size());
-    PressSignals base;
-    for (const auto& t : totals)
-      if (t.t_ns >= w.from_ns && t.t_ns <= w.to_ns) base.pressure.push_back({t.t_ns, t.total_counts});
-    auto peak = r.pressure_frame(w.peak_sequence, w.peak_connection);
-    if (!peak) continue;
-    const auto centroid =
-        calib::pressure_centroid(peak.value().image(), peak.value().grid_xscale, peak.value().grid_yscale);
-    if (!centroid) continue;
+// One camera's image change near the contact in each press (`contacts`: the press's pressure and
+// the contact's centroid on the pad), read through `r`, a reader of this camera's thread alone.
+std::vector<PressSignals> camera_signals(SessionReader& r, std::size_t c, const calib::CameraCalibration& cal,
+                                         const calib::PadLayout& pad, const std::vector<SampleInfo>& samples,
+                                         const std::vector<std::pair<PressWindow, PressSignals>>& presses,
+                                         const std::vector<cv::Point2d>& centroids,
+                                         const std::function<void()>& press_done) {
+  std::vector<PressSignals> out;
+  const CameraInfo& camera = r.cameras()[c];
+  for (std::size_t k = 0; k < presses.size(); ++k) {
+    const auto& [w, base] = presses[k];
     const auto first = std::lower_bound(samples.begin(), samples.end(), w.from_ns,
                                         [](const SampleInfo& s, std::int64_t t) { return s.t_ns < t; });
-    for (std::size_t c = 0; c < r.cameras().size(); ++c) {
-      if (!cal[c]) continue;
-      const CameraInfo& camera = r.cameras()[c];
-      const auto roi = contact_roi(cal[c]->model, pad, *centroid, {camera.width, camera.height});
-      if (!roi) continue;
+    const auto roi = contact_roi(cal.model, pad, centroids[k], {camera.width, camera.height});
+    if (roi) {
       PressSignals s{base.pressure, {}};
       cv::Mat reference;
       for (auto it = first; it != samples.end() && it->t_ns <= w.to_ns; ++it) {
@@ -386,10 +368,89 @@ json self_check_section(SessionReader& r, const std::vector<std::optional<calib:
         cv::transform(diff, summed, cv::Matx13f(1, 1, 1));
         s.image.push_back({it->t_ns + frame->offset_ns, double(cv::countNonZero(summed > 30.0))});
       }
-      per_camera[c].push_back(std::move(s));
+      out.push_back(std::move(s));
     }
+    press_done();
   }
-  if (o.progress) o.progress("sync self-check", use.size(), use.size());
+  return out;
+}
+
+json self_check_section(const std::filesystem::path& dir, SessionReader& r,
+                        const std::vector<std::optional<calib::CameraCalibration>>& cal, const calib::PadLayout& pad,
+                        const std::vector<SampleInfo>& samples, const std::vector<PressureTotal>& totals,
+                        const ReportOptions& o) {
+  json out = {{"cameras", json::array()}};
+  out["method"] =
+      "image change near the contact against total pressure on the presses' flanks: the offset at which "
+      "one curve fits the rising and the falling edges; uncertainty: jackknife over presses (1 standard "
+      "error)";
+  const PressFinding found = find_presses(totals);
+  out["presses_found"] = found.presses;
+  out["presses_isolated"] = found.isolated.size();
+  std::vector<PressWindow> use = found.isolated;
+  if (int(use.size()) > o.max_self_check_presses) {
+    std::vector<PressWindow> some;
+    for (int k = 0; k < o.max_self_check_presses; ++k)
+      some.push_back(use[std::size_t(k) * use.size() / std::size_t(o.max_self_check_presses)]);
+    use = std::move(some);
+  }
+  out["presses_used"] = use.size();
+  // Each press with a contact: its pressure (from the totals) and the contact's centroid.
+  std::vector<std::pair<PressWindow, PressSignals>> presses;
+  std::vector<cv::Point2d> centroids;
+  for (const PressWindow& w : use) {
+    auto peak = r.pressure_frame(w.peak_sequence, w.peak_connection);
+    if (!peak) continue;
+    const auto centroid =
+        calib::pressure_centroid(peak.value().image(), peak.value().grid_xscale, peak.value().grid_yscale);
+    if (!centroid) continue;
+    PressSignals base;
+    for (const auto& t : totals)
+      if (t.t_ns >= w.from_ns && t.t_ns <= w.to_ns) base.pressure.push_back({t.t_ns, t.total_counts});
+    presses.emplace_back(w, std::move(base));
+    centroids.push_back(*centroid);
+  }
+  // Per camera, the image change around each press: decoding the frames is the self-check's work,
+  // and a camera's is its own, so the cameras are read side by side, each through its own reader
+  // (a reader decodes with state of its own), as the intrinsics are (calib/session_calibration.cpp).
+  std::vector<std::vector<PressSignals>> per_camera(r.cameras().size());
+  std::vector<std::size_t> cameras;
+  for (std::size_t c = 0; c < r.cameras().size(); ++c)
+    if (cal[c]) cameras.push_back(c);
+  std::atomic<std::size_t> next{0};
+  std::mutex mutex;  // guards done, the progress callback and failure
+  std::size_t done = 0;
+  const std::size_t total = cameras.size() * presses.size();
+  std::exception_ptr failure;
+  auto press_done = [&] {
+    const std::lock_guard lock(mutex);
+    if (o.progress) o.progress("sync self-check", ++done, total);
+  };
+  auto work = [&](SessionReader* own) {
+    try {
+      std::unique_ptr<SessionReader> opened;
+      for (std::size_t i = next++; i < cameras.size(); i = next++) {
+        if (!own) {
+          auto reader = SessionReader::open(dir);
+          if (!reader) throw UserError(reader.error().message);
+          opened = std::move(reader.value());
+          own = opened.get();
+        }
+        per_camera[cameras[i]] =
+            camera_signals(*own, cameras[i], *cal[cameras[i]], pad, samples, presses, centroids, press_done);
+      }
+    } catch (...) {
+      const std::lock_guard lock(mutex);
+      if (!failure) failure = std::current_exception();
+      next = cameras.size();  // the others stop at their next camera
+    }
+  };
+  const std::size_t threads = std::min<std::size_t>(std::max(1u, std::thread::hardware_concurrency()), cameras.size());
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, nullptr);
+  work(&r);
+  for (auto& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
   for (std::size_t c = 0; c < r.cameras().size(); ++c) {
     json j = {{"name", r.cameras()[c].name}};
     if (!cal[c]) {
@@ -507,7 +568,7 @@ Result<json> build_report(const std::filesystem::path& dir, const ReportOptions&
     if (o.progress) o.progress("reading the store", 5, 5);
     if (o.thumbnails) add_thumbnails(r, calibration, cal, pad, totals.value());
     j["calibration"] = calibration;
-    if (o.self_check) j["self_check"] = self_check_section(r, cal, pad, samples.value(), totals.value(), o);
+    if (o.self_check) j["self_check"] = self_check_section(dir, r, cal, pad, samples.value(), totals.value(), o);
     return j;
   } catch (const UserError& e) {
     return Error{e.what()};
