@@ -3,10 +3,12 @@
 // logging and signals, and runs the one given. See docs/ for the user guide.
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <cstdlib>
 #include <filesystem>
 #include <set>
@@ -76,11 +78,30 @@ pvcap::FaultPlan read_faults() {
   return plan;
 }
 
+constexpr int kOfflineNice = 10;  // yield_to_recordings: below a recording's encoders (nice +5)
+
 // The commands that work through recorded images, frame after frame, and record nothing
 // (core/allocator.h: what keeping image buffers in the heap gains them, and why a recorder does not).
 bool works_offline_on_images(const CLI::App& command) {
   static const std::set<std::string> offline = {"calibrate", "export", "replay", "report", "compact", "dataset"};
   return offline.count(command.get_name()) > 0;
+}
+
+// The commands that read or rewrite finished sessions (and record nothing) run at a lower priority:
+// a session recording on the same machine keeps the cores it needs (its frames have a deadline,
+// these have none), and on an idle machine they run as fast as before. Not `replay`: its window is
+// watched, and as devices it serves frames on their clock.
+void yield_to_recordings(const CLI::App& command) {
+  static const std::set<std::string> after_the_session = {"calibrate", "export", "report",  "compact",
+                                                          "dataset",   "verify", "recover", "migrate"};
+  errno = 0;
+  const int now = getpriority(PRIO_PROCESS, 0);
+  // The calling thread's (Linux: a thread's own); every thread it starts after this inherits it.
+  if (after_the_session.count(command.get_name()) && errno == 0 && now < kOfflineNice)
+    (void)setpriority(PRIO_PROCESS, 0, kOfflineNice);
+  errno = 0;
+  const int after = getpriority(PRIO_PROCESS, 0);
+  if (errno == 0) spdlog::debug("pvcap {}: at nice {}", command.get_name(), after);
 }
 
 }  // namespace
@@ -118,6 +139,7 @@ int main(int argc, char** argv) {
     for (const auto& c : commands)
       if (*c.command) {
         if (works_offline_on_images(*c.command)) pvcap::keep_image_buffers_in_heap();
+        yield_to_recordings(*c.command);
         return c.run();
       }
   } catch (const pvcap::UserError& e) {
