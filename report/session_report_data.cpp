@@ -334,8 +334,8 @@ std::optional<cv::Rect> contact_roi(const calib::CameraModel& m, const calib::Pa
   return roi;
 }
 
-// One camera's image change near the contact in each press (`contacts`: the press's pressure and
-// the contact's centroid on the pad), read through `r`, a reader of this camera's thread alone.
+// One camera's image change near the contact in each of `presses` (its window and pressure; the
+// contact's centroid on the pad in `centroids`), read through `r`, a reader of this thread alone.
 std::vector<PressSignals> camera_signals(SessionReader& r, std::size_t c, const calib::CameraCalibration& cal,
                                          const calib::PadLayout& pad, const std::vector<SampleInfo>& samples,
                                          const std::vector<std::pair<PressWindow, PressSignals>>& presses,
