@@ -3,6 +3,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <limits>
 #include <set>
@@ -118,6 +119,9 @@ Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::S
   out.coverage.assign(Intrinsics::coverage_cols * Intrinsics::coverage_rows, 0);
   for (const BoardView& v : all) {
     if (v.corners.size() < kMinBoardCorners) continue;
+    if (std::any_of(v.corners.begin(), v.corners.end(),
+                    [](const cv::Point2f& p) { return !std::isfinite(p.x) || !std::isfinite(p.y); }))
+      continue;  // a corner not found where it was looked for: the view says nothing sure
     // Corners along one row or column of the board say nothing about its plane (and OpenCV's fit
     // asserts on them): a view needs two of each.
     std::set<int> board_rows, board_cols;
@@ -166,10 +170,27 @@ Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::S
   // SVD; the system is the normal equations plus damping (symmetric, positive definite), where both
   // give the same answer: on a 25-s board session the four cameras' K, distortion and RMS agreed to
   // 1e-8 px, and the fit's share of `pvcap calibrate intrinsics` fell from 21 s of CPU to 2.
+  // Should a step's system be singular, LU gives NaN where SVD gives an answer (a CI run's camera came
+  // out NaN, 2026-11-29): a fit that is not finite is made again by SVD from the same start, and one
+  // that is still not finite is an error, never a lens.
+  auto finite = [&](double rms) {
+    return std::isfinite(rms) && cv::checkRange(K) && cv::checkRange(dist) && cv::checkRange(per_view);
+  };
   auto calibrate = [&](bool again = false) {
-    return cv::aruco::calibrateCameraCharuco(
-        corners, ids, make_board(spec), size, K, dist, rvecs, tvecs, deviations, cv::noArray(), per_view,
-        cv::CALIB_FIX_ASPECT_RATIO | cv::CALIB_USE_LU | (again ? cv::CALIB_USE_INTRINSIC_GUESS : 0), until);
+    const int flags = cv::CALIB_FIX_ASPECT_RATIO | (again ? cv::CALIB_USE_INTRINSIC_GUESS : 0);
+    const cv::Mat K0 = K.clone(), dist0 = dist.clone();
+    double rms =
+        cv::aruco::calibrateCameraCharuco(corners, ids, make_board(spec), size, K, dist, rvecs, tvecs, deviations,
+                                          cv::noArray(), per_view, flags | cv::CALIB_USE_LU, until);
+    if (finite(rms)) return rms;
+    K0.copyTo(K);
+    dist0.copyTo(dist);
+    rms = cv::aruco::calibrateCameraCharuco(corners, ids, make_board(spec), size, K, dist, rvecs, tvecs, deviations,
+                                            cv::noArray(), per_view, flags, until);
+    if (!finite(rms))
+      throw cv::Exception(cv::Error::StsNoConv, "the fit did not converge (not a finite lens)", __func__, __FILE__,
+                          __LINE__);
+    return rms;
   };
   try {
     out.rms_px = calibrate();
