@@ -112,21 +112,30 @@ BoardView detect_board(const cv::Mat& image, const BoardSpec& spec) {
   return view;
 }
 
+namespace {
+
+// A view the fit can use: enough corners, each a number (not one lost where it was looked for), and
+// not all along one row or column of the board, which says nothing about its plane (and OpenCV's
+// fit asserts on them): two of each.
+bool tells_the_plane(const BoardView& v, const BoardSpec& spec) {
+  if (v.corners.size() < kMinBoardCorners) return false;
+  if (std::any_of(v.corners.begin(), v.corners.end(),
+                  [](const cv::Point2f& p) { return !std::isfinite(p.x) || !std::isfinite(p.y); }))
+    return false;
+  std::set<int> board_rows, board_cols;
+  for (int id : v.ids) board_rows.insert(id / (spec.squares_x - 1)), board_cols.insert(id % (spec.squares_x - 1));
+  return board_rows.size() >= 2 && board_cols.size() >= 2;
+}
+
+}  // namespace
+
 Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::Size size, const BoardSpec& spec) {
   std::vector<std::vector<cv::Point2f>> corners;
   std::vector<std::vector<int>> ids;
   Intrinsics out;
   out.coverage.assign(Intrinsics::coverage_cols * Intrinsics::coverage_rows, 0);
   for (const BoardView& v : all) {
-    if (v.corners.size() < kMinBoardCorners) continue;
-    if (std::any_of(v.corners.begin(), v.corners.end(),
-                    [](const cv::Point2f& p) { return !std::isfinite(p.x) || !std::isfinite(p.y); }))
-      continue;  // a corner not found where it was looked for: the view says nothing sure
-    // Corners along one row or column of the board say nothing about its plane (and OpenCV's fit
-    // asserts on them): a view needs two of each.
-    std::set<int> board_rows, board_cols;
-    for (int id : v.ids) board_rows.insert(id / (spec.squares_x - 1)), board_cols.insert(id % (spec.squares_x - 1));
-    if (board_rows.size() < 2 || board_cols.size() < 2) continue;
+    if (!tells_the_plane(v, spec)) continue;
     // The board still since the view before (its corners within 0.02 px): the same view again, which
     // would weigh that pose twice and cost the fit time for nothing.
     if (!corners.empty() && ids.back() == v.ids) {
