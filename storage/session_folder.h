@@ -6,6 +6,7 @@
 // (StoreCrash.KillNineAtEveryPhase...: "not a pvcap session index").
 #include <cstdint>
 #include <filesystem>
+#include <string>
 
 #include "core/result.h"
 #include "core/rig_config.h"
