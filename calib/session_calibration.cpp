@@ -3,15 +3,12 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cstdio>
-#include <exception>
 #include <fstream>
 #include <map>
 #include <mutex>
 #include <optional>
-#include <thread>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -22,6 +19,7 @@
 #include "calib/rig_calibration.h"
 #include "capture/image_files.h"
 #include "core/result.h"
+#include "core/side_by_side.h"
 #include "storage/session_index.h"
 #include "storage/session_reader.h"
 
@@ -203,38 +201,22 @@ std::vector<Result<calib::Intrinsics>> intrinsics_of_cameras(const CalibrationRu
   const std::vector<CameraInfo>& cameras = run.session->cameras();
   const calib::BoardSpec spec;
   std::vector<std::optional<Result<calib::Intrinsics>>> results(cameras.size());
-  std::atomic<std::size_t> next_camera{0};
   std::size_t frames_done = 0;
   const std::size_t frames_total = cameras.size() * run.samples.size();
-  std::mutex mutex;  // guards frames_done, the progress line and failure
-  std::exception_ptr failure;
-  auto work = [&] {
-    try {
-      std::unique_ptr<SessionReader> session = open_session(o.session);
-      for (std::size_t c = next_camera++; c < cameras.size(); c = next_camera++) {
-        std::vector<calib::BoardView> views;
-        for (std::size_t i : run.samples) {
-          auto image = session->image(i, c);
-          if (!image) throw UserError(image.error().message);
-          if (!image.value().empty()) views.push_back(calib::detect_board(image.value(), spec));
-          const std::lock_guard lock(mutex);  // one line, its count rising
-          progress("finding the board (all cameras)", ++frames_done, frames_total);
-        }
-        results[c] = calib::calibrate_intrinsics(views, {cameras[c].width, cameras[c].height}, spec);
-      }
-    } catch (...) {
-      const std::lock_guard lock(mutex);
-      if (!failure) failure = std::current_exception();
-      next_camera = cameras.size();  // the others stop at their next camera
+  std::mutex mutex;                                                     // guards frames_done and the progress line
+  std::vector<std::unique_ptr<SessionReader>> readers(cameras.size());  // one per thread, opened on use
+  run_side_by_side(cameras.size(), cameras.size(), [&](std::size_t c, std::size_t worker) {
+    if (!readers[worker]) readers[worker] = open_session(o.session);
+    std::vector<calib::BoardView> views;
+    for (std::size_t i : run.samples) {
+      auto image = readers[worker]->image(i, c);
+      if (!image) throw UserError(image.error().message);
+      if (!image.value().empty()) views.push_back(calib::detect_board(image.value(), spec));
+      const std::lock_guard lock(mutex);  // one line, its count rising
+      progress("finding the board (all cameras)", ++frames_done, frames_total);
     }
-  };
-  const std::size_t threads =
-      std::clamp<std::size_t>(std::thread::hardware_concurrency(), 1, std::max<std::size_t>(cameras.size(), 1));
-  std::vector<std::thread> pool;
-  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
-  if (failure) std::rethrow_exception(failure);
+    results[c] = calib::calibrate_intrinsics(views, {cameras[c].width, cameras[c].height}, spec);
+  });
   std::vector<Result<calib::Intrinsics>> out;
   for (auto& r : results) out.push_back(std::move(*r));
   return out;

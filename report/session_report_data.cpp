@@ -1,16 +1,13 @@
 #include "report/session_report_data.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
 #include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
-#include <thread>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
@@ -20,6 +17,7 @@
 #include "calib/rig_calibration.h"
 #include "capture/image_files.h"
 #include "capture/sensel_units.h"
+#include "core/side_by_side.h"
 #include "core/time.h"
 #include "protocol/takes.h"
 #include "report/press_windows.h"
@@ -417,40 +415,24 @@ json self_check_section(const std::filesystem::path& dir, SessionReader& r,
   std::vector<std::size_t> cameras;
   for (std::size_t c = 0; c < r.cameras().size(); ++c)
     if (cal[c]) cameras.push_back(c);
-  std::atomic<std::size_t> next{0};
-  std::mutex mutex;  // guards done, the progress callback and failure
+  std::mutex mutex;  // guards done and the progress callback
   std::size_t done = 0;
   const std::size_t total = cameras.size() * presses.size();
-  std::exception_ptr failure;
   auto press_done = [&] {
     const std::lock_guard lock(mutex);
     if (o.progress) o.progress("sync self-check", ++done, total);
   };
-  auto work = [&](SessionReader* own) {
-    try {
-      std::unique_ptr<SessionReader> opened;
-      for (std::size_t i = next++; i < cameras.size(); i = next++) {
-        if (!own) {
-          auto reader = SessionReader::open(dir);
-          if (!reader) throw UserError(reader.error().message);
-          opened = std::move(reader.value());
-          own = opened.get();
-        }
-        per_camera[cameras[i]] =
-            camera_signals(*own, cameras[i], *cal[cameras[i]], pad, samples, presses, centroids, press_done);
-      }
-    } catch (...) {
-      const std::lock_guard lock(mutex);
-      if (!failure) failure = std::current_exception();
-      next = cameras.size();  // the others stop at their next camera
+  std::vector<std::unique_ptr<SessionReader>> readers(cameras.size());  // the workers' after the first
+  run_side_by_side(cameras.size(), cameras.size(), [&](std::size_t i, std::size_t worker) {
+    if (worker > 0 && !readers[worker]) {
+      auto opened = SessionReader::open(dir);
+      if (!opened) throw UserError(opened.error().message);
+      readers[worker] = std::move(opened.value());
     }
-  };
-  const std::size_t threads = std::min<std::size_t>(std::max(1u, std::thread::hardware_concurrency()), cameras.size());
-  std::vector<std::thread> pool;
-  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, nullptr);
-  work(&r);
-  for (auto& t : pool) t.join();
-  if (failure) std::rethrow_exception(failure);
+    SessionReader& own = worker == 0 ? r : *readers[worker];
+    per_camera[cameras[i]] =
+        camera_signals(own, cameras[i], *cal[cameras[i]], pad, samples, presses, centroids, press_done);
+  });
   for (std::size_t c = 0; c < r.cameras().size(); ++c) {
     json j = {{"name", r.cameras()[c].name}};
     if (!cal[c]) {

@@ -1,15 +1,14 @@
 #include "storage/verify.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <mutex>
-#include <thread>
 
 #include <fmt/format.h>
 
 #include "capture/sensel_frame.h"
+#include "core/side_by_side.h"
 #include "storage/frame_checksum.h"
 #include "storage/frame_spill.h"
 #include "storage/pressure_blob.h"
@@ -98,19 +97,13 @@ class Verifier {
       jobs.push_back({files.column_int(0), files.column_text(1), files.column_text(2), files.column_text(3), {}});
     for (VideoJob& job : jobs) job.kept = kept_rows(job.id);
     std::vector<VideoFindings> found(jobs.size());
-    std::atomic<std::size_t> next{0};
-    auto work = [&] {
-      for (std::size_t i = next++; i < jobs.size(); i = next++) try {
-          check_video(jobs[i], found[i]);
-        } catch (const std::exception& e) {  // out of memory, say: that video is not checked
-          found[i].errors.push_back(fmt::format("{}: could not be checked: {}", jobs[i].path, e.what()));
-        }
-    };
-    const std::size_t threads = std::clamp<std::size_t>(std::thread::hardware_concurrency(), 1, kMaxVideoThreads);
-    std::vector<std::thread> pool;
-    for (std::size_t t = 1; t < std::min(threads, jobs.size()); ++t) pool.emplace_back(work);
-    work();
-    for (auto& t : pool) t.join();
+    run_side_by_side(jobs.size(), kMaxVideoThreads, [&](std::size_t i, std::size_t) {
+      try {
+        check_video(jobs[i], found[i]);
+      } catch (const std::exception& e) {  // out of memory, say: that video is not checked
+        found[i].errors.push_back(fmt::format("{}: could not be checked: {}", jobs[i].path, e.what()));
+      }
+    });
 
     std::size_t checked = 0, damaged = 0;
     for (const VideoFindings& f : found) {
