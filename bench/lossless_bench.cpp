@@ -5,7 +5,8 @@
 // Printed per candidate: MB per frame, frames/s encoding and decoding, bit-exact or not, and
 // whether every frame decodes alone (intra-only: the store's random access). For scale: the raw
 // store must keep 4 cameras x 15 Hz = 60 frames/s beside the capture on 2 cores; its default
-// (ffvhuff) is the first line. Figures in docs/PERFORMANCE.md.
+// (ffvhuff) is the first line; above the noisy table, the least any lossless coder can average on
+// those frames (the noise's entropy, bench::noise_bound_bytes). Figures in docs/PERFORMANCE.md.
 // Usage: lossless_bench [FRAMES=20] [NOISE_DN=2] [CANDIDATE_SUBSTRING]
 extern "C" {
 #include <libavcodec/avcodec.h>
@@ -193,6 +194,13 @@ int main(int argc, char** argv) {
         "\n%s 1080p mosaics (%d frames, %.0f DN noise), four planes stacked %dx%d grey, 2 threads; raw: %.2f "
         "MB per frame\n",
         dn > 0 ? "noisy" : "clean", n, dn, planes[0].cols, planes[0].rows, double(planes[0].total()) / 1e6);
+    if (dn > 0) {
+      double bound = 0;
+      for (const cv::Mat& clean : bench::make_mosaics(0, n, 0)) bound += bench::noise_bound_bytes(clean, dn);
+      std::printf(
+          "the noise's own entropy given the clean mosaics: %.3f MB per frame (no lossless coder averages less)\n",
+          bound / n / 1e6);
+    }
     std::printf("%-42s %9s %10s %10s %9s %6s\n", "candidate", "MB/frame", "encode f/s", "decode f/s", "exact", "intra");
     for (const Candidate& c : candidates()) {
       if (!only.empty() && c.label.find(only) == std::string::npos) continue;
