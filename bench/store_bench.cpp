@@ -108,7 +108,7 @@ double percentile(std::vector<double> v, double p) {
 
 // 6. Raw mode: `pvcap compact` on the finished store (its defaults), then camera 0's mosaics read back
 // against the sensor's again.
-void bench_compact(const fs::path& session, const std::vector<cv::Mat>& sensor) {
+void bench_compact(const fs::path& session, const std::vector<cv::Mat>& sensor, int n, double noise) {
   CompactOptions o;
   const auto t = Clock::now();
   auto c = compact_session(session, o);
@@ -142,6 +142,15 @@ void bench_compact(const fs::path& session, const std::vector<cv::Mat>& sensor) 
       sensor.size());
   std::printf("compacted: random access, one camera image of a random sample: p50 %.1f ms, p95 %.1f ms, max %.1f ms\n",
               percentile(ms, 0.5), percentile(ms, 0.95), percentile(ms, 1.0));
+  if (noise <= 0) return;
+  // The floor under compact and any other lossless coder on these frames: their noise's entropy.
+  double floor_bytes = 0;
+  for (int c = 0; c < 4; ++c)
+    for (const cv::Mat& clean : make_frames(c, n, 0)) floor_bytes += bench::noise_bound_bytes(clean, noise);
+  std::printf(
+      "compact's floor: the noise's own entropy given the clean mosaics, %.3f MB per 1080p frame (no lossless coder "
+      "averages less)\n",
+      floor_bytes / 1e6 / (4.0 * n));
 }
 
 // Steps 1-5 for one mode (`fields`: the store settings of the mode), printed with `label`.
@@ -305,7 +314,7 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
       "(%.3f MB per frame)\n",
       double(bytes) / 1e6, n, double(bytes) / 1e6 / (4.0 * n), double(view_bytes) / 1e6,
       double(view_bytes) / 1e6 / (4.0 * n));
-  if (raw) bench_compact(session, frames[0]);
+  if (raw) bench_compact(session, frames[0], n, noise);
 }
 }  // namespace
 
