@@ -3,7 +3,8 @@
 //  1. CPU per received 1920x1080 frame: a bare Aravis receive loop (pop, push back) against
 //     pvcap's capture path (AravisCamera + a consumer that unwraps ids and releases buffers,
 //     as the recorder's worker does before debayering), on the same simulated stream; the ratio,
-//     and where each one's CPU goes, thread by thread.
+//     and where each one's CPU goes and how often each thread is switched in, thread by thread;
+//     the rounds alternate which path runs first.
 //  2. The highest cameras x fps the capture path sustains here with zero drops.
 // Usage: capture_bench [SECONDS=8 per measurement] [ROUNDS=3 of the ratio] [ratio: only step 1]
 #include <sys/resource.h>
@@ -44,6 +45,7 @@ double cpu_seconds() {
 struct ThreadCpu {
   std::string name;
   double seconds = 0;
+  double switches = 0;  // context switches, voluntary (its waits) and not (preemptions)
 };
 std::map<int, ThreadCpu> thread_cpu() {
   std::map<int, ThreadCpu> out;
@@ -57,28 +59,42 @@ std::map<int, ThreadCpu> thread_cpu() {
     ThreadCpu t;
     std::ifstream(task.path() / "comm") >> t.name;
     t.seconds = double(ts.tv_sec) + double(ts.tv_nsec) / 1e9;
+    std::ifstream status(task.path() / "status");
+    for (std::string key; status >> key;) {
+      if (key == "voluntary_ctxt_switches:" || key == "nonvoluntary_ctxt_switches:") {
+        double n = 0;
+        status >> n;
+        t.switches += n;
+      }
+    }
     out[tid] = t;
   }
   return out;
 }
 
-// A round's CPU by role, us per frame: each thread's CPU since `before`, under the role its name
-// gives it (pvcap names its threads: core/thread_name.h). Aravis' own threads other than the stream's
-// (the heartbeat) are "other".
+// A round's CPU by role, us per frame, and its context switches per frame: each thread's since
+// `before`, under the role its name gives it (pvcap names its threads: core/thread_name.h). Aravis'
+// own threads other than the stream's (the heartbeat) are "other".
 using CpuByRole = std::map<std::string, double>;
-CpuByRole cpu_by_role(const std::map<int, ThreadCpu>& before, std::uint64_t frames, const char* main_role) {
-  CpuByRole roles;
+struct RoleFigures {
+  CpuByRole us, switches;
+};
+RoleFigures cpu_by_role(const std::map<int, ThreadCpu>& before, std::uint64_t frames, const char* main_role) {
+  RoleFigures roles;
   if (frames == 0) return roles;
   for (const auto& [tid, now] : thread_cpu()) {
     const auto was = before.find(tid);
-    const double us = (now.seconds - (was == before.end() ? 0.0 : was->second.seconds)) / double(frames) * 1e6;
+    const bool known = was != before.end();
+    const double us = (now.seconds - (known ? was->second.seconds : 0.0)) / double(frames) * 1e6;
+    const double switches = (now.switches - (known ? was->second.switches : 0.0)) / double(frames);
     const std::string role = tid == getpid()                    ? main_role
                              : now.name == "arv_gv_stream"      ? "stream thread"
                              : now.name == "consumer"           ? "consumer"
                              : now.name.rfind("watch-", 0) == 0 ? "watchdog"
                              : now.name.rfind("probe-", 0) == 0 ? "clock probes"
                                                                 : "other";
-    roles[role] += us;
+    roles.us[role] += us;
+    roles.switches[role] += switches;
   }
   return roles;
 }
@@ -142,7 +158,7 @@ arv::GPtr<ArvCamera> open_bare(const std::string& address) {
 struct RoundResult {
   double cpu = 0;
   std::uint64_t good = 0, lost = 0;  // lost: incomplete + never received + buffer underruns
-  CpuByRole roles;
+  RoleFigures roles;
   std::uint64_t late = 0;  // frames whose arrival is their take (CameraFrame::arrival_late)
 };
 
@@ -232,7 +248,7 @@ RoundResult pvcap_path(const std::vector<CameraConfig>& configs, double seconds)
   std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
   const double cpu = cpu_seconds() - cpu0;
   counting.store(false);
-  CpuByRole roles = cpu_by_role(threads0, good.load(), "main (waits)");
+  RoleFigures roles = cpu_by_role(threads0, good.load(), "main (waits)");
   std::uint64_t overflow = 0;
   for (auto& c : cams) overflow += c->counters().underruns;
   for (auto& c : cams) c->request_stop();
@@ -265,24 +281,45 @@ int main(int argc, char** argv) {
   {
     const double fps = 30;
     Simulator sim(1, 1920, 1080, fps);
-    // Alternate reference and ours, three rounds each, and compare medians: a single pair
-    // swings by tens of percent on a shared machine.
+    // Alternate reference and ours, a round each, and compare medians: a single pair swings by
+    // tens of percent on a shared machine.
     const auto per_frame_us = [](double cpu, std::uint64_t n) { return n ? cpu / double(n) * 1e6 : 0.0; };
     std::vector<double> bare_us, ours_us;
-    std::map<std::string, std::vector<double>> bare_roles, ours_roles;
+    std::map<std::string, std::vector<double>> bare_roles, ours_roles, bare_switches, ours_switches;
     std::uint64_t bare_frames = 0, ours_frames = 0, ours_late = 0;
+    // The order alternates too (bare first in even rounds, pvcap first in odd ones), so neither path
+    // always runs second: an order effect was suspected (2026-12-01: 1.16 and 1.03 with the bare loop
+    // first, 0.99 twice with pvcap's), but six rounds alternated showed none beyond the spread. Each
+    // round's pair is printed.
+    std::string per_round;
     for (int round = 0; round < rounds; ++round) {
-      const auto bare = bare_aravis(camera(0, 1920, 1080, fps), seconds);
-      bare_us.push_back(per_frame_us(bare.cpu, bare.good));
-      bare_frames += bare.good;
-      for (const auto& [role, us] : bare.roles) bare_roles[role].push_back(us);
-      std::this_thread::sleep_for(300ms);
-      const auto ours = pvcap_path({camera(0, 1920, 1080, fps)}, seconds);
-      ours_us.push_back(per_frame_us(ours.cpu, ours.good));
-      ours_frames += ours.good;
-      ours_late += ours.late;
-      for (const auto& [role, us] : ours.roles) ours_roles[role].push_back(us);
-      std::this_thread::sleep_for(300ms);
+      const auto run_bare = [&] {
+        const auto bare = bare_aravis(camera(0, 1920, 1080, fps), seconds);
+        bare_us.push_back(per_frame_us(bare.cpu, bare.good));
+        bare_frames += bare.good;
+        for (const auto& [role, us] : bare.roles.us) bare_roles[role].push_back(us);
+        for (const auto& [role, n] : bare.roles.switches) bare_switches[role].push_back(n);
+        std::this_thread::sleep_for(300ms);
+      };
+      const auto run_ours = [&] {
+        const auto ours = pvcap_path({camera(0, 1920, 1080, fps)}, seconds);
+        ours_us.push_back(per_frame_us(ours.cpu, ours.good));
+        ours_frames += ours.good;
+        ours_late += ours.late;
+        for (const auto& [role, us] : ours.roles.us) ours_roles[role].push_back(us);
+        for (const auto& [role, n] : ours.roles.switches) ours_switches[role].push_back(n);
+        std::this_thread::sleep_for(300ms);
+      };
+      const bool bare_first = round % 2 == 0;
+      if (bare_first) {
+        run_bare();
+        run_ours();
+      } else {
+        run_ours();
+        run_bare();
+      }
+      per_round += fmt::format("{}{:.0f}/{:.0f}{}", round ? ", " : "", bare_us.back(), ours_us.back(),
+                               bare_first ? "" : " (pvcap first)");
     }
     std::sort(bare_us.begin(), bare_us.end());
     std::sort(ours_us.begin(), ours_us.end());
@@ -304,8 +341,12 @@ int main(int argc, char** argv) {
       for (const auto& [us, role] : medians) line += fmt::format("{}{} {:.1f}", line.empty() ? "" : ", ", role, us);
       return line;
     };
+    fmt::print("  us per frame by round, bare/pvcap: {}\n", per_round);
     fmt::print("  us per frame by thread (medians): bare: {}\n", by_role(bare_roles));
     fmt::print("  us per frame by thread (medians): pvcap: {}\n", by_role(ours_roles));
+    // Each wake-up costs its thread CPU of its own on these VMs (the switch in: tens of us).
+    fmt::print("  context switches per frame by thread (medians): bare: {}\n", by_role(bare_switches));
+    fmt::print("  context switches per frame by thread (medians): pvcap: {}\n", by_role(ours_switches));
     fmt::print("  pvcap frames whose arrival stamp came more than 2 ms late (stamped at their take): {} of {}\n",
                ours_late, ours_frames);
   }

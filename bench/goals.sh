@@ -30,8 +30,8 @@ run() {
   "$@" > "$work/$name.txt" 2>&1 || { echo "goals: the $name step failed; its output: $work/$name.txt" >&2; exit 1; }
 }
 
-step "capture bench: 5 rounds of 20 s per path"
-run capture "$here/build/bench/capture_bench" 20 5 ratio
+step "capture bench: 6 rounds of 20 s per path, each path first in three"
+run capture "$here/build/bench/capture_bench" 20 6 ratio
 step "store bench: 90 noisy frames per camera, then compact"
 run store "$here/build/bench/store_bench"
 step "recording a $minutes-minute protocol session (log: $work/pvcap.log)"
