@@ -78,7 +78,8 @@ print(f"the noisy frames' floor: {float(floor.group(1)):.3f} MB per frame, their
       f"(no lossless coder averages less){': the compact goal is below it' if float(floor.group(1)) > 0.75 else ''}")
 print("as printed by the benches:")
 for name, pattern in [("capture", r"cpu per 1080p frame.*"), ("store", r"pipeline, 4 cameras.*"),
-                      ("store", r"compact \(.*"), ("store", r"compact's floor.*"), ("compact", r"compacted \d+ segments.*"),
+                      ("store", r"compact \(.*"), ("store", r"compact's floor.*"),
+                      ("compact", r"compacted \d+ segments.*"),
                       ("export", r"export: .*"), ("export", r"JPEG encoder alone.*"),
                       ("replay", r"replay --out, 4 views.*"), ("replay", r"ffmpeg command line.*view videos.*"),
                       ("replay", r"replay --out --from-raw.*"), ("replay", r"ffmpeg command line.*raw videos.*")]:
