@@ -15,6 +15,8 @@
 namespace pvcap::bench {
 
 inline constexpr int kMosaicWidth = 1920, kMosaicHeight = 1080;
+// The benches' sensor noise by default (standard deviation, DN): a real sensor's read noise.
+inline constexpr double kSensorNoiseDn = 2.0;
 
 // Adds `noise` DN (standard deviation) of Gaussian sensor noise to an 8-bit frame: drawn afresh for
 // every sample, rounded to whole DN, the sum saturating at 0 and 255.

@@ -79,7 +79,7 @@ using CpuByRole = std::map<std::string, double>;
 struct RoleFigures {
   CpuByRole us, switches;
 };
-RoleFigures cpu_by_role(const std::map<int, ThreadCpu>& before, std::uint64_t frames, const char* main_role) {
+RoleFigures figures_by_role(const std::map<int, ThreadCpu>& before, std::uint64_t frames, const char* main_role) {
   RoleFigures roles;
   if (frames == 0) return roles;
   for (const auto& [tid, now] : thread_cpu()) {
@@ -194,7 +194,7 @@ RoundResult bare_aravis(const CameraConfig& c, double seconds) {
     }
   }
   const double cpu = cpu_seconds() - cpu0;
-  RoundResult r{cpu, frames, 0, cpu_by_role(threads0, frames, "receive loop")};
+  RoundResult r{cpu, frames, 0, figures_by_role(threads0, frames, "receive loop")};
   arv_camera_stop_acquisition(cam.get(), nullptr);
   return r;
 }
@@ -248,7 +248,7 @@ RoundResult pvcap_path(const std::vector<CameraConfig>& configs, double seconds)
   std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
   const double cpu = cpu_seconds() - cpu0;
   counting.store(false);
-  RoleFigures roles = cpu_by_role(threads0, good.load(), "main (waits)");
+  RoleFigures roles = figures_by_role(threads0, good.load(), "main (waits)");
   std::uint64_t overflow = 0;
   for (auto& c : cams) overflow += c->counters().underruns;
   for (auto& c : cams) c->request_stop();

@@ -180,7 +180,7 @@ Outcome run(const Candidate& cand, const std::vector<cv::Mat>& planes) {
 
 int main(int argc, char** argv) {
   const int n = argc > 1 ? std::atoi(argv[1]) : 20;
-  const double noise = argc > 2 ? std::atof(argv[2]) : 2.0;
+  const double noise = argc > 2 ? std::atof(argv[2]) : bench::kSensorNoiseDn;
   const std::string only = argc > 3 ? argv[3] : "";
   av_log_set_level(AV_LOG_ERROR);
   for (const double dn : {noise, 0.0}) {

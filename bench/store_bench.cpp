@@ -319,8 +319,8 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
 }  // namespace
 
 int main(int argc, char** argv) {
-  const int n = argc > 1 ? std::max(15, std::atoi(argv[1])) : 90;  // frames per camera (90 = 6 s at 15 Hz)
-  const double noise = argc > 2 ? std::atof(argv[2]) : 2.0;        // sensor noise, DN
+  const int n = argc > 1 ? std::max(15, std::atoi(argv[1])) : 90;              // frames per camera (90 = 6 s at 15 Hz)
+  const double noise = argc > 2 ? std::atof(argv[2]) : bench::kSensorNoiseDn;  // sensor noise, DN
   const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-store-bench-{}", getpid());
   fs::remove_all(work);
   fs::create_directories(work);
