@@ -1,14 +1,16 @@
 #include "calib/charuco.h"
 
+#include "calib/board_coverage.h"
+
 #include <zlib.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <set>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <opencv2/aruco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -114,27 +116,77 @@ BoardView detect_board(const cv::Mat& image, const BoardSpec& spec) {
 
 namespace {
 
-// A view the fit can use: enough corners, each a number (not one lost where it was looked for), and
-// not all along one row or column of the board, which says nothing about its plane (and OpenCV's
-// fit asserts on them): two of each.
-bool tells_the_plane(const BoardView& v, const BoardSpec& spec) {
-  if (v.corners.size() < kMinBoardCorners) return false;
-  if (std::any_of(v.corners.begin(), v.corners.end(),
-                  [](const cv::Point2f& p) { return !std::isfinite(p.x) || !std::isfinite(p.y); }))
-    return false;
-  std::set<int> board_rows, board_cols;
-  for (int id : v.ids) board_rows.insert(id / (spec.squares_x - 1)), board_cols.insert(id % (spec.squares_x - 1));
-  return board_rows.size() >= 2 && board_cols.size() >= 2;
+using CornerSets = std::vector<std::vector<cv::Point2f>>;
+using IdSets = std::vector<std::vector<int>>;
+
+// A lens a fit may stand on: finite, a positive focal length, and the principal point within the
+// middle half of the image each way (a real lens's is within a few per cent of the centre). A fit
+// outside this has wandered along a valley the views do not close, never measured a lens.
+bool sensible(const cv::Mat& K, const cv::Mat& dist, cv::Size size) {
+  if (K.empty() || !cv::checkRange(K) || !cv::checkRange(dist)) return false;
+  const double fx = K.at<double>(0, 0), cx = K.at<double>(0, 2), cy = K.at<double>(1, 2);
+  return fx > 0 && std::abs(cx - size.width / 2.0) <= size.width / 4.0 &&
+         std::abs(cy - size.height / 2.0) <= size.height / 4.0;
 }
+
+// OpenCV's ChArUco fit over a set of views, made so that it never returns what is not a lens.
+struct LensFit {
+  const CornerSets& corners;
+  const IdSets& ids;
+  cv::Ptr<cv::aruco::CharucoBoard> board;
+  cv::Size size;
+  cv::Mat K, dist, per_view, deviations;
+  double rms = 0;
+
+  // One attempt from K and dist as they stand (`guess`) or from OpenCV's fresh start (the principal
+  // point at the centre, the focal length from the views' vanishing points). CALIB_USE_LU: each step
+  // solves for the lens and some 50 views' poses (~300 unknowns) by LU, the normal equations plus
+  // damping (symmetric, positive definite), where SVD gives the same answer 10 times slower; should a
+  // step's system be singular, LU gives NaN (a CI run, 2026-11-29), so such a fit is made again by
+  // SVD. True when the result is a lens (sensible); K and dist are then the fit's.
+  bool attempt(int flags, bool guess) {
+    const cv::TermCriteria until(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-9);
+    // Square pixels (every machine-vision sensor pvcap drives): fx = fy, one unknown less.
+    flags |= cv::CALIB_FIX_ASPECT_RATIO | (guess ? cv::CALIB_USE_INTRINSIC_GUESS : 0);
+    cv::Mat K0 = guess ? K.clone() : cv::Mat::eye(3, 3, CV_64F), dist0 = guess ? dist.clone() : cv::Mat();
+    for (const int solver : {int(cv::CALIB_USE_LU), 0}) {
+      cv::Mat k = K0.clone(), d = dist0.clone(), pv, dev;
+      std::vector<cv::Mat> rvecs, tvecs;
+      try {
+        const double r = cv::aruco::calibrateCameraCharuco(corners, ids, board, size, k, d, rvecs, tvecs, dev,
+                                                           cv::noArray(), pv, flags | solver, until);
+        if (!std::isfinite(r) || !cv::checkRange(pv) || !sensible(k, d, size)) continue;
+        K = k, dist = d, per_view = pv, deviations = dev, rms = r;
+        return true;
+      } catch (const cv::Exception&) {
+      }
+    }
+    return false;
+  }
+
+  // From where the fit stood when there is one, else (or when that wanders off) from the fresh
+  // start, else in stages: the focal length and the first radial term with the principal point at
+  // the centre, then everything from there.
+  bool run() {
+    if (!K.empty() && attempt(0, true)) return true;
+    if (attempt(0, false)) return true;
+    if (!attempt(cv::CALIB_FIX_PRINCIPAL_POINT | cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3 | cv::CALIB_ZERO_TANGENT_DIST,
+                 false))
+      return false;
+    return attempt(0, true);
+  }
+};
 
 }  // namespace
 
 Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::Size size, const BoardSpec& spec) {
-  std::vector<std::vector<cv::Point2f>> corners;
-  std::vector<std::vector<int>> ids;
+  CornerSets corners;
+  IdSets ids;
   Intrinsics out;
-  out.coverage.assign(Intrinsics::coverage_cols * Intrinsics::coverage_rows, 0);
-  for (const BoardView& v : all) {
+  BoardCoverage coverage(size, spec);
+  for (BoardView v : all) {
+    if (!tells_the_plane(v, spec)) continue;
+    const int misread = drop_misread_corners(v, spec);
     if (!tells_the_plane(v, spec)) continue;
     // The board still since the view before (its corners within 0.02 px): the same view again, which
     // would weigh that pose twice and cost the fit time for nothing.
@@ -147,79 +199,41 @@ Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::S
         continue;
       }
     }
+    out.misread_corners += misread;
+    coverage.add(v);
     corners.push_back(v.corners);
     ids.push_back(v.ids);
     out.corners += int(v.corners.size());
-    for (const cv::Point2f& p : v.corners) {
-      const int cx = std::clamp(int(p.x * Intrinsics::coverage_cols / size.width), 0, Intrinsics::coverage_cols - 1);
-      const int cy = std::clamp(int(p.y * Intrinsics::coverage_rows / size.height), 0, Intrinsics::coverage_rows - 1);
-      ++out.coverage[std::size_t(cy * Intrinsics::coverage_cols + cx)];
-    }
   }
-  static const char* rows[] = {"top", "middle", "bottom"};
-  static const char* cols[] = {"far left", "left", "right", "far right"};
-  for (int r = 0; r < Intrinsics::coverage_rows; ++r)
-    for (int c = 0; c < Intrinsics::coverage_cols; ++c)
-      if (out.coverage[std::size_t(r * Intrinsics::coverage_cols + c)] == 0)
-        out.empty_regions.push_back(fmt::format("{} {}", rows[r], cols[c]));
+  out.coverage.assign(coverage.regions().begin(), coverage.regions().end());
+  out.empty_regions = coverage.empty_regions();
   out.views = int(corners.size());
   if (corners.size() < kMinBoardViews)
     return Error{
-        fmt::format("the board was seen well (at least {} corners) in only {} frames; at least {} are needed. "
-                    "Hold the board still in more places and angles, filling the view",
+        fmt::format("the board was seen well (at least {} corners, over two rows and columns) in only {} frames; at "
+                    "least {} are needed. Hold the board still in more places and angles, filling the view",
                     kMinBoardCorners, corners.size(), kMinBoardViews)};
-  // Square pixels (every machine-vision sensor pvcap drives): fx = fy, one unknown less. OpenCV
-  // keeps the ratio of the initial K's focal lengths, which it starts at 1.
-  cv::Mat K = cv::Mat::eye(3, 3, CV_64F), dist, per_view, deviations;
-  std::vector<cv::Mat> rvecs, tvecs;
-  const cv::TermCriteria until(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-9);
-  // `again`: from the fit before, not from OpenCV's fresh start (its first guess from the views'
-  // homographies once led a refit without a few bad views to a 16 px RMS minimum).
-  // CALIB_USE_LU: each step solves for the lens and some 50 views' poses (~300 unknowns) by LU instead of
-  // SVD; the system is the normal equations plus damping (symmetric, positive definite), where both
-  // give the same answer: on a 25-s board session the four cameras' K, distortion and RMS agreed to
-  // 1e-8 px, and the fit's share of `pvcap calibrate intrinsics` fell from 21 s of CPU to 2.
-  // Should a step's system be singular, LU gives NaN where SVD gives an answer (a CI run's camera came
-  // out NaN, 2026-11-29): a fit that is not finite is made again by SVD from the same start, and one
-  // that is still not finite is an error, never a lens.
-  auto finite = [&](double rms) {
-    return std::isfinite(rms) && cv::checkRange(K) && cv::checkRange(dist) && cv::checkRange(per_view);
+  LensFit fit{corners, ids, make_board(spec), size};
+  const auto lacking = [&] {
+    const auto missing = coverage.missing();
+    return missing.empty() ? std::string("; record the board in more places and angles")
+                           : fmt::format("; the views lack {}", fmt::join(missing, ", "));
   };
-  auto calibrate = [&](bool again = false) {
-    const int flags = cv::CALIB_FIX_ASPECT_RATIO | (again ? cv::CALIB_USE_INTRINSIC_GUESS : 0);
-    const cv::Mat K0 = K.clone(), dist0 = dist.clone();
-    double rms =
-        cv::aruco::calibrateCameraCharuco(corners, ids, make_board(spec), size, K, dist, rvecs, tvecs, deviations,
-                                          cv::noArray(), per_view, flags | cv::CALIB_USE_LU, until);
-    if (finite(rms)) return rms;
-    K0.copyTo(K);
-    dist0.copyTo(dist);
-    rms = cv::aruco::calibrateCameraCharuco(corners, ids, make_board(spec), size, K, dist, rvecs, tvecs, deviations,
-                                            cv::noArray(), per_view, flags, until);
-    if (!finite(rms))
-      throw cv::Exception(cv::Error::StsNoConv, "the fit did not converge (not a finite lens)", __func__, __FILE__,
-                          __LINE__);
-    return rms;
-  };
-  try {
-    out.rms_px = calibrate();
-  } catch (const cv::Exception& e) {
-    return Error{
-        fmt::format("the lens could not be fitted to the board views ({}); record the board in more "
-                    "places and angles",
-                    e.err)};
-  }
+  if (!fit.run())
+    return Error{fmt::format("the lens could not be fitted to the board's {} views (no fit left the principal point "
+                             "near the image's centre){}",
+                             corners.size(), lacking())};
   // A view at a grazing angle or with a misread corner pulls the whole fit: views whose error is
   // well above the others' are left out and the fit made again from where it stood, until none is
   // (at most four times: a bad view a first fit absorbed can stand out only once others are gone,
   // as a 10-corner view did at 22 px after a first round).
   for (int round = 0; round < 4; ++round) {
-    std::vector<double> errors(per_view.begin<double>(), per_view.end<double>());
+    std::vector<double> errors(fit.per_view.begin<double>(), fit.per_view.end<double>());
     std::vector<double> sorted = errors;
     std::nth_element(sorted.begin(), sorted.begin() + long(sorted.size() / 2), sorted.end());
     const double limit = std::max(0.3, 2.0 * sorted[sorted.size() / 2]);
-    std::vector<std::vector<cv::Point2f>> kept_corners;
-    std::vector<std::vector<int>> kept_ids;
+    CornerSets kept_corners;
+    IdSets kept_ids;
     for (std::size_t i = 0; i < errors.size(); ++i)
       if (errors[i] <= limit) kept_corners.push_back(corners[i]), kept_ids.push_back(ids[i]);
     if (kept_corners.size() == corners.size() || kept_corners.size() < kMinBoardViews) break;
@@ -229,17 +243,17 @@ Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::S
     out.views = int(corners.size());
     out.corners = 0;
     for (const auto& c : corners) out.corners += int(c.size());
-    try {
-      out.rms_px = calibrate(/*again=*/true);
-    } catch (const cv::Exception& e) {
-      return Error{fmt::format("the lens could not be fitted to the board views ({})", e.err)};
-    }
+    if (!fit.run())
+      return Error{fmt::format("the lens could not be fitted to the board's {} views left after {} stood out{}",
+                               corners.size(), out.rejected_views, lacking())};
   }
+  out.rms_px = fit.rms;
   // One standard deviation of fx, fy, cx, cy as the fit itself estimates them.
-  for (int k = 0; k < 4 && k < deviations.rows; ++k) out.deviation[std::size_t(k)] = deviations.at<double>(k);
+  for (int k = 0; k < 4 && k < fit.deviations.rows; ++k) out.deviation[std::size_t(k)] = fit.deviations.at<double>(k);
   out.model.image_size = size;
-  out.model.K = cv::Matx33d(K);
-  out.model.distortion.assign(dist.begin<double>(), dist.end<double>());
+  out.model.K = cv::Matx33d(fit.K);
+  out.model.distortion.assign(fit.dist.begin<double>(), fit.dist.end<double>());
+  out.missing = coverage.missing(out.model.K(0, 0));
   return out;
 }
 

@@ -42,11 +42,15 @@ struct Intrinsics {
   int rejected_views = 0;             // left out: their error was far above the others'
   int repeated_views = 0;             // left out: the view before them again (the board held still)
   int corners = 0;                    // corners used
+  int misread_corners = 0;            // left out of views they were found in: not where the others put the board
   std::array<double, 4> deviation{};  // the fit's own standard deviation of fx, fy, cx, cy (px)
   // Corners per image region (coverage_rows x coverage_cols, row-major), and the regions with none.
   static constexpr int coverage_cols = 4, coverage_rows = 3;
   std::vector<int> coverage;
   std::vector<std::string> empty_regions;  // "top left", "middle right", ...
+  // What the views still lack by the board session's coverage rule (calib/board_coverage.h): the lens
+  // was fitted, but is less sure where they are missing. Empty when covered.
+  std::vector<std::string> missing;
 };
 
 // The fewest corners that make a view count, and the fewest views calibrated from.

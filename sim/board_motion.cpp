@@ -1,6 +1,8 @@
 #include "sim/board_motion.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace pvcap::sim {
 
@@ -33,6 +35,23 @@ BoardPose board_pose(int hold, double w, double h) {
   p.R = rot_z(turn) * rot_x(tilt_x) * rot_y(tilt_y);
   p.t = centre - p.R * cv::Vec3d(w / 2, h / 2, 0);
   return p;
+}
+
+}  // namespace pvcap::sim
+
+namespace pvcap::sim {
+
+std::vector<int> board_session_holds(std::mt19937& rng, double lost_s, double duration_s, int holds) {
+  const int samples = std::max(0, int((duration_s - lost_s) * 15.0));
+  const int wanted = std::min(150, samples);
+  std::uniform_real_distribution<double> jitter(-1.0 / 60, 1.0 / 60);
+  std::vector<int> out;
+  for (int k = 0; k < wanted; ++k) {
+    const int sample = int(std::int64_t(k) * samples / wanted);
+    const double t = lost_s + sample / 15.0 + jitter(rng);
+    out.push_back(std::clamp(board_pose_index(std::max(0.0, t)), 0, holds - 1));
+  }
+  return out;
 }
 
 }  // namespace pvcap::sim

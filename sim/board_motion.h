@@ -26,3 +26,18 @@ BoardPose board_pose(int hold, double board_w_mm, double board_h_mm);
 inline int board_pose_index(double seconds) { return int(seconds / kBoardHoldSeconds); }
 
 }  // namespace pvcap::sim
+
+#include <random>
+#include <vector>
+
+namespace pvcap::sim {
+
+// The holds one camera's frames show in a board session drawn by `rng`, as `pvcap calibrate
+// intrinsics` reads them: the recording's first `lost_s` seconds lost (a loaded PC starting four
+// 1080p cameras loses 4-6 s), the store's 15 Hz samples from there to `duration_s`, 150 of them
+// spread evenly (the command's default), each camera's frame up to half a 30 Hz period either side of
+// its sample's instant. Holds past `holds - 1` are clamped to it. For tests and benches that fit
+// many board sessions without recording each (tests/unit/calib, bench/board_fit_bench).
+std::vector<int> board_session_holds(std::mt19937& rng, double lost_s, double duration_s, int holds);
+
+}  // namespace pvcap::sim

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
+#include <opencv2/imgproc.hpp>
 
 #include "capture/sensel_frame.h"
 #include "core/rig_config.h"
