@@ -71,6 +71,9 @@ Registered add_calibrate_command(CLI::App& app, AppContext&) {
         ->excludes(truth);
   }
   intrinsics->add_option("--out", a->o.calibration, "the calibration file to write (updated if it exists)");
+  intrinsics->add_option("--save-views", a->o.save_views,
+                         "also write each camera's board views (the corners found) to DIR/<camera>.board-views.yaml, "
+                         "to fit them again elsewhere (build/bench/board_fit_bench --views FILE)");
   pad->add_option("--calibration", a->o.calibration,
                   "the calibration file with the intrinsics (updated with the "
                   "pose)");

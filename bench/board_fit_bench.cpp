@@ -6,6 +6,8 @@
 //
 //   build/bench/board_fit_bench [--sessions N] [--seed S] [--duration SECONDS] [--holds H]
 //                               [--views-cache FILE] [--dump-views DIR]
+//   build/bench/board_fit_bench --views FILE    (one camera's views, as `pvcap calibrate intrinsics
+//                                                --save-views` writes them: fitted and printed)
 //
 // It prints one line per camera fit outside the targets (focal length 0.5 %, principal point 2 px)
 // or failed, and the tally. `--dump-views DIR` writes each failing fit's views as a fixture that
@@ -39,7 +41,7 @@ const cv::Size kSize(1920, 1080);
 struct Args {
   int sessions = 40, holds = 200, seed = 1;
   double duration_s = 0;  // 0: each session 25 or 40 s, drawn
-  std::string cache, dump;
+  std::string cache, dump, views;
 };
 
 // views[camera][hold]
@@ -75,10 +77,28 @@ int main(int argc, char** argv) {
     else if (k == "--duration") a.duration_s = std::atof(v.c_str());
     else if (k == "--views-cache") a.cache = v;
     else if (k == "--dump-views") a.dump = v;
+    else if (k == "--views") a.views = v;
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
     }
+  }
+  if (!a.views.empty()) {
+    const auto got = calib::load_board_views(a.views);
+    if (!got) {
+      std::fprintf(stderr, "%s\n", got.error().message.c_str());
+      return 2;
+    }
+    const auto fit = calib::calibrate_intrinsics(got.value().views, got.value().image_size, calib::BoardSpec{});
+    if (!fit) {
+      std::printf("%s: %s\n", a.views.c_str(), fit.error().message.c_str());
+      return 1;
+    }
+    const auto& in = fit.value();
+    std::printf("%s: %d views (%d left out, %d repeats), %d corners (%d misread), RMS %.3f px; f %.2f cx %.2f cy %.2f\n",
+                a.views.c_str(), in.views, in.rejected_views, in.repeated_views, in.corners, in.misread_corners,
+                in.rms_px, in.model.K(0, 0), in.model.K(0, 2), in.model.K(1, 2));
+    return 0;
   }
   HoldViews views;
   if (!a.cache.empty() && std::filesystem::exists(a.cache)) {

@@ -114,6 +114,21 @@ BoardView detect_board(const cv::Mat& image, const BoardSpec& spec) {
   return view;
 }
 
+BoardView detect_board_coarse(const cv::Mat& image, const BoardSpec& spec) {
+  cv::Mat grey = image, half;
+  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  cv::resize(grey, half, {}, 0.5, 0.5, cv::INTER_AREA);
+  const auto board = make_board(spec);
+  std::vector<std::vector<cv::Point2f>> marker_corners;
+  std::vector<int> marker_ids;
+  cv::aruco::detectMarkers(half, board->dictionary, marker_corners, marker_ids);
+  BoardView view;
+  if (marker_ids.empty()) return view;
+  cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, half, board, view.corners, view.ids);
+  for (cv::Point2f& p : view.corners) p = p * 2.f + cv::Point2f(0.5f, 0.5f);  // half-size pixel centres
+  return view;
+}
+
 namespace {
 
 using CornerSets = std::vector<std::vector<cv::Point2f>>;

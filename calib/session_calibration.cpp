@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "calib/board_views_file.h"
 #include "calib/charuco.h"
 #include "calib/pad_calibration.h"
 #include "calib/press_check.h"
@@ -215,7 +216,12 @@ std::vector<Result<calib::Intrinsics>> intrinsics_of_cameras(const CalibrationRu
       const std::lock_guard lock(mutex);  // one line, its count rising
       progress("finding the board (all cameras)", ++frames_done, frames_total);
     }
-    results[c] = calib::calibrate_intrinsics(views, {cameras[c].width, cameras[c].height}, spec);
+    const cv::Size size(cameras[c].width, cameras[c].height);
+    if (!o.save_views.empty()) {  // before the fit: a fit that fails is what they are kept for
+      const auto file = o.save_views / (cameras[c].name + ".board-views.yaml");
+      if (Status s = calib::save_board_views(file, {size, views}); !s.ok()) throw UserError(s.error().message);
+    }
+    results[c] = calib::calibrate_intrinsics(views, size, spec);
   });
   std::vector<Result<calib::Intrinsics>> out;
   for (auto& r : results) out.push_back(std::move(*r));
@@ -224,6 +230,11 @@ std::vector<Result<calib::Intrinsics>> intrinsics_of_cameras(const CalibrationRu
 
 int intrinsics_from_session(const SessionCalibrationOptions& o) {
   CalibrationRun run(o, 150);
+  if (!o.save_views.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(o.save_views, ec);
+    if (ec) throw UserError(fmt::format("{}: cannot make the folder for the board views: {}", o.save_views.string(), ec.message()));
+  }
   std::vector<Result<calib::Intrinsics>> intrinsics = intrinsics_of_cameras(run, o);
   for (std::size_t c = 0; c < run.session->cameras().size(); ++c) {
     const CameraInfo& camera = run.session->cameras()[c];
@@ -251,14 +262,18 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
                          {"repeated_views", in.repeated_views},
                          {"deviation_fx_fy_cx_cy_px", in.deviation},
                          {"corners", in.corners},
+                         {"misread_corners", in.misread_corners},
+                         {"not_covered", in.missing},
                          {"coverage", in.coverage},
                          {"coverage_grid", {calib::Intrinsics::coverage_cols, calib::Intrinsics::coverage_rows}},
                          {"empty_regions", in.empty_regions}}};
     entry->intrinsics = m;
     fmt::print(
-        "{}: {} views ({} left out, {} repeats of a still board skipped), {} corners, RMS {:.3f} px; fx {:.1f} fy "
-        "{:.1f} cx {:.1f} cy {:.1f} (the fit's standard deviation: focal {:.1f}, cx {:.1f}, cy {:.1f} px)\n",
-        camera.name, in.views, in.rejected_views, in.repeated_views, in.corners, in.rms_px, in.model.K(0, 0),
+        "{}: {} views ({} left out, {} repeats of a still board skipped), {} corners ({} misread left out), RMS "
+        "{:.3f} px; fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f} (the fit's standard deviation: focal {:.1f}, cx {:.1f}, "
+        "cy {:.1f} px)\n",
+        camera.name, in.views, in.rejected_views, in.repeated_views, in.corners, in.misread_corners, in.rms_px,
+        in.model.K(0, 0),
         in.model.K(1, 1), in.model.K(0, 2), in.model.K(1, 2),
         // with fx = fy fixed, OpenCV reports the focal length's deviation under one of the two
         std::max(in.deviation[0], in.deviation[1]), in.deviation[2], in.deviation[3]);
@@ -275,6 +290,9 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
           "  no corners yet in: {}. Record more board views there: the lens is not known where the board "
           "has not been\n",
           fmt::join(in.empty_regions, ", "));
+    if (!in.missing.empty())
+      fmt::print("  not covered (the board session's rule): {}; the lens was fitted, but is less certain without them\n",
+                 fmt::join(in.missing, "; "));
     if (run.reference) {
       const calib::CameraModel& tm = reference_camera(*run.reference, camera.name).model;
       const double efx = in.model.K(0, 0) / tm.K(0, 0) - 1, efy = in.model.K(1, 1) / tm.K(1, 1) - 1;

@@ -42,6 +42,7 @@ struct SessionCalibrationOptions {
   std::filesystem::path calibration;              // the rig calibration file to read/update
   std::optional<ReferenceCalibration> reference;  // compare against it and hold the targets (none: no comparison)
   int frames = 0;                                 // frames per camera to use (0: the command's default)
+  std::filesystem::path save_views;               // intrinsics: each camera's board views written here (a fit elsewhere)
 };
 
 int write_board(const std::filesystem::path& out);  // .pdf or .png

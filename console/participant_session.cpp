@@ -13,6 +13,7 @@
 #include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
 
+#include "console/board_coverage_monitor.h"
 #include "console/recording_env.h"
 #include "console/terminal_console.h"
 #include "protocol/runner.h"
@@ -143,6 +144,10 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
     return outcome;
   }
 
+  // A board session tells the operator, as it goes, which cameras' views would give a lens.
+  std::unique_ptr<BoardCoverageMonitor> board;
+  if (options.board_session) board = std::make_unique<BoardCoverageMonitor>(recording);
+
   std::unique_ptr<protocol::RunnerEnv> env;
   std::unique_ptr<protocol::Runner> runner;
   std::thread ticker;
@@ -209,6 +214,10 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
   }
 
   const std::string reason = recording.wait(interrupt, command.duration_s);
+  if (board) {
+    for (const std::string& line : board->summary()) spdlog::info("board coverage: {}", line);
+    board.reset();
+  }
   ticking.store(false);
   if (ticker.joinable()) ticker.join();
   console_stop.store(true);

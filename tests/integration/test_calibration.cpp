@@ -10,6 +10,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "calib/board_views_file.h"
+#include "calib/charuco.h"
 #include "calib/rig_calibration.h"
 #include "core/time.h"
 #include "sim/truth.h"
@@ -136,6 +138,10 @@ TEST(Calibration, BoardSessionGivesEveryCamerasIntrinsicsWithinTargets) {
                                            (work / "board").string()));
   ASSERT_EQ(board.exit_code, 0) << board.output;
   const fs::path session = only_session(work / "board");
+  // The live coverage told the operator, camera by camera, what the views still lacked (or that
+  // they were covered), by the rule the intrinsics tell their result by.
+  for (int c = 0; c < 4; ++c)
+    EXPECT_NE(board.output.find(fmt::format("board coverage: cam{}: ", c)), std::string::npos) << board.output;
   {
     // Every camera's images are in the samples the intrinsics read: CI once found cam2's board in 1 of
     // its 150 (the cause not in the log). Under a busy machine a camera misses some groups (76 % of
@@ -160,8 +166,9 @@ TEST(Calibration, BoardSessionGivesEveryCamerasIntrinsicsWithinTargets) {
           << board.output;
     EXPECT_EQ(cameras, 4);
   }
-  const auto intrinsics = run_pvcap(fmt::format("calibrate intrinsics {} --rig {} --ground-truth {}", session.string(),
-                                                rig.string(), (session / "sim-truth").string()));
+  const auto intrinsics =
+      run_pvcap(fmt::format("calibrate intrinsics {} --rig {} --ground-truth {} --save-views {}", session.string(),
+                            rig.string(), (session / "sim-truth").string(), (work / "views").string()));
   // The margins, in the test log whatever the outcome (the principal point's is the thin one).
   for (std::size_t p = intrinsics.output.find("against the truth"); p != std::string::npos;
        p = intrinsics.output.find("against the truth", p + 1))
@@ -179,6 +186,14 @@ TEST(Calibration, BoardSessionGivesEveryCamerasIntrinsicsWithinTargets) {
     EXPECT_EQ(c.intrinsics->method, "charuco_intrinsics");
     EXPECT_GE(c.intrinsics->details.at("views").get<int>(), 8);
     EXPECT_FALSE(c.pad) << "no pose before the pad is calibrated";
+  }
+  // The views each fit worked from, kept to fit again elsewhere: read back, they give the same lens.
+  for (const auto& c : cal.value().cameras) {
+    auto views = pvcap::calib::load_board_views(work / "views" / (c.name + ".board-views.yaml"));
+    ASSERT_TRUE(views) << views.error().message;
+    auto again = pvcap::calib::calibrate_intrinsics(views.value().views, views.value().image_size, {});
+    ASSERT_TRUE(again) << again.error().message;
+    EXPECT_NEAR(again.value().model.K(0, 0), c.model.K(0, 0), 0.1) << c.name;  // the file keeps 1/1000 px
   }
   // The session keeps what was measured from it.
   auto reader = pvcap::SessionReader::open(session);
