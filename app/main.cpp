@@ -47,7 +47,14 @@ void on_signal(int sig) {
   if (g_stop.exchange(true)) _exit(130);  // a second Ctrl-C or SIGTERM: leave now
 }
 
-void install_stop_handlers() {
+// Whether pvcap was started with hang-ups ignored (`nohup pvcap session ...`, a `trap '' HUP`): the
+// user asked for the session to outlive the terminal, and pvcap keeps to that.
+bool hangups_ignored_by_the_caller() {
+  struct sigaction now {};
+  return sigaction(SIGHUP, nullptr, &now) == 0 && now.sa_handler == SIG_IGN;
+}
+
+void install_stop_handlers(bool keep_hangups_ignored) {
   g_stdout_tty = isatty(STDOUT_FILENO) == 1;
   g_stderr_tty = isatty(STDERR_FILENO) == 1;
   g_dev_null = open("/dev/null", O_WRONLY | O_CLOEXEC);
@@ -55,7 +62,8 @@ void install_stop_handlers() {
   sa.sa_handler = on_signal;
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
-  sigaction(SIGHUP, &sa, nullptr);  // an ssh connection that drops stops the session cleanly
+  // An ssh connection that drops stops the session cleanly, unless the caller asked to ignore it.
+  if (!keep_hangups_ignored) sigaction(SIGHUP, &sa, nullptr);
   signal(SIGPIPE, SIG_IGN);         // a closed pipe or socket is an error return, not death
   // A background job that writes to its terminal must not be stopped for it (the session runs on).
   signal(SIGTTOU, SIG_IGN);
@@ -133,7 +141,10 @@ int main(int argc, char** argv) {
   // What pvcap writes (a participant's videos, their index, reports, exports) is not for other
   // users of the machine: folders 0750, files 0640. A lab shares with its group (store.group).
   umask(027);
-  install_stop_handlers();
+  const bool nohup = hangups_ignored_by_the_caller();
+  install_stop_handlers(nohup);
+  if (nohup && app.got_subcommand("session"))
+    spdlog::info("hang-ups are ignored, as the caller asked (nohup): Ctrl-C or SIGTERM stops the session");
   ctx.faults = read_faults();
   try {
     for (const auto& c : commands)

@@ -419,6 +419,32 @@ TEST(SessionFaults, SighupAndSigtermStopTheSessionCleanly) {
   }
 }
 
+// A session started with hang-ups ignored (`nohup pvcap session ...`) keeps recording through one:
+// the user asked it to outlive the terminal. Ctrl-C still stops it cleanly.
+TEST(SessionFaults, ASessionStartedWithNohupIgnoresHangups) {
+  const fs::path work = work_dir("nohup");
+  const fs::path rig = write_rig(work);
+  const fs::path root = work / "sessions", log = work / "pvcap.log";
+  const pid_t pid =
+      spawn_pvcap(fmt::format("session --rig {} --root {} --duration 60 --no-web", rig.string(), root.string()), log,
+                  "nohup");
+  ASSERT_TRUE(wait_for_text(log, " s | cam0", std::chrono::seconds(60))) << read_all(log);
+  EXPECT_NE(read_all(log).find("hang-ups are ignored, as the caller asked (nohup)"), std::string::npos);
+  ASSERT_EQ(kill(pid, SIGHUP), 0);
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  int status = 0;
+  EXPECT_EQ(waitpid(pid, &status, WNOHANG), 0) << "still recording 3 s after the hang-up: " << read_all(log);
+  ASSERT_EQ(kill(pid, SIGINT), 0);
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_all(log);
+  const fs::path session = only_session(root);
+  ASSERT_FALSE(session.empty());
+  pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  auto q = db.prepare("SELECT coalesce(end_reason, '') FROM session");
+  ASSERT_TRUE(q.step());
+  EXPECT_EQ(q.column_text(0), "stopped by operator");
+}
+
 // The operator's ssh connection drops, as it really happens: `pvcap session` runs as the job of an
 // interactive bash on a pseudo-terminal, writing to it, and the terminal is closed (no kill() of
 // ours). The kernel hangs up the job, bash forwards a second hang-up, and writes to the dead
@@ -434,10 +460,11 @@ TEST(SessionFaults, ClosingTheTerminalOfAnInteractiveShellStopsTheSessionCleanly
     execl("/bin/bash", "bash", "--norc", "--noprofile", "-i", static_cast<char*>(nullptr));
     _exit(127);
   }
-  // The wrapper only keeps the exit status (it ignores the hang-up itself); pvcap sets its own
-  // handlers, and its output goes to the terminal.
+  // The wrapper only keeps the exit status (it catches the hang-up itself with a no-op: a caught
+  // signal is back to its default in pvcap, where an ignored one would stay ignored, as nohup asks);
+  // pvcap sets its own handlers, and its output goes to the terminal.
   const std::string line =
-      fmt::format("sh -c 'trap \"\" HUP; {} session --rig {} --root {} --duration 60 --no-web; echo $? > {}'\n",
+      fmt::format("sh -c 'trap : HUP; {} session --rig {} --root {} --duration 60 --no-web; echo $? > {}'\n",
                   PVCAP_BIN, rig.string(), root.string(), status_file.string());
   ASSERT_EQ(write(master, line.data(), line.size()), ssize_t(line.size()));
   // Read the terminal as a terminal emulator would (a full pty would block the writer) until six
