@@ -202,6 +202,10 @@ int finish(const fs::path& dir, const fs::path& out, const std::atomic<bool>& st
 }
 
 int run_release(const DatasetArgs& a, const AppContext& ctx) {
+  // What the release needs from its inputs is checked before the work: the metadata first (hours of
+  // export, then a refusal, would be the worst order), then the splits and their leakage.
+  if (Status s = dataset::check_release_metadata(dataset::load_dataset(a.dir)); !s.ok())
+    throw UserError(s.error().message);
   const Loaded l = load(a.dir, true, ctx.stop);
   if (!load_splits(l.config.dir))
     throw UserError(fmt::format("{}: no splits yet; make them first (pvcap dataset split {} --test N --val N)",

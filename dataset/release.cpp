@@ -446,11 +446,21 @@ json croissant_metadata(const DatasetConfig& c, const ReleasePlan& plan, const s
                from_path("sequence", "^[^/]+/([^/]+)/.*$", "the sequence's name: <action>_<repetitions>x_<hand>")}}}}}};
 }
 
+Status check_release_metadata(const DatasetConfig& c) {
+  std::vector<std::string> missing;
+  if (c.license.empty()) missing.push_back("license");
+  if (c.url.empty()) missing.push_back("url");
+  if (c.creators.empty()) missing.push_back("creators");
+  if (missing.empty()) return {};
+  return Error{fmt::format(
+      "{}: set {} before a release (its Croissant metadata requires license, url and creators); nothing was "
+      "exported",
+      (c.dir / "dataset.yaml").string(), fmt::join(missing, ", "))};
+}
+
 Result<ReleaseSummary> finish_release(const DatasetConfig& c, const ReleasePlan& plan, const DatasetStatus& status,
                                       const Splits& splits, const std::vector<CatalogSession>& sessions) {
-  if (c.license.empty() || c.url.empty() || c.creators.empty())
-    return Error{fmt::format("{}: set license, url and creators; a release's Croissant metadata requires them",
-                             (c.dir / "dataset.yaml").string())};
+  if (Status s = check_release_metadata(c); !s.ok()) return s.error();
   const auto pending = pending_jobs(plan);
   if (!pending.empty()) {
     std::vector<std::string> names;

@@ -68,6 +68,10 @@ struct ReleaseSummary {
   std::uintmax_t bytes = 0;
 };
 
+// What a release needs from dataset.yaml before a single session is exported (its Croissant metadata
+// requires a licence, a URL and creators): an Error naming the file and each missing key.
+Status check_release_metadata(const DatasetConfig& c);
+
 // The release-wide files, once every job is done (an Error naming the jobs that are not).
 Result<ReleaseSummary> finish_release(const DatasetConfig& c, const ReleasePlan& plan, const DatasetStatus& status,
                                       const Splits& splits, const std::vector<CatalogSession>& sessions);

@@ -335,6 +335,22 @@ TEST(DatasetRelease, TheCroissantMetadataHoldsTheFieldsItsSpecificationRequires)
   EXPECT_EQ(m["recordSet"][0]["field"].size(), 3u);
 }
 
+// A release lacking what its metadata requires is refused before any export, naming each missing key.
+TEST(DatasetRelease, MissingLicenceUrlOrCreatorsAreNamedBeforeAnyExport) {
+  DatasetConfig c;
+  c.dir = "/lab/dataset";
+  c.url = "https://example.org/lab";
+  const Status s = check_release_metadata(c);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("/lab/dataset/dataset.yaml: set license, creators before a release"),
+            std::string::npos)
+      << s.error().message;
+  EXPECT_NE(s.error().message.find("nothing was exported"), std::string::npos);
+  c.license = "https://creativecommons.org/licenses/by-nc/4.0/";
+  c.creators = {"A"};
+  EXPECT_TRUE(check_release_metadata(c).ok());
+}
+
 TEST(DatasetRelease, APlansFoldersAreFixedBeforeAnyJobRunsAndASecondTakeOfANameIsTheSecondFolder) {
   Folder f;
   std::vector<CatalogSession> sessions = {catalog_session("/s/a", "P01"), catalog_session("/s/b", "P01"),
