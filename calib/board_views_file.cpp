@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <iterator>
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -34,14 +35,22 @@ Status save_board_views(const std::filesystem::path& file, const BoardViews& v) 
 }
 
 Result<BoardViews> load_board_views(const std::filesystem::path& file) {
+  std::ifstream f(file, std::ios::binary);
+  if (!f) return Error{fmt::format("{}: cannot read the board views", file.string())};
+  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  return parse_board_views(text, file.string());
+}
+
+Result<BoardViews> parse_board_views(const std::string& text, const std::string& source) {
   const auto bad = [&](const std::string& why) {
-    return Error{fmt::format("{}: not a board views file: {}", file.string(), why)};
+    return Error{fmt::format("{}: not a board views file: {}", source, why)};
   };
   try {
-    const YAML::Node root = YAML::LoadFile(file.string());
+    const YAML::Node root = YAML::Load(text);
     if (!root.IsMap() || !root["pvcap_board_views"] || root["pvcap_board_views"].as<int>() != 1)
       return bad("no `pvcap_board_views: 1`");
     BoardViews out;
+    if (!root["image_size"] || !root["image_size"].IsSequence()) return bad("no image_size");
     const auto size = root["image_size"].as<std::vector<int>>();
     if (size.size() != 2 || size[0] <= 0 || size[1] <= 0 || size[0] > 65535 || size[1] > 65535)
       return bad("image_size is not [width, height]");
@@ -49,6 +58,7 @@ Result<BoardViews> load_board_views(const std::filesystem::path& file) {
     const YAML::Node views = root["views"];
     if (!views.IsSequence()) return bad("views is not a list");
     for (std::size_t i = 0; i < views.size(); ++i) {
+      if (!views[i].IsMap() || !views[i]["ids"] || !views[i]["xy"]) return bad(fmt::format("view {} has no ids and xy", i));
       BoardView view;
       view.ids = views[i]["ids"].as<std::vector<int>>();
       const auto xy = views[i]["xy"].as<std::vector<float>>();

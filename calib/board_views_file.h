@@ -4,6 +4,7 @@
 // fit that fails on a lab's rig can be fitted again elsewhere, and what the tests' fixtures of
 // failing fits are.
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -21,5 +22,7 @@ struct BoardViews {
 Status save_board_views(const std::filesystem::path& file, const BoardViews& views);
 // One clear error naming the file and what is wrong with it.
 Result<BoardViews> load_board_views(const std::filesystem::path& file);
+// The same from a file's text; errors name `source`.
+Result<BoardViews> parse_board_views(const std::string& text, const std::string& source);
 
 }  // namespace pvcap::calib
