@@ -5,6 +5,9 @@
 
 #include <cerrno>
 #include <cstring>
+#include <fstream>
+#include <iterator>
+#include <optional>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -16,6 +19,25 @@ namespace {
 constexpr char kChunkMagic[4] = {'P', 'V', 'I', 'X'};
 constexpr std::size_t kChunkHeader = 12;  // magic, u32 bytes after the header, u32 CRC-32 of them
 constexpr std::size_t kChunkRecords = 4096;
+
+// The records of one chunk's bytes (header included); nullopt when they are not a whole chunk.
+std::optional<std::vector<IndexRecord>> decode_chunk(const std::string& data) {
+  if (data.size() < kChunkHeader || std::memcmp(data.data(), kChunkMagic, 4) != 0) return std::nullopt;
+  std::uint32_t size = 0, crc = 0;
+  std::memcpy(&size, data.data() + 4, 4);
+  std::memcpy(&crc, data.data() + 8, 4);
+  if (size != data.size() - kChunkHeader ||
+      std::uint32_t(crc32(0L, reinterpret_cast<const Bytef*>(data.data() + kChunkHeader), uInt(size))) != crc)
+    return std::nullopt;
+  std::vector<IndexRecord> out;
+  std::size_t pos = kChunkHeader;
+  while (pos < data.size()) {
+    auto r = decode_record(data, pos);
+    if (!r) return std::nullopt;
+    out.push_back(std::move(*r));
+  }
+  return out;
+}
 
 IndexRecord to_index_record(IndexQueueItem&& item) {
   return std::visit(
@@ -171,26 +193,34 @@ std::vector<IndexQueueItem> IndexOverflow::read_chunk(std::int64_t offset, std::
     if (n <= 0) break;
     done += std::size_t(n);
   }
-  std::uint32_t size = 0, crc = 0;
-  if (done == bytes && bytes >= kChunkHeader) {
-    std::memcpy(&size, data.data() + 4, 4);
-    std::memcpy(&crc, data.data() + 8, 4);
-  }
-  const bool whole =
-      done == bytes && bytes >= kChunkHeader && std::memcmp(data.data(), kChunkMagic, 4) == 0 &&
-      size == bytes - kChunkHeader &&
-      std::uint32_t(crc32(0L, reinterpret_cast<const Bytef*>(data.data() + kChunkHeader), uInt(size))) == crc;
   std::vector<IndexQueueItem> out;
-  std::size_t pos = kChunkHeader;
-  while (whole && pos < data.size()) {
-    auto r = decode_record(data, pos);
-    if (!r) break;
-    out.push_back(to_queue_item(std::move(*r)));
-  }
-  if (!whole || pos != data.size()) {
+  auto records = done == bytes ? decode_chunk(data) : std::nullopt;
+  if (!records) {
     std::lock_guard lock(mu_);
     if (!failure_) failure_ = fmt::format("{}: waiting rows could not be read back (the disk failed)", file_.string());
+    return out;
   }
+  for (auto& r : *records) out.push_back(to_queue_item(std::move(r)));
+  return out;
+}
+
+Result<WaitingRows> read_index_overflow(const std::filesystem::path& file) {
+  std::ifstream f(file, std::ios::binary);
+  if (!f) return Error{fmt::format("{}: cannot be read: {}", file.string(), std::strerror(errno))};
+  const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  if (f.bad()) return Error{fmt::format("{}: cannot be read: {}", file.string(), std::strerror(errno))};
+  WaitingRows out;
+  std::size_t pos = 0;
+  while (pos + kChunkHeader <= bytes.size()) {
+    std::uint32_t size = 0;
+    std::memcpy(&size, bytes.data() + pos + 4, 4);
+    if (size > bytes.size() - pos - kChunkHeader) break;  // cut by the crash
+    auto records = decode_chunk(bytes.substr(pos, kChunkHeader + size));
+    if (!records) break;
+    std::move(records->begin(), records->end(), std::back_inserter(out.records));
+    pos += kChunkHeader + size;
+  }
+  out.unreadable_bytes = bytes.size() - pos;
   return out;
 }
 

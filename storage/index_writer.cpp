@@ -93,33 +93,12 @@ std::optional<std::string> IndexWriter::failure() const {
 
 void IndexWriter::write_records(const std::vector<Record>& batch) {
   sqlite::Transaction tx(index_.db());
-  for (const Record& r : batch) {
+  for (const Record& r : batch)
     std::visit(
         [&](const auto& rec) {
-          using T = std::decay_t<decltype(rec)>;
-          if constexpr (std::is_same_v<T, FrameRecord>)
-            index_.add_frame(rec);
-          else if constexpr (std::is_same_v<T, PressureRecord>)
-            index_.add_pressure(rec);
-          else if constexpr (std::is_same_v<T, DropRecord>)
-            index_.add_drop(rec);
-          else if constexpr (std::is_same_v<T, SampleRecord>)
-            index_.add_sample(rec);
-          else if constexpr (std::is_same_v<T, ClockModelRecord>)
-            index_.add_clock_model(rec);
-          else if constexpr (std::is_same_v<T, VideoFileRecord>)
-            index_.add_video_file(rec);
-          else if constexpr (std::is_same_v<T, VideoFileClosed>)
-            index_.close_video_file(rec);
-          else if constexpr (std::is_same_v<T, ProtocolEventRecord>)
-            index_.add_protocol_event(rec);
-          else if constexpr (std::is_same_v<T, OperatorNoteRecord>)
-            index_.add_operator_note(rec);
-          else if constexpr (std::is_same_v<T, EventRecord>)
-            index_.add_event(rec);
+          if constexpr (!std::is_same_v<std::decay_t<decltype(rec)>, CommitBarrier>) index_.add(rec);
         },
         r);
-  }
   tx.commit();
 }
 

@@ -187,17 +187,42 @@ void drain_spills(SessionIndex& index, const std::filesystem::path& dir,
     }
   }
   for (const fs::path& file : files) drain_spill(index, dir, file, store, started_host_ns, progress, report);
-  // Rows that waited for a slow index when the recording was cut (storage/index_overflow.h): some
-  // may be in the index already, and none is needed to read what is; they are lost with the cut.
-  if (const fs::path rows = folder / kIndexOverflowFile; fs::exists(rows, ec)) {
-    const auto bytes = fs::file_size(rows, ec);
-    fs::remove(rows, ec);
-    report.done.push_back(
-        fmt::format("{}: index rows that were waiting for the index when the recording was cut "
-                    "({} bytes) are lost; removed",
-                    rows.filename().string(), ec ? 0 : bytes));
-  }
   fs::remove(folder, ec);  // when empty
+}
+
+// Rows that waited for a slow index when the recording was cut (storage/index_overflow.h): each whole
+// chunk's records are written into the index in their order, those it holds already (read back
+// before the cut) left as they are, in one transaction; the file goes only once they are committed,
+// so a recover cut here and run again writes the same rows once. Their frames are on disk: the
+// index must name them before the cut segments are closed against it.
+void replay_waiting_rows(SessionIndex& index, const std::filesystem::path& dir, RecoverReport& report) {
+  namespace fs = std::filesystem;
+  const fs::path file = dir / "spill" / kIndexOverflowFile;
+  std::error_code ec;
+  if (!fs::exists(file, ec)) return;
+  auto waiting = read_index_overflow(file);
+  if (!waiting) throw fs::filesystem_error(waiting.error().message, file, std::make_error_code(std::errc::io_error));
+  std::size_t written = 0, held = 0;
+  {
+    sqlite::Transaction tx(index.db());
+    for (const IndexRecord& r : waiting.value().records) {
+      if (index.holds(r)) {
+        ++held;
+        continue;
+      }
+      index.add(r);
+      ++written;
+    }
+    tx.commit();
+  }
+  fs::remove(file, ec);
+  std::string said = fmt::format(
+      "{}: {} index rows that waited for the index when the recording was cut written into it ({} it held "
+      "already)",
+      file.filename().string(), written, held);
+  if (waiting.value().unreadable_bytes > 0)
+    said += fmt::format("; its last {} bytes were not a whole chunk (cut by the crash)", waiting.value().unreadable_bytes);
+  report.done.push_back(said);
 }
 
 // The view video of a segment a crash left open (storage/view_video.h) is cut too: a cut file cannot
@@ -345,6 +370,8 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
       report.was_interrupted = s.column_int(0) != 0;
       started_host_ns = s.column_int(1);
     }  // statements end before the checkpoint below, which needs no reader open
+
+    replay_waiting_rows(index, dir, report);
 
     struct Open {
       std::int64_t id;

@@ -113,6 +113,66 @@ std::int64_t SessionIndex::add_calibration(const CalibrationRecord& c) {
   return db_->last_insert_rowid();
 }
 
+void SessionIndex::add(const IndexRecord& record) {
+  std::visit(
+      [&](const auto& r) {
+        using T = std::decay_t<decltype(r)>;
+        if constexpr (std::is_same_v<T, FrameRecord>) add_frame(r);
+        else if constexpr (std::is_same_v<T, PressureRecord>) add_pressure(r);
+        else if constexpr (std::is_same_v<T, DropRecord>) add_drop(r);
+        else if constexpr (std::is_same_v<T, SampleRecord>) add_sample(r);
+        else if constexpr (std::is_same_v<T, ClockModelRecord>) add_clock_model(r);
+        else if constexpr (std::is_same_v<T, VideoFileRecord>) add_video_file(r);
+        else if constexpr (std::is_same_v<T, VideoFileClosed>) close_video_file(r);
+        else if constexpr (std::is_same_v<T, ProtocolEventRecord>) add_protocol_event(r);
+        else if constexpr (std::is_same_v<T, OperatorNoteRecord>) add_operator_note(r);
+        else if constexpr (std::is_same_v<T, EventRecord>) add_event(r);
+      },
+      record);
+}
+
+bool SessionIndex::holds(const IndexRecord& record) {
+  // bind_all returns the statement, which lives to the end of the full expression.
+  const auto found = [](sqlite::Statement& q) { return q.step(); };
+  return std::visit(
+      [&](const auto& r) {
+        using T = std::decay_t<decltype(r)>;
+        if constexpr (std::is_same_v<T, FrameRecord>)
+          return found(db_->prepare("SELECT 1 FROM frames WHERE device_id = ? AND connection = ? AND sequence = ?")
+                                     .bind_all(r.device_id, std::int64_t(r.connection), r.sequence));
+        else if constexpr (std::is_same_v<T, PressureRecord>)
+          return found(
+              db_->prepare("SELECT 1 FROM pressure_frames WHERE device_id = ? AND connection = ? AND sequence = ?")
+                  .bind_all(r.device_id, std::int64_t(r.connection), r.sequence));
+        else if constexpr (std::is_same_v<T, DropRecord>)
+          return found(db_->prepare("SELECT 1 FROM drops WHERE device_id = ? AND connection = ? AND "
+                                              "first_sequence = ? AND reason = ?")
+                                     .bind_all(r.device_id, std::int64_t(r.connection), r.first_sequence, r.reason));
+        else if constexpr (std::is_same_v<T, SampleRecord>)
+          return found(db_->prepare("SELECT 1 FROM samples WHERE id = ?").bind_all(r.index));
+        else if constexpr (std::is_same_v<T, ClockModelRecord>)
+          return found(
+              db_->prepare("SELECT 1 FROM clock_models WHERE device_id = ? AND host_ns = ? AND segment = ?")
+                  .bind_all(r.device_id, r.host_ns, r.segment));
+        else if constexpr (std::is_same_v<T, VideoFileRecord>)
+          return found(db_->prepare("SELECT 1 FROM video_files WHERE id = ?").bind_all(r.id));
+        else if constexpr (std::is_same_v<T, VideoFileClosed>)
+          return found(
+              db_->prepare("SELECT 1 FROM video_files WHERE id = ? AND state = 'closed' AND frames = ?")
+                  .bind_all(r.id, r.frames));
+        else if constexpr (std::is_same_v<T, ProtocolEventRecord>)
+          return found(db_->prepare("SELECT 1 FROM protocol_events WHERE host_ns = ? AND kind = ?")
+                                     .bind_all(r.host_ns, r.kind));
+        else if constexpr (std::is_same_v<T, OperatorNoteRecord>)
+          return found(
+              db_->prepare("SELECT 1 FROM operator_notes WHERE host_ns = ? AND text = ?").bind_all(r.host_ns, r.text));
+        else
+          return found(db_->prepare("SELECT 1 FROM events WHERE host_ns = ? AND kind = ? AND message = ?")
+                                     .bind_all(r.host_ns, r.kind, r.message));
+      },
+      record);
+}
+
 void SessionIndex::add_protocol_event(const ProtocolEventRecord& e) {
   db_->prepare(
          "INSERT INTO protocol_events (host_ns, kind, step, action, hand, force, repetition, detail) "

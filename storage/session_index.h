@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "storage/record_codec.h"
 #include "storage/records.h"
 #include "storage/schema.h"
 #include "storage/sqlite/database.h"
@@ -42,6 +43,13 @@ class SessionIndex {
   void add_clock_model(const ClockModelRecord& c);
   void add_timeline_count(const std::string& what, std::uint64_t count);
   void finish_session(std::int64_t ended_host_ns, const std::string& end_reason);
+
+  // Any index record, by its kind (what the index thread writes, and recover replays).
+  void add(const IndexRecord& record);
+  // Whether the index holds `record` already, by its kind's key (frames and pressure frames: device,
+  // connection and sequence; samples and video files: their id; a close: the file closed with its
+  // count; the others: their instant and what they say): a record written twice is written once.
+  bool holds(const IndexRecord& record);
 
   // Re-mapping a finished recording with its final clock fits (see docs/store.md).
   enum class Stream { Camera, Pressure };  // frames (arrival host_ns) / pressure_frames (answer arrival)

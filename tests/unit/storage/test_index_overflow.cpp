@@ -4,10 +4,16 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <thread>
 
+#include <fmt/format.h>
+
 #include "storage/index_overflow.h"
+#include "storage/recover.h"
+#include "storage/session_index.h"
 #include "storage/index_writer.h"
 #include "storage/record_codec.h"
 #include "storage/sqlite/database.h"
@@ -168,4 +174,114 @@ TEST(IndexWriter, AStalledIndexLosesNoRowAndSaysItWasBehind) {
   ASSERT_TRUE(e.step());
   EXPECT_NE(e.column_text(0).find("none was lost"), std::string::npos) << e.column_text(0);
   EXPECT_FALSE(fs::exists(file));
+}
+
+namespace {
+// The frames table, row by row, as text: what two recovers must leave the same.
+std::string frames_table(const fs::path& db_path) {
+  sqlite::Database db(db_path, sqlite::Database::Mode::ReadOnly);
+  auto q = db.prepare("SELECT device_id, connection, sequence, host_ns, video_index FROM frames ORDER BY rowid");
+  std::string out;
+  while (q.step())
+    out += std::to_string(q.column_int(0)) + "," + std::to_string(q.column_int(1)) + "," +
+           std::to_string(q.column_int(2)) + "," + std::to_string(q.column_int(3)) + "," +
+           std::to_string(q.column_int(4)) + "\n";
+  return out;
+}
+}  // namespace
+
+// A recording cut while its index was behind leaves rows in the overflow file (and the file's last
+// chunk cut mid-write). recover writes every whole chunk's rows into the index in their order, those
+// read back before the cut once, says what it did, and removes the file only after; a recover run
+// again on the same file (cut between its commit and the removal) writes nothing twice.
+TEST(IndexOverflow, RecoverWritesTheWaitingRowsIntoTheIndexOnce) {
+  const TempDir scratch{overflow_dir("recover")};
+  const fs::path& dir = scratch.path;
+  const fs::path file = dir / "spill" / kIndexOverflowFile;
+  std::int64_t cam = 0;
+  {
+    SessionIndex index = SessionIndex::create(dir / "session.db");
+    index.add_session({1, 2, "test", "rig", "rig.yaml", "name: rig", true});
+    cam = index.add_device({"camera", "cam0", "", "", "", "", "", "{}"});
+  }
+  const auto row = [&](std::uint64_t i) {
+    FrameRecord r = frame(i);
+    r.device_id = cam;
+    r.video_file_id.reset();
+    r.video_index.reset();
+    r.kept = false;
+    r.reason = "subsampled";
+    return r;
+  };
+  std::uint64_t in_file = 0;
+  {
+    IndexOverflow overflow(file, 50);
+    for (std::uint64_t i = 0; i < 5000; ++i) overflow.add(row(i));
+    for (int i = 0; i < 500 && overflow.spilled() < 4000; ++i) std::this_thread::sleep_for(10ms);
+    in_file = overflow.spilled();
+    ASSERT_GE(in_file, 4000u);
+  }  // cut: nothing taken back, the file stays as the crash leaves it
+  ASSERT_TRUE(fs::exists(file));
+  { std::ofstream(file, std::ios::app | std::ios::binary) << std::string("PVIX\x40\x00\x00\x00", 8) << "half a chunk"; }
+  {
+    // The first 1000 rows had been read back into the index before the cut.
+    SessionIndex index = SessionIndex::open_for_update(dir / "session.db");
+    sqlite::Transaction tx(index.db());
+    for (std::uint64_t i = 0; i < 1000; ++i) index.add(row(i));
+    tx.commit();
+  }
+  const fs::path copy = dir / "overflow.copy";
+  fs::copy_file(file, copy);
+  auto r = recover_session(dir);
+  ASSERT_TRUE(r) << r.error().message;
+  std::string said;
+  for (const auto& d : r.value().done) said += d + "\n";
+  EXPECT_NE(said.find(fmt::format("{} index rows that waited for the index when the recording was cut written into it "
+                                  "(1000 it held already)",
+                                  in_file - 1000)),
+            std::string::npos)
+      << said;
+  EXPECT_NE(said.find("its last 20 bytes were not a whole chunk"), std::string::npos) << said;
+  EXPECT_FALSE(fs::exists(file)) << "removed once its rows are committed";
+  const std::string after_first = frames_table(dir / "session.db");
+  {
+    sqlite::Database db(dir / "session.db", sqlite::Database::Mode::ReadOnly);
+    auto q = db.prepare("SELECT sequence FROM frames ORDER BY rowid");
+    std::uint64_t expect = 0;
+    while (q.step()) ASSERT_EQ(std::uint64_t(q.column_int(0)), expect++);
+    EXPECT_EQ(expect, in_file) << "every waiting row once, in its order";
+  }
+  fs::create_directories(file.parent_path());  // as if the first recover was cut before it removed the file
+  fs::copy_file(copy, file);
+  auto again = recover_session(dir);
+  ASSERT_TRUE(again) << again.error().message;
+  said.clear();
+  for (const auto& d : again.value().done) said += d + "\n";
+  EXPECT_NE(said.find(fmt::format("0 index rows that waited for the index when the recording was cut written into it "
+                                  "({} it held already)",
+                                  in_file)),
+            std::string::npos)
+      << said;
+  EXPECT_EQ(frames_table(dir / "session.db"), after_first) << "recover twice: the same rows";
+}
+
+// Every kind of record is found by its key once written, and not before: what makes a replay idempotent.
+TEST(SessionIndex, EveryKindOfRecordIsHeldOnceWritten) {
+  const TempDir scratch{overflow_dir("holds")};
+  SessionIndex index = SessionIndex::create(scratch.path / "session.db");
+  index.add_session({1, 2, "test", "rig", "rig.yaml", "name: rig", true});
+  for (int d = 1; d <= 9; ++d) index.add_device({"camera", fmt::format("cam{}", d), "", "", "", "", "", "{}"});
+  std::vector<IndexRecord> records = one_of_each();
+  // Referenced rows first: the video file before the frame in it, the frames before the sample.
+  std::stable_partition(records.begin(), records.end(),
+                        [](const IndexRecord& r) { return std::holds_alternative<VideoFileRecord>(r); });
+  std::get<FrameRecord>(records[1]).video_file_id = 5;
+  for (const auto& r : records) {
+    SCOPED_TRACE("kind " + std::to_string(r.index()));
+    if (!std::holds_alternative<VideoFileClosed>(r)) {
+      EXPECT_FALSE(index.holds(r));
+    }
+    index.add(r);
+    EXPECT_TRUE(index.holds(r));
+  }
 }
