@@ -38,5 +38,6 @@ Registered add_recover_command(CLI::App& app, AppContext& ctx);
 Registered add_migrate_command(CLI::App& app, AppContext& ctx);
 Registered add_compact_command(CLI::App& app, AppContext& ctx);
 Registered add_dataset_command(CLI::App& app, AppContext& ctx);
+Registered add_camera_command(CLI::App& app, AppContext& ctx);
 
 }  // namespace pvcap

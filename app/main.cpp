@@ -130,7 +130,7 @@ int main(int argc, char** argv) {
       pvcap::add_sensel_command(app, ctx),  pvcap::add_eval_sync_command(app, ctx),
       pvcap::add_verify_command(app, ctx),  pvcap::add_recover_command(app, ctx),
       pvcap::add_migrate_command(app, ctx), pvcap::add_dataset_command(app, ctx),
-      pvcap::add_compact_command(app, ctx)};
+      pvcap::add_compact_command(app, ctx), pvcap::add_camera_command(app, ctx)};
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -3,6 +3,7 @@
 #include "capture/aravis_handles.h"
 #include "capture/aravis_stream.h"
 #include "capture/camera_watchdog.h"
+#include "capture/genicam_features.h"
 #include "capture/gvcp_ping.h"
 #include "capture/pixel_format.h"
 #include "core/thread_name.h"
@@ -222,13 +223,14 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
   ArvDevice* dev = arv_camera_get_device(link_->camera.get());
   latch_command_.clear();
   latch_value_.clear();
-  for (const auto& [command, value] : {std::pair{"TimestampControlLatch", "TimestampLatchValue"},
-                                       std::pair{"GevTimestampControlLatch", "GevTimestampValue"}})
-    if (arv_device_get_feature(dev, command) && arv_device_get_feature(dev, value)) {
-      latch_command_ = command;
-      latch_value_ = value;
-      break;
-    }
+  // The latch under whichever name the camera's node map uses (capture/genicam_features.h: SFNC 2's
+  // TimestampLatch on FLIR Blackfly S and Basler ace 2, GevTimestampControlLatch on older cameras).
+  const auto features = resolve_camera_features(
+      [dev](const std::string& name) { return arv_device_get_feature(dev, name.c_str()) != nullptr; });
+  if (features.count(CameraRole::TimestampLatch)) {
+    latch_command_ = features.at(CameraRole::TimestampLatch);
+    latch_value_ = features.at(CameraRole::TimestampLatchValue);
+  }
   control_lost_.store(false);
   link_->control_lost_id = g_signal_connect(dev, "control-lost", G_CALLBACK(&Link::on_control_lost), this);
   return {};

@@ -1,0 +1,74 @@
+#include "capture/genicam_features.h"
+
+#include <utility>
+
+namespace pvcap {
+
+const std::vector<RoleNames>& camera_feature_names() {
+  static const std::vector<RoleNames> table = {
+      {CameraRole::PixelFormat, "pixel_format", {"PixelFormat"}},
+      {CameraRole::Width, "width", {"Width"}},
+      {CameraRole::Height, "height", {"Height"}},
+      {CameraRole::OffsetX, "offset_x", {"OffsetX"}},
+      {CameraRole::OffsetY, "offset_y", {"OffsetY"}},
+      {CameraRole::TriggerMode, "trigger_mode", {"TriggerMode"}},
+      {CameraRole::TriggerSource, "trigger_source", {"TriggerSource"}},
+      {CameraRole::TriggerActivation, "trigger_activation", {"TriggerActivation"}},
+      // SFNC 2; Basler ace classic and Allied Vision: ...Abs.
+      {CameraRole::FrameRate, "frame_rate", {"AcquisitionFrameRate", "AcquisitionFrameRateAbs"}},
+      // FLIR needs it set before a rate takes; older Point Grey spell it with a d.
+      {CameraRole::FrameRateEnable, "frame_rate_enable", {"AcquisitionFrameRateEnable", "AcquisitionFrameRateEnabled"}},
+      {CameraRole::ExposureTime, "exposure_time", {"ExposureTime", "ExposureTimeAbs", "ExposureTimeRaw"}},
+      {CameraRole::Gain, "gain", {"Gain", "GainAbs", "GainRaw"}},
+      {CameraRole::PacketSize, "packet_size", {"GevSCPSPacketSize"}},
+      // Inter-packet delay on most; Allied Vision limits bytes per second instead.
+      {CameraRole::BandwidthLimit, "bandwidth_limit", {"GevSCPD", "StreamBytesPerSecond", "DeviceLinkThroughputLimit"}},
+      {CameraRole::TimestampLatch, "timestamp_latch", {"TimestampLatch", "GevTimestampControlLatch", "TimestampControlLatch"}},
+      {CameraRole::TimestampLatchValue, "timestamp_latch_value", {"TimestampLatchValue", "GevTimestampValue"}},
+      {CameraRole::TimestampReset, "timestamp_reset", {"TimestampReset", "GevTimestampControlReset", "TimestampControlReset"}},
+      // Absent on SFNC 2 cameras, whose timestamps count nanoseconds.
+      {CameraRole::TimestampTickFrequency, "timestamp_tick_frequency", {"GevTimestampTickFrequency", "TimestampTickFrequency"}},
+      {CameraRole::PtpEnable, "ptp_enable", {"PtpEnable", "GevIEEE1588"}},
+      {CameraRole::PtpStatus, "ptp_status", {"PtpStatus", "GevIEEE1588Status"}},
+      {CameraRole::ChunkModeActive, "chunk_mode_active", {"ChunkModeActive"}},
+      {CameraRole::ChunkSelector, "chunk_selector", {"ChunkSelector"}},
+      {CameraRole::ChunkEnable, "chunk_enable", {"ChunkEnable"}},
+      {CameraRole::UserOutputSelector, "user_output_selector", {"UserOutputSelector"}},
+      {CameraRole::LineSource, "line_source", {"LineSource"}},
+      {CameraRole::DeviceTemperature, "device_temperature", {"DeviceTemperature", "TemperatureAbs"}},
+  };
+  return table;
+}
+
+const char* role_key(CameraRole role) {
+  for (const auto& r : camera_feature_names())
+    if (r.role == role) return r.key;
+  return "";
+}
+
+std::map<CameraRole, std::string> resolve_camera_features(const std::function<bool(const std::string&)>& has) {
+  std::map<CameraRole, std::string> out;
+  for (const auto& r : camera_feature_names()) {
+    if (r.role == CameraRole::TimestampLatch || r.role == CameraRole::TimestampLatchValue) continue;
+    for (const char* name : r.names)
+      if (has(name)) {
+        out[r.role] = name;
+        break;
+      }
+  }
+  // The latch command and the register it fills, one naming family at a time.
+  static const std::pair<const char*, const char*> kLatchFamilies[] = {
+      {"TimestampLatch", "TimestampLatchValue"},              // SFNC 2 (FLIR Blackfly S, Oryx; Basler ace 2)
+      {"GevTimestampControlLatch", "GevTimestampValue"},      // GigE Vision SFNC 1 (Basler ace, AVT, Point Grey)
+      {"TimestampControlLatch", "TimestampLatchValue"},       // Aravis' fake camera
+  };
+  for (const auto& [latch, value] : kLatchFamilies)
+    if (has(latch) && has(value)) {
+      out[CameraRole::TimestampLatch] = latch;
+      out[CameraRole::TimestampLatchValue] = value;
+      break;
+    }
+  return out;
+}
+
+}  // namespace pvcap

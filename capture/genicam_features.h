@@ -1,0 +1,40 @@
+#pragma once
+// Which GenICam feature plays each role pvcap needs of a camera, under the names real cameras' node
+// maps use (SFNC 2 and its older forms, and vendors' own: ../shared/data/genicam/README.md). The one
+// table of names: the live camera (capture/aravis_camera.cpp) and the offline check (`pvcap camera
+// check`) both ask it, each with its own way to tell whether a feature exists. Pure: no Aravis.
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace pvcap {
+
+enum class CameraRole {
+  PixelFormat, Width, Height, OffsetX, OffsetY,
+  TriggerMode, TriggerSource, TriggerActivation,
+  FrameRate, FrameRateEnable, ExposureTime, Gain,
+  PacketSize, BandwidthLimit,
+  TimestampLatch, TimestampLatchValue, TimestampReset, TimestampTickFrequency,
+  PtpEnable, PtpStatus,
+  ChunkModeActive, ChunkSelector, ChunkEnable,
+  UserOutputSelector, LineSource, DeviceTemperature,
+};
+
+struct RoleNames {
+  CameraRole role;
+  const char* key;                  // "timestamp_latch": how the check's report names the role
+  std::vector<const char*> names;   // in the order they are tried
+};
+// Every role with its names.
+const std::vector<RoleNames>& camera_feature_names();
+const char* role_key(CameraRole role);
+
+// The feature chosen for each role a camera has; `has(name)` says whether the camera's node map has
+// a feature of that name. The latch and its value are chosen as a pair of one naming family
+// (`TimestampLatch` + `TimestampLatchValue`, `GevTimestampControlLatch` + `GevTimestampValue`, ...):
+// a latch without its value reads nothing.
+std::map<CameraRole, std::string> resolve_camera_features(const std::function<bool(const std::string&)>& has);
+
+}  // namespace pvcap

@@ -1,0 +1,110 @@
+#include "capture/genicam_node_map.h"
+
+#include <arv.h>
+
+#include <algorithm>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "capture/aravis_handles.h"
+#include "capture/genicam_features.h"
+
+namespace pvcap {
+
+struct GenicamNodeMap::Impl {
+  arv::GPtr<ArvGc> gc;
+  ArvGcRegisterDescriptionNode* description = nullptr;  // owned by gc
+};
+
+GenicamNodeMap::GenicamNodeMap(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+GenicamNodeMap::~GenicamNodeMap() = default;
+GenicamNodeMap::GenicamNodeMap(GenicamNodeMap&&) noexcept = default;
+GenicamNodeMap& GenicamNodeMap::operator=(GenicamNodeMap&&) noexcept = default;
+
+Result<GenicamNodeMap> GenicamNodeMap::parse(const std::string& xml) {
+  // Aravis parses without a device: names, types and entries are in the XML; registers are not read.
+  auto impl = std::make_unique<Impl>();
+  impl->gc.reset(arv_gc_new(nullptr, xml.data(), xml.size()));
+  if (!impl->gc) return Error{"not a GenICam node map (the XML could not be parsed)"};
+  ArvDomElement* root = arv_dom_document_get_document_element(ARV_DOM_DOCUMENT(impl->gc.get()));
+  if (!root || !ARV_IS_GC_REGISTER_DESCRIPTION_NODE(root))
+    return Error{"not a GenICam node map (no RegisterDescription at its root)"};
+  impl->description = ARV_GC_REGISTER_DESCRIPTION_NODE(root);
+  return GenicamNodeMap(std::move(impl));
+}
+
+bool GenicamNodeMap::has(const std::string& feature) const {
+  ArvGcNode* node = arv_gc_get_node(impl_->gc.get(), feature.c_str());
+  return node && ARV_IS_GC_FEATURE_NODE(node);
+}
+
+std::string GenicamNodeMap::type(const std::string& feature) const {
+  ArvGcNode* node = arv_gc_get_node(impl_->gc.get(), feature.c_str());
+  if (!node) return "";
+  // The XML element's own name (Command, Integer, Float, Enumeration, Boolean, IntReg, Converter...).
+  const char* tag = arv_dom_node_get_node_name(ARV_DOM_NODE(node));
+  return tag ? tag : "";
+}
+
+std::vector<std::string> GenicamNodeMap::entries(const std::string& feature) const {
+  std::vector<std::string> out;
+  ArvGcNode* node = arv_gc_get_node(impl_->gc.get(), feature.c_str());
+  if (!node || !ARV_IS_GC_ENUMERATION(node)) return out;
+  for (const GSList* e = arv_gc_enumeration_get_entries(ARV_GC_ENUMERATION(node)); e; e = e->next)
+    if (ARV_IS_GC_FEATURE_NODE(e->data)) out.emplace_back(arv_gc_feature_node_get_name(ARV_GC_FEATURE_NODE(e->data)));
+  return out;
+}
+
+namespace {
+// Aravis hands out its own copy of these attributes (transfer none, though typed char*): never freed here.
+std::string attribute(const char* s) { return s ? s : ""; }
+}  // namespace
+
+std::string GenicamNodeMap::vendor() const {
+  return attribute(arv_gc_register_description_node_get_vendor_name(impl_->description));
+}
+std::string GenicamNodeMap::model() const {
+  return attribute(arv_gc_register_description_node_get_model_name(impl_->description));
+}
+std::string GenicamNodeMap::version() const {
+  auto* d = impl_->description;
+  return fmt::format("{}.{}.{}", arv_gc_register_description_node_get_major_version(d),
+                     arv_gc_register_description_node_get_minor_version(d),
+                     arv_gc_register_description_node_get_subminor_version(d));
+}
+
+NodeMapCheck check_node_map(const GenicamNodeMap& map, const std::string& pixel_format) {
+  NodeMapCheck out;
+  out.vendor = map.vendor();
+  out.model = map.model();
+  out.version = map.version();
+  const auto chosen = resolve_camera_features([&](const std::string& name) { return map.has(name); });
+  for (const auto& r : camera_feature_names()) {
+    const auto it = chosen.find(r.role);
+    if (it == chosen.end()) continue;
+    out.features.push_back({r.key, it->second, map.type(it->second), map.entries(it->second)});
+  }
+  const auto have = [&](CameraRole role) { return chosen.count(role) > 0; };
+  for (CameraRole role : {CameraRole::PixelFormat, CameraRole::Width, CameraRole::Height, CameraRole::ExposureTime})
+    if (!have(role)) out.missing.push_back(fmt::format("no {} feature", role_key(role)));
+  if (have(CameraRole::PixelFormat)) {
+    const auto formats = map.entries(chosen.at(CameraRole::PixelFormat));
+    if (std::find(formats.begin(), formats.end(), pixel_format) == formats.end())
+      out.missing.push_back(fmt::format("pixel format {} is not among its {}", pixel_format, fmt::join(formats, ", ")));
+  }
+  out.clock = have(CameraRole::TimestampLatch) ? "latch" : "arrival";
+  if (out.clock == "arrival")
+    out.warnings.push_back(
+        "no timestamp latch: pvcap would put its frames on the host clock by their arrival times (the weaker clock)");
+  if (!have(CameraRole::FrameRate))
+    out.warnings.push_back("no frame rate feature: free-running at its own rate, or on a trigger line");
+  else if (!have(CameraRole::FrameRateEnable) && out.vendor.find("FLIR") != std::string::npos)
+    out.warnings.push_back("no frame rate enable: a FLIR camera may ignore the rate set");
+  if (!have(CameraRole::TriggerSource)) out.warnings.push_back("no trigger source: no hardware or software trigger");
+  out.ptp = have(CameraRole::PtpEnable);
+  out.chunks = have(CameraRole::ChunkModeActive);
+  return out;
+}
+
+}  // namespace pvcap

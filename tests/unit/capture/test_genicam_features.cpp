@@ -1,0 +1,119 @@
+// Real cameras' GenICam node maps (../shared/data/genicam/, read in place): the feature pvcap would
+// use for each role, under whichever name each vendor's map declares, and the clock it would use.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <set>
+
+#include "capture/genicam_features.h"
+#include "capture/genicam_node_map.h"
+
+using namespace pvcap;
+
+namespace {
+const std::filesystem::path kNodeMaps = std::filesystem::path(PVCAP_SOURCE_DIR) / "../shared/data/genicam";
+
+std::string read(const std::filesystem::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+std::map<std::string, std::string> features_of(const NodeMapCheck& c) {
+  std::map<std::string, std::string> out;
+  for (const auto& f : c.features) out[f.role] = f.name;
+  return out;
+}
+
+struct Expected {
+  const char* file;
+  const char* latch;
+  const char* exposure;
+  const char* rate;
+  const char* rate_enable;  // "" when the map has none
+  const char* gain;
+  const char* ptp;  // "" when none
+  const char* bandwidth;
+};
+// As ../shared/data/genicam/README.md describes each map.
+const Expected kExpected[] = {
+    {"FLIR-BFS-PGE-23S6C.xml", "TimestampLatch", "ExposureTime", "AcquisitionFrameRate", "AcquisitionFrameRateEnable",
+     "Gain", "GevIEEE1588", "GevSCPD"},
+    {"FLIR_ORX_10G_51S5M.xml", "TimestampLatch", "ExposureTime", "AcquisitionFrameRate", "AcquisitionFrameRateEnable",
+     "Gain", "GevIEEE1588", "GevSCPD"},
+    {"PGR_Blackfly_50S5C.xml", "GevTimestampControlLatch", "ExposureTime", "AcquisitionFrameRate",
+     "AcquisitionFrameRateEnable", "Gain", "", "GevSCPD"},
+    {"PGR_GS3_PGE_23S6C.xml", "GevTimestampControlLatch", "ExposureTime", "AcquisitionFrameRate",
+     "AcquisitionFrameRateEnabled", "Gain", "", "GevSCPD"},
+    {"Basler-acA1920-25gm.xml", "GevTimestampControlLatch", "ExposureTimeAbs", "AcquisitionFrameRateAbs",
+     "AcquisitionFrameRateEnable", "GainRaw", "", "GevSCPD"},
+    {"Basler-a2A2600-20gmBAS.xml", "TimestampLatch", "ExposureTime", "AcquisitionFrameRate",
+     "AcquisitionFrameRateEnable", "Gain", "PtpEnable", "GevSCPD"},
+    {"AVT_Mako_G158C.xml", "GevTimestampControlLatch", "ExposureTimeAbs", "AcquisitionFrameRateAbs", "", "Gain", "",
+     "StreamBytesPerSecond"},
+    {"AVT_Manta_G507C.xml", "GevTimestampControlLatch", "ExposureTimeAbs", "AcquisitionFrameRateAbs", "", "Gain", "",
+     "StreamBytesPerSecond"},
+};
+}  // namespace
+
+TEST(GenicamFeatures, EverySharedNodeMapGivesTheLatchAndTheMapsOwnExposureAndRate) {
+  std::set<std::string> seen;
+  for (const Expected& e : kExpected) {
+    SCOPED_TRACE(e.file);
+    auto map = GenicamNodeMap::parse(read(kNodeMaps / e.file));
+    ASSERT_TRUE(map) << map.error().message;
+    const NodeMapCheck c = check_node_map(map.value(), "Mono8");
+    auto f = features_of(c);
+    EXPECT_EQ(c.clock, "latch") << "not the weaker arrival clock";
+    EXPECT_EQ(f["timestamp_latch"], e.latch);
+    EXPECT_EQ(f["exposure_time"], e.exposure);
+    EXPECT_EQ(f["frame_rate"], e.rate);
+    EXPECT_EQ(f["frame_rate_enable"], e.rate_enable);
+    EXPECT_EQ(f["gain"], e.gain);
+    EXPECT_EQ(f["ptp_enable"], e.ptp);
+    EXPECT_EQ(c.ptp, *e.ptp != '\0');
+    EXPECT_EQ(f["bandwidth_limit"], e.bandwidth);
+    EXPECT_TRUE(c.chunks);
+    EXPECT_TRUE(c.usable()) << (c.missing.empty() ? "" : c.missing.front());
+    EXPECT_FALSE(c.vendor.empty());
+    seen.insert(e.file);
+  }
+  // Every node map shared is in the table above: a new one is checked, not skipped.
+  for (const auto& entry : std::filesystem::directory_iterator(kNodeMaps)) {
+    if (entry.path().extension() == ".xml") {
+      EXPECT_TRUE(seen.count(entry.path().filename().string())) << entry.path();
+    }
+  }
+}
+
+TEST(GenicamFeatures, APixelFormatTheMapLacksMakesTheCameraUnusableAndSaysWhich) {
+  auto map = GenicamNodeMap::parse(read(kNodeMaps / "Basler-a2A2600-20gmBAS.xml"));
+  ASSERT_TRUE(map);
+  const NodeMapCheck c = check_node_map(map.value(), "BayerRG8");
+  EXPECT_FALSE(c.usable());
+  ASSERT_EQ(c.missing.size(), 1u);
+  EXPECT_NE(c.missing[0].find("pixel format BayerRG8 is not among its Mono12p"), std::string::npos) << c.missing[0];
+}
+
+TEST(GenicamFeatures, TheLatchIsChosenWithItsValueFromOneNamingFamily) {
+  const auto with = [](std::set<std::string> names) {
+    return resolve_camera_features([names](const std::string& n) { return names.count(n) > 0; });
+  };
+  auto f = with({"TimestampLatch", "TimestampLatchValue"});
+  EXPECT_EQ(f[CameraRole::TimestampLatch], "TimestampLatch");
+  EXPECT_EQ(f[CameraRole::TimestampLatchValue], "TimestampLatchValue");
+  f = with({"TimestampLatch", "GevTimestampValue"});  // a latch whose value is of another family
+  EXPECT_EQ(f.count(CameraRole::TimestampLatch), 0u);
+  f = with({"TimestampControlLatch", "TimestampLatchValue"});  // Aravis' fake camera
+  EXPECT_EQ(f[CameraRole::TimestampLatch], "TimestampControlLatch");
+  f = with({"ExposureTimeAbs", "ExposureTime"});  // SFNC's name first when a map has both
+  EXPECT_EQ(f[CameraRole::ExposureTime], "ExposureTime");
+}
+
+TEST(GenicamFeatures, WhatIsNotANodeMapIsSaid) {
+  EXPECT_FALSE(GenicamNodeMap::parse("<html><body>not a camera</body></html>"));
+  EXPECT_FALSE(GenicamNodeMap::parse(""));
+  EXPECT_FALSE(GenicamNodeMap::parse(std::string("\x00\x01\x02", 3)));
+}
