@@ -14,6 +14,7 @@
 #include "dataset/dataset_folder.h"
 #include "dataset/dataset_page.h"
 #include "dataset/release.h"
+#include "dataset/withdrawal.h"
 #include "dataset/slurm.h"
 #include "dataset/splits.h"
 #include "protocol/protocol.h"
@@ -253,77 +254,29 @@ int run_release_job(const DatasetArgs& a, const std::atomic<bool>& stop) {
   return 0;
 }
 
-// The participant's folder in a release (its participants.json), or empty.
-std::string release_folder_of(const fs::path& out, const std::string& code) {
-  const json map = dataset::read_json_file(out / "participants.json", json::object());
-  return map.contains(code) && map[code].is_string() ? map[code].get<std::string>() : "";
-}
-
 int run_withdraw(const DatasetArgs& a, const std::atomic<bool>& stop) {
-  Loaded l = load(a.dir, true, stop);
-  if (!pvcap::is_pseudonymous_code(a.participant))
-    throw UserError(fmt::format("'{}' is not a participant code (letters, digits, - and _)", a.participant));
-  if (dataset::is_withdrawn(l.withdrawals, a.participant))
-    throw UserError(
-        fmt::format("{} has withdrawn already ({})", a.participant, (l.config.dir / "withdrawals.json").string()));
-  const auto& known = l.status.participants;
-  if (std::none_of(known.begin(), known.end(), [&](const auto& p) { return p.code == a.participant; })) {
-    std::vector<std::string> codes;
-    for (const auto& p : known) codes.push_back(p.code);
-    throw UserError(fmt::format("no participant {} in dataset {} (participants: {})", a.participant, l.config.name,
-                                fmt::join(codes, ", ")));
-  }
-  dataset::Withdrawal w;
-  w.participant = a.participant;
-  w.reason = a.reason;
-  w.wall_ns =
-      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
-  w.purged = a.purge;
-  for (const auto& r : dataset::load_releases(l.config.dir))
-    if (std::find(r.participants.begin(), r.participants.end(), a.participant) != r.participants.end())
-      w.releases_named.push_back(r.out);
-  std::vector<std::string> session_folders;
-  for (const auto& s : l.sessions)
-    if (s.participant == a.participant) session_folders.push_back(s.folder);
-  if (auto s = dataset::add_withdrawal(l.config.dir, w); !s.ok()) throw UserError(s.error().message);
-  // Out of the splits and the catalogue now; out of every later release by the record.
-  if (auto splits = load_splits(l.config.dir)) {
-    for (auto* v : {&splits->train, &splits->val, &splits->test})
-      v->erase(std::remove(v->begin(), v->end(), a.participant), v->end());
-    json j = dataset::read_json_file(l.config.dir / "splits.json", json::object());
-    j["train"] = splits->train;
-    j["val"] = splits->val;
-    j["test"] = splits->test;
-    if (auto s = write_file_atomically(l.config.dir / "splits.json", j.dump(2) + "\n", Durability::Synced); !s.ok())
-      throw UserError(s.error().message);
-  }
+  const Loaded l = load(a.dir, true, stop);
+  std::vector<std::string> participants;
+  for (const auto& p : l.status.participants) participants.push_back(p.code);
+  dataset::WithdrawRequest request{a.participant, a.reason, a.purge,
+                                   std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                       std::chrono::system_clock::now().time_since_epoch())
+                                       .count()};
+  auto done = dataset::withdraw(l.config, participants, l.sessions, request);
+  if (!done) throw UserError(done.error().message);
+  const dataset::WithdrawReport& r = done.value();
   load(a.dir, true, stop);  // the scan forgets the withdrawn participant's folders
   fmt::print("{} withdrawn ({}): out of the catalogue ({} session folders), the splits and every later release\n",
-             a.participant, a.reason, session_folders.size());
-  for (const auto& out : w.releases_named) {
-    const std::string folder = release_folder_of(out, a.participant);
-    fmt::print("  release {} holds them{}\n", out, folder.empty() ? "" : " in " + (fs::path(out) / folder).string());
-    if (!a.purge || folder.empty()) continue;
-    std::error_code ec;
-    fs::remove_all(fs::path(out) / folder, ec);
-    if (ec) throw UserError(fmt::format("{}: cannot be removed: {}", (fs::path(out) / folder).string(), ec.message()));
-    json map = dataset::read_json_file(fs::path(out) / "participants.json", json::object());
-    map.erase(a.participant);
-    if (auto s = write_file_atomically(fs::path(out) / "participants.json", map.dump(2) + "\n", Durability::Synced);
-        !s.ok())
-      throw UserError(s.error().message);
-    auto sums = dataset::write_sha256sums(out);
-    if (!sums) throw UserError(sums.error().message);
-    fmt::print("    removed; its SHA256SUMS rewritten (make a new release for an up-to-date datasheet)\n");
+             a.participant, a.reason, r.session_folders.size());
+  for (const auto& release : r.releases) {
+    fmt::print("  release {} holds them{}\n", release.out,
+               release.folder.empty() ? "" : " in " + (fs::path(release.out) / release.folder).string());
+    if (release.removed)
+      fmt::print("    removed; its SHA256SUMS rewritten (make a new release for an up-to-date datasheet)\n");
   }
-  if (a.purge)
-    for (const auto& f : session_folders) {
-      std::error_code ec;
-      fs::remove_all(f, ec);
-      if (ec) throw UserError(fmt::format("{}: cannot be removed: {}", f, ec.message()));
-      fmt::print("  session {} removed\n", f);
-    }
-  else if (!session_folders.empty())
+  if (r.sessions_removed)
+    for (const auto& f : r.session_folders) fmt::print("  session {} removed\n", f);
+  else if (!r.session_folders.empty())
     fmt::print("  their session folders stay on disk (--purge removes them and their released folders)\n");
   return 0;
 }

@@ -1,7 +1,5 @@
 #include "calib/charuco.h"
 
-#include "calib/board_coverage.h"
-
 #include <zlib.h>
 
 #include <algorithm>
@@ -14,6 +12,8 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "calib/board_coverage.h"
 
 namespace pvcap::calib {
 
@@ -98,33 +98,41 @@ cv::Size subpixel_window(const std::vector<std::vector<cv::Point2f>>& markers, c
 }
 }  // namespace
 
-BoardView detect_board(const cv::Mat& image, const BoardSpec& spec) {
-  cv::Mat grey = image;
-  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+namespace {
+// The board's markers in a grey image, and its chessboard corners between them (to about a pixel).
+BoardView find_board(const cv::Mat& grey, const BoardSpec& spec,
+                     std::vector<std::vector<cv::Point2f>>& marker_corners) {
   const auto board = make_board(spec);
-  std::vector<std::vector<cv::Point2f>> marker_corners;
   std::vector<int> marker_ids;
   cv::aruco::detectMarkers(grey, board->dictionary, marker_corners, marker_ids);
   BoardView view;
-  if (marker_ids.empty()) return view;
-  cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, grey, board, view.corners, view.ids);
+  if (!marker_ids.empty())
+    cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, grey, board, view.corners, view.ids);
+  return view;
+}
+
+cv::Mat as_grey(const cv::Mat& image) {
+  cv::Mat grey = image;
+  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  return grey;
+}
+}  // namespace
+
+BoardView detect_board(const cv::Mat& image, const BoardSpec& spec) {
+  const cv::Mat grey = as_grey(image);
+  std::vector<std::vector<cv::Point2f>> markers;
+  BoardView view = find_board(grey, spec, markers);
   if (!view.corners.empty())
-    cv::cornerSubPix(grey, view.corners, subpixel_window(marker_corners, spec), cv::Size(-1, -1),
+    cv::cornerSubPix(grey, view.corners, subpixel_window(markers, spec), cv::Size(-1, -1),
                      cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 40, 0.005));
   return view;
 }
 
 BoardView detect_board_coarse(const cv::Mat& image, const BoardSpec& spec) {
-  cv::Mat grey = image, half;
-  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  cv::resize(grey, half, {}, 0.5, 0.5, cv::INTER_AREA);
-  const auto board = make_board(spec);
-  std::vector<std::vector<cv::Point2f>> marker_corners;
-  std::vector<int> marker_ids;
-  cv::aruco::detectMarkers(half, board->dictionary, marker_corners, marker_ids);
-  BoardView view;
-  if (marker_ids.empty()) return view;
-  cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, half, board, view.corners, view.ids);
+  cv::Mat half;
+  cv::resize(as_grey(image), half, {}, 0.5, 0.5, cv::INTER_AREA);
+  std::vector<std::vector<cv::Point2f>> markers;
+  BoardView view = find_board(half, spec, markers);
   for (cv::Point2f& p : view.corners) p = p * 2.f + cv::Point2f(0.5f, 0.5f);  // half-size pixel centres
   return view;
 }
@@ -159,7 +167,7 @@ struct LensFit {
   // damping (symmetric, positive definite), where SVD gives the same answer 10 times slower; should a
   // step's system be singular, LU gives NaN (a CI run, 2026-11-29), so such a fit is made again by
   // SVD. True when the result is a lens (sensible); K and dist are then the fit's.
-  bool attempt(int flags, bool guess) {
+  bool attempt(int flags, bool guess, bool with_deviations = false) {
     const cv::TermCriteria until(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-9);
     // Square pixels (every machine-vision sensor pvcap drives): fx = fy, one unknown less.
     flags |= cv::CALIB_FIX_ASPECT_RATIO | (guess ? cv::CALIB_USE_INTRINSIC_GUESS : 0);
@@ -168,8 +176,14 @@ struct LensFit {
       cv::Mat k = K0.clone(), d = dist0.clone(), pv, dev;
       std::vector<cv::Mat> rvecs, tvecs;
       try {
-        const double r = cv::aruco::calibrateCameraCharuco(corners, ids, board, size, k, d, rvecs, tvecs, dev,
-                                                           cv::noArray(), pv, flags | solver, until);
+        // The deviations cost an inversion of the whole system (an SVD of some 500 unknowns: most of
+        // a fit's time), so only the last fit asks for them.
+        const double r =
+            with_deviations
+                ? cv::aruco::calibrateCameraCharuco(corners, ids, board, size, k, d, rvecs, tvecs, dev, cv::noArray(),
+                                                    pv, flags | solver, until)
+                : cv::aruco::calibrateCameraCharuco(corners, ids, board, size, k, d, rvecs, tvecs, cv::noArray(),
+                                                    cv::noArray(), pv, flags | solver, until);
         if (!std::isfinite(r) || !cv::checkRange(pv) || !sensible(k, d, size)) continue;
         K = k, dist = d, per_view = pv, deviations = dev, rms = r;
         return true;
@@ -262,6 +276,9 @@ Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::S
       return Error{fmt::format("the lens could not be fitted to the board's {} views left after {} stood out{}",
                                corners.size(), out.rejected_views, lacking())};
   }
+  // The fit's own standard deviations, from where it stands (it moves no further).
+  if (!fit.attempt(0, true, /*with_deviations=*/true))
+    return Error{fmt::format("the lens could not be fitted to the board's {} views{}", corners.size(), lacking())};
   out.rms_px = fit.rms;
   // One standard deviation of fx, fy, cx, cy as the fit itself estimates them.
   for (int k = 0; k < 4 && k < fit.deviations.rows; ++k) out.deviation[std::size_t(k)] = fit.deviations.at<double>(k);

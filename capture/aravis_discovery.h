@@ -3,6 +3,8 @@
 #include <string>
 #include <vector>
 
+#include "core/result.h"
+
 namespace pvcap {
 
 struct DiscoveredCamera {
@@ -16,5 +18,9 @@ struct DiscoveredCamera {
 };
 
 std::vector<DiscoveredCamera> discover_gige_cameras();
+
+// A reachable camera's GenICam node map (its XML), for `pvcap devices --dump-node-map`: the camera
+// named by serial, address or Aravis id. An Error says which cameras there are when none matches.
+Result<std::string> read_node_map(const std::string& camera);
 
 }  // namespace pvcap

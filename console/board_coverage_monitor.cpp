@@ -37,12 +37,12 @@ std::vector<std::string> BoardCoverageMonitor::summary() const {
 
 void BoardCoverageMonitor::run() {
   const calib::BoardSpec spec;
-  std::vector<std::int64_t> seen(coverage_.size(), 0);
+  std::vector<std::int64_t> seen(coverage_.size(), 0);  // each camera's newest preview searched
   auto next_report = std::chrono::steady_clock::now() + std::chrono::seconds(5);
   while (!stop_.load()) {
     for (std::size_t c = 0; c < coverage_.size() && !stop_.load(); ++c) {
-      auto [frame, at_ns] = recording_.preview_full(c);
-      if (frame.empty() || at_ns == seen[c]) continue;
+      auto [frame, at_ns] = recording_.preview_full(c, seen[c]);  // copied only when new
+      if (frame.empty()) continue;
       seen[c] = at_ns;
       const calib::BoardView view = calib::detect_board_coarse(frame, spec);
       const std::lock_guard lock(mu_);

@@ -40,8 +40,9 @@ void Preview::set(cv::Mat small, cv::Mat full, std::int64_t host_ns) {
   host_ns_ = host_ns;
 }
 
-std::pair<cv::Mat, std::int64_t> Preview::get_full() const {
+std::pair<cv::Mat, std::int64_t> Preview::get_full(std::int64_t newer_than_ns) const {
   std::lock_guard lock(mu_);
+  if (host_ns_ <= newer_than_ns) return {cv::Mat(), host_ns_};
   return {full_.clone(), host_ns_};
 }
 

@@ -33,7 +33,9 @@ class Preview {
   void set(cv::Mat small, cv::Mat full, std::int64_t host_ns);
   // A copy of the latest view (empty before the first) and when it arrived (host clock).
   std::pair<cv::Mat, std::int64_t> get() const;
-  std::pair<cv::Mat, std::int64_t> get_full() const;
+  // The whole frame only when it arrived after `newer_than_ns` (an empty image otherwise: a 1080p
+  // copy is not made for a caller that has seen it).
+  std::pair<cv::Mat, std::int64_t> get_full(std::int64_t newer_than_ns = -1) const;
 
  private:
   mutable std::mutex mu_;

@@ -485,9 +485,9 @@ RecordingStatus Recording::status() const {
   return st;
 }
 
-std::pair<cv::Mat, std::int64_t> Recording::preview_full(std::size_t camera) const {
+std::pair<cv::Mat, std::int64_t> Recording::preview_full(std::size_t camera, std::int64_t newer_than_ns) const {
   if (camera >= previews_.size()) return {};
-  return previews_[camera]->get_full();
+  return previews_[camera]->get_full(newer_than_ns);
 }
 
 std::pair<cv::Mat, std::int64_t> Recording::preview(std::size_t camera) const {

@@ -101,8 +101,9 @@ class Recording {
   // The operator's live views: a camera's latest small image, the latest pressure frame, and what
   // the pressure frames of a time span amounted to (for the take check).
   std::pair<cv::Mat, std::int64_t> preview(std::size_t camera) const;
-  // The same preview's whole frame (for marking a point on it), with its arrival time.
-  std::pair<cv::Mat, std::int64_t> preview_full(std::size_t camera) const;
+  // The same preview's whole frame (for marking a point on it), with its arrival time; an empty
+  // image when it arrived no later than `newer_than_ns`.
+  std::pair<cv::Mat, std::int64_t> preview_full(std::size_t camera, std::int64_t newer_than_ns = -1) const;
   std::optional<PressureSnapshot> pressure_now() const;
   std::vector<PressurePoint> pressure_history(std::int64_t from_ns, std::int64_t to_ns) const;
   bool has_sensel() const { return bool(sensel_); }

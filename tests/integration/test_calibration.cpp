@@ -11,7 +11,6 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/board_views_file.h"
-#include "calib/charuco.h"
 #include "calib/rig_calibration.h"
 #include "core/time.h"
 #include "sim/truth.h"
@@ -187,13 +186,13 @@ TEST(Calibration, BoardSessionGivesEveryCamerasIntrinsicsWithinTargets) {
     EXPECT_GE(c.intrinsics->details.at("views").get<int>(), 8);
     EXPECT_FALSE(c.pad) << "no pose before the pad is calibrated";
   }
-  // The views each fit worked from, kept to fit again elsewhere: read back, they give the same lens.
+  // The views each fit worked from, kept to fit again elsewhere (the fit from a file: LensFit.*):
+  // at least one per view the fit used, at the session's image size.
   for (const auto& c : cal.value().cameras) {
     auto views = pvcap::calib::load_board_views(work / "views" / (c.name + ".board-views.yaml"));
     ASSERT_TRUE(views) << views.error().message;
-    auto again = pvcap::calib::calibrate_intrinsics(views.value().views, views.value().image_size, {});
-    ASSERT_TRUE(again) << again.error().message;
-    EXPECT_NEAR(again.value().model.K(0, 0), c.model.K(0, 0), 0.1) << c.name;  // the file keeps 1/1000 px
+    EXPECT_EQ(views.value().image_size, cv::Size(1920, 1080)) << c.name;
+    EXPECT_GE(views.value().views.size(), std::size_t(c.intrinsics->details.at("views").get<int>())) << c.name;
   }
   // The session keeps what was measured from it.
   auto reader = pvcap::SessionReader::open(session);

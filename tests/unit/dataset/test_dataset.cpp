@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <set>
 
 #include <fmt/format.h>
@@ -18,6 +19,7 @@
 #include "dataset/dataset_folder.h"
 #include "dataset/release.h"
 #include "dataset/splits.h"
+#include "dataset/withdrawal.h"
 #include "protocol/protocol.h"
 #include "storage/catalog_db.h"
 
@@ -45,6 +47,11 @@ struct Folder {
   }
   ~Folder() { fs::remove_all(dir); }
 };
+
+std::string read_all(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
 
 CatalogSession catalog_session(const std::string& folder, const std::string& participant,
                                const json& facts = json::object(), int verify_exit = 0) {
@@ -412,4 +419,64 @@ TEST(DatasetCatalogue, AFolderThatCannotBeReadIsCataloguedAsFailedNotLeftOut) {
   ASSERT_TRUE(again);
   EXPECT_EQ(again.value().unchanged, 1u);
   EXPECT_TRUE(again.value().problems.empty());
+}
+
+// A withdrawal: refused for a code that is not one, a participant not in the dataset and one who
+// withdrew already (nothing written); otherwise the record, the splits without them, and, purged,
+// their folder out of each release that holds them (participants.json and SHA256SUMS rewritten,
+// the other participants' files untouched) and their session folders deleted.
+TEST(DatasetWithdraw, WhatItRefusesWritesAndDeletes) {
+  Folder f;
+  DatasetConfig c;
+  c.dir = f.dir;
+  c.name = "lab";
+  const fs::path out = f.dir / "release-1", s1 = f.dir / "sessions" / "a", s2 = f.dir / "sessions" / "b";
+  for (const auto& d : {out / "0001_P01" / "take", out / "0002_P02" / "take", s1, s2}) fs::create_directories(d);
+  std::ofstream(out / "0001_P01" / "take" / "x.jpg") << "p01";
+  std::ofstream(out / "0002_P02" / "take" / "x.jpg") << "p02";
+  std::ofstream(out / "participants.json") << R"({"P01": "0001_P01", "P02": "0002_P02"})";
+  ASSERT_TRUE(write_sha256sums(out));
+  ASSERT_TRUE(record_release(f.dir, {out.string(), 1, {"P01", "P02"}}).ok());
+  std::ofstream(f.dir / "splits.json") << R"({"seed": 3, "train": ["P01"], "val": [], "test": ["P02"]})";
+  const std::vector<CatalogSession> sessions = {catalog_session(s1.string(), "P01"), catalog_session(s2.string(), "P02")};
+  const std::vector<std::string> participants = {"P01", "P02"};
+
+  for (const auto& [code, said] : std::vector<std::pair<std::string, std::string>>{
+           {"P 01", "'P 01' is not a participant code"}, {"P09", "no participant P09 in dataset lab (participants: P01, P02)"}}) {
+    auto refused = withdraw(c, participants, sessions, {code, "asked", true, 1});
+    ASSERT_FALSE(refused);
+    EXPECT_NE(refused.error().message.find(said), std::string::npos) << refused.error().message;
+  }
+  EXPECT_FALSE(fs::exists(f.dir / "withdrawals.json")) << "a refusal writes nothing";
+
+  auto done = withdraw(c, participants, sessions, {"P01", "asked", true, 2});
+  ASSERT_TRUE(done) << done.error().message;
+  const WithdrawReport& r = done.value();
+  EXPECT_EQ(r.session_folders, std::vector<std::string>{s1.string()});
+  ASSERT_EQ(r.releases.size(), 1u);
+  EXPECT_EQ(r.releases[0].folder, "0001_P01");
+  EXPECT_TRUE(r.releases[0].removed);
+  EXPECT_TRUE(r.splits_rewritten && r.sessions_removed);
+  EXPECT_FALSE(fs::exists(out / "0001_P01"));
+  EXPECT_FALSE(fs::exists(s1));
+  EXPECT_TRUE(fs::exists(out / "0002_P02" / "take" / "x.jpg")) << "another participant's files stay";
+  EXPECT_TRUE(fs::exists(s2));
+  const std::string sums = read_all(out / "SHA256SUMS");
+  EXPECT_EQ(sums.find("0001_P01"), std::string::npos) << sums;
+  EXPECT_NE(sums.find("0002_P02"), std::string::npos) << sums;
+  EXPECT_EQ(read_all(out / "participants.json").find("P01"), std::string::npos);
+  EXPECT_EQ(read_all(f.dir / "splits.json").find("P01"), std::string::npos);
+  EXPECT_TRUE(is_withdrawn(load_withdrawals(f.dir), "P01"));
+
+  auto again = withdraw(c, participants, sessions, {"P01", "asked", true, 3});
+  ASSERT_FALSE(again);
+  EXPECT_NE(again.error().message.find("P01 has withdrawn already"), std::string::npos) << again.error().message;
+
+  // Without --purge: the record and the splits only; every file stays.
+  auto kept = withdraw(c, participants, sessions, {"P02", "asked", false, 4});
+  ASSERT_TRUE(kept) << kept.error().message;
+  EXPECT_FALSE(kept.value().releases.at(0).removed);
+  EXPECT_FALSE(kept.value().sessions_removed);
+  EXPECT_TRUE(fs::exists(out / "0002_P02" / "take" / "x.jpg"));
+  EXPECT_TRUE(fs::exists(s2));
 }

@@ -58,6 +58,17 @@ FrameRecord frame(std::uint64_t i) {
   return r;
 }
 
+// A frame's row as a camera's frame that the samples passed over: in no video, so it needs no video file.
+FrameRecord unkept_frame(std::uint64_t i, std::int64_t camera) {
+  FrameRecord r = frame(i);
+  r.device_id = camera;
+  r.video_file_id.reset();
+  r.video_index.reset();
+  r.kept = false;
+  r.reason = "subsampled";
+  return r;
+}
+
 // Every kind, every field away from its default.
 std::vector<IndexRecord> one_of_each() {
   PressureRecord p{9, 2, 41, 3, -5, 6, 7, 47, 27, 4, 4, {1, 2, 3, 250}, 99, 3, {0, 7, 65535}, 0xdeadbeef};
@@ -150,13 +161,7 @@ TEST(IndexWriter, AStalledIndexLosesNoRowAndSaysItWasBehind) {
     IndexWriter writer(index, 100, 50ms, Stall{1.5, 0.1}, file, 200);
     writer.start();
     for (std::uint64_t i = 0; i < 20'000; ++i) {
-      FrameRecord r = frame(i);
-      r.device_id = cam;
-      r.video_file_id.reset();
-      r.video_index.reset();
-      r.kept = false;
-      r.reason = "subsampled";
-      EXPECT_TRUE(writer.push(r));
+      EXPECT_TRUE(writer.push(unkept_frame(i, cam)));
       if (i % 1000 == 0) std::this_thread::sleep_for(20ms);  // ~0.4 s: the stall begins meanwhile
     }
     writer.stop();
@@ -204,15 +209,7 @@ TEST(IndexOverflow, RecoverWritesTheWaitingRowsIntoTheIndexOnce) {
     index.add_session({1, 2, "test", "rig", "rig.yaml", "name: rig", true});
     cam = index.add_device({"camera", "cam0", "", "", "", "", "", "{}"});
   }
-  const auto row = [&](std::uint64_t i) {
-    FrameRecord r = frame(i);
-    r.device_id = cam;
-    r.video_file_id.reset();
-    r.video_index.reset();
-    r.kept = false;
-    r.reason = "subsampled";
-    return r;
-  };
+  const auto row = [&](std::uint64_t i) { return unkept_frame(i, cam); };
   std::uint64_t in_file = 0;
   {
     IndexOverflow overflow(file, 50);
