@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs missing packages, then configures and builds pvcap into build/.
+# Installs missing packages, then configures and builds pvcap into build/: every target, or only
+# those named (`bash scripts/build.sh pvcap`: the command alone, what the demo runs).
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 bash "$here/scripts/deps.sh"
@@ -16,4 +17,6 @@ unity=ON
 if [[ ${PVCAP_UNITY:-ON} == OFF ]]; then unity=OFF; fi
 cmake -S "$here" -B "$here/build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$flags" \
   -DCMAKE_UNITY_BUILD=$unity -DCMAKE_UNITY_BUILD_BATCH_SIZE=8 ${PVCAP_WERROR:+-DPVCAP_WERROR=$PVCAP_WERROR} >/dev/null
-cmake --build "$here/build" -j "$(nproc)"
+targets=()
+for t in "$@"; do targets+=(--target "$t"); done
+cmake --build "$here/build" -j "$(nproc)" "${targets[@]}"

@@ -6,7 +6,7 @@
 # Extra arguments go to `pvcap session` (e.g. --duration 30 to stop early).
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
-bash "$here/scripts/build.sh"
+bash "$here/scripts/build.sh" pvcap  # what the demo runs; scripts/test.sh builds the rest
 pvcap="$here/build/app/pvcap"
 rig="$here/rig-configs/sim.yaml"
 calibration="$here/rig-configs/sim.calibration.yaml"
