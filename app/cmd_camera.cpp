@@ -24,9 +24,9 @@ std::string read_file(const std::string& path) {
 nlohmann::json as_json(const NodeMapCheck& c) {
   nlohmann::json features = nlohmann::json::object(), types = nlohmann::json::object();
   for (const auto& f : c.features) features[f.role] = f.name, types[f.role] = f.type;
-  return {{"usable", c.usable()},   {"clock", c.clock},       {"features", features}, {"types", types},
-          {"missing", c.missing},   {"warnings", c.warnings}, {"ptp", c.ptp},         {"chunks", c.chunks},
-          {"vendor", c.vendor},     {"model", c.model},       {"version", c.version}};
+  return {{"usable", c.usable()}, {"clock", c.clock},       {"features", features}, {"types", types},
+          {"missing", c.missing}, {"warnings", c.warnings}, {"ptp", c.ptp},         {"chunks", c.chunks},
+          {"vendor", c.vendor},   {"model", c.model},       {"version", c.version}};
 }
 
 void print(const NodeMapCheck& c, const std::string& file) {
@@ -38,7 +38,8 @@ void print(const NodeMapCheck& c, const std::string& file) {
                                        : fmt::format(": {} entries", f.entries.size());
     fmt::print("  {:<26} {:<28} {}{}\n", f.role, f.name, f.type, entries);
   }
-  fmt::print("clock: {}\nPTP: {}\nchunk data: {}\n", c.clock == "latch" ? "latch (the camera's own, latched)" : "arrival (host arrival times)",
+  fmt::print("clock: {}\nPTP: {}\nchunk data: {}\n",
+             c.clock == "latch" ? "latch (the camera's own, latched)" : "arrival (host arrival times)",
              c.ptp ? "yes" : "no", c.chunks ? "yes" : "no");
   for (const auto& w : c.warnings) fmt::print("warning: {}\n", w);
   for (const auto& m : c.missing) fmt::print("missing: {}\n", m);
@@ -56,12 +57,15 @@ Registered add_camera_command(CLI::App& app, AppContext&) {
   auto* camera = app.add_subcommand("camera", "check a camera against what pvcap needs");
   camera->require_subcommand(1);
   auto* check = camera->add_subcommand(
-      "check", "from its GenICam node map alone (no camera needed): the feature pvcap would use for each role, "
-               "the clock, PTP and chunk support, and what is missing. Exit 0 usable, 1 not, 2 not a node map");
+      "check",
+      "from its GenICam node map alone (no camera needed): the feature pvcap would use for each role, "
+      "the clock, PTP and chunk support, and what is missing. Exit 0 usable, 1 not, 2 not a node map");
   check->add_option("--node-map", a->node_map, "the camera's GenICam XML")->required()->check(CLI::ExistingFile);
-  auto* rig = check->add_option("--rig", a->rig, "a rig file: check against its camera's section")->check(CLI::ExistingFile);
+  auto* rig =
+      check->add_option("--rig", a->rig, "a rig file: check against its camera's section")->check(CLI::ExistingFile);
   check->add_option("--camera", a->camera, "the camera's name in the rig file (default: its first)")->needs(rig);
-  check->add_option("--pixel-format", a->pixel_format, "the pixel format to record in (default BayerRG8, or the rig's)");
+  check->add_option("--pixel-format", a->pixel_format,
+                    "the pixel format to record in (default BayerRG8, or the rig's)");
   check->add_flag("--json", a->json, "one JSON object: usable, clock, features, missing, ...");
   return {camera, [a] {
             std::string format = a->pixel_format.empty() ? "BayerRG8" : a->pixel_format;

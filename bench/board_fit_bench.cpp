@@ -71,13 +71,20 @@ int main(int argc, char** argv) {
   Args a;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--sessions") a.sessions = std::atoi(v.c_str());
-    else if (k == "--holds") a.holds = std::atoi(v.c_str());
-    else if (k == "--seed") a.seed = std::atoi(v.c_str());
-    else if (k == "--duration") a.duration_s = std::atof(v.c_str());
-    else if (k == "--views-cache") a.cache = v;
-    else if (k == "--dump-views") a.dump = v;
-    else if (k == "--views") a.views = v;
+    if (k == "--sessions")
+      a.sessions = std::atoi(v.c_str());
+    else if (k == "--holds")
+      a.holds = std::atoi(v.c_str());
+    else if (k == "--seed")
+      a.seed = std::atoi(v.c_str());
+    else if (k == "--duration")
+      a.duration_s = std::atof(v.c_str());
+    else if (k == "--views-cache")
+      a.cache = v;
+    else if (k == "--dump-views")
+      a.dump = v;
+    else if (k == "--views")
+      a.views = v;
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
@@ -95,9 +102,10 @@ int main(int argc, char** argv) {
       return 1;
     }
     const auto& in = fit.value();
-    std::printf("%s: %d views (%d left out, %d repeats), %d corners (%d misread), RMS %.3f px; f %.2f cx %.2f cy %.2f\n",
-                a.views.c_str(), in.views, in.rejected_views, in.repeated_views, in.corners, in.misread_corners,
-                in.rms_px, in.model.K(0, 0), in.model.K(0, 2), in.model.K(1, 2));
+    std::printf(
+        "%s: %d views (%d left out, %d repeats), %d corners (%d misread), RMS %.3f px; f %.2f cx %.2f cy %.2f\n",
+        a.views.c_str(), in.views, in.rejected_views, in.repeated_views, in.corners, in.misread_corners, in.rms_px,
+        in.model.K(0, 0), in.model.K(0, 2), in.model.K(1, 2));
     return 0;
   }
   HoldViews views;

@@ -5,6 +5,7 @@
 #include <map>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <opencv2/calib3d.hpp>
 
 namespace pvcap::calib {
@@ -91,8 +92,7 @@ std::array<int, 4> BoardCoverage::tilted_views(double focal_px) const {
     } catch (const cv::Exception&) {
     }
   }
-  const cv::Matx33d K_inv =
-      cv::Matx33d(focal_px, 0, size_.width / 2.0, 0, focal_px, size_.height / 2.0, 0, 0, 1).inv();
+  const cv::Matx33d K_inv = cv::Matx33d(focal_px, 0, size_.width / 2.0, 0, focal_px, size_.height / 2.0, 0, 0, 1).inv();
   const double min_tilt = std::tan(kMinTiltDeg * CV_PI / 180);
   for (const cv::Matx33d& H : homographies_) {
     const cv::Matx33d M = K_inv * H;
@@ -117,10 +117,14 @@ std::string BoardCoverage::region_name(int index) {
 
 const char* BoardCoverage::tilt_name(Tilt t) {
   switch (t) {
-    case TopNearer: return "the board's top edge nearer the camera";
-    case BottomNearer: return "the board's bottom edge nearer the camera";
-    case LeftNearer: return "the board's left edge nearer the camera";
-    case RightNearer: return "the board's right edge nearer the camera";
+    case TopNearer:
+      return "the board's top edge nearer the camera";
+    case BottomNearer:
+      return "the board's bottom edge nearer the camera";
+    case LeftNearer:
+      return "the board's left edge nearer the camera";
+    case RightNearer:
+      return "the board's right edge nearer the camera";
   }
   return "";
 }
@@ -132,12 +136,36 @@ std::vector<std::string> BoardCoverage::empty_regions() const {
   return out;
 }
 
+std::string BoardCoverage::summary(double focal_px) const {
+  std::vector<std::string> regions_short, tilts_short;
+  for (int i = 0; i < cols * rows; ++i)
+    if (regions_[std::size_t(i)] < kMinRegionCorners)
+      regions_short.push_back(fmt::format("{} {}/{}", region_name(i), regions_[std::size_t(i)], kMinRegionCorners));
+  static const char* tilt_short[] = {"top edge nearer", "bottom edge nearer", "left edge nearer", "right edge nearer"};
+  const auto tilted = tilted_views(focal_px);
+  for (int t = 0; t < 4; ++t)
+    if (tilted[std::size_t(t)] < kMinTiltedViews)
+      tilts_short.push_back(fmt::format("{} {}/{}", tilt_short[t], tilted[std::size_t(t)], kMinTiltedViews));
+  if (regions_short.empty() && tilts_short.empty()) return fmt::format("covered ({} views)", views());
+  // The first three of each: the operator moves the board there next.
+  const auto first = [](const std::vector<std::string>& v) {
+    std::vector<std::string> out(v.begin(), v.begin() + long(std::min<std::size_t>(v.size(), 3)));
+    if (v.size() > 3) out.push_back(fmt::format("{} more", v.size() - 3));
+    return fmt::format("{}", fmt::join(out, ", "));
+  };
+  std::string out = fmt::format("{} views; regions {} of {}", views(), cols * rows - int(regions_short.size()), cols * rows);
+  if (!regions_short.empty()) out += fmt::format(" (short: {})", first(regions_short));
+  out += fmt::format("; tilts {} of 4", 4 - int(tilts_short.size()));
+  if (!tilts_short.empty()) out += fmt::format(" (short: {})", first(tilts_short));
+  return out;
+}
+
 std::vector<std::string> BoardCoverage::missing(double focal_px) const {
   std::vector<std::string> out;
   for (int i = 0; i < cols * rows; ++i)
     if (regions_[std::size_t(i)] < kMinRegionCorners)
-      out.push_back(
-          fmt::format("corners in the image's {} ({} of {})", region_name(i), regions_[std::size_t(i)], kMinRegionCorners));
+      out.push_back(fmt::format("corners in the image's {} ({} of {})", region_name(i), regions_[std::size_t(i)],
+                                kMinRegionCorners));
   const auto tilted = tilted_views(focal_px);
   for (int t = 0; t < 4; ++t)
     if (tilted[std::size_t(t)] < kMinTiltedViews)

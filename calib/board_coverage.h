@@ -31,10 +31,10 @@ int drop_misread_corners(BoardView& view, const BoardSpec& spec);
 
 class BoardCoverage {
  public:
-  static constexpr int cols = 4, rows = 3;            // image regions
-  static constexpr int kMinRegionCorners = 20;        // corners a region needs to count as covered
-  static constexpr double kMinTiltDeg = 15.0;         // a view counts as tilted one way from here
-  static constexpr int kMinTiltedViews = 3;           // views each of the four ways needs
+  static constexpr int cols = 4, rows = 3;      // image regions
+  static constexpr int kMinRegionCorners = 20;  // corners a region needs to count as covered
+  static constexpr double kMinTiltDeg = 15.0;   // a view counts as tilted one way from here
+  static constexpr int kMinTiltedViews = 3;     // views each of the four ways needs
   enum Tilt { TopNearer, BottomNearer, LeftNearer, RightNearer };
 
   BoardCoverage(cv::Size image_size, BoardSpec spec);
@@ -50,6 +50,9 @@ class BoardCoverage {
   // What is still missing, in words an operator acts on ("corners in top left (12 of 20)",
   // "views with the board's top edge nearer the camera (1 of 3)"); empty when covered.
   std::vector<std::string> missing(double focal_px = 0) const;
+  // One short line for an operator: "13 views; regions 11 of 12 (short: top far right 7/20); tilts
+  // 3 of 4 (short: top edge nearer 0/3)", or "covered (41 views)".
+  std::string summary(double focal_px = 0) const;
   // The regions with no corner at all.
   std::vector<std::string> empty_regions() const;
   static std::string region_name(int index);  // "top far left", ...
@@ -59,8 +62,8 @@ class BoardCoverage {
   cv::Size size_;
   BoardSpec spec_;
   std::array<int, cols * rows> regions_{};
-  std::vector<cv::Matx33d> homographies_;                        // board mm -> image px, per view
-  std::vector<std::vector<cv::Point3f>> object_;                 // for the focal length's first guess
+  std::vector<cv::Matx33d> homographies_;         // board mm -> image px, per view
+  std::vector<std::vector<cv::Point3f>> object_;  // for the focal length's first guess
   std::vector<std::vector<cv::Point2f>> image_;
 };
 

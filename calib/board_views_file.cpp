@@ -12,8 +12,8 @@ namespace pvcap::calib {
 // One view a line: `- {ids: [...], xy: [x0, y0, x1, y1, ...]}`, coordinates to 1/1000 px (the
 // corners' own error is a hundred times that).
 Status save_board_views(const std::filesystem::path& file, const BoardViews& v) {
-  std::string out = fmt::format("pvcap_board_views: 1\nimage_size: [{}, {}]\nviews:\n", v.image_size.width,
-                                v.image_size.height);
+  std::string out =
+      fmt::format("pvcap_board_views: 1\nimage_size: [{}, {}]\nviews:\n", v.image_size.width, v.image_size.height);
   for (const BoardView& view : v.views) {
     out += "  - {ids: [";
     for (std::size_t k = 0; k < view.ids.size(); ++k) out += fmt::format("{}{}", k ? ", " : "", view.ids[k]);
@@ -58,7 +58,8 @@ Result<BoardViews> parse_board_views(const std::string& text, const std::string&
     const YAML::Node views = root["views"];
     if (!views.IsSequence()) return bad("views is not a list");
     for (std::size_t i = 0; i < views.size(); ++i) {
-      if (!views[i].IsMap() || !views[i]["ids"] || !views[i]["xy"]) return bad(fmt::format("view {} has no ids and xy", i));
+      if (!views[i].IsMap() || !views[i]["ids"] || !views[i]["xy"])
+        return bad(fmt::format("view {} has no ids and xy", i));
       BoardView view;
       view.ids = views[i]["ids"].as<std::vector<int>>();
       const auto xy = views[i]["xy"].as<std::vector<float>>();

@@ -23,11 +23,17 @@ const std::vector<RoleNames>& camera_feature_names() {
       {CameraRole::PacketSize, "packet_size", {"GevSCPSPacketSize"}},
       // Inter-packet delay on most; Allied Vision limits bytes per second instead.
       {CameraRole::BandwidthLimit, "bandwidth_limit", {"GevSCPD", "StreamBytesPerSecond", "DeviceLinkThroughputLimit"}},
-      {CameraRole::TimestampLatch, "timestamp_latch", {"TimestampLatch", "GevTimestampControlLatch", "TimestampControlLatch"}},
+      {CameraRole::TimestampLatch,
+       "timestamp_latch",
+       {"TimestampLatch", "GevTimestampControlLatch", "TimestampControlLatch"}},
       {CameraRole::TimestampLatchValue, "timestamp_latch_value", {"TimestampLatchValue", "GevTimestampValue"}},
-      {CameraRole::TimestampReset, "timestamp_reset", {"TimestampReset", "GevTimestampControlReset", "TimestampControlReset"}},
+      {CameraRole::TimestampReset,
+       "timestamp_reset",
+       {"TimestampReset", "GevTimestampControlReset", "TimestampControlReset"}},
       // Absent on SFNC 2 cameras, whose timestamps count nanoseconds.
-      {CameraRole::TimestampTickFrequency, "timestamp_tick_frequency", {"GevTimestampTickFrequency", "TimestampTickFrequency"}},
+      {CameraRole::TimestampTickFrequency,
+       "timestamp_tick_frequency",
+       {"GevTimestampTickFrequency", "TimestampTickFrequency"}},
       {CameraRole::PtpEnable, "ptp_enable", {"PtpEnable", "GevIEEE1588"}},
       {CameraRole::PtpStatus, "ptp_status", {"PtpStatus", "GevIEEE1588Status"}},
       {CameraRole::ChunkModeActive, "chunk_mode_active", {"ChunkModeActive"}},
@@ -58,9 +64,9 @@ std::map<CameraRole, std::string> resolve_camera_features(const std::function<bo
   }
   // The latch command and the register it fills, one naming family at a time.
   static const std::pair<const char*, const char*> kLatchFamilies[] = {
-      {"TimestampLatch", "TimestampLatchValue"},              // SFNC 2 (FLIR Blackfly S, Oryx; Basler ace 2)
-      {"GevTimestampControlLatch", "GevTimestampValue"},      // GigE Vision SFNC 1 (Basler ace, AVT, Point Grey)
-      {"TimestampControlLatch", "TimestampLatchValue"},       // Aravis' fake camera
+      {"TimestampLatch", "TimestampLatchValue"},          // SFNC 2 (FLIR Blackfly S, Oryx; Basler ace 2)
+      {"GevTimestampControlLatch", "GevTimestampValue"},  // GigE Vision SFNC 1 (Basler ace, AVT, Point Grey)
+      {"TimestampControlLatch", "TimestampLatchValue"},   // Aravis' fake camera
   };
   for (const auto& [latch, value] : kLatchFamilies)
     if (has(latch) && has(value)) {

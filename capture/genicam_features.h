@@ -12,20 +12,38 @@
 namespace pvcap {
 
 enum class CameraRole {
-  PixelFormat, Width, Height, OffsetX, OffsetY,
-  TriggerMode, TriggerSource, TriggerActivation,
-  FrameRate, FrameRateEnable, ExposureTime, Gain,
-  PacketSize, BandwidthLimit,
-  TimestampLatch, TimestampLatchValue, TimestampReset, TimestampTickFrequency,
-  PtpEnable, PtpStatus,
-  ChunkModeActive, ChunkSelector, ChunkEnable,
-  UserOutputSelector, LineSource, DeviceTemperature,
+  PixelFormat,
+  Width,
+  Height,
+  OffsetX,
+  OffsetY,
+  TriggerMode,
+  TriggerSource,
+  TriggerActivation,
+  FrameRate,
+  FrameRateEnable,
+  ExposureTime,
+  Gain,
+  PacketSize,
+  BandwidthLimit,
+  TimestampLatch,
+  TimestampLatchValue,
+  TimestampReset,
+  TimestampTickFrequency,
+  PtpEnable,
+  PtpStatus,
+  ChunkModeActive,
+  ChunkSelector,
+  ChunkEnable,
+  UserOutputSelector,
+  LineSource,
+  DeviceTemperature,
 };
 
 struct RoleNames {
   CameraRole role;
-  const char* key;                  // "timestamp_latch": how the check's report names the role
-  std::vector<const char*> names;   // in the order they are tried
+  const char* key;                 // "timestamp_latch": how the check's report names the role
+  std::vector<const char*> names;  // in the order they are tried
 };
 // Every role with its names.
 const std::vector<RoleNames>& camera_feature_names();

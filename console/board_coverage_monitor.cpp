@@ -12,7 +12,8 @@
 namespace pvcap::console {
 
 BoardCoverageMonitor::BoardCoverageMonitor(const session::Recording& recording) : recording_(recording) {
-  for (const CameraConfig& c : recording_.rig().cameras) coverage_.emplace_back(cv::Size(c.width, c.height), calib::BoardSpec{});
+  for (const CameraConfig& c : recording_.rig().cameras)
+    coverage_.emplace_back(cv::Size(c.width, c.height), calib::BoardSpec{});
   said_covered_.assign(coverage_.size(), false);
   thread_ = std::thread([this] { run(); });
 }
@@ -25,13 +26,8 @@ BoardCoverageMonitor::~BoardCoverageMonitor() {
 std::vector<std::string> BoardCoverageMonitor::summary() const {
   const std::lock_guard lock(mu_);
   std::vector<std::string> out;
-  for (std::size_t c = 0; c < coverage_.size(); ++c) {
-    const auto missing = coverage_[c].missing();
-    const std::string& name = recording_.rig().cameras[c].name;
-    out.push_back(missing.empty() ? fmt::format("{}: covered ({} views)", name, coverage_[c].views())
-                                  : fmt::format("{}: {} views; still missing: {}", name, coverage_[c].views(),
-                                                fmt::join(missing, ", ")));
-  }
+  for (std::size_t c = 0; c < coverage_.size(); ++c)
+    out.push_back(fmt::format("{}: {}", recording_.rig().cameras[c].name, coverage_[c].summary()));
   return out;
 }
 
@@ -56,7 +52,7 @@ void BoardCoverageMonitor::run() {
     if (std::chrono::steady_clock::now() >= next_report) {
       next_report += std::chrono::seconds(5);
       for (const std::string& line : summary())
-        if (line.find("still missing") != std::string::npos) spdlog::info("board: {}", line);
+        if (line.find(": covered") == std::string::npos) spdlog::info("board: {}", line);
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }

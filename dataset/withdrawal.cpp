@@ -54,7 +54,8 @@ Result<WithdrawReport> withdraw(const DatasetConfig& config, const std::vector<s
   if (!is_pseudonymous_code(r.participant))
     return Error{fmt::format("'{}' is not a participant code (letters, digits, - and _)", r.participant)};
   if (is_withdrawn(load_withdrawals(config.dir), r.participant))
-    return Error{fmt::format("{} has withdrawn already ({})", r.participant, (config.dir / "withdrawals.json").string())};
+    return Error{
+        fmt::format("{} has withdrawn already ({})", r.participant, (config.dir / "withdrawals.json").string())};
   if (std::find(participants.begin(), participants.end(), r.participant) == participants.end())
     return Error{fmt::format("no participant {} in dataset {} (participants: {})", r.participant, config.name,
                              fmt::join(participants, ", "))};

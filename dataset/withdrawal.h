@@ -15,7 +15,7 @@ namespace pvcap::dataset {
 
 struct WithdrawRequest {
   std::string participant, reason;
-  bool purge = false;      // also delete their released folders and their session folders
+  bool purge = false;        // also delete their released folders and their session folders
   std::int64_t wall_ns = 0;  // when (the record's time)
 };
 

@@ -31,7 +31,8 @@ TEST(CameraCheck, ANodeMapIsJudgedWithItsExitCode) {
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("clock: latch (the camera's own, latched)"), std::string::npos) << r.output;
   // A mono Basler ace 2 asked for a colour mosaic: not usable, and why (exit 1).
-  r = run_pvcap("camera check --pixel-format BayerRG8 --node-map " + (kNodeMaps / "Basler-a2A2600-20gmBAS.xml").string());
+  r = run_pvcap("camera check --pixel-format BayerRG8 --node-map " +
+                (kNodeMaps / "Basler-a2A2600-20gmBAS.xml").string());
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("missing: pixel format BayerRG8 is not among its Mono12p"), std::string::npos) << r.output;
   // Not a node map at all (exit 2), said with the file's name.

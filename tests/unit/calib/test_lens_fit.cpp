@@ -159,7 +159,8 @@ TEST(LensFit, ViewsThatLackTiltsAndRegionsAreToldSo) {
       // Square to the camera, 600 mm away, moved a little each view: no depth to see a focal length in.
       const cv::Point3d p(b.x - 110 + 3 * k, b.y - 75 + 2 * k, 600);
       v.ids.push_back(id);
-      v.corners.emplace_back(float(cam.K(0, 0) * p.x / p.z + cam.K(0, 2)), float(cam.K(1, 1) * p.y / p.z + cam.K(1, 2)));
+      v.corners.emplace_back(float(cam.K(0, 0) * p.x / p.z + cam.K(0, 2)),
+                             float(cam.K(1, 1) * p.y / p.z + cam.K(1, 2)));
     }
     views.push_back(v);
   }
@@ -172,6 +173,14 @@ TEST(LensFit, ViewsThatLackTiltsAndRegionsAreToldSo) {
   EXPECT_NE(said.find("views tilted 15 degrees or more with the board's left edge nearer the camera (0 of 3)"),
             std::string::npos)
       << said;
+  // The operator's line: short, the first few places, how many more.
+  const std::string line = coverage.summary(cam.K(0, 0));
+  EXPECT_NE(line.find("12 views; regions "), std::string::npos) << line;
+  EXPECT_NE(line.find("(short: top far left 0/20"), std::string::npos) << line;
+  EXPECT_NE(line.find("tilts 0 of 4 (short: top edge nearer 0/3, bottom edge nearer 0/3, left edge nearer 0/3, 1 more)"),
+            std::string::npos)
+      << line;
+  EXPECT_LT(line.size(), 260u) << line;
   const auto got = calibrate_intrinsics(views, size, spec);
   if (got) {  // a fit that converges on such views is still told what they lack
     EXPECT_FALSE(got.value().missing.empty());
@@ -192,7 +201,8 @@ TEST(LensFit, BoardViewsFilesRoundTripAndRefuseDamage) {
   ASSERT_EQ(back.value().views.size(), holds.views.size());
   EXPECT_EQ(back.value().views[7].ids, holds.views[7].ids);
   {
-    std::ofstream(dir / "bad.yaml") << "pvcap_board_views: 1\nimage_size: [1920, 1080]\nviews:\n  - {ids: [1, 2], xy: [1]}\n";
+    std::ofstream(dir / "bad.yaml")
+        << "pvcap_board_views: 1\nimage_size: [1920, 1080]\nviews:\n  - {ids: [1, 2], xy: [1]}\n";
   }
   const auto bad = load_board_views(dir / "bad.yaml");
   ASSERT_FALSE(bad);
