@@ -10,8 +10,8 @@
 
 #include "capture/aravis_discovery.h"
 #include "capture/sensel_discovery.h"
-#include "storage/durable_folder.h"
 #include "sim/sim_rig.h"
+#include "storage/durable_folder.h"
 
 namespace pvcap {
 
@@ -97,7 +97,9 @@ Registered add_devices_command(CLI::App& app, AppContext&) {
   return {d, [a] {
             std::function<int()> dumping;
             if (!a->dump_camera.empty())
-              dumping = [a] { return dump_node_map(a->dump_camera, a->dump_out.empty() ? a->dump_camera + ".xml" : a->dump_out); };
+              dumping = [a] {
+                return dump_node_map(a->dump_camera, a->dump_out.empty() ? a->dump_camera + ".xml" : a->dump_out);
+              };
             if (a->sim.empty()) return dumping ? dumping() : cmd_devices(a->json, a->ttys);
             const auto rig = load_rig_config(a->sim);
             if (!rig.simulated) throw UserError(fmt::format("{}: has no sim: section", a->sim));
