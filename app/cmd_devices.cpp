@@ -68,13 +68,21 @@ int dump_node_map(const std::string& camera, const std::string& out) {
 
 int cmd_devices_of_sim(bool json, const RigConfig& rig, const std::function<int()>& with_devices) {
   const auto tmp = std::filesystem::temp_directory_path() / fmt::format("pvcap-devices-{}", getpid());
+  // The simulator's folder goes whatever happens (a camera not found for --dump-node-map throws),
+  // after the simulator (declared first, destroyed last).
+  struct RemoveAfter {
+    std::filesystem::path dir;
+    ~RemoveAfter() {
+      std::error_code ec;
+      std::filesystem::remove_all(dir, ec);
+    }
+  } remove_after{tmp};
   auto made = sim::SimRig::create(rig, tmp);
   if (!made) throw UserError(made.error().message);
   std::vector<std::string> extra;
   if (std::filesystem::exists(tmp / "sensel.tty")) extra.push_back((tmp / "sensel.tty").string());
   const int rc = with_devices ? with_devices() : cmd_devices(json, extra);
   made.value().reset();
-  std::filesystem::remove_all(tmp);
   return rc;
 }
 
