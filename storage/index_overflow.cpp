@@ -11,33 +11,11 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <zlib.h>
 
 namespace pvcap {
 namespace {
 
-constexpr char kChunkMagic[4] = {'P', 'V', 'I', 'X'};
-constexpr std::size_t kChunkHeader = 12;  // magic, u32 bytes after the header, u32 CRC-32 of them
 constexpr std::size_t kChunkRecords = 4096;
-
-// The records of one chunk's bytes (header included); nullopt when they are not a whole chunk.
-std::optional<std::vector<IndexRecord>> decode_chunk(const std::string& data) {
-  if (data.size() < kChunkHeader || std::memcmp(data.data(), kChunkMagic, 4) != 0) return std::nullopt;
-  std::uint32_t size = 0, crc = 0;
-  std::memcpy(&size, data.data() + 4, 4);
-  std::memcpy(&crc, data.data() + 8, 4);
-  if (size != data.size() - kChunkHeader ||
-      std::uint32_t(crc32(0L, reinterpret_cast<const Bytef*>(data.data() + kChunkHeader), uInt(size))) != crc)
-    return std::nullopt;
-  std::vector<IndexRecord> out;
-  std::size_t pos = kChunkHeader;
-  while (pos < data.size()) {
-    auto r = decode_record(data, pos);
-    if (!r) return std::nullopt;
-    out.push_back(std::move(*r));
-  }
-  return out;
-}
 
 IndexRecord to_index_record(IndexQueueItem&& item) {
   return std::visit(
@@ -153,15 +131,11 @@ void IndexOverflow::spill_loop() {
 }
 
 bool IndexOverflow::write_chunk(std::vector<IndexQueueItem>& items) {
-  std::string body;
-  for (auto& item : items) encode_record(to_index_record(std::move(item)), body);
-  std::string out(kChunkHeader, '\0');
-  std::memcpy(out.data(), kChunkMagic, 4);
-  const auto size = std::uint32_t(body.size());
-  const auto crc = std::uint32_t(crc32(0L, reinterpret_cast<const Bytef*>(body.data()), uInt(body.size())));
-  std::memcpy(out.data() + 4, &size, 4);
-  std::memcpy(out.data() + 8, &crc, 4);
-  out += body;
+  std::vector<IndexRecord> records;
+  records.reserve(items.size());
+  for (auto& item : items) records.push_back(to_index_record(std::move(item)));
+  std::string out;
+  encode_record_chunk(records, out);
   auto fail = [&](const std::string& why) {
     std::lock_guard lock(mu_);
     if (!failure_) failure_ = fmt::format("{}: {}", file_.string(), why);
@@ -194,34 +168,22 @@ std::vector<IndexQueueItem> IndexOverflow::read_chunk(std::int64_t offset, std::
     done += std::size_t(n);
   }
   std::vector<IndexQueueItem> out;
-  auto records = done == bytes ? decode_chunk(data) : std::nullopt;
-  if (!records) {
+  auto records = done == bytes ? decode_record_chunks(data) : RecordChunks{{}, 1};
+  if (records.unreadable_bytes > 0) {
     std::lock_guard lock(mu_);
     if (!failure_) failure_ = fmt::format("{}: waiting rows could not be read back (the disk failed)", file_.string());
     return out;
   }
-  for (auto& r : *records) out.push_back(to_queue_item(std::move(r)));
+  for (auto& r : records.records) out.push_back(to_queue_item(std::move(r)));
   return out;
 }
 
-Result<WaitingRows> read_index_overflow(const std::filesystem::path& file) {
+Result<RecordChunks> read_record_file(const std::filesystem::path& file) {
   std::ifstream f(file, std::ios::binary);
   if (!f) return Error{fmt::format("{}: cannot be read: {}", file.string(), std::strerror(errno))};
   const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
   if (f.bad()) return Error{fmt::format("{}: cannot be read: {}", file.string(), std::strerror(errno))};
-  WaitingRows out;
-  std::size_t pos = 0;
-  while (pos + kChunkHeader <= bytes.size()) {
-    std::uint32_t size = 0;
-    std::memcpy(&size, bytes.data() + pos + 4, 4);
-    if (size > bytes.size() - pos - kChunkHeader) break;  // cut by the crash
-    auto records = decode_chunk(bytes.substr(pos, kChunkHeader + size));
-    if (!records) break;
-    std::move(records->begin(), records->end(), std::back_inserter(out.records));
-    pos += kChunkHeader + size;
-  }
-  out.unreadable_bytes = bytes.size() - pos;
-  return out;
+  return decode_record_chunks(bytes);
 }
 
 }  // namespace pvcap

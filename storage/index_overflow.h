@@ -36,14 +36,10 @@ using IndexQueueItem =
 // In the session's spill folder while the index is behind; removed once read back.
 inline constexpr const char* kIndexOverflowFile = "index-rows.overflow";
 
-// What a crash left in an overflow file: the records of its whole chunks, in order, and how many
-// bytes at its end were not a whole chunk (a write the crash cut, or damage).
-struct WaitingRows {
-  std::vector<IndexRecord> records;
-  std::uint64_t unreadable_bytes = 0;
-};
-// `pvcap recover` reads it to write the rows into the index (storage/recover.h).
-Result<WaitingRows> read_index_overflow(const std::filesystem::path& file);
+// The records of a file of record chunks (the overflow, the journal: storage/record_codec.h) and
+// how many bytes at its end a crash cut. `pvcap recover` reads them to write the rows into the
+// index (storage/recover.h).
+Result<RecordChunks> read_record_file(const std::filesystem::path& file);
 
 class IndexOverflow {
  public:

@@ -9,13 +9,15 @@ namespace pvcap {
 
 IndexWriter::IndexWriter(SessionIndex& index, std::size_t capacity, std::chrono::milliseconds batch_period,
                          std::optional<Stall> stall, std::filesystem::path overflow_file,
-                         std::size_t overflow_memory_records)
+                         std::size_t overflow_memory_records, std::filesystem::path journal_folder)
     : index_(index),
       queue_(capacity),
       queue_capacity_(capacity),
       batch_period_(batch_period),
       stall_(stall),
-      overflow_(std::move(overflow_file), overflow_memory_records) {}
+      overflow_(std::move(overflow_file), overflow_memory_records) {
+  if (!journal_folder.empty()) journal_ = std::make_unique<IndexJournal>(std::move(journal_folder));
+}
 
 IndexWriter::~IndexWriter() { stop(); }
 
@@ -30,16 +32,29 @@ bool IndexWriter::push(Record record) {
     return false;
   };
   if (failed_.load(std::memory_order_relaxed) && !disk_full_.load(std::memory_order_relaxed)) return lose();
+  // The journal's copy, made before the lock (barriers are not records).
+  std::optional<IndexRecord> copy;
+  if (journal_)
+    std::visit(
+        [&](const auto& r) {
+          if constexpr (!std::is_same_v<std::decay_t<decltype(r)>, CommitBarrier>) copy.emplace(r);
+        },
+        record);
   {
-    // A short lock, never held across I/O: it orders the queue against the overflow.
+    // A short lock, never held across I/O: it orders the queue against the overflow, and the journal
+    // against both.
     std::lock_guard lock(push_mu_);
     if (!overflowing_.load(std::memory_order_relaxed)) {
-      if (queue_.try_push(record)) return true;
+      if (queue_.try_push(record)) {
+        if (copy) journal_->append(std::move(*copy));
+        return true;
+      }
       if (queue_.closed()) return lose();  // stopped
       behind_since_ns_.store(host_now().ns, std::memory_order_relaxed);
       overflowing_.store(true);
     }
     overflow_.add(std::move(record));
+    if (copy) journal_->append(std::move(*copy));
   }
   waited_.fetch_add(1, std::memory_order_relaxed);
   return true;
@@ -74,16 +89,19 @@ bool IndexWriter::push_committed(Record record, std::chrono::milliseconds timeou
 void IndexWriter::stop() {
   queue_.close();
   if (thread_.joinable()) thread_.join();
-  if (held_.empty()) return;
-  try {  // the batch that met the full disk, once more (its space was freed meanwhile)
-    write_records(held_);
-    spdlog::info("session index: the {} records held since the disk filled are written", held_.size());
-    written_.fetch_add(held_.size());
-  } catch (const sqlite::SqliteError& e) {
-    lost_.fetch_add(held_.size());
-    spdlog::error("session index: {} records are lost: {}", held_.size(), e.what());
+  if (!held_.empty()) {
+    try {  // the batch that met the full disk, once more (its space was freed meanwhile)
+      write_records(held_);
+      spdlog::info("session index: the {} records held since the disk filled are written", held_.size());
+      written_.fetch_add(held_.size());
+    } catch (const sqlite::SqliteError& e) {
+      lost_.fetch_add(held_.size());
+      spdlog::error("session index: {} records are lost: {}", held_.size(), e.what());
+    }
+    held_.clear();
   }
-  held_.clear();
+  // The index holds every record pushed, unless some were lost: then the journal stays for recover.
+  if (journal_) journal_->stop(/*remove_files=*/records_lost() == 0);
 }
 
 std::optional<std::string> IndexWriter::failure() const {
@@ -113,12 +131,16 @@ void IndexWriter::write_batch(std::vector<Record>& batch) {
     else
       lost_.fetch_add(batch.size());
     batch.clear();
+    own_in_batch_ = 0;
     return;
   }
   try {
     write_records(batch);
     written_.fetch_add(batch.size());
+    pushed_committed_ += batch.size() - own_in_batch_;
+    if (journal_) journal_->committed(pushed_committed_);
   } catch (const sqlite::SqliteError& e) {
+    if (journal_) journal_->keep_all();  // its rows are the way back for recover
     std::lock_guard lock(failure_mu_);
     failure_ = e.disk_full() ? fmt::format("the disk is full or failing: {}", e.what()) : std::string(e.what());
     if (e.disk_full())
@@ -129,6 +151,12 @@ void IndexWriter::write_batch(std::vector<Record>& batch) {
     spdlog::error("session index: {}", *failure_);
   }
   batch.clear();
+  own_in_batch_ = 0;
+}
+
+void IndexWriter::add_own(std::vector<Record>& batch, EventRecord event) {
+  batch.push_back(std::move(event));
+  ++own_in_batch_;
 }
 
 std::string IndexWriter::lost_records_by_kind() const {
@@ -150,6 +178,7 @@ void IndexWriter::run() {
   std::vector<Record> batch, items;
   auto batch_started = std::chrono::steady_clock::now();
   std::uint64_t lost_reported = 0;
+  bool journal_reported = false;
   for (;;) {
     if (stall && std::chrono::steady_clock::now() >= stall_at) {
       std::this_thread::sleep_for(std::chrono::duration<double>(stall->seconds));
@@ -176,7 +205,7 @@ void IndexWriter::run() {
       const std::uint64_t waited = waited_.load(), spilled = overflow_.spilled();
       // Waiting records are lost only when the overflow's file failed (an index_overflow event says so).
       const std::string outcome = overflow_.lost() == 0 ? "none was lost" : "some were lost (see index_overflow)";
-      batch.push_back(
+      add_own(batch,
           EventRecord{host_now().ns, "index_behind", std::nullopt,
                       fmt::format("the index fell behind for {:.1f} s: {} records waited ({} of them on disk); {}",
                                   double(host_now().ns - behind_since_ns_.load()) / 1e9, waited - waited_reported_,
@@ -187,11 +216,21 @@ void IndexWriter::run() {
       spilled_reported_ = spilled;
     }
     if (const std::uint64_t lost = records_lost(); lost > lost_reported && !failed_.load()) {
-      batch.push_back(
+      if (journal_) journal_->keep_all();  // the lost rows may be in it
+      add_own(batch,
           EventRecord{host_now().ns, "index_overflow", std::nullopt,
                       fmt::format("{} index records were lost (so far: {}){}", lost - lost_reported,
                                   lost_records_by_kind(), overflow_.failure() ? ": " + *overflow_.failure() : "")});
       lost_reported = lost;
+    }
+    if (journal_ && !journal_reported) {
+      if (auto f = journal_->failure()) {
+        add_own(batch, EventRecord{host_now().ns, "index_journal", std::nullopt,
+                                   fmt::format("the journal of rows not yet committed stopped: {}; rows waiting for "
+                                               "the index after it would not survive a crash",
+                                               *f)});
+        journal_reported = true;
+      }
     }
     if (done) break;
     if (!batch.empty() && std::chrono::steady_clock::now() - batch_started >= batch_period_) write_batch(batch);

@@ -7,7 +7,9 @@
 // index has caught up, and an index_behind event says how many waited: none is dropped. A batch
 // that fails because the disk is full is held, and written once more at stop(): the session
 // writer frees its space reserve first, so what was captured before the disk filled is not lost
-// with it. Records are lost (counted by kind) only after a storage failure.
+// with it. Records are lost (counted by kind) only after a storage failure. A copy of every record
+// goes to the journal (storage/index_journal.h) until it is committed: a crash while the index is
+// behind loses none that `pvcap recover` cannot write.
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -21,6 +23,7 @@
 
 #include "core/bounded_queue.h"
 #include "core/fault_injection.h"
+#include "storage/index_journal.h"
 #include "storage/index_overflow.h"
 #include "storage/session_index.h"
 
@@ -34,10 +37,12 @@ class IndexWriter {
 
   // `stall`: a test's fault (core/fault_injection.h), the index thread sleeps once. `overflow_file`:
   // where records wait on disk when the queue and the overflow's memory are full (none: memory only).
+  // `journal_folder`: where the journal's files go (none: no journal).
   IndexWriter(SessionIndex& index, std::size_t capacity = kQueueRecords,
               std::chrono::milliseconds batch_period = std::chrono::milliseconds(250), std::optional<Stall> stall = {},
               std::filesystem::path overflow_file = {},
-              std::size_t overflow_memory_records = IndexOverflow::kMemoryRecords);
+              std::size_t overflow_memory_records = IndexOverflow::kMemoryRecords,
+              std::filesystem::path journal_folder = {});
   ~IndexWriter();
 
   void start();
@@ -64,6 +69,8 @@ class IndexWriter {
   bool take_overflow(std::vector<Record>& items);
   void write_batch(std::vector<Record>& batch);
   void write_records(const std::vector<Record>& batch);
+  // A record the index thread adds itself (not pushed: not in the journal's count).
+  void add_own(std::vector<Record>& batch, EventRecord event);
 
   SessionIndex& index_;
   BoundedQueue<Record> queue_;
@@ -83,6 +90,9 @@ class IndexWriter {
   mutable std::mutex failure_mu_;
   std::optional<std::string> failure_;
   std::vector<Record> held_;  // the batch that met a full disk
+  std::unique_ptr<IndexJournal> journal_;
+  std::size_t own_in_batch_ = 0;        // the index thread's: records of the open batch not pushed
+  std::uint64_t pushed_committed_ = 0;  // the index thread's: pushed records committed (in push order)
 };
 
 }  // namespace pvcap

@@ -1,7 +1,10 @@
 #include "storage/record_codec.h"
 
 #include <cstring>
+#include <iterator>
 #include <type_traits>
+
+#include <zlib.h>
 
 namespace pvcap {
 namespace {
@@ -151,6 +154,53 @@ std::optional<IndexRecord> decode_record(const std::string& bytes, std::size_t& 
   if (!r.ok) return std::nullopt;
   auto out = decode_kind(kind, r);
   if (out) pos = at;
+  return out;
+}
+
+namespace {
+constexpr char kChunkMagic[4] = {'P', 'V', 'I', 'X'};
+
+std::uint32_t crc_of(const char* data, std::size_t size) {
+  return std::uint32_t(crc32(0L, reinterpret_cast<const Bytef*>(data), uInt(size)));
+}
+}  // namespace
+
+void encode_record_chunk(const std::vector<IndexRecord>& records, std::string& out) {
+  const std::size_t at = out.size();
+  out.append(kRecordChunkHeader, '\0');
+  for (const auto& r : records) encode_record(r, out);
+  const auto size = std::uint32_t(out.size() - at - kRecordChunkHeader);
+  const auto crc = crc_of(out.data() + at + kRecordChunkHeader, size);
+  std::memcpy(out.data() + at, kChunkMagic, 4);
+  std::memcpy(out.data() + at + 4, &size, 4);
+  std::memcpy(out.data() + at + 8, &crc, 4);
+}
+
+RecordChunks decode_record_chunks(const std::string& bytes) {
+  RecordChunks out;
+  std::size_t pos = 0;
+  while (pos + kRecordChunkHeader <= bytes.size()) {
+    std::uint32_t size = 0, crc = 0;
+    if (std::memcmp(bytes.data() + pos, kChunkMagic, 4) != 0) break;
+    std::memcpy(&size, bytes.data() + pos + 4, 4);
+    std::memcpy(&crc, bytes.data() + pos + 8, 4);
+    if (size > bytes.size() - pos - kRecordChunkHeader) break;  // cut by the crash
+    if (crc_of(bytes.data() + pos + kRecordChunkHeader, size) != crc) break;
+    const std::size_t end = pos + kRecordChunkHeader + size;
+    // The chunk's records must end exactly at its end.
+    const std::string body = bytes.substr(pos + kRecordChunkHeader, size);
+    std::vector<IndexRecord> chunk;
+    std::size_t at = 0;
+    while (at < body.size()) {
+      auto r = decode_record(body, at);
+      if (!r) break;
+      chunk.push_back(std::move(*r));
+    }
+    if (at != body.size()) break;
+    std::move(chunk.begin(), chunk.end(), std::back_inserter(out.records));
+    pos = end;
+  }
+  out.unreadable_bytes = bytes.size() - pos;
   return out;
 }
 

@@ -18,6 +18,7 @@
 #include "storage/camera_video_settings.h"
 #include "storage/durable_folder.h"
 #include "storage/frame_spill.h"
+#include "storage/index_journal.h"
 #include "storage/index_overflow.h"
 #include "storage/session_index.h"
 #include "storage/session_writer.h"
@@ -190,38 +191,44 @@ void drain_spills(SessionIndex& index, const std::filesystem::path& dir,
   fs::remove(folder, ec);  // when empty
 }
 
-// Rows that waited for a slow index when the recording was cut (storage/index_overflow.h): each whole
-// chunk's records are written into the index in their order, those it holds already (read back
-// before the cut) left as they are, in one transaction; the file goes only once they are committed,
+// Rows the index had not committed when the recording was cut: the journal's (every row not yet
+// committed, storage/index_journal.h) and the overflow's (rows that waited for a slow index,
+// storage/index_overflow.h). Their records are written into the index in their order, those it
+// holds already left as they are, in one transaction; the files go only once they are committed,
 // so a recover cut here and run again writes the same rows once. Their frames are on disk: the
 // index must name them before the cut segments are closed against it.
 void replay_waiting_rows(SessionIndex& index, const std::filesystem::path& dir, RecoverReport& report) {
   namespace fs = std::filesystem;
-  const fs::path file = dir / "spill" / kIndexOverflowFile;
+  std::vector<fs::path> files = index_journal_files(dir / kSpillFolder);
   std::error_code ec;
-  if (!fs::exists(file, ec)) return;
-  auto waiting = read_index_overflow(file);
-  if (!waiting) throw fs::filesystem_error(waiting.error().message, file, std::make_error_code(std::errc::io_error));
+  if (fs::exists(dir / kSpillFolder / kIndexOverflowFile, ec)) files.push_back(dir / kSpillFolder / kIndexOverflowFile);
+  if (files.empty()) return;
   std::size_t written = 0, held = 0;
+  std::uint64_t unreadable = 0;
   {
     sqlite::Transaction tx(index.db());
-    for (const IndexRecord& r : waiting.value().records) {
-      if (index.holds(r)) {
-        ++held;
-        continue;
+    for (const fs::path& file : files) {
+      auto rows = read_record_file(file);
+      if (!rows) throw fs::filesystem_error(rows.error().message, file, std::make_error_code(std::errc::io_error));
+      unreadable += rows.value().unreadable_bytes;
+      for (const IndexRecord& r : rows.value().records) {
+        if (index.holds(r)) {
+          ++held;
+          continue;
+        }
+        index.add(r);
+        ++written;
       }
-      index.add(r);
-      ++written;
     }
     tx.commit();
   }
-  fs::remove(file, ec);
+  for (const fs::path& file : files) fs::remove(file, ec);
   std::string said = fmt::format(
-      "{}: {} index rows that waited for the index when the recording was cut written into it ({} it held "
+      "{} index rows not yet committed when the recording was cut written into the index from {} ({} it held "
       "already)",
-      file.filename().string(), written, held);
-  if (waiting.value().unreadable_bytes > 0)
-    said += fmt::format("; its last {} bytes were not a whole chunk (cut by the crash)", waiting.value().unreadable_bytes);
+      written, files.size() == 1 ? files[0].filename().string() : fmt::format("{} files of spill/", files.size()),
+      held);
+  if (unreadable > 0) said += fmt::format("; the last {} bytes were not a whole chunk (cut by the crash)", unreadable);
   report.done.push_back(said);
 }
 

@@ -132,7 +132,7 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
   w->view_backlog_frames_ = options.view_backlog_frames;
   w->index_writer_ = std::make_unique<IndexWriter>(
       *w->index_, options.index_queue_records, std::chrono::milliseconds(250), options.index_stall,
-      w->dir_ / kSpillFolder / kIndexOverflowFile, options.index_overflow_memory_records);
+      w->dir_ / kSpillFolder / kIndexOverflowFile, options.index_overflow_memory_records, w->dir_ / kSpillFolder);
   return w;
 }
 
@@ -457,11 +457,13 @@ Status SessionWriter::close(const std::string& end_reason) {
       (void)cam->video->close();  // best effort: its tail may be cut; reconciled below
     }
   }
+  index_writer_->stop();
   {
-    std::error_code ec;  // empty once every spill is encoded and released; else kept for recover
+    // Empty once every spill is encoded and released and the index holds every row (the journal's
+    // files gone); else kept for recover.
+    std::error_code ec;
     std::filesystem::remove(dir_ / kSpillFolder, ec);
   }
-  index_writer_->stop();
   if (auto f = index_writer_->failure(); f && result.ok()) result = Error{*f};
   {
     std::lock_guard lock(watch_mu_);

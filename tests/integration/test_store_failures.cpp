@@ -155,6 +155,66 @@ TEST(StoreCrash, KillNineAtRandomMomentsLosesAtMostTheLastSecond) {
   }
 }
 
+// kill -9 while the index is behind (its thread stalled on purpose, core/fault_injection.h): the
+// rows waiting for it were in memory only, and recover found cam0's videos holding 201 frames and
+// the index 24 rows. Now the journal holds every row not yet committed (storage/index_journal.h):
+// recover writes them into the index, and every frame on disk has its row.
+TEST(StoreCrash, KillNineWhileTheIndexIsStalledLosesNoRowOfAFrameOnDisk) {
+  const fs::path work = work_dir("kill-stalled-index");
+  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  setenv("PVCAP_FAULTS", "index_writer.stall_s=60,index_writer.stall_after_s=2", 1);
+  const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 60 --no-web",
+                                            (work / "rig.yaml").string(), (work / "sessions").string()),
+                                work / "log.txt");
+  unsetenv("PVCAP_FAULTS");
+  ASSERT_TRUE(wait_for_text(work / "log.txt", "recording session", 40s)) << read_all(work / "log.txt");
+  std::this_thread::sleep_for(6s);  // the index stalls ~2 s into the session: ~4 s of rows wait
+  ASSERT_EQ(kill(pid, SIGKILL), 0);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status));
+  const fs::path dir = only_session(work / "sessions");
+  ASSERT_FALSE(dir.empty());
+  const auto committed_rows = [&] {
+    pvcap::sqlite::Database db(dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+    auto q = db.prepare("SELECT count(*) FROM frames");
+    return q.step() ? q.column_int(0) : 0;
+  };
+  const std::int64_t before = committed_rows();
+  auto recovered = run_pvcap(fmt::format("--log-level warn recover {}", dir.string()));
+  ASSERT_EQ(recovered.exit_code, 0) << recovered.output;
+  const std::string& said = recovered.output;
+  // The rows that waited: written from the journal, ~4 s of two cameras at 30 Hz and more.
+  const auto from_journal = said.find(" index rows not yet committed when the recording was cut");
+  ASSERT_NE(from_journal, std::string::npos) << said;
+  const auto number_at = said.find_last_not_of("0123456789", from_journal - 1) + 1;
+  const std::int64_t replayed = std::stoll(said.substr(number_at, from_journal - number_at));
+  const std::int64_t after = committed_rows();
+  EXPECT_GT(after - before, 150) << "camera rows written from the journal (" << replayed << " rows of all kinds)\n"
+                                 << said;
+  // Each cut segment: its frames on disk have their rows (at most the one or two the kill caught
+  // between the encoder's write and the journal's).
+  std::size_t segments = 0;
+  for (auto at = said.find(": closed with "); at != std::string::npos; at = said.find(": closed with ", at + 1)) {
+    ++segments;
+    const auto line_end = said.find('\n', at);
+    const std::string line = said.substr(at, line_end - at);
+    const auto no_row = line.find(" frames on disk had no committed index row");
+    if (no_row == std::string::npos) continue;
+    const auto n_at = line.find_last_not_of("0123456789", no_row - 1) + 1;
+    EXPECT_LE(std::stoll(line.substr(n_at, no_row - n_at)), 2) << line;
+  }
+  EXPECT_GE(segments, 2u) << said;
+  EXPECT_FALSE(fs::exists(dir / "spill")) << "the journal's files are gone once their rows are in the index";
+  auto verified = run_pvcap(fmt::format("--log-level off verify {}", dir.string()));
+  EXPECT_EQ(verified.exit_code, 3) << verified.output;  // lossy: the session was cut
+  EXPECT_EQ(verified.output.find("ERROR"), std::string::npos) << verified.output;
+  std::printf("killed 6 s in, the index stalled for the last ~4 s: %lld frame rows before recover, %lld after (%lld "
+              "rows of all kinds from the journal)\n",
+              (long long)before, (long long)after, (long long)replayed);
+  fs::remove_all(work);
+}
+
 TEST(StoreDiskFull, AFullDiskStopsTheSessionAndWhatWasWrittenVerifies) {
   if (geteuid() != 0) GTEST_SKIP() << "mounting the small filesystem this test fills needs root";
   const fs::path work = fs::temp_directory_path() / fmt::format("pvcap-it-diskfull-{}", getpid());

@@ -1,5 +1,6 @@
 // Index rows that wait while the index is behind (storage/index_overflow.h): encoded and read back
-// whole, in their order, through memory and the file; a slow index loses none of them.
+// whole, in their order, through memory and the file; a slow index loses none of them; the journal
+// (storage/index_journal.h) holds the rows not yet committed, for recover.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -11,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include "storage/index_journal.h"
 #include "storage/index_overflow.h"
 #include "storage/recover.h"
 #include "storage/session_index.h"
@@ -233,12 +235,12 @@ TEST(IndexOverflow, RecoverWritesTheWaitingRowsIntoTheIndexOnce) {
   ASSERT_TRUE(r) << r.error().message;
   std::string said;
   for (const auto& d : r.value().done) said += d + "\n";
-  EXPECT_NE(said.find(fmt::format("{} index rows that waited for the index when the recording was cut written into it "
-                                  "(1000 it held already)",
+  EXPECT_NE(said.find(fmt::format("{} index rows not yet committed when the recording was cut written into "
+                                  "the index from index-rows.overflow (1000 it held already)",
                                   in_file - 1000)),
             std::string::npos)
       << said;
-  EXPECT_NE(said.find("its last 20 bytes were not a whole chunk"), std::string::npos) << said;
+  EXPECT_NE(said.find("the last 20 bytes were not a whole chunk"), std::string::npos) << said;
   EXPECT_FALSE(fs::exists(file)) << "removed once its rows are committed";
   const std::string after_first = frames_table(dir / "session.db");
   {
@@ -254,8 +256,8 @@ TEST(IndexOverflow, RecoverWritesTheWaitingRowsIntoTheIndexOnce) {
   ASSERT_TRUE(again) << again.error().message;
   said.clear();
   for (const auto& d : again.value().done) said += d + "\n";
-  EXPECT_NE(said.find(fmt::format("0 index rows that waited for the index when the recording was cut written into it "
-                                  "({} it held already)",
+  EXPECT_NE(said.find(fmt::format("0 index rows not yet committed when the recording was cut written into the "
+                                  "index from index-rows.overflow ({} it held already)",
                                   in_file)),
             std::string::npos)
       << said;
@@ -281,4 +283,103 @@ TEST(SessionIndex, EveryKindOfRecordIsHeldOnceWritten) {
     index.add(r);
     EXPECT_TRUE(index.holds(r));
   }
+}
+
+namespace {
+// Every frame row in a session's journal files, by sequence, in file order.
+std::vector<std::uint64_t> journal_sequences(const fs::path& spill) {
+  std::vector<std::uint64_t> out;
+  for (const fs::path& f : index_journal_files(spill)) {
+    auto rows = read_record_file(f);
+    EXPECT_TRUE(rows) << rows.error().message;
+    if (!rows) continue;
+    EXPECT_EQ(rows.value().unreadable_bytes, 0u) << f;
+    for (const auto& r : rows.value().records) out.push_back(std::get<FrameRecord>(r).sequence);
+  }
+  return out;
+}
+}  // namespace
+
+// The journal holds every row appended and not yet committed, in order, across its files; a file
+// whose rows are all committed is removed while it records; a clean stop removes them all.
+TEST(IndexJournal, EveryRowNotYetCommittedIsInItsFilesAndCommittedFilesGo) {
+  const TempDir scratch{overflow_dir("journal")};
+  const fs::path spill = scratch.path / "spill";
+  {
+    IndexJournal journal(spill, 30ms);
+    for (std::uint64_t i = 0; i < 3000; ++i) {
+      journal.append(frame(i));
+      if (i % 100 == 99) std::this_thread::sleep_for(10ms);  // ~10 files of 30 ms
+      if (i == 1999) journal.committed(2000);
+    }
+    std::this_thread::sleep_for(300ms);
+    EXPECT_FALSE(journal.failure());
+    EXPECT_EQ(journal.rows_appended(), 3000u);
+  }  // cut: the destructor keeps what is not committed, as a crash leaves it
+  const auto rows = journal_sequences(spill);
+  ASSERT_FALSE(rows.empty());
+  for (std::size_t i = 1; i < rows.size(); ++i) ASSERT_EQ(rows[i], rows[i - 1] + 1) << "in order, none missing";
+  EXPECT_EQ(rows.back(), 2999u) << "the last row appended is there";
+  EXPECT_LE(rows.front(), 2000u) << "every row not committed is there";
+  EXPECT_GT(rows.front(), 0u) << "files of committed rows were removed";
+
+  {
+    IndexJournal journal(spill / "clean");
+    for (std::uint64_t i = 0; i < 100; ++i) journal.append(frame(i));
+    std::this_thread::sleep_for(200ms);
+    EXPECT_EQ(journal_sequences(spill / "clean").size(), 100u) << "on disk within a moment";
+    journal.stop(/*remove_files=*/true);
+    EXPECT_TRUE(index_journal_files(spill / "clean").empty());
+  }
+}
+
+// The index stalls while rows come: each row is in the journal within a moment, so a copy of the
+// session taken then (what a kill -9 leaves) recovers to every row, none twice; the writer's clean
+// stop leaves no journal file.
+TEST(IndexWriter, RowsWaitingForAStalledIndexAreInTheJournalAndRecoverWritesThem) {
+  const TempDir scratch{overflow_dir("journal-stall")};
+  const fs::path dir = scratch.path / "session", cut = scratch.path / "cut";
+  fs::create_directories(dir);
+  std::int64_t cam = 0;
+  {
+    SessionIndex index = SessionIndex::create(dir / "session.db");
+    index.add_session({1, 2, "test", "rig", "rig.yaml", "name: rig", true});
+    cam = index.add_device({"camera", "cam0", "", "", "", "", "", "{}"});
+    IndexWriter writer(index, IndexWriter::kQueueRecords, 50ms, Stall{3.0, 0.3}, dir / "spill" / kIndexOverflowFile,
+                       IndexOverflow::kMemoryRecords, dir / "spill");
+    writer.start();
+    for (std::uint64_t i = 0; i < 1000; ++i) writer.push(unkept_frame(i, cam));
+    std::this_thread::sleep_for(600ms);  // committed; then the index stalls
+    for (std::uint64_t i = 1000; i < 6000; ++i) writer.push(unkept_frame(i, cam));
+    std::this_thread::sleep_for(500ms);  // still stalled: the rows wait in memory, and in the journal
+    EXPECT_EQ(writer.records_written(), 1000u) << "the stall began after the first rows were committed";
+    fs::create_directories(cut);
+    for (const auto& e : fs::recursive_directory_iterator(dir)) {
+      if (e.path().filename() == "session.db-shm") continue;
+      const fs::path to = cut / fs::relative(e.path(), dir);
+      if (e.is_directory())
+        fs::create_directories(to);
+      else
+        fs::copy_file(e.path(), to);
+    }
+    writer.stop();
+    EXPECT_EQ(writer.records_lost(), 0u);
+  }
+  EXPECT_TRUE(index_journal_files(dir / "spill").empty()) << "a clean stop removes the journal";
+  const auto in_journal = journal_sequences(cut / "spill");
+  ASSERT_FALSE(in_journal.empty());
+  EXPECT_EQ(in_journal.back(), 5999u);
+  auto r = recover_session(cut);
+  ASSERT_TRUE(r) << r.error().message;
+  std::string said;
+  for (const auto& d : r.value().done) said += d + "\n";
+  EXPECT_NE(said.find("5000 index rows not yet committed when the recording was cut written into the index"),
+            std::string::npos)
+      << said;
+  EXPECT_TRUE(index_journal_files(cut / "spill").empty()) << "removed once its rows are committed";
+  sqlite::Database db(cut / "session.db", sqlite::Database::Mode::ReadOnly);
+  auto q = db.prepare("SELECT sequence FROM frames ORDER BY rowid");
+  std::uint64_t expect = 0;
+  while (q.step()) ASSERT_EQ(std::uint64_t(q.column_int(0)), expect++);
+  EXPECT_EQ(expect, 6000u) << "every row once, in order";
 }
