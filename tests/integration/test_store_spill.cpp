@@ -162,6 +162,7 @@ TEST(StoreSpill, KillDuringTheDrainThenRecoverPutsEverySpilledFrameInAVideo) {
   std::map<std::tuple<std::int64_t, std::uint32_t, std::uint64_t>, cv::Mat> spilled;
   ASSERT_TRUE(fs::is_directory(dir / pvcap::kSpillFolder)) << read_all(work / "log.txt");
   for (const auto& e : fs::directory_iterator(dir / pvcap::kSpillFolder)) {
+    if (e.path().extension() != ".spill") continue;  // the index's journal lives there too
     auto n = pvcap::read_spill_file(e.path(), [&](pvcap::SpillRecord&& r) {
       spilled[{r.rec.device_id, r.rec.connection, r.rec.sequence}] = r.image;
     });
