@@ -18,6 +18,7 @@ packages=(
   libumockdev-dev umockdev              # emulated USB device for the Sensel tests
   iproute2 util-linux                   # network namespaces for the simulated rig
   python3-opencv python3-numpy          # the store's Python example (docs/store.md) is run by a test
+  python3-dev python3-pybind11          # `import pvcap`: the reader as a Python module (docs/python.md)
   clang libclang-rt-14-dev              # libFuzzer targets
 )
 if [ "${1:-}" = "--tests" ]; then
@@ -25,6 +26,7 @@ if [ "${1:-}" = "--tests" ]; then
     tmux                                # the operator's terminal console is tested in it
     chromium                            # the session's pages are tested in headless Chromium
     slurm-wlm munge                     # `pvcap dataset release --scheduler slurm` on a one-node cluster
+    python3-torch python3-venv          # pvcap.torch's tests; the install into a fresh venv
   )
 fi
 missing=()
