@@ -1,0 +1,90 @@
+#!/usr/bin/python3
+"""A training loop that learns from the store (images and pressure aligned, not just loaded):
+a tiny network on CPU, fed by pvcap.torch.PressureDataset from the export fixture's session (see
+test_pvcap_python.py), learns to tell contact from the image. Trained on the right hand's takes,
+judged on the left hand's, which it never saw; the loss falls and the held-out accuracy beats
+always answering the commoner class."""
+import glob
+import os
+import unittest
+
+import torch
+from torch import nn
+from torch.utils.data import DataLoader
+
+from pvcap.torch import PressureDataset
+
+FIXTURE = os.environ.get("PVCAP_EXPORT_FIXTURE", "")
+CONTACT_KPA = 1.0  # the paper's contact threshold (strictly above)
+SIZE = (64, 52)    # (width, height): small crops, CPU-sized
+
+
+def only_session():
+    found = glob.glob(os.path.join(FIXTURE, "sessions", "*", "session.db"))
+    if len(found) != 1:
+        raise unittest.SkipTest(f"no recorded session under {FIXTURE} (run under ctest: ExportFixture.Record)")
+    return os.path.dirname(found[0])
+
+
+def tensors(ds):
+    """Every item at once (a few hundred small crops): images as floats, contact (above the paper's
+    threshold) per pixel of the pressure projected into the same crop."""
+    images, contact = [], []
+    for batch in DataLoader(ds, batch_size=64, num_workers=2):
+        images.append(batch["image"][:, 0].float() / 255.0)
+        contact.append((batch["pressure"][:, 0] > CONTACT_KPA).float())
+    return torch.cat(images), torch.cat(contact)
+
+
+def tiny_contact_net():
+    """Per pixel: is the hand pressing here (a logit)? Two 5x5 layers see a fingertip's width."""
+    return nn.Sequential(nn.Conv2d(3, 16, 5, padding=2), nn.ReLU(), nn.Conv2d(16, 16, 5, padding=2), nn.ReLU(),
+                         nn.Conv2d(16, 1, 1))
+
+
+class TrainingLoopTest(unittest.TestCase):
+    def test_a_tiny_network_learns_contact_from_the_image(self):
+        folder = only_session()
+        common = dict(cameras=None, crop="paper", size=SIZE)
+        train_x, train_y = tensors(PressureDataset(folder, takes=lambda t: t["hand"] == "right", **common))
+        test_x, test_y = tensors(PressureDataset(folder, takes=lambda t: t["hand"] == "left", **common))
+        self.assertGreater(len(train_y), 100)
+        self.assertGreater(len(test_y), 100)
+        test_contact = (test_y.flatten(1).amax(dim=1) > 0).float()  # per crop: any pixel in contact
+        self.assertTrue(0.15 < float(test_contact.mean()) < 0.85, "both kinds of crop are held out")
+
+        # Both cores (after a DataLoader with workers torch may be left on one, where its convolutions
+        # run ~10x slower here).
+        torch.set_num_threads(2)
+        torch.manual_seed(0)
+        net = tiny_contact_net()
+        optimizer = torch.optim.Adam(net.parameters(), lr=5e-3)
+        # Contact covers ~0.3 % of a crop's pixels: they weigh more.
+        loss_fn = nn.BCEWithLogitsLoss(pos_weight=torch.tensor(30.0))
+        g = torch.Generator()
+        g.manual_seed(0)
+        losses = []
+        for step in range(400):
+            pick = torch.randint(0, len(train_y), (16,), generator=g)
+            loss = loss_fn(net(train_x[pick]).squeeze(1), train_y[pick])
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+            losses.append(float(loss))
+        first, last = sum(losses[:10]) / 10, sum(losses[-20:]) / 20
+        with torch.no_grad():
+            predicted = net(test_x).squeeze(1) > 0
+        # A crop is in contact when at least 3 of its pixels are predicted so.
+        accuracy = float(((predicted.flatten(1).sum(dim=1) >= 3).float() == test_contact).float().mean())
+        chance = max(float(test_contact.mean()), 1 - float(test_contact.mean()))
+        iou = float((predicted & (test_y > 0)).sum()) / max(1.0, float((predicted | (test_y > 0)).sum()))
+        print(f"training: loss {first:.3f} over the first 10 steps, {last:.3f} over the last 20 of 400; held out "
+              f"(the left hand's {len(test_y)} crops): contact told right in {accuracy:.2f} (answering the commoner "
+              f"kind: {chance:.2f}), contact pixels' IoU {iou:.2f}")
+        self.assertLess(last, 0.3 * first, "the loss falls")
+        self.assertGreater(accuracy, chance + 0.2, "held out, it beats answering the commoner kind")
+        self.assertGreater(iou, 0.3, "and it finds where: the pressure lies where the image shows the press")
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
