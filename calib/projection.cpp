@@ -142,10 +142,34 @@ double sensor_force_n(const cv::Mat& pressure_kpa, const PadLayout& pad) {
 
 cv::Mat warp_pressure_conserving(const cv::Mat& pressure_kpa, const cv::Matx33d& cells_to_image, cv::Size size,
                                  const PadLayout& pad) {
-  cv::Mat warped = warp_pressure(pressure_kpa, cells_to_image, size);
-  const double in_image = cv::sum(warped.mul(pixel_area_mm2(cells_to_image, size, pad)))[0] * 1e-3;
-  const double on_sensor = sensor_force_n(pressure_kpa, pad);
+  return ConservingWarp(cells_to_image, size, pad)(pressure_kpa);
+}
+
+ConservingWarp::ConservingWarp(const cv::Matx33d& cells_to_image, cv::Size size, const PadLayout& pad)
+    : pad_(pad), area_mm2_(pixel_area_mm2(cells_to_image, size, pad)) {
+  const cv::Matx33d g = cells_to_image.inv();
+  cv::Mat map(size, CV_32FC2);
+  for (int y = 0; y < size.height; ++y) {
+    auto* row = map.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < size.width; ++x) {
+      const double w = g(2, 0) * x + g(2, 1) * y + g(2, 2);
+      const double ok = w != 0 ? 1 / w : 0;  // a pixel on the horizon samples nothing (off the map)
+      row[x] = w != 0 ? cv::Vec2f(float((g(0, 0) * x + g(0, 1) * y + g(0, 2)) * ok),
+                                  float((g(1, 0) * x + g(1, 1) * y + g(1, 2)) * ok))
+                      : cv::Vec2f(-1e6f, -1e6f);
+    }
+  }
+  cv::convertMaps(map, cv::noArray(), map_, fraction_, CV_16SC2);
+}
+
+cv::Mat ConservingWarp::operator()(const cv::Mat& pressure_kpa, double* force_n) const {
+  CV_Assert(pressure_kpa.type() == CV_32F);
+  cv::Mat warped;
+  cv::remap(pressure_kpa, warped, map_, fraction_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  const double in_image = warped.dot(area_mm2_) * 1e-3;
+  const double on_sensor = sensor_force_n(pressure_kpa, pad_);
   if (in_image > 0) warped *= on_sensor / in_image;
+  if (force_n) *force_n = on_sensor;
   return warped;
 }
 

@@ -230,6 +230,20 @@ PYBIND11_MODULE(_pvcap, m) {
           },
           py::arg("sample"), py::arg("camera"), py::arg("crop") = py::none(), py::arg("size") = py::none())
       .def(
+          "pressure_and_force_in_camera",
+          [](SessionAccess& s, std::size_t sample, std::size_t camera, const py::object& crop, const py::object& size) {
+            const Crop c = crop_of(crop);
+            const auto wh = size_of(size);
+            cv::Mat m;
+            double force = 0;
+            {
+              py::gil_scoped_release unlocked;
+              m = value_or_raise(s.pressure_in_camera(sample, camera, c, wh, &force));
+            }
+            return py::make_tuple(to_array(m), force);
+          },
+          py::arg("sample"), py::arg("camera"), py::arg("crop") = py::none(), py::arg("size") = py::none())
+      .def(
           "force", [](SessionAccess& s, std::size_t sample) { return value_or_raise(s.force_n(sample)); },
           py::arg("sample"))
       .def(

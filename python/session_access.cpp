@@ -128,7 +128,8 @@ Result<double> SessionAccess::force_n(std::size_t sample) {
 }
 
 Result<cv::Mat> SessionAccess::pressure_in_camera(std::size_t sample, std::size_t camera, const Crop& crop,
-                                                  std::optional<cv::Size> size) {
+                                                  std::optional<cv::Size> size, double* force_n) {
+  if (force_n) *force_n = 0;
   if (Status s = check_camera(sample, camera); !s.ok()) return s.error();
   auto box = crop_box(camera, crop);
   if (!box) return box.error();
@@ -141,17 +142,28 @@ Result<cv::Mat> SessionAccess::pressure_in_camera(std::size_t sample, std::size_
   auto kpa = pressure_kpa(sample);
   if (!kpa) return kpa.error();
   if (kpa.value().empty()) return cv::Mat();
-  // PressureVision's homography maps the grid's outer edges (0..185, 0..105) to the corners; the
-  // pressure image's cell centres sit at integers, half a cell inside them.
-  const auto& c = *cal->pad_corners_px;
-  const std::vector<cv::Point2f> edges{{0, 0}, {float(pad_.cols), 0}, {float(pad_.cols), float(pad_.rows)},
-                                       {0, float(pad_.rows)}};
-  const std::vector<cv::Point2f> image{cv::Point2f(c[0]), cv::Point2f(c[1]), cv::Point2f(c[2]), cv::Point2f(c[3])};
-  const cv::Matx33d edges_to_image = cv::getPerspectiveTransform(edges, image);
-  const cv::Matx33d centres_to_edges(1, 0, 0.5, 0, 1, 0.5, 0, 0, 1);
-  const cv::Mat in_image = calib::warp_pressure_conserving(kpa.value(), edges_to_image * centres_to_edges,
-                                                           {cam.width, cam.height}, pad_);
-  return cut_and_size(in_image, box.value(), size, cv::INTER_LINEAR);
+  const cv::Rect b = box.value();
+  const cv::Size out = size.value_or(b.size());
+  const auto key = std::make_tuple(camera, b.x, b.y, b.width, b.height, out.width, out.height);
+  auto warp = warps_.find(key);
+  if (warp == warps_.end()) {
+    // PressureVision's homography maps the grid's outer edges (0..185, 0..105) to the corners; the
+    // pressure image's cell centres sit at integers, half a cell inside them. The crop and its
+    // resize are an affine map of image pixels (cv::resize takes pixel centre x of the box to
+    // (x - x0 + 0.5) * s - 0.5), so the pressure is warped straight into the crop at its size, as
+    // PressureVision's loader warps into its crop.
+    const auto& c = *cal->pad_corners_px;
+    const std::vector<cv::Point2f> edges{{0, 0}, {float(pad_.cols), 0}, {float(pad_.cols), float(pad_.rows)},
+                                         {0, float(pad_.rows)}};
+    const std::vector<cv::Point2f> image{cv::Point2f(c[0]), cv::Point2f(c[1]), cv::Point2f(c[2]), cv::Point2f(c[3])};
+    const cv::Matx33d edges_to_image = cv::getPerspectiveTransform(edges, image);
+    const cv::Matx33d centres_to_edges(1, 0, 0.5, 0, 1, 0.5, 0, 0, 1);
+    const double sx = double(out.width) / b.width, sy = double(out.height) / b.height;
+    const cv::Matx33d image_to_crop(sx, 0, (0.5 - b.x) * sx - 0.5, 0, sy, (0.5 - b.y) * sy - 0.5, 0, 0, 1);
+    warp = warps_.emplace(key, calib::ConservingWarp(image_to_crop * edges_to_image * centres_to_edges, out, pad_))
+               .first;
+  }
+  return warp->second(kpa.value(), force_n);
 }
 
 }  // namespace pvcap::python

@@ -6,13 +6,16 @@
 // of the store: Python never parses session.db or a video itself. Read-only.
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "calib/projection.h"
 #include "calib/rig_calibration.h"
 #include "core/result.h"
 #include "protocol/takes.h"
@@ -54,10 +57,12 @@ class SessionAccess {
   // export writes it and PressureVision's loader reads it. Empty when no pressure frame is paired.
   Result<cv::Mat> pressure_kpa(std::size_t sample);
   // The same pressure in the camera's image through the pad's homography (PressureVision's
-  // sensor->image homography, the corners as measured), scaled so that its force on the pad equals
-  // the sensor's, then cut and sized as image_rgb does (CV_32F, kPa).
+  // sensor->image homography, the corners as measured), warped straight into the crop at its size
+  // (the pixels image_rgb gives), and scaled so that its force on the pad equals the sensor's
+  // (CV_32F, kPa). The map of each crop is made once per session.
+  // `force_n`, when given, receives the sample's force (N; 0 when no pressure frame is paired).
   Result<cv::Mat> pressure_in_camera(std::size_t sample, std::size_t camera, const Crop& crop,
-                                     std::optional<cv::Size> size);
+                                     std::optional<cv::Size> size, double* force_n = nullptr);
   // The force (N) the sample's pressure carries (0 when none is paired).
   Result<double> force_n(std::size_t sample);
   // The box `crop` cuts from the camera's image (the whole image for Crop::Whole); an Error for the
@@ -75,6 +80,7 @@ class SessionAccess {
   std::vector<protocol::TakeRow> takes_;
   std::vector<std::optional<calib::CameraCalibration>> calibrations_;
   calib::PadLayout pad_;
+  std::map<std::tuple<std::size_t, int, int, int, int, int, int>, calib::ConservingWarp> warps_;
 };
 
 }  // namespace pvcap::python

@@ -103,6 +103,10 @@ class Session:
         cut and sized as image() is."""
         return self._h().pressure_in_camera(int(sample), self.camera_index(camera), crop, size)
 
+    def pressure_and_force_in_camera(self, sample, camera, crop=None, size=None):
+        """(pressure_in_camera(...), force(sample)) from one read of the pressure frame."""
+        return self._h().pressure_and_force_in_camera(int(sample), self.camera_index(camera), crop, size)
+
     def force(self, sample):
         """Total force of the sample's pressure, in newtons (0 when none is paired)."""
         return self._h().force(int(sample))

@@ -9,9 +9,15 @@ projected into that image, as PressureVisionNet learns from them.
 Windows are asked in ticks of the 15 Hz grid (ticks=[-2, -1, 0]): a sample is an item only when
 every tick of its window has a sample with that camera's frame and a pressure frame. Each process
 (DataLoader workers included) opens its own read-only handles: nothing is shared across a fork.
+
+A raw 1080p frame costs ~10 ms to decode whole (its lossless codec cannot decode only a crop), so the
+store gives ~60 crops per second per core; with cache=DIR each crop is kept as a JPEG the first time
+it is read (quality 95, as the export writes), and later epochs read those (docs/python.md, figures).
 """
+import hashlib
 import os
 
+import cv2
 import numpy as np
 import torch
 import torch.utils.data
@@ -42,14 +48,18 @@ class PressureDataset(torch.utils.data.Dataset):
     crop: None, "paper" or (x, y, w, h); size: (width, height) or None. ticks: the window, in
     ticks relative to the item's sample. takes: None (every sample in a take that is done, or
     every sample of a session without a protocol) or a function of a take's dict returning
-    whether its samples are used. transform: applied to each item's dict."""
+    whether its samples are used. transform: applied to each item's dict. cache: a folder where each
+    crop is kept as a JPEG once read (every epoch then sees the same, decoded JPEG pixels; shared
+    safely by workers and by datasets of other crops)."""
 
     def __init__(self, source, split=None, cameras=None, crop="paper", size=(480, 384), ticks=(0,), takes=None,
-                 transform=None, qa=("clean", "lossy")):
+                 transform=None, qa=("clean", "lossy"), cache=None, cache_quality=95):
         self.folders = _session_folders(source, split, qa)
         if not self.folders:
             raise StoreError(f"{os.fspath(source)}: no session to read (split {split!r}, qa {qa!r})")
         self.crop, self.size, self.transform = crop, (tuple(size) if size is not None else None), transform
+        self.cache, self.cache_quality = (os.path.abspath(os.fspath(cache)) if cache else None), int(cache_quality)
+        self._cache_dirs = {}
         self.ticks = [int(t) for t in ticks]
         if not self.ticks:
             raise ValueError("ticks must name at least one tick, e.g. [0]")
@@ -109,6 +119,36 @@ class PressureDataset(torch.utils.data.Dataset):
             s = self._sessions[s_index] = Session(self.folders[s_index])
         return s
 
+    def _image(self, s_index, s, sample, camera):
+        if self.cache is None:
+            return s.image(sample, camera, self.crop, self.size)
+        folder = self._cache_dirs.get((s_index, camera))
+        if folder is None:
+            # Named by what the pixels depend on: the session, the camera, the box the crop resolves to
+            # (a new pad calibration moves it), the size and the quality.
+            box = tuple(s.crop_box(camera, self.crop))
+            key = f"{s.path}|{s.cameras[camera]['name']}|{box}|{self.size}|{self.cache_quality}"
+            folder = os.path.join(self.cache, hashlib.sha1(key.encode()).hexdigest()[:20])
+            os.makedirs(folder, exist_ok=True)
+            self._cache_dirs[(s_index, camera)] = folder
+        path = os.path.join(folder, f"{sample:08d}.jpg")
+        try:
+            with open(path, "rb") as f:
+                data = f.read()
+        except FileNotFoundError:
+            rgb = s.image(sample, camera, self.crop, self.size)
+            ok, encoded = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR),
+                                       [cv2.IMWRITE_JPEG_QUALITY, self.cache_quality])
+            data = encoded.tobytes()
+            tmp = f"{path}.{os.getpid()}.tmp"  # whole or not at all: workers may race on one crop
+            with open(tmp, "wb") as f:
+                f.write(data)
+            os.replace(tmp, path)
+        bgr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+        if bgr is None:
+            raise StoreError(f"{path}: not a JPEG (a damaged cache: remove {self.cache})")
+        return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
     def __getstate__(self):
         state = dict(self.__dict__)
         state["_sessions"] = {}
@@ -124,9 +164,10 @@ class PressureDataset(torch.utils.data.Dataset):
         window = [self._by_tick[s_index][tick + d] for d in self.ticks]
         images, pressures, forces = [], [], []
         for w in window:
-            images.append(s.image(w, camera, self.crop, self.size))
-            pressures.append(s.pressure_in_camera(w, camera, self.crop, self.size))
-            forces.append(s.force(w))
+            images.append(self._image(s_index, s, w, camera))
+            pressure, force = s.pressure_and_force_in_camera(w, camera, self.crop, self.size)
+            pressures.append(pressure)
+            forces.append(force)
         item = {
             "image": torch.from_numpy(np.stack(images)).permute(0, 3, 1, 2).contiguous(),
             "pressure": torch.from_numpy(np.stack(pressures)),
