@@ -30,7 +30,7 @@ def tensors(ds):
     """Every item at once (a few hundred small crops): images as floats, contact (above the paper's
     threshold) per pixel of the pressure projected into the same crop."""
     images, contact = [], []
-    for batch in DataLoader(ds, batch_size=64, num_workers=2):
+    for batch in DataLoader(ds, batch_size=64):
         images.append(batch["image"][:, 0].float() / 255.0)
         contact.append((batch["pressure"][:, 0] > CONTACT_KPA).float())
     return torch.cat(images), torch.cat(contact)
@@ -45,11 +45,11 @@ def tiny_contact_net():
 class TrainingLoopTest(unittest.TestCase):
     def test_a_tiny_network_learns_contact_from_the_image(self):
         folder = only_session()
-        common = dict(cameras=None, crop="paper", size=SIZE)
+        common = dict(cameras=["cam0", "cam1"], crop="paper", size=SIZE)
         train_x, train_y = tensors(PressureDataset(folder, takes=lambda t: t["hand"] == "right", **common))
         test_x, test_y = tensors(PressureDataset(folder, takes=lambda t: t["hand"] == "left", **common))
-        self.assertGreater(len(train_y), 100)
-        self.assertGreater(len(test_y), 100)
+        self.assertGreater(len(train_y), 60)
+        self.assertGreater(len(test_y), 60)
         test_contact = (test_y.flatten(1).amax(dim=1) > 0).float()  # per crop: any pixel in contact
         self.assertTrue(0.15 < float(test_contact.mean()) < 0.85, "both kinds of crop are held out")
 
@@ -58,13 +58,13 @@ class TrainingLoopTest(unittest.TestCase):
         torch.set_num_threads(2)
         torch.manual_seed(0)
         net = tiny_contact_net()
-        optimizer = torch.optim.Adam(net.parameters(), lr=5e-3)
+        optimizer = torch.optim.Adam(net.parameters(), lr=7e-3)
         # Contact covers ~0.3 % of a crop's pixels: they weigh more.
         loss_fn = nn.BCEWithLogitsLoss(pos_weight=torch.tensor(30.0))
         g = torch.Generator()
         g.manual_seed(0)
         losses = []
-        for step in range(400):
+        for step in range(250):
             pick = torch.randint(0, len(train_y), (16,), generator=g)
             loss = loss_fn(net(train_x[pick]).squeeze(1), train_y[pick])
             optimizer.zero_grad()
@@ -78,12 +78,25 @@ class TrainingLoopTest(unittest.TestCase):
         accuracy = float(((predicted.flatten(1).sum(dim=1) >= 3).float() == test_contact).float().mean())
         chance = max(float(test_contact.mean()), 1 - float(test_contact.mean()))
         iou = float((predicted & (test_y > 0)).sum()) / max(1.0, float((predicted | (test_y > 0)).sum()))
-        print(f"training: loss {first:.3f} over the first 10 steps, {last:.3f} over the last 20 of 400; held out "
+        print(f"training: loss {first:.3f} over the first 10 steps, {last:.3f} over the last 20 of 250; held out "
               f"(the left hand's {len(test_y)} crops): contact told right in {accuracy:.2f} (answering the commoner "
               f"kind: {chance:.2f}), contact pixels' IoU {iou:.2f}")
         self.assertLess(last, 0.3 * first, "the loss falls")
         self.assertGreater(accuracy, chance + 0.2, "held out, it beats answering the commoner kind")
         self.assertGreater(iou, 0.3, "and it finds where: the pressure lies where the image shows the press")
+
+
+class DocumentedLoopTest(unittest.TestCase):
+    def test_the_training_loop_in_the_docs_runs_as_written(self):
+        """docs/python.md's loop, on the fixture's session instead of its example path."""
+        docs = os.path.join(os.path.dirname(__file__), "..", "..", "docs", "python.md")
+        with open(docs) as f:
+            text = f.read()
+        section = text[text.index("## Training loop"):]
+        code = section[section.index("```python") + len("```python"):section.index("```", section.index("```python") + 9)]
+        self.assertIn('session = "sessions/20261202-101500_P017"', code)
+        code = code.replace('"sessions/20261202-101500_P017"', repr(only_session()))
+        exec(compile(code, "docs/python.md (Training loop)", "exec"), {})
 
 
 if __name__ == "__main__":
