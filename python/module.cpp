@@ -8,6 +8,7 @@
 
 #include <cstring>
 
+#include "core/allocator.h"
 #include "python/dataset_access.h"
 #include "python/session_access.h"
 
@@ -184,6 +185,8 @@ py::dict dataset_of(const std::string& dir) {
 PYBIND11_MODULE(_pvcap, m) {
   m.doc() = "pvcap's session store, read through its C++ reader (see the pvcap package)";
   py::register_exception<StoreError>(m, "StoreError", PyExc_RuntimeError);
+  // A reader of recorded images, frame after frame: their buffers stay in the heap (core/allocator.h).
+  keep_image_buffers_in_heap();
 
   py::class_<SessionAccess>(m, "SessionHandle")
       .def(py::init([](const std::string& path) { return value_or_raise(SessionAccess::open(path)); }),

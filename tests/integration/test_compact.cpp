@@ -87,7 +87,9 @@ TEST(StoreCompact, KilledAtRandomMomentsTheSessionStillVerifiesAndTheLastRunFini
     std::size_t left = 0;
     for (const auto& [path, codec] : codec_by_segment(dir)) left += codec != "libx264";
     const double left_s = std::max(0.5, whole_s * double(left) / double(segments));
-    const double at_s = std::uniform_real_distribution<double>(0.05, 0.9 * left_s)(rng);
+    // Within the first 60 %: the timed run may have met a busier machine than this one (a round
+    // drawn at 10.1 s of a 12 s estimate once came after a 10 s compact had finished).
+    const double at_s = std::uniform_real_distribution<double>(0.05, 0.6 * left_s)(rng);
     const pid_t pid = spawn_pvcap("--log-level info compact --threads 2 " + dir.string(),
                                   work / fmt::format("compact-{}.txt", round));
     std::this_thread::sleep_for(std::chrono::duration<double>(at_s));

@@ -345,7 +345,7 @@ TEST(IndexWriter, RowsWaitingForAStalledIndexAreInTheJournalAndRecoverWritesThem
     SessionIndex index = SessionIndex::create(dir / "session.db");
     index.add_session({1, 2, "test", "rig", "rig.yaml", "name: rig", true});
     cam = index.add_device({"camera", "cam0", "", "", "", "", "", "{}"});
-    IndexWriter writer(index, IndexWriter::kQueueRecords, 50ms, Stall{3.0, 0.3}, dir / "spill" / kIndexOverflowFile,
+    IndexWriter writer(index, IndexWriter::kQueueRecords, 50ms, Stall{1.5, 0.3}, dir / "spill" / kIndexOverflowFile,
                        IndexOverflow::kMemoryRecords, dir / "spill");
     writer.start();
     for (std::uint64_t i = 0; i < 1000; ++i) writer.push(unkept_frame(i, cam));
