@@ -83,7 +83,7 @@ TEST(StoreCompact, KilledAtRandomMomentsTheSessionStillVerifiesAndTheLastRunFini
   // of the whole compact's time): a run resumes where the last was killed. Once a run finishes,
   // the rounds after it would only verify a compacted session again: the last run below does.
   int killed = 0;
-  for (int round = 0; round < 6; ++round) {
+  for (int round = 0; round < 4; ++round) {
     std::size_t left = 0;
     for (const auto& [path, codec] : codec_by_segment(dir)) left += codec != "libx264";
     const double left_s = std::max(0.5, whole_s * double(left) / double(segments));
