@@ -7,9 +7,7 @@ import hashlib
 import json
 import os
 import pickle
-import shutil
 import subprocess
-import sys
 import tempfile
 import unittest
 
@@ -17,17 +15,10 @@ import cv2
 import numpy as np
 
 import pvcap
+from pvcap_fixture import FIXTURE, only_session
 
-FIXTURE = os.environ.get("PVCAP_EXPORT_FIXTURE", "")
 PVCAP = os.environ.get("PVCAP_BIN", "pvcap")
 BUILD = os.environ.get("PVCAP_BUILD_DIR", "")
-
-
-def only_session():
-    found = glob.glob(os.path.join(FIXTURE, "sessions", "*", "session.db"))
-    if len(found) != 1:
-        raise unittest.SkipTest(f"no recorded session under {FIXTURE} (run under ctest: ExportFixture.Record)")
-    return os.path.dirname(found[0])
 
 
 def pvcap_run(*args):

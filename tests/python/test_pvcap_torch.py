@@ -13,15 +13,7 @@ from torch.utils.data import DataLoader
 
 import pvcap
 from pvcap.torch import PressureDataset
-
-FIXTURE = os.environ.get("PVCAP_EXPORT_FIXTURE", "")
-
-
-def only_session():
-    found = glob.glob(os.path.join(FIXTURE, "sessions", "*", "session.db"))
-    if len(found) != 1:
-        raise unittest.SkipTest(f"no recorded session under {FIXTURE} (run under ctest: ExportFixture.Record)")
-    return os.path.dirname(found[0])
+from pvcap_fixture import only_session
 
 
 def order(loader):

@@ -4,7 +4,6 @@ a tiny network on CPU, fed by pvcap.torch.PressureDataset from the export fixtur
 test_pvcap_python.py), learns to tell contact from the image. Trained on the right hand's takes,
 judged on the left hand's, which it never saw; the loss falls and the held-out accuracy beats
 always answering the commoner class."""
-import glob
 import os
 import unittest
 
@@ -13,17 +12,10 @@ from torch import nn
 from torch.utils.data import DataLoader
 
 from pvcap.torch import PressureDataset
+from pvcap_fixture import only_session
 
-FIXTURE = os.environ.get("PVCAP_EXPORT_FIXTURE", "")
 CONTACT_KPA = 1.0  # the paper's contact threshold (strictly above)
 SIZE = (64, 52)    # (width, height): small crops, CPU-sized
-
-
-def only_session():
-    found = glob.glob(os.path.join(FIXTURE, "sessions", "*", "session.db"))
-    if len(found) != 1:
-        raise unittest.SkipTest(f"no recorded session under {FIXTURE} (run under ctest: ExportFixture.Record)")
-    return os.path.dirname(found[0])
 
 
 def tensors(ds):
