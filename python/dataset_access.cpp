@@ -35,10 +35,11 @@ Result<DatasetView> open_dataset(const std::filesystem::path& dir) {
     };
     for (CatalogSession& s : db.value()->sessions()) {
       if (dataset::is_withdrawn(withdrawals, s.participant)) continue;  // never yielded
-      DatasetSession d{std::move(s.folder), s.participant, std::move(s.skin_tone), std::move(s.hand_order),
-                       std::move(s.lighting), std::move(s.protocol), s.verify_exit, std::move(s.facts_json), ""};
-      d.split = in(splits.train, d.participant) ? "train"
-                : in(splits.val, d.participant) ? "val"
+      DatasetSession d{std::move(s.folder),     s.participant,           std::move(s.skin_tone),
+                       std::move(s.hand_order), std::move(s.lighting),   std::move(s.protocol),
+                       s.verify_exit,           std::move(s.facts_json), ""};
+      d.split = in(splits.train, d.participant)  ? "train"
+                : in(splits.val, d.participant)  ? "val"
                 : in(splits.test, d.participant) ? "test"
                                                  : "";
       out.sessions.push_back(std::move(d));

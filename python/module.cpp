@@ -189,8 +189,7 @@ PYBIND11_MODULE(_pvcap, m) {
   keep_image_buffers_in_heap();
 
   py::class_<SessionAccess>(m, "SessionHandle")
-      .def(py::init([](const std::string& path) { return value_or_raise(SessionAccess::open(path)); }),
-           py::arg("path"))
+      .def(py::init([](const std::string& path) { return value_or_raise(SessionAccess::open(path)); }), py::arg("path"))
       .def("info", &info_of)
       .def("cameras", &cameras_of)
       .def("samples", &samples_of)

@@ -54,13 +54,15 @@ Status SessionAccess::check_camera(std::size_t sample, std::size_t camera) const
   if (sample >= infos_.size())
     return Error{fmt::format("{}: no sample {} (the session has {})", dir_.string(), sample, infos_.size())};
   if (camera >= reader_->cameras().size())
-    return Error{fmt::format("{}: no camera {} (the session has {})", dir_.string(), camera, reader_->cameras().size())};
+    return Error{
+        fmt::format("{}: no camera {} (the session has {})", dir_.string(), camera, reader_->cameras().size())};
   return {};
 }
 
 Result<cv::Rect> SessionAccess::crop_box(std::size_t camera, const Crop& crop) const {
   if (camera >= reader_->cameras().size())
-    return Error{fmt::format("{}: no camera {} (the session has {})", dir_.string(), camera, reader_->cameras().size())};
+    return Error{
+        fmt::format("{}: no camera {} (the session has {})", dir_.string(), camera, reader_->cameras().size())};
   const CameraInfo& cam = reader_->cameras()[camera];
   const cv::Rect whole(0, 0, cam.width, cam.height);
   switch (crop.kind) {
@@ -74,9 +76,10 @@ Result<cv::Rect> SessionAccess::crop_box(std::size_t camera, const Crop& crop) c
     case Crop::Kind::Paper: {
       const auto& cal = calibration(camera);
       if (!cal || !cal->pad_corners_px)
-        return Error{fmt::format("{}: camera {} has no pad calibration, so it has no paper crop: run `pvcap "
-                                 "calibrate pad {}`",
-                                 dir_.string(), cam.name, dir_.string())};
+        return Error{
+            fmt::format("{}: camera {} has no pad calibration, so it has no paper crop: run `pvcap "
+                        "calibrate pad {}`",
+                        dir_.string(), cam.name, dir_.string())};
       return calib::paper_crop_box(*cal->pad_corners_px, {cam.width, cam.height});
     }
   }
@@ -98,11 +101,11 @@ Result<cv::Mat> SessionAccess::image_rgb(std::size_t sample, std::size_t camera,
   if (Status s = check_camera(sample, camera); !s.ok()) return s.error();
   auto box = crop_box(camera, crop);
   if (!box) return box.error();
-  auto bgr = reader_->image(sample, camera);
+  auto bgr = reader_->image_region(sample, camera, box.value());  // a raw frame: only the box demosaiced
   if (!bgr) return bgr.error();
   if (bgr.value().empty()) return cv::Mat();
   cv::Mat rgb;
-  cv::cvtColor(bgr.value()(box.value()), rgb, cv::COLOR_BGR2RGB);
+  cv::cvtColor(bgr.value(), rgb, cv::COLOR_BGR2RGB);
   return cut_and_size(rgb, cv::Rect({0, 0}, rgb.size()), size, cv::INTER_LINEAR);
 }
 
@@ -136,9 +139,10 @@ Result<cv::Mat> SessionAccess::pressure_in_camera(std::size_t sample, std::size_
   const auto& cal = calibration(camera);
   const CameraInfo& cam = reader_->cameras()[camera];
   if (!cal || !cal->pad_corners_px)
-    return Error{fmt::format("{}: camera {} has no pad calibration, so its pressure cannot be put in its image: run "
-                             "`pvcap calibrate pad {}`",
-                             dir_.string(), cam.name, dir_.string())};
+    return Error{
+        fmt::format("{}: camera {} has no pad calibration, so its pressure cannot be put in its image: run "
+                    "`pvcap calibrate pad {}`",
+                    dir_.string(), cam.name, dir_.string())};
   auto kpa = pressure_kpa(sample);
   if (!kpa) return kpa.error();
   if (kpa.value().empty()) return cv::Mat();
@@ -153,15 +157,15 @@ Result<cv::Mat> SessionAccess::pressure_in_camera(std::size_t sample, std::size_
     // (x - x0 + 0.5) * s - 0.5), so the pressure is warped straight into the crop at its size, as
     // PressureVision's loader warps into its crop.
     const auto& c = *cal->pad_corners_px;
-    const std::vector<cv::Point2f> edges{{0, 0}, {float(pad_.cols), 0}, {float(pad_.cols), float(pad_.rows)},
-                                         {0, float(pad_.rows)}};
+    const std::vector<cv::Point2f> edges{
+        {0, 0}, {float(pad_.cols), 0}, {float(pad_.cols), float(pad_.rows)}, {0, float(pad_.rows)}};
     const std::vector<cv::Point2f> image{cv::Point2f(c[0]), cv::Point2f(c[1]), cv::Point2f(c[2]), cv::Point2f(c[3])};
     const cv::Matx33d edges_to_image = cv::getPerspectiveTransform(edges, image);
     const cv::Matx33d centres_to_edges(1, 0, 0.5, 0, 1, 0.5, 0, 0, 1);
     const double sx = double(out.width) / b.width, sy = double(out.height) / b.height;
     const cv::Matx33d image_to_crop(sx, 0, (0.5 - b.x) * sx - 0.5, 0, sy, (0.5 - b.y) * sy - 0.5, 0, 0, 1);
-    warp = warps_.emplace(key, calib::ConservingWarp(image_to_crop * edges_to_image * centres_to_edges, out, pad_))
-               .first;
+    warp =
+        warps_.emplace(key, calib::ConservingWarp(image_to_crop * edges_to_image * centres_to_edges, out, pad_)).first;
   }
   return warp->second(kpa.value(), force_n);
 }

@@ -75,8 +75,8 @@ void IndexJournal::append(IndexRecord record) {
     // Its disk is far behind: the journal stops rather than grow (the thread says so).
     stopped_taking_ = true;
     if (!failure_)
-      failure_ = fmt::format("{}: could not keep up ({} MB of rows waited for its disk); it stopped",
-                             folder_.string(), kPendingBytes >> 20);
+      failure_ = fmt::format("{}: could not keep up ({} MB of rows waited for its disk); it stopped", folder_.string(),
+                             kPendingBytes >> 20);
     pending_.clear();
     pending_bytes_ = 0;
     cv_.notify_all();
@@ -179,7 +179,8 @@ void IndexJournal::run() {
   bool told = false;
   std::unique_lock lock(mu_);
   for (;;) {
-    cv_.wait_for(lock, std::chrono::milliseconds(100), [&] { return stopping_ || !pending_.empty() || (failure_ && !told); });
+    cv_.wait_for(lock, std::chrono::milliseconds(100),
+                 [&] { return stopping_ || !pending_.empty() || (failure_ && !told); });
     std::vector<IndexRecord> rows;
     rows.swap(pending_);
     pending_bytes_ = 0;

@@ -2,10 +2,10 @@
 // The journal of index rows not yet committed: a copy of every row the index writer accepts is
 // appended, on a thread of its own, to a file of the session's spill folder within milliseconds
 // (synced with the folder's other files once a second: storage/durable_folder.h); the index writer
-// says how many rows it has committed, and a file whose rows are all committed is removed. So when the recorder is killed, or the power goes,
-// while the index is behind (a slow disk, a busy machine: rows wait in its queue and overflow, in
-// memory), `pvcap recover` finds the rows the index lacks here and writes them into it
-// (storage/recover.h): every frame that reached the disk keeps its row.
+// says how many rows it has committed, and a file whose rows are all committed is removed. So when
+// the recorder is killed, or the power goes, while the index is behind (a slow disk, a busy machine:
+// rows wait in its queue and overflow, in memory), `pvcap recover` finds the rows the index lacks
+// here and writes them into it (storage/recover.h): every frame that reached the disk keeps its row.
 //
 // Files are numbered (index-rows.journal.<n>, one per second at most) so that the committed ones can
 // be removed whole; a crash cuts at most the last chunk of the last one (storage/record_codec.h).

@@ -149,7 +149,7 @@ Result<SampleInfo> SessionReader::sample_info(std::size_t i) {
   });
 }
 
-Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) {
+Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic, std::string* bayer_format) {
   return guarded(dir_, [&]() -> Result<cv::Mat> {
     // Stores before version 5 have no checksums.
     auto q = db_->cached(fmt::format(
@@ -198,6 +198,7 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic) 
       it = videos_.emplace(file_id, OpenVideo{c.device_id, std::move(opened.value())}).first;
     }
     VideoReader& video = *it->second.reader;
+    if (bayer_format) *bayer_format = video.bayer_format();
     video.set_demosaic(demosaic_);
     video.set_image_size(image_size_);
     cv::Mat bgr;
@@ -312,14 +313,43 @@ void SessionReader::set_demosaic(Demosaic method) { demosaic_ = method; }
 Result<cv::Mat> SessionReader::image(std::size_t i, std::size_t camera) { return one_image(i, camera, false); }
 Result<cv::Mat> SessionReader::raw_image(std::size_t i, std::size_t camera) { return one_image(i, camera, true); }
 
-Result<cv::Mat> SessionReader::one_image(std::size_t i, std::size_t camera, bool mosaic) {
+Result<cv::Mat> SessionReader::image_region(std::size_t i, std::size_t camera, cv::Rect box) {
+  if (camera < cameras_.size() && (box & cv::Rect(0, 0, cameras_[camera].width, cameras_[camera].height)) != box)
+    return Error{fmt::format("{}: ({}, {}, {}, {}) is not inside camera {}'s {}x{} image", dir_.string(), box.x, box.y,
+                             box.width, box.height, cameras_[camera].name, cameras_[camera].width,
+                             cameras_[camera].height)};
+  if (demosaic_ == Demosaic::Bilinear && image_size_ == cv::Size() && !view_videos_) {
+    std::string format;
+    auto mosaic = one_image(i, camera, true, &format);  // an Error for a colour video: cut below
+    if (mosaic && mosaic.value().empty()) return cv::Mat();  // the sample has no stored frame of it
+    if (mosaic && !format.empty() && (box & cv::Rect({0, 0}, mosaic.value().size())) == box) {
+      // Bilinear demosaicing reads each pixel's 3x3 neighbours: a margin of 2 from an even corner
+      // (the pattern's phase kept) gives the box the whole image's pixels.
+      const cv::Mat& m = mosaic.value();
+      const int x0 = std::max(0, box.x - 2) & ~1, y0 = std::max(0, box.y - 2) & ~1;
+      const int x1 = std::min(m.cols, box.br().x + 2), y1 = std::min(m.rows, box.br().y + 2);
+      cv::Mat bgr;
+      if (Status d = debayer(m(cv::Rect(x0, y0, x1 - x0, y1 - y0)), format, demosaic_, bgr); !d.ok())
+        return d.error();
+      return bgr(cv::Rect(box.x - x0, box.y - y0, box.width, box.height)).clone();
+    }
+  }
+  auto whole = image(i, camera);
+  if (!whole || whole.value().empty()) return whole;
+  if ((box & cv::Rect({0, 0}, whole.value().size())) != box)
+    return Error{fmt::format("{}: ({}, {}, {}, {}) is not inside the {}x{} image", dir_.string(), box.x, box.y,
+                             box.width, box.height, whole.value().cols, whole.value().rows)};
+  return whole.value()(box).clone();
+}
+
+Result<cv::Mat> SessionReader::one_image(std::size_t i, std::size_t camera, bool mosaic, std::string* bayer_format) {
   if (camera >= cameras_.size())
     return Error{fmt::format("{}: no camera {} (the session has {})", dir_.string(), camera, cameras_.size())};
   auto info = sample_info(i);
   if (!info) return info.error();
   for (const auto& c : info.value().cameras)
     if (c.device_id == cameras_[camera].device_id)
-      return c.in_video ? camera_image(c, mosaic) : Result<cv::Mat>(cv::Mat());
+      return c.in_video ? camera_image(c, mosaic, bayer_format) : Result<cv::Mat>(cv::Mat());
   return cv::Mat();
 }
 

@@ -165,6 +165,10 @@ class SessionReader {
   Result<Sample> sample(std::size_t i, PressureMode mode = PressureMode::Nearest);
   // One camera's image of sample i (`camera` indexes cameras()); empty when that frame was not stored.
   Result<cv::Mat> image(std::size_t i, std::size_t camera);
+  // `box` of image(i, camera) (the camera's pixels; inside its image), the same pixels: from a raw
+  // video read at its own size and demosaiced bilinearly (the defaults), only the box and a margin
+  // are demosaiced (a crop of the pad is a sixth of a 1080p frame); otherwise the image is cut.
+  Result<cv::Mat> image_region(std::size_t i, std::size_t camera, cv::Rect box);
   // The same frame as the sensor's Bayer mosaic (CV_8UC1), exactly as captured: raw videos only
   // (an Error for a colour video); empty when that frame was not stored.
   Result<cv::Mat> raw_image(std::size_t i, std::size_t camera);
@@ -212,8 +216,9 @@ class SessionReader {
 
  private:
   SessionReader() = default;
-  Result<cv::Mat> camera_image(const SampleCamera& c, bool mosaic = false);
-  Result<cv::Mat> one_image(std::size_t i, std::size_t camera, bool mosaic);
+  // `bayer_format`, when given, receives the video's Bayer pattern ("" for a colour video).
+  Result<cv::Mat> camera_image(const SampleCamera& c, bool mosaic = false, std::string* bayer_format = nullptr);
+  Result<cv::Mat> one_image(std::size_t i, std::size_t camera, bool mosaic, std::string* bayer_format = nullptr);
   Demosaic demosaic_ = Demosaic::Bilinear;
   cv::Size image_size_;
   bool check_checksums_ = false;

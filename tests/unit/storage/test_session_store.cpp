@@ -551,6 +551,34 @@ TEST(SessionStore, HalfSizeViewsSkipTheSecondGreenAndMosaicReadsStillGetEveryBit
   fs::remove_all(root);
 }
 
+// A region of a raw camera's image, demosaiced alone, is the same pixels as the whole image cut
+// there: at odd and even corners, at the image's edges, and the whole image itself; a colour
+// camera's region is its image cut.
+TEST(SessionStore, ARegionDemosaicedAloneIsTheWholeImagesPixels) {
+  const auto root = temp_root("region");
+  const auto st = write_store(root, 1.5, /*raw_first=*/true);
+  auto r = SessionReader::open(st.dir);
+  ASSERT_TRUE(r) << r.error().message;
+  for (const std::size_t camera : {0u, 1u})
+    for (const std::size_t i : {3u, 12u}) {
+      auto whole = r.value()->image(i, camera);
+      ASSERT_TRUE(whole) << whole.error().message;
+      const cv::Mat& w = whole.value();
+      ASSERT_FALSE(w.empty());
+      for (const cv::Rect box : {cv::Rect(5, 3, 17, 11), cv::Rect(4, 2, 16, 10), cv::Rect(0, 0, 9, 7),
+                                 cv::Rect(w.cols - 13, w.rows - 9, 13, 9), cv::Rect({0, 0}, w.size())}) {
+        auto region = r.value()->image_region(i, camera, box);
+        ASSERT_TRUE(region) << region.error().message;
+        EXPECT_EQ(cv::norm(region.value(), w(box), cv::NORM_INF), 0.0)
+            << "camera " << camera << ", sample " << i << ", box " << box;
+      }
+    }
+  auto outside = r.value()->image_region(3, 0, {10, 10, 10000, 10});
+  ASSERT_FALSE(outside);
+  EXPECT_NE(outside.error().message.find("is not inside"), std::string::npos) << outside.error().message;
+  fs::remove_all(root);
+}
+
 // The view videos beside the lossless ones (storage/view_video.h): one per segment, read by a viewer
 // in their place (the same frame, lossy, a third of the size), and never by a read that wants the
 // record; a view video that is missing or cut short is read past, from the lossless video.
