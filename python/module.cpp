@@ -7,6 +7,7 @@
 #include <pybind11/stl.h>
 
 #include <cstring>
+#include <optional>
 
 #include "core/allocator.h"
 #include "python/dataset_access.h"
@@ -27,6 +28,18 @@ template <class T>
 T value_or_raise(Result<T> r) {
   if (!r) throw StoreError(r.error().message);
   return std::move(r.value());
+}
+
+// Reads without the GIL (decoding, warping: other Python threads run meanwhile); a failure raises
+// once it is held again.
+template <class F>
+auto without_gil(F&& read) {
+  std::optional<decltype(read())> result;
+  {
+    py::gil_scoped_release unlocked;
+    result.emplace(read());
+  }
+  return value_or_raise(std::move(*result));
 }
 
 Crop crop_of(const py::object& o) {
@@ -199,49 +212,22 @@ PYBIND11_MODULE(_pvcap, m) {
           [](SessionAccess& s, std::size_t sample, std::size_t camera, const py::object& crop, const py::object& size) {
             const Crop c = crop_of(crop);
             const auto wh = size_of(size);
-            cv::Mat m;
-            {
-              py::gil_scoped_release unlocked;  // decoding: other Python threads run meanwhile
-              m = value_or_raise(s.image_rgb(sample, camera, c, wh));
-            }
-            return to_array(m);
+            return to_array(without_gil([&] { return s.image_rgb(sample, camera, c, wh); }));
           },
           py::arg("sample"), py::arg("camera"), py::arg("crop") = py::none(), py::arg("size") = py::none())
       .def(
           "pressure",
           [](SessionAccess& s, std::size_t sample) {
-            cv::Mat m;
-            {
-              py::gil_scoped_release unlocked;
-              m = value_or_raise(s.pressure_kpa(sample));
-            }
-            return to_array(m);
+            return to_array(without_gil([&] { return s.pressure_kpa(sample); }));
           },
           py::arg("sample"))
-      .def(
-          "pressure_in_camera",
-          [](SessionAccess& s, std::size_t sample, std::size_t camera, const py::object& crop, const py::object& size) {
-            const Crop c = crop_of(crop);
-            const auto wh = size_of(size);
-            cv::Mat m;
-            {
-              py::gil_scoped_release unlocked;
-              m = value_or_raise(s.pressure_in_camera(sample, camera, c, wh));
-            }
-            return to_array(m);
-          },
-          py::arg("sample"), py::arg("camera"), py::arg("crop") = py::none(), py::arg("size") = py::none())
       .def(
           "pressure_and_force_in_camera",
           [](SessionAccess& s, std::size_t sample, std::size_t camera, const py::object& crop, const py::object& size) {
             const Crop c = crop_of(crop);
             const auto wh = size_of(size);
-            cv::Mat m;
             double force = 0;
-            {
-              py::gil_scoped_release unlocked;
-              m = value_or_raise(s.pressure_in_camera(sample, camera, c, wh, &force));
-            }
+            const cv::Mat m = without_gil([&] { return s.pressure_in_camera(sample, camera, c, wh, &force); });
             return py::make_tuple(to_array(m), force);
           },
           py::arg("sample"), py::arg("camera"), py::arg("crop") = py::none(), py::arg("size") = py::none())

@@ -101,7 +101,7 @@ class Session:
     def pressure_in_camera(self, sample, camera, crop=None, size=None):
         """float32 kPa in the camera's image (through its pad calibration; force conserved on the pad),
         cut and sized as image() is."""
-        return self._h().pressure_in_camera(int(sample), self.camera_index(camera), crop, size)
+        return self.pressure_and_force_in_camera(sample, camera, crop, size)[0]
 
     def pressure_and_force_in_camera(self, sample, camera, crop=None, size=None):
         """(pressure_in_camera(...), force(sample)) from one read of the pressure frame."""
