@@ -67,11 +67,11 @@ py::object to_array(const cv::Mat& m) {
   if (m.type() == CV_8UC3) {
     py::array_t<std::uint8_t> a({m.rows, m.cols, 3});
     for (int r = 0; r < m.rows; ++r) std::memcpy(a.mutable_data(r, 0, 0), m.ptr(r), std::size_t(m.cols) * 3);
-    return std::move(a);
+    return a;  // moved implicitly (C++20)
   }
   py::array_t<float> a({m.rows, m.cols});
   for (int r = 0; r < m.rows; ++r) std::memcpy(a.mutable_data(r, 0), m.ptr<float>(r), std::size_t(m.cols) * 4);
-  return std::move(a);
+  return a;
 }
 
 template <class T>
