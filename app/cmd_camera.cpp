@@ -65,25 +65,26 @@ Registered add_camera_command(CLI::App& app, AppContext&) {
       check->add_option("--rig", a->rig, "a rig file: check against its camera's section")->check(CLI::ExistingFile);
   check->add_option("--camera", a->camera, "the camera's name in the rig file (default: its first)")->needs(rig);
   check->add_option("--pixel-format", a->pixel_format,
-                    "the pixel format to record in (default BayerRG8, or the rig's)");
+                    "the pixel format to record in (default BayerRG8, or the rig's; this wins over the rig's)");
   check->add_flag("--json", a->json, "one JSON object: usable, clock, features, missing, ...");
   return {camera, [a] {
-            std::string format = a->pixel_format.empty() ? "BayerRG8" : a->pixel_format;
-            if (!a->rig.empty() && a->pixel_format.empty()) {
+            CameraConfig camera;  // the defaults: BayerRG8, free-running
+            if (!a->rig.empty()) {
               const RigConfig rig = load_rig_config(a->rig);
               const CameraConfig* chosen = rig.cameras.empty() ? nullptr : &rig.cameras.front();
               for (const auto& c : rig.cameras)
                 if (c.name == a->camera) chosen = &c;
               if (!chosen || (!a->camera.empty() && chosen->name != a->camera))
                 throw UserError(fmt::format("{}: no camera named '{}'", a->rig, a->camera));
-              format = chosen->pixel_format;
+              camera = *chosen;
             }
+            if (!a->pixel_format.empty()) camera.pixel_format = a->pixel_format;
             auto map = GenicamNodeMap::parse(read_file(a->node_map));
             if (!map) {
               fmt::print(stderr, "pvcap: {}: {}\n", a->node_map, map.error().message);
               return 2;
             }
-            const NodeMapCheck c = check_node_map(map.value(), format);
+            const NodeMapCheck c = check_node_map(map.value(), camera);
             if (a->json)
               fmt::print("{}\n", as_json(c).dump(2));
             else

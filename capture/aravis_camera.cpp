@@ -1,5 +1,6 @@
 #include "capture/aravis_camera.h"
 
+#include "capture/aravis_features.h"
 #include "capture/aravis_handles.h"
 #include "capture/aravis_stream.h"
 #include "capture/camera_watchdog.h"
@@ -8,10 +9,12 @@
 #include "capture/pixel_format.h"
 #include "core/thread_name.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 namespace pvcap {
@@ -28,6 +31,13 @@ using namespace std::chrono_literals;
 namespace {
 // GVSP overhead on top of the pixels: IP/UDP/GVSP headers per ~1500-byte packet.
 constexpr double kProtocolOverhead = 1.03;
+
+// The camera has the role and, now, the entry.
+bool check_entry(const AravisFeatures& f, CameraRole role, const std::string& entry) {
+  if (!f.has(role)) return false;
+  const auto entries = f.entries(f.name(role));
+  return std::find(entries.begin(), entries.end(), entry) != entries.end();
+}
 }  // namespace
 
 long read_rmem_max() {
@@ -106,10 +116,25 @@ void AravisCamera::emit(CameraEvent::Kind kind, std::string message) {
 
 Status AravisCamera::apply_features() {
   ArvCamera* cam = link_->camera.get();
+  AravisFeatures f(arv_camera_get_device(cam));
   arv::GErrorSlot err;
-  auto check = [&](const std::string& what) -> Status {
-    if (err) return Error{fmt::format("{}: setting {} failed: {}", label(), what, err.message())};
-    return {};
+  arv_camera_stop_acquisition(cam, err.out());  // a camera left streaming by a crashed run
+
+  // What this camera cannot do for the rig file, named before anything is set or recorded: the
+  // offline check (`pvcap camera check`) on what the camera itself answers.
+  const NodeMapCheck check = check_node_map(f, config_);
+  if (!check.usable())
+    return Error{fmt::format("{}: {} {} cannot record as the rig file asks: {} (`pvcap camera check` on its node "
+                             "map, from `pvcap devices --dump-node-map`, lists what it has)",
+                             label(), check.vendor, check.model, fmt::join(check.missing, "; "))};
+  if (!features_said_) {
+    for (const auto& w : check.warnings)
+      if (check.clock == "latch" || w.find("timestamp latch") == std::string::npos) spdlog::warn("{}: {}", label(), w);
+  }
+
+  auto set = [&](Status s, const std::string& what) -> Status {
+    if (s.ok()) return s;
+    return Error{fmt::format("{}: setting {} failed: {}", label(), what, s.error().message)};
   };
 #define PVCAP_TRY(expr)      \
   do {                       \
@@ -117,32 +142,62 @@ Status AravisCamera::apply_features() {
     if (!s_.ok()) return s_; \
   } while (0)
 
-  arv_camera_stop_acquisition(cam, err.out());  // a camera left streaming by a crashed run
-  arv_camera_set_pixel_format_from_string(cam, config_.pixel_format.c_str(), err.out());
-  PVCAP_TRY(check(fmt::format("PixelFormat to {}", config_.pixel_format)));
-  arv_camera_set_region(cam, config_.offset_x, config_.offset_y, config_.width, config_.height, err.out());
-  PVCAP_TRY(check(fmt::format("the region (OffsetX/OffsetY/Width/Height) to {}x{}+{}+{}", config_.width, config_.height,
-                              config_.offset_x, config_.offset_y)));
-  if (config_.trigger == TriggerMode::FreeRun) {
-    arv_camera_clear_triggers(cam, err.out());
-    PVCAP_TRY(check("TriggerMode to Off"));
-    arv_camera_set_frame_rate(cam, config_.frame_rate, err.out());
-    PVCAP_TRY(check(fmt::format("AcquisitionFrameRate to {}", config_.frame_rate)));
-  } else {
-    const std::string source = config_.trigger == TriggerMode::Software ? "Software" : config_.trigger_source;
-    arv_camera_set_trigger(cam, source.c_str(), err.out());
-    PVCAP_TRY(check(fmt::format("TriggerSource to {}", source)));
+  if (f.has(CameraRole::AcquisitionMode) && check_entry(f, CameraRole::AcquisitionMode, "Continuous"))
+    PVCAP_TRY(set(f.set_entry(CameraRole::AcquisitionMode, "Continuous"), "the acquisition mode"));
+  PVCAP_TRY(set(f.set_entry(CameraRole::PixelFormat, config_.pixel_format), "the pixel format"));
+  // The offsets go to 0 first: a region is checked against the sensor with the offsets it has.
+  const std::string region = fmt::format("the region to {}x{}+{}+{}", config_.width, config_.height,
+                                         config_.offset_x, config_.offset_y);
+  for (CameraRole r : {CameraRole::OffsetX, CameraRole::OffsetY})
+    if (f.has(r)) PVCAP_TRY(set(f.set_number(r, 0), region));
+  PVCAP_TRY(set(f.set_number(CameraRole::Width, config_.width), region));
+  PVCAP_TRY(set(f.set_number(CameraRole::Height, config_.height), region));
+  for (auto [r, v] : {std::pair{CameraRole::OffsetX, config_.offset_x}, std::pair{CameraRole::OffsetY, config_.offset_y}})
+    if (v != 0 || f.has(r)) PVCAP_TRY(set(f.set_number(r, v), region));
+
+  // Every trigger off first (a camera another program left waiting for an acquisition-start
+  // trigger sends nothing), then the frame-start trigger as the rig asks.
+  const auto selectors = f.all_entries(CameraRole::TriggerSelector);
+  if (f.has(CameraRole::TriggerMode)) {
+    for (const auto& selector : selectors)
+      if (f.set_entry(CameraRole::TriggerSelector, selector).ok()) (void)f.set_entry(CameraRole::TriggerMode, "Off");
+    if (std::find(selectors.begin(), selectors.end(), "FrameStart") != selectors.end())
+      PVCAP_TRY(set(f.set_entry(CameraRole::TriggerSelector, "FrameStart"), "the trigger selector"));
+    if (selectors.empty()) PVCAP_TRY(set(f.set_entry(CameraRole::TriggerMode, "Off"), "the trigger mode"));
   }
-  arv_camera_set_exposure_time(cam, config_.exposure_us, err.out());
-  PVCAP_TRY(check(fmt::format("ExposureTime to {} us", config_.exposure_us)));
-  arv_camera_set_gain(cam, config_.gain, err.out());
-  PVCAP_TRY(check(fmt::format("Gain to {}", config_.gain)));
+  if (config_.trigger == TriggerMode::FreeRun) {
+    // FLIR takes a rate only with its enable on (older Point Grey: ...Enabled).
+    if (f.has(CameraRole::FrameRateEnable))
+      PVCAP_TRY(set(f.set_flag(CameraRole::FrameRateEnable, true), "the frame rate's enable"));
+    if (f.has(CameraRole::FrameRate))
+      PVCAP_TRY(set(f.set_number(CameraRole::FrameRate, config_.frame_rate),
+                    fmt::format("the frame rate to {:g} fps", config_.frame_rate)));
+  } else {
+    // Triggered, a rate still enabled would cap the triggers it takes (Basler).
+    if (f.has(CameraRole::FrameRateEnable))
+      PVCAP_TRY(set(f.set_flag(CameraRole::FrameRateEnable, false), "the frame rate's enable"));
+    const std::string source = config_.trigger == TriggerMode::Software ? "Software" : config_.trigger_source;
+    PVCAP_TRY(set(f.set_entry(CameraRole::TriggerMode, "On"), "the trigger mode"));
+    PVCAP_TRY(set(f.set_entry(CameraRole::TriggerSource, source), fmt::format("the trigger source to {}", source)));
+    if (check_entry(f, CameraRole::TriggerActivation, "RisingEdge"))
+      PVCAP_TRY(set(f.set_entry(CameraRole::TriggerActivation, "RisingEdge"), "the trigger activation"));
+  }
+  // Automatic exposure or gain would change the images within a take and across a dataset.
+  for (CameraRole r : {CameraRole::ExposureAuto, CameraRole::GainAuto})
+    if (check_entry(f, r, "Off")) PVCAP_TRY(set(f.set_entry(r, "Off"), role_key(r)));
+  PVCAP_TRY(set(f.set_number(CameraRole::ExposureTime, config_.exposure_us),
+                fmt::format("the exposure to {:g} us", config_.exposure_us)));
+  if (f.has(CameraRole::Gain) || config_.gain != 0)
+    PVCAP_TRY(set(f.set_number(CameraRole::Gain, config_.gain), fmt::format("the gain to {:g}", config_.gain)));
+  // The stream channel's packet size: GigE Vision's own register (Aravis reaches it under its own
+  // name whatever the camera's map declares), negotiated by Aravis' test packets.
   if (config_.packet_size > 0) {
     arv_camera_gv_set_packet_size(cam, config_.packet_size, err.out());
-    PVCAP_TRY(check(fmt::format("GevSCPSPacketSize to {}", config_.packet_size)));
+    if (err) return Error{fmt::format("{}: setting the packet size to {} failed: {}", label(), config_.packet_size,
+                                      err.message())};
   } else {
     arv_camera_gv_auto_packet_size(cam, err.out());
-    PVCAP_TRY(check("GevSCPSPacketSize (automatic negotiation)"));
+    if (err) return Error{fmt::format("{}: negotiating the packet size failed: {}", label(), err.message())};
   }
 #undef PVCAP_TRY
 
@@ -166,16 +221,36 @@ Status AravisCamera::apply_features() {
     }
     s.timestamp_tick_hz = arv_gv_device_get_timestamp_tick_frequency(ARV_GV_DEVICE(dev), nullptr);
   }
-  s.pixel_format = str(arv_camera_get_pixel_format_as_string(cam, nullptr));
-  arv_camera_get_region(cam, &s.x, &s.y, &s.width, &s.height, nullptr);
-  s.frame_rate = arv_camera_get_frame_rate(cam, nullptr);
-  s.exposure_us = arv_camera_get_exposure_time(cam, nullptr);
-  s.gain = arv_camera_get_gain(cam, nullptr);
+  s.pixel_format = f.entry(CameraRole::PixelFormat).value_or("");
+  const auto read_int = [&](CameraRole r) { return int(std::lround(f.number(r).value_or(0))); };
+  s.x = read_int(CameraRole::OffsetX);
+  s.y = read_int(CameraRole::OffsetY);
+  s.width = read_int(CameraRole::Width);
+  s.height = read_int(CameraRole::Height);
+  s.frame_rate = f.number(CameraRole::FrameRate).value_or(0);
+  s.exposure_us = f.number(CameraRole::ExposureTime).value_or(0);
+  s.gain = f.number(CameraRole::Gain).value_or(0);
   s.trigger = to_string(config_.trigger);
+  for (const auto& [role, name] : f.chosen()) s.features[role_key(role)] = name;
+  s.node_map_version = check.version;
   s.packet_size = arv_camera_gv_get_packet_size(cam, nullptr);
   s.payload = arv_camera_get_payload(cam, err.out());
   if (err || s.payload == 0) return Error{fmt::format("{}: cannot read PayloadSize: {}", label(), err.message())};
   s.buffer_count = buffer_count_for(config_);
+  if (config_.trigger == TriggerMode::FreeRun) {
+    if (!f.has(CameraRole::FrameRate)) {
+      s.frame_rate = config_.frame_rate;  // it cannot say (warned above): the budget takes the rig's
+    } else if (std::abs(s.frame_rate - config_.frame_rate) > 0.01 * config_.frame_rate) {
+      return Error{fmt::format("{}: asked for {:g} fps, it runs at {:.2f} ({} reads back so): lower frame_rate in the "
+                               "rig file, or shorten exposure_us ({:g} us) or the region",
+                               label(), config_.frame_rate, s.frame_rate, f.name(CameraRole::FrameRate),
+                               s.exposure_us)};
+    }
+  }
+  if (!features_said_ && std::abs(s.exposure_us - config_.exposure_us) > 0.05 * config_.exposure_us)
+    spdlog::warn("{}: asked for an exposure of {:g} us, it reads back {:g} ({})", label(), config_.exposure_us,
+                 s.exposure_us, f.name(CameraRole::ExposureTime));
+  features_said_ = true;
   settings_ = s;
   return {};
 }
@@ -225,11 +300,10 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
   latch_value_.clear();
   // The latch under whichever name the camera's node map uses (capture/genicam_features.h: SFNC 2's
   // TimestampLatch on FLIR Blackfly S and Basler ace 2, GevTimestampControlLatch on older cameras).
-  const auto features = resolve_camera_features(
-      [dev](const std::string& name) { return arv_device_get_feature(dev, name.c_str()) != nullptr; });
-  if (features.count(CameraRole::TimestampLatch)) {
-    latch_command_ = features.at(CameraRole::TimestampLatch);
-    latch_value_ = features.at(CameraRole::TimestampLatchValue);
+  const auto& features = settings_.features;
+  if (features.count(role_key(CameraRole::TimestampLatch))) {
+    latch_command_ = features.at(role_key(CameraRole::TimestampLatch));
+    latch_value_ = features.at(role_key(CameraRole::TimestampLatchValue));
   }
   control_lost_.store(false);
   link_->control_lost_id = g_signal_connect(dev, "control-lost", G_CALLBACK(&Link::on_control_lost), this);
@@ -243,6 +317,9 @@ Status AravisCamera::open() {
     spdlog::info("{}: {} {} serial {} at {}, {} {}x{}+{}+{} @ {:.2f} fps, packet {} B, {} buffers of {} B", label(),
                  st.vendor, st.model, st.serial, st.address, st.pixel_format, st.width, st.height, st.x, st.y,
                  st.frame_rate, st.packet_size, st.buffer_count, st.payload);
+    std::vector<std::string> used;
+    for (const auto& [role, name] : st.features) used.push_back(role + " " + name);
+    spdlog::info("{}: features (node map {}): {}", label(), st.node_map_version, fmt::join(used, ", "));
     if (has_timestamp_latch())
       spdlog::info("{}: has a timestamp latch: its clock is read directly, four times a second", label());
     else

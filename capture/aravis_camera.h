@@ -16,6 +16,7 @@
 #include <condition_variable>
 #include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -41,6 +42,10 @@ struct CameraSettings {
   std::size_t payload = 0;
   std::size_t buffer_count = 0;
   std::uint64_t timestamp_tick_hz = 0;
+  // The feature each role was found under (role key -> name: capture/genicam_features.h), and the
+  // version of the camera's node map.
+  std::map<std::string, std::string> features;
+  std::string node_map_version;
 };
 
 struct CameraEvent {
@@ -111,8 +116,8 @@ class AravisCamera {
   // The frames lost, with their reasons; closed once frames_done().
   BoundedQueue<FrameLoss>& losses() { return losses_; }
   // Timestamp-latch probes while streaming (four a second for a connection's first 5 s, while its
-  // clock model converges; then one a second), from cameras that have the SFNC
-  // TimestampControlLatch/TimestampLatchValue or GevTimestampControlLatch/GevTimestampValue.
+  // clock model converges; then one a second), from cameras that have a timestamp latch under any
+  // of the names capture/genicam_features.h knows.
   BoundedQueue<ClockProbe>& clock_probes() { return probes_; }
   bool has_timestamp_latch() const;
   const CameraConfig& config() const { return config_; }
@@ -127,6 +132,7 @@ class AravisCamera {
  private:
   Status connect_and_configure(std::uint32_t connection);
   Status apply_features();
+  bool features_said_ = false;  // what the camera cannot do is warned of once, not at every reconnection
   void teardown_connection(bool camera_reachable);
   void control_loop();
   // One attempt to connect again and restart acquisition (the watchdog found the camera lost).

@@ -6,11 +6,13 @@ namespace pvcap {
 
 const std::vector<RoleNames>& camera_feature_names() {
   static const std::vector<RoleNames> table = {
+      {CameraRole::AcquisitionMode, "acquisition_mode", {"AcquisitionMode"}},
       {CameraRole::PixelFormat, "pixel_format", {"PixelFormat"}},
       {CameraRole::Width, "width", {"Width"}},
       {CameraRole::Height, "height", {"Height"}},
       {CameraRole::OffsetX, "offset_x", {"OffsetX"}},
       {CameraRole::OffsetY, "offset_y", {"OffsetY"}},
+      {CameraRole::TriggerSelector, "trigger_selector", {"TriggerSelector"}},
       {CameraRole::TriggerMode, "trigger_mode", {"TriggerMode"}},
       {CameraRole::TriggerSource, "trigger_source", {"TriggerSource"}},
       {CameraRole::TriggerActivation, "trigger_activation", {"TriggerActivation"}},
@@ -19,7 +21,10 @@ const std::vector<RoleNames>& camera_feature_names() {
       // FLIR needs it set before a rate takes; older Point Grey spell it with a d.
       {CameraRole::FrameRateEnable, "frame_rate_enable", {"AcquisitionFrameRateEnable", "AcquisitionFrameRateEnabled"}},
       {CameraRole::ExposureTime, "exposure_time", {"ExposureTime", "ExposureTimeAbs", "ExposureTimeRaw"}},
+      {CameraRole::ExposureAuto, "exposure_auto", {"ExposureAuto"}},
       {CameraRole::Gain, "gain", {"Gain", "GainAbs", "GainRaw"}},
+      {CameraRole::GainAuto, "gain_auto", {"GainAuto"}},
+      {CameraRole::BalanceWhiteAuto, "balance_white_auto", {"BalanceWhiteAuto"}},
       {CameraRole::PacketSize, "packet_size", {"GevSCPSPacketSize"}},
       // Inter-packet delay on most; Allied Vision limits bytes per second instead.
       {CameraRole::BandwidthLimit, "bandwidth_limit", {"GevSCPD", "StreamBytesPerSecond", "DeviceLinkThroughputLimit"}},

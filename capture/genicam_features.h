@@ -12,18 +12,23 @@
 namespace pvcap {
 
 enum class CameraRole {
+  AcquisitionMode,
   PixelFormat,
   Width,
   Height,
   OffsetX,
   OffsetY,
+  TriggerSelector,
   TriggerMode,
   TriggerSource,
   TriggerActivation,
   FrameRate,
   FrameRateEnable,
   ExposureTime,
+  ExposureAuto,
   Gain,
+  GainAuto,
+  BalanceWhiteAuto,
   PacketSize,
   BandwidthLimit,
   TimestampLatch,

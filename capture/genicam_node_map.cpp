@@ -74,7 +74,13 @@ std::string GenicamNodeMap::version() const {
                      arv_gc_register_description_node_get_subminor_version(d));
 }
 
-NodeMapCheck check_node_map(const GenicamNodeMap& map, const std::string& pixel_format) {
+namespace {
+bool among(const std::vector<std::string>& list, const std::string& v) {
+  return std::find(list.begin(), list.end(), v) != list.end();
+}
+}  // namespace
+
+NodeMapCheck check_node_map(const NodeMapView& map, const CameraConfig& camera) {
   NodeMapCheck out;
   out.vendor = map.vendor();
   out.model = map.model();
@@ -90,18 +96,37 @@ NodeMapCheck check_node_map(const GenicamNodeMap& map, const std::string& pixel_
     if (!have(role)) out.missing.push_back(fmt::format("no {} feature", role_key(role)));
   if (have(CameraRole::PixelFormat)) {
     const auto formats = map.entries(chosen.at(CameraRole::PixelFormat));
-    if (std::find(formats.begin(), formats.end(), pixel_format) == formats.end())
-      out.missing.push_back(fmt::format("pixel format {} is not among its {}", pixel_format, fmt::join(formats, ", ")));
+    if (!among(formats, camera.pixel_format))
+      out.missing.push_back(
+          fmt::format("pixel format {} is not among its {}", camera.pixel_format, fmt::join(formats, ", ")));
+  }
+  // A trigger needs its mode and a source of that name; software triggers, the command too.
+  if (camera.trigger != TriggerMode::FreeRun) {
+    const std::string source = camera.trigger == TriggerMode::Software ? "Software" : camera.trigger_source;
+    if (!have(CameraRole::TriggerMode) || !have(CameraRole::TriggerSource))
+      out.missing.push_back(fmt::format("no trigger_mode or trigger_source feature: it cannot take the trigger {}",
+                                        source));
+    else if (const auto sources = map.entries(chosen.at(CameraRole::TriggerSource)); !among(sources, source))
+      out.missing.push_back(fmt::format("trigger source {} is not among its {}", source, fmt::join(sources, ", ")));
+    if (camera.trigger == TriggerMode::Software && !map.has("TriggerSoftware"))
+      out.missing.push_back("no TriggerSoftware command: it cannot be triggered by software");
   }
   out.clock = have(CameraRole::TimestampLatch) ? "latch" : "arrival";
   if (out.clock == "arrival")
     out.warnings.push_back(
         "no timestamp latch: pvcap would put its frames on the host clock by their arrival times (the weaker clock)");
-  if (!have(CameraRole::FrameRate))
-    out.warnings.push_back("no frame rate feature: free-running at its own rate, or on a trigger line");
-  else if (!have(CameraRole::FrameRateEnable) && out.vendor.find("FLIR") != std::string::npos)
-    out.warnings.push_back("no frame rate enable: a FLIR camera may ignore the rate set");
-  if (!have(CameraRole::TriggerSource)) out.warnings.push_back("no trigger source: no hardware or software trigger");
+  if (camera.trigger == TriggerMode::FreeRun) {
+    if (!have(CameraRole::FrameRate))
+      out.warnings.push_back(
+          fmt::format("no frame rate feature: it free-runs at its own rate, which may not be the rig's {:g} Hz",
+                      camera.frame_rate));
+    else if (!have(CameraRole::FrameRateEnable) && out.vendor.find("FLIR") != std::string::npos)
+      out.warnings.push_back("no frame rate enable: a FLIR camera may ignore the rate set");
+    if (!have(CameraRole::TriggerSource)) out.warnings.push_back("no trigger source: no hardware or software trigger");
+  }
+  if (have(CameraRole::ExposureTime) && map.type(chosen.at(CameraRole::ExposureTime)) == "Integer")
+    out.warnings.push_back(fmt::format("its exposure ({}) is in the camera's own units, not microseconds",
+                                       chosen.at(CameraRole::ExposureTime)));
   out.ptp = have(CameraRole::PtpEnable);
   out.chunks = have(CameraRole::ChunkModeActive);
   return out;

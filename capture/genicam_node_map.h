@@ -2,15 +2,33 @@
 // A camera's GenICam node map read offline (its XML, as a camera hands it out or `pvcap devices
 // --dump-node-map` writes it), through Aravis' own GenICam parser: which features it declares,
 // their types and an enumeration's entries. Register values need the camera: none are read here.
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "core/result.h"
+#include "core/rig_config.h"
 
 namespace pvcap {
 
-class GenicamNodeMap {
+// What a check needs of a node map: offline from its XML (GenicamNodeMap), live from the camera
+// itself (capture/aravis_features.h), which also knows what its model implements.
+class NodeMapView {
+ public:
+  virtual ~NodeMapView() = default;
+  virtual bool has(const std::string& feature) const = 0;
+  // "Command", "Integer", "Float", "Enumeration", "Boolean", "String", "Register", ... ("" when absent).
+  virtual std::string type(const std::string& feature) const = 0;
+  // An enumeration's entries by name (empty for any other feature).
+  virtual std::vector<std::string> entries(const std::string& feature) const = 0;
+  // The map's own RegisterDescription attributes: VendorName, ModelName, its version (major.minor.subminor).
+  virtual std::string vendor() const = 0;
+  virtual std::string model() const = 0;
+  virtual std::string version() const = 0;
+};
+
+class GenicamNodeMap final : public NodeMapView {
  public:
   // An Error when the bytes are not a GenICam node map (no RegisterDescription, nothing parsed).
   static Result<GenicamNodeMap> parse(const std::string& xml);
@@ -18,15 +36,12 @@ class GenicamNodeMap {
   GenicamNodeMap(GenicamNodeMap&&) noexcept;
   GenicamNodeMap& operator=(GenicamNodeMap&&) noexcept;
 
-  bool has(const std::string& feature) const;
-  // "Command", "Integer", "Float", "Enumeration", "Boolean", "String", "Register", ... ("" when absent).
-  std::string type(const std::string& feature) const;
-  // An enumeration's entries by name (empty for any other feature).
-  std::vector<std::string> entries(const std::string& feature) const;
-  // The map's own RegisterDescription attributes: VendorName, ModelName, its version (major.minor.subminor).
-  std::string vendor() const;
-  std::string model() const;
-  std::string version() const;
+  bool has(const std::string& feature) const override;
+  std::string type(const std::string& feature) const override;
+  std::vector<std::string> entries(const std::string& feature) const override;
+  std::string vendor() const override;
+  std::string model() const override;
+  std::string version() const override;
 
  private:
   struct Impl;
@@ -34,7 +49,9 @@ class GenicamNodeMap {
   std::unique_ptr<Impl> impl_;
 };
 
-// What `pvcap camera check` finds in a node map, for a camera configured with `pixel_format`.
+// What `pvcap camera check` finds in a node map, for a camera configured as `camera` (its pixel
+// format, its trigger and source; the defaults: BayerRG8, free-running). The live camera runs the
+// same check on what it answers, before any recording.
 struct NodeMapCheck {
   std::string vendor, model, version;
   struct Feature {
@@ -48,6 +65,6 @@ struct NodeMapCheck {
   std::vector<std::string> warnings;  // what it would do without (the weaker clock, a rate it cannot set)
   bool usable() const { return missing.empty(); }
 };
-NodeMapCheck check_node_map(const GenicamNodeMap& map, const std::string& pixel_format);
+NodeMapCheck check_node_map(const NodeMapView& map, const CameraConfig& camera);
 
 }  // namespace pvcap

@@ -45,6 +45,8 @@ std::string settings_json(const CameraSettings& s, const CameraConfig& c) {
                       {"buffer_count", s.buffer_count},
                       {"timestamp_tick_hz", s.timestamp_tick_hz},
                       {"device_id", s.device_id},
+                      {"features", s.features},
+                      {"node_map_version", s.node_map_version},
                       {"packet_resend", c.packet_resend},
                       {"socket_buffer_bytes", c.socket_buffer_bytes},
                       {"latency_ns", c.latency_ns}};

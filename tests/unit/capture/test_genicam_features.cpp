@@ -14,6 +14,11 @@
 using namespace pvcap;
 
 namespace {
+CameraConfig in_format(const std::string& pixel_format) {
+  CameraConfig c;
+  c.pixel_format = pixel_format;
+  return c;
+}
 const std::filesystem::path kNodeMaps = std::filesystem::path(PVCAP_SOURCE_DIR) / "../shared/data/genicam";
 
 std::string read(const std::filesystem::path& p) {
@@ -64,7 +69,7 @@ TEST(GenicamFeatures, EverySharedNodeMapGivesTheLatchAndTheMapsOwnExposureAndRat
     SCOPED_TRACE(e.file);
     auto map = GenicamNodeMap::parse(read(kNodeMaps / e.file));
     ASSERT_TRUE(map) << map.error().message;
-    const NodeMapCheck c = check_node_map(map.value(), "Mono8");
+    const NodeMapCheck c = check_node_map(map.value(), in_format("Mono8"));
     auto f = features_of(c);
     EXPECT_EQ(c.clock, "latch") << "not the weaker arrival clock";
     EXPECT_EQ(f["timestamp_latch"], e.latch);
@@ -91,7 +96,7 @@ TEST(GenicamFeatures, EverySharedNodeMapGivesTheLatchAndTheMapsOwnExposureAndRat
 TEST(GenicamFeatures, APixelFormatTheMapLacksMakesTheCameraUnusableAndSaysWhich) {
   auto map = GenicamNodeMap::parse(read(kNodeMaps / "Basler-a2A2600-20gmBAS.xml"));
   ASSERT_TRUE(map);
-  const NodeMapCheck c = check_node_map(map.value(), "BayerRG8");
+  const NodeMapCheck c = check_node_map(map.value(), in_format("BayerRG8"));
   EXPECT_FALSE(c.usable());
   ASSERT_EQ(c.missing.size(), 1u);
   EXPECT_NE(c.missing[0].find("pixel format BayerRG8 is not among its Mono12p"), std::string::npos) << c.missing[0];
