@@ -21,17 +21,37 @@
 
 namespace pvcap::sim {
 
-void install_fake_camera_genicam() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    arv::GPtr<ArvFakeCamera> probe(arv_fake_camera_new("PVSIM-XML"));
-    size_t size = 0;
-    const char* xml = probe ? arv_fake_camera_get_genicam_xml(probe.get(), &size) : nullptr;
-    if (!xml) return;
-    std::string text(xml, size);
-    while (!text.empty() && text.back() == '\0') text.pop_back();
-    const std::string features = fmt::format(
-        R"(<Command Name="TimestampControlLatch" NameSpace="Standard">
+namespace {
+// Writes `text` to a file named by its content (every simulator process shares one file instead of
+// leaving one each), aside and renamed into place so a concurrent reader never sees half of it.
+std::string write_by_content(const std::string& text) {
+  const auto dir = std::filesystem::temp_directory_path();
+  const auto path = dir / fmt::format("pvcap-fake-camera-{:016x}.xml", std::hash<std::string>{}(text));
+  if (!std::filesystem::exists(path)) {
+    const auto aside = dir / fmt::format("pvcap-fake-camera-{}.xml.tmp", getpid());
+    std::ofstream(aside) << text;
+    std::error_code ec;
+    std::filesystem::rename(aside, path, ec);
+    if (ec) std::filesystem::remove(aside, ec);
+  }
+  return path.string();
+}
+
+void replace_all(std::string& text, const std::string& from, const std::string& to) {
+  for (auto at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size()))
+    text.replace(at, from.size(), to);
+}
+
+// Aravis' own map with the features above; `latch` names the latch command.
+std::string aravis_map_with_features(const char* latch) {
+  arv::GPtr<ArvFakeCamera> probe(arv_fake_camera_new("PVSIM-XML"));
+  size_t size = 0;
+  const char* xml = probe ? arv_fake_camera_get_genicam_xml(probe.get(), &size) : nullptr;
+  if (!xml) return "";
+  std::string text(xml, size);
+  while (!text.empty() && text.back() == '\0') text.pop_back();
+  const std::string features = fmt::format(
+      R"(<Command Name="{}" NameSpace="Standard">
 <ToolTip>Latches the device clock into TimestampLatchValue</ToolTip>
 <pValue>PvcapTimestampLatchCommand</pValue><CommandValue>1</CommandValue></Command>
 <IntReg Name="PvcapTimestampLatchCommand" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
@@ -41,29 +61,56 @@ void install_fake_camera_genicam() {
 <IntReg Name="PvcapTriggerSourceRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
 <AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
 )",
-        kLatchCommandRegister, kLatchValueRegister, kTriggerSourceRegister);
-    const auto end = text.rfind("</RegisterDescription>");
-    if (end == std::string::npos) return;
-    text.insert(end, features);
-    // TriggerSource reads and writes our register; the engine's own stays at Software (set per camera).
-    const auto source = text.find("<Enumeration Name=\"TriggerSource\"");
-    const std::string engine_register = "<pValue>TriggerSourceRegister</pValue>";
-    const auto value = source == std::string::npos ? std::string::npos : text.find(engine_register, source);
-    if (value != std::string::npos)
-      text.replace(value, engine_register.size(), "<pValue>PvcapTriggerSourceRegister</pValue>");
-    // Named by its content, so every simulator process shares one file instead of leaving one
-    // each; written aside and renamed into place, so a concurrent reader never sees half of it.
-    const auto dir = std::filesystem::temp_directory_path();
-    const auto path = dir / fmt::format("pvcap-fake-camera-{:016x}.xml", std::hash<std::string>{}(text));
-    if (!std::filesystem::exists(path)) {
-      const auto aside = dir / fmt::format("pvcap-fake-camera-{}.xml.tmp", getpid());
-      std::ofstream(aside) << text;
-      std::error_code ec;
-      std::filesystem::rename(aside, path, ec);
-      if (ec) std::filesystem::remove(aside, ec);
-    }
-    arv_set_fake_camera_genicam_filename(path.c_str());
+      latch, kLatchCommandRegister, kLatchValueRegister, kTriggerSourceRegister);
+  const auto end = text.rfind("</RegisterDescription>");
+  if (end == std::string::npos) return "";
+  text.insert(end, features);
+  // TriggerSource reads and writes our register; the engine's own stays at Software (set per camera).
+  const auto source = text.find("<Enumeration Name=\"TriggerSource\"");
+  const std::string engine_register = "<pValue>TriggerSourceRegister</pValue>";
+  const auto value = source == std::string::npos ? std::string::npos : text.find(engine_register, source);
+  if (value != std::string::npos)
+    text.replace(value, engine_register.size(), "<pValue>PvcapTriggerSourceRegister</pValue>");
+  return text;
+}
+
+// The same registers under SFNC 2's names, as a FLIR Blackfly S or a Basler ace 2 declares them:
+// TimestampLatch, ExposureTime, Gain as a Float, and a rate that takes only with
+// AcquisitionFrameRateEnable on (the rate the host writes goes to a register of ours, copied to the
+// engine's while the enable is on; the engine otherwise keeps its own rate, which then reads back).
+std::string sfnc2_map() {
+  std::string text = aravis_map_with_features("TimestampLatch");
+  if (text.empty()) return text;
+  replace_all(text, "ExposureTimeAbs", "ExposureTime");
+  replace_all(text, "GainRaw", "PvcapGainRaw");
+  replace_all(text, "<pValue>AcquisitionFramePeriodRegister</pValue>", "<pValue>PvcapFramePeriodRegister</pValue>");
+  replace_all(text, "ModelName=\"Fake\"", "ModelName=\"Fake SFNC 2\"");
+  const std::string features = fmt::format(
+      R"(<Float Name="Gain" NameSpace="Standard"><ToolTip>Gain, in dB</ToolTip>
+<pValue>PvcapGainConverter</pValue><Min>0</Min><Max>10</Max></Float>
+<Converter Name="PvcapGainConverter" NameSpace="Custom"><FormulaTo>FROM</FormulaTo><FormulaFrom>TO</FormulaFrom>
+<pValue>PvcapGainRaw</pValue></Converter>
+<Boolean Name="AcquisitionFrameRateEnable" NameSpace="Standard"><pValue>PvcapFrameRateEnableRegister</pValue></Boolean>
+<IntReg Name="PvcapFrameRateEnableRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
+<AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+<IntReg Name="PvcapFramePeriodRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
+<AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+)",
+      kFrameRateEnableRegister, kFramePeriodRegister);
+  text.insert(text.rfind("</RegisterDescription>"), features);
+  return text;
+}
+}  // namespace
+
+std::string fake_camera_genicam(NodeMapNaming naming) {
+  static std::once_flag once;
+  static std::string aravis_path, sfnc2_path;
+  std::call_once(once, [] {
+    if (const std::string text = aravis_map_with_features("TimestampControlLatch"); !text.empty())
+      aravis_path = write_by_content(text);
+    if (const std::string text = sfnc2_map(); !text.empty()) sfnc2_path = write_by_content(text);
   });
+  return naming == NodeMapNaming::Sfnc2 ? sfnc2_path : aravis_path;
 }
 
 namespace {
@@ -75,11 +122,11 @@ class FeatureService {
     static FeatureService service;
     return service;
   }
-  void add(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line) {
+  void add(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line, NodeMapNaming naming) {
     // The engine triggers on a pending software trigger; which source the host chose is ours.
     arv_fake_camera_write_register(fake, kEngineTriggerSource, kSoftware);
     std::lock_guard lock(mu_);
-    cameras_.push_back({owner, fake, std::move(clock), std::move(line), INT64_MIN});
+    cameras_.push_back({owner, fake, std::move(clock), std::move(line), INT64_MIN, naming == NodeMapNaming::Sfnc2});
     if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
   }
   void remove(const void* owner) {
@@ -95,13 +142,14 @@ class FeatureService {
  private:
   // The fake engine's registers (arvfakecamera.h).
   static constexpr std::uint32_t kEngineTriggerMode = 0x300, kEngineTriggerSource = 0x304,
-                                 kEngineTriggerSoftware = 0x30c, kSoftware = 1;
+                                 kEngineTriggerSoftware = 0x30c, kEngineFramePeriod = 0x138, kSoftware = 1;
   struct Camera {
     const void* owner;
     ArvFakeCamera* fake;
     DeviceClock clock;
     TriggerLine line;
     std::int64_t last_pulse;  // the line's last pulse that reached this camera (its index)
+    bool gated_rate;          // SFNC 2 map: the rate takes only with its enable on
   };
   // When the host has set the command register, the device clock's value goes into the value
   // register and the command clears.
@@ -125,6 +173,17 @@ class FeatureService {
     c.last_pulse = pulse;
     arv_fake_camera_write_register(c.fake, kEngineTriggerSoftware, 1);
   }
+  // Enabled, the rate asked goes to the engine; disabled, the engine's own rate is what reads back.
+  static void serve_rate(const Camera& c) {
+    if (!c.gated_rate) return;
+    guint32 enabled = 0, asked = 0, engine = 0;
+    if (!arv_fake_camera_read_register(c.fake, kFrameRateEnableRegister, &enabled) ||
+        !arv_fake_camera_read_register(c.fake, kFramePeriodRegister, &asked) ||
+        !arv_fake_camera_read_register(c.fake, kEngineFramePeriod, &engine))
+      return;
+    if (enabled && asked != 0 && asked != engine) arv_fake_camera_write_register(c.fake, kEngineFramePeriod, asked);
+    if (!enabled && asked != engine) arv_fake_camera_write_register(c.fake, kFramePeriodRegister, engine);
+  }
   void run() {
     // A camera's latch and trigger input are its hardware's; here a thread serves them every 200 us,
     // 3,000-5,000 wake-ups a second. In the fair scheduler, on saturated cores, the kernel worker
@@ -144,6 +203,7 @@ class FeatureService {
       for (Camera& c : cameras_) {
         serve_latch(c);
         serve_line(c, now);
+        serve_rate(c);
       }
     }
   }
@@ -158,8 +218,8 @@ TriggerLine periodic_line(double hz) {
   return [hz](std::int64_t host_ns) { return std::int64_t(double(host_ns) * hz / 1e9); };
 }
 
-void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line) {
-  FeatureService::get().add(owner, fake, std::move(clock), std::move(line));
+void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line, NodeMapNaming naming) {
+  FeatureService::get().add(owner, fake, std::move(clock), std::move(line), naming);
 }
 void stop_serving(const void* owner) { FeatureService::get().remove(owner); }
 

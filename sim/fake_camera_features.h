@@ -9,20 +9,28 @@
 //   periods of CLOCK_MONOTONIC: every camera on a line of one rate is triggered together, as by
 //   one wire. `Software` still triggers on the host's `TriggerSoftware` alone.
 // The fake cameras serve their GenICam XML with these features; one thread serves them all.
+// A simulated camera's node map names its features as Aravis' fake camera does (ExposureTimeAbs,
+// GainRaw, TimestampControlLatch), or as SFNC 2 cameras do (ExposureTime, Gain, TimestampLatch, a
+// rate that takes only with AcquisitionFrameRateEnable), on the same registers: the live camera code
+// is exercised through real GVCP against two naming families.
 #include <cstdint>
 #include <functional>
+#include <string>
 
 #include "capture/aravis_handles.h"
+#include "sim/sim_config.h"
 
 namespace pvcap::sim {
 
 inline constexpr std::uint32_t kLatchCommandRegister = 0xF000;
-inline constexpr std::uint32_t kLatchValueRegister = 0xF008;     // 64 bits: high word, then low
-inline constexpr std::uint32_t kTriggerSourceRegister = 0xF010;  // 0 = Line0, 1 = Software (the XML's values)
+inline constexpr std::uint32_t kLatchValueRegister = 0xF008;       // 64 bits: high word, then low
+inline constexpr std::uint32_t kTriggerSourceRegister = 0xF010;    // 0 = Line0, 1 = Software (the XML's values)
+inline constexpr std::uint32_t kFrameRateEnableRegister = 0xF014;  // SFNC 2 map: AcquisitionFrameRateEnable
+inline constexpr std::uint32_t kFramePeriodRegister = 0xF018;      // SFNC 2 map: the rate asked, as a period (us)
 
-// Makes the fake cameras created after this call serve the GenICam XML with these features (once
-// per process; Aravis reads the file name when each fake camera is made).
-void install_fake_camera_genicam();
+// The GenICam file a fake camera of this naming serves (arv_gv_fake_camera_new_full); written once
+// per process, named by its content.
+std::string fake_camera_genicam(NodeMapNaming naming);
 
 // The device clock of a simulated camera: its time at a host instant (CLOCK_MONOTONIC ns).
 using DeviceClock = std::function<std::int64_t(std::int64_t host_ns)>;
@@ -37,7 +45,10 @@ TriggerLine periodic_line(double hz);
 // stop_serving returns, neither `fake` nor `clock` nor `line` is touched again. A pulse reaches the
 // camera only while it is set to be triggered by its line (TriggerMode On, TriggerSource Line0);
 // until then the line waits for it.
-void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line);
+// With the SFNC 2 naming, its rate is served too (the engine takes the rate asked only while the
+// enable is on).
+void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line,
+                    NodeMapNaming naming = NodeMapNaming::Aravis);
 void stop_serving(const void* owner);
 
 }  // namespace pvcap::sim

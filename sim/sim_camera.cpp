@@ -64,8 +64,8 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   if (fresh) self->truth_ << "frame_id,true_ns,device_ns,width,height\n";
 
   const std::string serial = camera.serial.empty() ? fmt::format("PVSIM{}", index) : camera.serial;
-  install_fake_camera_genicam();
-  self->fake_.reset(arv_gv_fake_camera_new(camera.address.c_str(), serial.c_str()));
+  const std::string genicam = fake_camera_genicam(clock.node_map);
+  self->fake_.reset(arv_gv_fake_camera_new_full(camera.address.c_str(), serial.c_str(), genicam.c_str()));
   if (!self->fake_ || !arv_gv_fake_camera_is_running(self->fake_.get()))
     return Error{
         fmt::format("{}: the fake camera could not listen on {} (is the address on an interface? the "
@@ -91,7 +91,7 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   serve_features(
       raw, arv_gv_fake_camera_get_fake_camera(raw->fake_.get()),
       [raw](std::int64_t host_ns) { return raw->clock_.device_time(host_ns); },
-      clock.trigger_line ? periodic_line(camera.frame_rate) : TriggerLine());
+      clock.trigger_line ? periodic_line(camera.frame_rate) : TriggerLine(), clock.node_map);
   // Free-running, the engine is late once a frame period and 0.3 ms have passed since it began the
   // last frame; triggered, once a trigger has been pending for a look-for-triggers period and 0.3 ms.
   const std::int64_t trigger_period_ns = std::int64_t(1e9 / std::max(100.0, 4 * camera.frame_rate));

@@ -49,6 +49,13 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
         c.return_after_s = v;
       }
       cr.get("trigger_line", c.trigger_line);
+      if (cr.has("node_map")) {
+        std::string naming;
+        cr.get("node_map", naming);
+        if (naming != "aravis" && naming != "sfnc2")
+          cr.fail(cams[i]["node_map"], "node_map", "expected aravis (the fake camera's names) or sfnc2");
+        c.node_map = naming == "sfnc2" ? NodeMapNaming::Sfnc2 : NodeMapNaming::Aravis;
+      }
       cr.get_numbers("position_mm", c.position_mm);
       cr.get_numbers("look_at_mm", c.look_at_mm);
       if (cr.has("focal_px")) {

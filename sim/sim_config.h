@@ -39,6 +39,9 @@ struct SimSenselConfig {
   bool replug_renamed = false;
 };
 
+// How a simulated camera's node map names its features (sim/fake_camera_features.h).
+enum class NodeMapNaming { Aravis, Sfnc2 };
+
 struct SimCameraClock {
   double offset_ms = 0;    // device clock minus true time at t = 0
   double drift_ppm = 0;    // device clock rate error
@@ -53,6 +56,9 @@ struct SimCameraClock {
   std::optional<double> stop_after_s;    // camera vanishes after this many seconds (from sim start)
   std::optional<double> return_after_s;  // and comes back (power-cycled: frame ids restart) after this many
   bool trigger_line = true;              // wired to the rig's trigger line (used with trigger: hardware)
+  // Its node map's naming: "aravis" (Aravis' fake camera's: ExposureTimeAbs, GainRaw,
+  // TimestampControlLatch) or "sfnc2" (ExposureTime, Gain, TimestampLatch, AcquisitionFrameRateEnable).
+  NodeMapNaming node_map = NodeMapNaming::Aravis;
   // Its lens and where it stands (pad coordinates in mm, z = height above the pad); any left out
   // take the default of the camera's position in the rig (see sim/camera_views.cpp).
   std::optional<std::array<double, 3>> position_mm, look_at_mm;

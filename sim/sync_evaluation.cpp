@@ -289,10 +289,14 @@ std::filesystem::path write_eval_scenario(const EvalScenario& o, const std::file
       "  sensel: {{drift_ppm: {}, usb_jitter_mean_ms: {}, usb_jitter_max_ms: {}, drop_fraction: {}, "
       "clock_reset_at_s: {}}}\n",
       -o.drift_ppm / 2, o.jitter_ms / 4, o.jitter_ms, o.loss, o.seconds / 2 + 1);
+  // cam1 and cam3 name their features as SFNC 2 cameras do (TimestampLatch, ExposureTime, a rate
+  // enable), cam0 and cam2 as Aravis' fake camera: the timeline is measured on both naming families.
   yaml += "  cameras:\n";
   for (int i = 0; i < 4; ++i)
-    yaml += fmt::format("    - {{clock_offset_ms: {}, drift_ppm: {}, jitter_us: 0, exposure_latency_ms: 2}}\n",
-                        offsets_ms[i] + double(o.seed % 97), (i % 2 ? -1 : 1) * o.drift_ppm * (1.0 - 0.2 * i));
+    yaml += fmt::format(
+        "    - {{clock_offset_ms: {}, drift_ppm: {}, jitter_us: 0, exposure_latency_ms: 2, node_map: {}}}\n",
+        offsets_ms[i] + double(o.seed % 97), (i % 2 ? -1 : 1) * o.drift_ppm * (1.0 - 0.2 * i),
+        i % 2 ? "sfnc2" : "aravis");
   const auto path = root / "eval-sync.yaml";
   std::ofstream(path) << yaml;
   return path;

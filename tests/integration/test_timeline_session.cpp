@@ -132,6 +132,20 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
                    "SELECT count(DISTINCT m.device_id) FROM clock_models m JOIN devices v ON v.id = m.device_id "
                    "WHERE v.kind = 'camera' AND m.source = 'latch'"),
             4);
+  // Under either naming family's latch (cam1 and cam3 serve SFNC 2 names, sim/sync_evaluation.cpp),
+  // and each SFNC 2 camera's rate took only through its enable (without it the engine's own 25 fps
+  // would read back and the camera be refused).
+  for (int i = 0; i < 4; ++i) {
+    auto q = db.prepare(fmt::format(
+        "SELECT json_extract(settings_json, '$.features.timestamp_latch'), "
+        "coalesce(json_extract(settings_json, '$.features.frame_rate_enable'), ''), "
+        "json_extract(settings_json, '$.features.exposure_time') FROM devices WHERE name = 'cam{}'",
+        i));
+    ASSERT_TRUE(q.step()) << i;
+    EXPECT_EQ(q.column_text(0), i % 2 ? "TimestampLatch" : "TimestampControlLatch") << i;
+    EXPECT_EQ(q.column_text(1), i % 2 ? "AcquisitionFrameRateEnable" : "") << i;
+    EXPECT_EQ(q.column_text(2), i % 2 ? "ExposureTime" : "ExposureTimeAbs") << i;
+  }
   // From each camera's first frame on: a probe taken as its acquisition starts maps the first frames
   // (by their arrivals they were 4-14 ms late on an idle machine, 20-110 ms at a loaded 1080p start,
   // and a sample chosen on that clock took a group its tick's neighbour should have had).

@@ -1,0 +1,81 @@
+// The simulated cameras' two node maps: Aravis' fake camera's names and SFNC 2's, on the same
+// registers. The offline check must read each as the cameras whose naming it copies, and the SFNC 2
+// camera's rate must take only with its enable on (as a FLIR's does), or the live code's enable is
+// never put to the test.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <thread>
+
+#include "capture/genicam_node_map.h"
+#include "sim/fake_camera_features.h"
+
+using namespace pvcap;
+
+namespace {
+std::map<std::string, std::string> chosen(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  const std::string xml{std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+  auto map = GenicamNodeMap::parse(xml);
+  EXPECT_TRUE(map) << path;
+  std::map<std::string, std::string> out;
+  if (!map) return out;
+  const NodeMapCheck c = check_node_map(map.value(), CameraConfig{});
+  EXPECT_TRUE(c.usable()) << path;
+  EXPECT_EQ(c.clock, "latch") << path;
+  for (const auto& feature : c.features) out[feature.role] = feature.name;
+  return out;
+}
+
+guint32 read(ArvFakeCamera* fake, std::uint32_t address) {
+  guint32 v = 0;
+  EXPECT_TRUE(arv_fake_camera_read_register(fake, address, &v));
+  return v;
+}
+
+// Waits (up to a second) for the feature service's next rounds to have acted.
+bool eventually(const std::function<bool()>& done) {
+  for (int i = 0; i < 1000 && !done(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  return done();
+}
+}  // namespace
+
+TEST(FakeCameraFeatures, EachMapIsReadUnderItsFamilysNames) {
+  auto aravis = chosen(sim::fake_camera_genicam(sim::NodeMapNaming::Aravis));
+  EXPECT_EQ(aravis["timestamp_latch"], "TimestampControlLatch");
+  EXPECT_EQ(aravis["exposure_time"], "ExposureTimeAbs");
+  EXPECT_EQ(aravis["gain"], "GainRaw");
+  EXPECT_EQ(aravis.count("frame_rate_enable"), 0u);
+  auto sfnc2 = chosen(sim::fake_camera_genicam(sim::NodeMapNaming::Sfnc2));
+  EXPECT_EQ(sfnc2["timestamp_latch"], "TimestampLatch");
+  EXPECT_EQ(sfnc2["timestamp_latch_value"], "TimestampLatchValue");
+  EXPECT_EQ(sfnc2["exposure_time"], "ExposureTime");
+  EXPECT_EQ(sfnc2["gain"], "Gain");
+  EXPECT_EQ(sfnc2["frame_rate"], "AcquisitionFrameRate");
+  EXPECT_EQ(sfnc2["frame_rate_enable"], "AcquisitionFrameRateEnable");
+}
+
+TEST(FakeCameraFeatures, AnSfnc2CamerasRateTakesOnlyWithItsEnableOn) {
+  const std::string map = sim::fake_camera_genicam(sim::NodeMapNaming::Sfnc2);
+  arv::GPtr<ArvFakeCamera> fake(arv_fake_camera_new_full("PVSIM-RATE", map.c_str()));
+  ASSERT_TRUE(fake);
+  constexpr std::uint32_t kEnginePeriod = ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US;
+  const guint32 own = read(fake.get(), kEnginePeriod);
+  ASSERT_GT(own, 0u);
+  int owner = 0;
+  sim::serve_features(
+      &owner, fake.get(), [](std::int64_t ns) { return ns; }, sim::TriggerLine(), sim::NodeMapNaming::Sfnc2);
+  // The host asks for 60 fps with the enable off: the engine keeps its rate, which reads back.
+  arv_fake_camera_write_register(fake.get(), sim::kFramePeriodRegister, 16667);
+  EXPECT_TRUE(eventually([&] { return read(fake.get(), sim::kFramePeriodRegister) == own; }));
+  EXPECT_EQ(read(fake.get(), kEnginePeriod), own);
+  // With the enable on, the rate asked is the engine's.
+  arv_fake_camera_write_register(fake.get(), sim::kFrameRateEnableRegister, 1);
+  arv_fake_camera_write_register(fake.get(), sim::kFramePeriodRegister, 16667);
+  EXPECT_TRUE(eventually([&] { return read(fake.get(), kEnginePeriod) == 16667u; }));
+  EXPECT_EQ(read(fake.get(), sim::kFramePeriodRegister), 16667u);
+  sim::stop_serving(&owner);
+}
