@@ -184,14 +184,58 @@ Status SenselDevice::apply_config() {
   return {};
 }
 
+Status SenselDevice::verify_config() {
+  auto read = [&](std::uint8_t r, std::uint8_t size, const char* name) -> Result<int> {
+    auto a = transact(command_read(r, size), Expect::Read, r, size);
+    if (!a) return a.error();
+    if (a.value().state != Response::State::Ok || a.value().data.size() < size)
+      return Error{fmt::format("{}: reading back the {} (register 0x{:02x}): {}", transport_->describe(), name, r,
+                               a.value().error)};
+    const auto& d = a.value().data;
+    return size == 2 ? d[0] | (d[1] << 8) : int(d[0]);
+  };
+  // The content asked that this model has (a Morph without an accelerometer keeps its bit clear).
+  auto supported = read(reg::kContentSupported, 1, "supported frame content");
+  if (!supported) return supported.error();
+  struct Setting {
+    std::uint8_t reg;
+    const char* name;
+    int asked;
+    std::uint8_t size;
+  };
+  std::vector<Setting> settings = {{reg::kScanDetail, "scan detail", config_.scan_detail, 1},
+                                   {reg::kFrameContent, "frame content", config_.content & supported.value(), 1},
+                                   {reg::kDynamicBaseline, "dynamic baseline", config_.dynamic_baseline ? 1 : 0, 1}};
+  if (config_.frame_rate_cap > 0) settings.push_back({reg::kScanFrameRate, "frame rate cap", config_.frame_rate_cap, 2});
+  for (const Setting& setting : settings) {
+    auto got = read(setting.reg, setting.size, setting.name);
+    if (!got) return got.error();
+    if (got.value() != setting.asked)
+      return Error{fmt::format("{}: the Morph's {} reads back {}, not the {} set (register 0x{:02x}): pvcap does not "
+                               "record with settings other than the rig file's",
+                               transport_->describe(), setting.name, got.value(), setting.asked, setting.reg)};
+  }
+  return {};
+}
+
 Status SenselDevice::configure(const SenselConfig& config) {
   config_ = config;
-  return apply_config();
+  if (Status s = apply_config(); !s.ok()) return s;
+  return verify_config();
 }
 
 Status SenselDevice::start() {
   const std::uint8_t sync[] = {1};
   if (Status s = write_reg(reg::kScanEnabled, sync); !s.ok()) return s;
+  // A Morph may fall back to medium detail when a scan starts after a stop or a reset: its settings
+  // are set again now that it scans, and read back.
+  Status settled = apply_config();
+  if (settled.ok()) settled = verify_config();
+  if (!settled.ok()) {
+    const std::uint8_t off[] = {0};
+    (void)write_reg(reg::kScanEnabled, off);
+    return settled;
+  }
   session_serial_ = info_.serial;  // what a reconnect must find again
   session_grid_ = info_.grid;
   running_.store(true);
@@ -233,6 +277,17 @@ void SenselDevice::reopen() {
     return;
   }
   if (!apply_config().ok() || !write_reg(reg::kScanEnabled, sync).ok()) {
+    transport_.reset();
+    return;
+  }
+  // Its settings again once it scans, read back: one that does not take is not recorded.
+  Status settled = apply_config();
+  if (settled.ok()) settled = verify_config();
+  if (!settled.ok()) {
+    if (settled.error().message != refused_settings_)  // said once, not at every retry
+      emit(SenselEvent::Kind::WrongDevice,
+           fmt::format("{}; the Morph came back but is NOT recorded", settled.error().message));
+    refused_settings_ = settled.error().message;
     transport_.reset();
     return;
   }

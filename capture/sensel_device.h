@@ -105,6 +105,8 @@ class SenselDevice {
  private:
   SenselDevice(TransportFactory factory, EventHandler on_event, std::size_t queue_frames);
   Status open_sequence(bool soft_reset = true);
+  // Reads the settings back from the Morph: a mismatch is an error naming the setting.
+  Status verify_config();
   Status apply_config();
   Result<Response> transact(const std::vector<std::uint8_t>& command, Expect expect, std::uint8_t reg,
                             std::uint8_t size = 0);
@@ -128,6 +130,7 @@ class SenselDevice {
   std::uint32_t connection_ = 0;
   std::string session_serial_;  // the Morph the session streams from: a reconnect must find this one
   std::string refused_serial_;  // the other Morph last refused (its message is given once)
+  std::string refused_settings_;  // the last reconnection refused for its settings (said once)
   Grid session_grid_;
   HostNs unplugged_at_;
   std::int64_t first_device_ns_ = -1, last_device_ns_ = 0;  // this connection's, for its frame rate

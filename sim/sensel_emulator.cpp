@@ -266,7 +266,10 @@ std::vector<std::uint8_t> SenselEmulator::on_host_bytes(std::span<const std::uin
         else if (r == reg::kScanEnabled) {
           regs_[r] = data[0];
           next_scan_ns_ = 0;  // scanning (re)starts now
-        } else
+          if (data[0] != 0 && revert_detail_on_start_) regs_[reg::kScanDetail] = 1;
+        } else if (r == ignored_reg_)
+          ;  // acknowledged, not taken
+        else
           for (std::size_t i = 0; i < size && r + i < 256; ++i) regs_[r + i] = data[i];
         const auto ack = response_write(r);
         out.insert(out.end(), ack.begin(), ack.end());

@@ -65,6 +65,10 @@ class SenselEmulator {
   // Faults for tests: the next frame's checksum is wrong / the next frame is cut short.
   void corrupt_next_frame() { corrupt_next_ = true; }
   void truncate_next_frame() { truncate_next_ = true; }
+  // A Morph that falls back to medium detail whenever a scan starts (seen after a stop or a reset).
+  void revert_detail_on_scan_start() { revert_detail_on_start_ = true; }
+  // Writes to `reg` are acknowledged but change nothing (a setting that does not take).
+  void ignore_writes_to(std::uint8_t reg) { ignored_reg_ = reg; }
   // Loses this fraction of scans inside the device (its counter skips them), seeded.
   void set_drop_fraction(double fraction, std::uint64_t seed) {
     drop_fraction_ = fraction;
@@ -116,6 +120,8 @@ class SenselEmulator {
   std::int64_t next_scan_ns_ = 0;  // buffered and async modes: when the next scan completes
   std::uint64_t frames_sent_ = 0;
   std::atomic<bool> corrupt_next_{false}, truncate_next_{false};  // set from test threads
+  bool revert_detail_on_start_ = false;
+  int ignored_reg_ = -1;
   std::shared_ptr<SessionReplay> replay_;
   std::size_t replay_next_ = 0;
   std::uint64_t replay_logged_ = 0;

@@ -249,6 +249,33 @@ TEST(SenselDriver, HighDetailRunsAtTheDevicesSlowerRate) {
   EXPECT_EQ(samples.back().frame.pressure->counts.size(), std::size_t(93 * 53));
 }
 
+// A Morph that falls back to medium detail when its scan starts (after a stop or a reset) is set
+// again once it scans, and read back: the session gets the high detail the rig file asks for.
+TEST(SenselDriver, SettingsAreSetAgainOnceTheScanStartsAndReadBack) {
+  Rig rig;
+  rig.emu.revert_detail_on_scan_start();
+  ASSERT_NO_FATAL_FAILURE(rig.open());
+  ASSERT_TRUE(rig.device->configure({.scan_detail = 0}).ok());
+  ASSERT_TRUE(rig.device->start().ok());
+  EXPECT_EQ(rig.emu.reg(0x23), 0) << "high detail, set again after the scan started";
+  EXPECT_EQ(rig.device->info().grid, sensel::kHighDetail);
+  const auto samples = rig.collect(20);
+  ASSERT_GE(samples.size(), 20u);
+  EXPECT_EQ(samples.back().frame.pressure->counts.size(), std::size_t(93 * 53));
+}
+
+// A setting that does not take is an error naming it, before a frame is recorded.
+TEST(SenselDriver, ASettingThatDoesNotTakeIsNamed) {
+  Rig rig;
+  rig.emu.ignore_writes_to(0x57);  // dynamic baseline stays on, as the device's default
+  ASSERT_NO_FATAL_FAILURE(rig.open());
+  const Status s = rig.device->configure({.scan_detail = 1});
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("the Morph's dynamic baseline reads back 1, not the 0 set (register 0x57)"),
+            std::string::npos)
+      << s.error().message;
+}
+
 #ifdef PVCAP_SENSEL_OVER_USB
 // What only the USB transport does: find the Morph by its USB serial, take the CDC data
 // interface from the kernel's cdc_acm (and give it back), refuse a second program, and
