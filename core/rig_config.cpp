@@ -13,6 +13,17 @@
 
 namespace pvcap {
 
+const char* to_string(TimestampMarks marks) {
+  return marks == TimestampMarks::ExposureStart    ? "exposure_start"
+         : marks == TimestampMarks::ExposureMiddle ? "exposure_middle"
+                                                   : "exposure_end";
+}
+
+std::int64_t stamp_to_mid_exposure_ns(TimestampMarks marks, double exposure_us) {
+  const auto half = std::int64_t(std::llround(exposure_us * 500.0));
+  return marks == TimestampMarks::ExposureStart ? half : marks == TimestampMarks::ExposureEnd ? -half : 0;
+}
+
 const char* to_string(TriggerMode mode) {
   switch (mode) {
     case TriggerMode::FreeRun:
@@ -68,6 +79,17 @@ CameraConfig parse_camera(const YAML::Node& node, const std::filesystem::path& f
   r.get_in_range("buffer_count", c.buffer_count, 0, 10000);
   r.get_in_range("link_mbps", c.link_mbps, 1.0, 1'000'000.0);
   r.get_in_range("latency_ns", c.latency_ns, std::int64_t{0}, std::int64_t{10'000'000'000});
+  std::string marks = "exposure_start";
+  r.get("timestamp_marks", marks);
+  if (marks == "exposure_start")
+    c.timestamp_marks = TimestampMarks::ExposureStart;
+  else if (marks == "exposure_middle")
+    c.timestamp_marks = TimestampMarks::ExposureMiddle;
+  else if (marks == "exposure_end")
+    c.timestamp_marks = TimestampMarks::ExposureEnd;
+  else
+    r.fail(node["timestamp_marks"], "timestamp_marks",
+           fmt::format("'{}' is not one of exposure_start, exposure_middle, exposure_end", marks));
   r.finish();
   return c;
 }

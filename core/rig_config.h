@@ -13,6 +13,10 @@
 namespace pvcap {
 
 enum class TriggerMode { FreeRun, Software, Hardware };
+enum class TimestampMarks { ExposureStart, ExposureMiddle, ExposureEnd };
+// From the instant the stamp marks to the middle of an exposure of `exposure_us`.
+std::int64_t stamp_to_mid_exposure_ns(TimestampMarks marks, double exposure_us);
+const char* to_string(TimestampMarks marks);  // "exposure_start", ...
 const char* to_string(TriggerMode mode);
 
 struct CameraConfig {
@@ -34,7 +38,13 @@ struct CameraConfig {
   bool packet_resend = true;
   int buffer_count = 0;         // 0 = about half a second of frames, at least 8
   double link_mbps = 1000;      // the camera's link: preflight refuses a payload x rate above it
-  std::int64_t latency_ns = 0;  // known constant exposure-to-timestamp latency (datasheet)
+  // What the camera's frame timestamp marks: SFNC and GigE Vision cameras stamp a frame when its
+  // exposure starts (the Basler ace 2's map says so), so the image's instant, the middle of its
+  // exposure, is half the exposure later (docs/cameras.md: the vendors' exceptions).
+  TimestampMarks timestamp_marks = TimestampMarks::ExposureStart;
+  // Without a timestamp latch: the known constant latency from what the stamp marks to the frame's
+  // leader packet leaving the camera (datasheet).
+  std::int64_t latency_ns = 0;
   int line = 0;                 // where in the file this camera is described
   std::string id() const { return !serial.empty() ? serial : address; }
 };

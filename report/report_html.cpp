@@ -305,17 +305,19 @@ void add_intervals(std::string& h, const json& r) {
 
 void add_clocks(std::string& h, const json& r) {
   h += "<h2>Clock models</h2><p class='note'>Each device's clock against the host's: how its offset moved (drift), "
-       "and the 99th percentile of arrival latency above the fitted line (residuals). A reset starts a new segment."
+       "and the 99th percentile of arrival latency above the fitted line (residuals). A reset starts a new segment. "
+       "A camera's stamp marks the start of its exposure: its data's instant, the middle of the exposure, is half "
+       "the exposure later (less the rig file's declared latency where no latch reads the clock)."
        "</p><table><tr><th>stream</th><th>source</th><th>segments</th><th>resets</th><th>device clock fast by (ppm)"
        "</th>"
-       "<th>declared latency (ms)</th><th>residual p99, median (&micro;s)</th><th>residual p99, max "
+       "<th>stamp to data's instant (ms)</th><th>residual p99, median (&micro;s)</th><th>residual p99, max "
        "(&micro;s)</th></tr>";
   for (const auto& c : r.at("clocks"))
     h += fmt::format(
         "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.0f}</td>"
         "<td>{:.0f}</td></tr>",
         esc(c.value("name", "")), esc(c.value("source", "")), c.value("segments", 0), c.value("resets", 0),
-        c.value("device_fast_ppm", 0.0), c.value("latency_ms", 0.0), c.value("residual_p99_us_median", 0.0),
+        c.value("device_fast_ppm", 0.0), c.value("stamp_to_instant_ms", 0.0), c.value("residual_p99_us_median", 0.0),
         c.value("residual_p99_us_max", 0.0));
   h += "</table>";
   {

@@ -220,7 +220,9 @@ json clocks_section(SessionReader& r, std::int64_t start_ns) {
                    {"source", last.source},
                    {"segments", segments.size()},
                    {"resets", segments.empty() ? 0 : segments.size() - 1},
-                   {"latency_ms", double(last.latency_ns) / 1e6},
+                   // What is added to a stamp's fitted time: half a camera's exposure (its stamp marks
+                   // the exposure's start), less a latency the rig file declares for arrival clocks.
+                   {"stamp_to_instant_ms", double(-last.latency_ns) / 1e6},
                    // The fit's skew is host per device time: a device clock running fast has it negative.
                    {"device_fast_ppm", round_to(-last.skew * 1e6, 1e-3)},
                    {"pairs", last.pairs},

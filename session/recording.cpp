@@ -49,7 +49,9 @@ std::string settings_json(const CameraSettings& s, const CameraConfig& c) {
                       {"node_map_version", s.node_map_version},
                       {"packet_resend", c.packet_resend},
                       {"socket_buffer_bytes", c.socket_buffer_bytes},
-                      {"latency_ns", c.latency_ns}};
+                      {"latency_ns", c.latency_ns},
+                      {"timestamp_marks", to_string(c.timestamp_marks)},
+                      {"stamp_to_mid_exposure_ns", stamp_to_mid_exposure_ns(c.timestamp_marks, s.exposure_us)}};
   return j.dump();
 }
 
@@ -219,7 +221,12 @@ Status Recording::start() {
   sync::TimelineConfig tc;
   tc.cameras = int(cameras_.size());
   tc.camera_hz = grouping_rate_hz(rig_);  // the grouping limit: half the fastest period
-  for (const auto& c : rig_.cameras) tc.camera_latency_ns.push_back(c.latency_ns);
+  for (std::size_t i = 0; i < cameras_.size(); ++i) {
+    tc.camera_latency_ns.push_back(rig_.cameras[i].latency_ns);
+    // From the exposure the camera reads back, not the one asked (it may round).
+    tc.camera_stamp_to_instant_ns.push_back(
+        stamp_to_mid_exposure_ns(rig_.cameras[i].timestamp_marks, cameras_[i]->settings().exposure_us));
+  }
   tc.sample_hz = sample_rate_hz(rig_);
   tc.anchor_ns = host0_;
   tc.has_pressure = bool(sensel_);

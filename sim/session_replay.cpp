@@ -123,7 +123,9 @@ Result<std::shared_ptr<SessionReplay>> SessionReplay::open(const std::filesystem
         const auto it = stored.find({info.device_id, std::int64_t(row.connection), std::int64_t(row.sequence)});
         if (it != stored.end()) f.sample = it->second;
       }
-      c.clock.emplace_back(f.t_ns, f.device_ns);
+      // Its device clock read device_ns when the exposure began, half the exposure before the image's
+      // instant t_ns (what the recorder added back).
+      c.clock.emplace_back(f.t_ns - info.stamp_to_instant_ns, f.device_ns);
       c.frames.push_back(f);
     }
     std::sort(c.clock.begin(), c.clock.end());

@@ -130,8 +130,8 @@ calib::CameraModel SimCamera::model(cv::Size size) const {
   return sim_camera_model(index_, config_, configured_size_, size);
 }
 
-void SimCamera::fill(ArvBuffer* buffer, void* self, guint32, guint32, ArvPixelFormat format) {
-  static_cast<SimCamera*>(self)->fill_buffer(buffer, format);
+void SimCamera::fill(ArvBuffer* buffer, void* self, guint32 exposure_us, guint32, ArvPixelFormat format) {
+  static_cast<SimCamera*>(self)->fill_buffer(buffer, format, std::int64_t(exposure_us) * 1000);
 }
 
 const cv::Mat& SimCamera::base_image(int width, int height, ArvPixelFormat format) {
@@ -178,11 +178,11 @@ void SimCamera::align_first_frame() {
 }
 
 // Runs on the fake camera's thread, once per frame, at the frame's capture instant.
-void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format) {
+void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t exposure_ns) {
   align_first_frame();
   const std::int64_t true_ns = host_now().ns;
   last_fill_ns_.store(true_ns);
-  fill_at(buffer, format, true_ns);
+  fill_at(buffer, format, true_ns, exposure_ns);
   // A real camera's frame leaves a constant time after its exposure (exposure, readout: the
   // latency its datasheet states), whatever our rendering took, if it fit in that time.
   if (exposure_latency_ns_ > 0)
@@ -190,7 +190,7 @@ void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format) {
         std::chrono::steady_clock::time_point(std::chrono::nanoseconds(true_ns + exposure_latency_ns_)));
 }
 
-void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns) {
+void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns, std::int64_t exposure_ns) {
   std::lock_guard lock(mu_);
   const int width = arv_buffer_get_image_width(buffer);
   const int height = arv_buffer_get_image_height(buffer);
@@ -222,7 +222,10 @@ void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t t
     draw_frame_stripe(view, frame_id);
   }
   const double noise = clock_.jitter_ns > 0 ? noise_(rng_) * clock_.jitter_ns : 0.0;
-  const std::int64_t device_ns = std::max<std::int64_t>(0, clock_.device_time(true_ns) + std::int64_t(noise));
+  // The image shows the scene at true_ns, the middle of its exposure; like a GigE Vision camera, the
+  // stamp marks the exposure's start, half the exposure earlier (the truth keeps the image's instant).
+  const std::int64_t device_ns =
+      std::max<std::int64_t>(0, clock_.device_time(true_ns - exposure_ns / 2) + std::int64_t(noise));
   arv_buffer_set_timestamp(buffer, guint64(device_ns));
   truth_ << frame_id << ',' << true_ns << ',' << device_ns << ',' << width << ',' << height << '\n';
   ++emitted_;

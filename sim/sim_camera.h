@@ -65,11 +65,11 @@ class SimCamera {
  private:
   SimCamera() = default;
   static void fill(ArvBuffer* buffer, void* self, guint32 exposure_us, guint32 gain, ArvPixelFormat format);
-  void fill_buffer(ArvBuffer* buffer, ArvPixelFormat format);
+  void fill_buffer(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t exposure_ns);
   // A free-running camera's first frame of an acquisition waits for the engine's period grid, so
   // the next comes a whole period later (see the definition).
   void align_first_frame();
-  void fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns);
+  void fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns, std::int64_t exposure_ns);
   const cv::Mat& base_image(int width, int height, ArvPixelFormat format);
 
   int index_ = 0;

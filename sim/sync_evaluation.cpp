@@ -273,12 +273,16 @@ std::filesystem::path write_eval_scenario(const EvalScenario& o, const std::file
   // datasheet would, and the rig file states it.
   std::string yaml = "name: eval-sync\ncameras:\n";
   const double offsets_ms[] = {5000, 12500.5, 800.25, 31000.75};
+  // Each camera stamps the start of its exposure (as GigE Vision cameras do), its image shows the
+  // middle: exposures of 6 ms (the paper's), 4, 2.5 and 1 ms put the stamps 3 to 0.5 ms early. The
+  // latency declared runs from the stamp (the exposure's start) to the frame leaving the camera.
+  const int exposures_us[] = {6000, 4000, 2500, 1000};
   for (int i = 0; i < 4; ++i)
     yaml += fmt::format(
         "  - {{name: cam{0}, serial: PVSIM{0}, address: 127.0.0.{1}, pixel_format: BayerRG8, width: 640, "
-        "height: 480, frame_rate: 60, exposure_us: 4000, packet_size: 8192, socket_buffer_bytes: 4194304, "
-        "link_mbps: 10000, latency_ns: 2000000}}\n",
-        i, i + 2);
+        "height: 480, frame_rate: 60, exposure_us: {2}, packet_size: 8192, socket_buffer_bytes: 4194304, "
+        "link_mbps: 10000, latency_ns: {3}}}\n",
+        i, i + 2, exposures_us[i], exposures_us[i] * 500 + 2'000'000);
   // The emulated Morph's answers reach the driver through a pseudo-terminal, whose delivery (the
   // kernel's tty flip buffer, a thread wake-up) takes ~0.06 ms at the least on these machines: the
   // emulated link's "datasheet" latency, declared as a lab declares its device's.

@@ -89,14 +89,19 @@ Result<std::unique_ptr<SessionReader>> SessionReader::open(const std::filesystem
     if (auto c = db.prepare("SELECT lighting, sensor_overlay FROM conditions"); c.step())
       in.conditions = ConditionsRecord{c.column_text(0), c.column_text(1)};
     auto cams = db.prepare(
-        "SELECT d.id, d.name, d.serial, v.width, v.height FROM devices d JOIN video_files v ON v.device_id = d.id "
+        "SELECT d.id, d.name, d.serial, v.width, v.height, "
+        "coalesce(json_extract(CASE WHEN json_valid(d.settings_json) THEN d.settings_json END, "
+        "'$.stamp_to_mid_exposure_ns'), 0) FROM devices d JOIN video_files v ON v.device_id = d.id "
         "WHERE d.kind = 'camera' GROUP BY d.id ORDER BY d.id");
     while (cams.step()) {
       CameraInfo c{cams.column_int(0), cams.column_text(1), text_or_empty(cams, 2), int(cams.column_int(3)),
-                   int(cams.column_int(4))};
+                   int(cams.column_int(4)), cams.column_int(5)};
       if (c.width <= 0 || c.height <= 0 || c.width > 16384 || c.height > 16384)
         return Error{
             fmt::format("{}: camera {} has an impossible size {}x{}", db_path.string(), c.name, c.width, c.height)};
+      if (std::abs(c.stamp_to_instant_ns) > 10'000'000'000)
+        return Error{fmt::format("{}: camera {} has an impossible time from stamp to image ({} ns)", db_path.string(),
+                                 c.name, c.stamp_to_instant_ns)};
       r->cameras_.push_back(std::move(c));
     }
     if (auto p = db.prepare("SELECT id, name, serial FROM devices WHERE kind = 'sensel' ORDER BY id"); p.step())

@@ -48,6 +48,9 @@ struct CameraInfo {
   std::int64_t device_id = 0;
   std::string name, serial;
   int width = 0, height = 0;
+  // From the instant its stamps mark (the start of an exposure) to the image's (its middle); 0 in
+  // sessions recorded before pvcap stored it.
+  std::int64_t stamp_to_instant_ns = 0;
 };
 
 struct PressureDeviceInfo {

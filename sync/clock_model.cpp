@@ -18,7 +18,7 @@ void ClockModel::start_segment(std::int64_t device_ns, std::int64_t arrival_ns) 
   fit_ = {device_ns, double(arrival_ns - device_ns), 0.0};
   probes_.clear();
   probed_ = false;
-  segments_.push_back({arrival_ns, fit_, options_.latency_ns});
+  segments_.push_back({arrival_ns, fit_, options_.latency_ns - options_.stamp_to_instant_ns});
   if (segment_ == 0)
     for (const EarlyProbe& p : std::exchange(before_first_frame_, {}))
       add_probe(p.device_ns, p.host_lo_ns, p.host_hi_ns);
@@ -26,7 +26,7 @@ void ClockModel::start_segment(std::int64_t device_ns, std::int64_t arrival_ns) 
 
 void ClockModel::publish() {
   segments_.back().fit = probed_ ? probe_fit_ : fit_;
-  segments_.back().latency_ns = probed_ ? 0 : options_.latency_ns;
+  segments_.back().latency_ns = (probed_ ? 0 : options_.latency_ns) - options_.stamp_to_instant_ns;
 }
 
 void ClockModel::add_probe(std::int64_t device_ns, std::int64_t host_lo_ns, std::int64_t host_hi_ns) {

@@ -48,6 +48,9 @@ namespace pvcap::sync {
 
 struct ClockModelOptions {
   std::int64_t latency_ns = 0;                        // constant latency known from the rig file / datasheet
+  // From the instant a stamp marks to the instant its data shows (a camera stamping the start of its
+  // exposure: half the exposure). Applied to every mapping, probed or not.
+  std::int64_t stamp_to_instant_ns = 0;
   std::int64_t reset_below_ns = 20'000'000;           // an arrival this far *before* the line: the clock jumped
   std::int64_t reset_above_ns = 1'000'000'000;        // this far after it, `reset_run` times in a row: it jumped too
   std::int64_t reset_back_ns = 1'000'000'000;         // device time this far back: restarted (less: a reordered pair)
@@ -68,9 +71,10 @@ class ClockModel {
   // Adds a probe: the device clock read `device_ns` at a host instant in [host_lo_ns, host_hi_ns].
   void add_probe(std::int64_t device_ns, std::int64_t host_lo_ns, std::int64_t host_hi_ns);
 
-  // The host instant the device stamped `device_ns`.
+  // The host instant of the data the device stamped `device_ns` (a camera's: the middle of its exposure).
   std::int64_t map(std::int64_t device_ns) const {
-    return probed_ ? probe_fit_.map(device_ns) : fit_.map(device_ns) - options_.latency_ns;
+    return (probed_ ? probe_fit_.map(device_ns) : fit_.map(device_ns) - options_.latency_ns) +
+           options_.stamp_to_instant_ns;
   }
   bool probed() const { return probed_; }  // the current segment is mapped by probes
   // How far an arrival lies above the line (>= 0 up to rounding): the latency beyond the minimum.
@@ -84,7 +88,9 @@ class ClockModel {
   struct Segment {
     std::int64_t first_arrival_ns = 0;
     ClockFit fit;                 // host = fit.map(device) - latency_ns
-    std::int64_t latency_ns = 0;  // 0 when the fit comes from probes
+    // The declared latency (none when the fit comes from probes), less the stamp-to-instant time:
+    // what is subtracted from the fit, as the store's clock_models.latency_ns.
+    std::int64_t latency_ns = 0;
   };
   const std::vector<Segment>& segments() const { return segments_; }
   std::int64_t latency_ns() const { return options_.latency_ns; }

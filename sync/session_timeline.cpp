@@ -6,9 +6,10 @@ namespace pvcap::sync {
 namespace {
 constexpr std::int64_t kSnapshotPeriodNs = 1'000'000'000;
 
-ClockModelOptions with_latency(std::int64_t latency_ns) {
+ClockModelOptions with_latency(std::int64_t latency_ns, std::int64_t stamp_to_instant_ns = 0) {
   ClockModelOptions o;
   o.latency_ns = latency_ns;
+  o.stamp_to_instant_ns = stamp_to_instant_ns;
   return o;
 }
 }  // namespace
@@ -26,7 +27,10 @@ SessionTimeline::SessionTimeline(TimelineConfig config, std::function<void(Sampl
   for (int c = 0; c < config_.cameras; ++c) {
     const std::int64_t latency =
         std::size_t(c) < config_.camera_latency_ns.size() ? config_.camera_latency_ns[std::size_t(c)] : 0;
-    cameras_.push_back({ClockModel(with_latency(latency)), {}, 0, 0});
+    const std::int64_t to_instant = std::size_t(c) < config_.camera_stamp_to_instant_ns.size()
+                                        ? config_.camera_stamp_to_instant_ns[std::size_t(c)]
+                                        : 0;
+    cameras_.push_back({ClockModel(with_latency(latency, to_instant)), {}, 0, 0});
   }
 }
 

@@ -30,6 +30,7 @@ struct TimelineConfig {
   std::int64_t pressure_window_ns = 60'000'000;      // late / reordered pressure frames within this are handled
   std::int64_t pressure_max_offset_ns = 20'000'000;  // farther than this from a sample: unpaired
   std::vector<std::int64_t> camera_latency_ns;       // known constant latencies (rig file)
+  std::vector<std::int64_t> camera_stamp_to_instant_ns;  // each camera's stamp to the middle of its exposure
   std::int64_t pressure_latency_ns = 0;
   bool has_pressure = true;  // without a Sensel, samples are finished without waiting for pressure
   std::int64_t pressure_give_up_ns = 1'000'000'000;  // a silent Sensel holds samples back at most this long

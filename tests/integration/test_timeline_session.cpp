@@ -139,12 +139,16 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
     auto q = db.prepare(fmt::format(
         "SELECT json_extract(settings_json, '$.features.timestamp_latch'), "
         "coalesce(json_extract(settings_json, '$.features.frame_rate_enable'), ''), "
-        "json_extract(settings_json, '$.features.exposure_time') FROM devices WHERE name = 'cam{}'",
+        "json_extract(settings_json, '$.features.exposure_time'), "
+        "json_extract(settings_json, '$.stamp_to_mid_exposure_ns') FROM devices WHERE name = 'cam{}'",
         i));
     ASSERT_TRUE(q.step()) << i;
     EXPECT_EQ(q.column_text(0), i % 2 ? "TimestampLatch" : "TimestampControlLatch") << i;
     EXPECT_EQ(q.column_text(1), i % 2 ? "AcquisitionFrameRateEnable" : "") << i;
     EXPECT_EQ(q.column_text(2), i % 2 ? "ExposureTime" : "ExposureTimeAbs") << i;
+    // Its stamps mark the exposure's start; the image's instant is half its exposure later.
+    const int exposures_us[] = {6000, 4000, 2500, 1000};
+    EXPECT_EQ(q.column_int(3), exposures_us[i] * 500) << i;
   }
   // From each camera's first frame on: a probe taken as its acquisition starts maps the first frames
   // (by their arrivals they were 4-14 ms late on an idle machine, 20-110 ms at a loaded 1080p start,
@@ -167,7 +171,8 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
     EXPECT_GT(s.frames, 100u) << s.name;
     if (s.is_camera) {
       // Mapped by timestamp-latch probes: the target, 0.1 ms p99 (measured 0.001-0.027 ms, alone
-      // and beside two CPU hogs, 2026-11-26).
+      // and beside two CPU hogs, 2026-11-26). Against the image's instant, the middle of its
+      // exposure: the stamps mark its start, 0.5-3 ms earlier, which the bias would show.
       EXPECT_LT(std::fabs(s.bias_ms), 0.1) << s.name;
       EXPECT_LT(s.p99_ms, 0.1) << s.name;
       EXPECT_LT(s.p99_ms, s.arrival_p99_ms / 4) << s.name << ": mapping must beat the raw arrival stamp";
