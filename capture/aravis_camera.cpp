@@ -124,37 +124,72 @@ Status AravisCamera::apply_features() {
   // offline check (`pvcap camera check`) on what the camera itself answers.
   const NodeMapCheck check = check_node_map(f, config_);
   if (!check.usable())
-    return Error{fmt::format("{}: {} {} cannot record as the rig file asks: {} (`pvcap camera check` on its node "
-                             "map, from `pvcap devices --dump-node-map`, lists what it has)",
-                             label(), check.vendor, check.model, fmt::join(check.missing, "; "))};
+    return Error{
+        fmt::format("{}: {} {} cannot record as the rig file asks: {} (`pvcap camera check` on its node "
+                    "map, from `pvcap devices --dump-node-map`, lists what it has)",
+                    label(), check.vendor, check.model, fmt::join(check.missing, "; "))};
   if (!features_said_) {
     for (const auto& w : check.warnings)
       if (check.clock == "latch" || w.find("timestamp latch") == std::string::npos) spdlog::warn("{}: {}", label(), w);
   }
+  if (Status s = set_features(f); !s.ok()) return s;
+  return read_back(f, check);
+}
 
-  auto set = [&](Status s, const std::string& what) -> Status {
-    if (s.ok()) return s;
-    return Error{fmt::format("{}: setting {} failed: {}", label(), what, s.error().message)};
-  };
 #define PVCAP_TRY(expr)      \
   do {                       \
     Status s_ = (expr);      \
     if (!s_.ok()) return s_; \
   } while (0)
 
+Status AravisCamera::set_features(AravisFeatures& f) {
+  ArvCamera* cam = link_->camera.get();
+  arv::GErrorSlot err;
+  auto set = [&](Status s, const std::string& what) -> Status {
+    if (s.ok()) return s;
+    return Error{fmt::format("{}: setting {} failed: {}", label(), what, s.error().message)};
+  };
   if (f.has(CameraRole::AcquisitionMode) && check_entry(f, CameraRole::AcquisitionMode, "Continuous"))
     PVCAP_TRY(set(f.set_entry(CameraRole::AcquisitionMode, "Continuous"), "the acquisition mode"));
   PVCAP_TRY(set(f.set_entry(CameraRole::PixelFormat, config_.pixel_format), "the pixel format"));
   // The offsets go to 0 first: a region is checked against the sensor with the offsets it has.
-  const std::string region = fmt::format("the region to {}x{}+{}+{}", config_.width, config_.height,
-                                         config_.offset_x, config_.offset_y);
+  const std::string region =
+      fmt::format("the region to {}x{}+{}+{}", config_.width, config_.height, config_.offset_x, config_.offset_y);
   for (CameraRole r : {CameraRole::OffsetX, CameraRole::OffsetY})
     if (f.has(r)) PVCAP_TRY(set(f.set_number(r, 0), region));
   PVCAP_TRY(set(f.set_number(CameraRole::Width, config_.width), region));
   PVCAP_TRY(set(f.set_number(CameraRole::Height, config_.height), region));
-  for (auto [r, v] : {std::pair{CameraRole::OffsetX, config_.offset_x}, std::pair{CameraRole::OffsetY, config_.offset_y}})
+  for (auto [r, v] :
+       {std::pair{CameraRole::OffsetX, config_.offset_x}, std::pair{CameraRole::OffsetY, config_.offset_y}})
     if (v != 0 || f.has(r)) PVCAP_TRY(set(f.set_number(r, v), region));
 
+  PVCAP_TRY(set_trigger_and_rate(f));
+  // Automatic exposure or gain would change the images within a take and across a dataset.
+  for (CameraRole r : {CameraRole::ExposureAuto, CameraRole::GainAuto})
+    if (check_entry(f, r, "Off")) PVCAP_TRY(set(f.set_entry(r, "Off"), role_key(r)));
+  PVCAP_TRY(set(f.set_number(CameraRole::ExposureTime, config_.exposure_us),
+                fmt::format("the exposure to {:g} us", config_.exposure_us)));
+  if (f.has(CameraRole::Gain) || config_.gain != 0)
+    PVCAP_TRY(set(f.set_number(CameraRole::Gain, config_.gain), fmt::format("the gain to {:g}", config_.gain)));
+  // The stream channel's packet size: GigE Vision's own register (Aravis reaches it under its own
+  // name whatever the camera's map declares), negotiated by Aravis' test packets.
+  if (config_.packet_size > 0) {
+    arv_camera_gv_set_packet_size(cam, config_.packet_size, err.out());
+    if (err)
+      return Error{
+          fmt::format("{}: setting the packet size to {} failed: {}", label(), config_.packet_size, err.message())};
+  } else {
+    arv_camera_gv_auto_packet_size(cam, err.out());
+    if (err) return Error{fmt::format("{}: negotiating the packet size failed: {}", label(), err.message())};
+  }
+  return {};
+}
+
+Status AravisCamera::set_trigger_and_rate(AravisFeatures& f) {
+  auto set = [&](Status s, const std::string& what) -> Status {
+    if (s.ok()) return s;
+    return Error{fmt::format("{}: setting {} failed: {}", label(), what, s.error().message)};
+  };
   // Every trigger off first (a camera another program left waiting for an acquisition-start
   // trigger sends nothing), then the frame-start trigger as the rig asks.
   const auto selectors = f.all_entries(CameraRole::TriggerSelector);
@@ -182,26 +217,14 @@ Status AravisCamera::apply_features() {
     if (check_entry(f, CameraRole::TriggerActivation, "RisingEdge"))
       PVCAP_TRY(set(f.set_entry(CameraRole::TriggerActivation, "RisingEdge"), "the trigger activation"));
   }
-  // Automatic exposure or gain would change the images within a take and across a dataset.
-  for (CameraRole r : {CameraRole::ExposureAuto, CameraRole::GainAuto})
-    if (check_entry(f, r, "Off")) PVCAP_TRY(set(f.set_entry(r, "Off"), role_key(r)));
-  PVCAP_TRY(set(f.set_number(CameraRole::ExposureTime, config_.exposure_us),
-                fmt::format("the exposure to {:g} us", config_.exposure_us)));
-  if (f.has(CameraRole::Gain) || config_.gain != 0)
-    PVCAP_TRY(set(f.set_number(CameraRole::Gain, config_.gain), fmt::format("the gain to {:g}", config_.gain)));
-  // The stream channel's packet size: GigE Vision's own register (Aravis reaches it under its own
-  // name whatever the camera's map declares), negotiated by Aravis' test packets.
-  if (config_.packet_size > 0) {
-    arv_camera_gv_set_packet_size(cam, config_.packet_size, err.out());
-    if (err) return Error{fmt::format("{}: setting the packet size to {} failed: {}", label(), config_.packet_size,
-                                      err.message())};
-  } else {
-    arv_camera_gv_auto_packet_size(cam, err.out());
-    if (err) return Error{fmt::format("{}: negotiating the packet size failed: {}", label(), err.message())};
-  }
+  return {};
+}
 #undef PVCAP_TRY
 
-  // Read back what the camera actually does: it may round or clamp.
+// What the camera actually does after configuration: it may round or clamp.
+Status AravisCamera::read_back(const AravisFeatures& f, const NodeMapCheck& check) {
+  ArvCamera* cam = link_->camera.get();
+  arv::GErrorSlot err;
   CameraSettings s;
   auto str = [&](const char* v) { return std::string(v ? v : ""); };
   s.vendor = str(arv_camera_get_vendor_name(cam, nullptr));
@@ -241,15 +264,17 @@ Status AravisCamera::apply_features() {
     if (!f.has(CameraRole::FrameRate)) {
       s.frame_rate = config_.frame_rate;  // it cannot say (warned above): the budget takes the rig's
     } else if (std::abs(s.frame_rate - config_.frame_rate) > 0.01 * config_.frame_rate) {
-      return Error{fmt::format("{}: asked for {:g} fps, it runs at {:.2f} ({} reads back so): lower frame_rate in the "
-                               "rig file, or shorten exposure_us ({:g} us) or the region",
-                               label(), config_.frame_rate, s.frame_rate, f.name(CameraRole::FrameRate),
-                               s.exposure_us)};
+      return Error{
+          fmt::format("{}: asked for {:g} fps, it runs at {:.2f} ({} reads back so): lower frame_rate in the "
+                      "rig file, or shorten exposure_us ({:g} us) or the region",
+                      label(), config_.frame_rate, s.frame_rate, f.name(CameraRole::FrameRate), s.exposure_us)};
     }
   }
   if (!features_said_ && std::abs(s.exposure_us - config_.exposure_us) > 0.05 * config_.exposure_us)
     spdlog::warn("{}: asked for an exposure of {:g} us, it reads back {:g} ({})", label(), config_.exposure_us,
                  s.exposure_us, f.name(CameraRole::ExposureTime));
+  // The camera's whole state, once: what a later question about this session's images may need.
+  s.feature_bag = features_said_ ? settings_.feature_bag : f.feature_bag();
   features_said_ = true;
   settings_ = s;
   return {};

@@ -46,6 +46,8 @@ struct CameraSettings {
   // version of the camera's node map.
   std::map<std::string, std::string> features;
   std::string node_map_version;
+  // Every readable feature's value after configuration (the feature bag), at the first connection.
+  std::map<std::string, std::string> feature_bag;
 };
 
 struct CameraEvent {
@@ -81,6 +83,8 @@ struct ClockProbe {
 };
 
 class AravisStream;
+class AravisFeatures;
+struct NodeMapCheck;
 
 class AravisCamera {
  public:
@@ -132,6 +136,9 @@ class AravisCamera {
  private:
   Status connect_and_configure(std::uint32_t connection);
   Status apply_features();
+  Status set_features(AravisFeatures& f);
+  Status set_trigger_and_rate(AravisFeatures& f);
+  Status read_back(const AravisFeatures& f, const NodeMapCheck& check);
   bool features_said_ = false;  // what the camera cannot do is warned of once, not at every reconnection
   void teardown_connection(bool camera_reachable);
   void control_loop();

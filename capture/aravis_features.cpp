@@ -1,6 +1,7 @@
 #include "capture/aravis_features.h"
 
 #include <cmath>
+#include <set>
 
 #include <fmt/format.h>
 
@@ -84,6 +85,31 @@ std::string AravisFeatures::version() const {
   return fmt::format("{}.{}.{}", arv_gc_register_description_node_get_major_version(d),
                      arv_gc_register_description_node_get_minor_version(d),
                      arv_gc_register_description_node_get_subminor_version(d));
+}
+
+std::map<std::string, std::string> AravisFeatures::feature_bag() const {
+  std::map<std::string, std::string> bag;
+  ArvGc* gc = arv_device_get_genicam(device_);
+  ArvDomElement* root = gc ? arv_dom_document_get_document_element(ARV_DOM_DOCUMENT(gc)) : nullptr;
+  if (!root) return bag;
+  // The nodes that hold a value (not categories, commands, ports, nor the formulas between them).
+  static const std::set<std::string> kValueTypes = {"Integer", "Float",    "Enumeration", "Boolean",     "String",
+                                                    "IntReg",  "FloatReg", "StringReg",   "MaskedIntReg"};
+  for (ArvDomNode* n = arv_dom_node_get_first_child(ARV_DOM_NODE(root)); n; n = arv_dom_node_get_next_sibling(n)) {
+    if (!ARV_IS_GC_FEATURE_NODE(n)) continue;
+    const char* tag = arv_dom_node_get_node_name(n);
+    if (!tag || !kValueTypes.count(tag)) continue;
+    auto* feature = ARV_GC_FEATURE_NODE(n);
+    arv::GErrorSlot err;
+    if (!arv_gc_feature_node_is_implemented(feature, err.out()) || err) continue;
+    if (!arv_gc_feature_node_is_available(feature, err.out()) || err) continue;
+    const ArvGcAccessMode access = arv_gc_feature_node_get_actual_access_mode(feature);
+    if (access != ARV_GC_ACCESS_MODE_RO && access != ARV_GC_ACCESS_MODE_RW) continue;
+    const char* value = arv_gc_feature_node_get_value_as_string(feature, err.out());
+    if (err || !value) continue;
+    bag[arv_gc_feature_node_get_name(feature)] = value;
+  }
+  return bag;
 }
 
 std::string AravisFeatures::name(CameraRole role) const {

@@ -43,6 +43,9 @@ class AravisFeatures final : public NodeMapView {
   Status set_flag(CameraRole role, bool on);                    // a Boolean, or an Integer 0/1
   std::optional<double> number(CameraRole role) const;
   std::optional<std::string> entry(CameraRole role) const;
+  // Every readable value the camera has now, by feature name: its whole state for the record (GenApi's
+  // "feature bag"); a selector-dependent feature as its selector stands.
+  std::map<std::string, std::string> feature_bag() const;
   // Every entry an enumeration role has (all of them, implemented or not), for a loop over selectors.
   std::vector<std::string> all_entries(CameraRole role) const;
 

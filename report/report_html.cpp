@@ -419,6 +419,49 @@ void add_calibration(std::string& h, const json& r) {
   h += "</div>";
 }
 
+// The cameras' whole state (report/camera_state.h): automatic controls left on, what differs between
+// the cameras and from the rig's previous session.
+void add_camera_state(std::string& h, const json& r) {
+  if (!r.contains("camera_state")) return;
+  const json& s = r["camera_state"];
+  h += "<h2>Camera state</h2>";
+  if (s.value("cameras_with_state", 0) == 0) {
+    h += "<p class='note'>not recorded (a session from before pvcap stored each camera's features)</p>";
+    return;
+  }
+  h += fmt::format("<p class='note'>Every readable feature of each camera after pvcap configured it ({} cameras). "
+                   "Serials, addresses, timestamps, temperatures and counters differ by nature and are not "
+                   "compared.</p>",
+                   s.value("cameras_with_state", 0));
+  for (const auto& w : s.at("warnings")) h += "<p class='bad'>warning: " + esc(w.get<std::string>()) + "</p>";
+  const json& between = s.at("differ_between_cameras");
+  if (between.empty())
+    h += "<p>The cameras agree on every other feature.</p>";
+  else {
+    h += "<h3>Differs between the cameras</h3><table><tr><th>feature</th><th>values</th></tr>";
+    for (const auto& d : between) {
+      std::string values;
+      for (const auto& [camera, v] : d.at("values").items())
+        values += (values.empty() ? "" : ", ") + esc(camera) + " " + esc(v.get<std::string>());
+      h += "<tr><td>" + esc(d.value("feature", "")) + "</td><td class='t'>" + values + "</td></tr>";
+    }
+    h += "</table>";
+  }
+  if (s.at("previous_session").is_null())
+    h += "<p class='note'>No earlier session of this rig in the same folder to compare with.</p>";
+  else if (s.at("differ_from_previous").empty())
+    h += "<p>As in the rig's previous session, " + esc(s["previous_session"].get<std::string>()) + ".</p>";
+  else {
+    h += "<h3>Changed since the rig's previous session, " + esc(s["previous_session"].get<std::string>()) +
+         "</h3><table><tr><th>camera</th><th>feature</th><th>then</th><th>now</th></tr>";
+    for (const auto& d : s["differ_from_previous"])
+      h += "<tr><td>" + esc(d.value("camera", "")) + "</td><td class='t'>" + esc(d.value("feature", "")) +
+           "</td><td class='t'>" + esc(d.value("then", "")) + "</td><td class='t'>" + esc(d.value("now", "")) +
+           "</td></tr>";
+    h += "</table>";
+  }
+}
+
 void add_events(std::string& h, const json& r) {
   h += "<h2>Events</h2>";
   if (r.at("events").empty())
@@ -444,6 +487,7 @@ std::string render_html(const json& r) {
   add_pairing(h, r);
   add_protocol(h, r);
   add_calibration(h, r);
+  add_camera_state(h, r);
   add_events(h, r);
   h += "<p class='note'>Made by pvcap report from the session's store; `pvcap report SESSION --json` prints the same "
        "figures.</p></body></html>\n";

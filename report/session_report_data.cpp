@@ -1,5 +1,7 @@
 #include "report/session_report_data.h"
 
+#include "report/camera_state.h"
+
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -538,6 +540,18 @@ Result<json> build_report(const std::filesystem::path& dir, const ReportOptions&
     for (const auto& [what, n] : counts.value()) j["pairing"]["timeline_counts"][what] = n;
     if (o.progress) o.progress("reading the store", 4, 5);
     j["protocol"] = protocol_section(dir, start);
+    {
+      auto settings = r.camera_settings();
+      if (!settings) return settings.error();
+      std::vector<CameraBag> previous;
+      const auto previous_dir = previous_session_of_rig(dir);
+      if (previous_dir)  // a previous session that cannot be read is compared with nothing
+        if (auto p = SessionReader::open(*previous_dir))
+          if (auto s = p.value()->camera_settings()) previous = camera_bags(s.value());
+      j["camera_state"] =
+          camera_state_section(camera_bags(settings.value()),
+                               previous_dir ? std::optional(previous_dir->filename().string()) : std::nullopt, previous);
+    }
     auto events = r.events();
     if (!events) return events.error();
     j["events"] = json::array();

@@ -75,8 +75,8 @@ std::string aravis_map_with_features(const char* latch) {
 }
 
 // The same registers under SFNC 2's names, as a FLIR Blackfly S or a Basler ace 2 declares them:
-// TimestampLatch, ExposureTime, Gain as a Float, and a rate that takes only with
-// AcquisitionFrameRateEnable on (the rate the host writes goes to a register of ours, copied to the
+// TimestampLatch, ExposureTime, Gain as a Float, BalanceWhiteAuto (which pvcap leaves as it finds
+// it: the report warns when it is on), and a rate that takes only with AcquisitionFrameRateEnable on (the rate the host writes goes to a register of ours, copied to the
 // engine's while the enable is on; the engine otherwise keeps its own rate, which then reads back).
 std::string sfnc2_map() {
   std::string text = aravis_map_with_features("TimestampLatch");
@@ -95,8 +95,13 @@ std::string sfnc2_map() {
 <AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
 <IntReg Name="PvcapFramePeriodRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
 <AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+<Enumeration Name="BalanceWhiteAuto" NameSpace="Standard"><ToolTip>Automatic white balance</ToolTip>
+<EnumEntry Name="Off"><Value>0</Value></EnumEntry><EnumEntry Name="Continuous"><Value>2</Value></EnumEntry>
+<pValue>PvcapBalanceWhiteAutoRegister</pValue></Enumeration>
+<IntReg Name="PvcapBalanceWhiteAutoRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
+<AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
 )",
-      kFrameRateEnableRegister, kFramePeriodRegister);
+      kFrameRateEnableRegister, kFramePeriodRegister, kBalanceWhiteAutoRegister);
   text.insert(text.rfind("</RegisterDescription>"), features);
   return text;
 }

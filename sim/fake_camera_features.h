@@ -27,6 +27,7 @@ inline constexpr std::uint32_t kLatchValueRegister = 0xF008;       // 64 bits: h
 inline constexpr std::uint32_t kTriggerSourceRegister = 0xF010;    // 0 = Line0, 1 = Software (the XML's values)
 inline constexpr std::uint32_t kFrameRateEnableRegister = 0xF014;  // SFNC 2 map: AcquisitionFrameRateEnable
 inline constexpr std::uint32_t kFramePeriodRegister = 0xF018;      // SFNC 2 map: the rate asked, as a period (us)
+inline constexpr std::uint32_t kBalanceWhiteAutoRegister = 0xF01C;  // SFNC 2 map: 0 Off, 2 Continuous
 
 // The GenICam file a fake camera of this naming serves (arv_gv_fake_camera_new_full); written once
 // per process, named by its content.

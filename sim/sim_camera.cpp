@@ -72,6 +72,8 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
                     "simulated rig runs in its own network namespace)",
                     camera.name, camera.address)};
   if (clock.packet_loss > 0) g_object_set(self->fake_.get(), "gvsp-lost-ratio", clock.packet_loss, nullptr);
+  if (clock.white_balance_auto)
+    arv_fake_camera_write_register(arv_gv_fake_camera_get_fake_camera(self->fake_.get()), kBalanceWhiteAutoRegister, 2);
   // The engine looks for a pending software trigger once per 1/trigger_frequency, at whole periods
   // of the real-time clock: keep that well above the camera's rate so triggered frames are not
   // delayed much by the simulator. (Every engine wakes at the same instants, so cameras on one

@@ -56,6 +56,9 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
           cr.fail(cams[i]["node_map"], "node_map", "expected aravis (the fake camera's names) or sfnc2");
         c.node_map = naming == "sfnc2" ? NodeMapNaming::Sfnc2 : NodeMapNaming::Aravis;
       }
+      cr.get("white_balance_auto", c.white_balance_auto);
+      if (c.white_balance_auto && c.node_map != NodeMapNaming::Sfnc2)
+        cr.fail(cams[i]["white_balance_auto"], "white_balance_auto", "needs node_map: sfnc2 (the map that has it)");
       cr.get_numbers("position_mm", c.position_mm);
       cr.get_numbers("look_at_mm", c.look_at_mm);
       if (cr.has("focal_px")) {

@@ -59,6 +59,7 @@ struct SimCameraClock {
   // Its node map's naming: "aravis" (Aravis' fake camera's: ExposureTimeAbs, GainRaw,
   // TimestampControlLatch) or "sfnc2" (ExposureTime, Gain, TimestampLatch, AcquisitionFrameRateEnable).
   NodeMapNaming node_map = NodeMapNaming::Aravis;
+  bool white_balance_auto = false;  // sfnc2 only: its BalanceWhiteAuto is left Continuous (a camera set so by another program)
   // Its lens and where it stands (pad coordinates in mm, z = height above the pad); any left out
   // take the default of the camera's position in the rig (see sim/camera_views.cpp).
   std::optional<std::array<double, 3>> position_mm, look_at_mm;

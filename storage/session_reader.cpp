@@ -314,6 +314,15 @@ Result<std::vector<CalibrationRecord>> SessionReader::calibrations() {
   });
 }
 
+Result<std::vector<std::pair<std::string, std::string>>> SessionReader::camera_settings() {
+  return guarded(dir_, [&]() -> Result<std::vector<std::pair<std::string, std::string>>> {
+    std::vector<std::pair<std::string, std::string>> out;
+    auto q = db_->prepare("SELECT name, settings_json FROM devices WHERE kind = 'camera' ORDER BY id");
+    while (q.step()) out.emplace_back(q.column_text(0), text_or_empty(q, 1));
+    return out;
+  });
+}
+
 Result<std::vector<StreamStatistics>> SessionReader::stream_statistics() {
   return guarded(dir_, [&]() -> Result<std::vector<StreamStatistics>> {
     std::vector<StreamStatistics> out;

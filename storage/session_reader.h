@@ -204,6 +204,8 @@ class SessionReader {
   Result<std::vector<OperatorNoteRecord>> operator_notes();
   Result<std::vector<CalibrationRecord>> calibrations();
   Result<std::vector<StreamStatistics>> stream_statistics();
+  // Each camera's settings as recorded at its connection (devices.settings_json, docs/store.md), by name.
+  Result<std::vector<std::pair<std::string, std::string>>> camera_settings();
   // Every frame of one device (camera or Sensel), by arrival.
   Result<std::vector<FrameTiming>> frame_timing(std::int64_t device_id);
   // Every pressure frame on the session clock as the device sent it, by connection and sequence.

@@ -19,6 +19,8 @@ struct SimCameraSpec {
   bool trigger_line = true;    // false: not wired to the simulated trigger line
   double drift_ppm = 0;
   double offset_ms = 1000;  // fields are set by name in the tests ({.packet_loss = 0.01})
+  std::string node_map;     // "sfnc2": its node map in SFNC 2's names (sim/fake_camera_features.h)
+  bool white_balance_auto = false;
 };
 
 // A rig of `cameras` simulated cameras at 127.0.0.2.. with the given size and rate.

@@ -44,9 +44,13 @@ std::int64_t scalar(pvcap::sqlite::Database& db, const std::string& sql, std::in
 
 TEST(Report, AProtocolSessionsReportOpensInABrowserAndItsCountsAreTheStores) {
   const fs::path work = work_dir("report");
+  // cam2 names its features in SFNC 2's way and was left on automatic white balance (by another
+  // program, say): pvcap records with it, and the report warns.
+  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}, {.node_map = "sfnc2", .white_balance_auto = true}, {}},
+                                                   320, 240, 30, 15, "free-run", /*sensel=*/true);
   const auto session_run = run_pvcap(fmt::format(
       "session --rig {} --root {} --protocol {} --auto --fast --participant R01 --skin-tone medium --no-web",
-      write_protocol_rig(work).string(), (work / "sessions").string(),
+      (work / "rig.yaml").string(), (work / "sessions").string(),
       write_press_protocol(work, "[low, high]", 0.5, 0.4, 1.5, 0.3).string()));
   ASSERT_EQ(session_run.exit_code, 0) << session_run.output;
   const fs::path session = only_session(work / "sessions");
@@ -108,6 +112,21 @@ TEST(Report, AProtocolSessionsReportOpensInABrowserAndItsCountsAreTheStores) {
   EXPECT_GT(r["protocol"]["by_force"]["high"]["mean_newtons"].get<double>(),
             r["protocol"]["by_force"]["low"]["mean_newtons"].get<double>());
   EXPECT_EQ(r["session"]["participant"]["pseudonym"], "R01");
+  // Every camera's whole state is there; cam2's automatic white balance is the one warning, and a
+  // feature the cameras do not agree on.
+  const json& state = r["camera_state"];
+  EXPECT_EQ(state["cameras_with_state"], 4) << state.dump(1);
+  ASSERT_EQ(state["warnings"].size(), 1u) << state.dump(1);
+  EXPECT_NE(state["warnings"][0].get<std::string>().find("cam2: BalanceWhiteAuto is Continuous"), std::string::npos);
+  bool white_balance_differs = false;
+  for (const auto& d : state["differ_between_cameras"])
+    white_balance_differs |= d["feature"] == "BalanceWhiteAuto" && d["values"]["cam2"] == "Continuous" &&
+                             d["values"]["cam0"] == "(none)";
+  EXPECT_TRUE(white_balance_differs) << state.dump(1);
+  EXPECT_TRUE(state["previous_session"].is_null()) << "the first session of the rig in its folder";
+  EXPECT_EQ(scalar(db, "SELECT json_extract(settings_json, '$.feature_bag.ExposureTime') FROM devices WHERE name = "
+                       "'cam2'"),
+            scalar(db, "SELECT json_extract(settings_json, '$.exposure_us') FROM devices WHERE name = 'cam2'"));
   // No calibration was recorded: the self-check says so for every camera instead of guessing.
   for (const auto& c : r["self_check"]["cameras"]) {
     EXPECT_TRUE(c["offset_ms"].is_null());
@@ -128,7 +147,8 @@ TEST(Report, AProtocolSessionsReportOpensInABrowserAndItsCountsAreTheStores) {
   ASSERT_TRUE(loaded);
   const std::string dom = browser.dom(tab);
   for (const char* section : {"Captured and lost", "Sync self-check", "Frame intervals", "Clock models", "Pairing",
-                              "Protocol", "Calibration", "Counts reconcile with the store"})
+                              "Protocol", "Calibration", "Counts reconcile with the store", "Camera state",
+                              "warning: cam2: BalanceWhiteAuto is Continuous"})
     EXPECT_NE(dom.find(section), std::string::npos) << section;
   EXPECT_GE(browser.eval(tab, "document.querySelectorAll('svg').length").get<int>(), 12);
   EXPECT_EQ(browser.eval(tab, "document.querySelectorAll('script, link[rel=stylesheet]').length").get<int>(), 0)
