@@ -178,6 +178,8 @@ Status AravisFeatures::set_flag(CameraRole role, bool on) {
   arv::GErrorSlot err;
   if (ARV_IS_GC_BOOLEAN(n))
     arv_gc_boolean_set_value(ARV_GC_BOOLEAN(n), on, err.out());
+  else if (ARV_IS_GC_ENUMERATION(n))  // an On/Off mode (Daheng's AcquisitionFrameRateMode)
+    arv_gc_enumeration_set_string_value(ARV_GC_ENUMERATION(n), on ? "On" : "Off", err.out());
   else if (ARV_IS_GC_INTEGER(n))
     arv_gc_integer_set_value(ARV_GC_INTEGER(n), on ? 1 : 0, err.out());
   else

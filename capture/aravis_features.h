@@ -40,7 +40,7 @@ class AravisFeatures final : public NodeMapView {
   // Each fails with the role's feature name when the camera has none.
   Status set_entry(CameraRole role, const std::string& entry);  // an enumeration
   Status set_number(CameraRole role, double value);             // a Float, or an Integer (rounded)
-  Status set_flag(CameraRole role, bool on);                    // a Boolean, or an Integer 0/1
+  Status set_flag(CameraRole role, bool on);  // a Boolean, an Integer 0/1, or an On/Off enumeration
   std::optional<double> number(CameraRole role) const;
   std::optional<std::string> entry(CameraRole role) const;
   // Every readable value the camera has now, by feature name: its whole state for the record (GenApi's

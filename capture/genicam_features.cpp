@@ -19,7 +19,10 @@ const std::vector<RoleNames>& camera_feature_names() {
       // SFNC 2; Basler ace classic and Allied Vision: ...Abs.
       {CameraRole::FrameRate, "frame_rate", {"AcquisitionFrameRate", "AcquisitionFrameRateAbs"}},
       // FLIR needs it set before a rate takes; older Point Grey spell it with a d.
-      {CameraRole::FrameRateEnable, "frame_rate_enable", {"AcquisitionFrameRateEnable", "AcquisitionFrameRateEnabled"}},
+      // ...and Daheng's is an enumeration (On/Off).
+      {CameraRole::FrameRateEnable,
+       "frame_rate_enable",
+       {"AcquisitionFrameRateEnable", "AcquisitionFrameRateEnabled", "AcquisitionFrameRateMode"}},
       {CameraRole::ExposureTime, "exposure_time", {"ExposureTime", "ExposureTimeAbs", "ExposureTimeRaw"}},
       {CameraRole::ExposureAuto, "exposure_auto", {"ExposureAuto"}},
       {CameraRole::Gain, "gain", {"Gain", "GainAbs", "GainRaw"}},
@@ -30,8 +33,10 @@ const std::vector<RoleNames>& camera_feature_names() {
       {CameraRole::BandwidthLimit, "bandwidth_limit", {"GevSCPD", "StreamBytesPerSecond", "DeviceLinkThroughputLimit"}},
       {CameraRole::TimestampLatch,
        "timestamp_latch",
-       {"TimestampLatch", "GevTimestampControlLatch", "TimestampControlLatch"}},
-      {CameraRole::TimestampLatchValue, "timestamp_latch_value", {"TimestampLatchValue", "GevTimestampValue"}},
+       {"TimestampLatch", "GevTimestampControlLatch", "TimestampControlLatch", "timestampControlLatch"}},
+      {CameraRole::TimestampLatchValue,
+       "timestamp_latch_value",
+       {"TimestampLatchValue", "GevTimestampValue", "TimestampValue", "timestampValue"}},
       {CameraRole::TimestampReset,
        "timestamp_reset",
        {"TimestampReset", "GevTimestampControlReset", "TimestampControlReset"}},
@@ -72,6 +77,8 @@ std::map<CameraRole, std::string> resolve_camera_features(const std::function<bo
       {"TimestampLatch", "TimestampLatchValue"},          // SFNC 2 (FLIR Blackfly S, Oryx; Basler ace 2)
       {"GevTimestampControlLatch", "GevTimestampValue"},  // GigE Vision SFNC 1 (Basler ace, AVT, Point Grey)
       {"TimestampControlLatch", "TimestampLatchValue"},   // Aravis' fake camera
+      {"TimestampControlLatch", "TimestampValue"},        // SFNC 1.x without the Gev prefix
+      {"timestampControlLatch", "timestampValue"},        // Teledyne DALSA (its own lower-case names)
   };
   for (const auto& [latch, value] : kLatchFamilies)
     if (has(latch) && has(value)) {

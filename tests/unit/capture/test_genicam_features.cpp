@@ -113,6 +113,11 @@ TEST(GenicamFeatures, TheLatchIsChosenWithItsValueFromOneNamingFamily) {
   EXPECT_EQ(f.count(CameraRole::TimestampLatch), 0u);
   f = with({"TimestampControlLatch", "TimestampLatchValue"});  // Aravis' fake camera
   EXPECT_EQ(f[CameraRole::TimestampLatch], "TimestampControlLatch");
+  f = with({"timestampControlLatch", "timestampValue"});  // Teledyne DALSA's lower-case names
+  EXPECT_EQ(f[CameraRole::TimestampLatch], "timestampControlLatch");
+  EXPECT_EQ(f[CameraRole::TimestampLatchValue], "timestampValue");
+  f = with({"AcquisitionFrameRate", "AcquisitionFrameRateMode"});  // Daheng: an On/Off enumeration
+  EXPECT_EQ(f[CameraRole::FrameRateEnable], "AcquisitionFrameRateMode");
   f = with({"ExposureTimeAbs", "ExposureTime"});  // SFNC's name first when a map has both
   EXPECT_EQ(f[CameraRole::ExposureTime], "ExposureTime");
 }
@@ -121,4 +126,21 @@ TEST(GenicamFeatures, WhatIsNotANodeMapIsSaid) {
   EXPECT_FALSE(GenicamNodeMap::parse("<html><body>not a camera</body></html>"));
   EXPECT_FALSE(GenicamNodeMap::parse(""));
   EXPECT_FALSE(GenicamNodeMap::parse(std::string("\x00\x01\x02", 3)));
+}
+
+TEST(GenicamFeatures, ATriggerLineTheCameraLacksIsNamedWithTheLinesItHas) {
+  auto map = GenicamNodeMap::parse(read(kNodeMaps / "FLIR-BFS-PGE-23S6C.xml"));
+  ASSERT_TRUE(map);
+  CameraConfig camera = in_format("Mono8");
+  camera.trigger = TriggerMode::Hardware;
+  camera.trigger_source = "Line0";
+  EXPECT_TRUE(check_node_map(map.value(), camera).usable());
+  camera.trigger_source = "Line9";
+  const NodeMapCheck c = check_node_map(map.value(), camera);
+  EXPECT_FALSE(c.usable());
+  ASSERT_EQ(c.missing.size(), 1u);
+  EXPECT_NE(c.missing[0].find("trigger source Line9 is not among its "), std::string::npos) << c.missing[0];
+  EXPECT_NE(c.missing[0].find("Line0"), std::string::npos) << c.missing[0];
+  camera.trigger = TriggerMode::Software;  // its TriggerSource has Software and it has TriggerSoftware
+  EXPECT_TRUE(check_node_map(map.value(), camera).usable());
 }
