@@ -23,7 +23,7 @@
 #include "export/pv_geometry.h"
 #include "export/sha256.h"
 #include "protocol/takes.h"
-#include "report/session_calibration.h"
+#include "calib/recorded_calibration.h"
 #include "storage/durable_folder.h"
 #include "storage/session_reader.h"
 
@@ -179,7 +179,7 @@ class SessionExport {
 
   // Each camera with the pad calibration the loaders' geometry is made from.
   Status geometry() {
-    auto calibrations = report::pad_calibrations(*reader_);
+    auto calibrations = calib::pad_calibrations(*reader_);
     if (!calibrations) return calibrations.error();
     for (std::size_t k = 0; k < cameras_.size(); ++k) {
       const CameraInfo& camera = reader_->cameras()[cameras_[k]];

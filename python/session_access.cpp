@@ -6,7 +6,7 @@
 
 #include "calib/projection.h"
 #include "capture/sensel_units.h"
-#include "report/session_calibration.h"
+#include "calib/recorded_calibration.h"
 
 namespace pvcap::python {
 
@@ -17,7 +17,7 @@ Result<std::unique_ptr<SessionAccess>> SessionAccess::open(const std::filesystem
   a->dir_ = std::filesystem::absolute(dir).lexically_normal();
   a->reader_ = std::move(reader.value());
   a->pad_ = calib::default_pad_layout();
-  auto calibrations = report::pad_calibrations(*a->reader_);
+  auto calibrations = calib::pad_calibrations(*a->reader_);
   if (!calibrations) return calibrations.error();
   a->calibrations_ = std::move(calibrations.value());
   auto infos = a->reader_->sample_infos();

@@ -2,7 +2,7 @@
 // What `import pvcap` reads from a session, in plain C++ (python/module.cpp only converts it): the
 // samples as columns, the takes, and each sample's image and pressure, cropped and sized as a
 // network wants them, through the same reader, calibration and crop the export and replay use
-// (storage/session_reader.h, report/session_calibration.h, calib/projection.h). One implementation
+// (storage/session_reader.h, calib/recorded_calibration.h, calib/projection.h). One implementation
 // of the store: Python never parses session.db or a video itself. Read-only.
 #include <cstdint>
 #include <filesystem>

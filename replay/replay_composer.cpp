@@ -8,7 +8,7 @@
 #include "calib/pad_layout.h"
 #include "capture/sensel_units.h"
 #include "protocol/takes.h"
-#include "report/session_calibration.h"
+#include "calib/recorded_calibration.h"
 
 namespace pvcap::replay {
 
@@ -46,7 +46,7 @@ Result<ReplayComposer> ReplayComposer::open(SessionReader& reader, const std::fi
   // interpolation) has more than it shows, at a fraction of a full demosaic's cost.
   reader.set_demosaic(Demosaic::HalfSize);
   c.dir_ = dir;
-  auto cal = report::pad_calibrations(reader);
+  auto cal = calib::pad_calibrations(reader);
   if (!cal) return cal.error();
   const calib::PadLayout pad = calib::default_pad_layout();
   for (std::size_t k = 0; k < reader.cameras().size(); ++k) {

@@ -23,7 +23,7 @@
 #include "core/time.h"
 #include "protocol/takes.h"
 #include "report/press_windows.h"
-#include "report/session_calibration.h"
+#include "calib/recorded_calibration.h"
 #include "report/sync_self_check.h"
 #include "storage/session_reader.h"
 
@@ -303,7 +303,7 @@ json protocol_section(const std::filesystem::path& dir, std::int64_t start_ns) {
 std::vector<std::optional<calib::CameraCalibration>> calibration_in_force(SessionReader& r, json& section) {
   auto rows = r.calibrations();
   if (!rows) throw UserError(rows.error().message);
-  auto in_force = pad_calibrations(r);
+  auto in_force = calib::pad_calibrations(r);
   if (!in_force) throw UserError(in_force.error().message);
   section = json::array();
   for (std::size_t c = 0; c < r.cameras().size(); ++c) {

@@ -1,8 +1,8 @@
 #pragma once
-// The calibration a recorded session holds for each camera: the newest `calibrations` row whose
+// The pad calibration a recorded session holds for each camera: the newest `calibrations` row whose
 // camera entry carries the pad's pose (recorded at the start from the rig's calibration file, or
 // added later by `pvcap calibrate pad`). What the report's overlays and the export's camera
-// geometry are computed through.
+// geometry are computed through. (calib/session_calibration.h makes calibrations; this reads one.)
 #include <optional>
 #include <vector>
 
@@ -10,9 +10,9 @@
 #include "core/result.h"
 #include "storage/session_reader.h"
 
-namespace pvcap::report {
+namespace pvcap::calib {
 
 // By camera, in SessionReader::cameras() order; empty where the session has no pad calibration.
-Result<std::vector<std::optional<calib::CameraCalibration>>> pad_calibrations(SessionReader& r);
+Result<std::vector<std::optional<CameraCalibration>>> pad_calibrations(SessionReader& r);
 
-}  // namespace pvcap::report
+}  // namespace pvcap::calib

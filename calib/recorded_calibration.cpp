@@ -1,18 +1,18 @@
-#include "report/session_calibration.h"
+#include "calib/recorded_calibration.h"
 
 #include <nlohmann/json.hpp>
 
-namespace pvcap::report {
+namespace pvcap::calib {
 
-Result<std::vector<std::optional<calib::CameraCalibration>>> pad_calibrations(SessionReader& r) {
+Result<std::vector<std::optional<CameraCalibration>>> pad_calibrations(SessionReader& r) {
   auto rows = r.calibrations();
   if (!rows) return rows.error();
-  std::vector<std::optional<calib::CameraCalibration>> out(r.cameras().size());
+  std::vector<std::optional<CameraCalibration>> out(r.cameras().size());
   for (std::size_t c = 0; c < r.cameras().size(); ++c)
     for (const auto& row : rows.value()) {  // oldest first: the last with a pose wins
       if (row.device_id != r.cameras()[c].device_id) continue;
       try {
-        auto cal = nlohmann::json::parse(row.details_json).get<calib::CameraCalibration>();
+        auto cal = nlohmann::json::parse(row.details_json).get<CameraCalibration>();
         if (cal.pad && cal.pad_corners_px) out[c] = std::move(cal);
       } catch (const std::exception&) {
         // A row without a readable camera entry (older or foreign) says nothing about the pose.
@@ -21,4 +21,4 @@ Result<std::vector<std::optional<calib::CameraCalibration>>> pad_calibrations(Se
   return out;
 }
 
-}  // namespace pvcap::report
+}  // namespace pvcap::calib
