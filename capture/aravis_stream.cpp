@@ -26,9 +26,11 @@ StreamCounters& StreamCounters::operator+=(const StreamCounters& o) {
 Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, int camera_index,
                                                            std::uint32_t connection, std::size_t payload,
                                                            std::size_t buffer_count, bool packet_resend,
-                                                           int socket_buffer_bytes, BoundedQueue<FrameLoss>& losses) {
+                                                           int socket_buffer_bytes, BoundedQueue<FrameLoss>& losses,
+                                                           const ExpectedImage& expected) {
   std::shared_ptr<AravisStream> self(new AravisStream(losses, camera_index, connection, buffer_count),
                                      &AravisStream::destroy);
+  self->expected_ = expected;
   arv::GErrorSlot err;
   self->created_ns_ = host_now().ns;
   self->stream_.reset(arv_camera_create_stream(camera, &AravisStream::on_stream_event, self.get(), err.out()));
@@ -192,6 +194,14 @@ CameraFrame AravisStream::frame_of(ArvBuffer* buffer, HostNs arrival) {
   frame.host_ts = arrival;
   frame.aravis_system_ns = std::int64_t(arv_buffer_get_system_timestamp(buffer));
   const ArvBufferStatus status = arv_buffer_get_status(buffer);
+  if (status == ARV_BUFFER_STATUS_SUCCESS && !own_image(buffer)) {
+    frame.status = FrameStatus::Incomplete;
+    frame.identity = FrameIdentity::Foreign;
+    frame.detail = fmt::format("{}x{}_{:#x}", arv_buffer_get_image_width(buffer), arv_buffer_get_image_height(buffer),
+                               std::uint32_t(arv_buffer_get_image_pixel_format(buffer)));
+    give_back(buffer);
+    return frame;
+  }
   if (status == ARV_BUFFER_STATUS_SUCCESS) {
     frame.status = FrameStatus::Good;
     frame.pixel_format = arv_buffer_get_image_pixel_format(buffer);
@@ -229,6 +239,14 @@ CameraFrame AravisStream::frame_of(ArvBuffer* buffer, HostNs arrival) {
   }
   give_back(buffer);
   return frame;
+}
+
+bool AravisStream::own_image(ArvBuffer* buffer) const {
+  if (expected_.width <= 0) return true;
+  return arv_buffer_get_image_width(buffer) == expected_.width &&
+         arv_buffer_get_image_height(buffer) == expected_.height &&
+         (expected_.pixel_format == 0 ||
+          std::uint32_t(arv_buffer_get_image_pixel_format(buffer)) == expected_.pixel_format);
 }
 
 StreamCounters AravisStream::counters() const {

@@ -33,13 +33,25 @@
 
 namespace pvcap {
 
+// What the camera was configured to send: a complete frame of another size or pixel format is not its
+// own (0: not checked).
+struct ExpectedImage {
+  int width = 0, height = 0;
+  std::uint32_t pixel_format = 0;  // PFNC
+};
+
 class AravisStream : public std::enable_shared_from_this<AravisStream> {
  public:
   // Creates the stream on `camera` with `buffer_count` buffers of `payload` bytes. Frames are
   // stamped with `camera_index` and `connection`; frames lost, with their reason, go to `losses`.
+  // A complete frame that is not `expected` is handed over as incomplete and FrameIdentity::Foreign
+  // (detail: its size and format), its pixels never (a runtime guard: another camera's packets reaching this stream, by
+  // a packet socket before its filter or a camera sending to the wrong port, would otherwise be stored as this camera's
+  // picture).
   static Result<std::shared_ptr<AravisStream>> create(ArvCamera* camera, int camera_index, std::uint32_t connection,
                                                       std::size_t payload, std::size_t buffer_count, bool packet_resend,
-                                                      int socket_buffer_bytes, BoundedQueue<FrameLoss>& losses);
+                                                      int socket_buffer_bytes, BoundedQueue<FrameLoss>& losses,
+                                                      const ExpectedImage& expected = {});
   ~AravisStream();
   AravisStream(const AravisStream&) = delete;
   AravisStream& operator=(const AravisStream&) = delete;
@@ -85,12 +97,14 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   // The arrival of the fill just taken (arrival_slot.h); a buffer without a slot has none: now, late.
   ArrivalSlot::Arrival arrival_of(ArvBuffer* buffer);
   void give_back(ArvBuffer* buffer);
+  bool own_image(ArvBuffer* buffer) const;  // its size and pixel format are what the camera was set to send
   CameraFrame frame_of(ArvBuffer* buffer, HostNs arrival);
 
   arv::GPtr<ArvStream> stream_;
   BoundedQueue<FrameLoss>& losses_;
   const int camera_index_;
   const std::uint32_t connection_;
+  ExpectedImage expected_;
   std::atomic<bool> accepting_{false};  // from accept_from_now() until quiesce()
   std::atomic<bool> quiesced_{false};
   std::atomic<bool> device_unreachable_{false};

@@ -24,6 +24,7 @@ enum class FrameIdentity : std::uint8_t {
   NoFrameId = 1,      // no leader packet: no id, no timestamp (GigE Vision never sends id 0)
   Duplicate = 2,      // a complete frame with an id already received
   StaleMetadata = 3,  // incomplete, carrying its buffer's previous frame's id and timestamp
+  Foreign = 4,        // another camera's frame (not the size or pixel format this one sends): not in its sequence
 };
 
 // Returns a borrowed buffer to its pool when destroyed. Move-only. Built on the capture thread

@@ -15,6 +15,7 @@ void FrameSequencer::identify(CameraFrame& frame) {
   std::lock_guard lock(mu_);
   frame.sequence = 0;
   frame.lost_before = 0;
+  if (frame.identity == FrameIdentity::Foreign) return;  // its id is of another camera's sequence
   if (frame.frame_id == 0) {
     // GigE Vision never sends id 0: the buffer got no leader packet, so it has no identity. The
     // frame it was is counted in a gap.

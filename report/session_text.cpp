@@ -39,11 +39,13 @@ Result<std::string> session_text(const std::filesystem::path& dir, std::optional
     if (s.kind == "camera") {
       // Buffers without their own identity are recorded, not counted: the frames they were are
       // in the drops (not received).
-      std::uint64_t unidentified = 0, duplicates = 0;
+      std::uint64_t unidentified = 0, duplicates = 0, foreign = 0;
       for (const auto& [why, n] : s.not_kept) {
         if (starts_with(why, "no_frame_id_") || starts_with(why, "stale_metadata_")) unidentified += n;
         if (why == "duplicate_frame_id") duplicates += n;
+        if (starts_with(why, "foreign_frame_")) foreign += n;  // another camera's: not this one's at all
       }
+      unidentified += foreign;
       std::uint64_t not_good = 0;
       for (const auto& [status, n] : s.by_status)
         if (status != "good") not_good += n;
@@ -57,11 +59,16 @@ Result<std::string> session_text(const std::filesystem::path& dir, std::optional
       fmt::format_to(out, "{:<8} {:>9} {:>9} {:>9} {:>11} {:>12} {:>12} {:>11} {:>9}\n", s.name, s.frames, good,
                      s.in_video, incomplete, s.dropped - pvcap_behind, pvcap_behind, behind, s.connection_losses);
       any_loss |= incomplete + s.dropped + behind + s.connection_losses > 0;
-      if (unidentified + duplicates)
+      if (unidentified + duplicates > foreign)
         notes += fmt::format(
             "{}: {} buffers arrived without their own frame id (reasons no_frame_id_*, "
             "stale_metadata_*, duplicate_frame_id); the frames they were are counted as not received\n",
-            s.name, unidentified + duplicates);
+            s.name, unidentified + duplicates - foreign);
+      if (foreign)
+        notes += fmt::format(
+            "{}: {} frames of another camera (another size or pixel format) reached its stream and were refused "
+            "(reason foreign_frame_*)\n",
+            s.name, foreign);
     } else {
       notes += fmt::format("{:<8} {:>9} frames stored, {} missing by its counter, {} connection losses\n", s.name,
                            s.frames, s.dropped, s.connection_losses);

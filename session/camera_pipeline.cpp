@@ -219,9 +219,11 @@ class CameraWorker {
       // never used, with sequence 0 (unknown). The id it carries (kept in frame_id) is another
       // frame's, and a second row under that frame's key would stand beside it in every join.
       p_.tally.unidentified.fetch_add(1, std::memory_order_relaxed);
+      if (frame.identity == FrameIdentity::Foreign) p_.tally.foreign.fetch_add(1, std::memory_order_relaxed);
       rec.sequence = 0;
       rec.reason = frame.identity == FrameIdentity::NoFrameId   ? "no_frame_id_" + frame.detail
                    : frame.identity == FrameIdentity::Duplicate ? std::string("duplicate_frame_id")
+                   : frame.identity == FrameIdentity::Foreign   ? "foreign_frame_" + frame.detail
                                                                 : "stale_metadata_" + frame.detail;
     } else if (frame.status != FrameStatus::Good) {
       p_.tally.incomplete.fetch_add(1, std::memory_order_relaxed);

@@ -22,6 +22,7 @@ struct CameraTally {
   std::atomic<std::uint64_t> received{0}, good{0}, incomplete{0}, not_received{0}, encoder_behind{0}, lost_events{0};
   std::atomic<std::uint64_t> buffer_underrun{0};  // frames sent while the stream had no free buffer
   std::atomic<std::uint64_t> unidentified{0};     // buffers without their own id/timestamp, or duplicate ids
+  std::atomic<std::uint64_t> foreign{0};          // another camera's frames its stream received (refused)
   std::atomic<std::uint64_t> arrivals_late{0};    // frames whose arrival is their take (CameraFrame::arrival_late)
   std::atomic<std::int64_t> last_good_host_ns{0};
 };

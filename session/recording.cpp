@@ -106,6 +106,7 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
   r->warned_encoder_.assign(n, false);
   r->warned_spill_.assign(n, false);
   r->warned_behind_.assign(n, false);
+  r->warned_foreign_.assign(n, false);
   Recording* self = r.get();
   for (std::size_t i = 0; i < n; ++i) {
     r->tallies_.push_back(std::make_unique<CameraTally>());
@@ -348,6 +349,14 @@ std::string Recording::wait(const std::atomic<bool>& interrupt, std::optional<do
                         "frame_rate or the resolution in the rig file; raising the camera's buffer_count rides out "
                         "short stalls",
                         rig_.cameras[i].name, behind, behind == 1 ? "" : "s", behind == 1 ? "it" : "them"));
+      }
+      // Another camera's frames reached this camera's stream: refused, never stored as its pictures.
+      if (const auto foreign = tallies_[i]->foreign.load(); !warned_foreign_[i] && foreign > 0) {
+        warned_foreign_[i] = true;
+        warn(fmt::format("{}: {} frame{} of another camera (not the size or pixel format it sends) reached its stream "
+                         "and {} refused, not stored as its pictures (frames rows, reason foreign_frame_...): check "
+                         "that no other program streams a camera to this PC's ports",
+                         rig_.cameras[i].name, foreign, foreign == 1 ? "" : "s", foreign == 1 ? "was" : "were"));
       }
       if (!warned_encoder_[i] && tallies_[i]->encoder_behind.load() > 0) {
         warned_encoder_[i] = true;

@@ -139,7 +139,7 @@ class Recording {
   std::atomic<int> state_{0};  // index into kStates
   std::string stop_reason_;
   std::optional<std::string> start_failure_;
-  std::vector<bool> warned_encoder_, warned_spill_, warned_behind_;
+  std::vector<bool> warned_encoder_, warned_spill_, warned_behind_, warned_foreign_;
   bool warned_sensel_behind_ = false, warned_index_ = false, warned_index_behind_ = false;
 
   mutable std::mutex mu_;  // what follows

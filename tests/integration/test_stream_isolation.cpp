@@ -18,6 +18,7 @@
 #include "capture/aravis_camera.h"
 #include "capture/aravis_handles.h"
 #include "capture/aravis_stream.h"
+#include "capture/pixel_format.h"
 #include "core/bounded_queue.h"
 #include "core/rig_config.h"
 #include "session_under_test.h"
@@ -85,4 +86,77 @@ TEST(StreamIsolation, AStreamMadeWhileAnotherCameraStreamsReceivesNoneOfItsFrame
   std::printf("30 streams made while another camera streamed at 100 Hz: %zu frames delivered to them\n", delivered);
   EXPECT_EQ(delivered, 0u) << "a stream delivered frames of a camera that was not acquiring:" << what;
   sim.value().reset();  // stopped before its folder goes
+}
+
+// The runtime guard behind the settling: a stream that receives another camera's packet flow (here
+// cam0 told to send to cam1's stream port, which cam1's stream takes on a plain UDP socket from any
+// source) refuses every complete frame that is not the size and pixel format its camera sends,
+// as Foreign, with none of its pixels; without the guard the same flow is assembled as cam1's own.
+TEST(StreamIsolation, AStreamRefusesAnotherCamerasFramesByTheirSizeAndFormat) {
+  const std::vector<std::string> addresses{"127.0.0.2", "127.0.0.3"};
+  if (!sim::addresses_present(addresses)) {
+    ASSERT_TRUE(sim::enter_private_network(addresses).ok());
+  }
+  const fs::path work = pvcap::testing::work_dir("stream-foreign");
+  std::ofstream(work / "rig.yaml") << pvcap::testing::sim_rig_yaml({{}, {}}, 320, 240, 60, 15);
+  const RigConfig rig = load_rig_config(work / "rig.yaml");
+  auto sim = sim::SimProcess::start(PVCAP_BIN, work / "rig.yaml", work / "truth", /*steerable=*/false);
+  ASSERT_TRUE(sim) << sim.error().message;
+  auto connect = [](const std::string& address) {
+    arv::GPtr<ArvCamera> c;
+    for (int t = 0; t < 50 && !c; ++t) {
+      c.reset(arv_camera_new(address.c_str(), nullptr));
+      if (!c) std::this_thread::sleep_for(100ms);
+    }
+    return c;
+  };
+  arv::GPtr<ArvCamera> sender = connect(rig.cameras[0].address), receiver = connect(rig.cameras[1].address);
+  ASSERT_TRUE(sender && receiver);
+  arv_camera_set_region(sender.get(), 0, 0, 320, 240, nullptr);  // cam0 sends 320 x 240
+  arv_camera_set_region(receiver.get(), 0, 0, 160, 120, nullptr);  // cam1 would send 160 x 120
+  arv_camera_set_pixel_format_from_string(receiver.get(), "BayerRG8", nullptr);
+  ArvDevice* receiving = arv_camera_get_device(receiver.get());
+  arv_gv_device_set_stream_options(ARV_GV_DEVICE(receiving), ARV_GV_STREAM_OPTION_PACKET_SOCKET_DISABLED);
+  const auto payload = std::size_t(arv_camera_get_payload(sender.get(), nullptr));  // room for the foreign frame
+
+  auto frames_through = [&](const ExpectedImage& expected, std::size_t& good, std::size_t& foreign) {
+    BoundedQueue<FrameLoss> losses(1000);
+    auto stream = AravisStream::create(receiver.get(), 1, 0, payload, 8, false, 0, losses, expected);
+    ASSERT_TRUE(stream) << stream.error().message;
+    stream.value()->accept_from_now();
+    // cam0 sends to where cam1's stream listens (the stream channel's bootstrap registers).
+    constexpr guint64 kPort = 0x0D00, kAddress = 0x0D18;
+    guint32 port = 0, address = 0;
+    ASSERT_TRUE(arv_device_read_register(receiving, kAddress, &address, nullptr));
+    ASSERT_TRUE(arv_device_read_register(receiving, kPort, &port, nullptr));
+    ArvDevice* sending = arv_camera_get_device(sender.get());
+    ASSERT_TRUE(arv_device_write_register(sending, kAddress, address, nullptr));
+    ASSERT_TRUE(arv_device_write_register(sending, kPort, port, nullptr));
+    arv_camera_start_acquisition(sender.get(), nullptr);
+    for (auto until = std::chrono::steady_clock::now() + 700ms; std::chrono::steady_clock::now() < until;)
+      while (auto f = stream.value()->take_frame(20ms)) {
+        if (f->identity == FrameIdentity::Foreign) {
+          ++foreign;
+          EXPECT_NE(f->status, FrameStatus::Good);
+          EXPECT_EQ(f->data, nullptr) << "a refused frame's pixels are never handed over";
+        } else if (f->status == FrameStatus::Good) {
+          ++good;
+        }
+      }
+    arv_camera_stop_acquisition(sender.get(), nullptr);
+    std::this_thread::sleep_for(100ms);
+  };
+  std::size_t good = 0, foreign = 0;
+  frames_through({}, good, foreign);  // unguarded: the hazard is real
+  std::printf("another camera's flow into a stream: unguarded %zu taken as its own;", good);
+  EXPECT_GT(good, 5u) << "the foreign flow did not reach the stream: the test shows nothing";
+  EXPECT_EQ(foreign, 0u);
+  good = foreign = 0;
+  frames_through({160, 120, pixel_format_code("BayerRG8")}, good, foreign);
+  std::printf(" guarded %zu refused, %zu taken\n", foreign, good);
+  EXPECT_GT(foreign, 5u);
+  EXPECT_EQ(good, 0u) << "another camera's frame was taken as this camera's";
+  sender.reset();
+  receiver.reset();
+  sim.value().reset();
 }
