@@ -1,5 +1,6 @@
 #include "app/cmd_session.h"
 
+#include <thread>
 #include <unistd.h>
 
 #include <cctype>
@@ -115,7 +116,7 @@ int run_session_command(const SessionArgs& a, AppContext& ctx) {
         "that session recorded)");
   const RigConfig rig = a.rig_path.empty() ? rig_of_resumed_session(a.resume) : load_rig_config(a.rig_path);
   console::SessionSetup setup = setup_from(a, rig);
-  return report_recorded_session(record_session(rig, setup, ctx));
+  return report_recorded_session(record_session(rig, setup, ctx), ctx.faults.report_stall_s);
 }
 
 }  // namespace
@@ -148,7 +149,7 @@ console::SessionOutcome record_session(const RigConfig& rig, console::SessionSet
   return outcome;
 }
 
-int report_recorded_session(const console::SessionOutcome& outcome) {
+int report_recorded_session(const console::SessionOutcome& outcome, double report_stall_s) {
   const auto& rec = outcome.recording;
   if (rec.dir.empty()) return rec.exit_code;
   // The report the operator reads, from what the store holds (also kept as report.txt).
@@ -171,6 +172,9 @@ int report_recorded_session(const console::SessionOutcome& outcome) {
     }
   }
   std::ofstream(rec.dir / "report.txt") << report;
+  spdlog::info("report: writing report.html");
+  if (report_stall_s > 0)  // a test's fault (core/fault_injection.h): the report held open
+    std::this_thread::sleep_for(std::chrono::duration<double>(report_stall_s));
   write_session_report(rec.dir);
   return rec.exit_code;
 }

@@ -15,6 +15,6 @@ console::SessionOutcome record_session(const RigConfig& rig, console::SessionSet
 
 // The end of any recording command: the text report (with a protocol session's takes) into
 // report.txt and on the console, and report.html. Returns the recording's exit code.
-int report_recorded_session(const console::SessionOutcome& outcome);
+int report_recorded_session(const console::SessionOutcome& outcome, double report_stall_s = 0);
 
 }  // namespace pvcap

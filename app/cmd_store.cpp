@@ -1,5 +1,6 @@
 // The store's own tools: `pvcap takes`, `pvcap verify`, `pvcap recover`, `pvcap migrate`,
 // `pvcap compact`.
+#include <thread>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -50,14 +51,22 @@ Registered add_verify_command(CLI::App& app, AppContext&) {
           }};
 }
 
-Registered add_recover_command(CLI::App& app, AppContext&) {
+Registered add_recover_command(CLI::App& app, AppContext& ctx) {
   auto dir = std::make_shared<std::string>();
   auto* r = app.add_subcommand("recover",
                                "make a session interrupted by a crash or kill readable (closes its videos, "
                                "marks what was lost; never deletes anything)");
   r->add_option("SESSION", *dir, "the session folder")->required()->check(CLI::ExistingDirectory);
-  return {r, [dir] {
-            auto done = recover_and_realign(*dir, log_step);
+  return {r, [dir, &ctx] {
+            bool stalled = false;
+            auto step = [&](const std::string& line) {
+              log_step(line);
+              if (stalled || ctx.faults.recover_stall_s <= 0) return;
+              stalled = true;  // a test's fault (core/fault_injection.h): recover held open after its first step
+              spdlog::info("recover: paused by the test fault recover.stall_s");
+              std::this_thread::sleep_for(std::chrono::duration<double>(ctx.faults.recover_stall_s));
+            };
+            auto done = recover_and_realign(*dir, step);
             if (!done) {
               spdlog::error("{}", done.error().message);
               return 1;

@@ -20,6 +20,11 @@
 //   index_writer.overflow_memory_records  beyond the queue, this many wait in memory, then on disk
 //   encoder.frame_delay_ms         every camera's encoder waits this long before each frame (an
 //                                  encoder slower than its camera, whatever the machine)
+//   realign.stall_s                the end-of-session re-mapping waits this long between its steps
+//                                  (the frames re-mapped and committed, the samples not yet re-paired)
+//   report.stall_s                 the session's report.html waits this long once begun
+//   recover.stall_s                `pvcap recover` waits this long after its first step
+// (The last three hold a phase open long enough for a kill to land in it, which a test then proves.)
 #include <chrono>
 #include <cstddef>
 #include <optional>
@@ -42,6 +47,7 @@ struct FaultPlan {
   std::optional<Stall> index_writer_stall;
   std::optional<std::size_t> sensel_queue_frames, index_queue_records, index_overflow_memory_records;
   std::chrono::milliseconds encoder_frame_delay{0};
+  double realign_stall_s = 0, report_stall_s = 0, recover_stall_s = 0;
   std::string spec;  // as given, for the warning and the log
   bool empty() const { return spec.empty(); }
 };

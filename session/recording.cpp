@@ -548,11 +548,11 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   // At close: every frame re-mapped with its stream's final clock fit, every sample re-paired,
   // from the fits the store holds (each stream's final one written now), in committed steps.
   timeline_->final_snapshots();
-  writer.set_finalizer([max_offset_ns = pressure_max_offset_ns_,
-                        limit = sync::Grouper::limit_for(grouping_rate_hz(rig_))](SessionIndex& index) {
+  writer.set_finalizer([max_offset_ns = pressure_max_offset_ns_, limit = sync::Grouper::limit_for(grouping_rate_hz(rig_)),
+                        stall_s = options_.faults.realign_stall_s](SessionIndex& index) {
     spdlog::info("timeline: re-mapping every frame with the final clock fits");
-    const auto r =
-        realign(index, {max_offset_ns, 2000, [](const std::string& line) { spdlog::info("{}", line); }, limit});
+    const auto r = realign(
+        index, {max_offset_ns, 2000, [](const std::string& line) { spdlog::info("{}", line); }, limit, stall_s});
     spdlog::info("timeline: {} samples re-paired with the final clock fits in {:.1f} s", r.samples, r.seconds);
     if (const std::string warning = r.many_left_warning(); !warning.empty()) spdlog::warn("timeline: {}", warning);
   });

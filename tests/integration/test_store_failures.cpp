@@ -285,8 +285,10 @@ namespace {
 struct Phase {
   const char* name;
   const char* enters;  // the log line that starts the phase
+  const char* leaves;  // a log line written only once the phase is over
   double window_s;     // the kill lands uniformly within this long after it
-  bool slow_encoder;   // a drain needs frames waiting on disk at the stop
+  const char* faults;  // PVCAP_FAULTS for the session: a drain needs frames waiting on disk at the stop;
+                       // the re-mapping and the report are held open long enough to be hit
 };
 
 }  // namespace
@@ -295,50 +297,80 @@ struct Phase {
 // PVCAP_TEST_SEED repeats one): start-up, recording, the drain of waiting frames, the end's
 // re-mapping, the report, and `pvcap recover` itself. After any kill, recover and verify succeed,
 // and a second recover leaves every file byte-identical.
+// Each kill proves from the log where it landed: after the line that starts its phase and before
+// the one that ends it; a kill that missed (a phase shorter on this machine than its draw) is drawn
+// again, nearer the start, up to three times. Recover itself is killed after its first step.
 TEST(StoreCrash, KillNineAtEveryPhaseThenRecoverAndASecondRecoverChangesNothing) {
   const char* given = std::getenv("PVCAP_TEST_SEED");
   const unsigned seed = given ? unsigned(std::strtoul(given, nullptr, 10)) : std::random_device{}();
   std::printf("seed %u (PVCAP_TEST_SEED=%u repeats this run)\n", seed, seed);
   std::mt19937 rng(seed);
   const Phase phases[] = {
-      {"start-up", "pvcap sim: serving", 1.5, false},
-      {"recording", "recording session", 3.0, false},
-      {"drain", "encoding the frames still waiting", 1.0, true},
-      {"re-mapping", "re-mapping every frame with the final clock fits", 0.3, false},
-      {"report", "re-paired with the final clock fits", 0.3, false},
-      {"recover", "recording session", 2.0, false},  // killed while recording, then recover killed
+      {"start-up", "pvcap sim: serving", "recording session", 0.1, ""},  // 0.15-0.2 s here (320 x 240)
+      {"recording", "recording session", "re-mapping every frame with the final clock fits", 3.0, ""},
+      {"drain", "encoding the frames still waiting", "waiting frames encoded in", 1.0, "encoder.frame_delay_ms=80"},
+      {"re-mapping", "clock segments applied; re-pairing the samples", "re-paired with the final clock fits", 1.5,
+       "realign.stall_s=3"},
+      {"report", "report: writing report.html", "full report (plots", 1.5, "report.stall_s=3"},
+      {"recover", "recording session", "re-mapping every frame with the final clock fits", 2.0, ""},
   };
   for (const Phase& phase : phases) {
-    const double at_s = std::uniform_real_distribution<double>(0, phase.window_s)(rng);
+    double window_s = phase.window_s;
+    fs::path work, dir;
+    double at_s = 0;
+    bool landed = false;
+    for (int attempt = 0; attempt < 3 && !landed; ++attempt, window_s /= 3) {
+      at_s = std::uniform_real_distribution<double>(0, window_s)(rng);
+      work = work_dir(fmt::format("phase-{}-{}", phase.name, attempt));
+      std::ofstream(work / "rig.yaml") << with_store(
+          sim_rig_yaml({{}, {}}, 320, 240, 30, std::string(phase.faults).rfind("encoder", 0) == 0 ? 0 : 15, "free-run",
+                       /*sensel=*/true),
+          "  segment_seconds: 2\n");
+      if (*phase.faults) setenv("PVCAP_FAULTS", phase.faults, 1);
+      const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 4 --no-web",
+                                                (work / "rig.yaml").string(), (work / "sessions").string()),
+                                    work / "log.txt");
+      unsetenv("PVCAP_FAULTS");
+      const bool entered = wait_for_text(work / "log.txt", phase.enters, 60s);
+      std::this_thread::sleep_for(std::chrono::duration<double>(at_s));
+      kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+      ASSERT_TRUE(entered) << "never reached: " << phase.enters << "\n" << read_all(work / "log.txt");
+      const std::string log = read_all(work / "log.txt");
+      landed = log.find(phase.leaves) == std::string::npos;
+      std::printf("%s: killed %.3f s after \"%s\": %s\n", phase.name, at_s, phase.enters,
+                  landed ? "in the phase" : "after it ended; drawn again");
+      dir = only_session(work / "sessions");
+      if (!landed) fs::remove_all(work);
+    }
     SCOPED_TRACE(fmt::format("killed in {} at {:.3f} s (seed {})", phase.name, at_s, seed));
-    const fs::path work = work_dir(fmt::format("phase-{}", phase.name));
-    std::ofstream(work / "rig.yaml") << with_store(
-        sim_rig_yaml({{}, {}}, 320, 240, 30, phase.slow_encoder ? 0 : 15, "free-run", /*sensel=*/true),
-        "  segment_seconds: 2\n");
-    if (phase.slow_encoder) setenv("PVCAP_FAULTS", "encoder.frame_delay_ms=80", 1);
-    const pid_t pid = spawn_pvcap(fmt::format("session --rig {} --root {} --duration 4 --no-web",
-                                              (work / "rig.yaml").string(), (work / "sessions").string()),
-                                  work / "log.txt");
-    unsetenv("PVCAP_FAULTS");
-    const bool entered = wait_for_text(work / "log.txt", phase.enters, 60s);
-    std::this_thread::sleep_for(std::chrono::duration<double>(at_s));
-    kill(pid, SIGKILL);
-    int status = 0;
-    waitpid(pid, &status, 0);
-    ASSERT_TRUE(entered) << "never reached: " << phase.enters << "\n" << read_all(work / "log.txt");
-    const fs::path dir = only_session(work / "sessions");
-    if (dir.empty()) {  // killed before the session folder was made: nothing to lose
-      std::printf("%s: killed at %.3f s, before the session folder existed\n", phase.name, at_s);
-      fs::remove_all(work);
-      continue;
+    ASSERT_TRUE(landed) << "three kills missed the phase " << phase.name;
+    if (std::string(phase.name) == "start-up") {
+      // Before recording: nothing to lose; a folder made already is an empty session recover closes.
+      EXPECT_TRUE(dir.empty() || !fs::exists(dir / "report.html"));
+      if (dir.empty()) {
+        fs::remove_all(work);
+        continue;
+      }
+    }
+    if (std::string(phase.name) == "report") {
+      EXPECT_FALSE(fs::exists(dir / "report.html")) << "the report was written: the kill was not in it";
     }
     if (std::string(phase.name) == "recover") {
+      // Recover killed while held open after its first step: its log proves it began and did not end.
+      setenv("PVCAP_FAULTS", "recover.stall_s=3", 1);
       const pid_t recovering = spawn_pvcap("--log-level info recover " + dir.string(), work / "recover-killed.txt");
+      unsetenv("PVCAP_FAULTS");
+      const bool paused = wait_for_text(work / "recover-killed.txt", "paused by the test fault recover.stall_s", 30s);
       std::this_thread::sleep_for(
-          std::chrono::duration<double>(std::uniform_real_distribution<double>(0.05, 0.6)(rng)));
+          std::chrono::duration<double>(std::uniform_real_distribution<double>(0.05, 1.0)(rng)));
       kill(recovering, SIGKILL);
       waitpid(recovering, nullptr, 0);
+      EXPECT_TRUE(paused) << read_all(work / "recover-killed.txt");
+      EXPECT_EQ(read_all(work / "recover-killed.txt").find("recovered:"), std::string::npos)
+          << "recover finished before its kill";
     }
+    ASSERT_FALSE(dir.empty()) << read_all(work / "log.txt");
     const auto recovered = run_pvcap("--log-level warn recover " + dir.string());
     EXPECT_EQ(recovered.exit_code, 0) << recovered.output;
     // A second recover changes nothing, file by file.
