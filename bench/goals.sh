@@ -10,7 +10,9 @@
 #   replay    `pvcap replay --out`, four 1080p views, x real time                          >= 3
 # Each bench's own lines are kept in the work folder's logs and repeated under the table.
 #
-#   bash bench/goals.sh [minutes=2]   (as root: the capture bench makes a network namespace)
+#   bash bench/goals.sh [--docs] [minutes=2]   (as root: the capture bench makes a network namespace)
+# With --docs the table, dated, with the commit and the machine, replaces docs/PERFORMANCE.md's
+# current figures (between its goals:begin and goals:end markers); the dated log keeps the past.
 # About 17 minutes for the default 2-minute session; everything it records is removed at the end
 # (PVCAP_BENCH_KEEP=1 keeps it).
 set -euo pipefail
@@ -20,6 +22,8 @@ pvcap=$here/build/app/pvcap
 for b in capture_bench store_bench export_bench; do
   [ -x "$here/build/bench/$b" ] || { echo "build first: bash scripts/build.sh (no build/bench/$b)" >&2; exit 1; }
 done
+docs=0
+if [ "${1:-}" = "--docs" ]; then docs=1; shift; fi
 minutes=${1:-2}
 bench_work_dir goals
 step() { echo "[$(date +%H:%M:%S)] $*" >&2; }
@@ -43,7 +47,7 @@ run replay bash "$here/bench/replay_bench.sh" "$session"
 step "pvcap compact on it"
 run compact "$pvcap" --log-level warn compact "$session"
 
-/usr/bin/python3 - "$work" <<'PY'
+/usr/bin/python3 - "$work" <<'PY' | tee "$work/table.txt"
 import re, sys
 work = sys.argv[1]
 def text(name):
@@ -85,3 +89,19 @@ for name, pattern in [("capture", r"cpu per 1080p frame.*"), ("store", r"pipelin
                       ("replay", r"replay --out --from-raw.*"), ("replay", r"ffmpeg command line.*raw videos.*")]:
     print("  " + re.search(pattern, text(name)).group(0))
 PY
+
+if [ "$docs" = 1 ]; then
+  /usr/bin/python3 - "$here/docs/PERFORMANCE.md" "$work/table.txt" \
+    "$(date -u +%Y-%m-%d) at $(git -C "$here" rev-parse --short HEAD) on $(nproc) cores" <<'PY'
+import sys
+doc, table, when = sys.argv[1], open(sys.argv[2]).read().rstrip("\n"), sys.argv[3]
+text = open(doc).read()
+begin, end = "<!-- goals:begin -->", "<!-- goals:end -->"
+if begin not in text or end not in text:
+    sys.exit(f"goals: {doc} has no {begin} ... {end} section to replace")
+block = f"{begin}\nPrinted by `bash bench/goals.sh --docs` on {when}:\n```\n{table}\n```\n{end}"
+head, rest = text.split(begin, 1)
+open(doc, "w").write(head + block + rest.split(end, 1)[1])
+print(f"goals: the table is now docs/PERFORMANCE.md's current figures")
+PY
+fi

@@ -6,7 +6,7 @@
 // whether every frame decodes alone (intra-only: the store's random access). For scale: the raw
 // store must keep 4 cameras x 15 Hz = 60 frames/s beside the capture on 2 cores; its default
 // (ffvhuff) is the first line; above the noisy table, the least any lossless coder can average on
-// those frames (the noise's entropy, bench::noise_bound_bytes). Figures in docs/PERFORMANCE.md.
+// those frames (the noise's entropy, bench::noise_bound_bytes). Figures in docs/performance-log.md.
 // Usage: lossless_bench [FRAMES=20] [NOISE_DN=2] [CANDIDATE_SUBSTRING]
 extern "C" {
 #include <libavcodec/avcodec.h>

@@ -2,7 +2,7 @@
 # The power-cut test with many more cut points than the suite's eight: one 30-s protocol session
 # recorded with its writes, syncs and name changes traced, then cut at POINTS moments drawn at
 # random (each rebuilt as a power cut would leave it, recovered, verified and read; see
-# tests/integration/test_power_cut.cpp). Prints one line per cut and the summary docs/PERFORMANCE.md
+# tests/integration/test_power_cut.cpp). Prints one line per cut and the summary docs/performance-log.md
 # quotes (cut points tried, lost at most, median); exits as the test did.
 #
 #   bash bench/power_cut.sh [POINTS] [SEED]    (default 60 points, a fresh seed, printed)

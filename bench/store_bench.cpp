@@ -1,5 +1,5 @@
 // Store benchmark, printed in one run for the default mode (raw: the sensor's mosaic, lossless) and
-// the lossy colour mode (figures in docs/PERFORMANCE.md):
+// the lossy colour mode (figures in docs/performance-log.md):
 //  1. pipeline fps, one 1080p camera: (debayer +) encode + index through SessionWriter, against the
 //     ffmpeg command line encoding the same frames with the same settings (ratio; goal >= 1);
 //  2. real-time factor for four 1080p cameras at 15 Hz (goal >= 1.5);

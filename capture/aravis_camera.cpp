@@ -142,14 +142,16 @@ Status AravisCamera::apply_features() {
     if (!s_.ok()) return s_; \
   } while (0)
 
+Status AravisCamera::setting(Status s, const std::string& what) const {
+  if (s.ok()) return s;
+  return Error{fmt::format("{}: setting {} failed: {}", label(), what, s.error().message)};
+}
+
 Status AravisCamera::set_features(AravisFeatures& f) {
   ArvCamera* cam = link_->camera.get();
   arv::GErrorSlot err;
-  auto set = [&](Status s, const std::string& what) -> Status {
-    if (s.ok()) return s;
-    return Error{fmt::format("{}: setting {} failed: {}", label(), what, s.error().message)};
-  };
-  if (f.has(CameraRole::AcquisitionMode) && check_entry(f, CameraRole::AcquisitionMode, "Continuous"))
+  auto set = [this](Status s, const std::string& what) { return setting(std::move(s), what); };
+  if (check_entry(f, CameraRole::AcquisitionMode, "Continuous"))
     PVCAP_TRY(set(f.set_entry(CameraRole::AcquisitionMode, "Continuous"), "the acquisition mode"));
   PVCAP_TRY(set(f.set_entry(CameraRole::PixelFormat, config_.pixel_format), "the pixel format"));
   // The offsets go to 0 first: a region is checked against the sensor with the offsets it has.
@@ -186,10 +188,7 @@ Status AravisCamera::set_features(AravisFeatures& f) {
 }
 
 Status AravisCamera::set_trigger_and_rate(AravisFeatures& f) {
-  auto set = [&](Status s, const std::string& what) -> Status {
-    if (s.ok()) return s;
-    return Error{fmt::format("{}: setting {} failed: {}", label(), what, s.error().message)};
-  };
+  auto set = [this](Status s, const std::string& what) { return setting(std::move(s), what); };
   // Every trigger off first (a camera another program left waiting for an acquisition-start
   // trigger sends nothing), then the frame-start trigger as the rig asks.
   const auto selectors = f.all_entries(CameraRole::TriggerSelector);
@@ -487,7 +486,7 @@ void AravisCamera::control_loop() {
   while (running_.load()) {
     {
       std::unique_lock lock(wake_mu_);
-      // While frames flow, two looks a second (each wake-up costs ~50 us of CPU here: docs/PERFORMANCE.md,
+      // While frames flow, two looks a second (each wake-up costs ~50 us of CPU here: docs/performance-log.md,
       // "Capture path"); once a camera is silent, or not connected, twenty, so a lost camera is named as
       // soon as the watchdog decides: a look at most 0.5 s after the last frame finds it silent (the
       // stall timeout is at least 0.5 s) and looks every 50 ms from then on. A stop and Aravis'
@@ -603,7 +602,7 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width
   // (the host's and the device's side) just before the command, so the bracket's two legs meet it
   // alike: without it the command met a path asleep since the last probe, the latch fell late in
   // its bracket, and the simulated cameras' mapped times were biased early by 0.01-0.105 ms
-  // (0.05 at most with it, in six runs; docs/PERFORMANCE.md, "Capture path").
+  // (0.05 at most with it, in six runs; docs/performance-log.md, "Capture path").
   const gint64 before = arv_device_get_integer_feature_value(dev, value.c_str(), err.out());
   if (err) return Probe::Failed;
   const HostNs lo = host_now();
@@ -629,7 +628,7 @@ AravisCamera::Probe AravisCamera::probe_clock(bool at_start, std::int64_t* width
 void AravisCamera::probe_loop() {
   // Four probes a second for a connection's first 20 (its clock model converges on them), then one a
   // second: each costs GVCP round trips and wake-ups on both sides, and a converged model gains little
-  // from more (docs/PERFORMANCE.md, "Capture path"). After a failure (a vanishing camera, a busy link)
+  // from more (docs/performance-log.md, "Capture path"). After a failure (a vanishing camera, a busy link)
   // a pause.
   constexpr int kFastProbes = 20;
   std::uint32_t connection = 0;

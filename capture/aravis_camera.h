@@ -137,6 +137,7 @@ class AravisCamera {
   Status connect_and_configure(std::uint32_t connection);
   Status apply_features();
   Status set_features(AravisFeatures& f);
+  Status setting(Status s, const std::string& what) const;  // a failed setting, named with this camera
   Status set_trigger_and_rate(AravisFeatures& f);
   Status read_back(const AravisFeatures& f, const NodeMapCheck& check);
   bool features_said_ = false;  // what the camera cannot do is warned of once, not at every reconnection

@@ -46,7 +46,7 @@ Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, in
     ArvBuffer* buffer = arv_buffer_new_full(payload, nullptr, &self->arrivals_[i], nullptr);
     // Touched now, before the camera acquires: the first write into a fresh buffer page-faults it
     // in, 2-7 ms for 2 MB on the project's VMs, and that would fall on the stream thread while it
-    // reassembles the first second's frames (docs/PERFORMANCE.md, "The first second").
+    // reassembles the first second's frames (docs/performance-log.md, "The first second").
     std::size_t size = 0;
     if (void* data = const_cast<void*>(arv_buffer_get_data(buffer, &size))) std::memset(data, 0, size);
     arv_stream_push_buffer(self->stream_.get(), buffer);

@@ -9,7 +9,7 @@
 // frames with `take_frame`: it builds the frame, gives it its sequence
 // (frame_sequencer.h) and reports settled losses. No signal, no second queue,
 // nothing else on the stream thread: the bare receive loop's path
-// (docs/PERFORMANCE.md, "Capture path"). Buffers go back to the pool when the
+// (docs/performance-log.md, "Capture path"). Buffers go back to the pool when the
 // consumer drops the frame's lease, from any thread. The object stays alive
 // while any lease is out (leases hold a shared_ptr), so a reconnection can
 // replace the stream while old frames are still being encoded.

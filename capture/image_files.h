@@ -2,7 +2,7 @@
 // The picture files pvcap writes: JPEG (export, report, the operator's page) and PNG (the pressure
 // image of the pages, the calibration board, a replay snapshot), straight through libjpeg-turbo and
 // libpng. Not OpenCV's imgcodecs: Debian builds it with GDAL, and loading it and the 115 libraries
-// it pulls in cost every pvcap process 0.15-0.25 s before main (docs/PERFORMANCE.md), on a command
+// it pulls in cost every pvcap process 0.15-0.25 s before main (docs/performance-log.md), on a command
 // run for each of a dataset's sessions and twice per recording (the recorder and its simulator).
 // The JPEG is libjpeg's baseline with 4:2:0 chroma at the given quality, as imencode writes it.
 #include <cstdint>

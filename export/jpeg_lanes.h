@@ -2,7 +2,7 @@
 // A sequence's JPEGs, written by lanes: one per core, each with a SessionReader of its own (a reader
 // is one thread's). Lane l decodes, crops, encodes, writes and hashes cameras l, l + L, ... sample
 // after sample, so every core stays busy (decoding on one thread while others encoded left a core
-// waiting: 1.9x the JPEG encoder alone, docs/PERFORMANCE.md). The caller follows the lanes sample by
+// waiting: 1.9x the JPEG encoder alone, docs/performance-log.md). The caller follows the lanes sample by
 // sample (wait_past) to write what goes with each sample and to show progress.
 #include <atomic>
 #include <condition_variable>

@@ -90,7 +90,7 @@ class CameraWorker {
   // The buffers the first second needs, written once before the camera starts: the first touch of a
   // fresh 2 MB buffer page-faults it in (2-7 ms on the project's VMs), and taken as frames came, that
   // fell on the first second, beside every camera's stream starting (on one VM 1-5 frames per camera
-  // were lost at the start; docs/PERFORMANCE.md, "The first second"). Enough copies for the frames
+  // were lost at the start; docs/performance-log.md, "The first second"). Enough copies for the frames
   // held while the timeline decides (about a quarter second) with room, and a few encoder images.
   void warm_up() {
     const CameraSettings s = p_.camera.settings();

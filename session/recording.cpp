@@ -364,7 +364,7 @@ std::string Recording::wait(const std::atomic<bool>& interrupt, std::optional<do
             fmt::format("{}: frames are being dropped (encoder_behind): neither the video encoder nor its spill to "
                         "disk keeps up. This PC has {} cores for {} camera{} (store.video_mode {}): lower "
                         "store.video_fps in the rig file, record to a faster disk, or on a PC with more cores "
-                        "(docs/PERFORMANCE.md, Store)",
+                        "(docs/performance-log.md, Store)",
                         rig_.cameras[i].name, std::thread::hardware_concurrency(), cameras_.size(),
                         cameras_.size() == 1 ? "" : "s", rig_.store.video_mode));
       }

@@ -2,7 +2,7 @@
 // A camera's view video: beside each lossless segment, a small colour copy of the same frames (at
 // most 640 x 360, H.264, the frames' own timestamps) in the session's views/ folder. Viewers that
 // show a camera at that size (the replay) read it instead of decoding the whole lossless picture,
-// which is most of a replay's work (docs/PERFORMANCE.md "Replay").
+// which is most of a replay's work (docs/performance-log.md "Replay").
 //
 // It is never the record: nothing is checked or exported from it, a frame missing from it (an
 // encoder that was behind, a cut recording) or a view video that cannot be read is read from the

@@ -88,7 +88,7 @@ void ClockModel::refit_probes() {
   // brackets disagree (width < 0), the same search finds the line that violates them least.
   // (Theil-Sen slopes over bracket midpoints came first: a load that lengthens the read-back
   // half of the brackets late in a session biases the midpoints, and an 8 s session's fit
-  // came out a millisecond off at its ends; docs/PERFORMANCE.md.)
+  // came out a millisecond off at its ends; docs/performance-log.md.)
   const double m = options_.max_skew;
   double a = -m, b = m;
   for (int i = 0; i < 80; ++i) {

@@ -14,7 +14,7 @@
 // then lowered onto the lowest bin minimum. (The convex-hull / LP estimate - the
 // hull edge at the mean device time - was tried first: when few arrivals reach the
 // minimum latency its edge can rest on two nearby vertices, and a simulated camera's
-// slope came out 45 ppm wrong; see docs/PERFORMANCE.md.) While the pairs span only a
+// slope came out 45 ppm wrong; see docs/performance-log.md.) While the pairs span only a
 // moment the slope means nothing, so the model assumes no drift until they span
 // `min_span_for_skew_ns`, and never believes more than `max_skew`.
 //

@@ -2,7 +2,7 @@
 // cameras with drifting, offset clocks and a Sensel whose USB delay has a long tail,
 // that loses frames and resets its clock; the store is then checked against the
 // simulator's truth. The accuracy bounds here leave room for ctest's load on 2 cores;
-// the targets are eval-sync's own (docs/PERFORMANCE.md).
+// the targets are eval-sync's own (docs/performance-log.md).
 #include <gtest/gtest.h>
 #include <unistd.h>
 

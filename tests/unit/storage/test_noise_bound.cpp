@@ -1,5 +1,5 @@
 // The least a lossless store can spend on a noisy frame (issue: performance, lossless bytes): the
-// entropy of the benches' sensor noise given the clean picture, which docs/PERFORMANCE.md gives
+// entropy of the benches' sensor noise given the clean picture, which docs/performance-log.md gives
 // as the floor under every lossless coder on the store bench's noisy mosaics.
 #include <gtest/gtest.h>
 
@@ -54,7 +54,7 @@ TEST(NoiseBound, EachSamplesEntropyIsWhatTheBenchesNoiseGives) {
 TEST(NoiseBound, TheStoreBenchsNoisyMosaicsHoldMoreThanThePerformanceIssuesGoal) {
   // Two frames of the store bench's camera 0 (its fingertip moves; the rest is the scene): what a
   // lossless coder must average on them, however it predicts. The performance issue asked for
-  // 0.75 MB per noisy 1080p frame; the densest coder measured reaches 0.93 (docs/PERFORMANCE.md).
+  // 0.75 MB per noisy 1080p frame; the densest coder measured reaches 0.93 (docs/performance-log.md).
   double bound = 0;
   for (const cv::Mat& clean : bench::make_mosaics(0, 2, 0)) {
     ASSERT_EQ(clean.total(), std::size_t(bench::kMosaicWidth) * bench::kMosaicHeight);
