@@ -1,6 +1,5 @@
 #include "session/realign.h"
 
-#include <thread>
 #include <algorithm>
 #include <climits>
 #include <map>
@@ -150,7 +149,6 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
   }
   std::sort(pressure.begin(), pressure.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
   say(fmt::format("re-mapping: {} clock segments applied; re-pairing the samples", result.segments));
-  if (o.stall_between_steps_s > 0) std::this_thread::sleep_for(std::chrono::duration<double>(o.stall_between_steps_s));
 
   // Step 2: every sample's instant and pairing, committed in steps; a group the final fits widen
   // beyond the grouping rule loses the frames outside it.

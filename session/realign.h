@@ -33,7 +33,6 @@ struct RealignOptions {
   // A group's span at most this: the live grouper's limit, half the fastest camera's period
   // (sync::Grouper::limit_for). 0: from the rig the session recorded.
   std::int64_t group_limit_ns = 0;
-  double stall_between_steps_s = 0;  // a test's fault (core/fault_injection.h: realign.stall_s)
 };
 
 struct RealignResult {

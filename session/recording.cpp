@@ -353,10 +353,11 @@ std::string Recording::wait(const std::atomic<bool>& interrupt, std::optional<do
       // Another camera's frames reached this camera's stream: refused, never stored as its pictures.
       if (const auto foreign = tallies_[i]->foreign.load(); !warned_foreign_[i] && foreign > 0) {
         warned_foreign_[i] = true;
-        warn(fmt::format("{}: {} frame{} of another camera (not the size or pixel format it sends) reached its stream "
-                         "and {} refused, not stored as its pictures (frames rows, reason foreign_frame_...): check "
-                         "that no other program streams a camera to this PC's ports",
-                         rig_.cameras[i].name, foreign, foreign == 1 ? "" : "s", foreign == 1 ? "was" : "were"));
+        warn(
+            fmt::format("{}: {} frame{} of another camera (not the size or pixel format it sends) reached its stream "
+                        "and {} refused, not stored as its pictures (frames rows, reason foreign_frame_...): check "
+                        "that no other program streams a camera to this PC's ports",
+                        rig_.cameras[i].name, foreign, foreign == 1 ? "" : "s", foreign == 1 ? "was" : "were"));
       }
       if (!warned_encoder_[i] && tallies_[i]->encoder_behind.load() > 0) {
         warned_encoder_[i] = true;
@@ -548,11 +549,17 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   // At close: every frame re-mapped with its stream's final clock fit, every sample re-paired,
   // from the fits the store holds (each stream's final one written now), in committed steps.
   timeline_->final_snapshots();
-  writer.set_finalizer([max_offset_ns = pressure_max_offset_ns_, limit = sync::Grouper::limit_for(grouping_rate_hz(rig_)),
+  writer.set_finalizer([max_offset_ns = pressure_max_offset_ns_,
+                        limit = sync::Grouper::limit_for(grouping_rate_hz(rig_)),
                         stall_s = options_.faults.realign_stall_s](SessionIndex& index) {
     spdlog::info("timeline: re-mapping every frame with the final clock fits");
-    const auto r = realign(
-        index, {max_offset_ns, 2000, [](const std::string& line) { spdlog::info("{}", line); }, limit, stall_s});
+    // Its steps said as they are committed; a test's fault (realign.stall_s) holds it open after the first.
+    auto step = [stall_s](const std::string& line) {
+      spdlog::info("{}", line);
+      if (stall_s > 0 && line.rfind("re-mapping:", 0) == 0)
+        std::this_thread::sleep_for(std::chrono::duration<double>(stall_s));
+    };
+    const auto r = realign(index, {max_offset_ns, 2000, step, limit});
     spdlog::info("timeline: {} samples re-paired with the final clock fits in {:.1f} s", r.samples, r.seconds);
     if (const std::string warning = r.many_left_warning(); !warning.empty()) spdlog::warn("timeline: {}", warning);
   });

@@ -61,8 +61,8 @@ Result<std::unique_ptr<ReplayCamera>> ReplayCamera::create(const CameraConfig& c
   self->log_ << "frame_id,device_ns,due_ns,sent_ns,entered_ns,image_ns\n";
   const std::string serial = camera.serial.empty() ? camera.name : camera.serial;
   const std::string genicam = fake_camera_genicam(NodeMapNaming::Aravis);
-  self->fake_.reset(arv_gv_fake_camera_new_full(camera.address.c_str(), serial.c_str(),
-                                                genicam.empty() ? nullptr : genicam.c_str()));
+  self->fake_.reset(
+      arv_gv_fake_camera_new_full(camera.address.c_str(), serial.c_str(), genicam.empty() ? nullptr : genicam.c_str()));
   if (!self->fake_ || !arv_gv_fake_camera_is_running(self->fake_.get()))
     return Error{
         fmt::format("{}: the fake camera could not listen on {} (the simulated rig runs in its own network "

@@ -65,8 +65,8 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
 
   const std::string serial = camera.serial.empty() ? fmt::format("PVSIM{}", index) : camera.serial;
   const std::string genicam = fake_camera_genicam(clock.node_map);
-  self->fake_.reset(arv_gv_fake_camera_new_full(camera.address.c_str(), serial.c_str(),
-                                                genicam.empty() ? nullptr : genicam.c_str()));
+  self->fake_.reset(
+      arv_gv_fake_camera_new_full(camera.address.c_str(), serial.c_str(), genicam.empty() ? nullptr : genicam.c_str()));
   if (!self->fake_ || !arv_gv_fake_camera_is_running(self->fake_.get()))
     return Error{
         fmt::format("{}: the fake camera could not listen on {} (is the address on an interface? the "
