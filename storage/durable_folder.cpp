@@ -154,6 +154,7 @@ Status DurableFolder::sync_changed() {
   ++counts_.rounds;
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   counts_.slowest_round_ms = std::max(counts_.slowest_round_ms, ms);
+  counts_.last_round_ms = ms;
   return failure;
 }
 

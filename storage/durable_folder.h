@@ -48,7 +48,7 @@ class DurableFolder {
 
   struct Counts {
     std::uint64_t rounds = 0, file_syncs = 0, folder_syncs = 0;
-    double slowest_round_ms = 0;
+    double slowest_round_ms = 0, last_round_ms = 0;
   };
   const Counts& counts() const { return counts_; }
 

@@ -387,8 +387,23 @@ void SessionWriter::keep_durable() {
       durable_->start_writeback();
     else if (Status s = durable_->sync_changed(); !s.ok())
       set_failure(s.error().message);
+    else
+      say_if_slow(durable_->counts());
     lock.lock();
   }
+}
+
+// A round of fsyncs longer than the interval stretches what a power cut can lose past the horizon
+// docs/store.md promises: an event in the store (the report lists it) and a warning, every time.
+void SessionWriter::say_if_slow(const DurableFolder::Counts& c) {
+  const double interval_ms = store_.sync_interval_s * 1000;
+  if (c.last_round_ms <= std::max(1000.0, interval_ms)) return;
+  const std::string message = fmt::format(
+      "an fsync round of the session's files took {:.2f} s, longer than store.sync_interval_s ({:g} s): a power cut "
+      "now could lose that much; the disk is too slow or too busy for the recording",
+      c.last_round_ms / 1000, store_.sync_interval_s);
+  spdlog::warn("{}: {}", dir_.string(), message);
+  record(EventRecord{host_now().ns, "fsync_slow", std::nullopt, message});
 }
 
 std::optional<std::string> SessionWriter::failure() const {

@@ -137,6 +137,7 @@ class SessionWriter {
   void set_failure(std::string message);
   void watch_free_space();
   void keep_durable();
+  void say_if_slow(const DurableFolder::Counts& counts);
   void release_reserve() const;  // idempotent; any thread
 
   std::filesystem::path dir_;

@@ -451,6 +451,29 @@ TEST(StoreIoErrors, EioAndShortWritesAndFailedFsyncsStopCleanlyNamingTheFile) {
   }
 }
 
+// A disk that stalls: one fsync of a video segment takes 1.5 s (tests/io_faults, slowMS), so that
+// round of the durability horizon takes longer than its second. It is an event in the store and a
+// warning, the session goes on and ends cleanly, and the report lists the event.
+TEST(StoreIoErrors, AnFsyncRoundOverASecondIsAnEventAndAWarning) {
+  const fs::path lib = PVCAP_IO_FAULTS_LIB;
+  const fs::path work = work_dir("fsync-slow");
+  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  const auto rec = run_pvcap(fmt::format("session --rig {} --root {} --duration 4 --no-web",
+                                         (work / "rig.yaml").string(), (work / "sessions").string()),
+                             fmt::format("env LD_PRELOAD={} PVCAP_IO_FAULT=segment:fsync:2:slow1500", lib.string()));
+  EXPECT_EQ(rec.exit_code, 0) << rec.output;
+  EXPECT_NE(rec.output.find("an fsync round of the session's files took 1."), std::string::npos) << rec.output;
+  const fs::path dir = only_session(work / "sessions");
+  ASSERT_FALSE(dir.empty()) << rec.output;
+  pvcap::sqlite::Database db(dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  auto q = db.prepare("SELECT count(*), min(message) FROM events WHERE kind = 'fsync_slow'");
+  ASSERT_TRUE(q.step());
+  EXPECT_EQ(q.column_int(0), 1) << "one slow round, one event";
+  EXPECT_NE(q.column_text(1).find("longer than store.sync_interval_s (1 s)"), std::string::npos) << q.column_text(1);
+  EXPECT_NE(read_all(dir / "report.html").find("fsync_slow"), std::string::npos) << "the report lists the event";
+  fs::remove_all(work);
+}
+
 namespace {
 int run(const std::string& command) { return std::system(command.c_str()); }
 }  // namespace

@@ -5,7 +5,8 @@
 //     kind  segment (*.mkv), index (session.db), wal (session.db-wal), spill (*.spill)
 //     op    write (write, pwrite, writev, pwritev) or fsync (fsync, fdatasync)
 //     n     the first call that fails (counted per process over files of that kind)
-//     what  eio (that call and every later one fail with EIO) or short (that one call writes half)
+//     what  eio (that call and every later one fail with EIO), short (that one call writes half) or
+//           slowMS (that one fsync takes MS milliseconds longer: a disk that stalls, e.g. slow1500)
 // Unset: every call goes straight to libc. Test instrument only: nothing of pvcap links it.
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -49,13 +50,19 @@ static int of_kind(int fd) {
   return 0;
 }
 
-// 0: pass the call on; 1: fail it with EIO; 2: write half of it.
+static long g_slow_ms;
+
+// 0: pass the call on; 1: fail it with EIO; 2: write half of it; 3: pass it on g_slow_ms late.
 static int decide(int fd, const char* op) {
   arm();
   if (g_armed != 1 || strcmp(g_op, op) != 0 || !of_kind(fd)) return 0;
   const long k = __atomic_add_fetch(&g_count, 1, __ATOMIC_SEQ_CST);
   if (k < g_n) return 0;
   if (strcmp(g_what, "short") == 0) return k == g_n ? 2 : 0;
+  if (strncmp(g_what, "slow", 4) == 0) {
+    g_slow_ms = atol(g_what + 4);
+    return k == g_n ? 3 : 0;
+  }
   return 1;
 }
 
@@ -126,9 +133,13 @@ ssize_t pwritev(int fd, const struct iovec* iov, int iovcnt, off_t offset) {
 
 // fsync and fdatasync fail alike.
 static int failing_sync(int fd, sync_fn real) {
-  if (decide(fd, "fsync") == 1) {
-    errno = EIO;
-    return -1;
+  switch (decide(fd, "fsync")) {
+    case 1:
+      errno = EIO;
+      return -1;
+    case 3:
+      usleep((useconds_t)(g_slow_ms * 1000));
+      break;
   }
   return real(fd);
 }
