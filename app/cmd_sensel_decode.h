@@ -1,9 +1,9 @@
 #pragma once
 // `pvcap sensel decode FILE`: prints what a Sensel wire dump (.json / .jsonl) holds
-// (capture/sensel_capture_file.h decodes it); the process fails when any frame does.
+// (codec/sensel_capture_file.h decodes it); the process fails when any frame does.
 #include <filesystem>
 
-#include "capture/sensel_capture_file.h"
+#include "codec/sensel_capture_file.h"
 
 namespace pvcap {
 

@@ -25,7 +25,7 @@
 
 #include "calib/board_views_file.h"
 #include "calib/charuco.h"
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 #include "core/side_by_side.h"
 #include "sim/board_frames.h"
 #include "sim/board_motion.h"

@@ -14,7 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/pad_calibration.h"
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 #include "sim/camera_views.h"
 #include "sim/scene.h"
 

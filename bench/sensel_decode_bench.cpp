@@ -5,9 +5,9 @@
 
 #include <filesystem>
 
-#include "capture/sensel_capture_file.h"
-#include "capture/sensel_frame.h"
-#include "capture/sensel_units.h"
+#include "codec/sensel_capture_file.h"
+#include "codec/sensel_frame.h"
+#include "codec/sensel_units.h"
 
 namespace {
 

@@ -25,7 +25,7 @@
 #include <opencv2/core.hpp>
 
 #include "bench/bench_mosaics.h"
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 #include "core/frame_pool.h"
 #include "core/rig_config.h"
 #include "core/time.h"

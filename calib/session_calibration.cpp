@@ -18,7 +18,7 @@
 #include "calib/pad_calibration.h"
 #include "calib/press_check.h"
 #include "calib/rig_calibration.h"
-#include "capture/image_files.h"
+#include "codec/image_files.h"
 #include "core/result.h"
 #include "core/side_by_side.h"
 #include "storage/session_index.h"

@@ -6,7 +6,7 @@
 #include "capture/camera_watchdog.h"
 #include "capture/genicam_features.h"
 #include "capture/gvcp_ping.h"
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 #include "core/thread_name.h"
 
 #include <algorithm>

@@ -17,8 +17,8 @@
 #include <string>
 #include <thread>
 
-#include "capture/sensel_frame.h"
-#include "capture/sensel_protocol.h"
+#include "codec/sensel_frame.h"
+#include "codec/sensel_protocol.h"
 #include "capture/sensel_transport.h"
 #include "core/bounded_queue.h"
 #include "core/result.h"

@@ -22,7 +22,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "capture/sensel_units.h"
+#include "codec/sensel_units.h"
 #include "console/web_assets.h"
 #include "console/web_images.h"
 #include "console/web_status.h"

@@ -5,8 +5,8 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "capture/image_files.h"
-#include "capture/sensel_units.h"
+#include "codec/image_files.h"
+#include "codec/sensel_units.h"
 
 namespace pvcap::console {
 

@@ -4,7 +4,7 @@
 
 #include <fmt/format.h>
 
-#include "capture/sensel_units.h"
+#include "codec/sensel_units.h"
 
 namespace pvcap::console {
 

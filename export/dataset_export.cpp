@@ -17,7 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/projection.h"
-#include "capture/sensel_units.h"
+#include "codec/sensel_units.h"
 #include "export/jpeg_lanes.h"
 #include "export/numpy_files.h"
 #include "export/pv_geometry.h"

@@ -6,7 +6,7 @@
 #include <fmt/format.h>
 
 #include "calib/projection.h"
-#include "capture/image_files.h"
+#include "codec/image_files.h"
 #include "export/sha256.h"
 #include "storage/durable_folder.h"
 

@@ -12,7 +12,7 @@
 
 namespace pvcap::protocol {
 
-// One pressure frame of the take, summarised (capture/sensel_units.h: summarize_pressure).
+// One pressure frame of the take, summarised (codec/sensel_units.h: summarize_pressure).
 struct ForcePoint {
   std::int64_t t_ns = 0;  // session clock
   double newtons = 0;

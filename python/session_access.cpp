@@ -5,7 +5,7 @@
 #include <fmt/format.h>
 
 #include "calib/projection.h"
-#include "capture/sensel_units.h"
+#include "codec/sensel_units.h"
 #include "calib/recorded_calibration.h"
 
 namespace pvcap::python {

@@ -6,7 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/pad_layout.h"
-#include "capture/sensel_units.h"
+#include "codec/sensel_units.h"
 #include "protocol/takes.h"
 #include "calib/recorded_calibration.h"
 

@@ -6,7 +6,7 @@
 #include <opencv2/highgui.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "capture/image_files.h"
+#include "codec/image_files.h"
 #include "core/time.h"
 #include "replay/replay_composer.h"
 #include "replay/replay_player.h"

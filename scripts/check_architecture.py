@@ -4,6 +4,8 @@
 - Below app/, no folder includes the simulator: `#include "sim/..."` only in sim/, app/, tests/, bench/
   (python/, the Python module, is beside app/: it reads stores and never includes the simulator).
 - No SQL statement outside storage/ (tests and bench aside).
+- The offline readers (storage, calib, protocol, report, export, dataset, replay, python) include nothing
+  from capture/, the drivers: what a frame's bytes mean is codec/'s.
 - The include graph between folders has no cycle and is at most 7 levels deep.
 - No function of the product is longer than 120 lines.
 - No module below app/ reads the environment (settings and test faults come down as values).
@@ -19,10 +21,11 @@ import re
 import sys
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-PRODUCT = ["core", "capture", "sync", "calib", "storage", "session", "protocol", "console", "report", "export",
+PRODUCT = ["core", "codec", "capture", "sync", "calib", "storage", "session", "protocol", "console", "report", "export",
            "dataset", "replay", "sim", "app", "python"]
 NOT_PRODUCT = {"tests", "bench", "build", "scripts", "docs", "rig-configs", ".git"}
 MAX_DEPTH = 7
+OFFLINE_FOLDERS = ["storage", "calib", "protocol", "report", "export", "dataset", "replay", "python"]
 MAX_FUNCTION_LINES = 120
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([a-z_]+)/[^"]+"', re.M)
 # A statement of SQL: a string literal that starts with a statement keyword and names a table.
@@ -210,6 +213,11 @@ def main():
             for n, line in enumerate(read(path).split("\n"), 1):
                 if SQL.search(line):
                     problems.append(f"{os.path.relpath(path, ROOT)}:{n}: an SQL statement outside storage/")
+    for folder in OFFLINE_FOLDERS:
+        for path in sources(folder):
+            if re.search(r'#\s*include\s+"capture/', read(path)):
+                problems.append(f"{os.path.relpath(path, ROOT)}: an offline reader includes the drivers (capture/); "
+                                f"what a frame's bytes mean is in codec/")
     graph = folder_graph()
     d = depths(graph)
     if "cycle" in d:
@@ -232,7 +240,8 @@ def main():
         print(f"{len(problems)} problem{'s' if len(problems) != 1 else ''} with the architecture's rules "
               f"(docs/architecture.md)")
         return 1
-    print("architecture: no simulator below app/, no SQL outside storage/, no folder cycle, at most "
+    print("architecture: no simulator below app/, no SQL outside storage/, no driver in an offline reader, "
+          "no folder cycle, at most "
           f"{max(d.values())} levels, no function over {MAX_FUNCTION_LINES} lines")
     return 0
 

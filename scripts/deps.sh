@@ -9,7 +9,7 @@ packages=(
   libaravis-dev aravis-tools            # GigE Vision cameras (and the fake-camera engine for the sim)
   libusb-1.0-0-dev                      # Sensel Morph over USB
   libopencv-dev libopencv-contrib-dev   # debayer, scene rendering, ArUco, homographies
-  libjpeg62-turbo-dev libpng-dev        # the JPEG and PNG files pvcap writes (capture/image_files.h)
+  libjpeg62-turbo-dev libpng-dev        # the JPEG and PNG files pvcap writes (codec/image_files.h)
   libavcodec-dev libavformat-dev libavutil-dev libswscale-dev ffmpeg
   libsqlite3-dev sqlite3 zlib1g-dev     # the session index; pressure counts compressed with zlib
   libspdlog-dev libfmt-dev libcli11-dev libyaml-cpp-dev nlohmann-json3-dev

@@ -10,7 +10,7 @@
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 #include "core/frame_pool.h"
 #include "core/thread_name.h"
 #include "core/time.h"

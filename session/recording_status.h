@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "capture/sensel_units.h"
+#include "codec/sensel_units.h"
 
 namespace pvcap::session {
 

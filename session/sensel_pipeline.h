@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "capture/sensel_device.h"
-#include "capture/sensel_units.h"
+#include "codec/sensel_units.h"
 #include "core/fault_injection.h"
 #include "core/result.h"
 #include "core/rig_config.h"

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "capture/sensel_protocol.h"
+#include "codec/sensel_protocol.h"
 #include "sim/hand.h"
 
 namespace pvcap::sim {

@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "capture/sensel_frame.h"
-#include "capture/sensel_pressure_codec.h"
+#include "codec/sensel_frame.h"
+#include "codec/sensel_pressure_codec.h"
 #include "sim/session_replay.h"
 
 namespace pvcap::sim {

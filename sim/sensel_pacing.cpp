@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "capture/sensel_protocol.h"
+#include "codec/sensel_protocol.h"
 
 namespace pvcap::sim {
 

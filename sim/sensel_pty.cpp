@@ -15,7 +15,7 @@
 
 #include <fmt/format.h>
 
-#include "capture/sensel_protocol.h"
+#include "codec/sensel_protocol.h"
 #include "core/time.h"
 
 namespace pvcap::sim {

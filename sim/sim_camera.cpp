@@ -11,7 +11,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 #include "core/time.h"
 #include "sim/board_motion.h"
 #include "sim/camera_views.h"

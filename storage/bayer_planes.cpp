@@ -4,7 +4,7 @@
 
 #include <fmt/format.h>
 
-#include "capture/demosaic.h"
+#include "codec/demosaic.h"
 
 namespace pvcap {
 

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 
 namespace pvcap {
 

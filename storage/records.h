@@ -86,7 +86,7 @@ inline VideoTimestamp video_timestamp(std::optional<std::int64_t> video_pts_ms, 
 
 // One Sensel frame at full rate. `payload` is the frame exactly as the device sent it (the
 // device's own lossless compression: raw counts on the native grid, contacts, accelerometer,
-// labels; decode it with capture/sensel_frame.h on the grid stored beside it). `counts` are
+// labels; decode it with codec/sensel_frame.h on the grid stored beside it). `counts` are
 // its raw counts again, stored zlib-compressed (storage/pressure_blob.h) for readers without
 // the Sensel codec; empty when the frame carried no pressure image.
 struct PressureRecord {

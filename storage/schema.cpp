@@ -5,7 +5,7 @@
 
 #include <fmt/format.h>
 
-#include "capture/sensel_frame.h"
+#include "codec/sensel_frame.h"
 #include "storage/pressure_blob.h"
 
 namespace pvcap {

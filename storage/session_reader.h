@@ -21,7 +21,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "capture/demosaic.h"
+#include "codec/demosaic.h"
 #include "core/result.h"
 #include "storage/session_index.h"
 #include "storage/view_video_reader.h"
@@ -176,7 +176,7 @@ class SessionReader {
   // (an Error for a colour video); empty when that frame was not stored.
   Result<cv::Mat> raw_image(std::size_t i, std::size_t camera);
   // How raw videos become the colour images above: bilinear (the default, as the capture path's
-  // previews), edge-aware or VNG (capture/pixel_format.h).
+  // previews), edge-aware or VNG (codec/pixel_format.h).
   void set_demosaic(Demosaic method);
   // Colour images (image, sample) scaled to `size` (bilinear; empty, the default: their own size):
   // a viewer's, made at its size where the pixels are decoded (VideoReader::set_image_size).

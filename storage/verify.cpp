@@ -7,7 +7,7 @@
 
 #include <fmt/format.h>
 
-#include "capture/sensel_frame.h"
+#include "codec/sensel_frame.h"
 #include "core/side_by_side.h"
 #include "storage/frame_checksum.h"
 #include "storage/frame_spill.h"

@@ -11,7 +11,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "capture/demosaic.h"
+#include "codec/demosaic.h"
 #include "core/result.h"
 #include "storage/bayer_planes.h"
 
@@ -62,7 +62,7 @@ class VideoReader {
     if (!three_planes_) demosaic_ = method;
   }
   // Colour images scaled to `size` (bilinear; empty, the default: their own size). A raw video's
-  // half-size image is made at that size straight from its planes (capture/demosaic.h).
+  // half-size image is made at that size straight from its planes (codec/demosaic.h).
   void set_image_size(cv::Size size) { image_size_ = size; }
   // The image size (a raw video's mosaic size, not its stacked planes).
   int width() const;

@@ -4,7 +4,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "capture/demosaic.h"
+#include "codec/demosaic.h"
 
 namespace pvcap {
 

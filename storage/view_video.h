@@ -38,7 +38,7 @@ VideoSettings view_video_settings(const VideoSettings& camera);
 // A stored frame as its view (8-bit BGR of view_video_size), from what the camera's video was
 // handed: `frame`, BGR in colour mode; in raw mode `planes`, the mosaic's planes as the raw video
 // stacked them in `order` (VideoWriter::stored_planes), so the view is one pass over three of them
-// (capture/demosaic.h: half size, then two thirds for a 1080p camera).
+// (codec/demosaic.h: half size, then two thirds for a 1080p camera).
 Status make_view_image(const cv::Mat& frame, const cv::Mat& planes, const PlaneOrder& order,
                        const VideoSettings& camera, cv::Mat& view);
 

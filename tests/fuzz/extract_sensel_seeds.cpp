@@ -5,7 +5,7 @@
 #include <fstream>
 #include <set>
 
-#include "capture/sensel_capture_file.h"
+#include "codec/sensel_capture_file.h"
 
 int main(int argc, char** argv) {
   if (argc != 3) {

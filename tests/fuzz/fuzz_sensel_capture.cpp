@@ -11,7 +11,7 @@
 #include <fstream>
 #include <string>
 
-#include "capture/sensel_capture_file.h"
+#include "codec/sensel_capture_file.h"
 #include "tests/fuzz/fuzz_scratch.h"
 
 namespace {

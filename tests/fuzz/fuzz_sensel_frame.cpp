@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <span>
 
-#include "capture/sensel_frame.h"
+#include "codec/sensel_frame.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace pvcap::sensel;

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <span>
 
-#include "capture/sensel_protocol.h"
+#include "codec/sensel_protocol.h"
 
 using namespace pvcap::sensel;
 

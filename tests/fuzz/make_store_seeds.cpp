@@ -13,7 +13,7 @@
 #include <iterator>
 #include <thread>
 
-#include "capture/sensel_frame.h"
+#include "codec/sensel_frame.h"
 #include "core/rig_config.h"
 #include "core/time.h"
 #include "storage/frame_checksum.h"

@@ -19,7 +19,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/rig_calibration.h"
-#include "capture/sensel_units.h"
+#include "codec/sensel_units.h"
 #include "session_under_test.h"
 #include "sim/truth.h"
 #include "storage/session_reader.h"
@@ -54,7 +54,7 @@ json read_back(const fs::path& dir, const fs::path& session) {
 }
 
 // The store's own pressure of a sample in kPa summed over the 185 x 105 sensels (the documented
-// expansion and units, capture/sensel_units.h).
+// expansion and units, codec/sensel_units.h).
 double store_kpa_sum(pvcap::SessionReader& r, std::size_t sample) {
   auto info = r.sample_info(sample);
   auto frame = r.pressure_frame(info.value().pressure->sequence);

@@ -12,14 +12,14 @@
 #include <sstream>
 
 #include <nlohmann/json.hpp>
-#include "capture/sensel_frame.h"
+#include "codec/sensel_frame.h"
 #include "core/sequence_unwrap.h"
 #include "session_under_test.h"
 #include "sim/timecode.h"
 #include "storage/sqlite/database.h"
 #include "storage/video_reader.h"
 
-#include "capture/sensel_units.h"
+#include "codec/sensel_units.h"
 #include "sim/fingertip.h"
 #include "sim/truth.h"
 

@@ -18,7 +18,7 @@
 #include "capture/aravis_camera.h"
 #include "capture/aravis_handles.h"
 #include "capture/aravis_stream.h"
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 #include "core/bounded_queue.h"
 #include "core/rig_config.h"
 #include "session_under_test.h"

@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/charuco.h"
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 #include "sim/board_motion.h"
 #include "sim/camera_views.h"
 #include "sim/scene.h"

@@ -15,7 +15,7 @@
 #include "calib/camera_model.h"
 #include "calib/pad_calibration.h"
 #include "calib/rig_calibration.h"
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 #include "sim/camera_views.h"
 #include "sim/scene.h"
 

@@ -8,7 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "capture/image_files.h"
+#include "codec/image_files.h"
 #include "sim/scene.h"
 
 using namespace pvcap;

@@ -2,7 +2,7 @@
 
 #include <arv.h>
 
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 #include "sim/scene.h"
 
 namespace {

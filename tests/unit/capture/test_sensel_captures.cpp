@@ -3,8 +3,8 @@
 
 #include <filesystem>
 
-#include "capture/sensel_capture_file.h"
-#include "capture/sensel_frame.h"
+#include "codec/sensel_capture_file.h"
+#include "codec/sensel_frame.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap::sensel;

@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "capture/sensel_protocol.h"
+#include "codec/sensel_protocol.h"
 
 using namespace pvcap::sensel;
 using State = Response::State;

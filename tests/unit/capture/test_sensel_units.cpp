@@ -1,7 +1,7 @@
 #include <gtest/gtest.h>
 
-#include "capture/sensel_frame.h"
-#include "capture/sensel_units.h"
+#include "codec/sensel_frame.h"
+#include "codec/sensel_units.h"
 
 using namespace pvcap::sensel;
 

@@ -1,8 +1,8 @@
 #include <gtest/gtest.h>
 
-#include "capture/sensel_frame.h"
-#include "capture/sensel_protocol.h"
-#include "capture/sensel_units.h"
+#include "codec/sensel_frame.h"
+#include "codec/sensel_protocol.h"
+#include "codec/sensel_units.h"
 #include "sim/sensel_emulator.h"
 
 using namespace pvcap::sensel;

@@ -14,7 +14,7 @@
 #include <spdlog/spdlog.h>
 #include <opencv2/imgproc.hpp>
 
-#include "capture/sensel_frame.h"
+#include "codec/sensel_frame.h"
 #include "core/rig_config.h"
 #include "core/time.h"
 #include "sim/scene.h"

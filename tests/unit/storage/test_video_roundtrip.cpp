@@ -8,7 +8,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 #include "core/rig_config.h"
 #include "sim/scene.h"
 #include "sim/timecode.h"

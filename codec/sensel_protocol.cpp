@@ -1,8 +1,8 @@
-#include "capture/sensel_protocol.h"
+#include "codec/sensel_protocol.h"
 
 #include <fmt/format.h>
 
-#include "capture/sensel_frame.h"
+#include "codec/sensel_frame.h"
 
 namespace pvcap::sensel {
 

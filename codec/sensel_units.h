@@ -12,7 +12,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "capture/sensel_pressure_codec.h"
+#include "codec/sensel_pressure_codec.h"
 
 namespace pvcap::sensel {
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "capture/sensel_pressure_codec.h"
+#include "codec/sensel_pressure_codec.h"
 #include "core/result.h"
 
 namespace pvcap::sensel {

@@ -1,4 +1,4 @@
-#include "capture/demosaic.h"
+#include "codec/demosaic.h"
 
 #include <array>
 #include <map>

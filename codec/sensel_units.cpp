@@ -1,4 +1,4 @@
-#include "capture/sensel_units.h"
+#include "codec/sensel_units.h"
 
 #include <cmath>
 #include <map>

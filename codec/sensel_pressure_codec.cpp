@@ -1,4 +1,4 @@
-#include "capture/sensel_pressure_codec.h"
+#include "codec/sensel_pressure_codec.h"
 
 #include <fmt/format.h>
 

@@ -6,7 +6,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "capture/demosaic.h"
+#include "codec/demosaic.h"
 #include "core/result.h"
 
 namespace pvcap {

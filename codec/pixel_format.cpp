@@ -1,4 +1,4 @@
-#include "capture/pixel_format.h"
+#include "codec/pixel_format.h"
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>

@@ -1,4 +1,4 @@
-#include "capture/sensel_frame.h"
+#include "codec/sensel_frame.h"
 
 #include <fmt/format.h>
 

@@ -1,4 +1,4 @@
-#include "capture/image_files.h"
+#include "codec/image_files.h"
 
 #include <algorithm>
 #include <cctype>

@@ -1,4 +1,4 @@
-#include "capture/sensel_capture_file.h"
+#include "codec/sensel_capture_file.h"
 
 #include <algorithm>
 #include <fstream>
@@ -6,8 +6,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "capture/sensel_frame.h"
-#include "capture/sensel_units.h"
+#include "codec/sensel_frame.h"
+#include "codec/sensel_units.h"
 #include "core/sequence_unwrap.h"
 
 namespace pvcap::sensel {
