@@ -230,8 +230,7 @@ Status AravisCamera::read_back(const AravisFeatures& f, const NodeMapCheck& chec
   s.model = str(arv_camera_get_model_name(cam, nullptr));
   s.serial = str(arv_camera_get_device_serial_number(cam, nullptr));
   s.device_id = str(arv_camera_get_device_id(cam, nullptr));
-  s.firmware = str(arv_camera_get_string(cam, "DeviceFirmwareVersion", nullptr));
-  if (s.firmware.empty()) s.firmware = str(arv_camera_get_string(cam, "DeviceVersion", nullptr));
+  s.firmware = f.text(CameraRole::FirmwareVersion).value_or("");
   ArvDevice* dev = arv_camera_get_device(cam);
   if (ARV_IS_GV_DEVICE(dev)) {
     GSocketAddress* sock = arv_gv_device_get_device_address(ARV_GV_DEVICE(dev));

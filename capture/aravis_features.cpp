@@ -20,7 +20,7 @@ std::string with_error(const std::string& what, const arv::GErrorSlot& err) {
 }
 
 // The register description's attributes (Aravis' own strings: not freed here).
-std::string text(const char* s) { return s ? s : ""; }
+std::string attribute_text(const char* s) { return s ? s : ""; }
 }  // namespace
 
 AravisFeatures::AravisFeatures(ArvDevice* device) : device_(device) {
@@ -73,11 +73,11 @@ ArvGcRegisterDescriptionNode* description(ArvDevice* device) {
 
 std::string AravisFeatures::vendor() const {
   auto* d = description(device_);
-  return d ? text(arv_gc_register_description_node_get_vendor_name(d)) : "";
+  return d ? attribute_text(arv_gc_register_description_node_get_vendor_name(d)) : "";
 }
 std::string AravisFeatures::model() const {
   auto* d = description(device_);
-  return d ? text(arv_gc_register_description_node_get_model_name(d)) : "";
+  return d ? attribute_text(arv_gc_register_description_node_get_model_name(d)) : "";
 }
 std::string AravisFeatures::version() const {
   auto* d = description(device_);
@@ -207,6 +207,15 @@ std::optional<std::string> AravisFeatures::entry(CameraRole role) const {
   if (!n || !ARV_IS_GC_ENUMERATION(n)) return std::nullopt;
   arv::GErrorSlot err;
   const char* v = arv_gc_enumeration_get_string_value(ARV_GC_ENUMERATION(n), err.out());
+  if (err || !v) return std::nullopt;
+  return std::string(v);
+}
+
+std::optional<std::string> AravisFeatures::text(CameraRole role) const {
+  ArvGcNode* n = node(role);
+  if (!n || !ARV_IS_GC_FEATURE_NODE(n)) return std::nullopt;
+  arv::GErrorSlot err;
+  const char* v = arv_gc_feature_node_get_value_as_string(ARV_GC_FEATURE_NODE(n), err.out());
   if (err || !v) return std::nullopt;
   return std::string(v);
 }

@@ -43,6 +43,7 @@ class AravisFeatures final : public NodeMapView {
   Status set_flag(CameraRole role, bool on);  // a Boolean, an Integer 0/1, or an On/Off enumeration
   std::optional<double> number(CameraRole role) const;
   std::optional<std::string> entry(CameraRole role) const;
+  std::optional<std::string> text(CameraRole role) const;  // any feature's value as the map writes it
   // Every readable value the camera has now, by feature name: its whole state for the record (GenApi's
   // "feature bag"); a selector-dependent feature as its selector stands.
   std::map<std::string, std::string> feature_bag() const;

@@ -52,6 +52,7 @@ const std::vector<RoleNames>& camera_feature_names() {
       {CameraRole::UserOutputSelector, "user_output_selector", {"UserOutputSelector"}},
       {CameraRole::LineSource, "line_source", {"LineSource"}},
       {CameraRole::DeviceTemperature, "device_temperature", {"DeviceTemperature", "TemperatureAbs"}},
+      {CameraRole::FirmwareVersion, "firmware_version", {"DeviceFirmwareVersion", "DeviceVersion"}},
   };
   return table;
 }

@@ -43,6 +43,7 @@ enum class CameraRole {
   UserOutputSelector,
   LineSource,
   DeviceTemperature,
+  FirmwareVersion,
 };
 
 struct RoleNames {
