@@ -92,14 +92,19 @@ std::map<std::string, std::string> AravisFeatures::feature_bag() const {
   ArvGc* gc = arv_device_get_genicam(device_);
   ArvDomElement* root = gc ? arv_dom_document_get_document_element(ARV_DOM_DOCUMENT(gc)) : nullptr;
   if (!root) return bag;
-  // The nodes that hold a value (not categories, commands, ports, nor the formulas between them).
-  static const std::set<std::string> kValueTypes = {"Integer", "Float",    "Enumeration", "Boolean",     "String",
-                                                    "IntReg",  "FloatReg", "StringReg",   "MaskedIntReg"};
+  // The nodes that hold a value (not categories, commands, ports, nor the formulas between them);
+  // a register itself only where the standard names it a feature (most are the implementation under
+  // a feature: ExposureTimeAbsRegister under ExposureTimeAbs).
+  static const std::set<std::string> kValueTypes = {"Integer", "Float", "Enumeration", "Boolean", "String"};
+  static const std::set<std::string> kRegisterTypes = {"IntReg", "FloatReg", "StringReg", "MaskedIntReg"};
   for (ArvDomNode* n = arv_dom_node_get_first_child(ARV_DOM_NODE(root)); n; n = arv_dom_node_get_next_sibling(n)) {
     if (!ARV_IS_GC_FEATURE_NODE(n)) continue;
     const char* tag = arv_dom_node_get_node_name(n);
-    if (!tag || !kValueTypes.count(tag)) continue;
+    if (!tag) continue;
     auto* feature = ARV_GC_FEATURE_NODE(n);
+    const bool standard_register =
+        kRegisterTypes.count(tag) && arv_gc_feature_node_get_name_space(feature) == ARV_GC_NAME_SPACE_STANDARD;
+    if (!kValueTypes.count(tag) && !standard_register) continue;
     arv::GErrorSlot err;
     if (!arv_gc_feature_node_is_implemented(feature, err.out()) || err) continue;
     if (!arv_gc_feature_node_is_available(feature, err.out()) || err) continue;
