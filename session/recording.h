@@ -111,6 +111,7 @@ class Recording {
  private:
   Recording();
   void warn(std::string message);
+  void warn_of_losses();  // session/recording_warnings.cpp
   void log_progress(double elapsed_s);
   void record_rig_calibration(SessionWriter& writer);
   // One worker per camera, started, and waited for until their buffers are ready (at most 3 s).
