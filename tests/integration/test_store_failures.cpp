@@ -45,6 +45,31 @@ std::string with_store(std::string yaml, const std::string& extra) {
   return yaml;
 }
 
+// The stored pressure frames around instant t: how far the nearest is, and whether the frames
+// either side follow each other (no frame of the sensor's stream missing from the store there).
+struct PressureGap {
+  std::int64_t nearest_ns = INT64_MAX;
+  std::int64_t before = -1, after = -1;
+  bool contiguous = false;
+};
+
+PressureGap pressure_gap_around(const fs::path& dir, std::int64_t t) {
+  pvcap::sqlite::Database db(dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  PressureGap g;
+  auto before = db.prepare(
+      "SELECT sequence, mapped_ns FROM pressure_frames WHERE mapped_ns <= ? ORDER BY mapped_ns DESC LIMIT 1");
+  before.bind_all(t);
+  auto after =
+      db.prepare("SELECT sequence, mapped_ns FROM pressure_frames WHERE mapped_ns > ? ORDER BY mapped_ns LIMIT 1");
+  after.bind_all(t);
+  if (!before.step() || !after.step()) return g;
+  g.before = before.column_int(0);
+  g.after = after.column_int(0);
+  g.nearest_ns = std::min(t - before.column_int(1), after.column_int(1) - t);
+  g.contiguous = g.after == g.before + 1;
+  return g;
+}
+
 }  // namespace
 
 TEST(StoreCrash, KillNineAtRandomMomentsLosesAtMostTheLastSecond) {
@@ -115,7 +140,7 @@ TEST(StoreCrash, KillNineAtRandomMomentsLosesAtMostTheLastSecond) {
     ASSERT_TRUE(reader) << reader.error().message;
     auto& r = *reader.value();
     const std::int64_t horizon = killed_ns - 1'000'000'000;
-    std::size_t checked = 0;
+    std::size_t checked = 0, sensor_gaps = 0;
     std::int64_t first_t = 0;
     for (std::size_t i = 0; i < r.sample_count(); ++i) {
       auto info = r.sample_info(i);
@@ -140,17 +165,29 @@ TEST(StoreCrash, KillNineAtRandomMomentsLosesAtMostTheLastSecond) {
       }
       EXPECT_EQ(shown, named) << "sample " << i << ": every frame it names has its pixels";
       EXPECT_GE(named, 1u) << "sample " << i;
-      EXPECT_TRUE(s.value().pressure) << "sample " << i;
+      if (!s.value().pressure) {
+        // The kill loses only the last moments. A sample in the middle without pressure is the
+        // sensor's own gap (polled, the Sensel answers when asked: a host loaded by the rest of the
+        // suite asked 100 ms late): no stored frame near it, and no frame missing around it.
+        const auto gap = pressure_gap_around(dir, info.value().t_ns);
+        EXPECT_TRUE(gap.contiguous && gap.nearest_ns > 20'000'000)
+            << "sample " << i << " lost its pressure: the nearest stored frame is " << gap.nearest_ns / 1e6
+            << " ms away, sequences " << gap.before << ", " << gap.after;
+        ++sensor_gaps;
+      }
       ++checked;
     }
     // Every tick of the 15 Hz grid from the first sample to the horizon has its sample (give or take
     // the ticks at either end).
     const double expected = double(horizon - first_t) / 1e9 * 15;
     EXPECT_GE(double(checked), expected - 1.5) << "samples up to a second before the kill";
+    EXPECT_LE(sensor_gaps, 2u) << "samples whose pressure the sensor's stream lacks";
     auto stats = r.stream_statistics();
     ASSERT_TRUE(stats);
-    std::printf("kill after %.2f s: %zu samples before the horizon readable (%.0f expected); recover said:\n%s",
-                after_s, checked, expected, recovered.output.c_str());
+    std::printf(
+        "kill after %.2f s: %zu samples before the horizon readable (%.0f expected), %zu without pressure where the "
+        "sensor's stream has a gap; recover said:\n%s",
+        after_s, checked, expected, sensor_gaps, recovered.output.c_str());
     fs::remove_all(work);
   }
 }
