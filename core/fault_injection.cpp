@@ -56,6 +56,7 @@ FaultPlan parse_faults(std::string_view spec, std::vector<std::string>& problems
   plan.index_overflow_memory_records = count("index_writer.overflow_memory_records");
   plan.encoder_frame_delay =
       std::chrono::milliseconds(std::int64_t(std::max(0.0, take("encoder.frame_delay_ms").value_or(0))));
+  plan.encoder_stall = stall("encoder.stall_s", "encoder.stall_after_s");
   plan.realign_stall_s = std::max(0.0, take("realign.stall_s").value_or(0));
   plan.report_stall_s = std::max(0.0, take("report.stall_s").value_or(0));
   plan.recover_stall_s = std::max(0.0, take("recover.stall_s").value_or(0));

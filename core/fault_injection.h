@@ -20,6 +20,9 @@
 //   index_writer.overflow_memory_records  beyond the queue, this many wait in memory, then on disk
 //   encoder.frame_delay_ms         every camera's encoder waits this long before each frame (an
 //                                  encoder slower than its camera, whatever the machine)
+//   encoder.stall_s                every camera's encoder sleeps this long, once, `stall_after_s`
+//   encoder.stall_after_s          (default 2) after its first frame (a disk that held the encoders up:
+//                                  their frames go through the spill meanwhile)
 //   realign.stall_s                the end-of-session re-mapping waits this long between its steps
 //                                  (the frames re-mapped and committed, the samples not yet re-paired)
 //   report.stall_s                 the session's report.html waits this long once begun
@@ -47,6 +50,7 @@ struct FaultPlan {
   std::optional<Stall> index_writer_stall;
   std::optional<std::size_t> sensel_queue_frames, index_queue_records, index_overflow_memory_records;
   std::chrono::milliseconds encoder_frame_delay{0};
+  std::optional<Stall> encoder_stall;
   double realign_stall_s = 0, report_stall_s = 0, recover_stall_s = 0;
   std::string spec;  // as given, for the warning and the log
   bool empty() const { return spec.empty(); }

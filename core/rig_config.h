@@ -83,7 +83,7 @@ struct StoreConfig {
   int reserve_mb = 32;          // space set aside at start, freed to finish the store if the disk fills anyway
   // Every file of the session reaches stable storage at least this often while recording (fsync,
   // storage/durable_folder.h): what a power cut can lose. 0 leaves it to the kernel (benchmarks).
-  double sync_interval_s = 1.0;
+  double sync_interval_s = 0.5;
   // The group a session folder belongs to (its files follow: the folder is setgid), for a lab whose
   // members read each other's sessions; empty: the recorder's own group. Others read nothing.
   std::string group;

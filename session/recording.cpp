@@ -181,6 +181,7 @@ Status Recording::start() {
     writer_options.index_overflow_memory_records = *options_.faults.index_overflow_memory_records;
   writer_options.index_stall = options_.faults.index_writer_stall;
   writer_options.encoder_frame_delay = options_.faults.encoder_frame_delay;
+  writer_options.encoder_stall = options_.faults.encoder_stall;
   auto created = SessionWriter::create(options_.root, rig_, wall0_, host0_, writer_options);
   if (!created) return created.error();
   writer_ = std::move(created.value());

@@ -149,11 +149,12 @@ Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off
 }  // namespace
 
 FrameSpillQueue::FrameSpillQueue(std::filesystem::path dir, std::string camera, std::size_t memory_frames,
-                                 std::size_t writer_frames)
+                                 std::size_t writer_frames, std::chrono::milliseconds memory_age)
     : folder_(std::move(dir) / kSpillFolder),
       camera_(std::move(camera)),
       memory_cap_(memory_frames),
       writer_cap_(writer_frames),
+      memory_age_(memory_age),
       writer_([this] { writer_loop(); }) {}
 
 FrameSpillQueue::~FrameSpillQueue() {
@@ -170,14 +171,24 @@ FrameSpillQueue::~FrameSpillQueue() {
 bool FrameSpillQueue::push(cv::Mat image, FrameRecord rec) {
   std::lock_guard lock(mu_);
   if (closed_) return false;
-  if (for_writer_.empty() && !writing_ && on_disk_ == 0 && memory_.size() < memory_cap_) {
-    memory_.push_back({std::move(image), std::move(rec)});
+  const auto now = std::chrono::steady_clock::now();
+  const bool spilling = !for_writer_.empty() || writing_ || on_disk_ > 0;
+  const bool stale = !memory_.empty() && now - memory_.front().pushed > memory_age_;
+  if (!spilling && memory_.size() < memory_cap_ && !stale) {
+    memory_.push_back({std::move(image), std::move(rec), "", false, now});
     ready_.notify_one();
     return true;
   }
   // Behind: from here on, every frame goes through the disk until the encoder has caught up.
-  if (failure_ || for_writer_.size() >= writer_cap_) return false;
-  for_writer_.push_back({std::move(image), std::move(rec)});
+  if (failure_ || memory_.size() + for_writer_.size() >= memory_cap_ + writer_cap_) return false;
+  if (!spilling) {
+    // The frames waiting in memory go first (they are older), so that a power cut cannot take them
+    // while the encoder is held up; the memory they hold is the same, now in the writer's queue.
+    spilled_ += memory_.size();
+    for (auto& item : memory_) for_writer_.push_back(std::move(item));
+    memory_.clear();
+  }
+  for_writer_.push_back({std::move(image), std::move(rec), "", false, now});
   ++spilled_;
   to_write_.notify_one();
   return true;

@@ -13,6 +13,11 @@
 // mosaics, 200 MB of BGR) before a frame is refused. 8 was too few: under a test suite's load a
 // writer fell 270 ms behind and 15 frames were lost.
 //
+// Memory is the one place a frame can be lost to a power cut: so a frame waits there at most
+// `memory_age` (200 ms by default). When the oldest is older (the encoder is held up), every frame in
+// memory goes to the disk too, in order, and from there to the encoder; with the store's sync round
+// (docs/store.md) what a power cut loses stays within a second even while an encoder is stalled.
+//
 // Crash safety: a spill record is written with its index row (FrameRecord) and a CRC, so a file
 // cut by a crash reads up to its last whole record; `pvcap recover` encodes whatever a spill holds
 // that no video does (storage/recover.cpp). A spill file read back to its end is deleted only once
@@ -44,13 +49,15 @@ struct SpillItem {
   FrameRecord rec;
   std::string lost_reason;  // set: the frame could not be kept (image empty); record it with this reason
   bool from_spill = false;  // read back from disk
+  std::chrono::steady_clock::time_point pushed{};  // when it came (memory's age limit)
 };
 
 class FrameSpillQueue {
  public:
   // `dir`: the session folder (spill files go to dir/spill/<camera>-<n>.spill, made on first use).
+  static constexpr std::chrono::milliseconds kMemoryAge{200};
   FrameSpillQueue(std::filesystem::path dir, std::string camera, std::size_t memory_frames,
-                  std::size_t writer_frames = 32);
+                  std::size_t writer_frames = 32, std::chrono::milliseconds memory_age = kMemoryAge);
   ~FrameSpillQueue();
   FrameSpillQueue(const FrameSpillQueue&) = delete;
   FrameSpillQueue& operator=(const FrameSpillQueue&) = delete;
@@ -80,6 +87,7 @@ class FrameSpillQueue {
   std::filesystem::path folder_;
   std::string camera_;
   std::size_t memory_cap_, writer_cap_;
+  std::chrono::milliseconds memory_age_;
 
   mutable std::mutex mu_;
   std::condition_variable ready_;     // the encoder's: something to pop

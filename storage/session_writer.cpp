@@ -129,6 +129,7 @@ Result<std::unique_ptr<SessionWriter>> SessionWriter::create(const std::filesyst
     return abandon(Error{e.what()});
   }
   w->encoder_frame_delay_ = options.encoder_frame_delay;
+  w->encoder_stall_ = options.encoder_stall;
   w->view_backlog_frames_ = options.view_backlog_frames;
   w->index_writer_ = std::make_unique<IndexWriter>(
       *w->index_, options.index_queue_records, std::chrono::milliseconds(250), options.index_stall,
@@ -217,7 +218,8 @@ void SessionWriter::start() {
     watch_free_space();
   });
   if (store_.sync_interval_s > 0) {
-    durable_ = std::make_unique<DurableFolder>(dir_, std::vector<std::string>{kSpillFolder});
+    // The view copies too: a power cut must not leave a segment whose replay copy is seconds short.
+    durable_ = std::make_unique<DurableFolder>(dir_, std::vector<std::string>{kSpillFolder, kViewFolder});
     syncer_ = std::thread([this] {
       name_this_thread("fsync");
       keep_durable();
@@ -263,8 +265,19 @@ void SessionWriter::encode_loop(Camera& cam) {
   auto next_progress = std::chrono::steady_clock::now();
   std::size_t drain_from = 0;
   bool drain_from_disk = false;
+  std::optional<Stall> stall = encoder_stall_;  // a test's fault, once per encoder
+  std::optional<std::chrono::steady_clock::time_point> first_frame;
   while (!queue.drained()) {
+    // A test's stall, stall_after_s after the first frame, between two frames (as an encoder held up
+    // by its disk): the frames come meanwhile go to the spill.
+    if (stall && first_frame &&
+        std::chrono::steady_clock::now() - *first_frame >= std::chrono::duration<double>(stall->after_s)) {
+      spdlog::warn("{}: encoder stalled for {} s (PVCAP_FAULTS)", cam.name, stall->seconds);
+      std::this_thread::sleep_for(std::chrono::duration<double>(stall->seconds));
+      stall.reset();
+    }
     auto item = queue.pop_for(std::chrono::milliseconds(100));
+    if (item && !first_frame) first_frame = std::chrono::steady_clock::now();
     if (const auto now = std::chrono::steady_clock::now(); queue.is_closed() && now >= next_progress) {
       // The session has stopped and the encoder works through its backlog: a real drain (frames on
       // disk) is said, with progress; the few frames of the memory queue are not worth a line.

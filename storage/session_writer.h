@@ -52,6 +52,8 @@ struct WriterOptions {
   // Each encoder waits this long before every frame: an encoder slower than its camera on any
   // machine, so the spill is exercised deterministically rather than by a slow codec preset.
   std::chrono::milliseconds encoder_frame_delay{0};
+  // Each encoder sleeps once (a disk that held the encoders up): the spill takes their frames.
+  std::optional<Stall> encoder_stall;
   // An encoder with more of its camera's frames waiting than this skips their view copies
   // (storage/view_video.h): on a busy machine they are the first work to go.
   std::size_t view_backlog_frames = 2;
@@ -143,6 +145,7 @@ class SessionWriter {
   std::filesystem::path dir_;
   std::int64_t started_host_ns_ = 0;
   std::chrono::milliseconds encoder_frame_delay_{0};
+  std::optional<Stall> encoder_stall_;
   std::size_t view_backlog_frames_ = 2;
   StoreConfig store_;
   std::optional<SessionIndex> index_;

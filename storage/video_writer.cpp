@@ -114,9 +114,8 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   rc = avio_open(&im.fmt.ptr->pb, path.c_str(), AVIO_FLAG_WRITE);
   if (rc < 0) return Error{fmt::format("{}: cannot create the video file: {}", where, av::error(rc))};
   AVDictionary* mux = nullptr;
-  // A cluster reaches the file when the next one begins: closing one every half second keeps what a
-  // crash can take (the open cluster plus the frames still queued) under a second.
-  if (s.container == "matroska") av_dict_set(&mux, "cluster_time_limit", "500", 0);
+  // Every frame ends its cluster (encode()); the limit is a second guard.
+  if (s.container == "matroska") av_dict_set(&mux, "cluster_time_limit", "200", 0);
   im.fmt.ptr->flags |= AVFMT_FLAG_FLUSH_PACKETS;
   rc = avformat_write_header(im.fmt.ptr, &mux);
   av_dict_free(&mux);
@@ -144,6 +143,7 @@ VideoWriter::~VideoWriter() { (void)close(); }
 Status VideoWriter::encode(bool flush) {
   Impl& im = *impl_;
   int rc = avcodec_send_frame(im.enc.ptr, flush ? nullptr : im.frame.ptr);
+  bool wrote = false;
   if (rc < 0 && rc != AVERROR_EOF) return Error{fmt::format("{}: encoder: {}", path_.string(), av::error(rc))};
   while ((rc = avcodec_receive_packet(im.enc.ptr, im.packet.ptr)) >= 0) {
     // MP4 plays a frame for its duration and drops a last frame without one: give each the nominal
@@ -154,9 +154,18 @@ Status VideoWriter::encode(bool flush) {
     im.packet.ptr->stream_index = im.stream->index;
     rc = av_interleaved_write_frame(im.fmt.ptr, im.packet.ptr);
     if (rc < 0) return Error{fmt::format("{}: cannot write video: {}", path_.string(), av::error(rc))};
+    wrote = true;
   }
   if (rc != AVERROR(EAGAIN) && rc != AVERROR_EOF)
     return Error{fmt::format("{}: encoder: {}", path_.string(), av::error(rc))};
+  // The muxer holds a Matroska cluster until the next one begins: an encoder then held up (a busy
+  // disk, a stalled thread) would keep its last frame out of the file, and a power cut would take
+  // a frame seconds old. Ending the cluster now hands the frame to the kernel, whose data the next
+  // sync round makes durable (docs/store.md).
+  if (wrote && !flush && im.matroska) {
+    rc = av_write_frame(im.fmt.ptr, nullptr);
+    if (rc < 0) return Error{fmt::format("{}: cannot write video: {}", path_.string(), av::error(rc))};
+  }
   return {};
 }
 

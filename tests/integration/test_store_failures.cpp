@@ -506,7 +506,7 @@ TEST(StoreIoErrors, AnFsyncRoundOverASecondIsAnEventAndAWarning) {
   auto q = db.prepare("SELECT count(*), min(message) FROM events WHERE kind = 'fsync_slow'");
   ASSERT_TRUE(q.step());
   EXPECT_EQ(q.column_int(0), 1) << "one slow round, one event";
-  EXPECT_NE(q.column_text(1).find("longer than store.sync_interval_s (1 s)"), std::string::npos) << q.column_text(1);
+  EXPECT_NE(q.column_text(1).find("longer than store.sync_interval_s (0.5 s)"), std::string::npos) << q.column_text(1);
   EXPECT_NE(read_all(dir / "report.html").find("fsync_slow"), std::string::npos) << "the report lists the event";
   fs::remove_all(work);
 }

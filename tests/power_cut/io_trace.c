@@ -397,6 +397,13 @@ int unlinkat(int dirfd, const char* name, int flags) {
 }
 int unlink(const char* name) { return unlinkat(AT_FDCWD, name, 0); }
 int rmdir(const char* name) { return unlinkat(AT_FDCWD, name, AT_REMOVEDIR); }
+/* C's remove(), which std::filesystem::remove calls: glibc's calls its unlink and rmdir inside the
+ * library, past this interposer, so a removed journal or spill file would be missing from the trace. */
+int remove(const char* name) {
+  const int rc = unlinkat(AT_FDCWD, name, 0);
+  if (rc != 0 && (errno == EISDIR || errno == EPERM)) return unlinkat(AT_FDCWD, name, AT_REMOVEDIR);
+  return rc;
+}
 
 int mkdirat(int dirfd, const char* name, mode_t mode) {
   struct nctx c = {dirfd, name, 0, NULL, 0, mode};
