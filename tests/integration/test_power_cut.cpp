@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -262,22 +263,27 @@ std::vector<Window> sync_rounds(const Trace& trace, const fs::path& session) {
 }
 
 // The longest any file of the session had bytes written and not synced while it recorded (written
-// before `recording_end`; a file removed or renamed carries its unsynced bytes with it, or drops them).
+// before `recording_end`; a file removed or renamed carries its unsynced bytes with it, or drops
+// them). A sync covers the writes recorded before it began (TRACE_SYNC_FROM), not those made while
+// it ran.
 std::pair<double, std::string> longest_without_sync(const Trace& trace, const fs::path& session,
                                                     std::int64_t recording_end) {
-  std::map<std::string, std::int64_t> unsynced;  // path -> first write since its last sync
+  std::map<std::string, std::deque<std::pair<std::size_t, std::int64_t>>> unsynced;  // path -> (op, time)
   std::pair<double, std::string> worst{0.0, ""};
   auto note = [&](const std::string& path, std::int64_t since, std::int64_t until) {
     const double s = double(until - since) / 1e9;
     if (s > worst.first) worst = {s, path};
   };
-  for (const auto& op : trace.ops) {
+  for (std::size_t i = 0; i < trace.ops.size(); ++i) {
+    const auto& op = trace.ops[i];
     if (op.path.rfind(session.string(), 0) != 0) continue;
-    if ((op.op == TRACE_WRITE || op.op == TRACE_TRUNCATE) && op.t_ns <= recording_end)
-      unsynced.emplace(op.path, op.t_ns);
-    else if (op.op == TRACE_SYNC && unsynced.count(op.path)) {
-      note(op.path, unsynced[op.path], op.t_ns);
-      unsynced.erase(op.path);
+    if ((op.op == TRACE_WRITE || op.op == TRACE_TRUNCATE) && op.t_ns <= recording_end) {
+      unsynced[op.path].push_back({i, op.t_ns});
+    } else if (op.op == TRACE_SYNC && unsynced.count(op.path)) {
+      const std::size_t from = (op.flags & TRACE_SYNC_FROM) ? std::size_t(op.offset) : i;
+      auto& writes = unsynced[op.path];
+      if (!writes.empty() && writes.front().first < from) note(op.path, writes.front().second, op.t_ns);
+      while (!writes.empty() && writes.front().first < from) writes.pop_front();
     } else if (op.op == TRACE_UNLINK) {
       unsynced.erase(op.path);
     } else if (op.op == TRACE_RENAME && unsynced.count(op.path)) {
@@ -285,7 +291,8 @@ std::pair<double, std::string> longest_without_sync(const Trace& trace, const fs
       unsynced.erase(op.path);
     }
   }
-  for (const auto& [path, since] : unsynced) note(path, since, trace.ops.back().t_ns);
+  for (const auto& [path, writes] : unsynced)
+    if (!writes.empty()) note(path, writes.front().second, trace.ops.back().t_ns);
   return worst;
 }
 

@@ -243,13 +243,20 @@ class Builder {
         inodes_[std::size_t(inode_of(op.path))].pending.push_back(i);
         break;
       case TRACE_SYNC: {
+        // What it surely covers: the ops recorded before it began (TRACE_SYNC_FROM), or all before it.
+        const std::size_t from = (op.flags & TRACE_SYNC_FROM) ? std::size_t(op.offset) : i;
         Inode& node = inodes_[std::size_t(inode_of(op.path))];
         if (node.folder) {
-          node.last_sync = std::int64_t(i);
+          node.last_sync = std::max(node.last_sync, std::int64_t(from) - 1);
           break;
         }
-        for (std::size_t p : node.pending) apply_data(node.bytes, trace_.ops[p], trace_.ops[p].length);
-        node.pending.clear();
+        std::vector<std::size_t> later;
+        for (std::size_t p : node.pending)
+          if (p < from)
+            apply_data(node.bytes, trace_.ops[p], trace_.ops[p].length);
+          else
+            later.push_back(p);
+        node.pending = std::move(later);
         break;
       }
       case TRACE_OPEN:

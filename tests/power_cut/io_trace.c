@@ -33,6 +33,7 @@
 static pthread_mutex_t g_lock = PTHREAD_MUTEX_INITIALIZER;
 static int g_ops_fd = -1, g_data_fd = -1;
 static int64_t g_data_pos;
+static int64_t g_ops_recorded; /* records written so far: a sync's starting point */
 static char g_root[PATH_MAX];
 static size_t g_root_len;
 static __thread int t_inside;  // our own calls are not traced
@@ -140,6 +141,7 @@ static void record(uint32_t op, uint32_t flags, const char* path, const char* pa
     g_data_pos += length;
   }
   put_all(g_ops_fd, &r, sizeof r);
+  ++g_ops_recorded;
   put_all(g_ops_fd, path, r.path_len);
   if (path2) put_all(g_ops_fd, path2, r.path2_len);
 }
@@ -270,8 +272,28 @@ static int call_fallocate(int fd, int64_t offset, int64_t length) {
 
 int ftruncate64(int fd, off_t length) { return traced_fd_op(fd, TRACE_TRUNCATE, length, call_ftruncate, length, 0); }
 int ftruncate(int fd, off_t length) { return ftruncate64(fd, length); }
-int fsync(int fd) { return traced_fd_op(fd, TRACE_SYNC, 0, call_fsync, 0, 0); }
-int fdatasync(int fd) { return traced_fd_op(fd, TRACE_SYNC, 0, call_fdatasync, 0, 0); }
+// A sync runs outside the lock: a second-long fsync of a 1080p segment must not hold every other
+// thread's writes (under the lock the recorder fell so far behind that its own durability broke).
+// It is recorded when it returns, with the number of ops recorded before it began (TRACE_SYNC_FROM):
+// only those are surely covered.
+static int traced_sync(int fd, int (*call)(int, int64_t, int64_t)) {
+  if (!tracing()) return call(fd, 0, 0);
+  char path[PATH_MAX];
+  pthread_mutex_lock(&g_lock);
+  const int64_t from = g_ops_recorded;
+  pthread_mutex_unlock(&g_lock);
+  t_inside = 1;
+  const int rc = call(fd, 0, 0);
+  const int saved = errno;
+  t_inside = 0;
+  pthread_mutex_lock(&g_lock);
+  if (rc == 0 && path_of_fd(fd, path, sizeof path)) record(TRACE_SYNC, TRACE_SYNC_FROM, path, NULL, from, 0, NULL, 0);
+  pthread_mutex_unlock(&g_lock);
+  errno = saved;
+  return rc;
+}
+int fsync(int fd) { return traced_sync(fd, call_fsync); }
+int fdatasync(int fd) { return traced_sync(fd, call_fdatasync); }
 int posix_fallocate64(int fd, off_t offset, off_t length) {
   struct stat st;
   const int64_t end = offset + length;

@@ -11,14 +11,16 @@
 enum trace_op {
   TRACE_WRITE = 1,    /* length bytes at offset */
   TRACE_TRUNCATE = 2, /* the file's size set to length (ftruncate, or grown by posix_fallocate) */
-  TRACE_SYNC = 3,     /* fsync or fdatasync of a file or a folder */
+  TRACE_SYNC = 3,     /* fsync or fdatasync of a file or a folder, recorded when it returned; with
+                         TRACE_SYNC_FROM, offset is the number of ops recorded before it was called:
+                         what they wrote is on the disk, later ones (made while it ran) may not be */
   TRACE_OPEN = 4,     /* a file created (TRACE_CREATED) and/or emptied (TRACE_TRUNCATED) by open */
   TRACE_RENAME = 5,   /* path renamed to path2 */
   TRACE_UNLINK = 6,   /* path removed (a file or an empty folder) */
   TRACE_MKDIR = 7,    /* a folder made */
 };
 
-enum trace_flags { TRACE_CREATED = 1, TRACE_TRUNCATED = 2 };
+enum trace_flags { TRACE_CREATED = 1, TRACE_TRUNCATED = 2, TRACE_SYNC_FROM = 4 };
 
 struct trace_record {
   uint32_t magic;
