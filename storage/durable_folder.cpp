@@ -9,7 +9,9 @@
 #include <chrono>
 #include <cstring>
 #include <fstream>
+#include <atomic>
 #include <set>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -79,24 +81,14 @@ DurableFolder::DurableFolder(std::filesystem::path dir, std::vector<std::string>
   for (const auto& s : subfolders) folders_.push_back(dir_ / s);
 }
 
-Status DurableFolder::sync_folder(const std::filesystem::path& folder, bool& entries_changed) {
+Status DurableFolder::list_folder(const std::filesystem::path& folder, std::vector<Changed>& changed,
+                                 bool& entries_changed) {
   std::set<std::filesystem::path> present;
-  Status failure;
   const bool there = for_each_file(folder, [&](const std::filesystem::path& path, const struct stat& st) {
     present.insert(path);
-    Tracked& t = files_[path];
+    const Tracked& t = files_[path];
     if (t.size == st.st_size && t.mtime.tv_sec == st.st_mtim.tv_sec && t.mtime.tv_nsec == st.st_mtim.tv_nsec) return;
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return;  // removed between the listing and now
-    const Status synced = fsync_path_fd(fd, path, "fsync");
-    ::close(fd);
-    if (!synced.ok()) {
-      if (failure.ok()) failure = synced;
-      return;
-    }
-    ++counts_.file_syncs;
-    t.size = st.st_size;
-    t.mtime = st.st_mtim;
+    changed.push_back({path, Tracked{st.st_size, st.st_mtim}, {}});
   });
   if (!there) return {};
   // Files that went (a drained spill file, a replaced segment): forget them.
@@ -111,7 +103,28 @@ Status DurableFolder::sync_folder(const std::filesystem::path& folder, bool& ent
   std::size_t& known = entries_[folder];
   if (known != present.size()) entries_changed = true;
   known = present.size();
-  return failure;
+  return {};
+}
+
+// The changed files' fsyncs run side by side (a few threads): each fsync commits the file system's
+// journal, and concurrent ones share a commit, so a round of a dozen busy files takes about as long
+// as its slowest, not the sum (at 1080p, one by one, a round took 2 s).
+void DurableFolder::sync_files(std::vector<Changed>& changed) {
+  constexpr std::size_t kThreads = 4;
+  std::atomic<std::size_t> next{0};
+  auto work = [&] {
+    for (std::size_t i = next++; i < changed.size(); i = next++) {
+      const int fd = ::open(changed[i].path.c_str(), O_RDONLY | O_CLOEXEC);
+      if (fd < 0) continue;  // removed between the listing and now
+      changed[i].status = fsync_path_fd(fd, changed[i].path, "fsync");
+      changed[i].synced = changed[i].status.ok();
+      ::close(fd);
+    }
+  };
+  std::vector<std::thread> helpers;
+  for (std::size_t t = 1; t < std::min(kThreads, changed.size()); ++t) helpers.emplace_back(work);
+  work();
+  for (auto& h : helpers) h.join();
 }
 
 void DurableFolder::start_writeback() {
@@ -129,17 +142,29 @@ void DurableFolder::start_writeback() {
 Status DurableFolder::sync_changed() {
   const auto t0 = std::chrono::steady_clock::now();
   Status failure;
+  std::vector<Changed> changed;
+  std::vector<bool> entries_changed(folders_.size(), false);
+  for (std::size_t f = 0; f < folders_.size(); ++f) {
+    bool e = false;
+    if (Status s = list_folder(folders_[f], changed, e); !s.ok() && failure.ok()) failure = s;
+    entries_changed[f] = e;
+  }
+  sync_files(changed);
+  for (const auto& c : changed) {
+    if (!c.status.ok() && failure.ok()) failure = c.status;
+    if (!c.synced) continue;
+    files_[c.path] = c.seen;  // what it was when listed: a write since shows at the next round
+    ++counts_.file_syncs;
+  }
   bool any_entries_changed = false;
-  for (const auto& folder : folders_) {
-    bool entries_changed = false;
-    if (Status s = sync_folder(folder, entries_changed); !s.ok() && failure.ok()) failure = s;
-    any_entries_changed |= entries_changed;
-    if (!entries_changed) continue;
+  for (std::size_t f = 0; f < folders_.size(); ++f) {
+    if (!entries_changed[f]) continue;
+    any_entries_changed = true;
     // A new (or removed) file's name is in its folder's data: synced too, or a power cut can keep a
     // file's bytes and lose its name.
-    const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    const int fd = ::open(folders_[f].c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
     if (fd < 0) continue;
-    if (Status s = fsync_path_fd(fd, folder, "fsync of the folder"); !s.ok() && failure.ok()) failure = s;
+    if (Status s = fsync_path_fd(fd, folders_[f], "fsync of the folder"); !s.ok() && failure.ok()) failure = s;
     ::close(fd);
     ++counts_.folder_syncs;
   }
@@ -152,9 +177,12 @@ Status DurableFolder::sync_changed() {
     }
   }
   ++counts_.rounds;
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const auto end = std::chrono::steady_clock::now();
+  const double ms = std::chrono::duration<double, std::milli>(end - t0).count();
   counts_.slowest_round_ms = std::max(counts_.slowest_round_ms, ms);
   counts_.last_round_ms = ms;
+  counts_.last_gap_ms = counts_.rounds > 1 ? std::chrono::duration<double, std::milli>(end - last_round_end_).count() : 0;
+  last_round_end_ = end;
   return failure;
 }
 

@@ -8,6 +8,7 @@
 // the file: the session stops, as for any failed write.
 #include <sys/types.h>
 
+#include <chrono>
 #include <cstdint>
 #include <ctime>
 #include <filesystem>
@@ -49,6 +50,7 @@ class DurableFolder {
   struct Counts {
     std::uint64_t rounds = 0, file_syncs = 0, folder_syncs = 0;
     double slowest_round_ms = 0, last_round_ms = 0;
+    double last_gap_ms = 0;  // from the previous round's end to this one's: how long a write could wait
   };
   const Counts& counts() const { return counts_; }
 
@@ -57,7 +59,14 @@ class DurableFolder {
     off_t size = -1;
     timespec mtime{};
   };
-  Status sync_folder(const std::filesystem::path& folder, bool& entries_changed);
+  struct Changed {
+    std::filesystem::path path;
+    Tracked seen;  // its size and time when listed
+    Status status;
+    bool synced = false;
+  };
+  Status list_folder(const std::filesystem::path& folder, std::vector<Changed>& changed, bool& entries_changed);
+  static void sync_files(std::vector<Changed>& changed);
 
   std::filesystem::path dir_;
   std::vector<std::filesystem::path> folders_;
@@ -67,6 +76,7 @@ class DurableFolder {
   std::map<std::filesystem::path, Tracked> files_;
   std::map<std::filesystem::path, std::size_t> entries_;  // each folder's entry count at the last round
   Counts counts_;
+  std::chrono::steady_clock::time_point last_round_end_{};
 };
 
 }  // namespace pvcap

@@ -390,18 +390,28 @@ void SessionWriter::watch_free_space() {
 }
 
 void SessionWriter::keep_durable() {
-  // Four steps an interval: three start the write-back of what changed, the fourth fsyncs it.
-  constexpr int kSteps = 4;
-  const auto step = std::chrono::duration<double>(store_.sync_interval_s / kSteps);
+  // A round of fsyncs every interval, on the clock: between rounds, steps of a quarter interval start
+  // the write-back of what changed, while time is left (a write-back step can block on a congested
+  // disk; it must not push the round later). A round that ends late starts the next at once.
+  using Clock = std::chrono::steady_clock;
+  const auto interval =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(store_.sync_interval_s));
+  const auto step = interval / 4;
+  auto next_round = Clock::now() + interval;
   std::unique_lock lock(watch_mu_);
-  for (int n = 1; !watch_cv_.wait_for(lock, step, [this] { return sync_stop_; }); ++n) {
+  while (!watch_cv_.wait_until(lock, std::min(next_round, Clock::now() + step), [this] { return sync_stop_; })) {
     lock.unlock();
-    if (n % kSteps != 0)
+    const auto now = Clock::now();
+    if (now + step / 2 < next_round) {
       durable_->start_writeback();
-    else if (Status s = durable_->sync_changed(); !s.ok())
-      set_failure(s.error().message);
-    else
-      say_if_slow(durable_->counts());
+    } else {
+      next_round += interval;
+      if (next_round < now) next_round = now;
+      if (Status s = durable_->sync_changed(); !s.ok())
+        set_failure(s.error().message);
+      else
+        say_if_slow(durable_->counts());
+    }
     lock.lock();
   }
 }
@@ -409,12 +419,19 @@ void SessionWriter::keep_durable() {
 // A round of fsyncs longer than the interval stretches what a power cut can lose past the horizon
 // docs/store.md promises: an event in the store (the report lists it) and a warning, every time.
 void SessionWriter::say_if_slow(const DurableFolder::Counts& c) {
-  const double interval_ms = store_.sync_interval_s * 1000;
-  if (c.last_round_ms <= std::max(1000.0, interval_ms)) return;
-  const std::string message = fmt::format(
-      "an fsync round of the session's files took {:.2f} s, longer than store.sync_interval_s ({:g} s): a power cut "
-      "now could lose that much; the disk is too slow or too busy for the recording",
-      c.last_round_ms / 1000, store_.sync_interval_s);
+  const double limit_ms = std::max(1000.0, store_.sync_interval_s * 1000);
+  std::string message;
+  if (c.last_round_ms > limit_ms)
+    message = fmt::format(
+        "an fsync round of the session's files took {:.2f} s, longer than store.sync_interval_s ({:g} s): a power cut "
+        "now could lose that much; the disk is too slow or too busy for the recording",
+        c.last_round_ms / 1000, store_.sync_interval_s);
+  else if (c.last_gap_ms > limit_ms)
+    message = fmt::format(
+        "the session's files went {:.2f} s between two fsync rounds (store.sync_interval_s: {:g} s): a power cut "
+        "now could lose that much; the disk or the machine is too busy for the recording",
+        c.last_gap_ms / 1000, store_.sync_interval_s);
+  if (message.empty()) return;
   spdlog::warn("{}: {}", dir_.string(), message);
   record(EventRecord{host_now().ns, "fsync_slow", std::nullopt, message});
 }

@@ -390,7 +390,12 @@ TEST(PowerCut, AProtocolSessionCutAtRandomWritesRecoversVerifiesAndLosesAtMostTh
       fs::is_directory(shm) ? shm / fmt::format("pvcap-power-cut-trace-{}", getpid()) : work / "trace";
   struct RemoveTrace {
     fs::path dir;
-    ~RemoveTrace() { fs::remove_all(dir); }
+    ~RemoveTrace() {
+      if (HasFailure() && std::getenv("PVCAP_KEEP_FAILED"))
+        std::printf("PVCAP_KEEP_FAILED: kept %s\n", dir.c_str());
+      else
+        fs::remove_all(dir);
+    }
   } remove_trace{trace_dir};
   const fs::path root = work / "sessions";
   fs::create_directories(root);
