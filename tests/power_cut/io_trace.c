@@ -164,24 +164,30 @@ static void record(uint32_t op, uint32_t flags, const char* path, const char* pa
 
 // ---- writes ----
 
+// The write itself runs outside the lock (a write can wait on the kernel's dirty-page throttling;
+// under the lock every thread's writes waited with it, and at 1080p the traced recorder fell behind):
+// it is recorded once done. A sync begun meanwhile counts it as after itself (TRACE_SYNC_FROM), which
+// can only make the crash image lose more, never keep what the disk would not.
 static ssize_t traced_write(int fd, const struct iovec* iov, int parts, int64_t offset, ssize_t (*call)(void*),
                             void* ctx) {
-  ssize_t rc;
   char path[PATH_MAX];
-  pthread_mutex_lock(&g_lock);
   const int traced = path_of_fd(fd, path, sizeof path);
   if (traced && offset < 0) {
-    // write()/writev(): at the descriptor's position, or at the end for O_APPEND.
+    // write()/writev(): at the descriptor's position, or at the end for O_APPEND (each file here has
+    // one writing thread, so nothing moves it between this and the write).
     const int fl = fcntl(fd, F_GETFL);
     struct stat st;
     offset = (fl >= 0 && (fl & O_APPEND) && fstat(fd, &st) == 0) ? st.st_size : lseek(fd, 0, SEEK_CUR);
   }
   t_inside = 1;
-  rc = call(ctx);
+  const ssize_t rc = call(ctx);
   const int saved = errno;
   t_inside = 0;
-  if (traced && rc > 0) record(TRACE_WRITE, 0, path, NULL, offset, rc, iov, parts);
-  pthread_mutex_unlock(&g_lock);
+  if (traced && rc > 0) {
+    pthread_mutex_lock(&g_lock);
+    record(TRACE_WRITE, 0, path, NULL, offset, rc, iov, parts);
+    pthread_mutex_unlock(&g_lock);
+  }
   errno = saved;
   return rc;
 }
