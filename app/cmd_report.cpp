@@ -52,17 +52,19 @@ int cmd_report(const ReportCommand& c) {
   return 0;
 }
 
-void write_session_report(const std::filesystem::path& session) {
+bool write_session_report(const std::filesystem::path& session) {
   std::fflush(stdout);
   report::ReportOptions o;
   o.progress = progress;
   auto written = report::write_html_report(session, o);
   if (!written) {
-    spdlog::warn("the HTML report could not be made ({}); `pvcap report {}` tries again", written.error().message,
-                 session.string());
-    return;
+    spdlog::error("the HTML report could not be made ({}); the session's data is kept, and `pvcap report {}` tries "
+                  "again",
+                  written.error().message, session.string());
+    return false;
   }
   fmt::print("full report (plots, sync self-check, calibration): {}\n", written.value().string());
+  return true;
 }
 
 Registered add_report_command(CLI::App& app, AppContext&) {

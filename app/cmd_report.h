@@ -15,6 +15,7 @@ int cmd_report(const ReportCommand& c);
 
 // After a recording: report.html written beside the store, its path printed; a failure is logged,
 // never fatal (the session is already safe).
-void write_session_report(const std::filesystem::path& session);
+// False (said, at error level) when it could not be written: a disk failing under the session.
+bool write_session_report(const std::filesystem::path& session);
 
 }  // namespace pvcap

@@ -19,6 +19,7 @@
 #include "app/rig_launcher.h"
 #include "protocol/takes.h"
 #include "report/session_text.h"
+#include "storage/durable_folder.h"
 #include "storage/session_reader.h"
 
 namespace pvcap {
@@ -153,7 +154,14 @@ int report_recorded_session(const console::SessionOutcome& outcome, double repor
   const auto& rec = outcome.recording;
   if (rec.dir.empty()) return rec.exit_code;
   // The report the operator reads, from what the store holds (also kept as report.txt).
+  // A report that cannot be made or written (the disk failing under the session) fails the command:
+  // exit 1, the file and the error named; the recorded data stays as it is.
+  int exit_code = rec.exit_code;
   auto text = report::session_text(rec.dir, rec.recorded_s);
+  if (!text) {
+    spdlog::error("the report could not be made: {}", text.error().message);
+    exit_code = 1;
+  }
   std::string report =
       text ? text.value()
            : fmt::format("session: {}\nthe report could not be made: {}\n", rec.dir.string(), text.error().message);
@@ -171,12 +179,15 @@ int report_recorded_session(const console::SessionOutcome& outcome, double repor
       spdlog::error("the takes could not be read back: {}", takes.error().message);
     }
   }
-  std::ofstream(rec.dir / "report.txt") << report;
+  if (Status s = write_file_atomically(rec.dir / "report.txt", report, Durability::Renamed); !s.ok()) {
+    spdlog::error("{}", s.error().message);
+    exit_code = 1;
+  }
   spdlog::info("report: writing report.html");
   if (report_stall_s > 0)  // a test's fault (core/fault_injection.h): the report held open
     std::this_thread::sleep_for(std::chrono::duration<double>(report_stall_s));
-  write_session_report(rec.dir);
-  return rec.exit_code;
+  if (!write_session_report(rec.dir)) exit_code = 1;
+  return exit_code;
 }
 
 Registered add_session_command(CLI::App& app, AppContext& ctx) {

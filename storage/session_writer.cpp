@@ -489,6 +489,11 @@ Status SessionWriter::close(const std::string& end_reason) {
   for (auto& cam : cameras_) cam->queue->close();
   for (auto& cam : cameras_) {
     if (cam->thread.joinable()) cam->thread.join();
+    // A view copy the disk failed: the camera's own video is whole, but the disk is failing.
+    if (const auto& why = cam->view->failure(); why && !views_stopped_.load() && result.ok())
+      result = Error{fmt::format("{}: a view video failed ({}); the camera's own video is complete, but the disk "
+                                 "may be failing",
+                                 cam->name, *why)};
     if (!cam->failed.load()) {
       const std::int64_t frames = cam->video->frames_written();
       if (Status s = cam->video->close(); !s.ok()) {
@@ -527,15 +532,18 @@ Status SessionWriter::close(const std::string& end_reason) {
         spdlog::warn("{}: {} frames readable; {} indexed frames after them were not written", r.path, r.frames_in_file,
                      r.rows_marked_lost);
       } catch (const std::exception& e) {
-        spdlog::error("{}: {}", dir_.string(), e.what());
+        if (result.ok()) result = Error{fmt::format("{}: {}", dir_.string(), e.what())};
       }
     }
   if (finalizer_ && !storage_failed) {
     try {
       finalizer_(*index_);  // commits its own steps
     } catch (const std::exception& e) {
-      spdlog::error("{}: re-mapping the timeline at the end failed ({}); the online values stay", dir_.string(),
-                    e.what());
+      // The store keeps the online timeline; recover finds the re-mapping unfinished and does it.
+      if (result.ok())
+        result = Error{fmt::format("{}: re-mapping the timeline at the end failed ({}); the online values stay, and "
+                                   "`pvcap recover {}` tries again",
+                                   dir_.string(), e.what(), dir_.string())};
     }
   }
   try {

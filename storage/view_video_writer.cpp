@@ -14,6 +14,7 @@ void ViewVideoWriter::open(const std::filesystem::path& path) {
   if (!video) {
     spdlog::warn("{}: no view video for the replay ({}); the camera's video is not affected", camera_,
                  video.error().message);
+    note(video.error().message);
     return;
   }
   video_ = std::move(video.value());
@@ -30,15 +31,18 @@ void ViewVideoWriter::write(const cv::Mat& frame, const VideoWriter& lossless, s
         "{}: its view video stops here until the next segment ({}); the camera's video is not affected, "
         "the replay reads it instead",
         camera_, s.error().message);
+    note(s.error().message);
     close();
   }
 }
 
 void ViewVideoWriter::close() {
   if (!video_) return;
-  if (Status s = video_->close(); !s.ok())
+  if (Status s = video_->close(); !s.ok()) {
     spdlog::warn("{}: its view video may be cut short ({}); the replay reads the camera's video where it is", camera_,
                  s.error().message);
+    note(s.error().message);
+  }
   video_.reset();
 }
 
