@@ -55,6 +55,13 @@ class IndexWriter {
   void stop();
   // Set when writing failed (e.g. disk full): the message names the file and the cause.
   std::optional<std::string> failure() const;
+  // Set when the journal or the overflow's file failed (the index itself went on): their file and
+  // the cause. A disk that fails them is failing.
+  std::optional<std::string> side_failure() const {
+    if (journal_)
+      if (auto f = journal_->failure()) return f;
+    return overflow_.failure();
+  }
   std::uint64_t records_written() const { return written_.load(); }
   std::uint64_t records_lost() const { return lost_.load() + overflow_.lost(); }
   // Records that waited in the overflow (the index was behind), and of them went through its file.

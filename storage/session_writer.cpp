@@ -508,6 +508,10 @@ Status SessionWriter::close(const std::string& end_reason) {
     }
   }
   index_writer_->stop();
+  if (const auto f = index_writer_->side_failure(); f && result.ok() && !storage_failed)
+    result = Error{fmt::format("the index's journal of rows not yet committed failed ({}); the index itself is "
+                               "complete, but the disk may be failing",
+                               *f)};
   {
     // Empty once every spill is encoded and released and the index holds every row (the journal's
     // files gone); else kept for recover.

@@ -1,0 +1,115 @@
+// Every kind of I/O call of a short session failed once (tests/io_faults/io_faults.c, preloaded):
+// the session's N-th write (EIO, or ENOSPC: a full disk), fsync, rename or read of its own files
+// fails, for N drawn over the calls a session makes (counted first; the seed is printed,
+// PVCAP_TEST_SEED repeats a run; bench/io_faults.py tries every N). Each run must end in exit 1
+// with an error line naming the file and the error, and what was stored before must be whole:
+// `pvcap recover` then `pvcap verify` find nothing damaged.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <regex>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "tests/integration/session_under_test.h"
+
+namespace fs = std::filesystem;
+using namespace pvcap::testing;
+
+namespace {
+
+struct FaultedRun {
+  int exit_code = -1;
+  std::string output;
+  fs::path session;
+};
+
+FaultedRun record(const fs::path& work, const std::string& fault, const fs::path& count_file = {}) {
+  const fs::path root = work / "sessions";
+  fs::remove_all(root);
+  std::string env = fmt::format("env LD_PRELOAD={} PVCAP_IO_FAULT={} PVCAP_IO_FAULT_ROOT={}", PVCAP_IO_FAULTS_LIB,
+                                fault, root.string());
+  if (!count_file.empty()) env += " PVCAP_IO_FAULT_COUNT=" + count_file.string();
+  auto r = run_pvcap(
+      fmt::format("session --rig {} --root {} --duration 2 --no-web", (work / "rig.yaml").string(), root.string()),
+      env);
+  return {r.exit_code, r.output, only_session(root)};
+}
+
+}  // namespace
+
+TEST(StoreIoErrors, EachKindOfCallFailedOnceEndsInExitOneNamingTheFileAndKeepsWhatCameBefore) {
+  const char* given = std::getenv("PVCAP_TEST_SEED");
+  const unsigned seed = given ? unsigned(std::strtoul(given, nullptr, 10)) : std::random_device{}();
+  std::printf("seed %u (PVCAP_TEST_SEED=%u repeats this run)\n", seed, seed);
+  const fs::path work = work_dir("io-faults");
+  std::string yaml = sim_rig_yaml({{}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  const std::string at = "  preset: ultrafast\n";
+  yaml.replace(yaml.find(at), at.size(), at + "  segment_seconds: 1\n");  // a rollover: more kinds of call
+  std::ofstream(work / "rig.yaml") << yaml;
+
+  // How many calls of each kind a session makes on its files (the simulator's processes count none).
+  const FaultedRun counted = record(work, "session:any:0:count", work / "count.txt");
+  ASSERT_EQ(counted.exit_code, 0) << counted.output;
+  std::map<std::string, long> calls;
+  {
+    std::ifstream in(work / "count.txt");
+    std::string op;
+    long n = 0;
+    while (in >> op >> n) calls[op] = std::max(calls[op], n);
+  }
+  EXPECT_GT(calls["write"], 100);
+  EXPECT_GT(calls["fsync"], 10);
+  EXPECT_GE(calls["rename"], 2) << "the session folder, the report";
+  std::printf("a 2-s session: %ld writes, %ld fsyncs, %ld renames, %ld reads of its files\n", calls["write"],
+              calls["fsync"], calls["rename"], calls["read"]);
+
+  std::mt19937 rng(seed);
+  const std::regex failed_call(R"(io_faults: \w+ #\d+ of (\S+) failed with (\w+))");
+  const std::regex error_text(
+      "Input/output error|disk I/O error|No space left on device|database or disk is full|malformed");
+  std::size_t fired = 0;
+  for (const auto& [op, what] : std::vector<std::pair<std::string, std::string>>{{"write", "eio-once"},
+                                                                                  {"write", "enospc-once"},
+                                                                                  {"fsync", "eio-once"},
+                                                                                  {"rename", "eio-once"},
+                                                                                  {"write", "eio-once"},
+                                                                                  {"fsync", "eio-once"}}) {
+    const long n = std::uniform_int_distribution<long>(1, std::max(1L, calls[op]))(rng);
+    const std::string fault = fmt::format("session:{}:{}:{}", op, n, what);
+    SCOPED_TRACE(fault);
+    const FaultedRun r = record(work, fault);
+    EXPECT_LT(r.exit_code, 128) << "killed by a signal: " << r.output;
+    std::smatch m;
+    if (!std::regex_search(r.output, m, failed_call)) {
+      std::printf("%s: not reached in this run (exit %d)\n", fault.c_str(), r.exit_code);
+      continue;  // this run made fewer calls than the counted one
+    }
+    ++fired;
+    const std::string file = fs::path(m[1].str()).filename().string();
+    const std::string named = file.rfind("session.db", 0) == 0 ? "session.db" : file;
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    // One error line names the file and the error.
+    bool said = false;
+    std::istringstream lines(r.output);
+    for (std::string line; std::getline(lines, line);)
+      said |= line.find("error]") != std::string::npos && line.find(named) != std::string::npos &&
+              std::regex_search(line, error_text);
+    EXPECT_TRUE(said) << "no error line names " << named << " and the error:\n" << r.output;
+    // What came before the failure is whole: recover, then verify finds no damage.
+    if (!r.session.empty()) {
+      const auto recovered = run_pvcap("--log-level warn recover " + r.session.string());
+      EXPECT_EQ(recovered.exit_code, 0) << recovered.output;
+      const auto verified = run_pvcap("--log-level off verify " + r.session.string());
+      EXPECT_TRUE(verified.exit_code == 0 || verified.exit_code == 3) << verified.output;
+      EXPECT_EQ(verified.output.find("ERROR"), std::string::npos) << verified.output;
+    }
+    std::printf("%s: %s failed; session exit %d\n", fault.c_str(), file.c_str(), r.exit_code);
+  }
+  EXPECT_GE(fired, 4u) << "too few of the drawn calls were reached";
+}
