@@ -102,6 +102,9 @@ Result<std::filesystem::path> make_session_folder(const std::filesystem::path& r
     SessionIndex index = SessionIndex::create(staging / "session.db");
     index.add_session(
         {started_wall_ns, started_host_ns, kVersion, rig.name, rig.source.string(), rig.text, rig.simulated});
+    // Into the index file now, where a failure is an error: closing would checkpoint too, but
+    // SQLite ignores what goes wrong there (a failed fsync of session.db went unsaid).
+    index.db().exec("PRAGMA wal_checkpoint(TRUNCATE)");
   } catch (const sqlite::SqliteError& e) {
     return unstage(Error{e.what()});
   }
