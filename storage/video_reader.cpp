@@ -254,6 +254,10 @@ Result<bool> VideoReader::decode_next(std::int64_t& pts_ms, std::int64_t skip_be
     // Feed the decoder.
     for (;;) {
       const int rr = av_read_frame(im.fmt.ptr, im.packet.ptr);
+      // The disk failed a read: said as such, never taken for the file's end (verify would call the
+      // frames after it missing, the reader would hand out fewer).
+      if (rr == AVERROR(EIO) || (im.fmt.ptr->pb && im.fmt.ptr->pb->error == AVERROR(EIO)))
+        return Error{fmt::format("{}: cannot be read: {}", path_.string(), av::error(AVERROR(EIO)))};
       if (rr < 0) {  // end of file (or a truncated tail): drain what is buffered
         im.draining = true;
         avcodec_send_packet(im.dec.ptr, nullptr);
@@ -336,6 +340,8 @@ Result<bool> VideoReader::next_packet(std::int64_t& pts_ms, bool& key) {
   Impl& im = *impl_;
   for (;;) {
     const int rr = av_read_frame(im.fmt.ptr, im.packet.ptr);
+    if (rr == AVERROR(EIO) || (im.fmt.ptr->pb && im.fmt.ptr->pb->error == AVERROR(EIO)))
+      return Error{fmt::format("{}: cannot be read: {}", path_.string(), av::error(AVERROR(EIO)))};
     if (rr == AVERROR_EOF) return false;
     if (rr < 0) return Error{fmt::format("{}: unreadable after the last good frame (truncated?)", path_.string())};
     if (im.packet.ptr->stream_index != im.stream) {

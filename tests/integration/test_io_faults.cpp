@@ -113,3 +113,74 @@ TEST(StoreIoErrors, EachKindOfCallFailedOnceEndsInExitOneNamingTheFileAndKeepsWh
   }
   EXPECT_GE(fired, 4u) << "too few of the drawn calls were reached";
 }
+
+// A read the disk fails, under the commands that read a finished session: `pvcap verify` ends in
+// exit 1 naming the file, `pvcap recover` stops naming the file; and the session, read again on a
+// good day, is as it was.
+TEST(StoreIoErrors, AReadTheDiskFailsIsNamedByVerifyAndRecover) {
+  const char* given = std::getenv("PVCAP_TEST_SEED");
+  const unsigned seed = given ? unsigned(std::strtoul(given, nullptr, 10)) : std::random_device{}();
+  std::printf("seed %u (PVCAP_TEST_SEED=%u repeats this run)\n", seed, seed);
+  const fs::path work = work_dir("io-faults-read");
+  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  const auto recorded = run_pvcap(fmt::format("session --rig {} --root {} --duration 2 --no-web",
+                                              (work / "rig.yaml").string(), (work / "sessions").string()));
+  ASSERT_EQ(recorded.exit_code, 0) << recorded.output;
+  const fs::path dir = only_session(work / "sessions");
+  ASSERT_FALSE(dir.empty());
+  auto with_fault = [&](const std::string& fault, const std::string& command, const fs::path& count = {}) {
+    std::string env = fmt::format("env LD_PRELOAD={} PVCAP_IO_FAULT={} PVCAP_IO_FAULT_ROOT={}", PVCAP_IO_FAULTS_LIB,
+                                  fault, work.string());
+    if (!count.empty()) env += " PVCAP_IO_FAULT_COUNT=" + count.string();
+    return run_pvcap(command, env);
+  };
+  const std::string verify = "--log-level warn verify " + dir.string();
+  ASSERT_EQ(with_fault("session:any:0:count", verify, work / "count.txt").exit_code, 0);
+  long reads = 0;
+  {
+    std::ifstream in(work / "count.txt");
+    std::string op;
+    long n = 0;
+    while (in >> op >> n)
+      if (op == "read") reads = std::max(reads, n);
+  }
+  ASSERT_GT(reads, 20) << "verify reads the index and every video";
+  std::mt19937 rng(seed);
+  const std::regex failed_call(R"(io_faults: \w+ #\d+ of (\S+) failed with EIO)");
+  for (int k = 0; k < 3; ++k) {
+    const long n = std::uniform_int_distribution<long>(1, reads)(rng);
+    SCOPED_TRACE(fmt::format("verify, read #{}", n));
+    const auto r = with_fault(fmt::format("session:read:{}:eio-once", n), verify);
+    std::smatch m;
+    if (!std::regex_search(r.output, m, failed_call)) continue;
+    const std::string file = fs::path(m[1].str()).filename().string();
+    if (r.exit_code == 0 && r.output.find("verdict: clean") != std::string::npos) {
+      // The read FFmpeg retried or did not need (past the last frame): every frame was read and checked.
+      std::printf("verify with read #%ld of %s failed: every frame still read and checked, clean\n", n, file.c_str());
+      continue;
+    }
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    bool named = false;
+    std::istringstream lines(r.output);
+    for (std::string line; std::getline(lines, line);)
+      named |= line.find("ERROR") != std::string::npos && line.find(file) != std::string::npos;
+    EXPECT_TRUE(named) << "no ERROR line names " << file << ":\n" << r.output;
+    // (A video read that fails is said as "cannot be read: Input/output error" where FFmpeg's
+    // demuxer passes the error on; where it takes it for the file's end, verify says frames are
+    // missing from that video: still the file, still exit 1. docs/store.md.)
+    std::printf("verify with read #%ld of %s failed: exit %d\n", n, file.c_str(), r.exit_code);
+  }
+  // recover on a copy (it writes): its first reads are the index's.
+  for (long n : {1L, 4L}) {
+    const fs::path copy = work / "copy";
+    fs::remove_all(copy);
+    ASSERT_EQ(std::system(fmt::format("cp -a '{}' '{}'", dir.string(), copy.string()).c_str()), 0);
+    const auto r = with_fault(fmt::format("session:read:{}:eio-once", n), "--log-level warn recover " + copy.string());
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    EXPECT_NE(r.output.find("session.db"), std::string::npos) << r.output;
+    std::printf("recover with read #%ld failed: exit %d\n", n, r.exit_code);
+  }
+  // On a good day the session is as it was.
+  const auto clean = run_pvcap("--log-level off verify " + dir.string());
+  EXPECT_EQ(clean.exit_code, 0) << clean.output;
+}
