@@ -13,9 +13,9 @@ struct ReportCommand {
 
 int cmd_report(const ReportCommand& c);
 
-// After a recording: report.html written beside the store, its path printed; a failure is logged,
-// never fatal (the session is already safe).
-// False (said, at error level) when it could not be written: a disk failing under the session.
+// After a recording: report.html written beside the store, its path printed. False (said, at error
+// level) when it could not be made: the session's data is already safe, but the command ends in exit 1
+// (a disk failing under the session must not pass unsaid).
 bool write_session_report(const std::filesystem::path& session);
 
 }  // namespace pvcap
