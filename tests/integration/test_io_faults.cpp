@@ -135,7 +135,11 @@ TEST(StoreIoErrors, AReadTheDiskFailsIsNamedByVerifyAndRecover) {
     return run_pvcap(command, env);
   };
   const std::string verify = "--log-level warn verify " + dir.string();
-  ASSERT_EQ(with_fault("session:any:0:count", verify, work / "count.txt").exit_code, 0);
+  // What verify says on a good day: clean, or lossy (a frame dropped by a loaded machine).
+  const auto good_day = run_pvcap(verify);
+  ASSERT_TRUE(good_day.exit_code == 0 || good_day.exit_code == 3) << good_day.output;
+  const std::string good_verdict = good_day.output.substr(good_day.output.rfind("verdict"));
+  ASSERT_EQ(with_fault("session:any:0:count", verify, work / "count.txt").exit_code, good_day.exit_code);
   long reads = 0;
   {
     std::ifstream in(work / "count.txt");
@@ -154,9 +158,10 @@ TEST(StoreIoErrors, AReadTheDiskFailsIsNamedByVerifyAndRecover) {
     std::smatch m;
     if (!std::regex_search(r.output, m, failed_call)) continue;
     const std::string file = fs::path(m[1].str()).filename().string();
-    if (r.exit_code == 0 && r.output.find("verdict: clean") != std::string::npos) {
+    if (r.exit_code == good_day.exit_code && r.output.find(good_verdict) != std::string::npos) {
       // The read FFmpeg retried or did not need (past the last frame): every frame was read and checked.
-      std::printf("verify with read #%ld of %s failed: every frame still read and checked, clean\n", n, file.c_str());
+      std::printf("verify with read #%ld of %s failed: every frame still read and checked, as on a good day\n", n,
+                  file.c_str());
       continue;
     }
     EXPECT_EQ(r.exit_code, 1) << r.output;
@@ -181,6 +186,7 @@ TEST(StoreIoErrors, AReadTheDiskFailsIsNamedByVerifyAndRecover) {
     std::printf("recover with read #%ld failed: exit %d\n", n, r.exit_code);
   }
   // On a good day the session is as it was.
-  const auto clean = run_pvcap("--log-level off verify " + dir.string());
-  EXPECT_EQ(clean.exit_code, 0) << clean.output;
+  const auto again = run_pvcap(verify);
+  EXPECT_EQ(again.exit_code, good_day.exit_code) << again.output;
+  EXPECT_NE(again.output.find(good_verdict), std::string::npos) << again.output;
 }

@@ -260,7 +260,7 @@ TEST(StoreDiskFull, AFullDiskStopsTheSessionAndWhatWasWrittenVerifies) {
   fs::remove_all(work);
   const fs::path small = work / "small";
   fs::create_directories(small);
-  ASSERT_EQ(mount("tmpfs", small.c_str(), "tmpfs", MS_NOSUID | MS_NODEV, "size=24m"), 0) << std::strerror(errno);
+  ASSERT_EQ(mount("tmpfs", small.c_str(), "tmpfs", MS_NOSUID | MS_NODEV, "size=32m"), 0) << std::strerror(errno);
   struct Unmount {  // and the folder it was mounted in, once empty
     fs::path p, work;
     ~Unmount() {
