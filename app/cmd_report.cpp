@@ -58,9 +58,10 @@ bool write_session_report(const std::filesystem::path& session) {
   o.progress = progress;
   auto written = report::write_html_report(session, o);
   if (!written) {
-    spdlog::error("the HTML report could not be made ({}); the session's data is kept, and `pvcap report {}` tries "
-                  "again",
-                  written.error().message, session.string());
+    spdlog::error(
+        "the HTML report could not be made ({}); the session's data is kept, and `pvcap report {}` tries "
+        "again",
+        written.error().message, session.string());
     return false;
   }
   fmt::print("full report (plots, sync self-check, calibration): {}\n", written.value().string());

@@ -5,11 +5,11 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
 #include <fstream>
-#include <atomic>
 #include <set>
 #include <thread>
 
@@ -82,7 +82,7 @@ DurableFolder::DurableFolder(std::filesystem::path dir, std::vector<std::string>
 }
 
 Status DurableFolder::list_folder(const std::filesystem::path& folder, std::vector<Changed>& changed,
-                                 bool& entries_changed) {
+                                  bool& entries_changed) {
   std::set<std::filesystem::path> present;
   const bool there = for_each_file(folder, [&](const std::filesystem::path& path, const struct stat& st) {
     present.insert(path);
@@ -181,7 +181,8 @@ Status DurableFolder::sync_changed() {
   const double ms = std::chrono::duration<double, std::milli>(end - t0).count();
   counts_.slowest_round_ms = std::max(counts_.slowest_round_ms, ms);
   counts_.last_round_ms = ms;
-  counts_.last_gap_ms = counts_.rounds > 1 ? std::chrono::duration<double, std::milli>(end - last_round_end_).count() : 0;
+  counts_.last_gap_ms =
+      counts_.rounds > 1 ? std::chrono::duration<double, std::milli>(end - last_round_end_).count() : 0;
   last_round_end_ = end;
   return failure;
 }

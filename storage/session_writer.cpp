@@ -491,9 +491,10 @@ Status SessionWriter::close(const std::string& end_reason) {
     if (cam->thread.joinable()) cam->thread.join();
     // A view copy the disk failed: the camera's own video is whole, but the disk is failing.
     if (const auto& why = cam->view->failure(); why && !views_stopped_.load() && result.ok())
-      result = Error{fmt::format("{}: a view video failed ({}); the camera's own video is complete, but the disk "
-                                 "may be failing",
-                                 cam->name, *why)};
+      result =
+          Error{fmt::format("{}: a view video failed ({}); the camera's own video is complete, but the disk "
+                            "may be failing",
+                            cam->name, *why)};
     if (!cam->failed.load()) {
       const std::int64_t frames = cam->video->frames_written();
       if (Status s = cam->video->close(); !s.ok()) {
@@ -509,9 +510,10 @@ Status SessionWriter::close(const std::string& end_reason) {
   }
   index_writer_->stop();
   if (const auto f = index_writer_->side_failure(); f && result.ok() && !storage_failed)
-    result = Error{fmt::format("the index's journal of rows not yet committed failed ({}); the index itself is "
-                               "complete, but the disk may be failing",
-                               *f)};
+    result =
+        Error{fmt::format("the index's journal of rows not yet committed failed ({}); the index itself is "
+                          "complete, but the disk may be failing",
+                          *f)};
   {
     // Empty once every spill is encoded and released and the index holds every row (the journal's
     // files gone); else kept for recover.
@@ -545,9 +547,10 @@ Status SessionWriter::close(const std::string& end_reason) {
     } catch (const std::exception& e) {
       // The store keeps the online timeline; recover finds the re-mapping unfinished and does it.
       if (result.ok())
-        result = Error{fmt::format("{}: re-mapping the timeline at the end failed ({}); the online values stay, and "
-                                   "`pvcap recover {}` tries again",
-                                   dir_.string(), e.what(), dir_.string())};
+        result =
+            Error{fmt::format("{}: re-mapping the timeline at the end failed ({}); the online values stay, and "
+                              "`pvcap recover {}` tries again",
+                              dir_.string(), e.what(), dir_.string())};
     }
   }
   try {

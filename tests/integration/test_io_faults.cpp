@@ -75,11 +75,11 @@ TEST(StoreIoErrors, EachKindOfCallFailedOnceEndsInExitOneNamingTheFileAndKeepsWh
       "Input/output error|disk I/O error|No space left on device|database or disk is full|malformed");
   std::size_t fired = 0;
   for (const auto& [op, what] : std::vector<std::pair<std::string, std::string>>{{"write", "eio-once"},
-                                                                                  {"write", "enospc-once"},
-                                                                                  {"fsync", "eio-once"},
-                                                                                  {"rename", "eio-once"},
-                                                                                  {"write", "eio-once"},
-                                                                                  {"fsync", "eio-once"}}) {
+                                                                                 {"write", "enospc-once"},
+                                                                                 {"fsync", "eio-once"},
+                                                                                 {"rename", "eio-once"},
+                                                                                 {"write", "eio-once"},
+                                                                                 {"fsync", "eio-once"}}) {
     const long n = std::uniform_int_distribution<long>(1, std::max(1L, calls[op]))(rng);
     const std::string fault = fmt::format("session:{}:{}:{}", op, n, what);
     SCOPED_TRACE(fault);

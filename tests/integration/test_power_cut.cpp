@@ -46,9 +46,9 @@ constexpr double kSyncGapS = 1.0;
 using RowKey = std::tuple<std::int64_t, std::int64_t, std::int64_t>;  // device, connection, sequence
 
 struct Rows {
-  std::map<RowKey, std::int64_t> frames;        // kept camera frames -> host_ns
-  std::map<RowKey, std::int64_t> pressure;      // pressure frames -> host_ns
-  std::map<std::int64_t, std::int64_t> events;  // protocol event id -> host_ns
+  std::map<RowKey, std::int64_t> frames;                     // kept camera frames -> host_ns
+  std::map<RowKey, std::int64_t> pressure;                   // pressure frames -> host_ns
+  std::map<std::int64_t, std::int64_t> events;               // protocol event id -> host_ns
   std::vector<std::pair<std::int64_t, std::int64_t>> takes;  // action_start .. action_end
 };
 
@@ -78,8 +78,8 @@ double lost_before_cut_s(const std::map<RowKey, std::int64_t>& truth, const std:
     if (host_ns <= cut_ns && !image.count(key) && host_ns < earliest) {
       earliest = host_ns;
       if (which)
-        *which = fmt::format("device {} connection {} sequence {}", std::get<0>(key), std::get<1>(key),
-                             std::get<2>(key));
+        *which =
+            fmt::format("device {} connection {} sequence {}", std::get<0>(key), std::get<1>(key), std::get<2>(key));
     }
   return double(cut_ns - earliest) / 1e9;
 }
@@ -188,7 +188,6 @@ TEST(CrashImage, WritesAfterTheLastFsyncAndNamesAfterTheFoldersLastSyncMayEachBe
     EXPECT_EQ(read_all(work / "image" / "a"), "abc");
   }
 }
-
 
 namespace {
 
@@ -327,8 +326,8 @@ struct CutResult {
 
 // Recovers, verifies and reads one cut's image; checks its losses against the horizon and the events
 // posted before the last sync round that finished before the cut.
-CutResult check_cut(const fs::path& session, const Rows& truth, std::int64_t cut_ns,
-                    const std::vector<Window>& rounds, bool read_every_sample, int& verify_exit) {
+CutResult check_cut(const fs::path& session, const Rows& truth, std::int64_t cut_ns, const std::vector<Window>& rounds,
+                    bool read_every_sample, int& verify_exit) {
   CutResult c;
   const auto recovered = run_pvcap("--log-level warn recover " + session.string());
   EXPECT_EQ(recovered.exit_code, 0) << recovered.output;
@@ -356,7 +355,8 @@ CutResult check_cut(const fs::path& session, const Rows& truth, std::int64_t cut
   c.cameras_s = lost_before_cut_s(truth.frames, got.frames, cut_ns, &camera_frame);
   c.pressure_s = lost_before_cut_s(truth.pressure, got.pressure, cut_ns, &pressure_frame);
   EXPECT_LE(c.cameras_s, kVideoHorizonS) << "camera frames lost before the cut, the first " << camera_frame
-                                         << "; recover said:\n" << recovered.output;
+                                         << "; recover said:\n"
+                                         << recovered.output;
   EXPECT_LE(c.pressure_s, kPressureHorizonS) << "pressure frames lost before the cut, the first " << pressure_frame;
   // The last sync round the cut let finish: what was posted 100 ms before it began was in its files.
   std::int64_t synced_before = INT64_MIN;
@@ -403,12 +403,12 @@ TEST(PowerCut, AProtocolSessionCutAtRandomWritesRecoversVerifiesAndLosesAtMostTh
   std::ofstream(work / "rig.yaml") << rig_yaml(full_hd);
   // Three force levels, both hands, two repetitions: twelve takes, about 30 s.
   const fs::path protocol = write_press_protocol(work, "[low, high, no_contact]", 0.5, 0.4, 3.0, 0.3);
-  const auto r = run_pvcap(
-      fmt::format("session --rig {} --root {} --protocol {} --auto --fast --participant T01 --skin-tone dark "
-                  "--hand-order left_first --no-web",
-                  (work / "rig.yaml").string(), root.string(), protocol.string()),
-      fmt::format("PVCAP_FAULTS={} PVCAP_IO_TRACE={} PVCAP_IO_TRACE_ROOT={} LD_PRELOAD={}", kFaults,
-                  trace_dir.string(), root.string(), PVCAP_IO_TRACE_LIB));
+  const auto r =
+      run_pvcap(fmt::format("session --rig {} --root {} --protocol {} --auto --fast --participant T01 --skin-tone dark "
+                            "--hand-order left_first --no-web",
+                            (work / "rig.yaml").string(), root.string(), protocol.string()),
+                fmt::format("PVCAP_FAULTS={} PVCAP_IO_TRACE={} PVCAP_IO_TRACE_ROOT={} LD_PRELOAD={}", kFaults,
+                            trace_dir.string(), root.string(), PVCAP_IO_TRACE_LIB));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const fs::path truth_dir = only_session(root);
   ASSERT_FALSE(truth_dir.empty());

@@ -25,6 +25,8 @@
 #include <sys/uio.h>
 #include <unistd.h>
 
+#include "../preload_paths.h"
+
 static int g_armed = -1;  // -1: not read yet
 static char g_kind[16], g_op[16], g_what[16];
 static const char* g_root;
@@ -78,20 +80,8 @@ static int path_of_kind(const char* path) {
 
 // Whether `name` (relative to `dirfd`) is a file of the armed kind.
 static int name_of_kind(int dirfd, const char* name) {
-  if (!name) return 0;
-  if (name[0] == '/') return path_of_kind(name);
-  char base[4096], path[8192];
-  if (dirfd == AT_FDCWD) {
-    if (!getcwd(base, sizeof base)) return 0;
-  } else {
-    char link[64];
-    snprintf(link, sizeof link, "/proc/self/fd/%d", dirfd);
-    const ssize_t n = readlink(link, base, sizeof base - 1);
-    if (n <= 0) return 0;
-    base[n] = '\0';
-  }
-  snprintf(path, sizeof path, "%s/%s", base, name);
-  return path_of_kind(path);
+  char path[PATH_MAX];
+  return preload_absolute_path(dirfd, name, path, sizeof path) && path_of_kind(path);
 }
 
 static long g_slow_ms;

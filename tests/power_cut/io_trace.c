@@ -28,6 +28,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "../preload_paths.h"
 #include "trace_format.h"
 
 static pthread_mutex_t g_lock = PTHREAD_MUTEX_INITIALIZER;
@@ -77,28 +78,6 @@ static void put_all(int fd, const void* p, size_t n) {
 
 static int under_root(const char* path) {
   return strncmp(path, g_root, g_root_len) == 0 && (path[g_root_len] == '/' || path[g_root_len] == '\0');
-}
-
-// The absolute path `name` names relative to `dirfd` (not resolved further: the tests' folders
-// have no symbolic links).
-static int absolute(int dirfd, const char* name, char* out, size_t size) {
-  if (!name) return 0;
-  if (name[0] == '/') {
-    snprintf(out, size, "%s", name);
-    return 1;
-  }
-  char base[PATH_MAX];
-  if (dirfd == AT_FDCWD) {
-    if (!getcwd(base, sizeof base)) return 0;
-  } else {
-    char link[64];
-    snprintf(link, sizeof link, "/proc/self/fd/%d", dirfd);
-    const ssize_t n = readlink(link, base, sizeof base - 1);
-    if (n <= 0) return 0;
-    base[n] = '\0';
-  }
-  // A path too long to hold is not traced (the tests' paths are short).
-  return snprintf(out, size, "%s/%s", base, name) < (int)size;
 }
 
 // The path of the file `fd` has open, if it is under the root and still has a name.
@@ -318,7 +297,8 @@ static int open_common(int dirfd, const char* name, int flags, mode_t mode) {
   char path[PATH_MAX];
   int rc;
   pthread_mutex_lock(&g_lock);
-  const int traced = (flags & (O_CREAT | O_TRUNC)) && absolute(dirfd, name, path, sizeof path) && under_root(path);
+  const int traced =
+      (flags & (O_CREAT | O_TRUNC)) && preload_absolute_path(dirfd, name, path, sizeof path) && under_root(path);
   const int existed = traced && access(path, F_OK) == 0;
   t_inside = 1;
   rc = real_openat64(dirfd, name, flags, mode);
@@ -376,7 +356,8 @@ static int traced_names(uint32_t op, int dirfd, const char* name, int dirfd2, co
   char path[PATH_MAX], path2[PATH_MAX];
   int rc;
   pthread_mutex_lock(&g_lock);
-  const int ok = absolute(dirfd, name, path, sizeof path) && (!name2 || absolute(dirfd2, name2, path2, sizeof path2));
+  const int ok = preload_absolute_path(dirfd, name, path, sizeof path) &&
+                 (!name2 || preload_absolute_path(dirfd2, name2, path2, sizeof path2));
   t_inside = 1;
   rc = call(ctx);
   const int saved = errno;
