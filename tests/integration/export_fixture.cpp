@@ -20,8 +20,13 @@ Recorded record_export_session(const fs::path& work) {
   fs::create_directories(out.work);
   std::string rig = read_all(fs::path(PVCAP_SOURCE_DIR) / "rig-configs" / "sim.yaml");
   for (auto [from, to] :
-       {std::pair<std::string, std::string>{"width: 1920", "width: 960"}, {"height: 1080", "height: 540"}})
-    for (auto at = rig.find(from); at != std::string::npos; at = rig.find(from)) rig.replace(at, from.size(), to);
+       {std::pair<std::string, std::string>{"width: 1920", "width: 960"},
+        {"height: 1080", "height: 540"},
+        // On one trigger line, as the paper's synchronized cameras: free-running, the four started out
+        // of phase and a third of the groups could lack a camera (then a take has too few frames).
+        {"frame_rate: 30\n", "frame_rate: 30\n    trigger: hardware\n    trigger_source: Line0\n"}})
+    for (auto at = rig.find(from); at != std::string::npos; at = rig.find(from, at + to.size()))
+      rig.replace(at, from.size(), to);
   std::ofstream(out.work / "rig.yaml") << rig;
   const auto run = run_pvcap(fmt::format(
       "session --rig {} --root {} --protocol {} --auto --fast --participant P017 --skin-tone dark --lighting L-R "
