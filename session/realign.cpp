@@ -10,7 +10,9 @@
 
 #include "core/rig_config.h"
 #include "core/time.h"
+#include "session/sample_record.h"
 #include "storage/recover.h"
+#include "sync/group_rule.h"
 #include "sync/timeline.h"
 
 namespace pvcap {
@@ -38,28 +40,6 @@ struct TimedMember {
   SampleFrameRef ref;
   std::int64_t t_ns = 0;
 };
-
-// The members that stay in a group: the most that lie within `limit` of each other; among as
-// many, the set whose mean is nearest the tick. `members` sorted by time.
-std::pair<std::size_t, std::size_t> members_within(const std::vector<TimedMember>& members, std::int64_t limit,
-                                                   std::int64_t tick_ns) {
-  std::pair<std::size_t, std::size_t> best{0, 0};
-  std::int64_t best_distance = INT64_MAX;
-  for (std::size_t i = 0, j = 0; i < members.size(); ++i) {
-    j = std::max(j, i);
-    while (j + 1 < members.size() && members[j + 1].t_ns - members[i].t_ns <= limit) ++j;
-    std::int64_t rel = 0;
-    for (std::size_t k = i; k <= j; ++k) rel += members[k].t_ns - members[i].t_ns;
-    const std::int64_t mean = members[i].t_ns + rel / std::int64_t(j - i + 1);
-    const std::int64_t distance = mean > tick_ns ? mean - tick_ns : tick_ns - mean;
-    const std::size_t n = j - i + 1, best_n = best.second - best.first;
-    if (n > best_n || (n == best_n && distance < best_distance)) {
-      best = {i, j + 1};
-      best_distance = distance;
-    }
-  }
-  return best;
-}
 
 std::string done_message(const RealignResult& r, std::int64_t limit) {
   std::string message = fmt::format("{} samples re-paired with the final clock fits in {:.1f} s", r.samples, r.seconds);
@@ -164,47 +144,32 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
     const std::size_t end = std::min(members.size(), begin + step);
     for (std::size_t i = begin; i < end; ++i) {
       const auto& [id, tick_ns, stored_t_ns, stored_span_ns, frames] = members[i];
-      SampleRecord s;
-      s.index = id;
       std::vector<TimedMember> timed;
       for (const auto& m : frames) {
         const auto it = camera_mapped.find({m.device_id, m.connection, m.sequence});
         if (it != camera_mapped.end()) timed.push_back({m, it->second});
       }
       std::sort(timed.begin(), timed.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
-      if (!timed.empty() && timed.back().t_ns - timed.front().t_ns > limit) {
-        const auto [first, last] = members_within(timed, limit, tick_ns);
-        for (std::size_t k = 0; k < timed.size(); ++k)
-          if (k < first || k >= last) {
-            index.leave_sample(id, timed[k].ref);
-            ++result.frames_out_of_groups;
-            ++by_camera[timed[k].ref.device_id].left;
-          }
-        timed = std::vector<TimedMember>(timed.begin() + std::ptrdiff_t(first), timed.begin() + std::ptrdiff_t(last));
+      std::vector<std::int64_t> times;
+      for (const auto& m : timed) times.push_back(m.t_ns);
+      // The live grouper's rule, with the final fits: frames it now puts too far apart leave.
+      const auto [first, last] = sync::members_within(times, limit, tick_ns);
+      std::vector<session::MappedCameraFrame> kept;
+      for (std::size_t k = 0; k < timed.size(); ++k) {
+        if (k < first || k >= last) {
+          index.leave_sample(id, timed[k].ref);
+          ++result.frames_out_of_groups;
+          ++by_camera[timed[k].ref.device_id].left;
+          continue;
+        }
+        kept.push_back({timed[k].ref.device_id, timed[k].ref.connection, timed[k].ref.sequence, timed[k].t_ns});
       }
-      if (timed.empty()) {
-        // None of its frames was stored (lost at an interruption): its instant stays the live
-        // timeline's, and its pressure is still re-paired against the re-mapped pressure frames.
-        s.t_ns = stored_t_ns;
-        s.span_ns = stored_span_ns;
-      } else {
-        // Mean relative to the earliest, so the sum cannot overflow.
-        const std::int64_t lo = timed.front().t_ns;
-        std::int64_t rel = 0;
-        for (const auto& m : timed) rel += m.t_ns - lo;
-        s.t_ns = lo + rel / std::int64_t(timed.size());
-        s.span_ns = timed.back().t_ns - lo;
-      }
-      for (const auto& m : timed)
-        s.cameras.push_back({m.ref.device_id, m.ref.connection, m.ref.sequence, m.t_ns - s.t_ns});
-      const auto p = sync::pair_nearest(pressure.begin(), pressure.end(), s.t_ns, o.max_offset_ns);
-      auto ref = [&](const std::optional<sync::FrameRef>& f) -> std::optional<SampleFrameRef> {
-        if (!f) return std::nullopt;
-        return SampleFrameRef{pressure_device_id, f->connection, f->sequence, f->t_ns - s.t_ns};
-      };
-      s.pressure = ref(p.nearest);
-      s.pressure_before = ref(p.before);
-      s.pressure_after = ref(p.after);
+      times = std::vector<std::int64_t>(times.begin() + std::ptrdiff_t(first), times.begin() + std::ptrdiff_t(last));
+      // None of its frames stored (lost at an interruption): its instant stays the live timeline's,
+      // and its pressure is still re-paired against the re-mapped pressure frames.
+      const sync::GroupTime at = kept.empty() ? sync::GroupTime{stored_t_ns, stored_span_ns} : sync::group_time(times);
+      const auto p = sync::pair_nearest(pressure.begin(), pressure.end(), at.t_ns, o.max_offset_ns);
+      const SampleRecord s = session::sample_record(id, 0, tick_ns, at, kept, p, pressure_device_id);
       index.update_sample(s);
       ++result.samples;
     }

@@ -17,6 +17,7 @@
 #include "core/time.h"
 #include "session/camera_pipeline.h"
 #include "session/realign.h"
+#include "session/sample_record.h"
 #include "session/rig_lock.h"
 #include "storage/session_writer.h"
 #include "sync/session_timeline.h"
@@ -237,17 +238,11 @@ Status Recording::start() {
   sample_hz_ = tc.sample_hz;
   pressure_max_offset_ns_ = tc.pressure_max_offset_ns;
   auto on_sample = [this](sync::SampleOut s) {
-    SampleRecord r{s.index, s.tick, s.tick_ns, s.group.t_ns, s.group.span_ns, {}, {}, {}, {}};
+    std::vector<MappedCameraFrame> cameras;
     for (const auto& m : s.group.members)
-      if (m)
-        r.cameras.push_back({device_ids_[std::size_t(m->stream)], m->connection, m->sequence, m->t_ns - s.group.t_ns});
-    auto ref = [&](const std::optional<sync::FrameRef>& f) -> std::optional<SampleFrameRef> {
-      if (!f) return std::nullopt;
-      return SampleFrameRef{sensel_id_, f->connection, f->sequence, f->t_ns - s.group.t_ns};
-    };
-    r.pressure = ref(s.pressure.nearest);
-    r.pressure_before = ref(s.pressure.before);
-    r.pressure_after = ref(s.pressure.after);
+      if (m) cameras.push_back({device_ids_[std::size_t(m->stream)], m->connection, m->sequence, m->t_ns});
+    SampleRecord r =
+        sample_record(s.index, s.tick, s.tick_ns, {s.group.t_ns, s.group.span_ns}, cameras, s.pressure, sensel_id_);
     if (r.pressure) {
       std::lock_guard lock(mu_);
       recent_offsets_ms_.push_back(std::abs(double(r.pressure->offset_ns)) / 1e6);
@@ -257,11 +252,7 @@ Status Recording::start() {
     samples_.fetch_add(1, std::memory_order_relaxed);
   };
   auto on_clock = [this](sync::ClockSnapshot c) {
-    const bool is_pressure = c.stream < 0;
-    writer_->record(ClockModelRecord{is_pressure ? sensel_id_ : device_ids_[std::size_t(c.stream)], c.host_ns,
-                                     c.segment, c.fit.x0, c.fit.offset_ns, c.fit.skew, c.latency_ns,
-                                     c.probed ? "latch" : "arrivals", c.pairs, c.envelope_points, c.residual_p50_ns,
-                                     c.residual_p99_ns});
+    writer_->record(clock_record(c.stream < 0 ? sensel_id_ : device_ids_[std::size_t(c.stream)], c));
   };
   timeline_ = std::make_unique<sync::SessionTimeline>(tc, on_sample, on_clock);
   timeline_end_ = std::make_unique<TimelineEnd>();

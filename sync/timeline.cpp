@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "sync/group_rule.h"
+
 namespace pvcap::sync {
 
 // ---------------------------------------------------------------------------------------------
@@ -44,8 +46,7 @@ bool Grouper::decide(bool flush) {
   Group g;
   g.members.resize(pending_.size());
   const FrameRef* next_of_anchor = pending_[anchor].size() > 1 ? &pending_[anchor][1] : nullptr;
-  std::int64_t lo = a, hi = a, sum = 0;
-  int n = 0;
+  std::vector<std::int64_t> times;
   for (std::size_t c = 0; c < pending_.size(); ++c) {
     if (pending_[c].empty()) continue;
     const FrameRef& f = pending_[c].front();
@@ -55,14 +56,12 @@ bool Grouper::decide(bool flush) {
       if (next_of_anchor && next_of_anchor->t_ns - f.t_ns < f.t_ns - a) continue;
     }
     g.members[c] = f;
-    lo = std::min(lo, f.t_ns);
-    hi = std::max(hi, f.t_ns);
-    sum += f.t_ns - a;
-    ++n;
+    times.push_back(f.t_ns);
     pending_[c].pop_front();
   }
-  g.t_ns = a + sum / n;
-  g.span_ns = hi - lo;
+  const GroupTime at = group_time(times);
+  g.t_ns = at.t_ns;
+  g.span_ns = at.span_ns;
   (g.complete() ? complete_ : incomplete_) += 1;
   decided_until_ = a;
   out_.push_back(std::move(g));
