@@ -81,14 +81,20 @@ Status read_one(const std::filesystem::path& dir, SessionTakes& out, int depth) 
     if (!t.start_ns) continue;
     const std::int64_t end = t.end_ns.value_or(session_end);
     if (r.sample_count()) {
-      auto first = r.sample_at(*t.start_ns), last = r.sample_at(end);
-      if (first && last) {
-        std::size_t a = first.value(), b = last.value();
-        if (auto i = r.sample_info(a); i && i.value().t_ns < *t.start_ns) ++a;
-        if (auto i = r.sample_info(b); i && i.value().t_ns < end) ++b;
-        t.first_sample = a;
-        t.end_sample = std::max(a, b);
-      }
+      // A read that fails here is an error, never a take a sample shorter (a disk's EIO once did that).
+      auto first = r.sample_at(*t.start_ns);
+      if (!first) return first.error();
+      auto last = r.sample_at(end);
+      if (!last) return last.error();
+      std::size_t a = first.value(), b = last.value();
+      auto at_a = r.sample_info(a);
+      if (!at_a) return at_a.error();
+      if (at_a.value().t_ns < *t.start_ns) ++a;
+      auto at_b = r.sample_info(b);
+      if (!at_b) return at_b.error();
+      if (at_b.value().t_ns < end) ++b;
+      t.first_sample = a;
+      t.end_sample = std::max(a, b);
     }
     if (!r.pressure_device() || end == INT64_MAX) continue;
     auto frames = r.pressure_frames_between(*t.start_ns, end);

@@ -15,6 +15,9 @@ namespace {
 // SQLite says "disk I/O error"; the operating system's error (EIO, ENOSPC, EROFS) says which.
 std::string os_error(sqlite3* db, int rc) {
   const int primary = rc & 0xff;
+  // A read the disk failed with EIO, SQLite reports as a malformed file (SQLITE_IOERR_CORRUPTFS, passed
+  // on as SQLITE_CORRUPT, with no errno kept): name both causes, or an operator looks only for damage.
+  if (primary == SQLITE_CORRUPT) return ": the file is damaged, or the disk failed a read";
   if (!db ||
       (primary != SQLITE_IOERR && primary != SQLITE_FULL && primary != SQLITE_READONLY && primary != SQLITE_CANTOPEN))
     return "";
