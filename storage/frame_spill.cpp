@@ -11,9 +11,17 @@
 
 #include <fmt/format.h>
 
+#include "core/time.h"
+
 namespace pvcap {
 
 namespace {
+
+// A frame that arrived at `arrived_host_ns` has just reached the kernel's files: the worst so far?
+void note_age(FrameSpillQueue::DiskAge& worst, std::int64_t arrived_host_ns, bool via_spill) {
+  const std::int64_t age = host_now().ns - arrived_host_ns;
+  if (age > worst.worst_ns) worst = {age, arrived_host_ns, via_spill};
+}
 
 // Record: "PVS2", u32 total bytes, u32 CRC-32 of everything after it, then the fields below and the
 // pixels. Little-endian (the machine's; a spill is read back by the same machine). "PVSP" records
@@ -181,17 +189,27 @@ bool FrameSpillQueue::push(cv::Mat image, FrameRecord rec) {
   }
   // Behind: from here on, every frame goes through the disk until the encoder has caught up.
   if (failure_ || memory_.size() + for_writer_.size() >= memory_cap_ + writer_cap_) return false;
-  if (!spilling) {
-    // The frames waiting in memory go first (they are older), so that a power cut cannot take them
-    // while the encoder is held up; the memory they hold is the same, now in the writer's queue.
-    spilled_ += memory_.size();
-    for (auto& item : memory_) for_writer_.push_back(std::move(item));
-    memory_.clear();
-  }
+  if (!spilling) memory_to_spill();
   for_writer_.push_back({std::move(image), std::move(rec), "", false, now});
   ++spilled_;
   to_write_.notify_one();
   return true;
+}
+
+void FrameSpillQueue::memory_to_spill() {
+  // The frames waiting in memory go first (they are older), so that a power cut cannot take them
+  // while the encoder is held up; the memory they hold is the same, now in the writer's queue. The
+  // one in the encoder's hands goes too: when the encoder has written it, its spilled copy is skipped.
+  spilled_ += memory_.size();
+  for (auto& item : memory_) for_writer_.push_back(std::move(item));
+  memory_.clear();
+  to_write_.notify_one();
+}
+
+void FrameSpillQueue::spill_stale_memory() {
+  const bool spilling = !for_writer_.empty() || writing_ || on_disk_ > 0;
+  if (spilling || failure_ || memory_.empty()) return;
+  if (std::chrono::steady_clock::now() - memory_.front().pushed > memory_age_) memory_to_spill();
 }
 
 Status FrameSpillQueue::append(const SpillItem& item) {
@@ -233,8 +251,14 @@ Status FrameSpillQueue::append(const SpillItem& item) {
 void FrameSpillQueue::writer_loop() {
   std::unique_lock lock(mu_);
   for (;;) {
-    to_write_.wait(lock, [&] { return stop_writer_ || !for_writer_.empty(); });
-    if (for_writer_.empty()) return;  // stopping, nothing left
+    // Awake at least every 50 ms: a frame's age in memory is kept to also when no frame comes to
+    // push it out (the cameras stopped, or one went quiet) and the encoder is held up.
+    to_write_.wait_for(lock, std::chrono::milliseconds(50), [&] { return stop_writer_ || !for_writer_.empty(); });
+    spill_stale_memory();
+    if (for_writer_.empty()) {
+      if (stop_writer_) return;  // stopping, nothing left
+      continue;
+    }
     SpillItem item = std::move(for_writer_.front());
     for_writer_.pop_front();
     writing_ = true;
@@ -256,6 +280,7 @@ void FrameSpillQueue::writer_loop() {
     writing_ = false;
     if (status.ok()) {
       ++on_disk_;
+      note_age(disk_age_, item.rec.host_ns, true);
     } else {
       if (!failure_) failure_ = status.error().message;
       item.lost_reason = "spill_write_failed";
@@ -266,8 +291,14 @@ void FrameSpillQueue::writer_loop() {
   }
 }
 
+FrameSpillQueue::DiskAge FrameSpillQueue::worst_disk_age() const {
+  std::lock_guard lock(mu_);
+  return disk_age_;
+}
+
 std::optional<SpillItem> FrameSpillQueue::pop_for(std::chrono::milliseconds timeout) {
   std::unique_lock lock(mu_);
+  if (in_hand_host_ns_) done_with(*in_hand_host_ns_);  // the encoder asks for the next: done with the last
   const auto nothing_left = [&] {
     return memory_.empty() && lost_.empty() && for_writer_.empty() && !writing_ && on_disk_ == 0;
   };
@@ -279,37 +310,58 @@ std::optional<SpillItem> FrameSpillQueue::pop_for(std::chrono::milliseconds time
     return item;
   }
   if (!memory_.empty()) {  // memory frames are older than anything spilled
-    SpillItem item = std::move(memory_.front());
+    // It stays in memory until the encoder has written it (written()), so that the age rule can
+    // still send it to the spill if the encoder is held up with it in hand. The encoder gets the
+    // same pixels (neither side changes them).
+    const SpillItem& front = memory_.front();
+    in_hand_host_ns_ = front.rec.host_ns;
+    return SpillItem{front.image, front.rec, "", false, front.pushed};
+  }
+  for (;;) {
+    if (on_disk_ == 0) return std::nullopt;
+    const int fd = fd_;
+    const std::int64_t off = read_off_;
+    lock.unlock();  // the writer appends beyond `off` meanwhile
+    auto got = read_record(fd, off);
+    lock.lock();
+    if (!got) return read_back_failed(got.error().message);
+    read_off_ += std::int64_t(got.value().second);
+    --on_disk_;
+    if (on_disk_ == 0 && for_writer_.empty() && !writing_) {
+      // Caught up: this episode's file is done; back to memory for the next frames.
+      ::close(fd_);
+      fd_ = -1;
+      finished_files_.push_back(file_);
+    }
+    // A frame the encoder had in hand when it went to the spill, and has written since: once is enough.
+    if (got.value().first.rec.host_ns <= written_through_host_ns_) continue;
+    return SpillItem{std::move(got.value().first.image), std::move(got.value().first.rec), "", true};
+  }
+}
+
+void FrameSpillQueue::written(const SpillItem& item) {
+  std::lock_guard lock(mu_);
+  if (!item.from_spill && item.lost_reason.empty() && in_hand_host_ns_ == item.rec.host_ns) done_with(item.rec.host_ns);
+}
+
+void FrameSpillQueue::done_with(std::int64_t host_ns) {
+  in_hand_host_ns_.reset();
+  written_through_host_ns_ = std::max(written_through_host_ns_, host_ns);
+  if (!memory_.empty() && memory_.front().rec.host_ns == host_ns) {
     memory_.pop_front();
-    return item;
+    note_age(disk_age_, host_ns, false);  // still in memory: it reached the disk in its video
   }
-  if (on_disk_ == 0) return std::nullopt;
-  const int fd = fd_;
-  const std::int64_t off = read_off_;
-  lock.unlock();  // the writer appends beyond `off` meanwhile
-  auto got = read_record(fd, off);
-  lock.lock();
-  if (!got) {
-    // Written by us a moment ago and unreadable now: the disk failed. What is left in this file stays
-    // for recover; the frames are not handed out (their rows come from recover).
-    // The file stays open (the writer may be appending to it this moment); failure_ makes push()
-    // refuse further frames, so the queue still drains and closes.
-    if (!failure_)
-      failure_ = fmt::format("{}: a spilled frame cannot be read back ({}); recover finishes it", file_.string(),
-                             got.error().message);
-    on_disk_ = 0;
-    return std::nullopt;
-  }
-  read_off_ += std::int64_t(got.value().second);
-  --on_disk_;
-  if (on_disk_ == 0 && for_writer_.empty() && !writing_) {
-    // Caught up: this episode's file is done; back to memory for the next frames.
-    ::close(fd_);
-    fd_ = -1;
-    finished_files_.push_back(file_);
-  }
-  SpillItem item{std::move(got.value().first.image), std::move(got.value().first.rec), "", true};
-  return item;
+}
+
+std::optional<SpillItem> FrameSpillQueue::read_back_failed(const std::string& why) {
+  // Written by us a moment ago and unreadable now: the disk failed. What is left in this file stays
+  // for recover; the frames are not handed out (their rows come from recover).
+  // The file stays open (the writer may be appending to it this moment); failure_ makes push()
+  // refuse further frames, so the queue still drains and closes.
+  if (!failure_)
+    failure_ = fmt::format("{}: a spilled frame cannot be read back ({}); recover finishes it", file_.string(), why);
+  on_disk_ = 0;
+  return std::nullopt;
 }
 
 void FrameSpillQueue::close() {

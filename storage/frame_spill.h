@@ -14,9 +14,11 @@
 // writer fell 270 ms behind and 15 frames were lost.
 //
 // Memory is the one place a frame can be lost to a power cut: so a frame waits there at most
-// `memory_age` (200 ms by default). When the oldest is older (the encoder is held up), every frame in
-// memory goes to the disk too, in order, and from there to the encoder; with the store's sync round
-// (docs/store.md) what a power cut loses stays within a second even while an encoder is stalled.
+// `memory_age` (200 ms by default), the one in the encoder's hands included. When the oldest is
+// older (the encoder is held up, even mid-frame), every frame in memory goes to the disk too, in
+// order, and from there to the encoder; with the store's sync round (docs/store.md) what a power cut
+// loses stays within a second even while an encoder is stalled. The spill's writer looks every 50 ms,
+// so the rule holds when no new frame comes (the end of a session).
 //
 // Crash safety: a spill record is written with its index row (FrameRecord) and a CRC, so a file
 // cut by a crash reads up to its last whole record; `pvcap recover` encodes whatever a spill holds
@@ -24,6 +26,7 @@
 // the video segment holding its frames is finished (release_finished()), so a crash in between
 // still finds them.
 #include <chrono>
+#include <climits>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -66,8 +69,13 @@ class FrameSpillQueue {
   // (the disk is slower than the camera) or the queue is closed: the caller records the frame as lost.
   bool push(cv::Mat image, FrameRecord rec);
   // Encoder side: the next frame in order, waiting up to `timeout`. Empty on timeout, or when
-  // closed and everything (memory and disk) has been handed out.
+  // closed and everything (memory and disk) has been handed out. A frame from memory stays there
+  // until `written` (the age rule may still send it to the spill while the encoder is held up with
+  // it in hand); its spilled copy is then skipped.
   std::optional<SpillItem> pop_for(std::chrono::milliseconds timeout);
+  // The encoder is done with `item` (written to its video, or recorded as not kept); the next pop
+  // says so too, but later (this one also times how long it took to reach the disk).
+  void written(const SpillItem& item);
   // No more pushes; pop_for goes on until memory and spill are empty.
   void close();
   bool drained() const;  // closed, and nothing left to hand out
@@ -80,9 +88,22 @@ class FrameSpillQueue {
   std::uint64_t spilled_total() const;         // frames that went through the disk so far
   std::optional<std::string> failure() const;  // the disk refused a write (the first reason)
 
+  // How long after its arrival a kept frame reached the kernel's files at worst: noted for each
+  // frame the spill's writer appends and each memory frame the encoder has written. What a power
+  // cut can take is this plus the sync interval (docs/store.md).
+  struct DiskAge {
+    std::int64_t worst_ns = 0;
+    std::int64_t arrived_host_ns = 0;  // that frame's arrival
+    bool via_spill = false;            // it reached the disk in the spill (else in its video)
+  };
+  DiskAge worst_disk_age() const;
+
  private:
   void writer_loop();
   Status append(const SpillItem& item);
+  void memory_to_spill();     // under mu_: every frame in memory to the spill's writer, in order
+  void spill_stale_memory();  // under mu_: so, when the oldest has waited longer than memory_age_
+  std::optional<SpillItem> read_back_failed(const std::string& why);  // under mu_
 
   std::filesystem::path folder_;
   std::string camera_;
@@ -98,6 +119,10 @@ class FrameSpillQueue {
   std::uint64_t spilled_ = 0;
   bool closed_ = false, stop_writer_ = false;
   std::optional<std::string> failure_;
+  DiskAge disk_age_;
+  std::optional<std::int64_t> in_hand_host_ns_;       // the memory frame with the encoder (by its arrival)
+  void done_with(std::int64_t host_ns);               // under mu_: the encoder is done with that frame
+  std::int64_t written_through_host_ns_ = INT64_MIN;  // the encoder has written every frame arrived by then
 
   // The spill file being written and read (opened on the first spill of an episode).
   int fd_ = -1;

@@ -345,6 +345,7 @@ void SessionWriter::encode_loop(Camera& cam) {
       }
     }
     if (!rec.kept) rec.reason = "video_write_failed";
+    queue.written(*item);  // out of memory now (its bytes are in its video, or it failed with the file)
     index_writer_->push(std::move(rec));
   }
   close_view(cam);
@@ -352,12 +353,33 @@ void SessionWriter::encode_loop(Camera& cam) {
       drain_started ? std::chrono::duration<double>(std::chrono::steady_clock::now() - *drain_started).count() : 0;
   if (drain_from_disk)
     spdlog::info("{}: {} waiting frames encoded in {:.1f} s after the stop", cam.name, drain_from, drain_s);
+  record_disk_age(cam);
   // The spill in the store: how many frames waited on disk, and how long the end waited for them.
   if (const std::uint64_t spilled = queue.spilled_total(); spilled > 0)
     index_writer_->push(EventRecord{host_now().ns, "spill", cam.device_id,
                                     fmt::format("{} frames waited on disk for the encoder (the spill); {} frames were "
                                                 "still waiting at the stop, encoded in {:.1f} s",
                                                 spilled, drain_from, drain_s)});
+}
+
+// How long a kept frame could wait in memory before its bytes reached the kernel: with the sync
+// interval, what a power cut can take (docs/store.md promises a second). An event, and a warning
+// when together they pass a second.
+void SessionWriter::record_disk_age(const Camera& cam) {
+  const auto age = cam.queue->worst_disk_age();
+  if (age.worst_ns <= 0) return;
+  const std::string said = fmt::format(
+      "{}: its kept frames reached the disk's files at most {:.0f} ms after they arrived (the worst arrived {:.1f} s "
+      "into the session, and went to {})",
+      cam.name, double(age.worst_ns) / 1e6, double(age.arrived_host_ns - started_host_ns_) / 1e9,
+      age.via_spill ? "the spill" : "its video");
+  const double sync_s = store_.sync_interval_s;
+  if (sync_s > 0 && double(age.worst_ns) / 1e9 + sync_s > 1.0)
+    spdlog::warn("{}; with a sync every {} s, a power cut then could have taken more than a second of it", said,
+                 sync_s);
+  else
+    spdlog::debug("{}", said);
+  index_writer_->push(EventRecord{host_now().ns, "disk_age", cam.device_id, said});
 }
 
 void SessionWriter::set_failure(std::string message) {

@@ -133,6 +133,7 @@ class SessionWriter {
   SessionWriter() = default;
   struct Camera;
   void encode_loop(Camera& cam);
+  void record_disk_age(const Camera& cam);
   void open_view(Camera& cam, const std::string& segment_file);
   void close_view(Camera& cam);
   Status open_segment(Camera& cam, std::int64_t first_pts_us, bool direct);

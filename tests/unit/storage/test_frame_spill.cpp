@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <thread>
 
+#include "core/time.h"
 #include "storage/frame_spill.h"
 
 namespace fs = std::filesystem;
@@ -154,6 +155,39 @@ TEST(FrameSpill, FramesHeldInMemoryTooLongGoToTheDisk) {
     ASSERT_TRUE(item);
     EXPECT_FALSE(item->from_spill);
     q.close();
+  }
+  fs::remove_all(dir);
+}
+
+// The frame in the encoder's hands is in memory too: an encoder held up with it (a slow first
+// frame, a stalled disk) past the age limit, with no new frame coming, sends it and the others to
+// the disk; once written, its spilled copy is not handed out again, and how long it took is kept.
+TEST(FrameSpill, TheFrameInTheEncodersHandsGoesToTheDiskWhenItIsHeldUp) {
+  const fs::path dir = spill_dir("in-hand");
+  {
+    FrameSpillQueue q(dir, "cam6", /*memory_frames=*/8, /*writer_frames=*/8, /*memory_age=*/50ms);
+    FrameRecord first = row_of(0), second = row_of(1);
+    first.host_ns = pvcap::host_now().ns;
+    second.host_ns = first.host_ns + 1;
+    ASSERT_TRUE(q.push(image_of(0), first));
+    ASSERT_TRUE(q.push(image_of(1), second));
+    auto in_hand = q.pop_for(1s);
+    ASSERT_TRUE(in_hand);
+    EXPECT_FALSE(in_hand->from_spill);
+    // Held up: no push comes, the spill's writer finds them too old on its own.
+    for (int i = 0; i < 200 && q.on_disk() < 2; ++i) std::this_thread::sleep_for(5ms);
+    EXPECT_EQ(q.on_disk(), 2u) << "both frames, the one in hand too, went to the disk";
+    EXPECT_EQ(q.spilled_total(), 2u);
+    EXPECT_TRUE(q.worst_disk_age().via_spill);
+    EXPECT_GE(q.worst_disk_age().worst_ns, 50'000'000);
+    q.written(*in_hand);
+    auto next = q.pop_for(1s);
+    ASSERT_TRUE(next);
+    EXPECT_EQ(next->rec.sequence, 1u) << "the written frame's spilled copy is skipped";
+    EXPECT_TRUE(next->from_spill);
+    q.close();
+    EXPECT_FALSE(q.pop_for(100ms));
+    EXPECT_TRUE(q.drained());
   }
   fs::remove_all(dir);
 }
