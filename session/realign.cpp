@@ -169,6 +169,7 @@ RealignResult realign(SessionIndex& index, const RealignOptions& o) {
       // and its pressure is still re-paired against the re-mapped pressure frames.
       const sync::GroupTime at = kept.empty() ? sync::GroupTime{stored_t_ns, stored_span_ns} : sync::group_time(times);
       const auto p = sync::pair_nearest(pressure.begin(), pressure.end(), at.t_ns, o.max_offset_ns);
+      // (Its grid tick stays as recorded: update_sample rewrites the instant, offsets and pairing only.)
       const SampleRecord s = session::sample_record(id, 0, tick_ns, at, kept, p, pressure_device_id);
       index.update_sample(s);
       ++result.samples;
