@@ -12,6 +12,9 @@ namespace pvcap {
 
 struct Error {
   std::string message;
+  // The disk failed a read or write (EIO): a command that skips a damaged frame must not skip this
+  // one, but fail naming the file (docs/store.md, what a failing disk gets).
+  bool disk_failed = false;
 };
 
 template <typename T>

@@ -358,6 +358,7 @@ std::vector<PressSignals> camera_signals(SessionReader& r, std::size_t c, const 
                                         [&](const SampleCamera& f) { return f.device_id == camera.device_id; });
         if (frame == it->cameras.end() || !frame->in_video) continue;
         auto image = r.image(std::size_t(it - samples.begin()), c);
+        if (!image && image.error().disk_failed) throw UserError(image.error().message);  // not a damaged frame
         if (!image || image.value().empty()) continue;
         cv::Mat patch;
         image.value()(*roi).convertTo(patch, CV_32F);
@@ -478,6 +479,7 @@ void add_thumbnails(SessionReader& r, json& calibration,
       auto info = r.sample_info(std::size_t(i));
       if (!info || !info.value().pressure) continue;
       auto decoded = r.image(std::size_t(i), c);
+      if (!decoded && decoded.error().disk_failed) throw UserError(decoded.error().message);
       if (!decoded || decoded.value().empty()) continue;
       auto pressure = r.pressure_frame(info.value().pressure->sequence, info.value().pressure->connection);
       if (!pressure) continue;

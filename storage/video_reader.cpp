@@ -42,8 +42,11 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
   r->path_ = path;
   r->impl_ = std::make_unique<Impl>();
   Impl& im = *r->impl_;
-  if (avformat_open_input(&im.fmt.ptr, path.c_str(), nullptr, nullptr) < 0)
+  if (const int rc = avformat_open_input(&im.fmt.ptr, path.c_str(), nullptr, nullptr); rc < 0) {
+    // The disk failing the header's read is not a damaged file: said as such (and never skipped).
+    if (rc == AVERROR(EIO)) return Error{fmt::format("{}: cannot be read: {}", path.string(), av::error(rc)), true};
     return Error{fmt::format("{}: not a readable video file", path.string())};
+  }
   // Matroska's header names the codec, the size and the parameter sets: probing (decoding the first
   // frames to learn what the header already says) would cost every first access a GOP. Only a file
   // whose header leaves the picture size open is probed.
@@ -257,7 +260,7 @@ Result<bool> VideoReader::decode_next(std::int64_t& pts_ms, std::int64_t skip_be
       // The disk failed a read: said as such, never taken for the file's end (verify would call the
       // frames after it missing, the reader would hand out fewer).
       if (rr == AVERROR(EIO) || (im.fmt.ptr->pb && im.fmt.ptr->pb->error == AVERROR(EIO)))
-        return Error{fmt::format("{}: cannot be read: {}", path_.string(), av::error(AVERROR(EIO)))};
+        return Error{fmt::format("{}: cannot be read: {}", path_.string(), av::error(AVERROR(EIO))), true};
       if (rr < 0) {  // end of file (or a truncated tail): drain what is buffered
         im.draining = true;
         avcodec_send_packet(im.dec.ptr, nullptr);
@@ -341,7 +344,7 @@ Result<bool> VideoReader::next_packet(std::int64_t& pts_ms, bool& key) {
   for (;;) {
     const int rr = av_read_frame(im.fmt.ptr, im.packet.ptr);
     if (rr == AVERROR(EIO) || (im.fmt.ptr->pb && im.fmt.ptr->pb->error == AVERROR(EIO)))
-      return Error{fmt::format("{}: cannot be read: {}", path_.string(), av::error(AVERROR(EIO)))};
+      return Error{fmt::format("{}: cannot be read: {}", path_.string(), av::error(AVERROR(EIO))), true};
     if (rr == AVERROR_EOF) return false;
     if (rr < 0) return Error{fmt::format("{}: unreadable after the last good frame (truncated?)", path_.string())};
     if (im.packet.ptr->stream_index != im.stream) {

@@ -175,6 +175,28 @@ TEST(StoreIoErrors, AReadTheDiskFailsIsNamedByVerifyAndRecover) {
     // missing from that video: still the file, still exit 1. docs/store.md.)
     std::printf("verify with read #%ld of %s failed: exit %d\n", n, file.c_str(), r.exit_code);
   }
+  // `pvcap report`: every read of the videos it makes (the thumbnails' frames), failed in turn, ends
+  // in exit 1 naming the video: a failing disk is not a damaged frame to skip (it once was, exit 0).
+  {
+    const std::string report = "--log-level warn report " + dir.string();
+    const auto counted = with_fault("segment:read:0:count", report, work / "report-count.txt");
+    ASSERT_EQ(counted.exit_code, 0) << counted.output;
+    long video_reads = 0;
+    std::ifstream in(work / "report-count.txt");
+    std::string op;
+    for (long n = 0; in >> op >> n;) video_reads = std::max(video_reads, n);
+    ASSERT_GT(video_reads, 0) << "the report reads a frame of each camera for its thumbnails";
+    for (long n = 1; n <= video_reads; ++n) {
+      SCOPED_TRACE(fmt::format("report, video read #{} of {}", n, video_reads));
+      const auto r = with_fault(fmt::format("segment:read:{}:eio-once", n), report);
+      std::smatch m;
+      ASSERT_TRUE(std::regex_search(r.output, m, failed_call)) << r.output;
+      const std::string file = fs::path(m[1].str()).filename().string();
+      EXPECT_EQ(r.exit_code, 1) << r.output;
+      EXPECT_NE(r.output.find(file + ": cannot be read: Input/output error"), std::string::npos) << r.output;
+    }
+    std::printf("report: each of its %ld video reads failed in turn ended in exit 1 naming the video\n", video_reads);
+  }
   // recover on a copy (it writes): its first reads are the index's.
   for (long n : {1L, 4L}) {
     const fs::path copy = work / "copy";
