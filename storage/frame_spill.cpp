@@ -302,23 +302,25 @@ std::optional<SpillItem> FrameSpillQueue::pop_for(std::chrono::milliseconds time
   const auto nothing_left = [&] {
     return memory_.empty() && lost_.empty() && for_writer_.empty() && !writing_ && on_disk_ == 0;
   };
-  ready_.wait_for(lock, timeout,
-                  [&] { return !lost_.empty() || !memory_.empty() || on_disk_ > 0 || (closed_ && nothing_left()); });
-  if (!lost_.empty()) {
-    SpillItem item = std::move(lost_.front());
-    lost_.pop_front();
-    return item;
-  }
-  if (!memory_.empty()) {  // memory frames are older than anything spilled
-    // It stays in memory until the encoder has written it (written()), so that the age rule can
-    // still send it to the spill if the encoder is held up with it in hand. The encoder gets the
-    // same pixels (neither side changes them).
-    const SpillItem& front = memory_.front();
-    in_hand_host_ns_ = front.rec.host_ns;
-    return SpillItem{front.image, front.rec, "", false, front.pushed};
-  }
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
   for (;;) {
-    if (on_disk_ == 0) return std::nullopt;
+    ready_.wait_until(lock, deadline, [&] {
+      return !lost_.empty() || !memory_.empty() || on_disk_ > 0 || (closed_ && nothing_left());
+    });
+    if (!lost_.empty()) {
+      SpillItem item = std::move(lost_.front());
+      lost_.pop_front();
+      return item;
+    }
+    if (!memory_.empty()) {  // memory frames are older than anything spilled
+      // It stays in memory until the encoder has written it (written()), so that the age rule can
+      // still send it to the spill if the encoder is held up with it in hand. The encoder gets the
+      // same pixels (neither side changes them).
+      const SpillItem& front = memory_.front();
+      in_hand_host_ns_ = front.rec.host_ns;
+      return SpillItem{front.image, front.rec, "", false, front.pushed};
+    }
+    if (on_disk_ == 0) return std::nullopt;  // the timeout, or closed with nothing left
     const int fd = fd_;
     const std::int64_t off = read_off_;
     lock.unlock();  // the writer appends beyond `off` meanwhile
@@ -333,7 +335,8 @@ std::optional<SpillItem> FrameSpillQueue::pop_for(std::chrono::milliseconds time
       fd_ = -1;
       finished_files_.push_back(file_);
     }
-    // A frame the encoder had in hand when it went to the spill, and has written since: once is enough.
+    // A frame the encoder had in hand when it went to the spill, and has written since: once is
+    // enough; wait (within the timeout) for the next one, which the writer may still be appending.
     if (got.value().first.rec.host_ns <= written_through_host_ns_) continue;
     return SpillItem{std::move(got.value().first.image), std::move(got.value().first.rec), "", true};
   }
