@@ -178,7 +178,7 @@ FrameSpillQueue::~FrameSpillQueue() {
 
 bool FrameSpillQueue::push(cv::Mat image, FrameRecord rec) {
   std::lock_guard lock(mu_);
-  if (closed_) return false;
+  if (closed_ || abandoned_) return false;
   const auto now = std::chrono::steady_clock::now();
   const bool spilling = !for_writer_.empty() || writing_ || on_disk_ > 0;
   const bool stale = !memory_.empty() && now - memory_.front().pushed > memory_age_;
@@ -272,17 +272,23 @@ void FrameSpillQueue::writer_loop() {
         status = Error{fmt::format("{}: cannot create the spill file: {}", file_.string(), std::strerror(errno))};
       write_off_ = read_off_ = 0;
     }
-    if (status.ok()) {
+    const bool halted = halt_ && halt_->load();
+    if (status.ok() && !halted) {
       lock.unlock();
       status = append(item);
       lock.lock();
     }
     writing_ = false;
-    if (status.ok()) {
+    if (halted) {  // another of the session's writes failed: this frame's bytes would take the index's room
+      item.lost_reason = "storage_failed";
+      item.image.release();
+      lost_.push_back(std::move(item));
+    } else if (status.ok()) {
       ++on_disk_;
       note_age(disk_age_, item.rec.host_ns, true);
     } else {
       if (!failure_) failure_ = status.error().message;
+      if (halt_) halt_->store(true);
       item.lost_reason = "spill_write_failed";
       item.image.release();
       lost_.push_back(std::move(item));
@@ -375,8 +381,32 @@ void FrameSpillQueue::close() {
   ready_.notify_all();
 }
 
+std::vector<SpillItem> FrameSpillQueue::abandon() {
+  std::lock_guard lock(mu_);
+  abandoned_ = true;
+  std::vector<SpillItem> lost;
+  for (auto* from : {&lost_, &memory_, &for_writer_})
+    for (auto& item : *from) {
+      if (item.lost_reason.empty()) item.lost_reason = "storage_failed";
+      item.image.release();
+      lost.push_back(std::move(item));
+    }
+  lost_.clear();
+  memory_.clear();
+  for_writer_.clear();
+  in_hand_host_ns_.reset();
+  ready_.notify_all();
+  return lost;
+}
+
+void FrameSpillQueue::share_halt(std::shared_ptr<std::atomic<bool>> halt) {
+  std::lock_guard lock(mu_);
+  halt_ = std::move(halt);
+}
+
 bool FrameSpillQueue::drained() const {
   std::lock_guard lock(mu_);
+  if (abandoned_) return true;
   return closed_ && memory_.empty() && lost_.empty() && for_writer_.empty() && !writing_ && on_disk_ == 0;
 }
 

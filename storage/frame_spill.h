@@ -25,6 +25,7 @@
 // that no video does (storage/recover.cpp). A spill file read back to its end is deleted only once
 // the video segment holding its frames is finished (release_finished()), so a crash in between
 // still finds them.
+#include <atomic>
 #include <chrono>
 #include <climits>
 #include <condition_variable>
@@ -32,6 +33,7 @@
 #include <deque>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -78,7 +80,16 @@ class FrameSpillQueue {
   void written(const SpillItem& item);
   // No more pushes; pop_for goes on until memory and spill are empty.
   void close();
-  bool drained() const;  // closed, and nothing left to hand out
+  bool drained() const;  // closed, and nothing left to hand out (or abandoned)
+  // The disk failed a write of the session: nothing more is written, so that the space it has left
+  // (the store's reserve) finishes the index. The frames waiting in memory and for the spill's writer
+  // are handed back (each with why it is lost); what the spill already holds stays in its file, for
+  // recover. From here on push() refuses.
+  std::vector<SpillItem> abandon();
+  // A flag the session's writers share: set by this queue when the disk refuses its write, and once
+  // set (by anyone), its writer appends nothing more (the frames are handed back as storage_failed),
+  // so that the space left finishes the index. Given once, right after construction.
+  void share_halt(std::shared_ptr<std::atomic<bool>> halt);
   bool is_closed() const;
   // The encoder finished a video segment: spill files read to their end before now can go.
   void release_finished();
@@ -117,7 +128,8 @@ class FrameSpillQueue {
   bool writing_ = false;  // the writer holds an item (taken from for_writer_, not yet on disk)
   std::size_t on_disk_ = 0;
   std::uint64_t spilled_ = 0;
-  bool closed_ = false, stop_writer_ = false;
+  bool closed_ = false, stop_writer_ = false, abandoned_ = false;
+  std::shared_ptr<std::atomic<bool>> halt_;  // under mu_
   std::optional<std::string> failure_;
   DiskAge disk_age_;
   std::optional<std::int64_t> in_hand_host_ns_;       // the memory frame with the encoder (by its arrival)

@@ -160,6 +160,7 @@ Result<std::int64_t> SessionWriter::add_camera(const DeviceRecord& device, int w
   auto cam = std::make_unique<Camera>();
   cam->name = device.name;
   cam->queue = std::make_unique<FrameSpillQueue>(dir_, safe_file_name(device.name), std::size_t(store_.queue_frames));
+  cam->queue->share_halt(writes_halted_);
   cam->settings = camera_video_settings(store_, width, height, pixel_format);
   cam->view = std::make_unique<ViewVideoWriter>(cam->name, cam->settings);
   auto id = index_write([&] { return index_->add_device(device); });
@@ -217,9 +218,10 @@ bool SessionWriter::submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecor
   return false;
 }
 
-void SessionWriter::set_failure(std::string message) {
+void SessionWriter::set_failure(std::string message, bool a_write_failed) {
   spdlog::error("{}", message);
   views_stopped_.store(true);
+  if (a_write_failed) writes_halted_->store(true);
   release_reserve();  // whatever failed, close() must be able to finish what is captured
   std::lock_guard lock(failure_mu_);
   if (!failure_) failure_ = std::move(message);
@@ -240,7 +242,8 @@ void SessionWriter::watch_free_space() {
       set_failure(
           fmt::format("{}: the disk is nearly full ({} MB free, store.min_free_mb is {}): stopping so that "
                       "everything captured so far is kept",
-                      dir_.string(), free / kMiB, store_.min_free_mb));
+                      dir_.string(), free / kMiB, store_.min_free_mb),
+          /*a_write_failed=*/false);
       return;
     }
   }
@@ -295,6 +298,7 @@ void SessionWriter::say_if_slow(const DurableFolder::Counts& c) {
 
 std::optional<std::string> SessionWriter::failure() const {
   if (auto f = index_writer_->failure()) {
+    writes_halted_->store(true);
     release_reserve();  // the index's own failure: close() will need the room
     return f;
   }
@@ -305,6 +309,13 @@ std::optional<std::string> SessionWriter::failure() const {
   for (const auto& cam : cameras_)
     if (auto f = cam->queue->failure()) return fmt::format("{}: the spill to disk failed: {}", cam->name, *f);
   return std::nullopt;
+}
+
+bool SessionWriter::writes_failed() const {
+  if (writes_halted_->load()) return true;
+  if (!index_writer_->failure()) return false;
+  writes_halted_->store(true);
+  return true;
 }
 
 const SessionWriter::Camera* SessionWriter::camera(std::int64_t device_id) const {

@@ -137,7 +137,12 @@ class SessionWriter {
   void open_view(Camera& cam, const std::string& segment_file);
   void close_view(Camera& cam);
   Status open_segment(Camera& cam, std::int64_t first_pts_us, bool direct);
-  void set_failure(std::string message);
+  // `a_write_failed`: the disk refused a write (else a stop before one would: the free-space watch).
+  void set_failure(std::string message, bool a_write_failed = true);
+  // The disk refused a write of this session (a video, the index, a spill, an fsync): the encoders
+  // stop writing, so that the reserve finishes the index (abandon_backlog).
+  bool writes_failed() const;
+  void abandon_backlog(Camera& cam);
   void watch_free_space();
   void keep_durable();
   void say_if_slow(const DurableFolder::Counts& counts);
@@ -165,6 +170,9 @@ class SessionWriter {
   // Set with the first failure: the view videos stop and their open files go, so what space is left
   // finishes the lossless videos and the index.
   std::atomic<bool> views_stopped_{false};
+  // Set when the disk refuses any of the session's writes (the writer's own, a spill's at once, the
+  // index's when failure() sees it): from then on nothing more is written.
+  std::shared_ptr<std::atomic<bool>> writes_halted_ = std::make_shared<std::atomic<bool>>(false);
   mutable std::mutex failure_mu_;
   std::optional<std::string> failure_;  // the writer's own (video, free space); the index's is its own
   std::thread watcher_;

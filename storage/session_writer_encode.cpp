@@ -56,6 +56,10 @@ void SessionWriter::encode_loop(Camera& cam) {
   std::optional<Stall> stall = encoder_stall_;  // a test's fault, once per encoder
   std::optional<std::chrono::steady_clock::time_point> first_frame;
   while (!queue.drained()) {
+    if (writes_failed()) {
+      abandon_backlog(cam);
+      break;
+    }
     // A test's stall, stall_after_s after the first frame, between two frames (as an encoder held up
     // by its disk): the frames come meanwhile go to the spill.
     if (stall && first_frame &&
@@ -148,6 +152,22 @@ void SessionWriter::encode_loop(Camera& cam) {
                                     fmt::format("{} frames waited on disk for the encoder (the spill); {} frames were "
                                                 "still waiting at the stop, encoded in {:.1f} s",
                                                 spilled, drain_from, drain_s)});
+}
+
+// After the disk refused a write, every frame more written would take space the index needs to
+// finish (on a full disk, the reserve): the frames waiting in memory are recorded as lost, with why;
+// those in the spill stay there for `pvcap recover` to encode once there is room.
+void SessionWriter::abandon_backlog(Camera& cam) {
+  auto lost = cam.queue->abandon();
+  const std::size_t spilled = cam.queue->on_disk();
+  if (!lost.empty() || spilled > 0)
+    spdlog::warn("{}: the disk failed a write: {} frames waiting in memory are lost{}", cam.name, lost.size(),
+                 spilled > 0 ? fmt::format(", {} in the spill stay there for 'pvcap recover'", spilled) : "");
+  for (auto& item : lost) {
+    cam.encoder_drops.fetch_add(1);
+    item.rec.reason = item.lost_reason;
+    index_writer_->push(std::move(item.rec));
+  }
 }
 
 // How long a kept frame could wait in memory before its bytes reached the kernel: with the sync

@@ -366,7 +366,7 @@ class Verifier {
       r_.losses.push_back(fmt::format("{} frames arrived incomplete (frames.status)", n));
     if (const auto n = scalar("SELECT count(*) FROM frames WHERE reason = 'encoder_behind'"))
       r_.losses.push_back(fmt::format("{} kept frames were not encoded in time (reason encoder_behind)", n));
-    for (const char* why : {"lost_at_interruption", "video_write_failed", "spill_write_failed"})
+    for (const char* why : {"lost_at_interruption", "video_write_failed", "spill_write_failed", "storage_failed"})
       if (const auto n = scalar(fmt::format("SELECT count(*) FROM frames WHERE reason = '{}'", why)))
         r_.losses.push_back(fmt::format("{} frames meant for a video are not in it (reason {})", n, why));
     // Frames still waiting in a spill (a crash caught the encoder behind): recover encodes them.

@@ -255,3 +255,47 @@ TEST(FrameSpill, ACutSpillReadsToItsLastWholeRecord) {
   EXPECT_NE(refused.error().message.find("not a pvcap spill file"), std::string::npos);
   fs::remove_all(dir);
 }
+
+// After the disk refused one of the session's writes (the shared halt): the spill's writer appends
+// nothing more and hands its frames back as storage_failed; abandon() hands back the rest and what
+// the spill already holds stays in its file for recover.
+TEST(FrameSpill, AfterAFailedWriteNothingMoreIsWrittenAndTheSpillStaysForRecover) {
+  const fs::path dir = spill_dir("halt");
+  const auto halt = std::make_shared<std::atomic<bool>>(false);
+  fs::path file;
+  {
+    FrameSpillQueue q(dir, "cam7", /*memory_frames=*/2, /*writer_frames=*/64);
+    q.share_halt(halt);
+    for (std::uint64_t i = 0; i < 5; ++i) ASSERT_TRUE(q.push(image_of(i), row_of(i)));
+    const auto on_disk_by = std::chrono::steady_clock::now() + 5s;
+    while (q.on_disk() != 5 || spill_files(dir) != 1) {
+      ASSERT_LT(std::chrono::steady_clock::now(), on_disk_by) << "the five frames never reached the spill";
+      std::this_thread::sleep_for(5ms);
+    }
+    file = fs::directory_iterator(dir / kSpillFolder)->path();
+    const auto size_before = fs::file_size(file);
+    halt->store(true);  // e.g. another camera's video met a full disk
+    ASSERT_TRUE(q.push(image_of(5), row_of(5)));
+    ASSERT_TRUE(q.push(image_of(6), row_of(6)));
+    const auto handed_back_by = std::chrono::steady_clock::now() + 5s;
+    while (q.on_disk() != 5) {  // the two are taken by the writer and not written
+      ASSERT_LT(std::chrono::steady_clock::now(), handed_back_by) << "the writer never took the two frames";
+      std::this_thread::sleep_for(5ms);
+    }
+    EXPECT_EQ(fs::file_size(file), size_before) << "nothing is appended after the halt";
+    auto lost = q.abandon();
+    ASSERT_EQ(lost.size(), 2u);
+    for (std::size_t k = 0; k < 2; ++k) {
+      EXPECT_EQ(lost[k].rec.sequence, 5 + k);
+      EXPECT_EQ(lost[k].lost_reason, "storage_failed");
+      EXPECT_TRUE(lost[k].image.empty()) << "its pixels are not kept";
+    }
+    EXPECT_TRUE(q.drained());
+    EXPECT_FALSE(q.push(image_of(7), row_of(7))) << "an abandoned queue takes nothing";
+  }
+  std::vector<std::uint64_t> kept;
+  auto n = read_spill_file(file, [&](SpillRecord&& r) { kept.push_back(r.rec.sequence); });
+  ASSERT_TRUE(n) << n.error().message;
+  EXPECT_EQ(kept, (std::vector<std::uint64_t>{0, 1, 2, 3, 4})) << "the spill keeps what it held, for recover";
+  fs::remove_all(dir);
+}
