@@ -239,11 +239,10 @@ void SessionWriter::watch_free_space() {
   while (!watch_cv_.wait_for(lock, std::chrono::milliseconds(250), [this] { return watch_stop_; })) {
     const std::int64_t free = free_bytes(dir_);
     if (free >= 0 && free < min_free) {
-      set_failure(
-          fmt::format("{}: the disk is nearly full ({} MB free, store.min_free_mb is {}): stopping so that "
-                      "everything captured so far is kept",
-                      dir_.string(), free / kMiB, store_.min_free_mb),
-          /*a_write_failed=*/false);
+      set_failure(fmt::format("{}: the disk is nearly full ({} MB free, store.min_free_mb is {}): stopping so that "
+                              "everything captured so far is kept",
+                              dir_.string(), free / kMiB, store_.min_free_mb),
+                  /*a_write_failed=*/false);
       return;
     }
   }
