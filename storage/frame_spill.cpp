@@ -157,12 +157,14 @@ Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off
 }  // namespace
 
 FrameSpillQueue::FrameSpillQueue(std::filesystem::path dir, std::string camera, std::size_t memory_frames,
-                                 std::size_t writer_frames, std::chrono::milliseconds memory_age)
+                                 std::size_t writer_frames, std::chrono::milliseconds memory_age,
+                                 std::chrono::milliseconds writer_age)
     : folder_(std::move(dir) / kSpillFolder),
       camera_(std::move(camera)),
       memory_cap_(memory_frames),
       writer_cap_(writer_frames),
       memory_age_(memory_age),
+      writer_age_(writer_age),
       writer_([this] { writer_loop(); }) {}
 
 FrameSpillQueue::~FrameSpillQueue() {
@@ -189,6 +191,7 @@ bool FrameSpillQueue::push(cv::Mat image, FrameRecord rec) {
   }
   // Behind: from here on, every frame goes through the disk until the encoder has caught up.
   if (failure_ || memory_.size() + for_writer_.size() >= memory_cap_ + writer_cap_) return false;
+  if (!for_writer_.empty() && now - for_writer_.front().pushed > writer_age_) return false;
   if (!spilling) memory_to_spill();
   for_writer_.push_back({std::move(image), std::move(rec), "", false, now});
   ++spilled_;

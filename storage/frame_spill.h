@@ -61,14 +61,21 @@ class FrameSpillQueue {
  public:
   // `dir`: the session folder (spill files go to dir/spill/<camera>-<n>.spill, made on first use).
   static constexpr std::chrono::milliseconds kMemoryAge{200};
+  // How long a frame may wait for the spill's writer (since it came): past it the writer is behind
+  // the camera (the disk is slower than the frames) and new frames are refused, so that what a power
+  // cut can take stays bounded in time (this, one append and store.sync_interval_s: under a second),
+  // not in frames: 32 frames of four 1080p cameras waited 3.7 s on a congested disk.
+  static constexpr std::chrono::milliseconds kWriterAge{400};
   FrameSpillQueue(std::filesystem::path dir, std::string camera, std::size_t memory_frames,
-                  std::size_t writer_frames = 32, std::chrono::milliseconds memory_age = kMemoryAge);
+                  std::size_t writer_frames = 32, std::chrono::milliseconds memory_age = kMemoryAge,
+                  std::chrono::milliseconds writer_age = kWriterAge);
   ~FrameSpillQueue();
   FrameSpillQueue(const FrameSpillQueue&) = delete;
   FrameSpillQueue& operator=(const FrameSpillQueue&) = delete;
 
   // Capture side; never waits on the disk. False only when the spill's writer is itself behind
-  // (the disk is slower than the camera) or the queue is closed: the caller records the frame as lost.
+  // (writer_frames waiting, or the oldest waiting longer than writer_age: the disk is slower than the
+  // camera) or the queue is closed: the caller records the frame as lost.
   bool push(cv::Mat image, FrameRecord rec);
   // Encoder side: the next frame in order, waiting up to `timeout`. Empty on timeout, or when
   // closed and everything (memory and disk) has been handed out. A frame from memory stays there
@@ -119,7 +126,7 @@ class FrameSpillQueue {
   std::filesystem::path folder_;
   std::string camera_;
   std::size_t memory_cap_, writer_cap_;
-  std::chrono::milliseconds memory_age_;
+  std::chrono::milliseconds memory_age_, writer_age_;
 
   mutable std::mutex mu_;
   std::condition_variable ready_;     // the encoder's: something to pop

@@ -299,3 +299,39 @@ TEST(FrameSpill, AfterAFailedWriteNothingMoreIsWrittenAndTheSpillStaysForRecover
   EXPECT_EQ(kept, (std::vector<std::uint64_t>{0, 1, 2, 3, 4})) << "the spill keeps what it held, for recover";
   fs::remove_all(dir);
 }
+
+// The spill's writer behind the camera (here: busy with one 256-MB frame, its CRC and its write,
+// far longer than the 20 ms allowed): the frames that would wait for it longer are refused instead
+// of queued, so that what a power cut can take is bounded in time; once it has caught up, frames are
+// taken again, and every frame taken comes back in order.
+TEST(FrameSpill, AFrameThatWouldWaitForTheWriterTooLongIsRefused) {
+  const fs::path dir = spill_dir("writer-age");
+  {
+    FrameSpillQueue q(dir, "cam8", /*memory_frames=*/0, /*writer_frames=*/64, /*memory_age=*/200ms,
+                      /*writer_age=*/20ms);
+    cv::Mat big(16384, 16384, CV_8UC1, cv::Scalar(7));
+    ASSERT_TRUE(q.push(big, row_of(0)));
+    big.release();
+    std::vector<std::uint64_t> taken{0};
+    std::size_t refused = 0;
+    for (std::uint64_t i = 1; i <= 10; ++i) {
+      std::this_thread::sleep_for(5ms);
+      if (q.push(image_of(i), row_of(i)))
+        taken.push_back(i);
+      else
+        ++refused;
+    }
+    EXPECT_GE(refused, 3u) << "frames pushed 30-50 ms after the first waited too long for the busy writer";
+    const auto caught_up_by = std::chrono::steady_clock::now() + 20s;
+    while (!taken.empty() && std::chrono::steady_clock::now() < caught_up_by) {
+      auto item = q.pop_for(100ms);
+      if (!item) continue;
+      EXPECT_EQ(item->rec.sequence, taken.front());
+      taken.erase(taken.begin());
+      q.written(*item);
+    }
+    EXPECT_TRUE(taken.empty()) << taken.size() << " frames taken never came back";
+    EXPECT_TRUE(q.push(image_of(11), row_of(11))) << "caught up: frames are taken again";
+  }
+  fs::remove_all(dir);
+}
