@@ -159,8 +159,12 @@ class CameraWorker {
       h.rec.reason = "unsupported_pixels: " + converted.error().message;
     } else {
       if (p_.writer.submit_video(p_.device_id, std::move(image), h.rec)) return;  // the encoder records it
-      p_.tally.encoder_behind.fetch_add(1, std::memory_order_relaxed);
-      h.rec.reason = "encoder_behind";
+      if (p_.writer.writes_failed()) {
+        h.rec.reason = "storage_failed";  // the disk refused a write: nothing more is written
+      } else {
+        p_.tally.encoder_behind.fetch_add(1, std::memory_order_relaxed);
+        h.rec.reason = "encoder_behind";
+      }
     }
     p_.writer.record(std::move(h.rec));
   }

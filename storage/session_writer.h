@@ -108,8 +108,11 @@ class SessionWriter {
   // Queues a kept frame (BGR, or the mosaic when stores_raw) for its camera's video: in memory, or
   // through the camera's spill on disk when the encoder is behind (storage/frame_spill.h). False
   // (nothing queued) only when the spill cannot keep up either, or the disk refused it; the caller
-  // records the frame as not kept, reason "encoder_behind".
+  // records the frame as not kept, reason "encoder_behind" ("storage_failed" once writes_failed()).
   bool submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecord frame);
+  // The disk refused a write of this session (a video, the index, a spill, an fsync): nothing more
+  // is written: the encoders stop, so that the reserve finishes the index, and their queues refuse.
+  bool writes_failed() const;
 
   void add_stream_stats(const StreamStatsRecord& stats) { stream_stats_.push_back(stats); }
   // Set when storage failed or the disk is nearly full: capture should stop.
@@ -139,9 +142,6 @@ class SessionWriter {
   Status open_segment(Camera& cam, std::int64_t first_pts_us, bool direct);
   // `a_write_failed`: the disk refused a write (else a stop before one would: the free-space watch).
   void set_failure(std::string message, bool a_write_failed = true);
-  // The disk refused a write of this session (a video, the index, a spill, an fsync): the encoders
-  // stop writing, so that the reserve finishes the index (abandon_backlog).
-  bool writes_failed() const;
   void abandon_backlog(Camera& cam);
   void watch_free_space();
   void keep_durable();
