@@ -128,15 +128,20 @@ void DurableFolder::sync_files(std::vector<Changed>& changed) {
 }
 
 void DurableFolder::start_writeback() {
+  std::set<std::filesystem::path> seen;
   for (const auto& folder : folders_)
     for_each_file(folder, [&](const std::filesystem::path& path, const struct stat& st) {
-      const auto known = files_.find(path);
-      if (known != files_.end() && known->second.size == st.st_size) return;  // nothing new to write
+      seen.insert(path);
+      auto [known, added] = written_back_.try_emplace(path, -1);
+      if (!added && known->second == st.st_size) return;  // nothing new to write
+      known->second = st.st_size;
       const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
       if (fd < 0) return;
       (void)sync_file_range(fd, 0, 0, SYNC_FILE_RANGE_WRITE);  // a failure shows at the next fsync
       ::close(fd);
     });
+  // Files that went (a drained spill, a finished journal file) are forgotten.
+  std::erase_if(written_back_, [&](const auto& entry) { return !seen.count(entry.first); });
 }
 
 Status DurableFolder::sync_changed() {
@@ -168,12 +173,14 @@ Status DurableFolder::sync_changed() {
     ::close(fd);
     ++counts_.folder_syncs;
   }
-  // A subfolder made since the last round is an entry of the session folder.
-  if (any_entries_changed && folders_.size() > 1) {
+  // A subfolder made since the last round is an entry of the session folder (synced above when
+  // its own entries changed too).
+  if (any_entries_changed && !entries_changed[0] && folders_.size() > 1) {
     const int fd = ::open(dir_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
     if (fd >= 0) {
       if (Status s = fsync_path_fd(fd, dir_, "fsync of the folder"); !s.ok() && failure.ok()) failure = s;
       ::close(fd);
+      ++counts_.folder_syncs;
     }
   }
   ++counts_.rounds;
@@ -182,8 +189,8 @@ Status DurableFolder::sync_changed() {
   counts_.slowest_round_ms = std::max(counts_.slowest_round_ms, ms);
   counts_.last_round_ms = ms;
   counts_.last_gap_ms =
-      counts_.rounds > 1 ? std::chrono::duration<double, std::milli>(end - last_round_end_).count() : 0;
-  last_round_end_ = end;
+      counts_.rounds > 1 ? std::chrono::duration<double, std::milli>(end - last_round_start_).count() : 0;
+  last_round_start_ = t0;
   return failure;
 }
 

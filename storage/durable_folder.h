@@ -42,15 +42,19 @@ class DurableFolder {
   // fsyncs every regular file whose size or modification time changed since the last call, and
   // each folder whose entries changed. The first failure, naming the file and the error.
   Status sync_changed();
-  // Starts the write-back of every file that changed since its last fsync, without waiting
+  // Starts the write-back of every file that grew since the last call, without waiting for it
   // (sync_file_range): called between the fsyncs, it spreads the writing over the second so the
-  // fsync finds little left to write and the disk never takes a second's writes at once.
+  // fsync finds little left to write and the disk never takes a second's writes at once. On a
+  // congested disk the call itself can block (for a second, beside a test suite), so it runs on a
+  // thread of its own, never the rounds': it shares no state with sync_changed().
   void start_writeback();
 
   struct Counts {
     std::uint64_t rounds = 0, file_syncs = 0, folder_syncs = 0;
     double slowest_round_ms = 0, last_round_ms = 0;
-    double last_gap_ms = 0;  // from the previous round's end to this one's: how long a write could wait
+    // From the previous round's start (its listing) to this one's end: how long a write could wait
+    // unsynced (one made just after the previous round listed its file is synced by this round).
+    double last_gap_ms = 0;
   };
   const Counts& counts() const { return counts_; }
 
@@ -76,7 +80,8 @@ class DurableFolder {
   std::map<std::filesystem::path, Tracked> files_;
   std::map<std::filesystem::path, std::size_t> entries_;  // each folder's entry count at the last round
   Counts counts_;
-  std::chrono::steady_clock::time_point last_round_end_{};
+  std::chrono::steady_clock::time_point last_round_start_{};
+  std::map<std::filesystem::path, off_t> written_back_;  // start_writeback's own: each file's size when last started
 };
 
 }  // namespace pvcap

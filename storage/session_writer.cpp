@@ -205,6 +205,10 @@ void SessionWriter::start() {
       name_this_thread("fsync");
       keep_durable();
     });
+    writeback_ = std::thread([this] {
+      name_this_thread("writeback");
+      keep_written_back();
+    });
   }
 }
 
@@ -249,28 +253,33 @@ void SessionWriter::watch_free_space() {
 }
 
 void SessionWriter::keep_durable() {
-  // A round of fsyncs every interval, on the clock: between rounds, steps of a quarter interval start
-  // the write-back of what changed, while time is left (a write-back step can block on a congested
-  // disk; it must not push the round later). A round that ends late starts the next at once.
+  // A round of fsyncs every interval, on the clock; a round that ends late starts the next at once.
   using Clock = std::chrono::steady_clock;
   const auto interval =
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(store_.sync_interval_s));
-  const auto step = interval / 4;
   auto next_round = Clock::now() + interval;
   std::unique_lock lock(watch_mu_);
-  while (!watch_cv_.wait_until(lock, std::min(next_round, Clock::now() + step), [this] { return sync_stop_; })) {
+  while (!watch_cv_.wait_until(lock, next_round, [this] { return sync_stop_; })) {
     lock.unlock();
-    const auto now = Clock::now();
-    if (now + step / 2 < next_round) {
-      durable_->start_writeback();
-    } else {
-      next_round += interval;
-      if (next_round < now) next_round = now;
-      if (Status s = durable_->sync_changed(); !s.ok())
-        set_failure(s.error().message);
-      else
-        say_if_slow(durable_->counts());
-    }
+    next_round += interval;
+    if (const auto now = Clock::now(); next_round < now) next_round = now;
+    if (Status s = durable_->sync_changed(); !s.ok())
+      set_failure(s.error().message);
+    else
+      say_if_slow(durable_->counts());
+    lock.lock();
+  }
+}
+
+void SessionWriter::keep_written_back() {
+  // Between the rounds, steps of a quarter interval start the write-back of what changed. A step
+  // can block on a congested disk: on this thread it only delays the next step, never a round (on
+  // the rounds' thread, beside a test suite, it held one back until the files went 1.25 s unsynced).
+  const auto step = std::chrono::duration<double>(store_.sync_interval_s / 4);
+  std::unique_lock lock(watch_mu_);
+  while (!watch_cv_.wait_for(lock, step, [this] { return sync_stop_; })) {
+    lock.unlock();
+    durable_->start_writeback();
     lock.lock();
   }
 }
@@ -394,6 +403,7 @@ Status SessionWriter::close(const std::string& end_reason) {
   }
   watch_cv_.notify_all();
   if (syncer_.joinable()) syncer_.join();
+  if (writeback_.joinable()) writeback_.join();
   if (auto f = failure(); f && result.ok()) result = Error{*f};  // the writer's own, or a spill's
   std::lock_guard lock(failure_mu_);
   // A segment whose writing failed holds fewer frames than were handed to it: the index is made

@@ -144,7 +144,8 @@ class SessionWriter {
   void set_failure(std::string message, bool a_write_failed = true);
   void abandon_backlog(Camera& cam);
   void watch_free_space();
-  void keep_durable();
+  void keep_durable();       // the fsync rounds' thread
+  void keep_written_back();  // the write-back steps' thread, between the rounds
   void say_if_slow(const DurableFolder::Counts& counts);
   void release_reserve() const;  // idempotent; any thread
 
@@ -182,7 +183,7 @@ class SessionWriter {
   // The durability horizon: every changed file fsynced each store.sync_interval_s, on its own
   // thread (an fsync may take a while; the free-space watch must not wait for it).
   std::unique_ptr<DurableFolder> durable_;
-  std::thread syncer_;
+  std::thread syncer_, writeback_;
   bool sync_stop_ = false;
 };
 
