@@ -5,9 +5,11 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 
 #include <fmt/format.h>
 
@@ -32,6 +34,21 @@ namespace {
 std::string interrupted_name(const std::string& path) {
   const auto dot = path.rfind('.');
   return (dot == std::string::npos ? path : path.substr(0, dot)) + ".interrupted.mkv";
+}
+
+// The name a segment is set aside under when the index has no row for it (see set_aside_unindexed).
+std::string unindexed_name(const std::string& path) {
+  const auto dot = path.rfind('.');
+  return (dot == std::string::npos ? path : path.substr(0, dot)) + ".unindexed.mkv";
+}
+
+// Whether segment `path` (relative to the session folder) is taken on disk, under its own name, set
+// aside, or as a view copy: recover's new segments never reuse such a number.
+bool segment_name_taken(const std::filesystem::path& dir, const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  return fs::exists(dir / path, ec) || fs::exists(dir / interrupted_name(path), ec) ||
+         fs::exists(dir / unindexed_name(path), ec) || fs::exists(dir / view_video_path(path), ec);
 }
 
 std::string describe_migration(const std::vector<int>& passed, const std::filesystem::path& db) {
@@ -63,10 +80,13 @@ Result<SpillSegment> open_next_segment(SessionIndex& index, const std::filesyste
   // The spilled frames' checksums were taken in the layout the session was recording with.
   if (const std::string layout = q.column_null(5) ? "" : q.column_text(5); is_bayer_planes_layout(layout))
     vs.layout = layout;
-  const int segment = int(q.column_int(4)) + 1;
+  int segment = int(q.column_int(4)) + 1;
   q.reset();
   SpillSegment o;
-  o.path = fmt::format("{}-{:03}.mkv", last.substr(0, last.rfind('-')), segment);
+  const std::string stem = last.substr(0, last.rfind('-'));
+  // A number no file holds: a segment the cut left without its row is on disk under the next one.
+  while (segment_name_taken(dir, fmt::format("{}-{:03}.mkv", stem, segment))) ++segment;
+  o.path = fmt::format("{}-{:03}.mkv", stem, segment);
   auto opened = VideoWriter::open(dir / o.path, vs);
   if (!opened) return opened.error();
   o.video = std::move(opened.value());
@@ -83,6 +103,54 @@ Result<SpillSegment> open_next_segment(SessionIndex& index, const std::filesyste
   index.add_video_file(rec);
   o.file_id = rec.id;
   return o;
+}
+
+// Segments a cut left on disk without their row in the index: a segment begun in the last moment
+// before the cut, its row lost with the rows after it (the journal's unsynced tail), so its frames
+// have no rows either. Set aside under another name (with its view copy), never overwritten, and
+// said with its frame count; its frames that came through the spill get their rows back when the
+// spill is drained.
+void set_aside_unindexed(SessionIndex& index, const std::filesystem::path& dir, RecoverReport& report) {
+  namespace fs = std::filesystem;
+  std::set<std::string> indexed;
+  std::set<std::string> stems;  // the cameras' file names, from their indexed segments
+  {
+    auto q = index.db().prepare("SELECT path FROM video_files");
+    while (q.step()) {
+      const std::string path = q.column_text(0);
+      indexed.insert(path);
+      if (const auto dash = path.rfind('-'); dash != std::string::npos) stems.insert(path.substr(0, dash));
+    }
+  }
+  std::vector<std::string> orphans;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    const auto dash = name.rfind('-');
+    if (dash == std::string::npos || !stems.count(name.substr(0, dash)) || indexed.count(name)) continue;
+    const std::string number = name.substr(dash + 1);
+    if (number.size() < 5 || number.substr(number.size() - 4) != ".mkv") continue;
+    const std::string digits = number.substr(0, number.size() - 4);
+    if (std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); }))
+      orphans.push_back(name);
+  }
+  std::sort(orphans.begin(), orphans.end());
+  for (const std::string& name : orphans) {
+    const auto frames = count_video_frames(dir / name);
+    fs::rename(dir / name, dir / unindexed_name(name), ec);
+    if (ec) {
+      report.done.push_back(fmt::format("{}: not in the index and could not be set aside ({})", name, ec.message()));
+      continue;
+    }
+    if (fs::exists(dir / view_video_path(name)))
+      fs::rename(dir / view_video_path(name), dir / unindexed_name(view_video_path(name).string()), ec);
+    report.done.push_back(fmt::format(
+        "{}: on disk but not in the index (begun just before the cut, its row and its frames' rows were lost with "
+        "it): {} kept as {}",
+        name, frames ? fmt::format("{} frames", frames.value()) : std::string("no readable frame"),
+        unindexed_name(name)));
+  }
+  if (!orphans.empty()) (void)sync_to_disk(dir);
 }
 
 // One spill file's frames that no video holds, encoded into new segments in one transaction: all of
@@ -379,6 +447,7 @@ Result<RecoverReport> recover_session(const std::filesystem::path& dir,
     }  // statements end before the checkpoint below, which needs no reader open
 
     replay_waiting_rows(index, dir, report);
+    set_aside_unindexed(index, dir, report);
 
     struct Open {
       std::int64_t id;

@@ -19,6 +19,7 @@
 #include "core/time.h"
 #include "sim/scene.h"
 #include "storage/frame_checksum.h"
+#include "storage/frame_spill.h"
 #include "storage/pressure_blob.h"
 #include "storage/recover.h"
 #include "storage/session_reader.h"
@@ -802,5 +803,75 @@ TEST(SessionStore, RecoverRefusesASessionBeingRecorded) {
   auto after = recover_session(w.value()->dir());
   ASSERT_TRUE(after) << after.error().message;
   EXPECT_TRUE(after.value().done.empty());
+  fs::remove_all(root);
+}
+
+// A power cut just after a segment began can keep the segment's file and lose its row in the index
+// (and its frames' rows: the journal's unsynced tail). Recover sets such a file aside, never
+// overwrites it with the frames of a spill (as it once did: the spill's new segment took the
+// number), encodes the spill into a segment of its own, and does it once.
+TEST(SessionStore, RecoverSetsAsideASegmentTheIndexLostAndNeverOverwritesIt) {
+  const auto root = temp_root("unindexed");
+  const auto st = write_store(root, 2.5);
+  std::string last;
+  {
+    sqlite::Database db(st.dir / "session.db", sqlite::Database::Mode::ReadWrite);
+    auto q = db.prepare("SELECT id, path FROM video_files WHERE device_id = ? ORDER BY segment DESC LIMIT 1");
+    q.bind_all(st.cams[1]);
+    ASSERT_TRUE(q.step());
+    const std::int64_t id = q.column_int(0);
+    last = q.column_text(1);
+    q.reset();
+    // As the cut left it: no row for the segment, none for its frames or the samples naming them.
+    db.prepare(
+          "DELETE FROM sample_frames WHERE EXISTS (SELECT 1 FROM frames f WHERE f.device_id = sample_frames.device_id "
+          "AND f.connection = sample_frames.connection AND f.sequence = sample_frames.sequence AND f.video_file_id = "
+          "?)")
+        .bind_all(id)
+        .run();
+    db.prepare("DELETE FROM frames WHERE video_file_id = ?").bind_all(id).run();
+    db.prepare("DELETE FROM video_files WHERE id = ?").bind_all(id).run();
+    db.exec("UPDATE session SET ended_host_ns = NULL, end_reason = NULL");
+  }
+  // And a spill of camB with two frames whose rows were lost too.
+  {
+    FrameSpillQueue spill(st.dir, "camB", 1, 32, std::chrono::milliseconds(1));
+    for (int i = 0; i < 2; ++i) {
+      const std::int64_t t = st.t0 + 3'000'000'000 + i * 66'666'667;
+      FrameRecord f{st.cams[1], 0, std::uint64_t(100 + i), std::uint64_t(100 + i), 0, t, 0, "good", false, "", {},
+                    {},         t};
+      ASSERT_TRUE(spill.push(noise_frame(1, 100 + i), f));
+    }
+    for (int i = 0; i < 200 && spill.on_disk() < 2; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ASSERT_EQ(spill.on_disk(), 2u);
+  }
+  const std::string orphan = read_file(st.dir / last);
+  const std::string aside = last.substr(0, last.size() - 4) + ".unindexed.mkv";
+
+  auto rec = recover_session(st.dir);
+  ASSERT_TRUE(rec) << rec.error().message;
+  std::string said;
+  for (const auto& d : rec.value().done) said += d + "\n";
+  EXPECT_NE(said.find(last + ": on disk but not in the index"), std::string::npos) << said;
+  EXPECT_NE(said.find("2 spilled frames encoded"), std::string::npos) << said;
+  ASSERT_TRUE(fs::exists(st.dir / aside)) << said;
+  EXPECT_EQ(read_file(st.dir / aside), orphan) << "set aside whole";
+  EXPECT_TRUE(fs::exists(st.dir / "views" / fs::path(aside).filename())) << "its view copy with it";
+  EXPECT_FALSE(fs::exists(st.dir / last)) << "the spill's frames went to a segment of their own";
+  {
+    sqlite::Database db(st.dir / "session.db", sqlite::Database::Mode::ReadOnly);
+    auto q = db.prepare("SELECT count(*) FROM frames WHERE device_id = ? AND sequence >= 100 AND kept = 1");
+    q.bind_all(st.cams[1]);
+    ASSERT_TRUE(q.step());
+    EXPECT_EQ(q.column_int(0), 2) << "the spilled frames have their rows";
+  }
+  const auto verified = verify_session(st.dir);
+  EXPECT_EQ(verified.exit_code(), 3) << format_report(st.dir, verified);
+  for (const auto& e : verified.errors) ADD_FAILURE() << e;
+
+  // Once: a second recover finds nothing to do.
+  auto again = recover_session(st.dir);
+  ASSERT_TRUE(again);
+  EXPECT_TRUE(again.value().done.empty());
   fs::remove_all(root);
 }
