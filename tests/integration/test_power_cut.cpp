@@ -470,9 +470,8 @@ TEST(PowerCut, AProtocolSessionCutAtRandomWritesRecoversVerifiesAndLosesAtMostTh
       std::printf("disk age: %s\n", said.c_str());
       std::smatch m;
       ASSERT_TRUE(std::regex_search(said, m, ms)) << said;
-      // Printed, not bounded here: the cuts' losses are the bound. (Known open, 2026-12-02: frames the
-      // camera workers hold through the stop reach the files 1-2 s after arrival on a loaded machine,
-      // and a cut in that stop can lose more than the horizon; docs/store.md.)
+      // Printed, not bounded here: the cuts' losses are the bound (cuts in the stop included, where
+      // the frames the workers hold wait for every camera to stop; docs/store.md, still open).
       (void)std::stod(m[1].str());
       ++cameras;
     }
