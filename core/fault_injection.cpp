@@ -60,6 +60,7 @@ FaultPlan parse_faults(std::string_view spec, std::vector<std::string>& problems
   plan.realign_stall_s = std::max(0.0, take("realign.stall_s").value_or(0));
   plan.report_stall_s = std::max(0.0, take("report.stall_s").value_or(0));
   plan.recover_stall_s = std::max(0.0, take("recover.stall_s").value_or(0));
+  plan.camera_stop_stall_s = std::max(0.0, take("camera.stop_stall_s").value_or(0));
   for (const auto& [name, v] : values)
     problems.push_back(fmt::format("PVCAP_FAULTS: '{}' is not a fault; ignored", name));
   return plan;

@@ -27,6 +27,8 @@
 //                                  (the frames re-mapped and committed, the samples not yet re-paired)
 //   report.stall_s                 the session's report.html waits this long once begun
 //   recover.stall_s                `pvcap recover` waits this long after its first step
+//   camera.stop_stall_s            the session's stop waits this long after the first camera's
+//                                  stop, before the others' (a camera slow to answer its stop)
 // (The last three hold a phase open long enough for a kill to land in it, which a test then proves.)
 #include <chrono>
 #include <cstddef>
@@ -52,7 +54,8 @@ struct FaultPlan {
   std::chrono::milliseconds encoder_frame_delay{0};
   std::optional<Stall> encoder_stall;
   double realign_stall_s = 0, report_stall_s = 0, recover_stall_s = 0;
-  std::string spec;  // as given, for the warning and the log
+  double camera_stop_stall_s = 0;  // the session's stop waits this long after the first camera's stop
+  std::string spec;                // as given, for the warning and the log
   bool empty() const { return spec.empty(); }
 };
 

@@ -33,6 +33,24 @@ struct HeldFrame {
 
 }  // namespace
 
+TimelineEnd::TimelineEnd(std::size_t cameras) : caught_up_(cameras) {
+  for (auto& c : caught_up_) c.store(INT64_MIN);
+}
+
+void TimelineEnd::caught_up(int camera, std::int64_t host_ns) {
+  caught_up_[std::size_t(camera)].store(host_ns, std::memory_order_relaxed);
+}
+
+// Why it matters: the frames held for the last instants waited, before, until every camera had
+// stopped (the timeline's flush); under load that took 1-2 s, and those frames were what a power
+// cut in the stop took (docs/store.md).
+std::int64_t TimelineEnd::settled_before() const {
+  std::int64_t mark = INT64_MAX;
+  for (const auto& c : caught_up_) mark = std::min(mark, c.load(std::memory_order_relaxed));
+  if (mark == INT64_MIN) return INT64_MIN;  // a worker has taken nothing yet
+  return mark == INT64_MAX ? INT64_MAX : mark - kArrivalNs;
+}
+
 void Preview::set(cv::Mat small, cv::Mat full, std::int64_t host_ns) {
   std::lock_guard lock(mu_);
   bgr_ = std::move(small);
@@ -69,19 +87,30 @@ class CameraWorker {
     if (p_.warmed) p_.warmed->count_down();
     while (!p_.camera.frames_done() || !p_.camera.losses().closed_and_empty()) {
       auto frame = p_.camera.next_frame(100ms);
+      p_.end.caught_up(p_.index, frame ? frame->host_ts.ns : host_now().ns);
       record_losses();
       apply_decisions();
-      if (!p_.end.stopping.load()) give_up_undecided(host_now().ns - 5'000'000'000);
+      if (!p_.end.stopping.load())
+        give_up_undecided(host_now().ns - 5'000'000'000);
+      else  // instants no frame can still join are decided now, not once the slowest camera has stopped
+        p_.timeline.settle(HostNs{p_.end.settled_before()});
       take_clock_probes();
       if (frame) take(*frame);
     }
     record_losses();
+    p_.end.caught_up(p_.index, INT64_MAX);
     // The last worker to finish feeding makes the timeline decide what is pending.
     if (p_.end.feeding.fetch_sub(1) == 1) {
       p_.timeline.flush();
       p_.end.flushed.store(true);
     }
-    while (!p_.end.flushed.load()) std::this_thread::sleep_for(5ms);
+    // Meanwhile its held frames go on as the others' settling decides them (a camera slow to stop
+    // would otherwise keep this one's last frames from the disk until it has).
+    while (!p_.end.flushed.load()) {
+      p_.timeline.settle(HostNs{p_.end.settled_before()});
+      apply_decisions();
+      std::this_thread::sleep_for(5ms);
+    }
     apply_decisions();
     give_up_undecided(INT64_MAX);  // nothing should be left; if it is, it is still recorded
   }

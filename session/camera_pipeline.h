@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <latch>
 #include <mutex>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -46,12 +47,26 @@ class Preview {
 
 // Tells the camera workers when the timeline has decided everything (after the last frame).
 struct TimelineEnd {
+  explicit TimelineEnd(std::size_t cameras);
   std::atomic<int> feeding{0};
   std::atomic<bool> flushed{false};
   // Set when the stop begins: from then on the timeline's flush decides every held frame, so the
   // workers no longer give one up as undecided (a camera slow to stop would otherwise lose frames
   // a sample already names).
   std::atomic<bool> stopping{false};
+
+  // Each camera's worker: it has taken every frame that arrived before `host_ns` (INT64_MAX: it
+  // takes no more).
+  void caught_up(int camera, std::int64_t host_ns);
+  // While the session stops: the instants before which no camera frame can still reach the
+  // timeline. The worker furthest behind has taken everything that arrived before its mark, and a
+  // frame arrives within `kArrivalNs` of its instant; frames a worker has yet to take (a backlog)
+  // hold the mark back, so none of them comes too late for its instant.
+  std::int64_t settled_before() const;
+  static constexpr std::int64_t kArrivalNs = 300'000'000;
+
+ private:
+  std::vector<std::atomic<std::int64_t>> caught_up_;
 };
 
 struct CameraPipeline {

@@ -17,8 +17,8 @@
 #include "core/time.h"
 #include "session/camera_pipeline.h"
 #include "session/realign.h"
-#include "session/sample_record.h"
 #include "session/rig_lock.h"
+#include "session/sample_record.h"
 #include "storage/session_writer.h"
 #include "sync/session_timeline.h"
 
@@ -255,7 +255,7 @@ Status Recording::start() {
     writer_->record(clock_record(c.stream < 0 ? sensel_id_ : device_ids_[std::size_t(c.stream)], c));
   };
   timeline_ = std::make_unique<sync::SessionTimeline>(tc, on_sample, on_clock);
-  timeline_end_ = std::make_unique<TimelineEnd>();
+  timeline_end_ = std::make_unique<TimelineEnd>(cameras_.size());
   timeline_end_->feeding.store(int(cameras_.size()));
   start_camera_workers(writer);
   // Every camera's stream settled first (a new stream waits before it takes frames), so the cameras
@@ -470,7 +470,12 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   if (timeline_end_) timeline_end_->stopping.store(true);
   // All cameras stop at once; one blocked on a reconnect attempt must not keep the others recording.
   for (auto& cam : cameras_) cam->request_stop();
-  for (auto& cam : cameras_) cam->stop();
+  for (std::size_t i = 0; i < cameras_.size(); ++i) {
+    cameras_[i]->stop();
+    // A test's fault: a camera slow to answer its stop holds the others' stops back.
+    if (i == 0 && options_.faults.camera_stop_stall_s > 0)
+      std::this_thread::sleep_for(std::chrono::duration<double>(options_.faults.camera_stop_stall_s));
+  }
   if (sensel_) sensel_->stop();  // last: its pressure covers the cameras' last frames (start() says why)
   for (auto& w : workers_) w.join();
   workers_.clear();

@@ -286,15 +286,19 @@ void SessionWriter::keep_written_back() {
 
 // A round of fsyncs longer than the interval stretches what a power cut can lose past the horizon
 // docs/store.md promises: an event in the store (the report lists it) and a warning, every time.
+// One slow round is one event: the gap the round after it measures (from the slow one's start)
+// holds the same stall and is not said again.
 void SessionWriter::say_if_slow(const DurableFolder::Counts& c) {
   const double limit_ms = std::max(1000.0, store_.sync_interval_s * 1000);
+  const bool after_slow_round = previous_round_slow_;
+  previous_round_slow_ = c.last_round_ms > limit_ms;
   std::string message;
   if (c.last_round_ms > limit_ms)
     message = fmt::format(
         "an fsync round of the session's files took {:.2f} s, longer than store.sync_interval_s ({:g} s): a power cut "
         "now could lose that much; the disk is too slow or too busy for the recording",
         c.last_round_ms / 1000, store_.sync_interval_s);
-  else if (c.last_gap_ms > limit_ms)
+  else if (c.last_gap_ms > limit_ms && !after_slow_round)
     message = fmt::format(
         "the session's files went {:.2f} s between two fsync rounds (store.sync_interval_s: {:g} s): a power cut "
         "now could lose that much; the disk or the machine is too busy for the recording",

@@ -184,6 +184,7 @@ class SessionWriter {
   // thread (an fsync may take a while; the free-space watch must not wait for it).
   std::unique_ptr<DurableFolder> durable_;
   std::thread syncer_, writeback_;
+  bool previous_round_slow_ = false;  // the fsync thread's: its last round was said to be slow
   bool sync_stop_ = false;
 };
 

@@ -134,13 +134,24 @@ void SessionTimeline::decide(const Group& g, bool kept, const char* reason) {
     if (m) decisions_[std::size_t(m->stream)].push_back({m->connection, m->sequence, kept, kept ? "" : reason});
 }
 
-void SessionTimeline::advance(std::vector<SampleOut>& done, bool flush) {
+void SessionTimeline::settle(HostNs before) {
+  std::vector<SampleOut> done;
+  {
+    std::lock_guard lock(mu_);
+    advance(done, false, before.ns);
+  }
+  for (auto& s : done) on_sample_(std::move(s));
+}
+
+void SessionTimeline::advance(std::vector<SampleOut>& done, bool flush, std::int64_t settled_before) {
   std::vector<Subsampler::Sample> samples;
   std::vector<Group> discarded;
-  for (const Group& g : grouper_.take(flush))
+  for (const Group& g : grouper_.take(flush, settled_before))
     for (auto& s : subsampler_.add(g, &discarded)) samples.push_back(std::move(s));
   if (flush)
     for (auto& s : subsampler_.flush()) samples.push_back(std::move(s));
+  else if (settled_before != INT64_MIN)  // every group left begins within the limit before it, or after
+    for (auto& s : subsampler_.settle(settled_before - grouper_.limit_ns())) samples.push_back(std::move(s));
   for (const Group& g : discarded) decide(g, false, "subsampled");
   for (auto& s : samples) {
     decide(s.group, true, "");

@@ -23,13 +23,13 @@ namespace pvcap::sync {
 
 struct TimelineConfig {
   int cameras = 0;
-  double camera_hz = 60;                             // nominal; the grouping limit is half its period
-  double sample_hz = 15;                             // the dataset's grid
-  std::int64_t anchor_ns = 0;                        // the grid's tick 0 (session start, host time)
-  std::int64_t group_wait_ns = 250'000'000;          // how long a silent camera may hold up grouping
-  std::int64_t pressure_window_ns = 60'000'000;      // late / reordered pressure frames within this are handled
-  std::int64_t pressure_max_offset_ns = 20'000'000;  // farther than this from a sample: unpaired
-  std::vector<std::int64_t> camera_latency_ns;       // known constant latencies (rig file)
+  double camera_hz = 60;                                 // nominal; the grouping limit is half its period
+  double sample_hz = 15;                                 // the dataset's grid
+  std::int64_t anchor_ns = 0;                            // the grid's tick 0 (session start, host time)
+  std::int64_t group_wait_ns = 250'000'000;              // how long a silent camera may hold up grouping
+  std::int64_t pressure_window_ns = 60'000'000;          // late / reordered pressure frames within this are handled
+  std::int64_t pressure_max_offset_ns = 20'000'000;      // farther than this from a sample: unpaired
+  std::vector<std::int64_t> camera_latency_ns;           // known constant latencies (rig file)
   std::vector<std::int64_t> camera_stamp_to_instant_ns;  // each camera's stamp to the middle of its exposure
   std::int64_t pressure_latency_ns = 0;
   bool has_pressure = true;  // without a Sensel, samples are finished without waiting for pressure
@@ -80,6 +80,10 @@ class SessionTimeline {
   HostNs pressure_frame(std::uint32_t connection, std::uint64_t sequence, DeviceNs device, HostNs arrival);
   // At the end: decides everything pending.
   void flush();
+  // While the session stops: decides what no camera frame can still join, every instant before
+  // `before` (the cameras were told to stop; a frame exposed that long ago that has not come will
+  // not), so that the workers hand their frames on without waiting for the slowest camera's stop.
+  void settle(HostNs before);
 
   struct Counts {
     std::uint64_t groups_complete = 0, groups_incomplete = 0, late_camera_frames = 0, missed_ticks = 0, samples = 0;
@@ -106,7 +110,8 @@ class SessionTimeline {
   // One snapshot; `current`: of the model's current segment (with its pair counts and residuals).
   void emit(Stream& s, int id, std::int64_t host_ns, int segment, const ClockModel::Segment& seg, bool probed,
             bool current);
-  void advance(std::vector<SampleOut>& done, bool flush);  // under mu_
+  // Under mu_; `settled_before`: as settle().
+  void advance(std::vector<SampleOut>& done, bool flush, std::int64_t settled_before = INT64_MIN);
   void decide(const Group& g, bool kept, const char* reason);
 
   TimelineConfig config_;

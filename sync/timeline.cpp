@@ -28,7 +28,7 @@ bool Grouper::add(const FrameRef& frame) {
   return true;
 }
 
-bool Grouper::decide(bool flush) {
+bool Grouper::decide(bool flush, std::int64_t settled_before) {
   std::size_t anchor = pending_.size();
   for (std::size_t c = 0; c < pending_.size(); ++c)
     if (!pending_[c].empty() && (anchor == pending_.size() || pending_[c].front().t_ns < pending_[anchor].front().t_ns))
@@ -38,7 +38,7 @@ bool Grouper::decide(bool flush) {
   const std::int64_t close = a + limit_ns_;
   if (!flush) {
     const std::int64_t newest = *std::max_element(latest_.begin(), latest_.end());
-    const bool horizon_passed = newest != INT64_MIN && newest - wait_ns_ > close;
+    const bool horizon_passed = (newest != INT64_MIN && newest - wait_ns_ > close) || close < settled_before;
     bool everyone_past = true;
     for (std::size_t c = 0; c < pending_.size(); ++c) everyone_past &= latest_[c] != INT64_MIN && latest_[c] > close;
     if (!everyone_past && !horizon_passed) return false;
@@ -68,8 +68,8 @@ bool Grouper::decide(bool flush) {
   return true;
 }
 
-std::vector<Group> Grouper::take(bool flush) {
-  while (decide(flush)) {
+std::vector<Group> Grouper::take(bool flush, std::int64_t settled_before) {
+  while (decide(flush, settled_before)) {
   }
   std::vector<Group> out;
   out.swap(out_);
@@ -133,6 +133,11 @@ std::vector<Subsampler::Sample> Subsampler::flush() {
     best_.reset();
   }
   return out;
+}
+
+std::vector<Subsampler::Sample> Subsampler::settle(std::int64_t no_group_before_ns) {
+  if (!best_ || double(no_group_before_ns - best_->tick_ns) <= 0.5 * period_ns_) return {};
+  return flush();
 }
 
 // ---------------------------------------------------------------------------------------------

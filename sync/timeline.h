@@ -53,15 +53,18 @@ class Grouper {
   // Frames of one camera must come in time order; frames of different cameras interleave freely.
   // False (and counted as late) for a frame whose instant is already decided.
   bool add(const FrameRef& frame);
-  // Groups decided so far (each returned once). `flush` decides everything pending (at the end).
-  std::vector<Group> take(bool flush = false);
+  // Groups decided so far (each returned once). `flush` decides everything pending (at the end);
+  // `settled_before`: every group whose window closes before that time is decided too (no frame
+  // for it can still come: the cameras have stopped).
+  std::vector<Group> take(bool flush = false, std::int64_t settled_before = INT64_MIN);
+  std::int64_t limit_ns() const { return limit_ns_; }
 
   std::uint64_t complete_groups() const { return complete_; }
   std::uint64_t incomplete_groups() const { return incomplete_; }
   std::uint64_t late_frames() const { return late_; }  // came after their instant was decided
 
  private:
-  bool decide(bool flush);
+  bool decide(bool flush, std::int64_t settled_before);
   std::vector<std::deque<FrameRef>> pending_;
   std::vector<std::int64_t> latest_;  // newest time seen per camera
   std::int64_t decided_until_ = INT64_MIN;
@@ -92,6 +95,9 @@ class Subsampler {
   // Groups that will never be a sample (a nearer one won their tick) go to `discarded`.
   std::vector<Sample> add(const Group& group, std::vector<Group>* discarded = nullptr);
   std::vector<Sample> flush();
+  // No group before `no_group_before_ns` can still come: the pending tick is decided if no group
+  // from then on can be nearer it (one within half a period after it).
+  std::vector<Sample> settle(std::int64_t no_group_before_ns);
   std::uint64_t missed_ticks() const { return missed_; }
   std::int64_t tick_time(std::int64_t tick) const;
 

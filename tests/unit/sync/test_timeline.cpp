@@ -92,6 +92,51 @@ TEST(Grouper, ASilentCameraDelaysGroupsByAtMostTheWait) {
   EXPECT_GE(g.incomplete_groups(), 80u);
 }
 
+// In the session's stop the cameras stop at different moments, and nothing advances the horizon
+// any more: the instants after the first camera stopped wait. A settled bound (no frame of any
+// camera before it can still come) decides them up to it, as the end's flush would, and no later.
+TEST(Grouper, AfterTheCamerasStoppedASettledBoundDecidesWhatNoFrameCanStillJoin) {
+  std::set<std::pair<int, std::uint64_t>> stopped_early;
+  for (std::uint64_t i = 108; i < 120; ++i) stopped_early.insert({0, i}), stopped_early.insert({1, i});
+  const auto frames = four_cameras(2, 4, stopped_early);  // cameras 0 and 1 stop at 1.8 s, 2 and 3 at 2 s
+  Grouper settled(4, kPeriod60 / 2, 200'000'000), flushed(4, kPeriod60 / 2, 200'000'000);
+  std::vector<Group> a, b;
+  for (const auto& f : frames) {
+    settled.add(f);
+    flushed.add(f);
+    for (auto& x : settled.take()) a.push_back(x);
+    for (auto& x : flushed.take()) b.push_back(x);
+  }
+  const std::size_t waiting = 120 - a.size();
+  ASSERT_GE(waiting, 8u) << "the instants after 1.8 s wait for a horizon no frame moves now";
+  const std::int64_t bound = 2'900'000'000;  // 1.9 s into the streams
+  for (auto& x : settled.take(false, bound)) a.push_back(x);
+  EXPECT_GT(a.size(), 120 - waiting) << "decided up to the bound";
+  EXPECT_LT(a.size(), 120u) << "and no further";
+  for (const auto& g : a) EXPECT_LT(g.t_ns, bound + kPeriod60 / 2);
+  for (auto& x : settled.take(false, INT64_MAX)) a.push_back(x);
+  for (auto& x : flushed.take(true)) b.push_back(x);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].t_ns, b[i].t_ns) << "group " << i << ": as the flush decides it";
+    EXPECT_EQ(a[i].complete(), b[i].complete()) << "group " << i;
+  }
+}
+
+// The pending tick is given up to its best group once no group can come within half a period after
+// it, and not before.
+TEST(Subsampler, SettleDecidesAPendingTickOnlyWhenNoNearerGroupCanCome) {
+  Subsampler s(0, 15.0);  // ticks every 66.7 ms
+  Group g;
+  g.t_ns = 66'000'000;  // near tick 1
+  EXPECT_TRUE(s.add(g).empty());
+  EXPECT_TRUE(s.settle(66'666'667 + 33'000'000).empty()) << "a group at 99 ms could still be nearer";
+  const auto out = s.settle(66'666'667 + 34'000'000);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].tick, 1);
+  EXPECT_TRUE(s.flush().empty()) << "decided once";
+}
+
 TEST(Subsampler, OneSampleNearestEachTickAndTheGridNeverDrifts) {
   Subsampler s(1'000'000'000, 15.0);
   std::mt19937_64 rng(3);
