@@ -2,8 +2,8 @@
 # The power-cut campaign (issue 58; docs/store.md, "What a power cut can lose"): one 30-s protocol
 # session on four cameras at the simulated rig's 30 Hz, through a segment rollover, encoders held up
 # (their frames in the spill) and the index held up (its rows in the journal), recorded with every
-# write, sync and name change traced; then cut at POINTS moments (a quarter drawn over the whole
-# session, the rest inside a rollover, a spill in use or the index behind), each rebuilt as a power
+# write, sync and name change traced; then cut at POINTS moments (a fifth drawn over the whole
+# session, the rest inside a rollover, a spill in use, the index behind or the stop), each rebuilt as a power
 # cut would leave it, recovered, verified and checked (tests/integration/test_power_cut.cpp). Prints
 # one line per cut (what it met, what it lost) and the summary docs/store.md quotes; exits as the test did.
 #
