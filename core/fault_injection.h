@@ -23,12 +23,12 @@
 //   encoder.stall_s                every camera's encoder sleeps this long, once, `stall_after_s`
 //   encoder.stall_after_s          (default 2) after its first frame (a disk that held the encoders up:
 //                                  their frames go through the spill meanwhile)
+//   camera.stop_stall_s            the session's stop waits this long after the first camera's
+//                                  stop, before the others' (a camera slow to answer its stop)
 //   realign.stall_s                the end-of-session re-mapping waits this long between its steps
 //                                  (the frames re-mapped and committed, the samples not yet re-paired)
 //   report.stall_s                 the session's report.html waits this long once begun
 //   recover.stall_s                `pvcap recover` waits this long after its first step
-//   camera.stop_stall_s            the session's stop waits this long after the first camera's
-//                                  stop, before the others' (a camera slow to answer its stop)
 // (The last three hold a phase open long enough for a kill to land in it, which a test then proves.)
 #include <chrono>
 #include <cstddef>
