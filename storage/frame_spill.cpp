@@ -98,23 +98,30 @@ std::vector<std::uint8_t> fields(const SpillItem& item) {
   return std::move(b.bytes());
 }
 
-bool full_pread(int fd, void* buf, std::size_t n, std::int64_t off) {
+// 0 when read whole; else the read's errno, or -1 when the file ends first.
+int full_pread(int fd, void* buf, std::size_t n, std::int64_t off) {
   auto* p = static_cast<std::uint8_t*>(buf);
   while (n > 0) {
     const ssize_t got = ::pread(fd, p, n, off);
     if (got < 0 && errno == EINTR) continue;
-    if (got <= 0) return false;
+    if (got < 0) return errno;
+    if (got == 0) return -1;
     p += got;
     n -= std::size_t(got);
     off += got;
   }
-  return true;
+  return 0;
+}
+
+// Why a record could not be read: the disk's error, or where the file ends (a crash's cut).
+Error unread(int why, const char* cut) {
+  return Error{why > 0 ? fmt::format("cannot be read: {}", std::strerror(why)) : std::string(cut)};
 }
 
 // The record at `off`: its frame and its size in bytes; an Error when it is cut or damaged.
 Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off) {
   std::uint8_t prefix[kPrefix];
-  if (!full_pread(fd, prefix, kPrefix, off)) return Error{"cut before its header"};
+  if (const int why = full_pread(fd, prefix, kPrefix, off)) return unread(why, "cut before its header");
   const bool with_checksum = std::memcmp(prefix, kMagic, 4) == 0;
   if (!with_checksum && std::memcmp(prefix, kMagicWithoutChecksum, 4) != 0) return Error{"not a spill record"};
   std::uint32_t size = 0, crc = 0;
@@ -126,7 +133,8 @@ Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off
   struct stat st {};
   if (::fstat(fd, &st) != 0 || off + std::int64_t(size) > std::int64_t(st.st_size)) return Error{"cut in its body"};
   std::vector<std::uint8_t> body(size - kPrefix);
-  if (!full_pread(fd, body.data(), body.size(), off + std::int64_t(kPrefix))) return Error{"cut in its body"};
+  if (const int why = full_pread(fd, body.data(), body.size(), off + std::int64_t(kPrefix)))
+    return unread(why, "cut in its body");
   if (std::uint32_t(crc32(0L, body.data(), uInt(body.size()))) != crc) return Error{"CRC mismatch"};
   Cursor c(body.data(), body.size());
   SpillRecord out;
@@ -461,6 +469,10 @@ Result<std::size_t> read_spill_file(const std::filesystem::path& file, const std
       if (n == 0 && !at_end && got.error().message == "not a spill record") {
         ::close(fd);
         return Error{fmt::format("{}: not a pvcap spill file", file.string())};
+      }
+      if (got.error().message.rfind("cannot be read", 0) == 0) {  // the disk's error, not a cut tail
+        ::close(fd);
+        return Error{fmt::format("{}: {}", file.string(), got.error().message)};
       }
       break;  // the end, or a crash's cut tail
     }

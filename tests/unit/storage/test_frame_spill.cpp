@@ -335,3 +335,13 @@ TEST(FrameSpill, AFrameThatWouldWaitForTheWriterTooLongIsRefused) {
   }
   fs::remove_all(dir);
 }
+
+// A read the disk fails is said as the disk's error, never taken for a crash's cut tail (which
+// recover would pass over in silence): here a folder, whose pread fails with EISDIR.
+TEST(FrameSpill, AReadTheDiskFailsIsAnErrorNotACutTail) {
+  const auto dir = spill_dir("unreadable");
+  const auto read = read_spill_file(dir, [](SpillRecord&&) {});
+  ASSERT_FALSE(read);
+  EXPECT_NE(read.error().message.find("cannot be read: Is a directory"), std::string::npos) << read.error().message;
+  fs::remove_all(dir);
+}
