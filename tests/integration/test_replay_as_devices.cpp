@@ -267,6 +267,22 @@ std::vector<double> fill_delays_ms(const fs::path& log) {
   return delays;
 }
 
+// Cameras' replay logs pooled: their timing, each frame's fill (fill_delays_ms) and the frames whose
+// interval missed by more than `late_ms`, for a failure's message.
+struct CameraLogs {
+  IntervalTiming timing;
+  std::vector<double> fill;
+  std::string late;
+  // Adds `log`; its own timing, for a per-camera check.
+  IntervalTiming add(const fs::path& log, double late_ms) {
+    const IntervalTiming t = camera_timing(log);
+    timing.add(t);
+    for (double d : fill_delays_ms(log)) fill.push_back(d);
+    late += late_camera_frames(log, late_ms);
+    return t;
+  }
+};
+
 // A session a test replays: its rig file and length, recorded by the test itself, alone (RUN_SERIAL:
 // recorded beside other tests, an original held picks its re-recording did not repeat; docs/testing.md).
 struct OriginalSpec {
@@ -612,17 +628,11 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   }
 
   // The frames left at the recorded intervals (the replay's own log of when each left).
-  IntervalTiming cameras;
-  std::vector<double> fill;
-  std::string late;
-  for (const char* cam : {"cam0", "cam1", "cam2", "cam3"}) {
-    const fs::path log = replayed / "sim-truth" / (std::string(cam) + "_replay.csv");
-    const IntervalTiming t = camera_timing(log);
-    EXPECT_GT(t.sent.size(), 100u) << cam;
-    cameras.add(t);
-    for (double d : fill_delays_ms(log)) fill.push_back(d);
-    late += late_camera_frames(log, 1.0);
-  }
+  CameraLogs cameras;
+  for (const char* cam : {"cam0", "cam1", "cam2", "cam3"})
+    EXPECT_GT(cameras.add(replayed / "sim-truth" / (std::string(cam) + "_replay.csv"), 1.0).sent.size(), 100u) << cam;
+  const std::vector<double>& fill = cameras.fill;
+  const std::string& late = cameras.late;
   const fs::path sensel_log = replayed / "sim-truth" / "sensel_replay.csv";
   const IntervalTiming sensel = sensel_timing(sensel_log);
   EXPECT_GT(sensel.sent.size(), 800u);
@@ -637,7 +647,7 @@ TEST(ReplayAsDevices, TheReRecordedSessionHasTheSameSamplesFramesAndPayloads) {
   // How late the host started them is guarded, not bounded (expect_replay_timing). The kernel's
   // pseudo-terminal can hold a Sensel request back by tens of milliseconds on saturated cores; the
   // p95 does not reach it. The test runs alone (RUN_SERIAL).
-  expect_replay_timing("cameras", cameras, late);
+  expect_replay_timing("cameras", cameras.timing, late);
   EXPECT_LT(pct(fill, 0.95), 0.5) << "intervals more than 1 ms off:" << late;
   const std::string sensel_late = late_sensel_frames(sensel_log, 1.0);
   expect_replay_timing("Sensel", sensel, sensel_late, LateStarts::Printed);
@@ -738,9 +748,7 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
   // Every camera frame recorded (after the replay's first moments) is received again, same id and
   // device time.
   const Recorded ra = read_recorded(recorded), rb = read_recorded(replayed);
-  IntervalTiming both;  // both cameras' timing, pooled as the free-running test pools its four
-  std::vector<double> fill;
-  std::string late;
+  CameraLogs both;  // both cameras pooled, as the free-running test pools its four
   for (const char* cam : {"cam0", "cam1"}) {
     std::size_t recorded_frames = 0, again_frames = 0;
     for (const auto& [key, t] : ra.mapped_ns)
@@ -752,12 +760,7 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
                 recorded_frames);
     EXPECT_GT(recorded_frames, 60u) << cam;
     EXPECT_GE(double(again_frames), 0.9 * double(recorded_frames)) << cam;
-    const fs::path log = replayed / "sim-truth" / (std::string(cam) + "_replay.csv");
-    const IntervalTiming t = camera_timing(log);
-    ASSERT_GT(t.sent.size(), 50u) << cam;
-    both.add(t);
-    for (double d : fill_delays_ms(log)) fill.push_back(d);
-    late += late_camera_frames(log, 0.5);
+    ASSERT_GT(both.add(replayed / "sim-truth" / (std::string(cam) + "_replay.csv"), 0.5).sent.size(), 50u) << cam;
   }
   // A pulse 10 ms ahead of each frame, the engine woken as when free-running: what the replay
   // adds is bounded as then (expect_replay_timing). Both cameras fall due at one instant, so each
@@ -769,7 +772,9 @@ TEST(ReplayAsDevices, AHardwareTriggeredSessionReplaysOnItsTriggerLine) {
   // defects fixed in sim/replay_camera.cpp spent their time there: each frame that brought a new
   // image left 0.3-1.2 ms late (the one before freed on the engine's thread), and on a trigger
   // line each camera waited for the other's copy.
-  expect_replay_timing("both cameras", both, late);
+  const std::vector<double>& fill = both.fill;
+  const std::string& late = both.late;
+  expect_replay_timing("both cameras", both.timing, late);
   std::printf("both cameras: left after due and in the fill, p50 %.3f p95 %.3f max %.3f ms (%zu frames)\n",
               pct(fill, 0.5), pct(fill, 0.95), pct(fill, 1.0), fill.size());
   EXPECT_LT(pct(fill, 0.95), 0.5) << "intervals more than 0.5 ms off:" << late;

@@ -1,7 +1,5 @@
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <atomic>
 #include <chrono>
 #include <filesystem>
@@ -9,6 +7,7 @@
 #include <thread>
 
 #include "storage/durable_folder.h"
+#include "tests/unit/storage/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;
@@ -16,15 +15,9 @@ using namespace std::chrono_literals;
 
 namespace {
 
-struct TempDir {
-  fs::path path;
-  explicit TempDir(const std::string& name)
-      : path(fs::temp_directory_path() / ("pvcap-test-durable-" + name + "-" + std::to_string(::getpid()))) {
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
-};
+using pvcap::testing::TempDir;
+
+TempDir scratch(const std::string& name) { return TempDir{pvcap::testing::fresh_temp_dir("durable", name)}; }
 
 void append(const fs::path& file, std::size_t bytes) {
   std::ofstream(file, std::ios::binary | std::ios::app) << std::string(bytes, 'x');
@@ -34,7 +27,7 @@ void append(const fs::path& file, std::size_t bytes) {
 
 // A round syncs what changed since the last one, and only that; a file removed is forgotten.
 TEST(DurableFolder, ARoundSyncsTheFilesThatChangedAndTheFoldersWhoseEntriesDid) {
-  TempDir dir("changed");
+  const TempDir dir = scratch("changed");
   append(dir.path / "a.mkv", 100);
   append(dir.path / "b.mkv", 100);
   DurableFolder durable(dir.path, {"spill"});
@@ -64,7 +57,7 @@ TEST(DurableFolder, ARoundSyncsTheFilesThatChangedAndTheFoldersWhoseEntriesDid) 
 // The gap a round reports is the longest a write could have waited unsynced: from the previous
 // round's start (a write just after it listed its file waits for this round) to this round's end.
 TEST(DurableFolder, TheGapRunsFromThePreviousRoundsStartToThisOnesEnd) {
-  TempDir dir("gap");
+  const TempDir dir = scratch("gap");
   append(dir.path / "a.mkv", 1 << 20);
   DurableFolder durable(dir.path, {});
   const auto before = std::chrono::steady_clock::now();
@@ -83,7 +76,7 @@ TEST(DurableFolder, TheGapRunsFromThePreviousRoundsStartToThisOnesEnd) {
 // disk and must never hold a round back): the two share no state, and every round still syncs
 // what changed.
 TEST(DurableFolder, WriteBackBesideTheRoundsLeavesEveryChangeToARound) {
-  TempDir dir("writeback");
+  const TempDir dir = scratch("writeback");
   fs::create_directories(dir.path / "spill");
   DurableFolder durable(dir.path, {"spill"});
   std::atomic<bool> stop{false};

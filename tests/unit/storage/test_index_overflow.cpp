@@ -3,8 +3,6 @@
 // (storage/index_journal.h) holds the rows not yet committed, for recover.
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -19,27 +17,16 @@
 #include "storage/recover.h"
 #include "storage/session_index.h"
 #include "storage/sqlite/database.h"
+#include "tests/unit/storage/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;
 using namespace std::chrono_literals;
 
 namespace {
-// Removed when the test ends, also when an assertion ends it early.
-struct TempDir {
-  fs::path path;
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
+using pvcap::testing::TempDir;
 
-fs::path overflow_dir(const std::string& name) {
-  const auto d = fs::temp_directory_path() / ("pvcap-test-overflow-" + name + "-" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path overflow_dir(const std::string& name) { return pvcap::testing::fresh_temp_dir("overflow", name); }
 
 FrameRecord frame(std::uint64_t i) {
   FrameRecord r{3,
