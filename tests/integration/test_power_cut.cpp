@@ -1,12 +1,13 @@
 // A power cut at any moment of a protocol session: the session's writes, syncs and name changes are
 // traced (tests/power_cut/io_trace.c) while it runs as on the rig, through a segment rollover, an
 // encoder held up (its frames in the spill) and an index held up (its rows in the journal); then,
-// at cut points drawn at random (the seed is printed: PVCAP_POWER_CUT_SEED repeats a run), a quarter
-// of them uniformly and the rest inside each of those moments, the session folder is built as the
-// cut would have left it (tests/power_cut/crash_image.h) and must recover, verify and read, having
-// lost at most the durability horizon docs/store.md states (a second of video and of pressure), and
+// at cut points drawn at random (the seed is printed: PVCAP_POWER_CUT_SEED repeats a run), a fifth
+// of them uniformly and the rest inside each of those moments and the session's stop, the session
+// folder is built as the cut would have left it (tests/power_cut/crash_image.h) and must recover,
+// verify and read, having lost at most the durability horizon docs/store.md states (a second of
+// video and of pressure; more only where the session itself warned its disk was too slow), and
 // keeping every protocol event posted before the last sync round the cut let finish. From the trace:
-// no file of the session went more than a second without a sync while it recorded.
+// no file of the session went more than a second without a sync while it recorded (the same proviso).
 // PVCAP_POWER_CUT_POINTS sets how many cut points, PVCAP_POWER_CUT_RIG=1080p the rig (four 1080p
 // cameras at the simulated rig's 30 Hz instead of 320x240): bench/power_cut.sh runs the campaign.
 #include <gtest/gtest.h>
