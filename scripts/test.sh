@@ -10,7 +10,7 @@ for a in "$@"; do
   if [[ $a == --quick ]]; then quick=1; else args+=("$a"); fi
 done
 bash "$here/scripts/deps.sh" --tests
-bash "$here/scripts/build.sh"
+PVCAP_ALL=ON bash "$here/scripts/build.sh"
 cd "$here/build"
 # A fresh build orders the tests by the timings of a full run here (docs/testing.md, "How the suite
 # is scheduled"): the longest chains start first; ctest keeps its own timings from then on.
