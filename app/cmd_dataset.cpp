@@ -9,17 +9,17 @@
 
 #include "app/command.h"
 #include "app/progress_line.h"
+#include "core/durable_folder.h"
 #include "dataset/catalog.h"
 #include "dataset/completeness.h"
 #include "dataset/dataset_folder.h"
 #include "dataset/dataset_page.h"
 #include "dataset/release.h"
-#include "dataset/withdrawal.h"
 #include "dataset/slurm.h"
 #include "dataset/splits.h"
+#include "dataset/withdrawal.h"
 #include "protocol/protocol.h"
-#include "storage/durable_folder.h"
-#include "storage/records.h"
+#include "storage/index/records.h"
 
 namespace pvcap {
 
@@ -258,10 +258,10 @@ int run_withdraw(const DatasetArgs& a, const std::atomic<bool>& stop) {
   const Loaded l = load(a.dir, true, stop);
   std::vector<std::string> participants;
   for (const auto& p : l.status.participants) participants.push_back(p.code);
-  dataset::WithdrawRequest request{a.participant, a.reason, a.purge,
-                                   std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                       std::chrono::system_clock::now().time_since_epoch())
-                                       .count()};
+  dataset::WithdrawRequest request{
+      a.participant, a.reason, a.purge,
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+          .count()};
   auto done = dataset::withdraw(l.config, participants, l.sessions, request);
   if (!done) throw UserError(done.error().message);
   const dataset::WithdrawReport& r = done.value();

@@ -10,8 +10,8 @@
 
 #include "capture/aravis_discovery.h"
 #include "capture/sensel_discovery.h"
+#include "core/durable_folder.h"
 #include "sim/sim_rig.h"
-#include "storage/durable_folder.h"
 
 namespace pvcap {
 
@@ -60,7 +60,8 @@ int cmd_devices(bool json, const std::vector<std::string>& extra_ttys) {
 int dump_node_map(const std::string& camera, const std::string& out) {
   auto xml = read_node_map(camera);
   if (!xml) throw UserError(xml.error().message);
-  if (Status s = write_file_atomically(out, xml.value(), Durability::Synced); !s.ok()) throw UserError(s.error().message);
+  if (Status s = write_file_atomically(out, xml.value(), Durability::Synced); !s.ok())
+    throw UserError(s.error().message);
   fmt::print("wrote {}: camera {}'s node map ({} bytes); check it with `pvcap camera check --node-map {}`\n", out,
              camera, xml.value().size(), out);
   return 0;

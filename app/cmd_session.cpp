@@ -1,7 +1,7 @@
 #include "app/cmd_session.h"
 
-#include <thread>
 #include <unistd.h>
+#include <thread>
 
 #include <cctype>
 #include <cstdio>
@@ -17,10 +17,10 @@
 #include "app/cmd_report.h"
 #include "app/command.h"
 #include "app/rig_launcher.h"
+#include "core/durable_folder.h"
 #include "protocol/takes.h"
 #include "report/session_text.h"
-#include "storage/durable_folder.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap {
 

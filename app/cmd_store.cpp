@@ -1,16 +1,16 @@
 // The store's own tools: `pvcap takes`, `pvcap verify`, `pvcap recover`, `pvcap migrate`,
 // `pvcap compact`.
-#include <thread>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <thread>
 
 #include "app/command.h"
 #include "app/progress_line.h"
 #include "protocol/takes.h"
 #include "session/realign.h"
-#include "storage/compact.h"
-#include "storage/recover.h"
-#include "storage/verify.h"
+#include "storage/tools/compact.h"
+#include "storage/tools/verify.h"
+#include "storage/writer/recover.h"
 
 namespace pvcap {
 

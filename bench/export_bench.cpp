@@ -15,7 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "export/dataset_export.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;

@@ -24,8 +24,8 @@ extern "C" {
 #include <opencv2/core.hpp>
 
 #include "bench/bench_mosaics.h"
-#include "storage/av_handles.h"
-#include "storage/bayer_planes.h"
+#include "storage/video/av_handles.h"
+#include "storage/video/bayer_planes.h"
 
 using namespace pvcap;
 using Clock = std::chrono::steady_clock;

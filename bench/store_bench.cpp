@@ -29,11 +29,11 @@
 #include "core/frame_pool.h"
 #include "core/rig_config.h"
 #include "core/time.h"
-#include "storage/bayer_planes.h"
-#include "storage/compact.h"
-#include "storage/session_reader.h"
-#include "storage/session_writer.h"
-#include "storage/view_video.h"
+#include "storage/index/session_reader.h"
+#include "storage/tools/compact.h"
+#include "storage/video/bayer_planes.h"
+#include "storage/video/view_video.h"
+#include "storage/writer/session_writer.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;

@@ -8,7 +8,7 @@
 
 #include "calib/rig_calibration.h"
 #include "core/result.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::calib {
 

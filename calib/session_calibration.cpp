@@ -21,8 +21,8 @@
 #include "codec/image_files.h"
 #include "core/result.h"
 #include "core/side_by_side.h"
-#include "storage/session_index.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_index.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::calib {
 namespace {
@@ -233,7 +233,9 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
   if (!o.save_views.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(o.save_views, ec);
-    if (ec) throw UserError(fmt::format("{}: cannot make the folder for the board views: {}", o.save_views.string(), ec.message()));
+    if (ec)
+      throw UserError(
+          fmt::format("{}: cannot make the folder for the board views: {}", o.save_views.string(), ec.message()));
   }
   std::vector<Result<calib::Intrinsics>> intrinsics = intrinsics_of_cameras(run, o);
   for (std::size_t c = 0; c < run.session->cameras().size(); ++c) {
@@ -273,8 +275,7 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
         "{:.3f} px; fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f} (the fit's standard deviation: focal {:.1f}, cx {:.1f}, "
         "cy {:.1f} px)\n",
         camera.name, in.views, in.rejected_views, in.repeated_views, in.corners, in.misread_corners, in.rms_px,
-        in.model.K(0, 0),
-        in.model.K(1, 1), in.model.K(0, 2), in.model.K(1, 2),
+        in.model.K(0, 0), in.model.K(1, 1), in.model.K(0, 2), in.model.K(1, 2),
         // with fx = fy fixed, OpenCV reports the focal length's deviation under one of the two
         std::max(in.deviation[0], in.deviation[1]), in.deviation[2], in.deviation[3]);
     std::string grid;
@@ -291,8 +292,9 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
           "has not been\n",
           fmt::join(in.empty_regions, ", "));
     if (!in.missing.empty())
-      fmt::print("  not covered (the board session's rule): {}; the lens was fitted, but is less certain without them\n",
-                 fmt::join(in.missing, "; "));
+      fmt::print(
+          "  not covered (the board session's rule): {}; the lens was fitted, but is less certain without them\n",
+          fmt::join(in.missing, "; "));
     if (run.reference) {
       const calib::CameraModel& tm = reference_camera(*run.reference, camera.name).model;
       const double efx = in.model.K(0, 0) / tm.K(0, 0) - 1, efy = in.model.K(1, 1) / tm.K(1, 1) - 1;

@@ -10,7 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "session/recording_status.h"
-#include "storage/records.h"
+#include "storage/index/records.h"
 
 namespace pvcap::console {
 

@@ -18,7 +18,7 @@
 #include "console/terminal_console.h"
 #include "protocol/runner.h"
 #include "protocol/takes.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::console {
 

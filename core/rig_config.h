@@ -36,8 +36,8 @@ struct CameraConfig {
   int packet_size = 0;                   // bytes; 0 = negotiate the largest that works
   int socket_buffer_bytes = 0;           // 0 = let Aravis size it from the payload
   bool packet_resend = true;
-  int buffer_count = 0;         // 0 = about half a second of frames, at least 8
-  double link_mbps = 1000;      // the camera's link: preflight refuses a payload x rate above it
+  int buffer_count = 0;     // 0 = about half a second of frames, at least 8
+  double link_mbps = 1000;  // the camera's link: preflight refuses a payload x rate above it
   // What the camera's frame timestamp marks: SFNC and GigE Vision cameras stamp a frame when its
   // exposure starts (the Basler ace 2's map says so), so the image's instant, the middle of its
   // exposure, is half the exposure later (docs/cameras.md: the vendors' exceptions).
@@ -45,7 +45,7 @@ struct CameraConfig {
   // Without a timestamp latch: the known constant latency from what the stamp marks to the frame's
   // leader packet leaving the camera (datasheet).
   std::int64_t latency_ns = 0;
-  int line = 0;                 // where in the file this camera is described
+  int line = 0;  // where in the file this camera is described
   std::string id() const { return !serial.empty() ? serial : address; }
 };
 
@@ -82,13 +82,13 @@ struct StoreConfig {
   int min_free_mb = 512;        // stop the session cleanly when the disk's free space drops below this
   int reserve_mb = 32;          // space set aside at start, freed to finish the store if the disk fills anyway
   // Every file of the session reaches stable storage at least this often while recording (fsync,
-  // storage/durable_folder.h): what a power cut can lose. 0 leaves it to the kernel (benchmarks).
+  // core/durable_folder.h): what a power cut can lose. 0 leaves it to the kernel (benchmarks).
   double sync_interval_s = 0.5;
   // The group a session folder belongs to (its files follow: the folder is setgid), for a lab whose
   // members read each other's sessions; empty: the recorder's own group. Others read nothing.
   std::string group;
   // Beside each camera's video, a small colour copy of its frames (at most 640 x 360, H.264,
-  // storage/view_video.h) that the replay shows instead of decoding the whole picture. Skipped
+  // storage/video/view_video.h) that the replay shows instead of decoding the whole picture. Skipped
   // while more than two of the camera's frames wait for its encoder.
   bool view_videos = true;
 };

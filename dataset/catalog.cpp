@@ -12,8 +12,8 @@
 
 #include "protocol/takes.h"
 #include "report/session_report_data.h"
-#include "storage/session_reader.h"
-#include "storage/verify.h"
+#include "storage/index/session_reader.h"
+#include "storage/tools/verify.h"
 
 namespace pvcap::dataset {
 

@@ -14,7 +14,7 @@
 
 #include "core/result.h"
 #include "dataset/dataset_folder.h"
-#include "storage/catalog_db.h"
+#include "storage/index/catalog_db.h"
 
 namespace pvcap::dataset {
 

@@ -13,7 +13,7 @@
 
 #include "dataset/dataset_folder.h"
 #include "protocol/protocol.h"
-#include "storage/catalog_db.h"
+#include "storage/index/catalog_db.h"
 
 namespace pvcap::dataset {
 

@@ -10,8 +10,8 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include "core/durable_folder.h"
 #include "core/yaml_map_reader.h"
-#include "storage/durable_folder.h"
 
 namespace pvcap::dataset {
 

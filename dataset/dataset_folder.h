@@ -3,7 +3,7 @@
 //   dataset.yaml       what the lab declares: name, protocol, the sessions' roots, the planned
 //                      participants and conditions, the QA thresholds, the release's licence and
 //                      creators (written by `pvcap dataset init`, edited by hand)
-//   catalog.db         derived from the sessions (storage/catalog_db.h); can always be rebuilt
+//   catalog.db         derived from the sessions (storage/index/catalog_db.h); can always be rebuilt
 //   splits.json        the participant-held-out splits
 //   withdrawals.json   who withdrew consent, when and why (codes only: no personal data)
 //   releases.json      every release made: where, when, which participants it holds

@@ -12,11 +12,11 @@
 
 #include <fmt/format.h>
 
+#include "core/durable_folder.h"
 #include "core/version.h"
 #include "export/dataset_export.h"
 #include "export/sha256.h"
-#include "storage/compact.h"
-#include "storage/durable_folder.h"
+#include "storage/tools/compact.h"
 
 namespace pvcap::dataset {
 

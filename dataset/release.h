@@ -7,7 +7,7 @@
 // A release runs in three steps, so that a scheduler can run the middle one as a job array:
 //   prepare  the plan (plan.json: which session folders, in which layout) and OUT/participants.json
 //            (participant ids fixed in code order, so any order of jobs gives the same folders);
-//   job i    (with --compact: compacts session i's raw video first, storage/compact.h) exports
+//   job i    (with --compact: compacts session i's raw video first, storage/tools/compact.h) exports
 //            session i, then marks it done (done/i); a done job is skipped, an interrupted one
 //            resumes where it stopped (the export keeps whole files, compact whole segments);
 //   finish   once every job is done: splits.json, README.md, croissant.json, SHA256SUMS, and the
@@ -27,7 +27,7 @@
 #include "dataset/completeness.h"
 #include "dataset/dataset_folder.h"
 #include "dataset/splits.h"
-#include "storage/catalog_db.h"
+#include "storage/index/catalog_db.h"
 
 namespace pvcap::dataset {
 

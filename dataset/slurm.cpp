@@ -13,7 +13,7 @@
 
 #include <fmt/format.h>
 
-#include "storage/durable_folder.h"
+#include "core/durable_folder.h"
 
 namespace pvcap::dataset {
 

@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "dataset/dataset_folder.h"
-#include "storage/catalog_db.h"
+#include "storage/index/catalog_db.h"
 
 namespace pvcap::dataset {
 

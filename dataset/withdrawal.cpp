@@ -7,9 +7,9 @@
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
+#include "core/durable_folder.h"
 #include "dataset/release.h"
-#include "storage/durable_folder.h"
-#include "storage/records.h"
+#include "storage/index/records.h"
 
 namespace pvcap::dataset {
 

@@ -17,15 +17,15 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/projection.h"
+#include "calib/recorded_calibration.h"
 #include "codec/sensel_units.h"
+#include "core/durable_folder.h"
 #include "export/jpeg_lanes.h"
 #include "export/numpy_files.h"
 #include "export/pv_geometry.h"
 #include "export/sha256.h"
 #include "protocol/takes.h"
-#include "calib/recorded_calibration.h"
-#include "storage/durable_folder.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::exporting {
 

@@ -7,8 +7,8 @@
 
 #include "calib/projection.h"
 #include "codec/image_files.h"
+#include "core/durable_folder.h"
 #include "export/sha256.h"
-#include "storage/durable_folder.h"
 
 namespace pvcap::exporting {
 

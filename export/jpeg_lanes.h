@@ -18,7 +18,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/result.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::exporting {
 

@@ -18,7 +18,7 @@
 
 #include "protocol/protocol.h"
 #include "protocol/take_check.h"
-#include "storage/records.h"
+#include "storage/index/records.h"
 
 namespace pvcap::protocol {
 

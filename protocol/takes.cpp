@@ -5,7 +5,7 @@
 #include <fmt/format.h>
 
 #include "codec/sensel_units.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::protocol {
 

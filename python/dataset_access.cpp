@@ -6,7 +6,7 @@
 
 #include "dataset/dataset_folder.h"
 #include "dataset/splits.h"
-#include "storage/catalog_db.h"
+#include "storage/index/catalog_db.h"
 
 namespace pvcap::python {
 

@@ -2,7 +2,7 @@
 // What `import pvcap` reads from a session, in plain C++ (python/module.cpp only converts it): the
 // samples as columns, the takes, and each sample's image and pressure, cropped and sized as a
 // network wants them, through the same reader, calibration and crop the export and replay use
-// (storage/session_reader.h, calib/recorded_calibration.h, calib/projection.h). One implementation
+// (storage/index/session_reader.h, calib/recorded_calibration.h, calib/projection.h). One implementation
 // of the store: Python never parses session.db or a video itself. Read-only.
 #include <cstdint>
 #include <filesystem>
@@ -19,7 +19,7 @@
 #include "calib/rig_calibration.h"
 #include "core/result.h"
 #include "protocol/takes.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::python {
 

@@ -10,8 +10,8 @@
 #include <fmt/format.h>
 
 #include "replay/replay_composer.h"
-#include "storage/session_reader.h"
-#include "storage/video_writer.h"
+#include "storage/index/session_reader.h"
+#include "storage/video/video_writer.h"
 
 namespace pvcap::replay {
 

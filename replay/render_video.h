@@ -20,7 +20,7 @@ struct RenderOptions {
   double speed = 1.0;                  // 2: the video plays twice as fast as the session went
   double pressure_full_scale_kpa = 60;
   // The views from the cameras' own (lossless) videos, not from their view videos
-  // (storage/view_video.h): slower, for a session whose view videos are in doubt.
+  // (storage/video/view_video.h): slower, for a session whose view videos are in doubt.
   bool from_raw = false;
 };
 

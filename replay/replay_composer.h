@@ -17,8 +17,8 @@
 
 #include "calib/projection.h"
 #include "core/result.h"
-#include "storage/session_reader.h"
-#include "storage/view_video.h"
+#include "storage/index/session_reader.h"
+#include "storage/video/view_video.h"
 
 namespace pvcap::replay {
 
@@ -42,7 +42,7 @@ struct Layout {
 
 // The view videos are recorded for this tile: a 1080p camera's fills it without scaling.
 static_assert(Layout::kViewWidth == pvcap::kViewWidth && Layout::kViewHeight == pvcap::kViewHeight,
-              "storage/view_video.h makes view videos of the replay's tile size");
+              "storage/video/view_video.h makes view videos of the replay's tile size");
 
 // The take a sample belongs to, as the operator page names it.
 struct TakeLabel {
@@ -72,7 +72,7 @@ class ReplayComposer {
   // keys jump between.
   std::vector<std::size_t> take_starts() const;
   // Whether compose(i) reads the cameras' view videos where the session has them (the default), or
-  // always their own videos (storage/view_video.h).
+  // always their own videos (storage/video/view_video.h).
   void set_view_videos(bool on) { view_videos_ = on; }
   // Whether camera c has a calibration to draw the pressure through.
   bool calibrated(std::size_t camera) const { return camera < projectors_.size() && projectors_[camera].has_value(); }

@@ -10,7 +10,7 @@
 #include "core/time.h"
 #include "replay/replay_composer.h"
 #include "replay/replay_player.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::replay {
 

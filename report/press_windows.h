@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::report {
 

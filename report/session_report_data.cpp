@@ -16,6 +16,7 @@
 
 #include "calib/press_check.h"
 #include "calib/projection.h"
+#include "calib/recorded_calibration.h"
 #include "calib/rig_calibration.h"
 #include "codec/image_files.h"
 #include "codec/sensel_units.h"
@@ -23,9 +24,8 @@
 #include "core/time.h"
 #include "protocol/takes.h"
 #include "report/press_windows.h"
-#include "calib/recorded_calibration.h"
 #include "report/sync_self_check.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::report {
 
@@ -550,9 +550,9 @@ Result<json> build_report(const std::filesystem::path& dir, const ReportOptions&
       if (previous_dir)  // a previous session that cannot be read is compared with nothing
         if (auto p = SessionReader::open(*previous_dir))
           if (auto s = p.value()->camera_settings()) previous = camera_bags(s.value());
-      j["camera_state"] =
-          camera_state_section(camera_bags(settings.value()),
-                               previous_dir ? std::optional(previous_dir->filename().string()) : std::nullopt, previous);
+      j["camera_state"] = camera_state_section(
+          camera_bags(settings.value()), previous_dir ? std::optional(previous_dir->filename().string()) : std::nullopt,
+          previous);
     }
     auto events = r.events();
     if (!events) return events.error();

@@ -2,7 +2,7 @@
 
 #include <fmt/format.h>
 
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::report {
 

@@ -3,7 +3,9 @@
 
 - Below app/, no folder includes the simulator: `#include "sim/..."` only in sim/, app/, tests/, bench/
   (python/, the Python module, is beside app/: it reads stores and never includes the simulator).
-- No SQL statement outside storage/ (tests and bench aside).
+- storage/ is four rooms (video, index, writer, tools): video/ includes no other room, index/ only
+  video/, writer/ and tools/ only index/ and video/. No SQL statement outside storage/index/ (tests
+  and bench aside). The offline readers include nothing from storage/writer/.
 - The offline readers (storage, calib, protocol, report, export, dataset, replay, python) include nothing
   from capture/, the drivers: what a frame's bytes mean is codec/'s.
 - The include graph between folders has no cycle and is at most 7 levels deep.
@@ -11,8 +13,10 @@
 - No module below app/ reads the environment (settings and test faults come down as values).
 
 - With `--graphviz FILE` (CMake's `--graphviz` output): the offline libraries (report, export, replay,
-  protocol, storage, the calibration commands) link neither the recording, the drivers, the simulator,
-  Aravis nor libusb; only the app, tests and benchmarks link the simulator.
+  protocol, dataset, python, storage's index, video and tools, the calibration commands) link neither the
+  recording, the store's live writer, the drivers, the simulator, Aravis nor libusb; the readers (report,
+  export, replay, protocol, the calibration commands) link only the index and video rooms of storage;
+  only the app, tests and benchmarks link the simulator.
 
 `--graph` prints the folder graph (what docs/architecture.md draws) and each folder's depth.
 """
@@ -27,6 +31,9 @@ NOT_PRODUCT = {"tests", "bench", "build", "scripts", "docs", "rig-configs", ".gi
 MAX_DEPTH = 7
 OFFLINE_FOLDERS = ["storage", "calib", "protocol", "report", "export", "dataset", "replay", "python"]
 MAX_FUNCTION_LINES = 120
+# storage/'s rooms, and the rooms each may include (docs/architecture.md, "storage/").
+STORAGE_ROOMS = {"video": set(), "index": {"video"}, "writer": {"index", "video"}, "tools": {"index", "video"}}
+SQL_ROOM = "storage/index"
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([a-z_]+)/[^"]+"', re.M)
 # A statement of SQL: a string literal that starts with a statement keyword and names a table.
 SQL = re.compile(r'"\s*(SELECT\s|INSERT\s+INTO|UPDATE\s+\w+\s+SET|DELETE\s+FROM|CREATE\s+(TABLE|INDEX)|'
@@ -73,6 +80,23 @@ def depths(graph):
         return {f: level(f) for f in graph}
     except ValueError as cycle:
         return {"cycle": str(cycle)}
+
+
+def storage_room_problems():
+    """storage/'s files are in its rooms, and each room includes only the rooms below it."""
+    problems = []
+    for path in sources("storage"):
+        rel = os.path.relpath(path, ROOT)
+        parts = rel.split(os.sep)
+        room = parts[1] if len(parts) > 2 else None
+        if room not in STORAGE_ROOMS:
+            problems.append(f"{rel}: outside storage/'s rooms ({', '.join(STORAGE_ROOMS)})")
+            continue
+        for other in re.findall(r'^\s*#\s*include\s+"storage/([a-z_]+)/', read(path), re.M):
+            if other != room and other not in STORAGE_ROOMS[room]:
+                problems.append(f"{rel}: storage/{room}/ includes storage/{other}/ (it may include "
+                                f"{', '.join(sorted(STORAGE_ROOMS[room])) or 'no other room'})")
+    return problems
 
 
 def strip_comments_and_strings(text):
@@ -140,11 +164,13 @@ def long_functions(path):
     return found
 
 
-OFFLINE = ["pvcap_python", "pvcap_storage", "pvcap_protocol", "pvcap_report", "pvcap_export", "pvcap_dataset", "pvcap_replay", "pvcap_calib_session",
+OFFLINE = ["pvcap_python", "pvcap_storage_index", "pvcap_storage_video", "pvcap_storage_tools", "pvcap_protocol", "pvcap_report", "pvcap_export", "pvcap_dataset", "pvcap_replay", "pvcap_calib_session",
            "pvcap_codec"]
-NOT_OFFLINE = ["pvcap_session", "pvcap_console", "pvcap_capture", "pvcap_sim", "PkgConfig::ARAVIS",
+NOT_OFFLINE = ["pvcap_session", "pvcap_storage_writer", "pvcap_console", "pvcap_capture", "pvcap_sim", "PkgConfig::ARAVIS",
                "PkgConfig::LIBUSB", "PkgConfig::UMOCKDEV"]
 MAY_LINK_SIM = {"pvcap_sim", "pvcap_app_lib", "pvcap"}
+# What reads a finished session links of storage/ its index and video only (not the tools that rewrite one).
+READERS = ["pvcap_report", "pvcap_export", "pvcap_replay", "pvcap_protocol", "pvcap_calib_session"]
 
 
 def link_graph(dot_file):
@@ -180,6 +206,9 @@ def check_links(dot_file, problems):
         bad = sorted(links_transitively(graph, target) & set(NOT_OFFLINE))
         if bad:
             problems.append(f"{target} (an offline library) links {', '.join(bad)}")
+    for target in READERS:
+        if "pvcap_storage_tools" in links_transitively(graph, target):
+            problems.append(f"{target} (a reader) links pvcap_storage_tools (readers link storage's index and video)")
     for target in graph:
         if target in MAY_LINK_SIM or target.endswith("_tests") or target.endswith("_bench") or \
                 target.startswith("fuzz") or target in ("make_store_seeds", "extract_sensel_seeds"):
@@ -207,17 +236,22 @@ def main():
                 problems.append(f"{os.path.relpath(path, ROOT)}: reads the environment (settings come from app/ as "
                                 f"values)")
     for folder in PRODUCT:
-        if folder == "storage":
-            continue
         for path in sources(folder):
+            rel = os.path.relpath(path, ROOT)
+            if rel.startswith(SQL_ROOM + "/"):
+                continue
             for n, line in enumerate(read(path).split("\n"), 1):
                 if SQL.search(line):
-                    problems.append(f"{os.path.relpath(path, ROOT)}:{n}: an SQL statement outside storage/")
+                    problems.append(f"{rel}:{n}: an SQL statement outside {SQL_ROOM}/")
+    problems += storage_room_problems()
     for folder in OFFLINE_FOLDERS:
         for path in sources(folder):
             if re.search(r'#\s*include\s+"capture/', read(path)):
                 problems.append(f"{os.path.relpath(path, ROOT)}: an offline reader includes the drivers (capture/); "
                                 f"what a frame's bytes mean is in codec/")
+            if folder != "storage" and re.search(r'#\s*include\s+"storage/writer/', read(path)):
+                problems.append(f"{os.path.relpath(path, ROOT)}: an offline reader includes the live writer "
+                                f"(storage/writer/)")
     graph = folder_graph()
     d = depths(graph)
     if "cycle" in d:
@@ -240,7 +274,8 @@ def main():
         print(f"{len(problems)} problem{'s' if len(problems) != 1 else ''} with the architecture's rules "
               f"(docs/architecture.md)")
         return 1
-    print("architecture: no simulator below app/, no SQL outside storage/, no driver in an offline reader, "
+    print("architecture: no simulator below app/, storage/ in its rooms, no SQL outside storage/index/, no driver "
+          "or live writer in an offline reader, "
           "no folder cycle, at most "
           f"{max(d.values())} levels, no function over {MAX_FUNCTION_LINES} lines")
     return 0

@@ -14,7 +14,7 @@
 #include "core/frame_pool.h"
 #include "core/thread_name.h"
 #include "core/time.h"
-#include "storage/frame_checksum.h"
+#include "storage/video/frame_checksum.h"
 
 namespace pvcap::session {
 
@@ -180,7 +180,7 @@ class CameraWorker {
     } else {
       std::memcpy(image.data, h.pixels.data(), bytes);
       // The frame's checksum, taken from the camera's bytes before anything encodes them: verify and
-      // the reader compare every decoded frame with it (storage/frame_checksum.h).
+      // the reader compare every decoded frame with it (storage/video/frame_checksum.h).
       h.rec.checksum = stored_mosaic_crc(image, plane_order_);
     }
     recycle(std::move(h.pixels));

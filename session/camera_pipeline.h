@@ -13,7 +13,7 @@
 #include <opencv2/core.hpp>
 
 #include "capture/aravis_camera.h"
-#include "storage/session_writer.h"
+#include "storage/writer/session_writer.h"
 #include "sync/session_timeline.h"
 
 namespace pvcap::session {

@@ -11,7 +11,7 @@
 #include "core/rig_config.h"
 #include "core/time.h"
 #include "session/sample_record.h"
-#include "storage/recover.h"
+#include "storage/writer/recover.h"
 #include "sync/group_rule.h"
 #include "sync/timeline.h"
 

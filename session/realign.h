@@ -22,7 +22,7 @@
 #include <string>
 
 #include "core/result.h"
-#include "storage/session_index.h"
+#include "storage/index/session_index.h"
 
 namespace pvcap {
 
@@ -67,7 +67,7 @@ bool realign_pending(SessionIndex& index);
 Result<std::optional<RealignResult>> realign_if_needed(const std::filesystem::path& dir, bool interrupted,
                                                        const std::function<void(const std::string&)>& progress);
 
-// `pvcap recover`: storage's recover_session (videos closed, losses marked; storage/recover.h), then
+// `pvcap recover`: storage's recover_session (videos closed, losses marked; storage/writer/recover.h), then
 // the timeline re-mapped with the stored clock fits as a finished session's was. What was done, one
 // line each (none: the session had ended cleanly).
 Result<std::vector<std::string>> recover_and_realign(const std::filesystem::path& dir,

@@ -19,7 +19,7 @@
 #include "session/realign.h"
 #include "session/rig_lock.h"
 #include "session/sample_record.h"
-#include "storage/session_writer.h"
+#include "storage/writer/session_writer.h"
 #include "sync/session_timeline.h"
 
 namespace pvcap::session {

@@ -32,7 +32,7 @@
 #include "core/rig_config.h"
 #include "session/recording_status.h"
 #include "session/sensel_pipeline.h"
-#include "storage/records.h"
+#include "storage/index/records.h"
 
 namespace pvcap {
 class AravisCamera;

@@ -6,7 +6,7 @@
 
 #include "session/camera_pipeline.h"
 #include "session/recording.h"
-#include "storage/session_writer.h"
+#include "storage/writer/session_writer.h"
 
 namespace pvcap::session {
 

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "storage/records.h"
+#include "storage/index/records.h"
 #include "sync/group_rule.h"
 #include "sync/session_timeline.h"
 #include "sync/timeline.h"

@@ -9,7 +9,7 @@
 
 #include "core/fault_injection.h"
 #include "core/loss_runs.h"
-#include "storage/frame_checksum.h"
+#include "storage/video/frame_checksum.h"
 
 namespace pvcap::session {
 
@@ -215,7 +215,7 @@ void SenselPipeline::run() {
       latest_.mapped_ns = mapped;
       rec.counts = std::move(s->frame.pressure->counts);
     }
-    // Its checksum, of the payload as the device sent it (storage/frame_checksum.h): verify checks it.
+    // Its checksum, of the payload as the device sent it (storage/video/frame_checksum.h): verify checks it.
     rec.checksum = crc32_of(s->payload.data(), s->payload.size());
     rec.payload = std::move(s->payload);
     writer.record(std::move(rec));

@@ -18,7 +18,7 @@
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "session/recording_status.h"
-#include "storage/session_writer.h"
+#include "storage/writer/session_writer.h"
 #include "sync/session_timeline.h"
 
 namespace pvcap::session {

@@ -17,7 +17,7 @@
 #include "core/time.h"
 #include "sim/fake_camera_features.h"
 #include "sim/scene.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::sim {
 

@@ -7,7 +7,7 @@
 
 #include "core/rig_config.h"
 #include "sim/session_replay.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::sim {
 

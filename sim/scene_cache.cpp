@@ -12,8 +12,8 @@
 
 #include <fmt/format.h>
 
-#include "storage/durable_folder.h"
-#include "storage/frame_checksum.h"
+#include "core/durable_folder.h"
+#include "storage/video/frame_checksum.h"
 
 namespace pvcap::sim {
 

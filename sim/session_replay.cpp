@@ -9,7 +9,7 @@
 
 #include "core/rig_config.h"
 #include "core/time.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 #include "sync/timeline.h"
 
 namespace pvcap::sim {

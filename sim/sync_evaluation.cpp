@@ -14,7 +14,7 @@
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "sim/truth.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace pvcap::sim {
 namespace {

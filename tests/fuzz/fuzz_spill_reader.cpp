@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <string>
 
-#include "storage/frame_spill.h"
+#include "storage/writer/frame_spill.h"
 #include "tests/fuzz/fuzz_scratch.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -21,10 +21,10 @@
 #include <string>
 #include <vector>
 
-#include "storage/compact.h"
-#include "storage/recover.h"
-#include "storage/session_reader.h"
-#include "storage/verify.h"
+#include "storage/index/session_reader.h"
+#include "storage/tools/compact.h"
+#include "storage/tools/verify.h"
+#include "storage/writer/recover.h"
 #include "tests/fuzz/fuzz_scratch.h"
 
 #define PVCAP_STRINGIFY2(x) #x

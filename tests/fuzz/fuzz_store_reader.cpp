@@ -14,8 +14,8 @@
 
 #include "sim/replay_rig.h"
 #include "sim/session_replay.h"
-#include "storage/session_reader.h"
-#include "storage/video_reader.h"
+#include "storage/index/session_reader.h"
+#include "storage/video/video_reader.h"
 #include "tests/fuzz/fuzz_scratch.h"
 
 namespace {

@@ -16,9 +16,9 @@
 #include "codec/sensel_frame.h"
 #include "core/rig_config.h"
 #include "core/time.h"
-#include "storage/frame_checksum.h"
-#include "storage/session_writer.h"
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
+#include "storage/video/frame_checksum.h"
+#include "storage/writer/session_writer.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;

@@ -19,7 +19,7 @@
 #include "calib/rig_calibration.h"
 #include "export/sha256.h"
 #include "sim/truth.h"
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
 
 namespace fs = std::filesystem;
 

@@ -18,7 +18,7 @@
 
 #include <fmt/format.h>
 
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
 #include "tests/integration/export_fixture.h"
 #include "tests/integration/session_under_test.h"
 

@@ -19,7 +19,7 @@
 #include "headless_browser.h"
 #include "session_under_test.h"
 #include "slurm_cluster.h"
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;

@@ -22,8 +22,8 @@
 #include "codec/sensel_units.h"
 #include "session_under_test.h"
 #include "sim/truth.h"
-#include "storage/session_reader.h"
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
+#include "storage/index/session_reader.h"
 #include "tests/integration/export_fixture.h"
 #include "tests/integration/picture_files.h"
 

@@ -29,8 +29,8 @@
 
 #include <fmt/format.h>
 
-#include "storage/session_reader.h"
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
+#include "storage/index/session_reader.h"
 #include "tests/integration/session_under_test.h"
 #include "tests/power_cut/crash_image.h"
 #include "tests/power_cut/trace_format.h"
@@ -252,7 +252,7 @@ Moments find_moments(const Trace& trace, const fs::path& session, const Rows& tr
   return m;
 }
 
-// The store's sync rounds (storage/durable_folder.h), as [first, last] sync op: syncs of the
+// The store's sync rounds (core/durable_folder.h), as [first, last] sync op: syncs of the
 // session's files other than SQLite's own (it syncs its log at every commit), 100 ms apart at most.
 std::vector<Window> sync_rounds(const Trace& trace, const fs::path& session) {
   std::vector<Window> rounds;

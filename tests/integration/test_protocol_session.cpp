@@ -18,7 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "session_under_test.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap::testing;

@@ -14,8 +14,8 @@
 #include "replay/replay_composer.h"
 #include "sim/hand.h"
 #include "sim/truth.h"
-#include "storage/session_reader.h"
-#include "storage/video_reader.h"
+#include "storage/index/session_reader.h"
+#include "storage/video/video_reader.h"
 #include "tests/integration/picture_files.h"
 #include "tests/integration/session_under_test.h"
 

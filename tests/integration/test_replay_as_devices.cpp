@@ -19,8 +19,8 @@
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
 
-#include "storage/session_reader.h"
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
+#include "storage/index/session_reader.h"
 #include "tests/integration/session_under_test.h"
 
 namespace fs = std::filesystem;

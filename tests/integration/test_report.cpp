@@ -16,7 +16,7 @@
 #include "headless_browser.h"
 #include "session_under_test.h"
 #include "sim/truth.h"
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
 
 namespace fs = std::filesystem;
 using pvcap::testing::only_session;
@@ -46,8 +46,8 @@ TEST(Report, AProtocolSessionsReportOpensInABrowserAndItsCountsAreTheStores) {
   const fs::path work = work_dir("report");
   // cam2 names its features in SFNC 2's way and was left on automatic white balance (by another
   // program, say): pvcap records with it, and the report warns.
-  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}, {.node_map = "sfnc2", .white_balance_auto = true}, {}},
-                                                   320, 240, 30, 15, "free-run", /*sensel=*/true);
+  std::ofstream(work / "rig.yaml") << sim_rig_yaml({{}, {}, {.node_map = "sfnc2", .white_balance_auto = true}, {}}, 320,
+                                                   240, 30, 15, "free-run", /*sensel=*/true);
   const auto session_run = run_pvcap(fmt::format(
       "session --rig {} --root {} --protocol {} --auto --fast --participant R01 --skin-tone medium --no-web",
       (work / "rig.yaml").string(), (work / "sessions").string(),
@@ -120,12 +120,13 @@ TEST(Report, AProtocolSessionsReportOpensInABrowserAndItsCountsAreTheStores) {
   EXPECT_NE(state["warnings"][0].get<std::string>().find("cam2: BalanceWhiteAuto is Continuous"), std::string::npos);
   bool white_balance_differs = false;
   for (const auto& d : state["differ_between_cameras"])
-    white_balance_differs |= d["feature"] == "BalanceWhiteAuto" && d["values"]["cam2"] == "Continuous" &&
-                             d["values"]["cam0"] == "(none)";
+    white_balance_differs |=
+        d["feature"] == "BalanceWhiteAuto" && d["values"]["cam2"] == "Continuous" && d["values"]["cam0"] == "(none)";
   EXPECT_TRUE(white_balance_differs) << state.dump(1);
   EXPECT_TRUE(state["previous_session"].is_null()) << "the first session of the rig in its folder";
-  EXPECT_EQ(scalar(db, "SELECT json_extract(settings_json, '$.feature_bag.ExposureTime') FROM devices WHERE name = "
-                       "'cam2'"),
+  EXPECT_EQ(scalar(db,
+                   "SELECT json_extract(settings_json, '$.feature_bag.ExposureTime') FROM devices WHERE name = "
+                   "'cam2'"),
             scalar(db, "SELECT json_extract(settings_json, '$.exposure_us') FROM devices WHERE name = 'cam2'"));
   // No calibration was recorded: the self-check says so for every camera instead of guessing.
   for (const auto& c : r["self_check"]["cameras"]) {
@@ -146,9 +147,9 @@ TEST(Report, AProtocolSessionsReportOpensInABrowserAndItsCountsAreTheStores) {
   }
   ASSERT_TRUE(loaded);
   const std::string dom = browser.dom(tab);
-  for (const char* section : {"Captured and lost", "Sync self-check", "Frame intervals", "Clock models", "Pairing",
-                              "Protocol", "Calibration", "Counts reconcile with the store", "Camera state",
-                              "warning: cam2: BalanceWhiteAuto is Continuous"})
+  for (const char* section :
+       {"Captured and lost", "Sync self-check", "Frame intervals", "Clock models", "Pairing", "Protocol", "Calibration",
+        "Counts reconcile with the store", "Camera state", "warning: cam2: BalanceWhiteAuto is Continuous"})
     EXPECT_NE(dom.find(section), std::string::npos) << section;
   EXPECT_GE(browser.eval(tab, "document.querySelectorAll('svg').length").get<int>(), 12);
   EXPECT_EQ(browser.eval(tab, "document.querySelectorAll('script, link[rel=stylesheet]').length").get<int>(), 0)

@@ -20,8 +20,8 @@
 #include <fmt/format.h>
 
 #include "session_under_test.h"
-#include "storage/session_reader.h"
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
+#include "storage/index/session_reader.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap::testing;
@@ -184,12 +184,14 @@ TEST(SessionFaults, ASenselPluggedBackIsANewConnectionAndItsAbsenceIsRecordedAsL
   // (sync mode), it scans when asked, so on a loaded machine that rate is below its ~125 Hz: a fresh
   // clone's run beside a busy rig counted 116 lost, which a bound at 125 Hz (> 150) failed.
   const auto lost = scalar(db, "SELECT sum(count) FROM drops WHERE reason = 'unplugged' AND connection = 1");
-  const double away_s = double(scalar(db, "SELECT (SELECT host_ns FROM events WHERE kind = 'sensel_reconnected') - "
-                                          "(SELECT host_ns FROM events WHERE kind = 'sensel_unplugged')")) /
+  const double away_s = double(scalar(db,
+                                      "SELECT (SELECT host_ns FROM events WHERE kind = 'sensel_reconnected') - "
+                                      "(SELECT host_ns FROM events WHERE kind = 'sensel_unplugged')")) /
                         1e9;
   const double period_s =
-      double(scalar(db, "SELECT (max(device_ns) - min(device_ns)) / (count(*) - 1) FROM pressure_frames WHERE "
-                        "connection = 0")) /
+      double(scalar(db,
+                    "SELECT (max(device_ns) - min(device_ns)) / (count(*) - 1) FROM pressure_frames WHERE "
+                    "connection = 0")) /
       1e9;
   std::printf("away %.3f s, connection 0 scanned every %.2f ms: %lld frames lost\n", away_s, period_s * 1e3,
               static_cast<long long>(lost));
@@ -425,9 +427,8 @@ TEST(SessionFaults, ASessionStartedWithNohupIgnoresHangups) {
   const fs::path work = work_dir("nohup");
   const fs::path rig = write_rig(work);
   const fs::path root = work / "sessions", log = work / "pvcap.log";
-  const pid_t pid =
-      spawn_pvcap(fmt::format("session --rig {} --root {} --duration 60 --no-web", rig.string(), root.string()), log,
-                  "nohup");
+  const pid_t pid = spawn_pvcap(
+      fmt::format("session --rig {} --root {} --duration 60 --no-web", rig.string(), root.string()), log, "nohup");
   ASSERT_TRUE(wait_for_text(log, " s | cam0", std::chrono::seconds(60))) << read_all(log);
   EXPECT_NE(read_all(log).find("hang-ups are ignored, as the caller asked (nohup)"), std::string::npos);
   ASSERT_EQ(kill(pid, SIGHUP), 0);
@@ -464,8 +465,8 @@ TEST(SessionFaults, ClosingTheTerminalOfAnInteractiveShellStopsTheSessionCleanly
   // signal is back to its default in pvcap, where an ignored one would stay ignored, as nohup asks);
   // pvcap sets its own handlers, and its output goes to the terminal.
   const std::string line =
-      fmt::format("sh -c 'trap : HUP; {} session --rig {} --root {} --duration 60 --no-web; echo $? > {}'\n",
-                  PVCAP_BIN, rig.string(), root.string(), status_file.string());
+      fmt::format("sh -c 'trap : HUP; {} session --rig {} --root {} --duration 60 --no-web; echo $? > {}'\n", PVCAP_BIN,
+                  rig.string(), root.string(), status_file.string());
   ASSERT_EQ(write(master, line.data(), line.size()), ssize_t(line.size()));
   // Read the terminal as a terminal emulator would (a full pty would block the writer) until six
   // seconds of recording were shown.

@@ -32,7 +32,7 @@
 #include "session_under_test.h"
 #include "sim/fingertip.h"
 #include "sim/truth.h"
-#include "storage/session_reader.h"
+#include "storage/index/session_reader.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap::testing;

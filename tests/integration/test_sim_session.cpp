@@ -16,8 +16,8 @@
 #include "core/sequence_unwrap.h"
 #include "session_under_test.h"
 #include "sim/timecode.h"
-#include "storage/sqlite/database.h"
-#include "storage/video_reader.h"
+#include "storage/index/database.h"
+#include "storage/video/video_reader.h"
 
 #include "codec/sensel_units.h"
 #include "sim/fingertip.h"
@@ -417,7 +417,9 @@ TEST(SimSession, CameraThatComesBackIsReconnectedAndRecordsAgain) {
   EXPECT_GT(after, 30u) << "no frames after the reconnection";
   EXPECT_GT(kept_after, 5u) << "frames after the reconnection did not reach the video";
   pvcap::sqlite::Database db(s.dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
-  auto q = db.prepare("SELECT group_concat(kind) FROM (SELECT kind FROM events WHERE device_id = ? AND kind LIKE 'camera_%' ORDER BY host_ns)");
+  auto q = db.prepare(
+      "SELECT group_concat(kind) FROM (SELECT kind FROM events WHERE device_id = ? AND kind LIKE 'camera_%' ORDER BY "
+      "host_ns)");
   q.bind(1, c.device_id);
   ASSERT_TRUE(q.step());
   EXPECT_EQ(q.column_text(0), "camera_lost,camera_reconnected");

@@ -21,8 +21,8 @@
 
 #include "core/time.h"
 #include "sim/timecode.h"
-#include "storage/session_reader.h"
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
+#include "storage/index/session_reader.h"
 #include "tests/integration/session_under_test.h"
 
 namespace fs = std::filesystem;
@@ -194,7 +194,7 @@ TEST(StoreCrash, KillNineAtRandomMomentsLosesAtMostTheLastSecond) {
 
 // kill -9 while the index is behind (its thread stalled on purpose, core/fault_injection.h): the
 // rows waiting for it were in memory only, and recover found cam0's videos holding 201 frames and
-// the index 24 rows. Now the journal holds every row not yet committed (storage/index_journal.h):
+// the index 24 rows. Now the journal holds every row not yet committed (storage/writer/index_journal.h):
 // recover writes them into the index, and every frame on disk has its row.
 TEST(StoreCrash, KillNineWhileTheIndexIsStalledLosesNoRowOfAFrameOnDisk) {
   const fs::path work = work_dir("kill-stalled-index");
@@ -246,9 +246,10 @@ TEST(StoreCrash, KillNineWhileTheIndexIsStalledLosesNoRowOfAFrameOnDisk) {
   auto verified = run_pvcap(fmt::format("--log-level off verify {}", dir.string()));
   EXPECT_EQ(verified.exit_code, 3) << verified.output;  // lossy: the session was cut
   EXPECT_EQ(verified.output.find("ERROR"), std::string::npos) << verified.output;
-  std::printf("killed 6 s in, the index stalled for the last ~4 s: %lld frame rows before recover, %lld after (%lld "
-              "rows of all kinds from the journal)\n",
-              (long long)before, (long long)after, (long long)replayed);
+  std::printf(
+      "killed 6 s in, the index stalled for the last ~4 s: %lld frame rows before recover, %lld after (%lld "
+      "rows of all kinds from the journal)\n",
+      (long long)before, (long long)after, (long long)replayed);
   fs::remove_all(work);
 }
 
@@ -338,8 +339,8 @@ TEST(StoreDiskFull, AFullDiskStopsTheSessionAndWhatWasWrittenVerifies) {
       for (const auto& m : s.value().images) images += !m.empty();
     }
     EXPECT_GT(images, 3 * r.sample_count()) << "nearly every sample has its pixels";
-    std::printf("%s: stopped after %.1f s, %zu samples, %zu images readable%s\n", mode.name, took_s,
-                r.sample_count(), images, spilled ? " (the spill's after recover)" : "");
+    std::printf("%s: stopped after %.1f s, %zu samples, %zu images readable%s\n", mode.name, took_s, r.sample_count(),
+                images, spilled ? " (the spill's after recover)" : "");
     fs::remove_all(small / "sessions");
     if (spilled) {  // the next run fills the small disk again
       ASSERT_EQ(mount("tmpfs", small.c_str(), "tmpfs", MS_REMOUNT | MS_NOSUID | MS_NODEV, "size=32m"), 0)
@@ -560,9 +561,9 @@ TEST(StoreReadOnly, AFilesystemTurnedReadOnlyMidSessionStopsItCleanlyAndWhatWasC
   const fs::path image = work / "disk.img", disk = work / "disk";
   // The loop device is set up here: the loop module loaded if it is not, a free device taken.
   (void)run("modprobe loop 2>/dev/null");
-  const std::string make = fmt::format(
-      "truncate -s 400M {0} && mkfs.ext4 -q {0} && mount -o loop,errors=remount-ro {0} {1} 2>{2}", image.string(),
-      disk.string(), (work / "mount.err").string());
+  const std::string make =
+      fmt::format("truncate -s 400M {0} && mkfs.ext4 -q {0} && mount -o loop,errors=remount-ro {0} {1} 2>{2}",
+                  image.string(), disk.string(), (work / "mount.err").string());
   ASSERT_EQ(run(make), 0) << "could not mount an ext4 image on a loop device (" << make
                           << "): " << read_all(work / "mount.err")
                           << (fs::exists("/dev/loop-control") ? "" : "; this machine has no /dev/loop-control");
@@ -580,8 +581,8 @@ TEST(StoreReadOnly, AFilesystemTurnedReadOnlyMidSessionStopsItCleanlyAndWhatWasC
   ASSERT_NE(at, std::string::npos) << mounts;
   const std::string device = mounts.substr(mounts.rfind('\n', at) + 1, at - mounts.rfind('\n', at) - 1);
   const fs::path trigger = fs::path("/sys/fs/ext4") / fs::path(device).filename() / "trigger_fs_error";
-  ASSERT_TRUE(fs::exists(trigger)) << trigger
-                                   << " is missing: this kernel's ext4 cannot be told to fail (it is in Linux since 4.14)";
+  ASSERT_TRUE(fs::exists(trigger))
+      << trigger << " is missing: this kernel's ext4 cannot be told to fail (it is in Linux since 4.14)";
 
   std::ofstream(work / "rig.yaml") << with_store(sim_rig_yaml({{}, {}}, 640, 480, 30, 15, "free-run", /*sensel=*/true),
                                                  "  min_free_mb: 16\n  reserve_mb: 4\n");

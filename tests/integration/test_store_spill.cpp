@@ -15,11 +15,11 @@
 
 #include <fmt/format.h>
 
-#include "storage/frame_spill.h"
-#include "storage/sqlite/database.h"
-#include "storage/video_reader.h"
-#include "storage/video_repair.h"
-#include "storage/view_video.h"
+#include "storage/index/database.h"
+#include "storage/index/video_repair.h"
+#include "storage/video/video_reader.h"
+#include "storage/video/view_video.h"
+#include "storage/writer/frame_spill.h"
 #include "tests/integration/session_under_test.h"
 
 namespace fs = std::filesystem;
@@ -109,7 +109,7 @@ TEST(StoreSpill, ABusyMachineLosesNoFrameToTheEncoder) {
   }
   EXPECT_FALSE(fs::exists(dir / pvcap::kSpillFolder)) << "a drained spill leaves nothing behind";
   {
-    // An encoder behind skips the view copies (storage/view_video.h): fewer frames in the view videos
+    // An encoder behind skips the view copies (storage/video/view_video.h): fewer frames in the view videos
     // than in the lossless ones, whose every frame the replay then reads instead.
     pvcap::sqlite::Database db(dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
     const std::int64_t kept = count(db, "SELECT count(*) FROM frames WHERE kept = 1");

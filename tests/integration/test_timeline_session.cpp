@@ -15,7 +15,7 @@
 #include <sstream>
 
 #include "sim/sync_evaluation.h"
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
 #include "tests/integration/session_under_test.h"
 
 using namespace pvcap;
@@ -136,12 +136,12 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
   // and each SFNC 2 camera's rate took only through its enable (without it the engine's own 25 fps
   // would read back and the camera be refused).
   for (int i = 0; i < 4; ++i) {
-    auto q = db.prepare(fmt::format(
-        "SELECT json_extract(settings_json, '$.features.timestamp_latch'), "
-        "coalesce(json_extract(settings_json, '$.features.frame_rate_enable'), ''), "
-        "json_extract(settings_json, '$.features.exposure_time'), "
-        "json_extract(settings_json, '$.stamp_to_mid_exposure_ns') FROM devices WHERE name = 'cam{}'",
-        i));
+    auto q = db.prepare(
+        fmt::format("SELECT json_extract(settings_json, '$.features.timestamp_latch'), "
+                    "coalesce(json_extract(settings_json, '$.features.frame_rate_enable'), ''), "
+                    "json_extract(settings_json, '$.features.exposure_time'), "
+                    "json_extract(settings_json, '$.stamp_to_mid_exposure_ns') FROM devices WHERE name = 'cam{}'",
+                    i));
     ASSERT_TRUE(q.step()) << i;
     EXPECT_EQ(q.column_text(0), i % 2 ? "TimestampLatch" : "TimestampControlLatch") << i;
     EXPECT_EQ(q.column_text(1), i % 2 ? "AcquisitionFrameRateEnable" : "") << i;

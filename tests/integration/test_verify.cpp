@@ -9,10 +9,10 @@
 
 #include <fmt/format.h>
 
-#include "storage/session_reader.h"
-#include "storage/sqlite/database.h"
-#include "storage/video_reader.h"
-#include "storage/video_writer.h"
+#include "storage/index/database.h"
+#include "storage/index/session_reader.h"
+#include "storage/video/video_reader.h"
+#include "storage/video/video_writer.h"
 #include "tests/integration/session_under_test.h"
 
 namespace fs = std::filesystem;

@@ -21,7 +21,7 @@
 #include "dataset/splits.h"
 #include "dataset/withdrawal.h"
 #include "protocol/protocol.h"
-#include "storage/catalog_db.h"
+#include "storage/index/catalog_db.h"
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
@@ -438,11 +438,13 @@ TEST(DatasetWithdraw, WhatItRefusesWritesAndDeletes) {
   ASSERT_TRUE(write_sha256sums(out));
   ASSERT_TRUE(record_release(f.dir, {out.string(), 1, {"P01", "P02"}}).ok());
   std::ofstream(f.dir / "splits.json") << R"({"seed": 3, "train": ["P01"], "val": [], "test": ["P02"]})";
-  const std::vector<CatalogSession> sessions = {catalog_session(s1.string(), "P01"), catalog_session(s2.string(), "P02")};
+  const std::vector<CatalogSession> sessions = {catalog_session(s1.string(), "P01"),
+                                                catalog_session(s2.string(), "P02")};
   const std::vector<std::string> participants = {"P01", "P02"};
 
   for (const auto& [code, said] : std::vector<std::pair<std::string, std::string>>{
-           {"P 01", "'P 01' is not a participant code"}, {"P09", "no participant P09 in dataset lab (participants: P01, P02)"}}) {
+           {"P 01", "'P 01' is not a participant code"},
+           {"P09", "no participant P09 in dataset lab (participants: P01, P02)"}}) {
     auto refused = withdraw(c, participants, sessions, {code, "asked", true, 1});
     ASSERT_FALSE(refused);
     EXPECT_NE(refused.error().message.find(said), std::string::npos) << refused.error().message;

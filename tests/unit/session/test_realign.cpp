@@ -10,7 +10,7 @@
 #include <unistd.h>
 
 #include "session/realign.h"
-#include "storage/session_index.h"
+#include "storage/index/session_index.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;

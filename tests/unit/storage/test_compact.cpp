@@ -17,12 +17,12 @@
 #include "core/rig_config.h"
 #include "core/time.h"
 #include "sim/scene.h"
-#include "storage/compact.h"
-#include "storage/frame_checksum.h"
-#include "storage/session_writer.h"
-#include "storage/sqlite/database.h"
-#include "storage/verify.h"
-#include "storage/video_reader.h"
+#include "storage/index/database.h"
+#include "storage/tools/compact.h"
+#include "storage/tools/verify.h"
+#include "storage/video/frame_checksum.h"
+#include "storage/video/video_reader.h"
+#include "storage/writer/session_writer.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;

@@ -6,7 +6,7 @@
 #include <fstream>
 #include <thread>
 
-#include "storage/durable_folder.h"
+#include "core/durable_folder.h"
 #include "tests/unit/storage/temp_dir.h"
 
 namespace fs = std::filesystem;

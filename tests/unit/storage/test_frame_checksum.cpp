@@ -4,8 +4,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "storage/bayer_planes.h"
-#include "storage/frame_checksum.h"
+#include "storage/video/bayer_planes.h"
+#include "storage/video/frame_checksum.h"
 
 using namespace pvcap;
 

@@ -6,7 +6,7 @@
 #include <thread>
 
 #include "core/time.h"
-#include "storage/frame_spill.h"
+#include "storage/writer/frame_spill.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;

@@ -1,6 +1,6 @@
-// Index rows that wait while the index is behind (storage/index_overflow.h): encoded and read back
+// Index rows that wait while the index is behind (storage/writer/index_overflow.h): encoded and read back
 // whole, in their order, through memory and the file; a slow index loses none of them; the journal
-// (storage/index_journal.h) holds the rows not yet committed, for recover.
+// (storage/writer/index_journal.h) holds the rows not yet committed, for recover.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,13 +10,13 @@
 
 #include <fmt/format.h>
 
-#include "storage/index_journal.h"
-#include "storage/index_overflow.h"
-#include "storage/index_writer.h"
-#include "storage/record_codec.h"
-#include "storage/recover.h"
-#include "storage/session_index.h"
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
+#include "storage/index/record_codec.h"
+#include "storage/index/session_index.h"
+#include "storage/writer/index_journal.h"
+#include "storage/writer/index_overflow.h"
+#include "storage/writer/index_writer.h"
+#include "storage/writer/recover.h"
 #include "tests/unit/storage/temp_dir.h"
 
 namespace fs = std::filesystem;

@@ -18,17 +18,17 @@
 #include "core/rig_config.h"
 #include "core/time.h"
 #include "sim/scene.h"
-#include "storage/frame_checksum.h"
-#include "storage/frame_spill.h"
-#include "storage/pressure_blob.h"
-#include "storage/recover.h"
-#include "storage/session_reader.h"
-#include "storage/session_writer.h"
-#include "storage/sqlite/database.h"
-#include "storage/verify.h"
-#include "storage/video_reader.h"
-#include "storage/video_repair.h"
-#include "storage/view_video.h"
+#include "storage/index/database.h"
+#include "storage/index/pressure_blob.h"
+#include "storage/index/session_reader.h"
+#include "storage/index/video_repair.h"
+#include "storage/tools/verify.h"
+#include "storage/video/frame_checksum.h"
+#include "storage/video/video_reader.h"
+#include "storage/video/view_video.h"
+#include "storage/writer/frame_spill.h"
+#include "storage/writer/recover.h"
+#include "storage/writer/session_writer.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;
@@ -98,7 +98,7 @@ struct WrittenStore {
 };
 
 // `raw_first`: the first camera is a Bayer camera stored raw (its frames the mosaic of the noise).
-// `view_videos`: the store's setting (storage/view_video.h).
+// `view_videos`: the store's setting (storage/video/view_video.h).
 WrittenStore write_store(const fs::path& root, double seconds, bool raw_first = false, bool view_videos = true) {
   WrittenStore out;
   const auto rig = parse_rig_config(
@@ -506,7 +506,7 @@ TEST(SessionStore, AVersion3StoreIsReadWithoutAnUpgrade) {
   fs::remove_all(root);
 }
 
-// A viewer's half-size reads of a raw camera skip the second green (storage/video_reader.h): the
+// A viewer's half-size reads of a raw camera skip the second green (storage/video/video_reader.h): the
 // image is the mosaic's R, first green and B. A mosaic read, or a checked read, of the same frame
 // then opens the video whole and gets every bit.
 TEST(SessionStore, HalfSizeViewsSkipTheSecondGreenAndMosaicReadsStillGetEveryBit) {
@@ -580,7 +580,7 @@ TEST(SessionStore, ARegionDemosaicedAloneIsTheWholeImagesPixels) {
   fs::remove_all(root);
 }
 
-// The view videos beside the lossless ones (storage/view_video.h): one per segment, read by a viewer
+// The view videos beside the lossless ones (storage/video/view_video.h): one per segment, read by a viewer
 // in their place (the same frame, lossy, a third of the size), and never by a read that wants the
 // record; a view video that is missing or cut short is read past, from the lossless video.
 TEST(SessionStore, ViewVideosStandInForTheLosslessOnesAndNeverForTheRecord) {

@@ -11,8 +11,8 @@
 
 #include "core/rig_config.h"
 #include "core/time.h"
-#include "storage/session_index.h"
-#include "storage/session_writer.h"
+#include "storage/index/session_index.h"
+#include "storage/writer/session_writer.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;

@@ -1,4 +1,4 @@
-// The SQLite edge's statement cache (storage/sqlite/database.h): a cached statement comes back
+// The SQLite edge's statement cache (storage/index/database.h): a cached statement comes back
 // reset with no stale bindings, two live uses of one SQL text do not share a statement, and the
 // connection closes with statements still cached.
 #include <gtest/gtest.h>
@@ -7,7 +7,7 @@
 
 #include <filesystem>
 
-#include "storage/sqlite/database.h"
+#include "storage/index/database.h"
 
 namespace fs = std::filesystem;
 using pvcap::sqlite::Database;

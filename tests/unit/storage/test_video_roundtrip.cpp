@@ -12,10 +12,10 @@
 #include "core/rig_config.h"
 #include "sim/scene.h"
 #include "sim/timecode.h"
-#include "storage/bayer_planes.h"
-#include "storage/frame_checksum.h"
-#include "storage/video_reader.h"
-#include "storage/video_writer.h"
+#include "storage/video/bayer_planes.h"
+#include "storage/video/frame_checksum.h"
+#include "storage/video/video_reader.h"
+#include "storage/video/video_writer.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;
