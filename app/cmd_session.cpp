@@ -177,6 +177,7 @@ int report_recorded_session(const console::SessionOutcome& outcome, double repor
       std::fputs(("\n" + (at == std::string::npos ? table : table.substr(table.rfind('\n', at) + 1))).c_str(), stdout);
     } else {
       spdlog::error("the takes could not be read back: {}", takes.error().message);
+      exit_code = 1;
     }
   }
   if (Status s = write_file_atomically(rec.dir / "report.txt", report, Durability::Renamed); !s.ok()) {

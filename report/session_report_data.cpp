@@ -31,6 +31,14 @@ namespace pvcap::report {
 
 namespace {
 
+// A reading the store gave no answer to because the disk failed it (not because the store lacks it,
+// or holds it damaged): the report fails naming the file, never leaves it out.
+template <typename T>
+bool readable(const Result<T>& r) {
+  if (!r && r.error().disk_failed) throw UserError(r.error().message);
+  return r.ok();
+}
+
 using nlohmann::json;
 
 double seconds(std::int64_t ns, std::int64_t start_ns) { return double(ns - start_ns) / 1e9; }
@@ -267,6 +275,8 @@ json protocol_section(const std::filesystem::path& dir, std::int64_t start_ns) {
   json out = {{"takes", json::array()}};
   auto t = protocol::read_takes(dir);
   if (!t) {
+    // No protocol run, or a folder it continues moved: a note. A disk that failed a read: the report fails.
+    if (t.error().disk_failed) throw UserError(t.error().message);
     out["note"] = t.error().message;
     return out;
   }
@@ -403,7 +413,7 @@ json self_check_section(const std::filesystem::path& dir, SessionReader& r,
   std::vector<cv::Point2d> centroids;
   for (const PressWindow& w : use) {
     auto peak = r.pressure_frame(w.peak_sequence, w.peak_connection);
-    if (!peak) continue;
+    if (!readable(peak)) continue;
     const auto centroid =
         calib::pressure_centroid(peak.value().image(), peak.value().grid_xscale, peak.value().grid_yscale);
     if (!centroid) continue;
@@ -470,19 +480,19 @@ void add_thumbnails(SessionReader& r, json& calibration,
     return a.total_counts < b.total_counts;
   });
   auto centre = r.sample_at(peak->t_ns);
-  if (!centre) return;
+  if (!readable(centre)) return;
   for (std::size_t c = 0; c < r.cameras().size() && c < calibration.size(); ++c) {
     for (int d : {0, -1, 1, -2, 2, -3, 3}) {
       const std::int64_t i = std::int64_t(centre.value()) + d;
       if (i < 0 || i >= std::int64_t(r.sample_count())) continue;
       // Only this camera's picture: a whole sample would decode every camera's, four times over.
       auto info = r.sample_info(std::size_t(i));
-      if (!info || !info.value().pressure) continue;
+      if (!readable(info) || !info.value().pressure) continue;
       auto decoded = r.image(std::size_t(i), c);
       if (!decoded && decoded.error().disk_failed) throw UserError(decoded.error().message);
       if (!decoded || decoded.value().empty()) continue;
       auto pressure = r.pressure_frame(info.value().pressure->sequence, info.value().pressure->connection);
-      if (!pressure) continue;
+      if (!readable(pressure)) continue;
       const PressureFrame& p = pressure.value();
       const cv::Mat& image = decoded.value();
       cv::Mat shown = image;

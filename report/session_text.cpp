@@ -76,14 +76,15 @@ Result<std::string> session_text(const std::filesystem::path& dir, std::optional
     }
   }
   fmt::format_to(out, "{}", notes);
-  const double sample_hz = [&] {
-    const auto n = r.sample_count();
-    if (n < 2) return 0.0;
+  double sample_hz = 0;
+  if (const auto n = r.sample_count(); n >= 2) {
     auto first = r.sample_info(0), last = r.sample_info(n - 1);
-    if (!first || !last || last.value().tick == first.value().tick) return 0.0;
-    return double(last.value().tick - first.value().tick) /
-           (double(last.value().tick_ns - first.value().tick_ns) / 1e9);
-  }();
+    if (!first) return first.error();  // the index cannot be read: no figure is made up in its place
+    if (!last) return last.error();
+    if (last.value().tick != first.value().tick)
+      sample_hz =
+          double(last.value().tick - first.value().tick) / (double(last.value().tick_ns - first.value().tick_ns) / 1e9);
+  }
   fmt::format_to(out,
                  "samples: {} at {:.3g} Hz ({} groups complete, {} with a camera missing, {} ticks without any "
                  "group)\n",

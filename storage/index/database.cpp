@@ -10,6 +10,7 @@
 namespace pvcap::sqlite {
 
 bool SqliteError::disk_full() const { return (code_ & 0xff) == SQLITE_FULL || (code_ & 0xff) == SQLITE_IOERR; }
+bool SqliteError::io_failed() const { return (code_ & 0xff) == SQLITE_IOERR || (code_ & 0xff) == SQLITE_CORRUPT; }
 
 namespace {
 // SQLite says "disk I/O error"; the operating system's error (EIO, ENOSPC, EROFS) says which.

@@ -22,6 +22,10 @@ class SqliteError : public std::runtime_error {
   SqliteError(int code, const std::string& message) : std::runtime_error(message), code_(code) {}
   int code() const { return code_; }
   bool disk_full() const;
+  // The file could not be read or written as it is on disk: an I/O error, or what SQLite reports for a
+  // read the disk failed with EIO (SQLITE_IOERR_CORRUPTFS, passed on as SQLITE_CORRUPT). A reader that
+  // skips a damaged frame never skips this: its command fails naming the file.
+  bool io_failed() const;
 
  private:
   int code_;

@@ -13,13 +13,14 @@
 
 namespace pvcap::session_reader_detail {
 
-// Everything below turns SQLite's exceptions into an Error naming the store.
+// Everything below turns SQLite's exceptions into an Error naming the store (marked disk_failed when
+// the index could not be read as it is on disk: core/result.h).
 template <typename F>
 auto guarded(const std::filesystem::path& dir, F&& f) -> decltype(f()) {
   try {
     return f();
   } catch (const sqlite::SqliteError& e) {
-    return Error{fmt::format("{}: {}", dir.string(), e.what())};
+    return Error{fmt::format("{}: {}", dir.string(), e.what()), e.io_failed()};
   } catch (const std::exception& e) {
     return Error{fmt::format("{}: {}", dir.string(), e.what())};
   }

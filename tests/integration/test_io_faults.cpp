@@ -197,6 +197,30 @@ TEST(StoreIoErrors, AReadTheDiskFailsIsNamedByVerifyAndRecover) {
     }
     std::printf("report: each of its %ld video reads failed in turn ended in exit 1 naming the video\n", video_reads);
   }
+  // And every read of the index it makes, failed in turn, ends in exit 1 naming session.db: none is
+  // taken for a session without a protocol or a section to leave out (the takes' reader once was: a
+  // session's report then said "no protocol" and exit 0).
+  {
+    const std::string report = "--log-level warn report " + dir.string();
+    ASSERT_EQ(with_fault("index:read:0:count", report, work / "report-index-count.txt").exit_code, 0);
+    long index_reads = 0;
+    std::ifstream in(work / "report-index-count.txt");
+    std::string op;
+    for (long n = 0; in >> op >> n;) index_reads = std::max(index_reads, n);
+    ASSERT_GT(index_reads, 10) << "the report reads the index";
+    for (long n = 1; n <= index_reads; ++n) {
+      SCOPED_TRACE(fmt::format("report, index read #{} of {}", n, index_reads));
+      const auto r = with_fault(fmt::format("index:read:{}:eio-once", n), report);
+      ASSERT_NE(r.output.find("failed with EIO"), std::string::npos) << r.output;
+      EXPECT_EQ(r.exit_code, 1) << r.output;
+      bool named = false;
+      std::istringstream lines(r.output);
+      for (std::string line; std::getline(lines, line);)
+        named |= line.find("error]") != std::string::npos && line.find("session.db") != std::string::npos;
+      EXPECT_TRUE(named) << "no error line names session.db:\n" << r.output;
+    }
+    std::printf("report: each of its %ld index reads failed in turn ended in exit 1 naming session.db\n", index_reads);
+  }
   // recover on a copy (it writes): its first reads are the index's.
   for (long n : {1L, 4L}) {
     const fs::path copy = work / "copy";
