@@ -6,7 +6,7 @@ call of one kind failing: EIO (and ENOSPC for writes). Each run must end with ex
 naming the file and the error; then `pvcap recover` and `pvcap verify` must find nothing damaged (exit
 0 or 3, no ERROR). Prints one line per kind and every run that broke the rule; exit 0 when none did.
 
-    python3 bench/io_faults.py [--ops write,fsync,rename,read] [--stride K] [--seed S]
+    python3 bench/io_faults.py [--ops write,fsync,rename,read] [--what eio-once,enospc-once] [--stride K] [--seed S]
 
 Needs root (the simulated rig's network namespace) and a build (bash scripts/build.sh). Removes what it
 records.
@@ -78,6 +78,8 @@ def main():
     a.add_argument("--ops", default="write,fsync,rename,read")
     a.add_argument("--stride", type=int, default=1, help="try every STRIDE-th N (1: every one)")
     a.add_argument("--seed", type=int, default=None, help="with --stride > 1, where the first N falls")
+    a.add_argument("--what", default="eio-once,enospc-once",
+                   help="the failures to try (a write tries each; other calls only eio-once)")
     args = a.parse_args()
     for f in (PVCAP, LIB):
         if not os.path.exists(f):
@@ -97,7 +99,7 @@ def main():
             counts[op] = max(counts.get(op, 0), int(n))
         print(f"io faults: a 2-s session makes {counts} calls on its files (seed {seed})", flush=True)
         for op in args.ops.split(","):
-            for what in (["eio-once", "enospc-once"] if op == "write" else ["eio-once"]):
+            for what in [w for w in args.what.split(",") if op == "write" or w == "eio-once"]:
                 first = 1 + (random.Random(seed).randrange(args.stride) if args.stride > 1 else 0)
                 tried = fired = kept = 0
                 for n in range(first, counts.get(op, 0) + 1, args.stride):

@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "storage/index/checked_vfs.h"
+
 namespace pvcap::sqlite {
 
 bool SqliteError::disk_full() const { return (code_ & 0xff) == SQLITE_FULL || (code_ & 0xff) == SQLITE_IOERR; }
@@ -22,6 +24,14 @@ std::string os_error(sqlite3* db, int rc) {
   if (!db ||
       (primary != SQLITE_IOERR && primary != SQLITE_FULL && primary != SQLITE_READONLY && primary != SQLITE_CANTOPEN))
     return "";
+  // A sync that failed at a commit leaves SQLite no errno (and errno may have moved on since a
+  // folder's): the checked VFS kept it.
+  const int extended = sqlite3_extended_errcode(db);
+  if (extended == SQLITE_IOERR_FSYNC || extended == SQLITE_IOERR_DIR_FSYNC) {
+    if (const SyncFailure sync = take_sync_failure(); sync.error != 0)
+      return sync.folder.empty() ? fmt::format(": fsync: {}", std::strerror(sync.error))
+                                 : fmt::format(": fsync of the folder {}: {}", sync.folder, std::strerror(sync.error));
+  }
   const int e = sqlite3_system_errno(db);
   return e ? fmt::format(": {}", std::strerror(e)) : "";
 }
@@ -100,7 +110,8 @@ bool Statement::column_null(int c) const { return sqlite3_column_type(stmt_, c) 
 Database::Database(const std::filesystem::path& path, Mode mode) : path_(path) {
   int flags = mode == Mode::ReadOnly ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE;
   if (mode == Mode::Create) flags |= SQLITE_OPEN_CREATE;
-  const int rc = sqlite3_open_v2(path.c_str(), &db_, flags | SQLITE_OPEN_NOMUTEX, nullptr);
+  // The unix VFS with the folder syncs SQLite ignores checked (storage/index/checked_vfs.h).
+  const int rc = sqlite3_open_v2(path.c_str(), &db_, flags | SQLITE_OPEN_NOMUTEX, checked_vfs_name());
   if (rc != SQLITE_OK) {
     const std::string msg = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(rc);
     sqlite3_close(db_);

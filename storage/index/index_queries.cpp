@@ -6,19 +6,21 @@ namespace {
 std::optional<std::int64_t> query_int_or_null(const sqlite::Statement& q, int col) {
   return q.column_null(col) ? std::nullopt : std::optional(q.column_int(col));
 }
-std::string query_text_or_empty(const sqlite::Statement& q, int col) { return q.column_null(col) ? "" : q.column_text(col); }
+std::string query_text_or_empty(const sqlite::Statement& q, int col) {
+  return q.column_null(col) ? "" : q.column_text(col);
+}
 
 constexpr const char* kIndexedVideoColumns =
     "SELECT v.id, v.device_id, v.path, d.name, v.state, v.codec, v.layout, v.bayer_format, v.width, v.height, "
     "v.segment, coalesce(v.bit_depth, 8), (SELECT count(*) FROM frames f WHERE f.video_file_id = v.id AND f.kept = 1) "
-    "FROM video_files v JOIN devices d ON d.id = v.device_id ";
+    "FROM video_files v LEFT JOIN devices d ON d.id = v.device_id ";
 
 IndexedVideo indexed_video(const sqlite::Statement& q) {
   IndexedVideo v;
   v.id = q.column_int(0);
   v.device_id = q.column_int(1);
   v.path = q.column_text(2);
-  v.camera = q.column_text(3);
+  v.camera = query_text_or_empty(q, 3);
   v.state = query_text_or_empty(q, 4);
   v.codec = query_text_or_empty(q, 5);
   v.layout = query_text_or_empty(q, 6);
@@ -35,7 +37,8 @@ IndexedVideo indexed_video(const sqlite::Statement& q) {
 std::optional<SessionRow> session_row(sqlite::Database& db) {
   auto q = db.prepare("SELECT started_host_ns, ended_host_ns, end_reason, rig_config, rig_path FROM session");
   if (!q.step()) return std::nullopt;
-  return SessionRow{q.column_int(0), query_int_or_null(q, 1), query_text_or_empty(q, 2), query_text_or_empty(q, 3), query_text_or_empty(q, 4)};
+  return SessionRow{q.column_int(0), query_int_or_null(q, 1), query_text_or_empty(q, 2), query_text_or_empty(q, 3),
+                    query_text_or_empty(q, 4)};
 }
 
 std::string index_quick_check(sqlite::Database& db) {

@@ -32,7 +32,8 @@ std::string index_quick_check(sqlite::Database& db);
 // read elsewhere holds its whole index in session.db.
 void checkpoint_index(sqlite::Database& db);
 
-// A video file the index names, with its camera's name and its number of kept frames.
+// A video file the index names, with its camera's name (empty when the index lost its device row) and
+// its number of kept frames.
 struct IndexedVideo {
   std::int64_t id = 0, device_id = 0;
   std::string path, camera, state, codec, layout;

@@ -2,8 +2,9 @@
 // session's files fails as a dying disk makes it fail, so a real `pvcap` meets EIO, a full disk, a
 // short write or a failed fsync through the code that runs on the rig. Set in the environment:
 //   PVCAP_IO_FAULT="kind:op:n:what"
-//     kind  segment (*.mkv), index (session.db), wal (session.db-wal), spill (*.spill), or session
-//           (any file under PVCAP_IO_FAULT_ROOT but the simulator's truth)
+//     kind  segment (*.mkv), index (session.db), wal (session.db-wal), spill (*.spill), session
+//           (any file under PVCAP_IO_FAULT_ROOT but the simulator's truth), or folder (a folder
+//           there: its fsyncs, pvcap's and SQLite's own)
 //     op    write (write, pwrite, writev, pwritev), fsync (fsync, fdatasync), rename (rename,
 //           renameat, renameat2: either name of the kind) or read (read, pread, readv, preadv);
 //           any, with what "count", counts each of them
@@ -21,6 +22,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/uio.h>
 #include <unistd.h>
@@ -71,9 +73,12 @@ static int path_of_kind(const char* path) {
   if (strcmp(g_kind, "index") == 0) return ends_with(path, "/session.db");
   if (strcmp(g_kind, "wal") == 0) return ends_with(path, "/session.db-wal");
   if (strcmp(g_kind, "spill") == 0) return ends_with(path, ".spill");
-  if (strcmp(g_kind, "session") == 0) {
-    const size_t n = g_root ? strlen(g_root) : 0;
-    return n > 0 && strncmp(path, g_root, n) == 0 && path[n] == '/' && !strstr(path, "sim-truth");
+  const size_t n = g_root ? strlen(g_root) : 0;
+  const int in_root = n > 0 && strncmp(path, g_root, n) == 0 && path[n] == '/' && !strstr(path, "sim-truth");
+  if (strcmp(g_kind, "session") == 0) return in_root;
+  if (strcmp(g_kind, "folder") == 0) {
+    struct stat st;
+    return in_root && stat(path, &st) == 0 && S_ISDIR(st.st_mode);
   }
   return 0;
 }
