@@ -25,6 +25,7 @@
 
 #include "capture/camera_frame.h"
 #include "capture/frame_sequencer.h"
+#include "capture/genicam_features.h"
 #include "core/bounded_queue.h"
 #include "core/result.h"
 #include "core/rig_config.h"
@@ -48,6 +49,9 @@ struct CameraSettings {
   std::string node_map_version;
   // Every readable feature's value after configuration (the feature bag), at the first connection.
   std::map<std::string, std::string> feature_bag;
+  // The chunk values each frame carries (role key -> the camera's name: chunk_exposure_time ->
+  // ChunkExposureTime); empty when chunk mode is off.
+  std::map<std::string, std::string> chunks;
 };
 
 struct CameraEvent {
@@ -139,6 +143,10 @@ class AravisCamera {
   Status set_features(AravisFeatures& f);
   Status setting(Status s, const std::string& what) const;  // a failed setting, named with this camera
   Status set_trigger_and_rate(AravisFeatures& f);
+  // Chunk mode on with every chunk pvcap reads that the camera has (none: left off); what it enabled
+  // goes to chunk_features_. Not fatal: a camera whose chunks cannot be set records without them.
+  void set_chunks(AravisFeatures& f);
+  std::map<CameraRole, std::string> chunk_features_;
   Status read_back(const AravisFeatures& f, const NodeMapCheck& check);
   bool features_said_ = false;  // what the camera cannot do is warned of once, not at every reconnection
   void teardown_connection(bool camera_reachable);

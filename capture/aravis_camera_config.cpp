@@ -83,6 +83,7 @@ Status AravisCamera::set_features(AravisFeatures& f) {
                 fmt::format("the exposure to {:g} us", config_.exposure_us)));
   if (f.has(CameraRole::Gain) || config_.gain != 0)
     PVCAP_TRY(set(f.set_number(CameraRole::Gain, config_.gain), fmt::format("the gain to {:g}", config_.gain)));
+  set_chunks(f);  // before the payload is read back: the chunks add to it
   // The stream channel's packet size: GigE Vision's own register (Aravis reaches it under its own
   // name whatever the camera's map declares), negotiated by Aravis' test packets.
   if (config_.packet_size > 0) {
@@ -95,6 +96,35 @@ Status AravisCamera::set_features(AravisFeatures& f) {
     if (err) return Error{fmt::format("{}: negotiating the packet size failed: {}", label(), err.message())};
   }
   return {};
+}
+
+void AravisCamera::set_chunks(AravisFeatures& f) {
+  chunk_features_.clear();
+  if (!f.has(CameraRole::ChunkModeActive)) return;
+  const bool selectable = f.has(CameraRole::ChunkSelector) && f.has(CameraRole::ChunkEnable);
+  const auto entries = selectable ? f.all_entries(CameraRole::ChunkSelector) : std::vector<std::string>{};
+  std::map<CameraRole, std::string> enabled;
+  // Chunk mode off first: some cameras take a selector's enable only then, and a camera asked for
+  // no chunks is left without them.
+  (void)f.set_flag(CameraRole::ChunkModeActive, false);
+  if (!config_.chunk_data || !selectable) return;
+  for (CameraRole role : {CameraRole::ChunkFrameCounter, CameraRole::ChunkTimestamp, CameraRole::ChunkExposureTime,
+                          CameraRole::ChunkGain}) {
+    if (!f.has(role)) continue;
+    // The selector's entry is the value's name without "Chunk" (ChunkExposureTime: ExposureTime).
+    const std::string entry = f.name(role).substr(5);
+    if (std::find(entries.begin(), entries.end(), entry) == entries.end()) continue;
+    if (f.set_entry(CameraRole::ChunkSelector, entry).ok() && f.set_flag(CameraRole::ChunkEnable, true).ok())
+      enabled[role] = f.name(role);
+  }
+  if (enabled.empty()) return;
+  if (Status s = f.set_flag(CameraRole::ChunkModeActive, true); !s.ok()) {
+    if (!features_said_)
+      spdlog::warn("{}: chunk mode could not be turned on ({}): frames are stored without their own exposure and gain",
+                   label(), s.error().message);
+    return;
+  }
+  chunk_features_ = std::move(enabled);
 }
 
 Status AravisCamera::set_trigger_and_rate(AravisFeatures& f) {
@@ -163,6 +193,7 @@ Status AravisCamera::read_back(const AravisFeatures& f, const NodeMapCheck& chec
   s.gain = f.number(CameraRole::Gain).value_or(0);
   s.trigger = to_string(config_.trigger);
   for (const auto& [role, name] : f.chosen()) s.features[role_key(role)] = name;
+  for (const auto& [role, name] : chunk_features_) s.chunks[role_key(role)] = name;
   s.node_map_version = check.version;
   s.packet_size = arv_camera_gv_get_packet_size(cam, nullptr);
   s.payload = arv_camera_get_payload(cam, err.out());

@@ -27,10 +27,12 @@ Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, in
                                                            std::uint32_t connection, std::size_t payload,
                                                            std::size_t buffer_count, bool packet_resend,
                                                            int socket_buffer_bytes, BoundedQueue<FrameLoss>& losses,
-                                                           const ExpectedImage& expected) {
+                                                           const ExpectedImage& expected,
+                                                           std::shared_ptr<const AravisChunks> chunks) {
   std::shared_ptr<AravisStream> self(new AravisStream(losses, camera_index, connection, buffer_count),
                                      &AravisStream::destroy);
   self->expected_ = expected;
+  self->chunks_ = std::move(chunks);
   arv::GErrorSlot err;
   self->created_ns_ = host_now().ns;
   self->stream_.reset(arv_camera_create_stream(camera, &AravisStream::on_stream_event, self.get(), err.out()));
@@ -208,6 +210,13 @@ CameraFrame AravisStream::frame_of(ArvBuffer* buffer, HostNs arrival) {
     frame.width = arv_buffer_get_image_width(buffer);
     frame.height = arv_buffer_get_image_height(buffer);
     frame.data = static_cast<const std::uint8_t*>(arv_buffer_get_image_data(buffer, &frame.size));
+    if (chunks_ && arv_buffer_has_chunks(buffer)) {
+      // Aravis counts the chunks after the image as its data too: the image is what the region holds.
+      const std::size_t bits = (frame.pixel_format >> 16) & 0xff;
+      const std::size_t image = std::size_t(frame.width) * std::size_t(frame.height) * bits / 8;
+      if (image > 0 && image < frame.size) frame.size = image;
+      frame.chunks = chunks_->read(buffer);
+    }
     frame.lease = BufferLease(
         [](void* pool, void* buf) { static_cast<AravisStream*>(pool)->give_back(static_cast<ArvBuffer*>(buf)); },
         shared_from_this(), buffer);

@@ -24,6 +24,7 @@
 
 #include <arv.h>
 
+#include "capture/aravis_chunks.h"
 #include "capture/aravis_handles.h"
 #include "capture/arrival_slot.h"
 #include "capture/camera_frame.h"
@@ -47,11 +48,13 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   // A complete frame that is not `expected` is handed over as incomplete and FrameIdentity::Foreign
   // (detail: its size and format), its pixels never (a runtime guard: another camera's packets reaching this stream, by
   // a packet socket before its filter or a camera sending to the wrong port, would otherwise be stored as this camera's
-  // picture).
+  // picture). With `chunks`, each good frame carries what its chunk data says (the image is then the
+  // buffer's first bytes: `expected` gives their count).
   static Result<std::shared_ptr<AravisStream>> create(ArvCamera* camera, int camera_index, std::uint32_t connection,
                                                       std::size_t payload, std::size_t buffer_count, bool packet_resend,
                                                       int socket_buffer_bytes, BoundedQueue<FrameLoss>& losses,
-                                                      const ExpectedImage& expected = {});
+                                                      const ExpectedImage& expected = {},
+                                                      std::shared_ptr<const AravisChunks> chunks = nullptr);
   ~AravisStream();
   AravisStream(const AravisStream&) = delete;
   AravisStream& operator=(const AravisStream&) = delete;
@@ -105,6 +108,7 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
   const int camera_index_;
   const std::uint32_t connection_;
   ExpectedImage expected_;
+  std::shared_ptr<const AravisChunks> chunks_;
   std::atomic<bool> accepting_{false};  // from accept_from_now() until quiesce()
   std::atomic<bool> quiesced_{false};
   std::atomic<bool> device_unreachable_{false};

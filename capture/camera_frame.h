@@ -4,6 +4,7 @@
 // the pixels, borrowed from the driver's buffer pool until the lease is dropped.
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -62,6 +63,16 @@ class BufferLease {
   void* buffer_ = nullptr;
 };
 
+// A frame's own state as the camera reported it in the frame's chunk data (GenICam chunks: a camera
+// with chunk mode on appends them to the image); each absent where the camera sent none.
+struct FrameChunks {
+  std::optional<std::uint64_t> frame_counter;  // the camera's own count (ChunkFrameID, ...)
+  std::optional<std::int64_t> timestamp;       // its timestamp, in the camera's ticks (ns on SFNC 2)
+  std::optional<double> exposure_us;           // the exposure this frame had
+  std::optional<double> gain;                  // its gain, in the camera's unit (dB on SFNC 2)
+  bool any() const { return frame_counter || timestamp || exposure_us || gain; }
+};
+
 struct CameraFrame {
   int camera = 0;                     // index in the rig config
   std::uint32_t connection = 0;       // increments on each (re)connection: frame ids restart
@@ -82,7 +93,8 @@ struct CameraFrame {
   int width = 0;
   int height = 0;
   const std::uint8_t* data = nullptr;  // valid while `lease` is held
-  std::size_t size = 0;
+  std::size_t size = 0;                // the image's bytes (without any chunk data after them)
+  FrameChunks chunks;
   BufferLease lease;
 };
 

@@ -49,6 +49,14 @@ const std::vector<RoleNames>& camera_feature_names() {
       {CameraRole::ChunkModeActive, "chunk_mode_active", {"ChunkModeActive"}},
       {CameraRole::ChunkSelector, "chunk_selector", {"ChunkSelector"}},
       {CameraRole::ChunkEnable, "chunk_enable", {"ChunkEnable"}},
+      // SFNC 2 (Basler ace 2, FLIR Blackfly S, Oryx); Basler ace classic; Point Grey.
+      {CameraRole::ChunkFrameCounter,
+       "chunk_frame_counter",
+       {"ChunkFrameID", "ChunkFramecounter", "ChunkFrameCounter"}},
+      {CameraRole::ChunkTimestamp, "chunk_timestamp", {"ChunkTimestamp"}},
+      {CameraRole::ChunkExposureTime, "chunk_exposure_time", {"ChunkExposureTime"}},
+      // Basler ace classic: the gain of all channels.
+      {CameraRole::ChunkGain, "chunk_gain", {"ChunkGain", "ChunkGainAll"}},
       {CameraRole::UserOutputSelector, "user_output_selector", {"UserOutputSelector"}},
       {CameraRole::LineSource, "line_source", {"LineSource"}},
       {CameraRole::DeviceTemperature, "device_temperature", {"DeviceTemperature", "TemperatureAbs"}},

@@ -40,6 +40,11 @@ enum class CameraRole {
   ChunkModeActive,
   ChunkSelector,
   ChunkEnable,
+  // Each frame's own state, read from its chunk data (the selector's entry is the name without "Chunk").
+  ChunkFrameCounter,
+  ChunkTimestamp,
+  ChunkExposureTime,
+  ChunkGain,
   UserOutputSelector,
   LineSource,
   DeviceTemperature,

@@ -76,6 +76,7 @@ CameraConfig parse_camera(const YAML::Node& node, const std::filesystem::path& f
     r.fail(node["packet_size"], "packet_size", "must be 0 (auto) or >= 576");
   r.get_in_range("socket_buffer_bytes", c.socket_buffer_bytes, 0, 1 << 30);
   r.get("packet_resend", c.packet_resend);
+  r.get("chunk_data", c.chunk_data);
   r.get_in_range("buffer_count", c.buffer_count, 0, 10000);
   r.get_in_range("link_mbps", c.link_mbps, 1.0, 1'000'000.0);
   r.get_in_range("latency_ns", c.latency_ns, std::int64_t{0}, std::int64_t{10'000'000'000});

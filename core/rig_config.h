@@ -36,6 +36,9 @@ struct CameraConfig {
   int packet_size = 0;                   // bytes; 0 = negotiate the largest that works
   int socket_buffer_bytes = 0;           // 0 = let Aravis size it from the payload
   bool packet_resend = true;
+  // Each frame's counter, timestamp, exposure and gain from its chunk data, where the camera offers
+  // them (stored with the frame's row); off: chunk mode is left off.
+  bool chunk_data = true;
   int buffer_count = 0;     // 0 = about half a second of frames, at least 8
   double link_mbps = 1000;  // the camera's link: preflight refuses a payload x rate above it
   // What the camera's frame timestamp marks: SFNC and GigE Vision cameras stamp a frame when its

@@ -247,6 +247,10 @@ class CameraWorker {
                     {},
                     {},
                     {}};
+    if (frame.chunks.frame_counter) rec.chunk_frame_counter = std::int64_t(*frame.chunks.frame_counter);
+    rec.chunk_timestamp = frame.chunks.timestamp;
+    rec.chunk_exposure_us = frame.chunks.exposure_us;
+    rec.chunk_gain = frame.chunks.gain;
     if (frame.identity != FrameIdentity::Own) {
       // A buffer that is not the frame it names (the frame it was is counted in a gap): recorded,
       // never used, with sequence 0 (unknown). The id it carries (kept in frame_id) is another

@@ -48,6 +48,7 @@ std::string settings_json(const CameraSettings& s, const CameraConfig& c) {
                       {"device_id", s.device_id},
                       {"features", s.features},
                       {"node_map_version", s.node_map_version},
+                      {"chunks", s.chunks},
                       {"feature_bag", s.feature_bag},
                       {"packet_resend", c.packet_resend},
                       {"socket_buffer_bytes", c.socket_buffer_bytes},

@@ -18,6 +18,7 @@
 #include <fmt/format.h>
 
 #include "core/time.h"
+#include "sim/gvsp_sender.h"
 
 namespace pvcap::sim {
 
@@ -76,8 +77,9 @@ std::string aravis_map_with_features(const char* latch) {
 
 // The same registers under SFNC 2's names, as a FLIR Blackfly S or a Basler ace 2 declares them:
 // TimestampLatch, ExposureTime, Gain as a Float, BalanceWhiteAuto (which pvcap leaves as it finds
-// it: the report warns when it is on), and a rate that takes only with AcquisitionFrameRateEnable on (the rate the host writes goes to a register of ours, copied to the
-// engine's while the enable is on; the engine otherwise keeps its own rate, which then reads back).
+// it: the report warns when it is on), and a rate that takes only with AcquisitionFrameRateEnable on (the rate the host
+// writes goes to a register of ours, copied to the engine's while the enable is on; the engine otherwise keeps its own
+// rate, which then reads back).
 std::string sfnc2_map() {
   std::string text = aravis_map_with_features("TimestampLatch");
   if (text.empty()) return text;
@@ -103,6 +105,47 @@ std::string sfnc2_map() {
 )",
       kFrameRateEnableRegister, kFramePeriodRegister, kBalanceWhiteAutoRegister);
   text.insert(text.rfind("</RegisterDescription>"), features);
+  // Chunk data: the four values each frame carries (sim/gvsp_sender.h sends them), and a payload that
+  // grows by them while chunk mode is on.
+  const auto int_register = [](const char* name, std::uint32_t address) {
+    return fmt::format(
+        R"(<IntReg Name="{}" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
+<AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+)",
+        name, address);
+  };
+  const auto chunk_value = [](const char* name, const char* type, std::uint32_t id) {
+    const bool integer = std::string(type) == "IntReg";
+    return fmt::format(
+        R"(<{0} Name="{1}" NameSpace="Standard"><Address>0</Address><Length>8</Length><AccessMode>RO</AccessMode>
+<pPort>Pvcap{1}Port</pPort><Cachable>NoCache</Cachable>{3}<Endianess>BigEndian</Endianess></{0}>
+<Port Name="Pvcap{1}Port" NameSpace="Custom"><ChunkID>{2:08X}</ChunkID></Port>
+)",
+        type, name, id, integer ? "<Sign>Unsigned</Sign>" : "");
+  };
+  std::string chunks =
+      R"(<Boolean Name="ChunkModeActive" NameSpace="Standard"><pValue>PvcapChunkModeRegister</pValue></Boolean>
+<Enumeration Name="ChunkSelector" NameSpace="Standard">
+<EnumEntry Name="FrameID"><Value>0</Value></EnumEntry><EnumEntry Name="Timestamp"><Value>1</Value></EnumEntry>
+<EnumEntry Name="ExposureTime"><Value>2</Value></EnumEntry><EnumEntry Name="Gain"><Value>3</Value></EnumEntry>
+<pValue>PvcapChunkSelectorRegister</pValue></Enumeration>
+<Boolean Name="ChunkEnable" NameSpace="Standard"><pValue>PvcapChunkEnableRegister</pValue></Boolean>
+)";
+  chunks += int_register("PvcapChunkModeRegister", kChunkModeRegister);
+  chunks += int_register("PvcapChunkSelectorRegister", kChunkSelectorRegister);
+  chunks += int_register("PvcapChunkEnableRegister", kChunkEnableRegister);
+  chunks += chunk_value("ChunkFrameID", "IntReg", kFrameIdChunkId);
+  chunks += chunk_value("ChunkTimestamp", "IntReg", kTimestampChunkId);
+  chunks += chunk_value("ChunkExposureTime", "FloatReg", kExposureTimeChunkId);
+  chunks += chunk_value("ChunkGain", "FloatReg", kGainChunkId);
+  text.insert(text.rfind("</RegisterDescription>"), chunks);
+  const std::string payload = "<Formula>WIDTH * HEIGHT * ((PIXELFORMAT>>16)&amp;0xFF) / 8</Formula>";
+  const auto at = text.find(payload);
+  if (at == std::string::npos) return "";  // another Aravis' map: say so by failing, not by a wrong payload
+  text.replace(at, payload.size(),
+               fmt::format("<pVariable Name=\"CHUNKS\">PvcapChunkModeRegister</pVariable>\n"
+                           "<Formula>WIDTH * HEIGHT * ((PIXELFORMAT>>16)&amp;0xFF) / 8 + CHUNKS * {}</Formula>",
+                           kChunkBytes));
   return text;
 }
 }  // namespace

@@ -11,8 +11,9 @@
 // The fake cameras serve their GenICam XML with these features; one thread serves them all.
 // A simulated camera's node map names its features as Aravis' fake camera does (ExposureTimeAbs,
 // GainRaw, TimestampControlLatch), or as SFNC 2 cameras do (ExposureTime, Gain, TimestampLatch, a
-// rate that takes only with AcquisitionFrameRateEnable), on the same registers: the live camera code
-// is exercised through real GVCP against two naming families.
+// rate that takes only with AcquisitionFrameRateEnable, and chunk data: each frame's FrameID,
+// Timestamp, ExposureTime and Gain), on the same registers: the live camera code is exercised
+// through real GVCP against two naming families.
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -23,11 +24,16 @@
 namespace pvcap::sim {
 
 inline constexpr std::uint32_t kLatchCommandRegister = 0xF000;
-inline constexpr std::uint32_t kLatchValueRegister = 0xF008;       // 64 bits: high word, then low
-inline constexpr std::uint32_t kTriggerSourceRegister = 0xF010;    // 0 = Line0, 1 = Software (the XML's values)
-inline constexpr std::uint32_t kFrameRateEnableRegister = 0xF014;  // SFNC 2 map: AcquisitionFrameRateEnable
-inline constexpr std::uint32_t kFramePeriodRegister = 0xF018;      // SFNC 2 map: the rate asked, as a period (us)
+inline constexpr std::uint32_t kLatchValueRegister = 0xF008;        // 64 bits: high word, then low
+inline constexpr std::uint32_t kTriggerSourceRegister = 0xF010;     // 0 = Line0, 1 = Software (the XML's values)
+inline constexpr std::uint32_t kFrameRateEnableRegister = 0xF014;   // SFNC 2 map: AcquisitionFrameRateEnable
+inline constexpr std::uint32_t kFramePeriodRegister = 0xF018;       // SFNC 2 map: the rate asked, as a period (us)
 inline constexpr std::uint32_t kBalanceWhiteAutoRegister = 0xF01C;  // SFNC 2 map: 0 Off, 2 Continuous
+// SFNC 2 map: ChunkModeActive, ChunkSelector (0 FrameID, 1 Timestamp, 2 ExposureTime, 3 Gain) and
+// ChunkEnable (one for all: the camera sends its four chunks together, sim/gvsp_sender.h).
+inline constexpr std::uint32_t kChunkModeRegister = 0xF020;
+inline constexpr std::uint32_t kChunkSelectorRegister = 0xF024;
+inline constexpr std::uint32_t kChunkEnableRegister = 0xF028;
 
 // The GenICam file a fake camera of this naming serves (arv_gv_fake_camera_new_full); written once
 // per process, named by its content.

@@ -72,7 +72,13 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
         fmt::format("{}: the fake camera could not listen on {} (is the address on an interface? the "
                     "simulated rig runs in its own network namespace)",
                     camera.name, camera.address)};
+  self->packet_loss_ = clock.packet_loss;
   if (clock.packet_loss > 0) g_object_set(self->fake_.get(), "gvsp-lost-ratio", clock.packet_loss, nullptr);
+  if (clock.node_map == NodeMapNaming::Sfnc2) {  // the map with chunk data: its frames may need our sender
+    auto sender = GvspSender::open(camera.address);
+    if (!sender) return Error{fmt::format("{}: {}", camera.name, sender.error().message)};
+    self->sender_.emplace(std::move(sender.value()));
+  }
   if (clock.white_balance_auto)
     arv_fake_camera_write_register(arv_gv_fake_camera_get_fake_camera(self->fake_.get()), kBalanceWhiteAutoRegister, 2);
   // The engine looks for a pending software trigger once per 1/trigger_frequency, at whole periods
@@ -191,6 +197,39 @@ void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format, std::int64
   if (exposure_latency_ns_ > 0)
     std::this_thread::sleep_until(
         std::chrono::steady_clock::time_point(std::chrono::nanoseconds(true_ns + exposure_latency_ns_)));
+  send_with_chunks(buffer, format, exposure_ns);
+}
+
+void SimCamera::send_with_chunks(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t exposure_ns) {
+  if (!sender_) return;
+  ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(fake_.get());
+  guint32 chunk_mode = 0, gain = 0, packet_size = 0;
+  arv_fake_camera_read_register(fake, kChunkModeRegister, &chunk_mode);
+  if (bool(chunk_mode) != engine_muted_) {  // read by the engine after this fill, for this frame's packets
+    engine_muted_ = bool(chunk_mode);
+    g_object_set(fake_.get(), "gvsp-lost-ratio", engine_muted_ ? 1.0 : packet_loss_, nullptr);
+  }
+  if (!chunk_mode) return;
+  arv::GPtr<GSocketAddress> to(arv_fake_camera_get_stream_address(fake));
+  sockaddr_in destination{};
+  if (!to || !g_socket_address_to_native(to.get(), &destination, sizeof destination, nullptr)) return;
+  arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_GAIN_RAW, &gain);
+  arv_fake_camera_read_register(fake, 0x0d04, &packet_size);  // GigE Vision: GevSCPSPacketSize
+  GvspFrame f;
+  f.block_id = std::uint16_t(arv_buffer_get_frame_id(buffer));
+  f.timestamp = arv_buffer_get_timestamp(buffer);
+  f.pixel_format = std::uint32_t(format);
+  f.width = std::uint32_t(arv_buffer_get_image_width(buffer));
+  f.height = std::uint32_t(arv_buffer_get_image_height(buffer));
+  f.x = std::uint32_t(arv_buffer_get_image_x(buffer));
+  f.y = std::uint32_t(arv_buffer_get_image_y(buffer));
+  const auto* data = static_cast<const std::uint8_t*>(arv_buffer_get_data(buffer, nullptr));
+  if (!data) return;
+  f.image = {data, std::size_t(f.width) * f.height * ((std::uint32_t(format) >> 16) & 0xff) / 8};
+  f.frame_counter = arv_buffer_get_frame_id(buffer);
+  f.exposure_us = double(exposure_ns) / 1000.0;
+  f.gain = double(gain);
+  sender_->send(destination, packet_size & 0xffff, f, packet_loss_);
 }
 
 void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns, std::int64_t exposure_ns) {

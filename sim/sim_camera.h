@@ -27,6 +27,7 @@
 #include "core/rig_config.h"
 #include "sim/board_frames.h"
 #include "sim/engine_kicker.h"
+#include "sim/gvsp_sender.h"
 #include "sim/sim_config.h"
 
 namespace pvcap::sim {
@@ -71,6 +72,9 @@ class SimCamera {
   void align_first_frame();
   void fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns, std::int64_t exposure_ns);
   const cv::Mat& base_image(int width, int height, ArvPixelFormat format);
+  // With chunk mode on (SFNC 2 map), the frame goes out through our own sender with its chunks, the
+  // engine's packets muted (sim/gvsp_sender.h); off, the engine sends it as before.
+  void send_with_chunks(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t exposure_ns);
 
   int index_ = 0;
   std::string name_;
@@ -80,6 +84,9 @@ class SimCamera {
   std::int64_t exposure_latency_ns_ = 0;
   std::int64_t undeclared_latency_ns_ = 0;  // the hand is drawn where it was this long before true_ns
   arv::GPtr<ArvGvFakeCamera> fake_;
+  std::optional<GvspSender> sender_;  // on the fake camera's thread only
+  double packet_loss_ = 0;            // the simulated link's, for the engine's packets and ours
+  bool engine_muted_ = false;
   std::atomic<std::int64_t> last_fill_ns_{0};  // when the engine last began a frame
   std::int64_t trigger_pending_since_ns_ = 0;  // the kicker's: when it saw a trigger pending
   std::unique_ptr<EngineKicker> kicker_;       // its stall, worked around (sim/engine_kicker.h)

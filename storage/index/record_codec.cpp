@@ -14,7 +14,7 @@ template <class F>
 void fields(FrameRecord& r, F&& f) {
   f(r.device_id), f(r.connection), f(r.sequence), f(r.frame_id), f(r.device_ns), f(r.host_ns), f(r.aravis_system_ns),
       f(r.status), f(r.kept), f(r.reason), f(r.video_file_id), f(r.video_index), f(r.mapped_ns), f(r.video_pts_ms),
-      f(r.checksum);
+      f(r.checksum), f(r.chunk_frame_counter), f(r.chunk_timestamp), f(r.chunk_exposure_us), f(r.chunk_gain);
 }
 template <class F>
 void fields(PressureRecord& r, F&& f) {

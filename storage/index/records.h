@@ -65,6 +65,12 @@ struct FrameRecord {
   std::optional<std::int64_t> video_pts_ms;  // its timestamp in the video file, exactly
   // CRC-32 of the picture kept in a raw video, taken at capture (storage/video/frame_checksum.h)
   std::optional<std::uint32_t> checksum;
+  // The frame's own state from its chunk data, where the camera sent it (capture/aravis_chunks.h):
+  // the camera's frame counter, its timestamp (device ticks), exposure (us) and gain.
+  std::optional<std::int64_t> chunk_frame_counter;
+  std::optional<std::int64_t> chunk_timestamp;
+  std::optional<double> chunk_exposure_us;
+  std::optional<double> chunk_gain;
   bool operator==(const FrameRecord&) const = default;
 };
 

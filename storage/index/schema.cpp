@@ -202,6 +202,15 @@ ALTER TABLE frames ADD COLUMN checksum INTEGER;
 ALTER TABLE pressure_frames ADD COLUMN checksum INTEGER;
 )sql";
 
+// 5 -> 6: each frame's own state from its chunk data (capture/aravis_chunks.h); NULL where the
+// camera sent none, as in every older store.
+constexpr const char* kTo6 = R"sql(
+ALTER TABLE frames ADD COLUMN chunk_frame_counter INTEGER;
+ALTER TABLE frames ADD COLUMN chunk_timestamp INTEGER;
+ALTER TABLE frames ADD COLUMN chunk_exposure_us REAL;
+ALTER TABLE frames ADD COLUMN chunk_gain REAL;
+)sql";
+
 // Decodes every stored device payload once and stores its counts in the portable form. Read in
 // pages by rowid, each page before its updates: rows are never changed under a running SELECT.
 void fill_pressure_counts(sqlite::Database& db, const std::function<void(const std::string&)>& progress) {
@@ -264,6 +273,7 @@ void apply_step(sqlite::Database& db, int version, const std::function<void(cons
   }
   if (version == 3) db.exec(kTo4);
   if (version == 4) db.exec(kTo5);
+  if (version == 5) db.exec(kTo6);
   db.set_user_version(version + 1);
 }
 }  // namespace

@@ -377,16 +377,24 @@ Result<std::vector<FrameTiming>> SessionReader::frame_timing(std::int64_t device
   return guarded(dir_, [&]() -> Result<std::vector<FrameTiming>> {
     const bool camera =
         std::any_of(cameras_.begin(), cameras_.end(), [&](const CameraInfo& c) { return c.device_id == device_id; });
-    auto q = db_->prepare(camera ? "SELECT connection, sequence, host_ns, device_ns, mapped_ns, status = 'good', kept, "
-                                   "frame_id, 0 FROM frames WHERE device_id = ? ORDER BY host_ns"
-                                 : "SELECT connection, sequence, host_ns, device_ns, mapped_ns, 1, 0, 0, host_wait_ns "
-                                   "FROM pressure_frames WHERE device_id = ? ORDER BY host_ns");
+    // Stores before version 6 have no chunk data.
+    const char* chunks = info_.schema_version >= 6
+                             ? "chunk_frame_counter, chunk_timestamp, chunk_exposure_us, chunk_gain"
+                             : "NULL, NULL, NULL, NULL";
+    auto q = db_->prepare(camera ? fmt::format("SELECT connection, sequence, host_ns, device_ns, mapped_ns, status = "
+                                               "'good', kept, frame_id, 0, {} FROM frames WHERE device_id = ? ORDER "
+                                               "BY host_ns",
+                                               chunks)
+                                 : std::string("SELECT connection, sequence, host_ns, device_ns, mapped_ns, 1, 0, 0, "
+                                               "host_wait_ns, NULL, NULL, NULL, NULL FROM pressure_frames WHERE "
+                                               "device_id = ? ORDER BY host_ns"));
     q.bind_all(device_id);
     std::vector<FrameTiming> out;
+    const auto opt_real = [&q](int c) { return q.column_null(c) ? std::nullopt : std::optional(q.column_double(c)); };
     while (q.step())
       out.push_back({std::uint32_t(q.column_int(0)), std::uint64_t(q.column_int(1)), q.column_int(2), q.column_int(3),
                      opt_int(q, 4), q.column_int(5) != 0, q.column_int(6) != 0, std::uint64_t(q.column_int(7)),
-                     q.column_int(8)});
+                     q.column_int(8), opt_int(q, 9), opt_int(q, 10), opt_real(11), opt_real(12)});
     return out;
   });
 }

@@ -16,6 +16,7 @@
 
 #include "sim/sync_evaluation.h"
 #include "storage/index/database.h"
+#include "storage/index/session_reader.h"
 #include "tests/integration/session_under_test.h"
 
 using namespace pvcap;
@@ -150,6 +151,53 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
     const int exposures_us[] = {6000, 4000, 2500, 1000};
     EXPECT_EQ(q.column_int(3), exposures_us[i] * 500) << i;
   }
+  // Each frame's own state, from its chunk data: the SFNC 2 cameras offer it (their frames come with
+  // a leader of payload type 0x4001 and the chunks after the image, sim/gvsp_sender.h), and every good
+  // frame's row holds its counter (the frame's id), its timestamp (the leader's), the exposure the
+  // camera read back and its gain; the others send none, and their rows hold none.
+  for (int i = 0; i < 4; ++i) {
+    const std::string cam = fmt::format("(SELECT id FROM devices WHERE name = 'cam{}')", i);
+    const std::int64_t good = scalar(db, "SELECT count(*) FROM frames WHERE status = 'good' AND device_id = " + cam);
+    const std::int64_t with_chunks =
+        scalar(db,
+               "SELECT count(*) FROM frames WHERE status = 'good' AND chunk_frame_counter IS NOT NULL AND "
+               "device_id = " +
+                   cam);
+    EXPECT_GT(good, 100) << i;
+    if (i % 2 == 0) {
+      EXPECT_EQ(with_chunks, 0) << i;
+      continue;
+    }
+    EXPECT_EQ(with_chunks, good) << "cam" << i << ": every good frame carries its chunks";
+    const int exposures_us[] = {6000, 4000, 2500, 1000};
+    EXPECT_EQ(scalar(db, fmt::format("SELECT count(*) FROM frames WHERE status = 'good' AND device_id = {} AND "
+                                     "(chunk_frame_counter % 65536 <> frame_id % 65536 OR chunk_timestamp <> "
+                                     "device_ns OR abs(chunk_exposure_us - {}) > 0.5 OR chunk_gain IS NULL)",
+                                     cam, exposures_us[i])),
+              0)
+        << "cam" << i << ": a frame's chunks disagree with its leader or the camera's exposure";
+    EXPECT_EQ(scalar(db, fmt::format("SELECT json_extract(settings_json, '$.chunks.chunk_exposure_time') = "
+                                     "'ChunkExposureTime' FROM devices WHERE id = {}",
+                                     cam)),
+              1);
+  }
+  // ...and the reader hands them out with each frame.
+  {
+    auto reader = pvcap::SessionReader::open(dir);
+    ASSERT_TRUE(reader) << reader.error().message;
+    for (const auto& c : reader.value()->cameras()) {
+      auto timing = reader.value()->frame_timing(c.device_id);
+      ASSERT_TRUE(timing) << timing.error().message;
+      std::size_t with = 0;
+      for (const auto& t : timing.value())
+        if (t.good && t.chunk_exposure_us && t.chunk_timestamp == t.device_ns) ++with;
+      if (c.name == "cam1" || c.name == "cam3")
+        EXPECT_GT(with, 100u) << c.name;
+      else
+        EXPECT_EQ(with, 0u) << c.name;
+    }
+  }
+
   // From each camera's first frame on: a probe taken as its acquisition starts maps the first frames
   // (by their arrivals they were 4-14 ms late on an idle machine, 20-110 ms at a loaded 1080p start,
   // and a sample chosen on that clock took a group its tick's neighbour should have had).

@@ -41,25 +41,27 @@ struct Expected {
   const char* gain;
   const char* ptp;  // "" when none
   const char* bandwidth;
+  const char* chunk_counter;  // the chunk values of a frame's own state ("" when the map has none)
+  const char* chunk_gain;
 };
 // As ../shared/data/genicam/README.md describes each map.
 const Expected kExpected[] = {
     {"FLIR-BFS-PGE-23S6C.xml", "TimestampLatch", "ExposureTime", "AcquisitionFrameRate", "AcquisitionFrameRateEnable",
-     "Gain", "GevIEEE1588", "GevSCPD"},
+     "Gain", "GevIEEE1588", "GevSCPD", "ChunkFrameID", "ChunkGain"},
     {"FLIR_ORX_10G_51S5M.xml", "TimestampLatch", "ExposureTime", "AcquisitionFrameRate", "AcquisitionFrameRateEnable",
-     "Gain", "GevIEEE1588", "GevSCPD"},
+     "Gain", "GevIEEE1588", "GevSCPD", "ChunkFrameID", "ChunkGain"},
     {"PGR_Blackfly_50S5C.xml", "GevTimestampControlLatch", "ExposureTime", "AcquisitionFrameRate",
-     "AcquisitionFrameRateEnable", "Gain", "", "GevSCPD"},
+     "AcquisitionFrameRateEnable", "Gain", "", "GevSCPD", "ChunkFrameCounter", "ChunkGain"},
     {"PGR_GS3_PGE_23S6C.xml", "GevTimestampControlLatch", "ExposureTime", "AcquisitionFrameRate",
-     "AcquisitionFrameRateEnabled", "Gain", "", "GevSCPD"},
+     "AcquisitionFrameRateEnabled", "Gain", "", "GevSCPD", "ChunkFrameCounter", "ChunkGain"},
     {"Basler-acA1920-25gm.xml", "GevTimestampControlLatch", "ExposureTimeAbs", "AcquisitionFrameRateAbs",
-     "AcquisitionFrameRateEnable", "GainRaw", "", "GevSCPD"},
+     "AcquisitionFrameRateEnable", "GainRaw", "", "GevSCPD", "ChunkFramecounter", "ChunkGainAll"},
     {"Basler-a2A2600-20gmBAS.xml", "TimestampLatch", "ExposureTime", "AcquisitionFrameRate",
-     "AcquisitionFrameRateEnable", "Gain", "PtpEnable", "GevSCPD"},
+     "AcquisitionFrameRateEnable", "Gain", "PtpEnable", "GevSCPD", "ChunkFrameID", "ChunkGain"},
     {"AVT_Mako_G158C.xml", "GevTimestampControlLatch", "ExposureTimeAbs", "AcquisitionFrameRateAbs", "", "Gain", "",
-     "StreamBytesPerSecond"},
+     "StreamBytesPerSecond", "", ""},
     {"AVT_Manta_G507C.xml", "GevTimestampControlLatch", "ExposureTimeAbs", "AcquisitionFrameRateAbs", "", "Gain", "",
-     "StreamBytesPerSecond"},
+     "StreamBytesPerSecond", "", ""},
 };
 }  // namespace
 
@@ -81,6 +83,12 @@ TEST(GenicamFeatures, EverySharedNodeMapGivesTheLatchAndTheMapsOwnExposureAndRat
     EXPECT_EQ(c.ptp, *e.ptp != '\0');
     EXPECT_EQ(f["bandwidth_limit"], e.bandwidth);
     EXPECT_TRUE(c.chunks);
+    // A frame's own state: under the map's names, where it has them (Allied Vision's maps have chunk
+    // mode but no chunk values of these).
+    EXPECT_EQ(f["chunk_frame_counter"], e.chunk_counter);
+    EXPECT_EQ(f["chunk_gain"], e.chunk_gain);
+    EXPECT_EQ(f["chunk_exposure_time"], *e.chunk_counter ? "ChunkExposureTime" : "");
+    EXPECT_EQ(f["chunk_timestamp"], *e.chunk_counter ? "ChunkTimestamp" : "");
     EXPECT_TRUE(c.usable()) << (c.missing.empty() ? "" : c.missing.front());
     EXPECT_FALSE(c.vendor.empty());
     seen.insert(e.file);

@@ -38,6 +38,12 @@ FrameRecord row_of(std::uint64_t i) {
   r.aravis_system_ns = 5;
   r.status = "good";
   if (i % 2) r.mapped_ns = std::int64_t(i) * 3000;
+  if (i % 3) {  // a camera with chunk data: its frames' own state goes through the spill with them
+    r.chunk_frame_counter = std::int64_t(i) + 100;
+    r.chunk_timestamp = std::int64_t(i) * 1000;
+    r.chunk_exposure_us = 4000.25;
+  }
+  if (i % 3 == 1) r.chunk_gain = 1.5;
   return r;
 }
 
@@ -75,6 +81,10 @@ TEST(FrameSpill, FramesBeyondMemoryGoThroughTheDiskAndComeBackInOrder) {
       EXPECT_EQ(item->rec.host_ns, want.host_ns);
       EXPECT_EQ(item->rec.mapped_ns, want.mapped_ns);
       EXPECT_EQ(item->rec.status, "good");
+      EXPECT_EQ(item->rec.chunk_frame_counter, want.chunk_frame_counter) << i;
+      EXPECT_EQ(item->rec.chunk_timestamp, want.chunk_timestamp) << i;
+      EXPECT_EQ(item->rec.chunk_exposure_us, want.chunk_exposure_us) << i;
+      EXPECT_EQ(item->rec.chunk_gain, want.chunk_gain) << i;
     }
     EXPECT_EQ(q.backlog(), 0u);
     // Caught up: the episode's file waits for its segment to be finished, then goes.

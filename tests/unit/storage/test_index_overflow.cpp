@@ -43,7 +43,11 @@ FrameRecord frame(std::uint64_t i) {
                 std::int64_t(i),
                 std::int64_t(i) * 3000,
                 std::int64_t(i) * 66,
-                std::uint32_t(i * 2654435761u)};
+                std::uint32_t(i * 2654435761u),
+                std::int64_t(i) + 70000,
+                std::int64_t(i) * 1000 - 3,
+                6000.5,
+                2.25};
   return r;
 }
 

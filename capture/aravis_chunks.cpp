@@ -1,0 +1,57 @@
+#include "capture/aravis_chunks.h"
+
+#include <cmath>
+
+namespace pvcap {
+
+std::shared_ptr<AravisChunks> AravisChunks::create(ArvCamera* camera, std::map<CameraRole, std::string> chunks) {
+  if (chunks.empty()) return nullptr;
+  auto self = std::make_shared<AravisChunks>();
+  self->parser_.reset(arv_camera_create_chunk_parser(camera));
+  if (!self->parser_) return nullptr;
+  ArvGc* genicam = arv_device_get_genicam(arv_camera_get_device(camera));
+  for (const auto& [role, name] : chunks) {
+    ArvGcNode* node = genicam ? arv_gc_get_node(genicam, name.c_str()) : nullptr;
+    self->is_float_[role] = node && ARV_IS_GC_FLOAT(node);
+  }
+  self->chunks_ = std::move(chunks);
+  return self;
+}
+
+FrameChunks AravisChunks::read(ArvBuffer* buffer) const {
+  FrameChunks out;
+  if (!arv_buffer_has_chunks(buffer)) return out;
+  for (const auto& [role, name] : chunks_) {
+    GError* error = nullptr;
+    double real = 0;
+    std::int64_t integer = 0;
+    if (is_float_.at(role))
+      real = arv_chunk_parser_get_float_value(parser_.get(), buffer, name.c_str(), &error);
+    else
+      integer = arv_chunk_parser_get_integer_value(parser_.get(), buffer, name.c_str(), &error);
+    if (error) {  // not in this frame: left absent (a damaged frame is never stored as good anyway)
+      g_error_free(error);
+      continue;
+    }
+    const double value = is_float_.at(role) ? real : double(integer);
+    switch (role) {
+      case CameraRole::ChunkFrameCounter:
+        out.frame_counter = std::uint64_t(is_float_.at(role) ? std::llround(real) : integer);
+        break;
+      case CameraRole::ChunkTimestamp:
+        out.timestamp = is_float_.at(role) ? std::int64_t(std::llround(real)) : integer;
+        break;
+      case CameraRole::ChunkExposureTime:
+        out.exposure_us = value;
+        break;
+      case CameraRole::ChunkGain:
+        out.gain = value;
+        break;
+      default:
+        break;
+    }
+  }
+  return out;
+}
+
+}  // namespace pvcap
