@@ -128,7 +128,8 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
   const ExpectedImage expected{settings_.width, settings_.height, pixel_format_code(settings_.pixel_format)};
   auto stream = AravisStream::create(link_->camera.get(), index_, connection, settings_.payload, settings_.buffer_count,
                                      config_.packet_resend, config_.socket_buffer_bytes, losses_, expected,
-                                     AravisChunks::create(link_->camera.get(), chunk_features_));
+                                     AravisChunks::create(link_->camera.get(), chunk_features_, config_.timestamp_marks,
+                                                          settings_.exposure_us));
   if (!stream) {
     link_->camera.reset();
     return Error{fmt::format("{}: {}", label(), stream.error().message)};

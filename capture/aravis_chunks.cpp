@@ -4,9 +4,12 @@
 
 namespace pvcap {
 
-std::shared_ptr<AravisChunks> AravisChunks::create(ArvCamera* camera, std::map<CameraRole, std::string> chunks) {
+std::shared_ptr<AravisChunks> AravisChunks::create(ArvCamera* camera, std::map<CameraRole, std::string> chunks,
+                                                   TimestampMarks marks, double exposure_us) {
   if (chunks.empty()) return nullptr;
   auto self = std::make_shared<AravisChunks>();
+  self->marks_ = marks;
+  self->exposure_us_ = exposure_us;
   self->parser_.reset(arv_camera_create_chunk_parser(camera));
   if (!self->parser_) return nullptr;
   ArvGc* genicam = arv_device_get_genicam(arv_camera_get_device(camera));
@@ -52,6 +55,11 @@ FrameChunks AravisChunks::read(ArvBuffer* buffer) const {
     }
   }
   return out;
+}
+
+std::int64_t AravisChunks::instant_correction_ns(const FrameChunks& chunks) const {
+  if (!chunks.exposure_us || *chunks.exposure_us <= 0) return 0;
+  return stamp_to_mid_exposure_ns(marks_, *chunks.exposure_us) - stamp_to_mid_exposure_ns(marks_, exposure_us_);
 }
 
 }  // namespace pvcap

@@ -216,6 +216,7 @@ CameraFrame AravisStream::frame_of(ArvBuffer* buffer, HostNs arrival) {
       const std::size_t image = std::size_t(frame.width) * std::size_t(frame.height) * bits / 8;
       if (image > 0 && image < frame.size) frame.size = image;
       frame.chunks = chunks_->read(buffer);
+      frame.instant_correction_ns = chunks_->instant_correction_ns(frame.chunks);
     }
     frame.lease = BufferLease(
         [](void* pool, void* buf) { static_cast<AravisStream*>(pool)->give_back(static_cast<ArvBuffer*>(buf)); },

@@ -95,6 +95,9 @@ struct CameraFrame {
   const std::uint8_t* data = nullptr;  // valid while `lease` is held
   std::size_t size = 0;                // the image's bytes (without any chunk data after them)
   FrameChunks chunks;
+  // Added to device_ts for the image's instant beyond the camera's constant stamp-to-instant offset:
+  // half the difference of the frame's own exposure (its chunks) from the one read back; 0 without.
+  std::int64_t instant_correction_ns = 0;
   BufferLease lease;
 };
 

@@ -280,8 +280,11 @@ class CameraWorker {
     const std::int64_t leader_ns = frame.aravis_system_ns + (host_now().ns - wall_now_ns());
     const bool leader_usable =
         frame.aravis_system_ns > 0 && leader_ns <= frame.host_ts.ns && frame.host_ts.ns - leader_ns < 1'000'000'000;
+    // The image's instant: the camera's constant offset (the timeline's) and, where the frame's chunks
+    // give its own exposure, the difference that makes (capture/aravis_chunks.h).
     rec.mapped_ns = p_.timeline
-                        .camera_frame(p_.index, frame.connection, frame.sequence, frame.device_ts,
+                        .camera_frame(p_.index, frame.connection, frame.sequence,
+                                      DeviceNs{frame.device_ts.ns + frame.instant_correction_ns},
                                       leader_usable ? HostNs{leader_ns} : frame.host_ts)
                         .ns;
     std::vector<std::uint8_t> pixels;

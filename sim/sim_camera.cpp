@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <thread>
 
 #include <cstring>
@@ -198,6 +199,19 @@ void SimCamera::fill_buffer(ArvBuffer* buffer, ArvPixelFormat format, std::int64
     std::this_thread::sleep_until(
         std::chrono::steady_clock::time_point(std::chrono::nanoseconds(true_ns + exposure_latency_ns_)));
   send_with_chunks(buffer, format, exposure_ns);
+  if (config_.exposure_wobble_us > 0) wobble_exposure();
+}
+
+// The next frame's exposure, the one set plus or minus the wobble, in turn (the engine reads its
+// register as it begins a frame). A value the host wrote since is the new one set.
+void SimCamera::wobble_exposure() {
+  ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(fake_.get());
+  guint32 now = 0;
+  arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_EXPOSURE_TIME_US, &now);
+  if (now != exposure_written_us_) exposure_set_us_ = now;
+  const double next = double(exposure_set_us_) + (wobbled_++ % 2 ? -1.0 : 1.0) * config_.exposure_wobble_us;
+  exposure_written_us_ = guint32(std::max(1.0, std::round(next)));
+  arv_fake_camera_write_register(fake, ARV_FAKE_CAMERA_REGISTER_EXPOSURE_TIME_US, exposure_written_us_);
 }
 
 void SimCamera::send_with_chunks(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t exposure_ns) {

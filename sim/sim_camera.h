@@ -75,6 +75,7 @@ class SimCamera {
   // With chunk mode on (SFNC 2 map), the frame goes out through our own sender with its chunks, the
   // engine's packets muted (sim/gvsp_sender.h); off, the engine sends it as before.
   void send_with_chunks(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t exposure_ns);
+  void wobble_exposure();
 
   int index_ = 0;
   std::string name_;
@@ -87,6 +88,10 @@ class SimCamera {
   std::optional<GvspSender> sender_;  // on the fake camera's thread only
   double packet_loss_ = 0;            // the simulated link's, for the engine's packets and ours
   bool engine_muted_ = false;
+  // exposure_wobble_us: the exposure the host set (the engine's register, until we move it), and what
+  // we last wrote there.
+  guint32 exposure_set_us_ = 0, exposure_written_us_ = 0;
+  std::uint64_t wobbled_ = 0;
   std::atomic<std::int64_t> last_fill_ns_{0};  // when the engine last began a frame
   std::int64_t trigger_pending_since_ns_ = 0;  // the kicker's: when it saw a trigger pending
   std::unique_ptr<EngineKicker> kicker_;       // its stall, worked around (sim/engine_kicker.h)

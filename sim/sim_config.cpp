@@ -33,6 +33,7 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
       cr.get_in_range("clock_offset_ms", c.offset_ms, 0.0, 1e9);  // device time at power-on; >= 0
       cr.get_in_range("exposure_latency_ms", c.exposure_latency_ms, 0.0, 1000.0);
       cr.get_in_range("undeclared_latency_ms", c.undeclared_latency_ms, -1000.0, 1000.0);
+      cr.get_in_range("exposure_wobble_us", c.exposure_wobble_us, 0.0, 1e6);
       cr.get_in_range("drift_ppm", c.drift_ppm, -10000.0, 10000.0);
       cr.get_in_range("jitter_us", c.jitter_us, 0.0, 1e6);
       cr.get_in_range("packet_loss", c.packet_loss, 0.0, 1.0);

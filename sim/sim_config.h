@@ -53,13 +53,17 @@ struct SimCameraClock {
   // says (negative: after), so the sessions's clocks agree while the pixels lag; the report's sync
   // self-check must find it from the data alone.
   double undeclared_latency_ms = 0;
+  // Each frame's exposure alternates this far above and below the one set, a camera whose exposure
+  // changes while it records (its read-back, once per connection, cannot say; its chunks can).
+  double exposure_wobble_us = 0;
   std::optional<double> stop_after_s;    // camera vanishes after this many seconds (from sim start)
   std::optional<double> return_after_s;  // and comes back (power-cycled: frame ids restart) after this many
   bool trigger_line = true;              // wired to the rig's trigger line (used with trigger: hardware)
   // Its node map's naming: "aravis" (Aravis' fake camera's: ExposureTimeAbs, GainRaw,
   // TimestampControlLatch) or "sfnc2" (ExposureTime, Gain, TimestampLatch, AcquisitionFrameRateEnable).
   NodeMapNaming node_map = NodeMapNaming::Aravis;
-  bool white_balance_auto = false;  // sfnc2 only: its BalanceWhiteAuto is left Continuous (a camera set so by another program)
+  bool white_balance_auto =
+      false;  // sfnc2 only: its BalanceWhiteAuto is left Continuous (a camera set so by another program)
   // Its lens and where it stands (pad coordinates in mm, z = height above the pad); any left out
   // take the default of the camera's position in the rig (see sim/camera_views.cpp).
   std::optional<std::array<double, 3>> position_mm, look_at_mm;

@@ -9,6 +9,10 @@
 
 namespace pvcap::sim {
 
+// The eval-sync rig's cam3 changes its exposure frame by frame by this much either way (its chunks
+// carry each frame's: the timeline must follow them).
+inline constexpr double kCam3ExposureWobbleUs = 600;
+
 struct StreamTiming {
   std::string name;
   std::size_t frames = 0;

@@ -282,13 +282,36 @@ void SessionIndex::remap(Stream stream, std::int64_t device_id, std::int64_t fro
                          std::int64_t latency_ns) {
   // The clock model's one mapping function (sync/clock_fit.h), applied by SQLite row by row.
   db_->define_function("pvcap_map", &sync::map_device_time);
-  const char* sql = stream == Stream::Camera
-                        ? "UPDATE frames SET mapped_ns = pvcap_map(device_ns, ?3, ?1, ?2, ?4) WHERE device_id = ?5 AND "
-                          "mapped_ns IS NOT NULL AND host_ns >= ?6 AND host_ns < ?7"
-                        : "UPDATE pressure_frames SET mapped_ns = pvcap_map(device_ns, ?3, ?1, ?2, ?4) WHERE device_id "
-                          "= ?5 AND mapped_ns IS NOT NULL AND host_ns + host_wait_ns / 2 >= ?6 AND host_ns + "
-                          "host_wait_ns / 2 < ?7";
-  db_->prepare(sql).bind_all(offset_ns, skew, x0, latency_ns, device_id, from_arrival_ns, to_arrival_ns).run();
+  if (stream == Stream::Pressure) {
+    db_->prepare(
+           "UPDATE pressure_frames SET mapped_ns = pvcap_map(device_ns, ?3, ?1, ?2, ?4) WHERE device_id = ?5 AND "
+           "mapped_ns IS NOT NULL AND host_ns + host_wait_ns / 2 >= ?6 AND host_ns + host_wait_ns / 2 < ?7")
+        .bind_all(offset_ns, skew, x0, latency_ns, device_id, from_arrival_ns, to_arrival_ns)
+        .run();
+    return;
+  }
+  // A frame whose chunks give its own exposure: its image's instant moves by half the difference from
+  // the exposure the camera's constant offset was taken from (capture/aravis_chunks.h), as live.
+  double per_exposure_us = 0;  // ns of instant per us of exposure: 500 for stamps at the exposure's start
+  std::int64_t constant_ns = 0;
+  {
+    auto q = db_->prepare(
+        "SELECT coalesce(json_extract(settings_json, '$.timestamp_marks'), ''), "
+        "coalesce(json_extract(settings_json, '$.stamp_to_mid_exposure_ns'), 0) FROM devices WHERE id = ?");
+    q.bind_all(device_id);
+    if (q.step()) {
+      const std::string marks = q.column_text(0);
+      per_exposure_us = marks == "exposure_start" ? 500.0 : marks == "exposure_end" ? -500.0 : 0.0;
+      constant_ns = q.column_int(1);
+    }
+  }
+  db_->prepare(
+         "UPDATE frames SET mapped_ns = pvcap_map(device_ns + coalesce(CAST(round(chunk_exposure_us * ?8) AS "
+         "INTEGER) - ?9, 0), ?3, ?1, ?2, ?4) WHERE device_id = ?5 AND mapped_ns IS NOT NULL AND host_ns >= ?6 AND "
+         "host_ns < ?7")
+      .bind_all(offset_ns, skew, x0, latency_ns, device_id, from_arrival_ns, to_arrival_ns, per_exposure_us,
+                constant_ns)
+      .run();
 }
 
 std::vector<SessionIndex::StoredClocks> SessionIndex::stored_clocks() {
