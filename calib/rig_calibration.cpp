@@ -3,6 +3,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -171,9 +173,11 @@ Status save_rig_calibration(const std::filesystem::path& path, const RigCalibrat
     f << "# pvcap rig calibration: written by `pvcap calibrate`; see docs/calibration.md\n" << out.c_str() << '\n';
     f.flush();
     if (!f) {
+      const int error = errno;  // what the failed write left (ofstream keeps no error of its own)
       std::error_code ec;
       std::filesystem::remove(tmp, ec);
-      return Error{fmt::format("cannot write the calibration file {} (disk full or read-only?)", path.string())};
+      return Error{fmt::format("cannot write the calibration file {}: {}", path.string(),
+                               error ? std::strerror(error) : "the write failed (disk full or read-only?)")};
     }
   }
   std::error_code ec;

@@ -64,7 +64,9 @@ Status write_file_atomically(const std::filesystem::path& file, std::string_view
       const std::string why = std::strerror(errno);
       std::error_code ec;
       fs::remove(tmp, ec);
-      return Error{fmt::format("{}: could not be written ({}; is the disk full?)", file.string(), why)};
+      // The temporary file is named too: it is the one the disk refused.
+      return Error{
+          fmt::format("{}: could not be written (writing {}: {})", file.string(), tmp.filename().string(), why)};
     }
   }
   if (durability == Durability::Synced)

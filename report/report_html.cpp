@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "core/durable_folder.h"
+
 namespace pvcap::report {
 
 std::string html_escape(const std::string& s) {
@@ -429,10 +431,11 @@ void add_camera_state(std::string& h, const json& r) {
     h += "<p class='note'>not recorded (a session from before pvcap stored each camera's features)</p>";
     return;
   }
-  h += fmt::format("<p class='note'>Every readable feature of each camera after pvcap configured it ({} cameras). "
-                   "Serials, addresses, timestamps, temperatures and counters differ by nature and are not "
-                   "compared.</p>",
-                   s.value("cameras_with_state", 0));
+  h += fmt::format(
+      "<p class='note'>Every readable feature of each camera after pvcap configured it ({} cameras). "
+      "Serials, addresses, timestamps, temperatures and counters differ by nature and are not "
+      "compared.</p>",
+      s.value("cameras_with_state", 0));
   for (const auto& w : s.at("warnings")) h += "<p class='bad'>warning: " + esc(w.get<std::string>()) + "</p>";
   const json& between = s.at("differ_between_cameras");
   if (between.empty())
@@ -497,16 +500,10 @@ std::string render_html(const json& r) {
 Result<std::filesystem::path> write_html_report(const std::filesystem::path& dir, const ReportOptions& o) {
   auto data = build_report(dir, o);
   if (!data) return data.error();
-  const std::filesystem::path path = dir / "report.html", tmp = dir / "report.html.tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << render_html(data.value());
-    out.flush();
-    if (!out) return Error{fmt::format("{}: could not write the report (disk full or read-only?)", tmp.string())};
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) return Error{fmt::format("{}: could not write the report: {}", path.string(), ec.message())};
+  const std::filesystem::path path = dir / "report.html";
+  // Whole or not at all, and a failure says the disk's own error (ENOSPC, EIO), not a guess at it.
+  if (Status s = write_file_atomically(path, render_html(data.value()), Durability::Renamed); !s.ok())
+    return Error{fmt::format("could not write the report: {}", s.error().message)};
   return path;
 }
 
