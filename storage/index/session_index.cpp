@@ -291,13 +291,15 @@ void SessionIndex::remap(Stream stream, std::int64_t device_id, std::int64_t fro
     return;
   }
   // A frame whose chunks give its own exposure: its image's instant moves by half the difference from
-  // the exposure the camera's constant offset was taken from (capture/aravis_chunks.h), as live.
+  // the exposure the camera's constant offset was taken from (capture/aravis_chunks.h), as live. A
+  // device row without settings (a test's, an older store's) has no chunks either: no correction.
   double per_exposure_us = 0;  // ns of instant per us of exposure: 500 for stamps at the exposure's start
   std::int64_t constant_ns = 0;
   {
     auto q = db_->prepare(
         "SELECT coalesce(json_extract(settings_json, '$.timestamp_marks'), ''), "
-        "coalesce(json_extract(settings_json, '$.stamp_to_mid_exposure_ns'), 0) FROM devices WHERE id = ?");
+        "coalesce(json_extract(settings_json, '$.stamp_to_mid_exposure_ns'), 0) FROM devices WHERE id = ? AND "
+        "json_valid(settings_json)");
     q.bind_all(device_id);
     if (q.step()) {
       const std::string marks = q.column_text(0);
