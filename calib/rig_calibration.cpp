@@ -1,15 +1,14 @@
 #include "calib/rig_calibration.h"
 
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
 #include <fstream>
 #include <sstream>
 
 #include <fmt/format.h>
+
 #include <yaml-cpp/yaml.h>
+
+#include "core/durable_folder.h"
 
 namespace pvcap::calib {
 
@@ -167,22 +166,11 @@ Status save_rig_calibration(const std::filesystem::path& path, const RigCalibrat
   YAML::Emitter out;
   out.SetIndent(2);
   emit(out, nlohmann::json(calibration));
-  const auto tmp = path.parent_path() / fmt::format(".{}.{}.tmp", path.filename().string(), getpid());
-  {
-    std::ofstream f(tmp, std::ios::trunc);
-    f << "# pvcap rig calibration: written by `pvcap calibrate`; see docs/calibration.md\n" << out.c_str() << '\n';
-    f.flush();
-    if (!f) {
-      const int error = errno;  // what the failed write left (ofstream keeps no error of its own)
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      return Error{fmt::format("cannot write the calibration file {}: {}", path.string(),
-                               error ? std::strerror(error) : "the write failed (disk full or read-only?)")};
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) return Error{fmt::format("cannot write the calibration file {}: {}", path.string(), ec.message())};
+  const std::string text =
+      fmt::format("# pvcap rig calibration: written by `pvcap calibrate`; see docs/calibration.md\n{}\n", out.c_str());
+  // Whole or not at all; a failure names the file and the disk's error.
+  if (Status s = write_file_atomically(path, text, Durability::Renamed); !s.ok())
+    return Error{fmt::format("cannot write the calibration file: {}", s.error().message)};
   return {};
 }
 

@@ -26,33 +26,19 @@ FrameChunks AravisChunks::read(ArvBuffer* buffer) const {
   if (!arv_buffer_has_chunks(buffer)) return out;
   for (const auto& [role, name] : chunks_) {
     GError* error = nullptr;
-    double real = 0;
-    std::int64_t integer = 0;
-    if (is_float_.at(role))
-      real = arv_chunk_parser_get_float_value(parser_.get(), buffer, name.c_str(), &error);
-    else
-      integer = arv_chunk_parser_get_integer_value(parser_.get(), buffer, name.c_str(), &error);
+    // An Integer is read as one: a nanosecond timestamp outgrows a double's exact range in 104 days.
+    const bool real = is_float_.at(role);
+    const double f = real ? arv_chunk_parser_get_float_value(parser_.get(), buffer, name.c_str(), &error) : 0;
+    const std::int64_t i =
+        real ? std::llround(f) : arv_chunk_parser_get_integer_value(parser_.get(), buffer, name.c_str(), &error);
     if (error) {  // not in this frame: left absent (a damaged frame is never stored as good anyway)
       g_error_free(error);
       continue;
     }
-    const double value = is_float_.at(role) ? real : double(integer);
-    switch (role) {
-      case CameraRole::ChunkFrameCounter:
-        out.frame_counter = std::uint64_t(is_float_.at(role) ? std::llround(real) : integer);
-        break;
-      case CameraRole::ChunkTimestamp:
-        out.timestamp = is_float_.at(role) ? std::int64_t(std::llround(real)) : integer;
-        break;
-      case CameraRole::ChunkExposureTime:
-        out.exposure_us = value;
-        break;
-      case CameraRole::ChunkGain:
-        out.gain = value;
-        break;
-      default:
-        break;
-    }
+    if (role == CameraRole::ChunkFrameCounter) out.frame_counter = std::uint64_t(i);
+    if (role == CameraRole::ChunkTimestamp) out.timestamp = i;
+    if (role == CameraRole::ChunkExposureTime) out.exposure_us = real ? f : double(i);
+    if (role == CameraRole::ChunkGain) out.gain = real ? f : double(i);
   }
   return out;
 }

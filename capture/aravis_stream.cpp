@@ -11,6 +11,8 @@
 
 #include <fmt/format.h>
 
+#include "codec/pixel_format.h"
+
 namespace pvcap {
 
 StreamCounters& StreamCounters::operator+=(const StreamCounters& o) {
@@ -212,8 +214,7 @@ CameraFrame AravisStream::frame_of(ArvBuffer* buffer, HostNs arrival) {
     frame.data = static_cast<const std::uint8_t*>(arv_buffer_get_image_data(buffer, &frame.size));
     if (chunks_ && arv_buffer_has_chunks(buffer)) {
       // Aravis counts the chunks after the image as its data too: the image is what the region holds.
-      const std::size_t bits = (frame.pixel_format >> 16) & 0xff;
-      const std::size_t image = std::size_t(frame.width) * std::size_t(frame.height) * bits / 8;
+      const std::size_t image = image_bytes(frame.width, frame.height, frame.pixel_format);
       if (image > 0 && image < frame.size) frame.size = image;
       frame.chunks = chunks_->read(buffer);
       frame.instant_correction_ns = chunks_->instant_correction_ns(frame.chunks);

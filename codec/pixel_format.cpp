@@ -7,6 +7,11 @@ namespace pvcap {
 
 using namespace pfnc;
 
+std::size_t image_bytes(int width, int height, std::uint32_t pixel_format) {
+  if (width <= 0 || height <= 0) return 0;
+  return std::size_t(width) * std::size_t(height) * ((pixel_format >> 16) & 0xff) / 8;
+}
+
 std::string pixel_format_name(std::uint32_t pf) {
   switch (pf) {
     case kBayerRG8:

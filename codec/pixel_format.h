@@ -35,6 +35,9 @@ bool is_bayer(std::uint32_t pixel_format);
 // Bits per sample of a Bayer mosaic (8 or 12); 0 for anything else.
 int bayer_bit_depth(std::uint32_t pixel_format);
 
+// Bytes of an image of `pixel_format` (PFNC: its bits per pixel are bits 16-23 of the code), packed.
+std::size_t image_bytes(int width, int height, std::uint32_t pixel_format);
+
 // PFNC code for a name this module supports (BayerRG8, ..., Mono8, RGB8); 0 when unknown.
 std::uint32_t pixel_format_code(const std::string& name);
 

@@ -50,16 +50,14 @@ class GvspSender {
 
   // Sends `frame` with its chunks to `destination` in packets of at most `packet_size` bytes (IP and
   // UDP headers included, as GevSCPSPacketSize counts them); each packet is dropped with probability
-  // `loss` (the simulated link's). Errors of the network are not the sender's to report (a camera
-  // sends on): they are counted.
+  // `loss` (the simulated link's). A packet the network refuses is lost, as a camera's would be (a
+  // camera sends on; the receiver counts what is missing).
   void send(const sockaddr_in& destination, unsigned packet_size, const GvspFrame& frame, double loss);
-  std::uint64_t send_errors() const { return send_errors_; }
 
  private:
   explicit GvspSender(int fd) : fd_(fd) {}
   void send_packet(const sockaddr_in& to, const std::vector<std::uint8_t>& packet, double loss);
   int fd_ = -1;
-  std::uint64_t send_errors_ = 0;
   std::mt19937_64 rng_{0x5eed};
   std::vector<std::uint8_t> packet_;
 };

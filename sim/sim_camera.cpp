@@ -239,7 +239,7 @@ void SimCamera::send_with_chunks(ArvBuffer* buffer, ArvPixelFormat format, std::
   f.y = std::uint32_t(arv_buffer_get_image_y(buffer));
   const auto* data = static_cast<const std::uint8_t*>(arv_buffer_get_data(buffer, nullptr));
   if (!data) return;
-  f.image = {data, std::size_t(f.width) * f.height * ((std::uint32_t(format) >> 16) & 0xff) / 8};
+  f.image = {data, image_bytes(int(f.width), int(f.height), std::uint32_t(format))};
   f.frame_counter = arv_buffer_get_frame_id(buffer);
   f.exposure_us = double(exposure_ns) / 1000.0;
   f.gain = double(gain);

@@ -42,11 +42,9 @@ int open_directory_and_sync(const char* path, int* fd) {
   return SQLITE_CANTOPEN;
 }
 
-// An open file: the unix VFS's own, with its methods, then the methods that check (kMethods).
-struct CheckedFile {
-  sqlite3_file base;  // its methods: kMethods, or none when the open failed
-};
-constexpr int kHeader = (sizeof(CheckedFile) + 7) & ~7;
+// An open file: a sqlite3_file whose methods are kMethods (none when the open failed), then, from
+// kHeader on, the unix VFS's own file object, which every call is passed on to.
+constexpr int kHeader = (sizeof(sqlite3_file) + 7) & ~7;
 
 sqlite3_file* real(sqlite3_file* f) { return reinterpret_cast<sqlite3_file*>(reinterpret_cast<char*>(f) + kHeader); }
 const sqlite3_io_methods& real_methods(sqlite3_file* f) { return *real(f)->pMethods; }
