@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
@@ -145,8 +146,11 @@ cv::Mat warp_pressure_conserving(const cv::Mat& pressure_kpa, const cv::Matx33d&
   return ConservingWarp(cells_to_image, size, pad)(pressure_kpa);
 }
 
-ConservingWarp::ConservingWarp(const cv::Matx33d& cells_to_image, cv::Size size, const PadLayout& pad)
-    : pad_(pad), area_mm2_(pixel_area_mm2(cells_to_image, size, pad)) {
+namespace {
+
+// Where each pixel of `size` samples the pressure image under `cells_to_image`, as cv::convertMaps
+// makes it (CV_16SC2 whole cells + CV_16UC1 1/32 fractions): the map cv::remap then follows.
+void sampling_map(const cv::Matx33d& cells_to_image, cv::Size size, cv::Mat& cells, cv::Mat& fraction) {
   const cv::Matx33d g = cells_to_image.inv();
   cv::Mat map(size, CV_32FC2);
   for (int y = 0; y < size.height; ++y) {
@@ -159,18 +163,79 @@ ConservingWarp::ConservingWarp(const cv::Matx33d& cells_to_image, cv::Size size,
                       : cv::Vec2f(-1e6f, -1e6f);
     }
   }
-  cv::convertMaps(map, cv::noArray(), map_, fraction_, CV_16SC2);
+  cv::convertMaps(map, cv::noArray(), cells, fraction, CV_16SC2);
+}
+
+// Above this many pixels in the pad's whole footprint (a crop blown up many times), a pixel is far
+// smaller than a cell and every cell's reach is its own area (the integral's limit) to within 1e-3.
+constexpr double kMaxReachPixels = 16e6;
+
+}  // namespace
+
+cv::Mat cell_reach_mm2(const cv::Matx33d& cells_to_image, const PadLayout& pad) {
+  const double cell_area = pad.pitch_mm * pad.pitch_mm;
+  cv::Mat reach(pad.rows, pad.cols, CV_64F, cv::Scalar(0));
+  // Bilinear sampling with a zero border reaches a cell's value from points within one cell of it:
+  // the footprint is the grid grown by a cell, wherever it lies (inside this image or not).
+  const std::vector<cv::Point2d> grid{
+      {-1, -1}, {double(pad.cols), -1}, {double(pad.cols), double(pad.rows)}, {-1, double(pad.rows)}};
+  std::vector<cv::Point2d> corners;
+  cv::perspectiveTransform(grid, corners, cells_to_image);
+  cv::Point2d lo = corners[0], hi = corners[0];
+  for (const cv::Point2d& p : corners) {
+    lo.x = std::min(lo.x, p.x), lo.y = std::min(lo.y, p.y);
+    hi.x = std::max(hi.x, p.x), hi.y = std::max(hi.y, p.y);
+  }
+  if (!(hi.x - lo.x < 1e5 && hi.y - lo.y < 1e5)) return reach.setTo(cell_area);  // a pad seen edge-on
+  const cv::Rect frame(int(std::floor(lo.x)) - 1, int(std::floor(lo.y)) - 1, int(std::ceil(hi.x - lo.x)) + 3,
+                       int(std::ceil(hi.y - lo.y)) + 3);
+  if (double(frame.width) * frame.height > kMaxReachPixels) return reach.setTo(cell_area);
+  // The same homography, with the footprint's corner as pixel (0, 0).
+  const cv::Matx33d shifted = cv::Matx33d(1, 0, -frame.x, 0, 1, -frame.y, 0, 0, 1) * cells_to_image;
+  const cv::Mat area = pixel_area_mm2(shifted, frame.size(), pad);
+  cv::Mat cells, fraction;
+  sampling_map(shifted, frame.size(), cells, fraction);
+  // remap's bilinear weights at its fixed-point precision: (1 - fx, fx) x (1 - fy, fy) in 1/32 steps.
+  for (int y = 0; y < frame.height; ++y) {
+    const auto* a = area.ptr<float>(y);
+    const auto* c = cells.ptr<cv::Vec2s>(y);
+    const auto* f = fraction.ptr<ushort>(y);
+    for (int x = 0; x < frame.width; ++x) {
+      if (!(a[x] > 0)) continue;
+      const double fx = (f[x] & 31) / 32.0, fy = (f[x] >> 5) / 32.0;
+      const double w[2][2] = {{(1 - fx) * (1 - fy), fx * (1 - fy)}, {(1 - fx) * fy, fx * fy}};
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          const int u = c[x][0] + dx, v = c[x][1] + dy;
+          if (u >= 0 && v >= 0 && u < pad.cols && v < pad.rows) reach.at<double>(v, u) += w[dy][dx] * a[x];
+        }
+    }
+  }
+  return reach;
+}
+
+ConservingWarp::ConservingWarp(const cv::Matx33d& cells_to_image, cv::Size size, const PadLayout& pad)
+    : pad_(pad), area_mm2_(pixel_area_mm2(cells_to_image, size, pad)) {
+  cell_reach_mm2(cells_to_image, pad).convertTo(reach_mm2_, CV_32F);
+  sampling_map(cells_to_image, size, map_, fraction_);
 }
 
 cv::Mat ConservingWarp::operator()(const cv::Mat& pressure_kpa, double* force_n) const {
-  CV_Assert(pressure_kpa.type() == CV_32F);
+  CV_Assert(pressure_kpa.type() == CV_32F && pressure_kpa.size() == reach_mm2_.size());
   cv::Mat warped;
   cv::remap(pressure_kpa, warped, map_, fraction_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
-  const double in_image = warped.dot(area_mm2_) * 1e-3;
+  // The force the warp puts in the pad's whole footprint, this image's part of it or not: one scale
+  // for every image of the same homography, so a crop holds exactly the full image's pressure there.
+  const double reached = pressure_kpa.dot(reach_mm2_) * 1e-3;
   const double on_sensor = sensor_force_n(pressure_kpa, pad_);
-  if (in_image > 0) warped *= on_sensor / in_image;
+  if (reached > 0) warped *= on_sensor / reached;
   if (force_n) *force_n = on_sensor;
   return warped;
+}
+
+double ConservingWarp::force_in_image_n(const cv::Mat& warped) const {
+  CV_Assert(warped.type() == CV_32F && warped.size() == area_mm2_.size());
+  return warped.dot(area_mm2_) * 1e-3;
 }
 
 cv::Rect paper_crop_box(const std::array<cv::Point2d, 4>& corners, cv::Size image, double margin, cv::Size network) {

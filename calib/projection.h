@@ -49,22 +49,34 @@ class PressureProjector {
 cv::Mat pixel_area_mm2(const cv::Matx33d& cells_to_image, cv::Size size, const PadLayout& pad);
 // Force (N) of a pressure image in kPa on the sensor grid.
 double sensor_force_n(const cv::Mat& pressure_kpa, const PadLayout& pad);
-// warp_pressure, rescaled so the image's force (with pixel_area_mm2) equals the sensor's: for
-// totals and force-weighted metrics. Zero pressure stays zero.
+// The area (mm^2) through which each cell's pressure reaches images under `cells_to_image`: the
+// sum, over every pixel of the pad's whole footprint (inside a given image or not), of the pixel's
+// area times the cell's bilinear weight in it, at remap's fixed-point precision. About the cell's
+// own area (pitch^2) where pixels are small against cells; it differs where they sample coarsely.
+cv::Mat cell_reach_mm2(const cv::Matx33d& cells_to_image, const PadLayout& pad);
+// warp_pressure, rescaled so that the force it puts over the pad's whole footprint equals the
+// sensor's: for totals and force-weighted metrics. The scale depends on the pressure and the
+// homography, never on how much of the pad the image holds, so warping into a crop equals cropping
+// the warp into a larger image, and a crop holds the force inside it, not the pad's. Zero stays zero.
 cv::Mat warp_pressure_conserving(const cv::Mat& pressure_kpa, const cv::Matx33d& cells_to_image, cv::Size size,
                                  const PadLayout& pad);
-// The same for many frames through one map: the pixels' areas and where each pixel samples the
-// pressure image are computed once (a 1080p area map costs ~100 ms; a frame's warp into a 480x384
-// crop then ~0.5 ms). Bilinear as warpPerspective, at its fixed-point precision (1/32 cell).
+// The same for many frames through one map: the pixels' areas, the cells' reach and where each
+// pixel samples the pressure image are computed once (a 1080p area map costs ~100 ms; a frame's
+// warp into a 480x384 crop then ~0.5 ms). Bilinear as warpPerspective, at its fixed-point precision
+// (1/32 cell).
 class ConservingWarp {
  public:
   ConservingWarp(const cv::Matx33d& cells_to_image, cv::Size size, const PadLayout& pad);
-  // `force_n`, when given, receives the sensor's force (N), which the warp conserves.
+  // `force_n`, when given, receives the sensor's force (N), which the warp conserves over the pad.
   cv::Mat operator()(const cv::Mat& pressure_kpa, double* force_n = nullptr) const;
+  // The force (N) an output of operator() holds inside this image: the sensor's where the image
+  // holds the whole pad, the part on its pixels where it holds part of it.
+  double force_in_image_n(const cv::Mat& warped) const;
 
  private:
   PadLayout pad_;
   cv::Mat area_mm2_;
+  cv::Mat reach_mm2_;       // cell_reach_mm2, CV_32F on the pad's grid
   cv::Mat map_, fraction_;  // image pixel -> pressure-image coordinates, as cv::convertMaps makes them
 };
 

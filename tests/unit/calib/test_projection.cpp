@@ -31,11 +31,66 @@ TEST(Projection, PixelAreaAndTheForceConservingWarp) {
   // 10 kPa on the whole pad: 10e3 Pa * 185 * 105 * 1.5625e-6 m^2 = 303.515625 N.
   const cv::Mat uniform(105, 185, CV_32F, cv::Scalar(10));
   EXPECT_NEAR(sensor_force_n(uniform, pad), 303.515625, 1e-6);
-  const cv::Mat conserved = warp_pressure_conserving(uniform, twice, {400, 220}, pad);
-  EXPECT_NEAR(cv::sum(conserved.mul(area))[0] * 1e-3, 303.515625, 1e-3);
+  // An image that holds the whole pad (its half-cell rim included) holds the sensor's force.
+  const cv::Matx33d inside(2, 0, 10, 0, 2, 10, 0, 0, 1);
+  const cv::Mat conserved = warp_pressure_conserving(uniform, inside, {400, 230}, pad);
+  EXPECT_NEAR(cv::sum(conserved.mul(pixel_area_mm2(inside, {400, 230}, pad)))[0] * 1e-3, 303.515625, 1e-3);
   // A perspective homography: area still sums to the pad's area (231.25 x 131.25 mm).
   const cv::Matx33d oblique(3.0, 0.4, 100, 0.1, 2.5, 80, 0.0004, 0.0009, 1);
   EXPECT_NEAR(cv::sum(pixel_area_mm2(oblique, {1200, 700}, pad))[0], 231.25 * 131.25, 231.25 * 131.25 * 0.01);
+}
+
+// A crop that cuts the pad (and a contact) in half holds the full image's pressure over the same
+// pixels, and the force inside it, not the pad's: warping then cropping equals cropping then warping.
+// (Before, the crop's pixels were scaled up to carry the whole sensor's force: 2.10x here.)
+TEST(Projection, ACropOfThePadHoldsTheFullImagesPressureAndOnlyTheForceInsideIt) {
+  const PadLayout pad = default_pad_layout();
+  const cv::Matx33d oblique(3.0, 0.4, 100, 0.1, 2.5, 80, 0.0004, 0.0009, 1);
+  const cv::Size full_size(1200, 700);
+  cv::Mat p(pad.rows, pad.cols, CV_32F, cv::Scalar(0));
+  cv::circle(p, {92, 52}, 9, cv::Scalar(40), cv::FILLED);  // a contact the crop cuts through its middle
+  cv::circle(p, {30, 20}, 5, cv::Scalar(25), cv::FILLED);  // and one wholly inside the crop
+  cv::GaussianBlur(p, p, {0, 0}, 2.0);
+  std::vector<cv::Point2d> centre;
+  cv::perspectiveTransform(std::vector<cv::Point2d>{{92, 52}}, centre, oblique);
+  const cv::Rect box(0, 0, int(centre[0].x), full_size.height);  // the left part of the pad, to the contact's middle
+
+  const ConservingWarp whole(oblique, full_size, pad);
+  double sensor_n = 0;
+  const cv::Mat full = whole(p, &sensor_n);
+  EXPECT_NEAR(whole.force_in_image_n(full), sensor_n, sensor_n * 1e-4) << "the full image holds the whole pad";
+
+  const cv::Matx33d to_box = cv::Matx33d(1, 0, -box.x, 0, 1, -box.y, 0, 0, 1) * oblique;
+  const ConservingWarp cropped(to_box, box.size(), pad);
+  double crop_sensor_n = 0;
+  const cv::Mat crop = cropped(p, &crop_sensor_n);
+  EXPECT_DOUBLE_EQ(crop_sensor_n, sensor_n) << "the sensor's force is the sensor's, whatever the image";
+
+  // Pixel for pixel, within the fixed-point map's rounding (1/32 cell) of a shifted homography.
+  const cv::Mat same_pixels = full(box);
+  double peak = 0;
+  cv::minMaxLoc(full, nullptr, &peak);
+  EXPECT_LT(cv::norm(crop, same_pixels, cv::NORM_INF), 0.01 * peak);
+  const double crop_sum = cv::sum(crop)[0], full_sum = cv::sum(same_pixels)[0];
+  EXPECT_NEAR(crop_sum / full_sum, 1.0, 1e-3) << "a crop inflated its pressure " << crop_sum / full_sum << "x";
+
+  // The force it reports is the force inside it: the full image's over the same pixels, well short of the pad's.
+  const cv::Mat full_area = pixel_area_mm2(oblique, full_size, pad);
+  const double inside_n = same_pixels.dot(full_area(box)) * 1e-3;
+  EXPECT_NEAR(cropped.force_in_image_n(crop), inside_n, inside_n * 1e-3);
+  EXPECT_LT(inside_n, 0.8 * sensor_n);
+  EXPECT_GT(inside_n, 0.2 * sensor_n);
+}
+
+// Where pixels are small against cells, every interior cell reaches exactly its own area.
+TEST(Projection, ACellsReachIsItsAreaWhenPixelsAreFine) {
+  const PadLayout pad = default_pad_layout();
+  const cv::Mat reach = cell_reach_mm2(cv::Matx33d(2, 0, 0, 0, 2, 0, 0, 0, 1), pad);
+  EXPECT_NEAR(reach.at<double>(50, 90), pad.pitch_mm * pad.pitch_mm, 1e-9);
+  EXPECT_NEAR(reach.at<double>(1, 1), pad.pitch_mm * pad.pitch_mm, 1e-9);
+  // A pad blown up past the numeric footprint's bound takes the limit: the cell's own area.
+  const cv::Mat huge = cell_reach_mm2(cv::Matx33d(400, 0, 0, 0, 400, 0, 0, 0, 1), pad);
+  EXPECT_DOUBLE_EQ(huge.at<double>(0, 0), pad.pitch_mm * pad.pitch_mm);
 }
 
 TEST(Projection, PaperCropMatchesTheOriginalsArithmetic) {
