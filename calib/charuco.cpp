@@ -148,7 +148,8 @@ using IdSets = std::vector<std::vector<int>>;
 bool sensible(const cv::Mat& K, const cv::Mat& dist, cv::Size size) {
   if (K.empty() || !cv::checkRange(K) || !cv::checkRange(dist)) return false;
   const double fx = K.at<double>(0, 0), cx = K.at<double>(0, 2), cy = K.at<double>(1, 2);
-  return fx > 0 && std::abs(cx - size.width / 2.0) <= size.width / 4.0 &&
+  // A focal length the views leave free runs off (1e18 px once): no lens has one past 50 image widths.
+  return fx > 0.1 * size.width && fx < 50.0 * size.width && std::abs(cx - size.width / 2.0) <= size.width / 4.0 &&
          std::abs(cy - size.height / 2.0) <= size.height / 4.0;
 }
 
@@ -250,7 +251,7 @@ Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::S
   };
   if (!fit.run())
     return Error{fmt::format("the lens could not be fitted to the board's {} views (no fit left the principal point "
-                             "near the image's centre){}",
+                             "near the image's centre with a focal length a lens can have){}",
                              corners.size(), lacking())};
   // A view at a grazing angle or with a misread corner pulls the whole fit: views whose error is
   // well above the others' are left out and the fit made again from where it stood, until none is
@@ -279,9 +280,18 @@ Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::S
   // The fit's own standard deviations, from where it stands (it moves no further).
   if (!fit.attempt(0, true, /*with_deviations=*/true))
     return Error{fmt::format("the lens could not be fitted to the board's {} views{}", corners.size(), lacking())};
-  out.rms_px = fit.rms;
   // One standard deviation of fx, fy, cx, cy as the fit itself estimates them.
   for (int k = 0; k < 4 && k < fit.deviations.rows; ++k) out.deviation[std::size_t(k)] = fit.deviations.at<double>(k);
+  // Views that cannot fix the focal length (boards square to the camera at one depth: nothing shows
+  // how far away they are) leave it free, and the fit lets it run off (to 1e18 px, its deviation 0):
+  // such a lens is refused, never handed on, with what the views lack.
+  // (With square pixels the fit moves fy and keeps fx to it: fy's deviation is the focal length's.)
+  const double f = fit.K.at<double>(1, 1), f_sd = std::max(out.deviation[0], out.deviation[1]);
+  if (!(f_sd > 0) || f_sd > 0.02 * f)
+    return Error{fmt::format("the board's {} views do not fix the focal length (the fit gives {:.4g} px, +- {:.2g}); "
+                             "boards tilted towards the camera and at other distances do{}",
+                             corners.size(), f, f_sd, lacking())};
+  out.rms_px = fit.rms;
   out.model.image_size = size;
   out.model.K = cv::Matx33d(fit.K);
   out.model.distortion.assign(fit.dist.begin<double>(), fit.dist.end<double>());
