@@ -18,7 +18,7 @@ Result<DatasetView> open_dataset(const std::filesystem::path& dir) {
     if (!fs::is_regular_file(catalog))
       return Error{fmt::format("{}: no catalogue yet: run `pvcap dataset status {}` first", catalog.string(),
                                config.dir.string())};
-    auto db = CatalogDb::open(catalog);
+    auto db = CatalogDb::open_read_only(catalog, fmt::format("pvcap dataset status {}", config.dir.string()));
     if (!db) return db.error();
     DatasetView out;
     out.name = config.name;

@@ -64,6 +64,21 @@ Result<std::unique_ptr<CatalogDb>> CatalogDb::open(const std::filesystem::path& 
   }
 }
 
+Result<std::unique_ptr<CatalogDb>> CatalogDb::open_read_only(const std::filesystem::path& file,
+                                                             const std::string& rebuild) {
+  try {
+    auto db = std::make_unique<sqlite::Database>(file, sqlite::Database::Mode::ReadOnly);
+    if (const int version = db->user_version(); version != kCatalogVersion)
+      return Error{fmt::format("{}: a catalogue of version {}, and this pvcap reads version {}: `{}` rebuilds it "
+                               "from the sessions",
+                               file.string(), version, kCatalogVersion, rebuild)};
+    return std::unique_ptr<CatalogDb>(new CatalogDb(std::move(db)));
+  } catch (const sqlite::SqliteError& e) {
+    return Error{fmt::format("{}: the dataset's catalogue cannot be read ({}); `{}` rebuilds it from the sessions",
+                             file.string(), e.what(), rebuild)};
+  }
+}
+
 std::optional<std::string> CatalogDb::fingerprint(const std::string& folder) {
   auto q = db_->prepare("SELECT fingerprint FROM sessions WHERE folder = ?");
   q.bind(1, folder);

@@ -40,8 +40,14 @@ struct CatalogTake {
 
 class CatalogDb {
  public:
-  // Opens (creating when missing) DIR/catalog.db; an unreadable file is an Error naming it.
+  // Opens (creating when missing) DIR/catalog.db for a scan; a catalogue of another version is
+  // dropped and rebuilt. An unreadable file is an Error naming it.
   static Result<std::unique_ptr<CatalogDb>> open(const std::filesystem::path& file);
+  // Opens it to read only (a reader, the Python module, a dataset on a read-only mount): nothing is
+  // created or changed, and a catalogue of another version is an Error naming the command that
+  // rebuilds it (`rebuild`, e.g. "pvcap dataset status DIR"), never an empty answer.
+  static Result<std::unique_ptr<CatalogDb>> open_read_only(const std::filesystem::path& file,
+                                                           const std::string& rebuild);
   ~CatalogDb();
 
   std::optional<std::string> fingerprint(const std::string& folder);

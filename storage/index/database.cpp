@@ -107,18 +107,57 @@ std::string Statement::column_text(int c) const {
 }
 bool Statement::column_null(int c) const { return sqlite3_column_type(stmt_, c) == SQLITE_NULL; }
 
+namespace {
+// A path as an SQLite URI's file part: the characters a URI gives meaning to, escaped.
+std::string uri_path(const std::filesystem::path& path) {
+  std::string out;
+  for (const char c : path.string()) {
+    if (c == '%' || c == '?' || c == '#')
+      out += fmt::format("%{:02X}", static_cast<unsigned char>(c));
+    else
+      out += c;
+  }
+  return out;
+}
+}  // namespace
+
 Database::Database(const std::filesystem::path& path, Mode mode) : path_(path) {
   int flags = mode == Mode::ReadOnly ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE;
   if (mode == Mode::Create) flags |= SQLITE_OPEN_CREATE;
-  // The unix VFS with the folder syncs SQLite ignores checked (storage/index/checked_vfs.h).
-  const int rc = sqlite3_open_v2(path.c_str(), &db_, flags | SQLITE_OPEN_NOMUTEX, checked_vfs_name());
-  if (rc != SQLITE_OK) {
-    const std::string msg = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(rc);
-    sqlite3_close(db_);
-    db_ = nullptr;
-    throw SqliteError(rc, fmt::format("{}: cannot open the session index: {}", path.string(), msg));
-  }
-  sqlite3_busy_timeout(db_, 2000);
+  const auto open = [&](const std::string& name, int extra) {
+    // The unix VFS with the folder syncs SQLite ignores checked (storage/index/checked_vfs.h).
+    const int rc = sqlite3_open_v2(name.c_str(), &db_, flags | extra | SQLITE_OPEN_NOMUTEX, checked_vfs_name());
+    if (rc != SQLITE_OK) {
+      const std::string msg = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(rc);
+      sqlite3_close(db_);
+      db_ = nullptr;
+      throw SqliteError(rc, fmt::format("{}: cannot open the session index: {}", path.string(), msg));
+    }
+    sqlite3_busy_timeout(db_, 2000);
+  };
+  open(path.string(), 0);
+  if (mode != Mode::ReadOnly) return;
+  // A store left in WAL mode is read through a shared-memory file beside it, which SQLite creates on
+  // first read: on a read-only mount (a training node's dataset) it cannot, and the read fails. There
+  // nothing can change the file under this reader, so it is opened as immutable: read as it lies,
+  // without the shared-memory file or locks, and nothing is ever created beside it.
+  sqlite3_stmt* probe = nullptr;
+  int rc = sqlite3_prepare_v2(db_, "SELECT count(*) FROM sqlite_master", -1, &probe, nullptr);
+  if (rc == SQLITE_OK) rc = sqlite3_step(probe);
+  sqlite3_finalize(probe);
+  const int primary = rc & 0xff;
+  if (primary != SQLITE_CANTOPEN && primary != SQLITE_READONLY) return;
+  sqlite3_close_v2(db_);
+  db_ = nullptr;
+  // Immutable ignores a write-ahead log: one that still holds commits must not be read past in silence.
+  std::error_code ec;
+  const auto wal = std::filesystem::path(path.string() + "-wal");
+  if (const auto size = std::filesystem::file_size(wal, ec); !ec && size > 0)
+    throw SqliteError(rc, fmt::format("{}: its write-ahead log ({}) holds commits not yet in the file, and this "
+                                      "folder cannot be written to fold them in: open it once where it can be "
+                                      "written (`pvcap recover` on the session folder)",
+                                      path.string(), wal.filename().string()));
+  open("file:" + uri_path(path) + "?immutable=1", SQLITE_OPEN_URI);
 }
 
 Database::~Database() {
