@@ -11,13 +11,13 @@ every tick of its window has a sample with that camera's frame and a pressure fr
 (DataLoader workers included) opens its own read-only handles: nothing is shared across a fork.
 
 A raw 1080p frame costs ~10 ms to decode whole (its lossless codec cannot decode only a crop), so the
-store gives ~60 crops per second per core; with cache=DIR each crop is kept as a JPEG the first time
-it is read (quality 95, as the export writes), and later epochs read those (docs/python.md, figures).
+store gives ~60 crops per second per core; with cache=DIR each crop is kept the first time it is read,
+bit-exact (the store's pixels after demosaic, crop and resize, as an uncompressed .npy), and later
+epochs read those (docs/python.md, figures).
 """
 import hashlib
 import os
 
-import cv2
 import numpy as np
 import torch
 import torch.utils.data
@@ -49,16 +49,16 @@ class PressureDataset(torch.utils.data.Dataset):
     ticks relative to the item's sample. takes: None (every sample in a take that is done, or
     every sample of a session without a protocol) or a function of a take's dict returning
     whether its samples are used. transform: applied to each item's dict. cache: a folder where each
-    crop is kept as a JPEG once read (every epoch then sees the same, decoded JPEG pixels; shared
-    safely by workers and by datasets of other crops)."""
+    crop is kept once read, bit-exact (every epoch sees the store's own pixels; shared safely by
+    workers and by datasets of other crops)."""
 
     def __init__(self, source, split=None, cameras=None, crop="paper", size=(480, 384), ticks=(0,), takes=None,
-                 transform=None, qa=("clean", "lossy"), cache=None, cache_quality=95):
+                 transform=None, qa=("clean", "lossy"), cache=None):
         self.folders = _session_folders(source, split, qa)
         if not self.folders:
             raise StoreError(f"{os.fspath(source)}: no session to read (split {split!r}, qa {qa!r})")
         self.crop, self.size, self.transform = crop, (tuple(size) if size is not None else None), transform
-        self.cache, self.cache_quality = (os.path.abspath(os.fspath(cache)) if cache else None), int(cache_quality)
+        self.cache = os.path.abspath(os.fspath(cache)) if cache else None
         self._cache_dirs = {}
         self.ticks = [int(t) for t in ticks]
         if not self.ticks:
@@ -125,29 +125,28 @@ class PressureDataset(torch.utils.data.Dataset):
         folder = self._cache_dirs.get((s_index, camera))
         if folder is None:
             # Named by what the pixels depend on: the session, the camera, the box the crop resolves to
-            # (a new pad calibration moves it), the size and the quality.
+            # (a new pad calibration moves it) and the size; "raw1" is the files' kind (bit-exact crops).
             box = tuple(s.crop_box(camera, self.crop))
-            key = f"{s.path}|{s.cameras[camera]['name']}|{box}|{self.size}|{self.cache_quality}"
+            key = f"{s.path}|{s.cameras[camera]['name']}|{box}|{self.size}|raw1"
             folder = os.path.join(self.cache, hashlib.sha1(key.encode()).hexdigest()[:20])
             os.makedirs(folder, exist_ok=True)
             self._cache_dirs[(s_index, camera)] = folder
-        path = os.path.join(folder, f"{sample:08d}.jpg")
+        path = os.path.join(folder, f"{sample:08d}.npy")
         try:
-            with open(path, "rb") as f:
-                data = f.read()
+            rgb = np.load(path, allow_pickle=False)
         except FileNotFoundError:
             rgb = s.image(sample, camera, self.crop, self.size)
-            ok, encoded = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR),
-                                       [cv2.IMWRITE_JPEG_QUALITY, self.cache_quality])
-            data = encoded.tobytes()
             tmp = f"{path}.{os.getpid()}.tmp"  # whole or not at all: workers may race on one crop
             with open(tmp, "wb") as f:
-                f.write(data)
+                np.save(f, rgb, allow_pickle=False)
             os.replace(tmp, path)
-        bgr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
-        if bgr is None:
-            raise StoreError(f"{path}: not a JPEG (a damaged cache: remove {self.cache})")
-        return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+            return rgb
+        except (ValueError, EOFError, OSError) as e:
+            raise StoreError(f"{path}: not a cached crop ({e}): a damaged cache, remove {self.cache}") from None
+        if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3:
+            raise StoreError(f"{path}: a cached crop of {rgb.dtype} {rgb.shape}, not an RGB image: a damaged cache, "
+                             f"remove {self.cache}")
+        return rgb
 
     def __getstate__(self):
         state = dict(self.__dict__)
