@@ -6,7 +6,6 @@ import os
 import tempfile
 import unittest
 
-import cv2
 import numpy as np
 import torch
 from torch.utils.data import DataLoader
@@ -72,25 +71,31 @@ class PressureDatasetTest(unittest.TestCase):
         batch = next(iter(loader(7)))
         self.assertEqual(batch["image"].shape, (8, 2, 3, 80, 96))
 
-    def test_the_crop_cache_keeps_each_crop_once_as_a_jpeg(self):
+    def test_the_crop_cache_keeps_each_crop_once_bit_exact(self):
         with tempfile.TemporaryDirectory(prefix="pvcap-py-cache-") as cache:
             cached = PressureDataset(self.folder, cameras=["cam0", 1], crop="paper", size=(96, 80), ticks=[-1, 0],
                                      cache=cache)
-            k = len(cached) // 3
-            first = cached[k]
-            files = glob.glob(os.path.join(cache, "*", "*.jpg"))
-            self.assertEqual(len(files), 2, "one JPEG per crop read (a window of two ticks)")
-            again = cached[k]
-            torch.testing.assert_close(again["image"], first["image"], rtol=0, atol=0)
-            self.assertEqual(len(glob.glob(os.path.join(cache, "*", "*.jpg"))), 2, "read from the cache")
-            plain = self.ds[k]
-            # The store's crop, through JPEG at quality 95: the cache's pixels.
-            for t in range(2):
-                rgb = plain["image"][t].permute(1, 2, 0).numpy()
-                ok, jpeg = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 95])
-                expected = cv2.cvtColor(cv2.imdecode(jpeg, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
-                np.testing.assert_array_equal(first["image"][t].permute(1, 2, 0).numpy(), expected)
-            torch.testing.assert_close(first["pressure"], plain["pressure"])
+            picks = [len(cached) // 3, len(cached) // 2, len(cached) - 1]
+            first = [cached[k] for k in picks]  # the first epoch: read from the store, kept
+            files = glob.glob(os.path.join(cache, "*", "*.npy"))
+            self.assertEqual(len(files), 2 * len(picks), "one file per crop read (windows of two ticks)")
+            again = [cached[k] for k in picks]  # a later epoch: read from the cache
+            self.assertEqual(len(glob.glob(os.path.join(cache, "*", "*.npy"))), 2 * len(picks), "read from the cache")
+            for k, a, b in zip(picks, first, again):
+                plain = self.ds[k]  # the store's item, no cache
+                for item in (a, b):
+                    self.assertEqual(item["image"].dtype, torch.uint8)
+                    self.assertTrue(torch.equal(item["image"], plain["image"]), f"item {k}: not the store's pixels")
+                    self.assertTrue(torch.equal(item["pressure"], plain["pressure"]))
+            # A damaged cached crop is named, with what to do, never read as pixels.
+            with open(files[0], "r+b") as f:
+                f.truncate(20)
+            fresh = PressureDataset(self.folder, cameras=["cam0", 1], crop="paper", size=(96, 80), ticks=[-1, 0],
+                                    cache=cache)
+            with self.assertRaises(pvcap.StoreError) as e:
+                for k in picks:
+                    fresh[k]
+            self.assertIn("damaged cache", str(e.exception))
 
     def test_a_camera_without_a_paper_crop_or_a_wrong_source_is_named(self):
         with self.assertRaises(pvcap.StoreError) as e:
