@@ -38,6 +38,9 @@ struct CameraSettings {
   std::string pixel_format;
   int x = 0, y = 0, width = 0, height = 0;
   double frame_rate = 0, exposure_us = 0, gain = 0;
+  // The gain's unit (role_unit: "dB", or "GainRaw counts" where the camera has only its own counts)
+  // and each frame's chunk gain's; the exposure is always in microseconds (converted from raw steps).
+  std::string gain_unit, chunk_gain_unit;
   std::string trigger;
   unsigned packet_size = 0;
   std::size_t payload = 0;

@@ -191,6 +191,9 @@ Status AravisCamera::read_back(const AravisFeatures& f, const NodeMapCheck& chec
   s.frame_rate = f.number(CameraRole::FrameRate).value_or(0);
   s.exposure_us = f.number(CameraRole::ExposureTime).value_or(0);
   s.gain = f.number(CameraRole::Gain).value_or(0);
+  s.gain_unit = role_unit(CameraRole::Gain, f.name(CameraRole::Gain));
+  if (const auto chunk = chunk_features_.find(CameraRole::ChunkGain); chunk != chunk_features_.end())
+    s.chunk_gain_unit = role_unit(CameraRole::ChunkGain, chunk->second);
   s.trigger = to_string(config_.trigger);
   for (const auto& [role, name] : f.chosen()) s.features[role_key(role)] = name;
   for (const auto& [role, name] : chunk_features_) s.chunks[role_key(role)] = name;

@@ -148,10 +148,27 @@ Status AravisFeatures::set_entry(CameraRole role, const std::string& value) {
   return {};
 }
 
+std::optional<double> AravisFeatures::step(CameraRole role) const {
+  const RawUnit* raw = raw_unit(name(role));
+  if (!raw || !raw->base) return 1.0;
+  ArvGcNode* base = arv_device_get_feature(device_, raw->base);
+  arv::GErrorSlot err;
+  const double v = base && ARV_IS_GC_FLOAT(base)     ? arv_gc_float_get_value(ARV_GC_FLOAT(base), err.out())
+                   : base && ARV_IS_GC_INTEGER(base) ? double(arv_gc_integer_get_value(ARV_GC_INTEGER(base), err.out()))
+                                                     : NAN;
+  if (err || !(v > 0) || !std::isfinite(v)) return std::nullopt;
+  return v;
+}
+
 Status AravisFeatures::set_number(CameraRole role, double value) {
   ArvGcNode* n = node(role);
   if (!n) return absent(role);
   const std::string feature = name(role);
+  // A count of the camera's own steps (ExposureTimeRaw): the value asked, in steps of its base.
+  const auto size = step(role);
+  if (!size)
+    return Error{fmt::format("{} counts in steps of {}, which cannot be read", feature, raw_unit(feature)->base)};
+  value /= *size;
   arv::GErrorSlot err;
   if (ARV_IS_GC_FLOAT(n)) {
     // Checked here: Aravis leaves range checks off by default, and a camera may clamp in silence.
@@ -167,7 +184,11 @@ Status AravisFeatures::set_number(CameraRole role, double value) {
     const gint64 lo = arv_gc_integer_get_min(ARV_GC_INTEGER(n), range.out());
     const gint64 hi = range ? 0 : arv_gc_integer_get_max(ARV_GC_INTEGER(n), range.out());
     if (!range && lo <= hi && (v < lo || v > hi))
-      return Error{fmt::format("{} cannot be {}: its range is {} to {}", feature, v, lo, hi)};
+      return *size == 1 ? Error{fmt::format("{} cannot be {}: its range is {} to {}", feature, v, lo, hi)}
+                        : Error{fmt::format("{} cannot be {} ({:g} {} in its steps of {:g}): its range is {} to {} "
+                                            "({:g} to {:g} {})",
+                                            feature, v, value * *size, role_unit(role, feature), *size, lo, hi,
+                                            double(lo) * *size, double(hi) * *size, role_unit(role, feature))};
     arv_gc_integer_set_value(ARV_GC_INTEGER(n), v, err.out());
   } else {
     return Error{fmt::format("{} is not a number ({})", feature, type(feature))};
@@ -204,7 +225,9 @@ std::optional<double> AravisFeatures::number(CameraRole role) const {
   else
     return std::nullopt;
   if (err) return std::nullopt;
-  return v;
+  const auto size = step(role);
+  if (!size) return std::nullopt;
+  return v * *size;
 }
 
 std::optional<std::string> AravisFeatures::entry(CameraRole role) const {

@@ -39,6 +39,8 @@ class AravisFeatures final : public NodeMapView {
 
   // Each fails with the role's feature name when the camera has none.
   Status set_entry(CameraRole role, const std::string& entry);  // an enumeration
+  // Numbers are in pvcap's unit for the role (role_unit): a feature in the camera's own steps with a
+  // base (ExposureTimeRaw x ExposureTimeBaseAbs) is converted both ways; without one (GainRaw), its counts.
   Status set_number(CameraRole role, double value);             // a Float, or an Integer (rounded)
   Status set_flag(CameraRole role, bool on);  // a Boolean, an Integer 0/1, or an On/Off enumeration
   std::optional<double> number(CameraRole role) const;
@@ -52,6 +54,9 @@ class AravisFeatures final : public NodeMapView {
 
  private:
   ArvGcNode* node(CameraRole role) const;
+  // One step of `role`'s feature in pvcap's unit: 1 unless it counts in the camera's steps (read from
+  // its base each time: a camera may change its base); nullopt when the base cannot be read.
+  std::optional<double> step(CameraRole role) const;
   ArvDevice* device_;
   std::map<CameraRole, std::string> chosen_;
 };

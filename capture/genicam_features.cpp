@@ -71,12 +71,32 @@ const char* role_key(CameraRole role) {
   return "";
 }
 
+const RawUnit* raw_unit(const std::string& feature) {
+  static const RawUnit kRaw[] = {
+      {"ExposureTimeRaw", "ExposureTimeBaseAbs", "us"},
+      {"GainRaw", nullptr, "GainRaw counts"},
+      {"ChunkGainAll", nullptr, "GainRaw counts"},  // Basler ace classic: each frame's GainRaw
+  };
+  for (const RawUnit& r : kRaw)
+    if (feature == r.feature) return &r;
+  return nullptr;
+}
+
+std::string role_unit(CameraRole role, const std::string& feature) {
+  if (const RawUnit* raw = raw_unit(feature)) return raw->unit;
+  if (role == CameraRole::ExposureTime || role == CameraRole::ChunkExposureTime) return "us";
+  if (role == CameraRole::Gain || role == CameraRole::ChunkGain) return "dB";  // SFNC's Gain, GainAbs, ChunkGain
+  return "";
+}
+
 std::map<CameraRole, std::string> resolve_camera_features(const std::function<bool(const std::string&)>& has) {
   std::map<CameraRole, std::string> out;
   for (const auto& r : camera_feature_names()) {
     if (r.role == CameraRole::TimestampLatch || r.role == CameraRole::TimestampLatchValue) continue;
     for (const char* name : r.names)
-      if (has(name)) {
+      if (const RawUnit* raw = raw_unit(name); raw && raw->base && !has(raw->base)) {
+        continue;  // its counts without their size
+      } else if (has(name)) {
         out[r.role] = name;
         break;
       }

@@ -60,10 +60,26 @@ struct RoleNames {
 const std::vector<RoleNames>& camera_feature_names();
 const char* role_key(CameraRole role);
 
+// A feature that counts in the camera's own steps, and the feature giving one step's size in
+// pvcap's unit: ExposureTimeRaw x ExposureTimeBaseAbs (us), as Basler's ace classic and older Allied
+// Vision maps define it. Gain has no standard step: GainRaw is kept in its counts, and said so.
+struct RawUnit {
+  const char* feature;  // "ExposureTimeRaw"
+  const char* base;     // "ExposureTimeBaseAbs" (a Float in `unit` per count), or nullptr: no conversion
+  const char* unit;     // the unit after conversion ("us"), or the counts' own name ("GainRaw counts")
+};
+// nullptr when `feature` is not one of the camera's own counts.
+const RawUnit* raw_unit(const std::string& feature);
+// The unit in which pvcap reads and writes `role` through `feature` (its chosen name): "us" for an
+// exposure (converted where it is raw), "dB" for Gain and GainAbs, "GainRaw counts" for GainRaw, ""
+// for every role without one.
+std::string role_unit(CameraRole role, const std::string& feature);
+
 // The feature chosen for each role a camera has; `has(name)` says whether the camera's node map has
 // a feature of that name. The latch and its value are chosen as a pair of one naming family
 // (`TimestampLatch` + `TimestampLatchValue`, `GevTimestampControlLatch` + `GevTimestampValue`, ...):
-// a latch without its value reads nothing.
+// a latch without its value reads nothing. A raw feature with a base (ExposureTimeRaw) is chosen only
+// with its base: a count pvcap cannot convert is never taken for microseconds.
 std::map<CameraRole, std::string> resolve_camera_features(const std::function<bool(const std::string&)>& has);
 
 }  // namespace pvcap

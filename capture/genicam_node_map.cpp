@@ -93,7 +93,11 @@ NodeMapCheck check_node_map(const NodeMapView& map, const CameraConfig& camera) 
   }
   const auto have = [&](CameraRole role) { return chosen.count(role) > 0; };
   for (CameraRole role : {CameraRole::PixelFormat, CameraRole::Width, CameraRole::Height, CameraRole::ExposureTime})
-    if (!have(role)) out.missing.push_back(fmt::format("no {} feature", role_key(role)));
+    if (!have(role))
+      out.missing.push_back(role == CameraRole::ExposureTime && map.has("ExposureTimeRaw")
+                                ? "no exposure_time feature in microseconds: ExposureTimeRaw counts in the camera's "
+                                  "own steps, and the map has no ExposureTimeBaseAbs to say how long one is"
+                                : fmt::format("no {} feature", role_key(role)));
   if (have(CameraRole::PixelFormat)) {
     const auto formats = map.entries(chosen.at(CameraRole::PixelFormat));
     if (!among(formats, camera.pixel_format))
@@ -124,9 +128,11 @@ NodeMapCheck check_node_map(const NodeMapView& map, const CameraConfig& camera) 
       out.warnings.push_back("no frame rate enable: a FLIR camera may ignore the rate set");
     if (!have(CameraRole::TriggerSource)) out.warnings.push_back("no trigger source: no hardware or software trigger");
   }
-  if (have(CameraRole::ExposureTime) && map.type(chosen.at(CameraRole::ExposureTime)) == "Integer")
-    out.warnings.push_back(fmt::format("its exposure ({}) is in the camera's own units, not microseconds",
-                                       chosen.at(CameraRole::ExposureTime)));
+  if (have(CameraRole::Gain))
+    if (const RawUnit* raw = raw_unit(chosen.at(CameraRole::Gain)); raw && !raw->base)
+      out.warnings.push_back(fmt::format("its gain ({}) is in the camera's own counts, not dB: the rig file's gain "
+                                         "and the stored gain are such counts",
+                                         raw->feature));
   out.ptp = have(CameraRole::PtpEnable);
   out.chunks = have(CameraRole::ChunkModeActive);
   return out;

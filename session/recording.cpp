@@ -40,6 +40,8 @@ std::string settings_json(const CameraSettings& s, const CameraConfig& c) {
                       {"frame_rate", s.frame_rate},
                       {"exposure_us", s.exposure_us},
                       {"gain", s.gain},
+                      {"gain_unit", s.gain_unit},
+                      {"chunk_gain_unit", s.chunk_gain_unit},
                       {"trigger", s.trigger},
                       {"packet_size", s.packet_size},
                       {"payload", s.payload},

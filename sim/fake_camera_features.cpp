@@ -148,17 +148,38 @@ std::string sfnc2_map() {
                            kChunkBytes));
   return text;
 }
+// Aravis' names, with the exposure only in the camera's own steps, as a Basler ace classic or an
+// older Allied Vision declares it: ExposureTimeRaw counts steps of ExposureTimeBaseAbs (20 us here),
+// on the engine's microsecond register (its ExposureTimeAbs hidden under a name of ours).
+std::string raw_exposure_map() {
+  std::string text = aravis_map_with_features("TimestampControlLatch");
+  if (text.empty()) return text;
+  replace_all(text, "ExposureTimeAbs", "PvcapExposureTimeUs");
+  replace_all(text, "ModelName=\"Fake\"", "ModelName=\"Fake raw exposure\"");
+  const std::string features = fmt::format(
+      R"(<Integer Name="ExposureTimeRaw" NameSpace="Standard"><ToolTip>Exposure = raw x ExposureTimeBaseAbs</ToolTip>
+<pValue>PvcapExposureRawConverter</pValue><Min>1</Min><Max>500000</Max></Integer>
+<IntConverter Name="PvcapExposureRawConverter" NameSpace="Custom"><pVariable Name="BASE">ExposureTimeBaseAbs</pVariable>
+<FormulaTo>FROM * BASE</FormulaTo><FormulaFrom>TO / BASE</FormulaFrom><pValue>PvcapExposureTimeUsRegister</pValue></IntConverter>
+<Float Name="ExposureTimeBaseAbs" NameSpace="Standard"><ToolTip>One step of ExposureTimeRaw, in us</ToolTip>
+<Value>{:.1f}</Value><Unit>us</Unit></Float>
+)",
+      kRawExposureStepUs);
+  text.insert(text.rfind("</RegisterDescription>"), features);
+  return text;
+}
 }  // namespace
 
 std::string fake_camera_genicam(NodeMapNaming naming) {
   static std::once_flag once;
-  static std::string aravis_path, sfnc2_path;
+  static std::string aravis_path, sfnc2_path, raw_path;
   std::call_once(once, [] {
     if (const std::string text = aravis_map_with_features("TimestampControlLatch"); !text.empty())
       aravis_path = write_by_content(text);
     if (const std::string text = sfnc2_map(); !text.empty()) sfnc2_path = write_by_content(text);
+    if (const std::string text = raw_exposure_map(); !text.empty()) raw_path = write_by_content(text);
   });
-  return naming == NodeMapNaming::Sfnc2 ? sfnc2_path : aravis_path;
+  return naming == NodeMapNaming::Sfnc2 ? sfnc2_path : naming == NodeMapNaming::RawExposure ? raw_path : aravis_path;
 }
 
 namespace {

@@ -35,6 +35,9 @@ inline constexpr std::uint32_t kChunkModeRegister = 0xF020;
 inline constexpr std::uint32_t kChunkSelectorRegister = 0xF024;
 inline constexpr std::uint32_t kChunkEnableRegister = 0xF028;
 
+// The raw map's ExposureTimeBaseAbs: one step of its ExposureTimeRaw (Basler's ace classic default).
+inline constexpr double kRawExposureStepUs = 20.0;
+
 // The GenICam file a fake camera of this naming serves (arv_gv_fake_camera_new_full); written once
 // per process, named by its content.
 std::string fake_camera_genicam(NodeMapNaming naming);

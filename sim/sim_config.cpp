@@ -53,9 +53,12 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
       if (cr.has("node_map")) {
         std::string naming;
         cr.get("node_map", naming);
-        if (naming != "aravis" && naming != "sfnc2")
-          cr.fail(cams[i]["node_map"], "node_map", "expected aravis (the fake camera's names) or sfnc2");
-        c.node_map = naming == "sfnc2" ? NodeMapNaming::Sfnc2 : NodeMapNaming::Aravis;
+        if (naming != "aravis" && naming != "sfnc2" && naming != "raw")
+          cr.fail(cams[i]["node_map"], "node_map",
+                  "expected aravis (the fake camera's names), sfnc2 or raw (an exposure in the camera's own steps)");
+        c.node_map = naming == "sfnc2" ? NodeMapNaming::Sfnc2
+                     : naming == "raw" ? NodeMapNaming::RawExposure
+                                       : NodeMapNaming::Aravis;
       }
       cr.get("white_balance_auto", c.white_balance_auto);
       if (c.white_balance_auto && c.node_map != NodeMapNaming::Sfnc2)

@@ -40,7 +40,7 @@ struct SimSenselConfig {
 };
 
 // How a simulated camera's node map names its features (sim/fake_camera_features.h).
-enum class NodeMapNaming { Aravis, Sfnc2 };
+enum class NodeMapNaming { Aravis, Sfnc2, RawExposure };
 
 struct SimCameraClock {
   double offset_ms = 0;    // device clock minus true time at t = 0
@@ -60,7 +60,8 @@ struct SimCameraClock {
   std::optional<double> return_after_s;  // and comes back (power-cycled: frame ids restart) after this many
   bool trigger_line = true;              // wired to the rig's trigger line (used with trigger: hardware)
   // Its node map's naming: "aravis" (Aravis' fake camera's: ExposureTimeAbs, GainRaw,
-  // TimestampControlLatch) or "sfnc2" (ExposureTime, Gain, TimestampLatch, AcquisitionFrameRateEnable).
+  // TimestampControlLatch), "sfnc2" (ExposureTime, Gain, TimestampLatch, AcquisitionFrameRateEnable)
+  // or "raw" (Aravis' names with the exposure only as ExposureTimeRaw, in steps of ExposureTimeBaseAbs).
   NodeMapNaming node_map = NodeMapNaming::Aravis;
   bool white_balance_auto =
       false;  // sfnc2 only: its BalanceWhiteAuto is left Continuous (a camera set so by another program)

@@ -294,8 +294,9 @@ std::filesystem::path write_eval_scenario(const EvalScenario& o, const std::file
       "clock_reset_at_s: {}}}\n",
       -o.drift_ppm / 2, o.jitter_ms / 4, o.jitter_ms, o.loss, o.seconds / 2 + 1);
   // cam1 and cam3 name their features as SFNC 2 cameras do (TimestampLatch, ExposureTime, a rate
-  // enable) and send chunk data, cam0 and cam2 as Aravis' fake camera: the timeline is measured on both
-  // naming families. cam3's exposure moves while it records (1000 +- 600 us, frame by frame): only
+  // enable) and send chunk data, cam0 and cam2 as Aravis' fake camera, cam2 with its exposure only in
+  // the camera's own steps (ExposureTimeRaw x ExposureTimeBaseAbs): the timeline is measured on each
+  // naming family, and on an exposure that pvcap must convert before it times a frame by it. cam3's exposure moves while it records (1000 +- 600 us, frame by frame): only
   // each frame's chunks say so, and its image's instant moves by +-0.3 ms with it.
   yaml += "  cameras:\n";
   for (int i = 0; i < 4; ++i)
@@ -303,7 +304,7 @@ std::filesystem::path write_eval_scenario(const EvalScenario& o, const std::file
         "    - {{clock_offset_ms: {}, drift_ppm: {}, jitter_us: 0, exposure_latency_ms: 2, node_map: {}, "
         "exposure_wobble_us: {}}}\n",
         offsets_ms[i] + double(o.seed % 97), (i % 2 ? -1 : 1) * o.drift_ppm * (1.0 - 0.2 * i),
-        i % 2 ? "sfnc2" : "aravis", i == 3 ? kCam3ExposureWobbleUs : 0.0);
+        i % 2 ? "sfnc2" : i == 2 ? "raw" : "aravis", i == 3 ? kCam3ExposureWobbleUs : 0.0);
   const auto path = root / "eval-sync.yaml";
   std::ofstream(path) << yaml;
   return path;

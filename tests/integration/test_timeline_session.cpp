@@ -141,15 +141,21 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
         fmt::format("SELECT json_extract(settings_json, '$.features.timestamp_latch'), "
                     "coalesce(json_extract(settings_json, '$.features.frame_rate_enable'), ''), "
                     "json_extract(settings_json, '$.features.exposure_time'), "
-                    "json_extract(settings_json, '$.stamp_to_mid_exposure_ns') FROM devices WHERE name = 'cam{}'",
+                    "json_extract(settings_json, '$.stamp_to_mid_exposure_ns'), "
+                    "json_extract(settings_json, '$.exposure_us'), json_extract(settings_json, '$.gain_unit') "
+                    "FROM devices WHERE name = 'cam{}'",
                     i));
     ASSERT_TRUE(q.step()) << i;
     EXPECT_EQ(q.column_text(0), i % 2 ? "TimestampLatch" : "TimestampControlLatch") << i;
     EXPECT_EQ(q.column_text(1), i % 2 ? "AcquisitionFrameRateEnable" : "") << i;
-    EXPECT_EQ(q.column_text(2), i % 2 ? "ExposureTime" : "ExposureTimeAbs") << i;
+    // cam2's exposure is ExposureTimeRaw, 125 steps of 20 us: stored and used as 2500 us, never as 125.
+    EXPECT_EQ(q.column_text(2), i % 2 ? "ExposureTime" : i == 2 ? "ExposureTimeRaw" : "ExposureTimeAbs") << i;
     // Its stamps mark the exposure's start; the image's instant is half its exposure later.
     const int exposures_us[] = {6000, 4000, 2500, 1000};
     EXPECT_EQ(q.column_int(3), exposures_us[i] * 500) << i;
+    EXPECT_DOUBLE_EQ(q.column_double(4), exposures_us[i]) << i;
+    // Aravis' fake camera has only its own gain counts (GainRaw): the stored gain says so.
+    EXPECT_EQ(q.column_text(5), i % 2 ? "dB" : "GainRaw counts") << i;
   }
   // Each frame's own state, from its chunk data: the SFNC 2 cameras offer it (their frames come with
   // a leader of payload type 0x4001 and the chunks after the image, sim/gvsp_sender.h), and every good

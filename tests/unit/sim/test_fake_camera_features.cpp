@@ -56,6 +56,27 @@ TEST(FakeCameraFeatures, EachMapIsReadUnderItsFamilysNames) {
   EXPECT_EQ(sfnc2["gain"], "Gain");
   EXPECT_EQ(sfnc2["frame_rate"], "AcquisitionFrameRate");
   EXPECT_EQ(sfnc2["frame_rate_enable"], "AcquisitionFrameRateEnable");
+  auto raw = chosen(sim::fake_camera_genicam(sim::NodeMapNaming::RawExposure));
+  EXPECT_EQ(raw["exposure_time"], "ExposureTimeRaw") << "in steps of its ExposureTimeBaseAbs";
+  EXPECT_EQ(raw["gain"], "GainRaw");
+}
+
+// ExposureTimeRaw without its base is never taken for microseconds: the check says what is missing.
+TEST(FakeCameraFeatures, AnExposureInTheCamerasOwnStepsWithoutItsBaseIsRefusedByName) {
+  std::ifstream f(sim::fake_camera_genicam(sim::NodeMapNaming::RawExposure), std::ios::binary);
+  std::string xml{std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+  const auto at = xml.find("<Float Name=\"ExposureTimeBaseAbs\"");
+  ASSERT_NE(at, std::string::npos);
+  xml.replace(at, std::string("<Float Name=\"ExposureTimeBaseAbs\"").size(), "<Float Name=\"PvcapNoBase\"");
+  auto map = GenicamNodeMap::parse(xml);
+  ASSERT_TRUE(map);
+  const NodeMapCheck c = check_node_map(map.value(), CameraConfig{});
+  EXPECT_FALSE(c.usable());
+  ASSERT_FALSE(c.missing.empty());
+  EXPECT_NE(c.missing[0].find("ExposureTimeRaw counts in the camera's own steps, and the map has no "
+                              "ExposureTimeBaseAbs"),
+            std::string::npos)
+      << c.missing[0];
 }
 
 TEST(FakeCameraFeatures, AnSfnc2CamerasRateTakesOnlyWithItsEnableOn) {
