@@ -24,6 +24,7 @@
 
 #include "capture/aravis_camera.h"
 #include "capture/aravis_handles.h"
+#include "capture/aravis_stream.h"
 #include "core/thread_name.h"
 #include "sim/netns.h"
 #include "sim/sim_process.h"
@@ -162,8 +163,10 @@ struct RoundResult {
   std::uint64_t late = 0;  // frames whose arrival is their take (CameraFrame::arrival_late)
 };
 
-// The reference: Aravis' own receive loop, nothing else.
-RoundResult bare_aravis(const CameraConfig& c, double seconds) {
+// The reference: Aravis' own receive loop, nothing else; on a packet socket (Aravis' default as root)
+// or on a UDP port of its own (what pvcap takes for a stream made while other cameras stream), with
+// the receive buffer pvcap gives that one (four frames, capped by net.core.rmem_max).
+RoundResult bare_aravis(const CameraConfig& c, double seconds, StreamSocket socket = StreamSocket::Packet) {
   auto cam = open_bare(c.address);
   if (!cam) return {};
   arv_camera_set_pixel_format_from_string(cam.get(), "BayerRG8", nullptr);
@@ -171,7 +174,13 @@ RoundResult bare_aravis(const CameraConfig& c, double seconds) {
   arv_camera_set_frame_rate(cam.get(), c.frame_rate, nullptr);
   arv_camera_gv_set_packet_size(cam.get(), c.packet_size, nullptr);
   const std::size_t payload = arv_camera_get_payload(cam.get(), nullptr);
+  arv_gv_device_set_stream_options(ARV_GV_DEVICE(arv_camera_get_device(cam.get())),
+                                   socket == StreamSocket::OwnPort ? ARV_GV_STREAM_OPTION_PACKET_SOCKET_DISABLED
+                                                                   : ARV_GV_STREAM_OPTION_NONE);
   arv::GPtr<ArvStream> stream(arv_camera_create_stream(cam.get(), nullptr, nullptr, nullptr));
+  if (socket == StreamSocket::OwnPort)
+    g_object_set(stream.get(), "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_FIXED, "socket-buffer-size",
+                 int(4 * payload), nullptr);
   for (std::size_t i = 0; i < buffer_count_for(c); ++i)
     arv_stream_push_buffer(stream.get(), arv_buffer_new(payload, nullptr));
   arv_camera_start_acquisition(cam.get(), nullptr);
@@ -194,7 +203,9 @@ RoundResult bare_aravis(const CameraConfig& c, double seconds) {
     }
   }
   const double cpu = cpu_seconds() - cpu0;
-  RoundResult r{cpu, frames, 0, figures_by_role(threads0, frames, "receive loop")};
+  guint64 completed = 0, failures = 0, underruns = 0;
+  arv_stream_get_statistics(stream.get(), &completed, &failures, &underruns);
+  RoundResult r{cpu, frames, failures + underruns, figures_by_role(threads0, frames, "receive loop")};
   arv_camera_stop_acquisition(cam.get(), nullptr);
   return r;
 }
@@ -349,6 +360,33 @@ int main(int argc, char** argv) {
     fmt::print("  context switches per frame by thread (medians): pvcap: {}\n", by_role(ours_switches));
     fmt::print("  pvcap frames whose arrival stamp came more than 2 ms late (stamped at their take): {} of {}\n",
                ours_late, ours_frames);
+  }
+  // 1b. The stream's socket: the same bare loop on a packet socket and on a UDP port of its own (a
+  // stream made while other cameras stream: no other camera's packet can reach it), rounds alternated.
+  {
+    const double fps = 30;
+    Simulator sim(1, 1920, 1080, fps);
+    std::vector<double> packet_us, udp_us;
+    std::uint64_t packet_frames = 0, udp_frames = 0, packet_lost = 0, udp_lost = 0;
+    for (int round = 0; round < rounds; ++round)
+      for (const StreamSocket socket : round % 2 ? std::vector{StreamSocket::OwnPort, StreamSocket::Packet}
+                                                 : std::vector{StreamSocket::Packet, StreamSocket::OwnPort}) {
+        const auto r = bare_aravis(camera(0, 1920, 1080, fps), seconds, socket);
+        const double us = r.good ? r.cpu / double(r.good) * 1e6 : 0.0;
+        (socket == StreamSocket::Packet ? packet_us : udp_us).push_back(us);
+        (socket == StreamSocket::Packet ? packet_frames : udp_frames) += r.good;
+        (socket == StreamSocket::Packet ? packet_lost : udp_lost) += r.lost;
+        std::this_thread::sleep_for(300ms);
+      }
+    std::sort(packet_us.begin(), packet_us.end());
+    std::sort(udp_us.begin(), udp_us.end());
+    const std::size_t mid = packet_us.size() / 2;
+    fmt::print(
+        "stream socket, cpu per 1080p frame @ {:.0f} fps (bare aravis loop, median of {}): packet socket {:.0f} us "
+        "({} frames, {} lost), own UDP port {:.0f} us ({} frames, {} lost; net.core.rmem_max {}), ratio udp/packet "
+        "{:.2f}\n",
+        fps, rounds, packet_us[mid], packet_frames, packet_lost, udp_us[mid], udp_frames, udp_lost, read_rmem_max(),
+        packet_us[mid] > 0 ? udp_us[mid] / packet_us[mid] : 0.0);
   }
   if (ratio_only) return 0;
 

@@ -10,8 +10,10 @@
 #include "core/thread_name.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <fstream>
+#include <utility>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -31,6 +33,11 @@ using namespace std::chrono_literals;
 namespace {
 // GVSP overhead on top of the pixels: IP/UDP/GVSP headers per ~1500-byte packet.
 constexpr double kProtocolOverhead = 1.03;
+
+// How many cameras of this process are acquiring now. A stream made while any is (a reconnection, a
+// camera that answered late) takes its packets on a UDP port of its own, never a packet socket: its
+// window before the filter would let another camera's frames in (StreamSocket).
+std::atomic<int> g_acquiring{0};
 
 }  // namespace
 
@@ -126,10 +133,16 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
     return s;
   }
   const ExpectedImage expected{settings_.width, settings_.height, pixel_format_code(settings_.pixel_format)};
+  const int others = g_acquiring.load();
+  const StreamSocket socket = others > 0 ? StreamSocket::OwnPort : StreamSocket::Packet;
+  if (socket == StreamSocket::OwnPort)
+    spdlog::info("{}: {} other camera(s) streaming: this stream takes its packets on a UDP port of its own", label(),
+                 others);
   auto stream = AravisStream::create(link_->camera.get(), index_, connection, settings_.payload, settings_.buffer_count,
                                      config_.packet_resend, config_.socket_buffer_bytes, losses_, expected,
                                      AravisChunks::create(link_->camera.get(), chunk_features_, config_.timestamp_marks,
-                                                          settings_.exposure_us));
+                                                          settings_.exposure_us),
+                                     socket);
   if (!stream) {
     link_->camera.reset();
     return Error{fmt::format("{}: {}", label(), stream.error().message)};
@@ -161,6 +174,13 @@ Status AravisCamera::open() {
     spdlog::info("{}: {} {} serial {} at {}, {} {}x{}+{}+{} @ {:.2f} fps, packet {} B, {} buffers of {} B", label(),
                  st.vendor, st.model, st.serial, st.address, st.pixel_format, st.width, st.height, st.x, st.y,
                  st.frame_rate, st.packet_size, st.buffer_count, st.payload);
+    // A stream made again while other cameras stream receives on a UDP socket (StreamSocket), whose
+    // buffer the kernel caps at rmem_max: under two frames, a reconnected camera would lose frames.
+    if (const long rmem = read_rmem_max(); rmem > 0 && std::size_t(rmem) < 2 * st.payload)
+      spdlog::warn("{}: net.core.rmem_max is {} bytes, under two of its frames ({} bytes): after a reconnection its "
+                   "stream receives on a UDP socket capped there and may lose frames; raise it: sysctl -w "
+                   "net.core.rmem_max={}",
+                   label(), rmem, 2 * st.payload, 4 * st.payload);
     std::vector<std::string> used;
     for (const auto& [role, name] : st.features) used.push_back(role + " " + name);
     spdlog::info("{}: features (node map {}): {}", label(), st.node_map_version, fmt::join(used, ", "));
@@ -195,6 +215,7 @@ Status AravisCamera::start() {
     arv::GErrorSlot err;
     arv_camera_start_acquisition(link_->camera.get(), err.out());
     if (err) return Error{fmt::format("{}: AcquisitionStart failed: {}", label(), err.message())};
+    if (!std::exchange(link_->acquiring, true)) g_acquiring.fetch_add(1);
   }
   started_at_ = host_now();
   // The first frames' instants come from this probe: mapped by their arrivals instead, they were 4-14
@@ -243,6 +264,7 @@ void AravisCamera::teardown_connection(bool camera_reachable) {
     stream = std::move(link_->stream);
     camera = std::move(link_->camera);
     if (stream) past_counters_ += stream->counters();
+    if (std::exchange(link_->acquiring, false)) g_acquiring.fetch_sub(1);
   }
   if (stream) {
     std::lock_guard feed(feed_mu_);
@@ -370,6 +392,7 @@ bool AravisCamera::reconnect() {
   {
     std::lock_guard lock(mu_);
     if (link_->camera) arv_camera_start_acquisition(link_->camera.get(), err.out());
+    if (link_->camera && !err && !std::exchange(link_->acquiring, true)) g_acquiring.fetch_add(1);
   }
   if (err) {
     teardown_connection(false);

@@ -13,6 +13,7 @@ struct AravisCamera::Link {
   arv::GPtr<ArvCamera> camera;
   std::shared_ptr<AravisStream> stream;
   gulong control_lost_id = 0;
+  bool acquiring = false;  // told AcquisitionStart, and counted among the process's acquiring cameras
   // GLib's "control-lost" signal, on Aravis' heartbeat thread: wakes the control loop.
   static void on_control_lost(ArvGvDevice*, void* self) {
     auto* cam = static_cast<AravisCamera*>(self);

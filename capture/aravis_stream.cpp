@@ -30,21 +30,31 @@ Result<std::shared_ptr<AravisStream>> AravisStream::create(ArvCamera* camera, in
                                                            std::size_t buffer_count, bool packet_resend,
                                                            int socket_buffer_bytes, BoundedQueue<FrameLoss>& losses,
                                                            const ExpectedImage& expected,
-                                                           std::shared_ptr<const AravisChunks> chunks) {
+                                                           std::shared_ptr<const AravisChunks> chunks,
+                                                           StreamSocket socket) {
   std::shared_ptr<AravisStream> self(new AravisStream(losses, camera_index, connection, buffer_count),
                                      &AravisStream::destroy);
   self->expected_ = expected;
   self->chunks_ = std::move(chunks);
   arv::GErrorSlot err;
   self->created_ns_ = host_now().ns;
+  // The options are the device's and read when its stream is made: set for this stream each time.
+  if (ArvDevice* device = arv_camera_get_device(camera); ARV_IS_GV_DEVICE(device))
+    arv_gv_device_set_stream_options(ARV_GV_DEVICE(device), socket == StreamSocket::OwnPort
+                                                                ? ARV_GV_STREAM_OPTION_PACKET_SOCKET_DISABLED
+                                                                : ARV_GV_STREAM_OPTION_NONE);
   self->stream_.reset(arv_camera_create_stream(camera, &AravisStream::on_stream_event, self.get(), err.out()));
   if (!self->stream_) return Error{fmt::format("cannot create the video stream: {}", err.message())};
   if (ARV_IS_GV_STREAM(self->stream_.get())) {
     g_object_set(self->stream_.get(), "packet-resend",
                  packet_resend ? ARV_GV_STREAM_PACKET_RESEND_ALWAYS : ARV_GV_STREAM_PACKET_RESEND_NEVER, nullptr);
-    if (socket_buffer_bytes > 0)
+    // A UDP socket holds what arrives while the stream thread waits for the CPU: at least four frames
+    // (the kernel caps it at net.core.rmem_max).
+    const std::size_t own_port_floor = socket == StreamSocket::OwnPort ? 4 * payload : 0;
+    const auto bytes = std::max<std::size_t>(std::size_t(std::max(socket_buffer_bytes, 0)), own_port_floor);
+    if (bytes > 0)
       g_object_set(self->stream_.get(), "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_FIXED, "socket-buffer-size",
-                   socket_buffer_bytes, nullptr);
+                   int(std::min<std::size_t>(bytes, 1u << 30)), nullptr);
   }
   for (std::size_t i = 0; i < buffer_count; ++i) {
     ArvBuffer* buffer = arv_buffer_new_full(payload, nullptr, &self->arrivals_[i], nullptr);

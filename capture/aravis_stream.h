@@ -41,6 +41,14 @@ struct ExpectedImage {
   std::uint32_t pixel_format = 0;  // PFNC
 };
 
+// How a stream receives its camera's packets. Aravis' packet socket (the default where raw sockets
+// are allowed: root, CAP_NET_RAW) costs the least CPU, but from its making until its filter is
+// attached it takes every packet on the interface: made while another camera streams, it can
+// assemble that camera's frame as its own, size and format alike when the cameras are identical.
+// A UDP socket of its own takes only what is sent to its own port: no other camera's frame can reach
+// it (it needs a receive buffer of a few frames: net.core.rmem_max, which preflight checks).
+enum class StreamSocket { Packet, OwnPort };
+
 class AravisStream : public std::enable_shared_from_this<AravisStream> {
  public:
   // Creates the stream on `camera` with `buffer_count` buffers of `payload` bytes. Frames are
@@ -54,7 +62,8 @@ class AravisStream : public std::enable_shared_from_this<AravisStream> {
                                                       std::size_t payload, std::size_t buffer_count, bool packet_resend,
                                                       int socket_buffer_bytes, BoundedQueue<FrameLoss>& losses,
                                                       const ExpectedImage& expected = {},
-                                                      std::shared_ptr<const AravisChunks> chunks = nullptr);
+                                                      std::shared_ptr<const AravisChunks> chunks = nullptr,
+                                                      StreamSocket socket = StreamSocket::Packet);
   ~AravisStream();
   AravisStream(const AravisStream&) = delete;
   AravisStream& operator=(const AravisStream&) = delete;

@@ -49,6 +49,11 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
           cr.fail(cams[i]["return_after_s"], "return_after_s", "needs a stop_after_s before it");
         c.return_after_s = v;
       }
+      cr.get_in_range("outages", c.outages, 1, 10000);
+      cr.get_in_range("outage_every_s", c.outage_every_s, 0.0, 1e7);
+      if (c.outages > 1 && (!c.return_after_s || c.outage_every_s <= *c.return_after_s - *c.stop_after_s))
+        cr.fail(cams[i]["outages"], "outages",
+                "more than one needs a return_after_s and an outage_every_s longer than the outage");
       cr.get("trigger_line", c.trigger_line);
       if (cr.has("node_map")) {
         std::string naming;

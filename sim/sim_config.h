@@ -58,6 +58,9 @@ struct SimCameraClock {
   double exposure_wobble_us = 0;
   std::optional<double> stop_after_s;    // camera vanishes after this many seconds (from sim start)
   std::optional<double> return_after_s;  // and comes back (power-cycled: frame ids restart) after this many
+  // The outage again every `outage_every_s` after the first, `outages` times in all (with return_after_s).
+  int outages = 1;
+  double outage_every_s = 0;
   bool trigger_line = true;              // wired to the rig's trigger line (used with trigger: hardware)
   // Its node map's naming: "aravis" (Aravis' fake camera's: ExposureTimeAbs, GainRaw,
   // TimestampControlLatch), "sfnc2" (ExposureTime, Gain, TimestampLatch, AcquisitionFrameRateEnable)

@@ -42,7 +42,7 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
   self->truth_dir_ = truth_dir;
   self->t0_ns_ = host_now().ns;
   self->hand_ = std::make_shared<Hand>(self->sim_.sensel);
-  self->returned_.assign(rig.cameras.size(), false);
+  self->returned_.assign(rig.cameras.size(), 0);
 
   nlohmann::json truth;
   truth["t0_ns"] = self->t0_ns_;
@@ -277,18 +277,22 @@ void SimRig::run(const std::atomic<bool>& stop) {
     }
     for (std::size_t i = 0; i < cameras_.size(); ++i) {
       const SimCameraClock& clk = sim_.cameras[i];
-      if (cameras_[i] && clk.stop_after_s && !returned_[i] && elapsed_s >= *clk.stop_after_s) {
-        spdlog::warn("sim: camera {} vanishes now (stop_after_s = {})", rig_.cameras[i].name, *clk.stop_after_s);
+      // The k-th outage (from 0) runs from stop_after_s + k * outage_every_s to return_after_s + k * outage_every_s.
+      const int k = returned_[i];
+      const double shift = k * sim_.cameras[i].outage_every_s;
+      const bool outage_left = k < (clk.return_after_s ? clk.outages : 1);
+      if (cameras_[i] && clk.stop_after_s && outage_left && elapsed_s >= *clk.stop_after_s + shift) {
+        spdlog::warn("sim: camera {} vanishes now (outage {} of {})", rig_.cameras[i].name, k + 1, clk.outages);
         cameras_[i].reset();
       }
-      if (!cameras_[i] && clk.return_after_s && !returned_[i] && elapsed_s >= *clk.return_after_s) {
-        returned_[i] = true;
+      if (!cameras_[i] && clk.return_after_s && outage_left && elapsed_s >= *clk.return_after_s + shift) {
+        ++returned_[i];
         const bool sensel_sim = rig_.sensel && rig_.sensel->tty == "sim";
         auto made = SimCamera::create(int(i), rig_.cameras[i], clk, t0_ns_, sim_.seed + 1, truth_dir_,
                                       sensel_sim ? hand_ : nullptr);
         if (made) {
           cameras_[i] = std::move(made.value());
-          spdlog::warn("sim: camera {} is back (return_after_s = {})", rig_.cameras[i].name, *clk.return_after_s);
+          spdlog::warn("sim: camera {} is back (outage {} of {} over)", rig_.cameras[i].name, k + 1, clk.outages);
         } else {
           spdlog::error("sim: camera {} could not come back: {}", rig_.cameras[i].name, made.error().message);
         }

@@ -49,7 +49,7 @@ class SimRig {
   SimConfig sim_;  // the rig's sim: section
   std::filesystem::path truth_dir_;
   std::int64_t t0_ns_ = 0;
-  std::vector<bool> returned_;
+  std::vector<int> returned_;  // per camera, how many of its outages have ended
   std::shared_ptr<Hand> hand_;
   std::mutex hand_truth_mu_;
   std::ofstream hand_truth_;

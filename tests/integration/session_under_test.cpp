@@ -42,6 +42,7 @@ std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, i
                      c.drift_ppm, c.packet_loss);
     if (c.stop_after_s >= 0) y += fmt::format(", stop_after_s: {}", c.stop_after_s);
     if (c.return_after_s >= 0) y += fmt::format(", return_after_s: {}", c.return_after_s);
+    if (c.outages > 1) y += fmt::format(", outages: {}, outage_every_s: {}", c.outages, c.outage_every_s);
     if (!c.trigger_line) y += ", trigger_line: false";
     if (!c.node_map.empty()) y += ", node_map: " + c.node_map;
     if (c.white_balance_auto) y += ", white_balance_auto: true";

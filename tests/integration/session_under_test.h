@@ -16,6 +16,8 @@ struct SimCameraSpec {
   double packet_loss = 0;
   double stop_after_s = -1;    // < 0: never
   double return_after_s = -1;  // < 0: never
+  int outages = 1;              // that outage again every outage_every_s, this many times in all
+  double outage_every_s = 0;
   bool trigger_line = true;    // false: not wired to the simulated trigger line
   double drift_ppm = 0;
   double offset_ms = 1000;  // fields are set by name in the tests ({.packet_loss = 0.01})

@@ -429,6 +429,64 @@ TEST(SimSession, CameraThatComesBackIsReconnectedAndRecordsAgain) {
   EXPECT_EQ(v.timecode_ok, v.decoded);
 }
 
+// Four identical cameras (one region, one pixel format: the rig labs build), cam1 unplugged and back
+// 20 times while the other three stream at 60 Hz. A stream made while others stream takes its
+// packets on a UDP port of its own (capture/aravis_stream.h, StreamSocket): no other camera's frame
+// can reach it, so every frame stored under a camera's name is that camera's, by the simulator's
+// per-camera truth (its id, device time and the true instant drawn into its pixels).
+TEST(SimSession, FourIdenticalCamerasOneReconnectedTwentyTimesStoreOnlyTheirOwnFrames) {
+  constexpr int kOutages = 20;
+  constexpr double kEvery = 2.5, kFirst = 2.0, kOutage = 0.4;
+  const double duration = kFirst + (kOutages - 1) * kEvery + kOutage + 2.5;
+  std::vector<SimCameraSpec> cams(4);
+  for (std::size_t i = 0; i < cams.size(); ++i) cams[i].offset_ms = 1000 + 7919.0 * double(i);
+  cams[1].stop_after_s = kFirst;
+  cams[1].return_after_s = kFirst + kOutage;
+  cams[1].outages = kOutages;
+  cams[1].outage_every_s = kEvery;
+  const auto s = record("identical-reconnect", sim_rig_yaml(cams, 320, 240, 60, 0), duration);
+  ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
+  ASSERT_EQ(s.cameras.size(), 4u);
+  // Every reconnection, each on a stream of its own UDP port (the others were streaming).
+  std::size_t own_port = 0;
+  for (auto at = s.result.output.find("cam1 (serial PVSIM1 at 127.0.0.3): 3 other camera(s) streaming: this stream "
+                                      "takes its packets on a UDP port of its own");
+       at != std::string::npos; at = s.result.output.find("this stream takes its packets on a UDP port", at + 1))
+    ++own_port;
+  pvcap::sqlite::Database db(s.dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  auto q = db.prepare("SELECT count(*) FROM events WHERE device_id = ? AND kind = 'camera_reconnected'");
+  q.bind(1, s.cameras[1].device_id);
+  ASSERT_TRUE(q.step());
+  EXPECT_EQ(q.column_int(0), kOutages) << s.result.output;
+  // (A reconnection whose camera went again between its stream and its start makes one more.)
+  EXPECT_GE(own_port, std::size_t(kOutages)) << "a reconnection's stream on a packet socket";
+  // Each camera's rows name only frames its own camera sent; each stored picture is the frame its row
+  // names, by the instant the simulator drew into it.
+  std::map<Key, std::string> sent_by;
+  for (const auto& c : s.cameras)
+    for (const auto& t : c.truth) sent_by[{t.frame_id, t.device_ns}] += c.name;
+  for (const auto& c : s.cameras) {
+    SCOPED_TRACE(c.name);
+    std::size_t good = 0, foreign = 0;
+    for (const auto& f : c.frames) {
+      if (f.status != "good") continue;
+      ++good;
+      const auto who = sent_by.find({f.frame_id, f.device_ns});
+      if (who == sent_by.end() || who->second != c.name) {
+        ++foreign;
+        ADD_FAILURE() << "frame id " << f.frame_id << " device_ns " << f.device_ns << " (connection " << f.connection
+                      << ") was sent by " << (who == sent_by.end() ? std::string("no camera") : who->second);
+      }
+    }
+    EXPECT_GT(good, std::size_t(c.name == "cam1" ? 20 * kOutages : 50 * duration)) << "too few frames to tell";
+    EXPECT_EQ(foreign, 0u);
+    const VideoCheck v = check_video(s.dir, c);
+    EXPECT_GT(v.decoded, 0u);
+    EXPECT_EQ(v.timecode_ok, v.decoded) << "a stored picture is not the frame its row names";
+    std::printf("%s: %zu good frames, %zu decoded from its videos, all its own\n", c.name.c_str(), good, v.decoded);
+  }
+}
+
 TEST(SimSession, SoftwareTriggeredCameraDeliversAtTheConfiguredRate) {
   const double duration = 4, fps = 20;
   const auto s = record("swtrigger", sim_rig_yaml({{}}, kWidth, kHeight, fps, 0, "software"), duration);
