@@ -22,11 +22,18 @@ std::string read_file(const std::string& path) {
 }
 
 nlohmann::json as_json(const NodeMapCheck& c) {
-  nlohmann::json features = nlohmann::json::object(), types = nlohmann::json::object();
-  for (const auto& f : c.features) features[f.role] = f.name, types[f.role] = f.type;
+  nlohmann::json features = nlohmann::json::object(), types = nlohmann::json::object(),
+                 roles = nlohmann::json::object();
+  for (const auto& f : c.features) {
+    features[f.role] = f.name, types[f.role] = f.type;
+    nlohmann::json role = {{"name", f.name}, {"type", f.type}, {"access", f.access}};
+    if (!f.entries.empty()) role["entries"] = f.entries;
+    if (f.range) role["range"] = {f.range->first, f.range->second};
+    roles[f.role] = role;
+  }
   return {{"usable", c.usable()}, {"clock", c.clock},       {"features", features}, {"types", types},
-          {"missing", c.missing}, {"warnings", c.warnings}, {"ptp", c.ptp},         {"chunks", c.chunks},
-          {"vendor", c.vendor},   {"model", c.model},       {"version", c.version}};
+          {"roles", roles},       {"missing", c.missing},   {"warnings", c.warnings}, {"ptp", c.ptp},
+          {"chunks", c.chunks},   {"vendor", c.vendor},     {"model", c.model},       {"version", c.version}};
 }
 
 void print(const NodeMapCheck& c, const std::string& file) {
@@ -36,7 +43,11 @@ void print(const NodeMapCheck& c, const std::string& file) {
     if (!f.entries.empty())
       entries = f.entries.size() <= 12 ? fmt::format(": {}", fmt::join(f.entries, ", "))
                                        : fmt::format(": {} entries", f.entries.size());
-    fmt::print("  {:<26} {:<28} {}{}\n", f.role, f.name, f.type, entries);
+    else if (f.range)
+      entries = fmt::format(": {:.10g} to {:.10g}", f.range->first, f.range->second);
+    else if (f.type == "Integer" || f.type == "Float")
+      entries = ": range from the camera";
+    fmt::print("  {:<26} {:<30} {:<2} {}{}\n", f.role, f.name, f.access, f.type, entries);
   }
   fmt::print("clock: {}\nPTP: {}\nchunk data: {}\n",
              c.clock == "latch" ? "latch (the camera's own, latched)" : "arrival (host arrival times)",

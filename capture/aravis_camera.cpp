@@ -48,6 +48,12 @@ long read_rmem_max() {
   return in ? v : 0;
 }
 
+LinkPacing link_pacing(std::size_t packet_bytes, double link_mbps, int link_cameras) {
+  const double link_bits_per_s = link_mbps * 1e6, n = std::max(1, link_cameras);
+  // A packet takes P*8/L on the wire; at a share of L/n it may leave every P*8*n/L: the rest is the gap.
+  return {link_bits_per_s / 8.0 / n, double(packet_bytes) * 8.0 * (n - 1) / link_bits_per_s};
+}
+
 std::size_t buffer_count_for(const CameraConfig& config) {
   if (config.buffer_count > 0) return std::size_t(config.buffer_count);
   return std::max<std::size_t>(8, std::size_t(std::ceil(config.frame_rate * 0.5)));
@@ -55,6 +61,11 @@ std::size_t buffer_count_for(const CameraConfig& config) {
 
 Status preflight(const std::string& label, const LinkBudget& b) {
   const double mbps = double(b.payload_bytes) * 8.0 * b.frame_rate * kProtocolOverhead / 1e6;
+  if (b.link_cameras > 1 && mbps * b.link_cameras > b.link_mbps)
+    return Error{fmt::format(
+        "{}: {} cameras share link '{}' ({:.0f} Mbit/s), and each needs {:.0f} Mbit/s ({} bytes per frame at {:.1f} "
+        "fps): {:.0f} in all. Lower frame_rate, crop width/height, or give some of them another link",
+        label, b.link_cameras, b.link, b.link_mbps, mbps, b.payload_bytes, b.frame_rate, mbps * b.link_cameras)};
   if (mbps > b.link_mbps)
     return Error{
         fmt::format("{}: {} bytes per frame at {:.1f} fps needs {:.0f} Mbit/s, more than its {:.0f} Mbit/s link: lower "
@@ -126,8 +137,8 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
     link_->camera.reset();
     return s;
   }
-  const LinkBudget budget{settings_.payload, settings_.frame_rate, config_.link_mbps, config_.socket_buffer_bytes,
-                          read_rmem_max()};
+  const LinkBudget budget{settings_.payload,          settings_.frame_rate, config_.link_mbps,   config_.socket_buffer_bytes,
+                          read_rmem_max(),            config_.link_cameras, config_.link};
   if (Status s = preflight(label(), budget); !s.ok()) {
     link_->camera.reset();
     return s;
@@ -475,7 +486,12 @@ void AravisCamera::probe_loop() {
   constexpr int kFastProbes = 20;
   std::uint32_t connection = 0;
   int taken = 0;
+  auto state_due = std::chrono::steady_clock::now();
   while (running_.load()) {
+    if (const auto now = std::chrono::steady_clock::now(); now >= state_due) {
+      state_due = now + 1s;
+      watch_state();
+    }
     const Probe p = probe_clock();
     if (const std::uint32_t now_on = connection_.load(); now_on != connection) {
       connection = now_on;  // a new connection starts a new clock segment: converge again
@@ -485,6 +501,40 @@ void AravisCamera::probe_loop() {
     const auto pause = p == Probe::Failed ? 2000ms : taken < kFastProbes ? 250ms : 1000ms;
     std::unique_lock lock(wake_mu_);
     wake_.wait_for(lock, pause, [&] { return !running_.load(); });
+  }
+}
+
+void AravisCamera::watch_state() {
+  arv::GPtr<ArvCamera> cam;
+  std::string temperature, ptp;
+  {
+    std::lock_guard lock(mu_);
+    if (!link_->camera) return;
+    const auto& features = settings_.features;
+    if (const auto t = features.find(role_key(CameraRole::DeviceTemperature)); t != features.end())
+      temperature = t->second;
+    if (const auto p = features.find(role_key(CameraRole::PtpStatus)); p != features.end()) ptp = p->second;
+    if (temperature.empty() && ptp.empty()) return;
+    cam.reset(ARV_CAMERA(g_object_ref(link_->camera.get())));
+  }
+  ArvDevice* dev = arv_camera_get_device(cam.get());
+  if (!temperature.empty()) {
+    arv::GErrorSlot err;
+    const double t = arv_device_get_float_feature_value(dev, temperature.c_str(), err.out());
+    if (!err && std::isfinite(t) && (!said_temperature_ || std::abs(t - *said_temperature_) >= 1.0)) {
+      said_temperature_ = t;
+      emit(CameraEvent::Kind::State, fmt::format("{}: device temperature {:.1f} C ({})", label(), t, temperature));
+    }
+  }
+  if (!ptp.empty()) {
+    arv::GErrorSlot err;
+    const char* status = arv_device_get_string_feature_value(dev, ptp.c_str(), err.out());
+    if (!err && status && said_ptp_status_ != status) {
+      emit(CameraEvent::Kind::State, fmt::format("{}: PTP status {}{} ({})", label(), status,
+                                                 said_ptp_status_.empty() ? "" : " (was " + said_ptp_status_ + ")",
+                                                 ptp));
+      said_ptp_status_ = status;
+    }
   }
 }
 

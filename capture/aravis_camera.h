@@ -55,11 +55,14 @@ struct CameraSettings {
   // The chunk values each frame carries (role key -> the camera's name: chunk_exposure_time ->
   // ChunkExposureTime); empty when chunk mode is off.
   std::map<std::string, std::string> chunks;
+  // On a link shared with other cameras: what paces it to its share ("GevSCPD 120 ticks: ..."), "" otherwise.
+  std::string link_pacing;
 };
 
 struct CameraEvent {
   // NoTrigger: a camera on a trigger line sends nothing but answers: no trigger reaches it.
-  enum class Kind { Lost, Reconnected, NoTrigger };
+  // State: what the camera says of itself changed (its temperature by a degree, its PTP status).
+  enum class Kind { Lost, Reconnected, NoTrigger, State };
   int camera = 0;
   Kind kind = Kind::Lost;
   HostNs at;
@@ -73,11 +76,22 @@ struct LinkBudget {
   double link_mbps = 1000;
   int socket_buffer_bytes = 0;  // requested (0 = auto)
   long rmem_max = 0;            // net.core.rmem_max
+  int link_cameras = 1;         // cameras sharing the link (each taken to need as much as this one)
+  std::string link;             // its name, for the message
 };
 // Refuses a configuration the link or kernel cannot carry; the message says what to change.
 Status preflight(const std::string& camera_label, const LinkBudget& budget);
 // Reads net.core.rmem_max (0 when unreadable).
 long read_rmem_max();
+// A camera's share of a link `link_cameras` cameras share: the bytes per second it may send, and the
+// gap to leave between its packets of `packet_bytes` beyond their own time on the wire, so that its
+// bursts take no more of the link than its share (GigE cameras otherwise send a frame at line rate,
+// and frames of several cameras at once overflow the port they share).
+struct LinkPacing {
+  double share_bytes_per_s = 0;
+  double packet_delay_s = 0;
+};
+LinkPacing link_pacing(std::size_t packet_bytes, double link_mbps, int link_cameras);
 // Buffers to allocate: the config's, or about half a second of frames (at least 8).
 std::size_t buffer_count_for(const CameraConfig& config);
 
@@ -149,6 +163,10 @@ class AravisCamera {
   // Chunk mode on with every chunk pvcap reads that the camera has (none: left off); what it enabled
   // goes to chunk_features_. Not fatal: a camera whose chunks cannot be set records without them.
   void set_chunks(AravisFeatures& f);
+  // Paces a camera on a shared link to its share (LinkPacing) through its bandwidth feature; refuses
+  // one its feature cannot pace that far, naming the range. After the packet size is settled.
+  Status set_link_pacing(AravisFeatures& f);
+  std::string link_pacing_;  // what set_link_pacing did, for CameraSettings
   std::map<CameraRole, std::string> chunk_features_;
   Status read_back(const AravisFeatures& f, const NodeMapCheck& check);
   bool features_said_ = false;  // what the camera cannot do is warned of once, not at every reconnection
@@ -168,6 +186,11 @@ class AravisCamera {
   // them 15 ms off, out of their groups.
   void probe_clock_at_start();
   void probe_loop();  // its own thread: the probes while streaming
+  // Read once a second from the probe thread, where the camera offers them: its temperature (a State
+  // event at the first reading and at each change of a degree) and its PTP status (at each change).
+  void watch_state();
+  std::optional<double> said_temperature_;
+  std::string said_ptp_status_;
   void emit(CameraEvent::Kind kind, std::string message);
 
   const int index_;

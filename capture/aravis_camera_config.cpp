@@ -3,6 +3,7 @@
 // back. Its connection, streaming and supervision are in aravis_camera.cpp.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -95,6 +96,50 @@ Status AravisCamera::set_features(AravisFeatures& f) {
     arv_camera_gv_auto_packet_size(cam, err.out());
     if (err) return Error{fmt::format("{}: negotiating the packet size failed: {}", label(), err.message())};
   }
+  return set_link_pacing(f);
+}
+
+Status AravisCamera::set_link_pacing(AravisFeatures& f) {
+  link_pacing_.clear();
+  if (config_.link_cameras <= 1) return {};
+  ArvCamera* cam = link_->camera.get();
+  const std::size_t packet = arv_camera_gv_get_packet_size(cam, nullptr);
+  const LinkPacing p = link_pacing(packet, config_.link_mbps, config_.link_cameras);
+  const std::string shared = fmt::format("link '{}' ({:g} Mbit/s) shared by {} cameras", config_.link,
+                                         config_.link_mbps, config_.link_cameras);
+  if (!f.has(CameraRole::BandwidthLimit)) {
+    if (!features_said_)
+      spdlog::warn("{}: on {}, but it has no packet delay or throughput limit (GevSCPD, StreamBytesPerSecond, "
+                   "DeviceLinkThroughputLimit): its frames go out at line rate, and the cameras' bursts may "
+                   "overflow the link's port",
+                   label(), shared);
+    return {};
+  }
+  const std::string name = f.name(CameraRole::BandwidthLimit);
+  if (name == "GevSCPD") {
+    // GigE Vision's inter-packet delay counts timestamp ticks (nanoseconds on SFNC 2 cameras).
+    ArvDevice* dev = arv_camera_get_device(cam);
+    const std::uint64_t hz = ARV_IS_GV_DEVICE(dev) ? arv_gv_device_get_timestamp_tick_frequency(ARV_GV_DEVICE(dev), nullptr) : 0;
+    const double ticks = std::ceil(p.packet_delay_s * double(hz > 0 ? hz : 1'000'000'000));
+    if (Status s = f.set_number(CameraRole::BandwidthLimit, ticks); !s.ok())
+      return Error{fmt::format("{}: on {}, its {}-byte packets need {:.2f} us between them ({:g} ticks of its "
+                               "GevSCPD) to keep to a share of {:.0f} Mbit/s, which it cannot: {}. Use fewer cameras "
+                               "on the link, a larger packet_size, or a faster link",
+                               label(), shared, packet, p.packet_delay_s * 1e6, ticks,
+                               p.share_bytes_per_s * 8 / 1e6, s.error().message)};
+    link_pacing_ = fmt::format("GevSCPD {:g} ticks ({:.2f} us between its {}-byte packets) on {}",
+                               f.number(CameraRole::BandwidthLimit).value_or(-1), p.packet_delay_s * 1e6, packet,
+                               shared);
+  } else {
+    // Allied Vision's StreamBytesPerSecond and SFNC's DeviceLinkThroughputLimit: bytes per second.
+    if (f.has(CameraRole::BandwidthLimitMode)) (void)f.set_flag(CameraRole::BandwidthLimitMode, true);
+    if (Status s = f.set_number(CameraRole::BandwidthLimit, std::floor(p.share_bytes_per_s)); !s.ok())
+      return Error{fmt::format("{}: on {}, its share is {:.0f} bytes/s, which its {} cannot be set to: {}", label(),
+                               shared, p.share_bytes_per_s, name, s.error().message)};
+    link_pacing_ = fmt::format("{} {:g} bytes/s on {}", name, f.number(CameraRole::BandwidthLimit).value_or(-1),
+                               shared);
+  }
+  if (!features_said_) spdlog::info("{}: paced: {}", label(), link_pacing_);
   return {};
 }
 
@@ -143,9 +188,23 @@ Status AravisCamera::set_trigger_and_rate(AravisFeatures& f) {
     // FLIR takes a rate only with its enable on (older Point Grey: ...Enabled).
     if (f.has(CameraRole::FrameRateEnable))
       PVCAP_TRY(set(f.set_flag(CameraRole::FrameRateEnable, true), "the frame rate's enable"));
-    if (f.has(CameraRole::FrameRate))
+    // The fastest it can go at the rig's region and format (set above): its rate's maximum now, and
+    // the rate it says it will reach where it has such a feature. Named before a rate is refused.
+    if (f.has(CameraRole::FrameRate)) {
+      double most = std::numeric_limits<double>::infinity();
+      std::string said;
+      if (const auto r = f.range(f.name(CameraRole::FrameRate)); r && r->second < most)
+        most = r->second, said = fmt::format("{}'s maximum", f.name(CameraRole::FrameRate));
+      if (const auto r = f.number(CameraRole::ResultingFrameRate); r && *r > 0 && *r < most)
+        most = *r, said = f.name(CameraRole::ResultingFrameRate);
+      if (config_.frame_rate > most * 1.001)
+        return Error{fmt::format("{}: cannot reach {:g} fps at {}x{} {} (its exposure {:g} us as it stands): {} is "
+                                 "{:.2f} there; lower frame_rate, crop width/height, or shorten exposure_us",
+                                 label(), config_.frame_rate, config_.width, config_.height, config_.pixel_format,
+                                 f.number(CameraRole::ExposureTime).value_or(0), said, most)};
       PVCAP_TRY(set(f.set_number(CameraRole::FrameRate, config_.frame_rate),
                     fmt::format("the frame rate to {:g} fps", config_.frame_rate)));
+    }
   } else {
     // Triggered, a rate still enabled would cap the triggers it takes (Basler).
     if (f.has(CameraRole::FrameRateEnable))
@@ -198,6 +257,7 @@ Status AravisCamera::read_back(const AravisFeatures& f, const NodeMapCheck& chec
   for (const auto& [role, name] : f.chosen()) s.features[role_key(role)] = name;
   for (const auto& [role, name] : chunk_features_) s.chunks[role_key(role)] = name;
   s.node_map_version = check.version;
+  s.link_pacing = link_pacing_;
   s.packet_size = arv_camera_gv_get_packet_size(cam, nullptr);
   s.payload = arv_camera_get_payload(cam, err.out());
   if (err || s.payload == 0) return Error{fmt::format("{}: cannot read PayloadSize: {}", label(), err.message())};

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "capture/aravis_handles.h"
+#include "capture/genicam_node_info.h"
 
 namespace pvcap {
 
@@ -52,6 +53,16 @@ std::vector<std::string> AravisFeatures::entries(const std::string& feature) con
   for (guint i = 0; values && i < n; ++i) out.emplace_back(values[i]);
   g_free(values);  // the array only: its strings are the entries' own
   return out;
+}
+
+std::string AravisFeatures::access(const std::string& feature) const {
+  return node_access(arv_device_get_feature(device_, feature.c_str()));
+}
+
+std::optional<std::pair<double, double>> AravisFeatures::range(const std::string& feature) const {
+  const auto r = node_range(arv_device_get_feature(device_, feature.c_str()));
+  if (!r) return std::nullopt;
+  return std::pair{r->min, r->max};
 }
 
 std::vector<std::string> AravisFeatures::all_entries(CameraRole role) const {

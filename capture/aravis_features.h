@@ -28,6 +28,8 @@ class AravisFeatures final : public NodeMapView {
   bool has(const std::string& feature) const override;
   std::string type(const std::string& feature) const override;
   std::vector<std::string> entries(const std::string& feature) const override;
+  std::string access(const std::string& feature) const override;
+  std::optional<std::pair<double, double>> range(const std::string& feature) const override;
   std::string vendor() const override;
   std::string model() const override;
   std::string version() const override;

@@ -23,6 +23,10 @@ const std::vector<RoleNames>& camera_feature_names() {
       {CameraRole::FrameRateEnable,
        "frame_rate_enable",
        {"AcquisitionFrameRateEnable", "AcquisitionFrameRateEnabled", "AcquisitionFrameRateMode"}},
+      // The rate it will reach as configured (region, format, exposure): FLIR and SFNC 2, Basler ace 2; ace classic.
+      {CameraRole::ResultingFrameRate,
+       "resulting_frame_rate",
+       {"AcquisitionResultingFrameRate", "ResultingFrameRate", "ResultingFrameRateAbs"}},
       {CameraRole::ExposureTime, "exposure_time", {"ExposureTime", "ExposureTimeAbs", "ExposureTimeRaw"}},
       {CameraRole::ExposureAuto, "exposure_auto", {"ExposureAuto"}},
       {CameraRole::Gain, "gain", {"Gain", "GainAbs", "GainRaw"}},
@@ -31,6 +35,8 @@ const std::vector<RoleNames>& camera_feature_names() {
       {CameraRole::PacketSize, "packet_size", {"GevSCPSPacketSize"}},
       // Inter-packet delay on most; Allied Vision limits bytes per second instead.
       {CameraRole::BandwidthLimit, "bandwidth_limit", {"GevSCPD", "StreamBytesPerSecond", "DeviceLinkThroughputLimit"}},
+      // SFNC: DeviceLinkThroughputLimit takes only with its mode On.
+      {CameraRole::BandwidthLimitMode, "bandwidth_limit_mode", {"DeviceLinkThroughputLimitMode"}},
       {CameraRole::TimestampLatch,
        "timestamp_latch",
        {"TimestampLatch", "GevTimestampControlLatch", "TimestampControlLatch", "timestampControlLatch"}},

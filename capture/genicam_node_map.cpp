@@ -9,6 +9,7 @@
 
 #include "capture/aravis_handles.h"
 #include "capture/genicam_features.h"
+#include "capture/genicam_node_info.h"
 
 namespace pvcap {
 
@@ -56,6 +57,16 @@ std::vector<std::string> GenicamNodeMap::entries(const std::string& feature) con
   return out;
 }
 
+std::string GenicamNodeMap::access(const std::string& feature) const {
+  return node_access(arv_gc_get_node(impl_->gc.get(), feature.c_str()));
+}
+
+std::optional<std::pair<double, double>> GenicamNodeMap::range(const std::string& feature) const {
+  const auto r = node_range(arv_gc_get_node(impl_->gc.get(), feature.c_str()));
+  if (!r) return std::nullopt;
+  return std::pair{r->min, r->max};
+}
+
 namespace {
 // Aravis hands out its own copy of these attributes (transfer none, though typed char*): never freed here.
 std::string attribute(const char* s) { return s ? s : ""; }
@@ -89,7 +100,8 @@ NodeMapCheck check_node_map(const NodeMapView& map, const CameraConfig& camera) 
   for (const auto& r : camera_feature_names()) {
     const auto it = chosen.find(r.role);
     if (it == chosen.end()) continue;
-    out.features.push_back({r.key, it->second, map.type(it->second), map.entries(it->second)});
+    out.features.push_back({r.key, it->second, map.type(it->second), map.entries(it->second), map.access(it->second),
+                            map.range(it->second)});
   }
   const auto have = [&](CameraRole role) { return chosen.count(role) > 0; };
   for (CameraRole role : {CameraRole::PixelFormat, CameraRole::Width, CameraRole::Height, CameraRole::ExposureTime})
@@ -124,6 +136,9 @@ NodeMapCheck check_node_map(const NodeMapView& map, const CameraConfig& camera) 
       out.warnings.push_back(
           fmt::format("no frame rate feature: it free-runs at its own rate, which may not be the rig's {:g} Hz",
                       camera.frame_rate));
+    else if (const auto r = map.range(chosen.at(CameraRole::FrameRate)); r && camera.frame_rate > r->second * 1.001)
+      out.missing.push_back(fmt::format("a frame rate of {:g} Hz: its {} goes up to {:g}", camera.frame_rate,
+                                        chosen.at(CameraRole::FrameRate), r->second));
     else if (!have(CameraRole::FrameRateEnable) && out.vendor.find("FLIR") != std::string::npos)
       out.warnings.push_back("no frame rate enable: a FLIR camera may ignore the rate set");
     if (!have(CameraRole::TriggerSource)) out.warnings.push_back("no trigger source: no hardware or software trigger");

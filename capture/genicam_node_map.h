@@ -4,7 +4,9 @@
 // their types and an enumeration's entries. Register values need the camera: none are read here.
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/result.h"
@@ -22,6 +24,11 @@ class NodeMapView {
   virtual std::string type(const std::string& feature) const = 0;
   // An enumeration's entries by name (empty for any other feature).
   virtual std::vector<std::string> entries(const std::string& feature) const = 0;
+  // "RO", "RW" or "WO" ("" when absent).
+  virtual std::string access(const std::string& feature) const = 0;
+  // A number's bounds, where they can be read (offline: those the map states, not those in the
+  // camera's registers); nullopt otherwise.
+  virtual std::optional<std::pair<double, double>> range(const std::string& feature) const = 0;
   // The map's own RegisterDescription attributes: VendorName, ModelName, its version (major.minor.subminor).
   virtual std::string vendor() const = 0;
   virtual std::string model() const = 0;
@@ -39,6 +46,8 @@ class GenicamNodeMap final : public NodeMapView {
   bool has(const std::string& feature) const override;
   std::string type(const std::string& feature) const override;
   std::vector<std::string> entries(const std::string& feature) const override;
+  std::string access(const std::string& feature) const override;
+  std::optional<std::pair<double, double>> range(const std::string& feature) const override;
   std::string vendor() const override;
   std::string model() const override;
   std::string version() const override;
@@ -57,6 +66,8 @@ struct NodeMapCheck {
   struct Feature {
     std::string role, name, type;
     std::vector<std::string> entries;  // an enumeration's
+    std::string access;                // RO, RW, WO
+    std::optional<std::pair<double, double>> range;  // a number's, where it can be read
   };
   std::vector<Feature> features;  // every role found, in the table's order
   std::string clock;              // "latch" (the camera's clock, latched) or "arrival" (host arrival times)

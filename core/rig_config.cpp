@@ -79,6 +79,7 @@ CameraConfig parse_camera(const YAML::Node& node, const std::filesystem::path& f
   r.get("chunk_data", c.chunk_data);
   r.get_in_range("buffer_count", c.buffer_count, 0, 10000);
   r.get_in_range("link_mbps", c.link_mbps, 1.0, 1'000'000.0);
+  r.get("link", c.link);
   r.get_in_range("latency_ns", c.latency_ns, std::int64_t{0}, std::int64_t{10'000'000'000});
   std::string marks = "exposure_start";
   r.get("timestamp_marks", marks);
@@ -196,6 +197,21 @@ RigConfig parse_rig_config(const std::string& text, const std::filesystem::path&
       if (!ids.insert(c.id()).second)
         r.fail(cams[i], fmt::format("cameras[{}]", i), fmt::format("camera '{}' is listed twice", c.id()));
       rig.cameras.push_back(std::move(c));
+    }
+    // Cameras on one link: counted, and one capacity for it.
+    for (std::size_t i = 0; i < rig.cameras.size(); ++i) {
+      CameraConfig& c = rig.cameras[i];
+      if (c.link.empty()) continue;
+      c.link_cameras = 0;
+      for (std::size_t j = 0; j < rig.cameras.size(); ++j) {
+        const CameraConfig& o = rig.cameras[j];
+        if (o.link != c.link) continue;
+        ++c.link_cameras;
+        if (o.link_mbps != c.link_mbps)
+          r.fail(cams[i], fmt::format("cameras[{}].link_mbps", i),
+                 fmt::format("{} and {} share link '{}' but give it {:g} and {:g} Mbit/s: one link, one capacity",
+                             c.name, o.name, c.link, c.link_mbps, o.link_mbps));
+      }
     }
     if (const YAML::Node sensel = r.child("sensel")) rig.sensel = parse_sensel(sensel, source);
     if (const YAML::Node store = r.child("store")) rig.store = parse_store(store, source);

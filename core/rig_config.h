@@ -41,6 +41,12 @@ struct CameraConfig {
   bool chunk_data = true;
   int buffer_count = 0;     // 0 = about half a second of frames, at least 8
   double link_mbps = 1000;  // the camera's link: preflight refuses a payload x rate above it
+  // A link shared with the rig's other cameras of the same name (a NIC port behind a switch, a switch's
+  // uplink): together they must fit link_mbps, and each is paced to its share of it (a packet delay,
+  // or the camera's own throughput limit), so that their frames' bursts do not overflow the port.
+  // "" = a link of its own. link_cameras: how many cameras share it (counted by the rig loader).
+  std::string link;
+  int link_cameras = 1;
   // What the camera's frame timestamp marks: SFNC and GigE Vision cameras stamp a frame when its
   // exposure starts (the Basler ace 2's map says so), so the image's instant, the middle of its
   // exposure, is half the exposure later (docs/cameras.md: the vendors' exceptions).

@@ -51,6 +51,7 @@ std::string settings_json(const CameraSettings& s, const CameraConfig& c) {
                       {"features", s.features},
                       {"node_map_version", s.node_map_version},
                       {"chunks", s.chunks},
+                      {"link_pacing", s.link_pacing},
                       {"feature_bag", s.feature_bag},
                       {"packet_resend", c.packet_resend},
                       {"socket_buffer_bytes", c.socket_buffer_bytes},
@@ -120,11 +121,14 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
       if (lost) {
         spdlog::error("{}", e.message);
         self->tallies_[i]->lost_events.fetch_add(1);
+      } else if (e.kind == CameraEvent::Kind::State) {
+        spdlog::info("{}", e.message);
       } else {
         spdlog::warn("{}", e.message);
       }
       const char* kind = lost                                     ? "camera_lost"
                          : e.kind == CameraEvent::Kind::NoTrigger ? "camera_no_trigger"
+                         : e.kind == CameraEvent::Kind::State     ? "camera_state"
                                                                   : "camera_reconnected";
       if (SessionWriter* w = self->events_writer_.load())
         w->record(EventRecord{e.at.ns, kind, self->device_ids_[i], e.message});

@@ -102,8 +102,18 @@ std::string sfnc2_map() {
 <pValue>PvcapBalanceWhiteAutoRegister</pValue></Enumeration>
 <IntReg Name="PvcapBalanceWhiteAutoRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
 <AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+<Float Name="AcquisitionResultingFrameRate" NameSpace="Standard"><ToolTip>The rate it reaches at its region: its sensor reads 200 Mpixel/s</ToolTip>
+<pValue>PvcapResultingFrameRate</pValue></Float>
+<SwissKnife Name="PvcapResultingFrameRate" NameSpace="Custom"><pVariable Name="W">Width</pVariable><pVariable Name="H">Height</pVariable>
+<Formula>200000000 / (W * H)</Formula></SwissKnife>
+<Float Name="DeviceTemperature" NameSpace="Standard"><ToolTip>Device temperature, in degrees Celsius</ToolTip>
+<pValue>PvcapTemperatureConverter</pValue><Unit>C</Unit></Float>
+<Converter Name="PvcapTemperatureConverter" NameSpace="Custom"><FormulaTo>FROM * 10</FormulaTo><FormulaFrom>TO / 10</FormulaFrom>
+<pValue>PvcapTemperatureRegister</pValue></Converter>
+<IntReg Name="PvcapTemperatureRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
+<AccessMode>RO</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
 )",
-      kFrameRateEnableRegister, kFramePeriodRegister, kBalanceWhiteAutoRegister);
+      kFrameRateEnableRegister, kFramePeriodRegister, kBalanceWhiteAutoRegister, kDeviceTemperatureRegister);
   text.insert(text.rfind("</RegisterDescription>"), features);
   // Chunk data: the four values each frame carries (sim/gvsp_sender.h sends them), and a payload that
   // grows by them while chunk mode is on.
@@ -195,7 +205,8 @@ class FeatureService {
     // The engine triggers on a pending software trigger; which source the host chose is ours.
     arv_fake_camera_write_register(fake, kEngineTriggerSource, kSoftware);
     std::lock_guard lock(mu_);
-    cameras_.push_back({owner, fake, std::move(clock), std::move(line), INT64_MIN, naming == NodeMapNaming::Sfnc2});
+    cameras_.push_back(
+        {owner, fake, std::move(clock), std::move(line), INT64_MIN, naming == NodeMapNaming::Sfnc2, host_now().ns});
     if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
   }
   void remove(const void* owner) {
@@ -219,6 +230,7 @@ class FeatureService {
     TriggerLine line;
     std::int64_t last_pulse;  // the line's last pulse that reached this camera (its index)
     bool gated_rate;          // SFNC 2 map: the rate takes only with its enable on
+    std::int64_t served_ns;   // when it was first served: its temperature rises from then
   };
   // When the host has set the command register, the device clock's value goes into the value
   // register and the command clears.
@@ -253,6 +265,12 @@ class FeatureService {
     if (enabled && asked != 0 && asked != engine) arv_fake_camera_write_register(c.fake, kEngineFramePeriod, asked);
     if (!enabled && asked != engine) arv_fake_camera_write_register(c.fake, kFramePeriodRegister, engine);
   }
+  // The SFNC 2 map's DeviceTemperature: a camera warming up, 0.5 C a second from 40 C.
+  static void serve_temperature(const Camera& c, std::int64_t now_ns) {
+    if (!c.gated_rate) return;
+    arv_fake_camera_write_register(c.fake, kDeviceTemperatureRegister,
+                                   guint32(400 + (now_ns - c.served_ns) / 200'000'000));
+  }
   void run() {
     // A camera's latch and trigger input are its hardware's; here a thread serves them every 200 us,
     // 3,000-5,000 wake-ups a second. In the fair scheduler, on saturated cores, the kernel worker
@@ -273,6 +291,7 @@ class FeatureService {
         serve_latch(c);
         serve_line(c, now);
         serve_rate(c);
+        serve_temperature(c, now);
       }
     }
   }

@@ -34,6 +34,8 @@ inline constexpr std::uint32_t kBalanceWhiteAutoRegister = 0xF01C;  // SFNC 2 ma
 inline constexpr std::uint32_t kChunkModeRegister = 0xF020;
 inline constexpr std::uint32_t kChunkSelectorRegister = 0xF024;
 inline constexpr std::uint32_t kChunkEnableRegister = 0xF028;
+// SFNC 2 map: DeviceTemperature, in tenths of a degree: 40 C when served, rising 0.5 C a second.
+inline constexpr std::uint32_t kDeviceTemperatureRegister = 0xF030;
 
 // The raw map's ExposureTimeBaseAbs: one step of its ExposureTimeRaw (Basler's ace classic default).
 inline constexpr double kRawExposureStepUs = 20.0;

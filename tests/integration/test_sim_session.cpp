@@ -660,6 +660,57 @@ TEST(SimSession, SenselIsStoredAtFullRateWithItsDeviceAndArrivalTimes) {
   EXPECT_GT(lifted, 10);
 }
 
+// Cameras that share a link are paced to their share of it through the feature their map has
+// (Aravis' fake camera: GevSCPD, in ticks of its 1 GHz clock), the pacing stored with each; a share
+// their feature cannot pace to is refused before anything is recorded, naming the feature's range.
+TEST(PvcapCommand, CamerasSharingALinkArePacedToTheirShareOrRefusedByName) {
+  const auto on_link = [](std::string yaml, int packet, int link_mbps) {
+    const std::string from = "    packet_size: 8192\n";
+    const std::string to = fmt::format("    packet_size: {}\n    link: nic0\n    link_mbps: {}\n", packet, link_mbps);
+    for (auto at = yaml.find(from); at != std::string::npos; at = yaml.find(from, at + to.size()))
+      yaml.replace(at, from.size(), to);
+    return yaml;
+  };
+  // Two cameras on a 100 Gbit/s link, 1500-byte packets: each leaves 0.12 us between its packets.
+  const auto paced = record("link-paced", on_link(sim_rig_yaml({{}, {}}, 320, 240, 30, 15), 1500, 100000), 2);
+  ASSERT_EQ(paced.result.exit_code, 0) << paced.result.output;
+  pvcap::sqlite::Database db(paced.dir / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  for (const auto& c : paced.cameras) {
+    auto q = db.prepare("SELECT json_extract(settings_json, '$.link_pacing') FROM devices WHERE id = ?");
+    q.bind(1, c.device_id);
+    ASSERT_TRUE(q.step());
+    EXPECT_EQ(q.column_text(0).rfind("GevSCPD 120 ticks (0.12 us between its 1500-byte packets) on link 'nic0' "
+                                      "(100000 Mbit/s) shared by 2 cameras",
+                                      0),
+              0u)
+        << c.name << ": " << q.column_text(0);
+  }
+  // Four on a gigabit link with 8192-byte packets need 196.6 us between packets: beyond the fake
+  // camera's GevSCPD (0 to 1000 ticks).
+  const auto refused = record("link-refused", on_link(sim_rig_yaml({{}, {}, {}, {}}, 320, 240, 30, 15), 8192, 1000), 2);
+  EXPECT_EQ(refused.result.exit_code, 1) << refused.result.output;
+  EXPECT_NE(refused.result.output.find("on link 'nic0' (1000 Mbit/s) shared by 4 cameras, its 8192-byte packets need "
+                                       "196.61 us between them"),
+            std::string::npos)
+      << refused.result.output;
+  EXPECT_NE(refused.result.output.find("its range is 0 to 1000"), std::string::npos) << refused.result.output;
+  EXPECT_TRUE(refused.dir.empty()) << "a session was recorded";
+}
+
+// A rate the camera cannot reach at the rig's region and format is refused by name before recording:
+// the simulated SFNC 2 camera says its reachable rate (AcquisitionResultingFrameRate: its sensor reads
+// 200 Mpixel/s, 217 fps at 1280 x 720).
+TEST(PvcapCommand, ARateTheCameraCannotReachAtTheRigsRegionIsNamed) {
+  const auto s = record("rate-out-of-reach", sim_rig_yaml({{.node_map = "sfnc2"}}, 1280, 720, 250, 15), 2);
+  EXPECT_EQ(s.result.exit_code, 1) << s.result.output;
+  EXPECT_NE(s.result.output.find("cam0 (serial PVSIM0 at 127.0.0.2): cannot reach 250 fps at 1280x720 BayerRG8"),
+            std::string::npos)
+      << s.result.output;
+  EXPECT_NE(s.result.output.find("AcquisitionResultingFrameRate is 217.01 there"), std::string::npos)
+      << s.result.output;
+  EXPECT_TRUE(s.dir.empty()) << "a session was recorded";
+}
+
 TEST(PvcapCommand, BadRigFileNamesFileLineAndKeyAndRecordsNothing) {
   const fs::path work = work_dir("badrig");
   std::ofstream(work / "rig.yaml") << "name: x\ncameras:\n  - serial: A\n    framerate: 60\n";

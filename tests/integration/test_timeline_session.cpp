@@ -156,6 +156,19 @@ TEST(TimelineSession, SamplesReferenceEveryCameraAndThePressureAroundThemOnOneCl
     EXPECT_DOUBLE_EQ(q.column_double(4), exposures_us[i]) << i;
     // Aravis' fake camera has only its own gain counts (GainRaw): the stored gain says so.
     EXPECT_EQ(q.column_text(5), i % 2 ? "dB" : "GainRaw counts") << i;
+    // The SFNC 2 cameras say their temperature (DeviceTemperature, warming 0.5 C a second): read every
+    // second, an event at the first reading and at each degree; the others have none to say.
+    auto states = db.prepare(fmt::format(
+        "SELECT count(*), coalesce(min(message), '') FROM events WHERE kind = 'camera_state' AND device_id = "
+        "(SELECT id FROM devices WHERE name = 'cam{}') AND message LIKE '%device temperature%'",
+        i));
+    ASSERT_TRUE(states.step());
+    if (i % 2) {
+      EXPECT_GE(states.column_int(0), 4) << i;
+      EXPECT_NE(states.column_text(1).find("(DeviceTemperature)"), std::string::npos) << states.column_text(1);
+    } else {
+      EXPECT_EQ(states.column_int(0), 0) << i;
+    }
   }
   // Each frame's own state, from its chunk data: the SFNC 2 cameras offer it (their frames come with
   // a leader of payload type 0x4001 and the chunks after the image, sim/gvsp_sender.h), and every good

@@ -118,3 +118,18 @@ TEST(RigConfig, SenselIsReachedByExactlyOneOfTtyOrUsb) {
   EXPECT_NE(error_of(cams + "sensel:\n  scan_detail: high\n").find("exactly one of tty"), std::string::npos);
   EXPECT_NE(error_of(cams + "sensel:\n  usb: ''\n").find("pvcap devices lists it"), std::string::npos);
 }
+
+// Cameras naming one link are counted on it; one link has one capacity.
+TEST(RigConfig, CamerasOnOneLinkAreCountedAndShareOneCapacity) {
+  const auto rig = parse_rig_config(
+      "name: x\ncameras:\n  - {serial: A, link: nic0}\n  - {serial: B, link: nic0}\n  - {serial: C}\n"
+      "  - {serial: D, link: nic0}\n",
+      "rig.yaml");
+  EXPECT_EQ(rig.cameras[0].link_cameras, 3);
+  EXPECT_EQ(rig.cameras[3].link_cameras, 3);
+  EXPECT_EQ(rig.cameras[2].link_cameras, 1) << "a link of its own";
+  const std::string e = error_of(
+      "name: x\ncameras:\n  - {serial: A, link: nic0, link_mbps: 1000}\n  - {serial: B, link: nic0, link_mbps: "
+      "10000}\n");
+  EXPECT_NE(e.find("cam0 and cam1 share link 'nic0' but give it 1000 and 10000 Mbit/s"), std::string::npos) << e;
+}

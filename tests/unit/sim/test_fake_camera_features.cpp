@@ -61,6 +61,50 @@ TEST(FakeCameraFeatures, EachMapIsReadUnderItsFamilysNames) {
   EXPECT_EQ(raw["gain"], "GainRaw");
 }
 
+static std::string map_text(sim::NodeMapNaming naming) {
+  std::ifstream f(sim::fake_camera_genicam(naming), std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+// The check gives each role's access and, where the map states it, its range (a bound held in the
+// camera's registers is the camera's to say: none offline).
+TEST(FakeCameraFeatures, TheCheckGivesEachRolesAccessAndRange) {
+  auto map = GenicamNodeMap::parse(map_text(sim::NodeMapNaming::RawExposure));
+  ASSERT_TRUE(map);
+  const NodeMapCheck c = check_node_map(map.value(), CameraConfig{});
+  std::map<std::string, const NodeMapCheck::Feature*> by_role;
+  for (const auto& f : c.features) by_role[f.role] = &f;
+  ASSERT_TRUE(by_role.count("exposure_time") && by_role.count("timestamp_latch_value") && by_role.count("width"));
+  EXPECT_EQ(by_role["exposure_time"]->access, "RW");
+  ASSERT_TRUE(by_role["exposure_time"]->range);
+  EXPECT_EQ(by_role["exposure_time"]->range->first, 1);
+  EXPECT_EQ(by_role["exposure_time"]->range->second, 500000);
+  EXPECT_EQ(by_role["timestamp_latch_value"]->access, "RO");
+  EXPECT_FALSE(by_role["width"]->range) << "Width's maximum is the sensor's, in a register: not known offline";
+  EXPECT_EQ(by_role["pixel_format"]->access, "RW");
+  EXPECT_FALSE(by_role["pixel_format"]->entries.empty());
+}
+
+// A rate above the most the map's rate feature allows is named before any recording.
+TEST(FakeCameraFeatures, ARateTheCameraCannotReachIsNamed) {
+  std::string xml = map_text(sim::NodeMapNaming::Aravis);
+  const std::string rate = "<Float Name=\"AcquisitionFrameRate\">";
+  const auto at = xml.find(rate);
+  ASSERT_NE(at, std::string::npos);
+  xml.insert(at + rate.size(), "<Min>1</Min><Max>30</Max>");
+  auto map = GenicamNodeMap::parse(xml);
+  ASSERT_TRUE(map);
+  CameraConfig camera;
+  camera.frame_rate = 60;
+  const NodeMapCheck c = check_node_map(map.value(), camera);
+  EXPECT_FALSE(c.usable());
+  bool named = false;
+  for (const auto& m : c.missing) named |= m == "a frame rate of 60 Hz: its AcquisitionFrameRate goes up to 30";
+  EXPECT_TRUE(named) << (c.missing.empty() ? "nothing missing" : c.missing[0]);
+  camera.frame_rate = 25;
+  EXPECT_TRUE(check_node_map(map.value(), camera).usable());
+}
+
 // ExposureTimeRaw without its base is never taken for microseconds: the check says what is missing.
 TEST(FakeCameraFeatures, AnExposureInTheCamerasOwnStepsWithoutItsBaseIsRefusedByName) {
   std::ifstream f(sim::fake_camera_genicam(sim::NodeMapNaming::RawExposure), std::ios::binary);
