@@ -143,7 +143,11 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
     link_->camera.reset();
     return s;
   }
-  const ExpectedImage expected{settings_.width, settings_.height, pixel_format_code(settings_.pixel_format)};
+  // The pixel format each frame must carry: by its name where the codec knows it, else the code the
+  // camera itself reads back (a vendor's own format still guards against another camera's frames).
+  std::uint32_t format = pixel_format_code(settings_.pixel_format);
+  if (format == 0) format = std::uint32_t(arv_camera_get_pixel_format(link_->camera.get(), nullptr));
+  const ExpectedImage expected{settings_.width, settings_.height, format};
   const int others = g_acquiring.load();
   const StreamSocket socket = others > 0 ? StreamSocket::OwnPort : StreamSocket::Packet;
   if (socket == StreamSocket::OwnPort)

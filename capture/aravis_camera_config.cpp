@@ -241,6 +241,9 @@ Status AravisCamera::read_back(const AravisFeatures& f, const NodeMapCheck& chec
     }
     s.timestamp_tick_hz = arv_gv_device_get_timestamp_tick_frequency(ARV_GV_DEVICE(dev), nullptr);
   }
+  // Where Aravis' call finds none (another transport, a register not implemented), the map's feature.
+  if (s.timestamp_tick_hz == 0 && f.has(CameraRole::TimestampTickFrequency))
+    s.timestamp_tick_hz = std::uint64_t(std::llround(f.number(CameraRole::TimestampTickFrequency).value_or(0)));
   s.pixel_format = f.entry(CameraRole::PixelFormat).value_or("");
   const auto read_int = [&](CameraRole r) { return int(std::lround(f.number(r).value_or(0))); };
   s.x = read_int(CameraRole::OffsetX);

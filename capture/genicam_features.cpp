@@ -43,9 +43,6 @@ const std::vector<RoleNames>& camera_feature_names() {
       {CameraRole::TimestampLatchValue,
        "timestamp_latch_value",
        {"TimestampLatchValue", "GevTimestampValue", "TimestampValue", "timestampValue"}},
-      {CameraRole::TimestampReset,
-       "timestamp_reset",
-       {"TimestampReset", "GevTimestampControlReset", "TimestampControlReset"}},
       // Absent on SFNC 2 cameras, whose timestamps count nanoseconds.
       {CameraRole::TimestampTickFrequency,
        "timestamp_tick_frequency",

@@ -35,7 +35,6 @@ enum class CameraRole {
   BandwidthLimitMode,
   TimestampLatch,
   TimestampLatchValue,
-  TimestampReset,
   TimestampTickFrequency,
   PtpEnable,
   PtpStatus,
