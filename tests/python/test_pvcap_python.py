@@ -28,6 +28,12 @@ def pvcap_run(*args):
     return r.stdout
 
 
+def init_dataset(ds):
+    """`pvcap dataset init` over the fixture's sessions, its one participant P017."""
+    pvcap_run("dataset", "init", ds, "--protocol", os.path.join(FIXTURE, "protocol.yaml"), "--sessions",
+              os.path.join(FIXTURE, "sessions"), "--participants", "P017")
+
+
 def folder_fingerprint(folder):
     """Every file's name, size and content hash: what a read-only reader must leave as it was."""
     out = {}
@@ -287,8 +293,7 @@ class DatasetTest(unittest.TestCase):
         folder = only_session()
         with tempfile.TemporaryDirectory(prefix="pvcap-py-dataset-") as work:
             ds = os.path.join(work, "ds")
-            pvcap_run("dataset", "init", ds, "--protocol", os.path.join(FIXTURE, "protocol.yaml"), "--sessions",
-                      os.path.join(FIXTURE, "sessions"), "--participants", "P017")
+            init_dataset(ds)
             with self.assertRaises(pvcap.StoreError) as e:
                 pvcap.Dataset(ds)
             self.assertIn("dataset status", str(e.exception), "no catalogue yet: the message says what to run")
@@ -319,8 +324,7 @@ class ReadersNeverWriteTest(unittest.TestCase):
         folder = only_session()
         with tempfile.TemporaryDirectory(prefix="pvcap-py-ro-") as work:
             ds = os.path.join(work, "ds")
-            pvcap_run("dataset", "init", ds, "--protocol", os.path.join(FIXTURE, "protocol.yaml"), "--sessions",
-                      os.path.join(FIXTURE, "sessions"), "--participants", "P017")
+            init_dataset(ds)
             pvcap_run("dataset", "status", ds)
             before = (folder_fingerprint(ds), folder_fingerprint(folder))
             # In a mount namespace of its own, both folders bound onto themselves read-only: nothing
@@ -357,8 +361,7 @@ class ReadersNeverWriteTest(unittest.TestCase):
         only_session()
         with tempfile.TemporaryDirectory(prefix="pvcap-py-catver-") as work:
             ds = os.path.join(work, "ds")
-            pvcap_run("dataset", "init", ds, "--protocol", os.path.join(FIXTURE, "protocol.yaml"), "--sessions",
-                      os.path.join(FIXTURE, "sessions"), "--participants", "P017")
+            init_dataset(ds)
             pvcap_run("dataset", "status", ds)
             self.assertEqual(len(pvcap.Dataset(ds).sessions), 1)
             con = sqlite3.connect(os.path.join(ds, "catalog.db"))
