@@ -149,7 +149,16 @@ Database::Database(const std::filesystem::path& path, Mode mode) : path_(path) {
   if (rc == SQLITE_ROW || rc == SQLITE_DONE || rc == SQLITE_OK) return;
   // Any other failure of this first read (a disk that fails it) is the reader's error, as it would be
   // at its own first query.
-  if (primary != SQLITE_CANTOPEN && primary != SQLITE_READONLY) fail(db_, rc, "cannot read the index");
+  if (primary != SQLITE_CANTOPEN && primary != SQLITE_READONLY) {
+    // Thrown from the constructor: no destructor closes the connection, so it is closed here.
+    try {
+      fail(db_, rc, "cannot read the index");
+    } catch (...) {
+      sqlite3_close_v2(db_);
+      db_ = nullptr;
+      throw;
+    }
+  }
   sqlite3_close_v2(db_);
   db_ = nullptr;
   // Immutable ignores a write-ahead log: one that still holds commits must not be read past in silence.
