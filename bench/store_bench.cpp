@@ -13,7 +13,8 @@
 //  6. raw mode: `pvcap compact` on the finished store, bytes per frame before and after, its speed,
 //     and the mosaics read back again.
 // The speed figures come with the same measure for the ffmpeg command line, run in the same run.
-// Usage: store_bench [FRAMES=90] [NOISE_DN=2] ["STORE SETTINGS" for both modes, e.g. "crf: 16"]
+// Usage: store_bench [FRAMES=90] [NOISE_DN=2] ["STORE SETTINGS" for both modes, e.g. "crf: 16"] [short]
+// (`short`: the suite's short form, see short_form below)
 // Frames are the simulator's scene with a moving fingertip and sensor noise, prepared beforehand.
 #include <algorithm>
 #include <atomic>
@@ -149,9 +150,10 @@ struct Sustained {
   std::string per_pace;     // each pace tried: "1.0x kept", "2.0x refused 12 of 360"
 };
 Sustained sustained_pace(const fs::path& dir, const std::vector<std::vector<cv::Mat>>& frames,
-                         const std::string& fields, double rate_hz, int repeat) {
+                         const std::string& fields, double rate_hz, int repeat,
+                         const std::vector<double>& paces = {0.5, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 6.0}) {
   Sustained out;
-  for (const double pace : {0.5, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 6.0}) {
+  for (const double pace : paces) {
     const fs::path root = dir / fmt::format("paced-{:.0f}-{:.2f}", rate_hz, pace);
     const FeedResult r = run_pipeline(root, frames, fields, nullptr, {pace, rate_hz, repeat});
     std::error_code ec;
@@ -219,6 +221,41 @@ void bench_compact(const fs::path& session, const std::vector<cv::Mat>& sensor, 
       "compact's floor: the noise's own entropy given the clean mosaics, %.3f MB per 1080p frame (no lossless coder "
       "averages less)\n",
       floor_bytes / 1e6 / (4.0 * n));
+}
+
+// The suite's short form (`store_bench 15 2 "" short`, ctest bench.store_short): raw mode only, on
+// few frames, beside the other tests: the store keeps every frame fed at real time at 15 Hz and at a
+// quarter of 60 Hz with every frame stored, reads back bit-exact and at random. Exit 1 if it does not:
+// a change that breaks the store or this bench fails the suite. No speed is judged here.
+int short_form(const fs::path& work, const std::vector<std::vector<cv::Mat>>& frames) {
+  const std::string raw = "video_mode: raw";
+  int failures = 0;
+  const Sustained at15 = sustained_pace(work, frames, raw, 15, 1, {1.0});
+  const Sustained at60 = sustained_pace(work, frames, raw + ", video_fps: 0", 60, 1, {0.25});
+  std::printf("short form: 4 x 1080p at 15 Hz, real time: %s; at 60 Hz every frame, a quarter of real time: %s\n",
+              at15.per_pace.c_str(), at60.per_pace.c_str());
+  // A frame refused fails; one that waited in the spill (a loaded suite) does not.
+  failures += at15.per_pace.find("refused") != std::string::npos;
+  failures += at60.per_pace.find("refused") != std::string::npos;
+  fs::path session;
+  (void)run_pipeline(work / "short", frames, raw, &session);
+  auto reader = SessionReader::open(session);
+  if (!reader) {
+    std::printf("short form: the store does not read back: %s\n", reader.error().message.c_str());
+    return 1;
+  }
+  std::size_t exact = 0, read = 0;
+  for (std::size_t i = 0; i < reader.value()->sample_count() && i < frames[0].size(); ++i) {
+    auto m = reader.value()->raw_image(i, 0);
+    exact += m && !m.value().empty() && cv::norm(m.value(), frames[0][i], cv::NORM_INF) == 0;
+    auto img = reader.value()->image(reader.value()->sample_count() - 1 - i, i % 4);
+    read += img && !img.value().empty();
+  }
+  std::printf("short form: %zu of %zu mosaics of camera 0 bit-exact; %zu of %zu images read back at random\n", exact,
+              frames[0].size(), read, frames[0].size());
+  failures += exact != frames[0].size() || read != frames[0].size();
+  std::printf("short form: %s\n", failures ? "FAILED" : "passed");
+  return failures ? 1 : 0;
 }
 
 // Steps 1-5 for one mode (`fields`: the store settings of the mode), printed with `label`.
@@ -430,6 +467,16 @@ int main(int argc, char** argv) {
               std::thread::hardware_concurrency());
   std::vector<std::vector<cv::Mat>> frames;
   for (int c = 0; c < 4; ++c) frames.push_back(make_frames(c, n, noise));
+  if (argc > 4 && std::string(argv[4]) == "short") {
+    int rc = 1;
+    try {
+      rc = short_form(work, frames);
+    } catch (const std::exception& e) {
+      std::printf("short form: %s\n", e.what());
+    }
+    fs::remove_all(work);
+    return rc;
+  }
   try {
     bench_mode("default", work, frames, with("video_mode: raw"), noise);
     bench_mode("lossy", work, frames, with("video_mode: color"), noise);
