@@ -47,7 +47,9 @@ const std::vector<RoleNames>& camera_feature_names() {
       {CameraRole::TimestampTickFrequency,
        "timestamp_tick_frequency",
        {"GevTimestampTickFrequency", "TimestampTickFrequency"}},
-      {CameraRole::PtpEnable, "ptp_enable", {"PtpEnable", "GevIEEE1588"}},
+      // Basler ace 2: PtpEnable; FLIR, Basler ace classic: GevIEEE1588; Allied Vision: PtpMode (an
+      // enumeration: Off, Slave, Master, Auto).
+      {CameraRole::PtpEnable, "ptp_enable", {"PtpEnable", "GevIEEE1588", "PtpMode"}},
       {CameraRole::PtpStatus, "ptp_status", {"PtpStatus", "GevIEEE1588Status"}},
       {CameraRole::ChunkModeActive, "chunk_mode_active", {"ChunkModeActive"}},
       {CameraRole::ChunkSelector, "chunk_selector", {"ChunkSelector"}},
@@ -60,8 +62,15 @@ const std::vector<RoleNames>& camera_feature_names() {
       {CameraRole::ChunkExposureTime, "chunk_exposure_time", {"ChunkExposureTime"}},
       // Basler ace classic: the gain of all channels.
       {CameraRole::ChunkGain, "chunk_gain", {"ChunkGain", "ChunkGainAll"}},
+      {CameraRole::ActionSelector, "action_selector", {"ActionSelector"}},
+      {CameraRole::ActionDeviceKey, "action_device_key", {"ActionDeviceKey"}},
+      {CameraRole::ActionGroupKey, "action_group_key", {"ActionGroupKey"}},
+      {CameraRole::ActionGroupMask, "action_group_mask", {"ActionGroupMask"}},
+      // SFNC (Basler, FLIR, Point Grey); Allied Vision's SyncOut, whose levels are a bit per output.
+      {CameraRole::LineSelector, "line_selector", {"LineSelector", "SyncOutSelector"}},
+      {CameraRole::LineSource, "line_source", {"LineSource", "SyncOutSource"}},
       {CameraRole::UserOutputSelector, "user_output_selector", {"UserOutputSelector"}},
-      {CameraRole::LineSource, "line_source", {"LineSource"}},
+      {CameraRole::UserOutputValue, "user_output_value", {"UserOutputValue", "SyncOutLevels", "SyncOutGpoLevels"}},
       {CameraRole::DeviceTemperature, "device_temperature", {"DeviceTemperature", "TemperatureAbs"}},
       {CameraRole::FirmwareVersion, "firmware_version", {"DeviceFirmwareVersion", "DeviceVersion"}},
   };

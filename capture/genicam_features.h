@@ -46,8 +46,16 @@ enum class CameraRole {
   ChunkTimestamp,
   ChunkExposureTime,
   ChunkGain,
-  UserOutputSelector,
+  // Scheduled action commands (GigE Vision 2.0 ACTION_CMD): the keys a camera answers to.
+  ActionSelector,
+  ActionDeviceKey,
+  ActionGroupKey,
+  ActionGroupMask,
+  // Output lines (a light switched by the camera): SFNC's line and user output, Allied Vision's SyncOut.
+  LineSelector,
   LineSource,
+  UserOutputSelector,
+  UserOutputValue,
   DeviceTemperature,
   FirmwareVersion,
 };

@@ -2,6 +2,7 @@
 // use for each role, under whichever name each vendor's map declares, and the clock it would use.
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -60,8 +61,8 @@ const Expected kExpected[] = {
      "AcquisitionFrameRateEnable", "Gain", "PtpEnable", "GevSCPD", "ChunkFrameID", "ChunkGain"},
     {"AVT_Mako_G158C.xml", "GevTimestampControlLatch", "ExposureTimeAbs", "AcquisitionFrameRateAbs", "", "Gain", "",
      "StreamBytesPerSecond", "", ""},
-    {"AVT_Manta_G507C.xml", "GevTimestampControlLatch", "ExposureTimeAbs", "AcquisitionFrameRateAbs", "", "Gain", "",
-     "StreamBytesPerSecond", "", ""},
+    {"AVT_Manta_G507C.xml", "GevTimestampControlLatch", "ExposureTimeAbs", "AcquisitionFrameRateAbs", "", "Gain",
+     "PtpMode", "StreamBytesPerSecond", "", ""},
 };
 }  // namespace
 
@@ -98,6 +99,50 @@ TEST(GenicamFeatures, EverySharedNodeMapGivesTheLatchAndTheMapsOwnExposureAndRat
     if (entry.path().extension() == ".xml") {
       EXPECT_TRUE(seen.count(entry.path().filename().string())) << entry.path();
     }
+  }
+}
+
+// The roles a multi-host rig (PTP and scheduled action commands) and switched lights (output lines)
+// need, under each map's own names, Allied Vision's included: every shared map that offers them.
+TEST(GenicamFeatures, EverySharedMapThatOffersThemGivesItsPtpActionAndOutputLineRoles) {
+  struct Roles {
+    const char* file;
+    const char* ptp_enable;
+    const char* ptp_status;
+    bool actions;  // ActionSelector, ActionDeviceKey, ActionGroupKey, ActionGroupMask
+    const char* line_selector;
+    const char* line_source;
+    const char* user_output_value;
+  };
+  const Roles kRoles[] = {
+      {"AVT_Mako_G158C.xml", "", "", false, "SyncOutSelector", "SyncOutSource", "SyncOutLevels"},
+      {"AVT_Manta_G507C.xml", "PtpMode", "PtpStatus", true, "SyncOutSelector", "SyncOutSource", "SyncOutLevels"},
+      {"Basler-a2A2600-20gmBAS.xml", "PtpEnable", "PtpStatus", true, "LineSelector", "LineSource", "UserOutputValue"},
+      {"Basler-acA1920-25gm.xml", "", "", true, "LineSelector", "LineSource", "UserOutputValue"},
+      {"FLIR-BFS-PGE-23S6C.xml", "GevIEEE1588", "GevIEEE1588Status", true, "LineSelector", "LineSource",
+       "UserOutputValue"},
+      {"FLIR_ORX_10G_51S5M.xml", "GevIEEE1588", "GevIEEE1588Status", false, "LineSelector", "LineSource",
+       "UserOutputValue"},
+      {"PGR_Blackfly_50S5C.xml", "", "", false, "LineSelector", "LineSource", "UserOutputValue"},
+      {"PGR_GS3_PGE_23S6C.xml", "", "", false, "LineSelector", "LineSource", "UserOutputValue"},
+  };
+  for (const Roles& e : kRoles) {
+    SCOPED_TRACE(e.file);
+    auto map = GenicamNodeMap::parse(read(kNodeMaps / e.file));
+    ASSERT_TRUE(map) << map.error().message;
+    auto f = features_of(check_node_map(map.value(), in_format("Mono8")));
+    EXPECT_EQ(f["ptp_enable"], e.ptp_enable);
+    EXPECT_EQ(f["ptp_status"], e.ptp_status);
+    for (const char* role : {"action_selector", "action_device_key", "action_group_key", "action_group_mask"}) {
+      std::string name = role;  // action_device_key -> ActionDeviceKey
+      std::string want;
+      for (std::size_t i = 0; i < name.size(); ++i)
+        if (name[i] != '_') want += (i == 0 || name[i - 1] == '_') ? char(std::toupper(name[i])) : name[i];
+      EXPECT_EQ(f[role], e.actions ? want : "") << role;
+    }
+    EXPECT_EQ(f["line_selector"], e.line_selector);
+    EXPECT_EQ(f["line_source"], e.line_source);
+    EXPECT_EQ(f["user_output_value"], e.user_output_value);
   }
 }
 
