@@ -31,9 +31,9 @@ nlohmann::json as_json(const NodeMapCheck& c) {
     if (f.range) role["range"] = {f.range->first, f.range->second};
     roles[f.role] = role;
   }
-  return {{"usable", c.usable()}, {"clock", c.clock},       {"features", features}, {"types", types},
-          {"roles", roles},       {"missing", c.missing},   {"warnings", c.warnings}, {"ptp", c.ptp},
-          {"chunks", c.chunks},   {"vendor", c.vendor},     {"model", c.model},       {"version", c.version}};
+  return {{"usable", c.usable()}, {"clock", c.clock},     {"features", features},   {"types", types},
+          {"roles", roles},       {"missing", c.missing}, {"warnings", c.warnings}, {"ptp", c.ptp},
+          {"chunks", c.chunks},   {"vendor", c.vendor},   {"model", c.model},       {"version", c.version}};
 }
 
 void print(const NodeMapCheck& c, const std::string& file) {

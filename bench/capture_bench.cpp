@@ -174,9 +174,9 @@ RoundResult bare_aravis(const CameraConfig& c, double seconds, StreamSocket sock
   arv_camera_set_frame_rate(cam.get(), c.frame_rate, nullptr);
   arv_camera_gv_set_packet_size(cam.get(), c.packet_size, nullptr);
   const std::size_t payload = arv_camera_get_payload(cam.get(), nullptr);
-  arv_gv_device_set_stream_options(ARV_GV_DEVICE(arv_camera_get_device(cam.get())),
-                                   socket == StreamSocket::OwnPort ? ARV_GV_STREAM_OPTION_PACKET_SOCKET_DISABLED
-                                                                   : ARV_GV_STREAM_OPTION_NONE);
+  arv_gv_device_set_stream_options(
+      ARV_GV_DEVICE(arv_camera_get_device(cam.get())),
+      socket == StreamSocket::OwnPort ? ARV_GV_STREAM_OPTION_PACKET_SOCKET_DISABLED : ARV_GV_STREAM_OPTION_NONE);
   arv::GPtr<ArvStream> stream(arv_camera_create_stream(cam.get(), nullptr, nullptr, nullptr));
   if (socket == StreamSocket::OwnPort)
     g_object_set(stream.get(), "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_FIXED, "socket-buffer-size",

@@ -102,8 +102,8 @@ FeedResult run_pipeline(const fs::path& root, const std::vector<std::vector<cv::
       for (std::size_t i = 0; i < n; ++i) {
         const cv::Mat& source = frames[c][i % frames[c].size()];
         if (feed.pace > 0)
-          std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(period * double(i) /
-                                                                                              feed.pace));
+          std::this_thread::sleep_until(start +
+                                        std::chrono::duration_cast<Clock::duration>(period * double(i) / feed.pace));
         cv::Mat image = images.acquire(kH, kW, raw ? CV_8UC1 : CV_8UC3);
         if (raw)
           source.copyTo(image);  // the mosaic, as the camera worker copies it
@@ -145,9 +145,9 @@ FeedResult run_pipeline(const fs::path& root, const std::vector<std::vector<cv::
 // the spill (the spill on disk absorbs a burst, so a short run faster than the encoders would still
 // keep everything; a session that long would not). Paces tried upwards until one fails.
 struct Sustained {
-  double pace = 0;          // the fastest that kept every frame (0: not even the first)
-  double refused_at = 0;    // the first that did not (0: none did)
-  std::string per_pace;     // each pace tried: "1.0x kept", "2.0x refused 12 of 360"
+  double pace = 0;        // the fastest that kept every frame (0: not even the first)
+  double refused_at = 0;  // the first that did not (0: none did)
+  std::string per_pace;   // each pace tried: "1.0x kept", "2.0x refused 12 of 360"
 };
 Sustained sustained_pace(const fs::path& dir, const std::vector<std::vector<cv::Mat>>& frames,
                          const std::string& fields, double rate_hz, int repeat,
@@ -276,9 +276,9 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
   // 1. One camera: pvcap's pipeline against the ffmpeg command line on the same frames.
   const FeedResult one_run = run_pipeline(dir / "one", {frames[0]}, fields, nullptr);
   const double one = one_run.seconds;
-  if (one_run.refused) std::printf("  (1 camera at full speed: the store refused %llu of %llu frames)\n",
-                                   static_cast<unsigned long long>(one_run.refused),
-                                   static_cast<unsigned long long>(one_run.submitted));
+  if (one_run.refused)
+    std::printf("  (1 camera at full speed: the store refused %llu of %llu frames)\n",
+                static_cast<unsigned long long>(one_run.refused), static_cast<unsigned long long>(one_run.submitted));
   const double pipeline_fps = n / one;
   // The reference: ffmpeg encoding camera `c`'s frames with the same settings, one thread each (raw
   // mode: given the planes already stacked, so ffmpeg does less than the pipeline).
@@ -329,9 +329,9 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
   fs::path session;
   const FeedResult four_run = run_pipeline(dir / "four", frames, fields, &session);
   const double four = four_run.seconds;
-  if (four_run.refused) std::printf("  (4 cameras at full speed: the store refused %llu of %llu frames)\n",
-                                    static_cast<unsigned long long>(four_run.refused),
-                                    static_cast<unsigned long long>(four_run.submitted));
+  if (four_run.refused)
+    std::printf("  (4 cameras at full speed: the store refused %llu of %llu frames)\n",
+                static_cast<unsigned long long>(four_run.refused), static_cast<unsigned long long>(four_run.submitted));
   const double four_fps = 4.0 * n / four;
   std::string all = "(";
   for (int c = 0; c < 4; ++c) all += ffmpeg_cmd(c) + " & ";
@@ -359,8 +359,8 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
     for (int round = 0; round < 3; ++round) {
       with.push_back(4.0 * n / run_pipeline(dir / fmt::format("sync-{}", round), frames, fields, nullptr).seconds /
                      60.0);
-      without.push_back(
-          4.0 * n / run_pipeline(dir / fmt::format("nosync-{}", round), frames, no_sync, nullptr).seconds / 60.0);
+      without.push_back(4.0 * n /
+                        run_pipeline(dir / fmt::format("nosync-{}", round), frames, no_sync, nullptr).seconds / 60.0);
       std::error_code ec;
       fs::remove_all(dir / fmt::format("sync-{}", round), ec);
       fs::remove_all(dir / fmt::format("nosync-{}", round), ec);

@@ -250,9 +250,10 @@ Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::S
                            : fmt::format("; the views lack {}", fmt::join(missing, ", "));
   };
   if (!fit.run())
-    return Error{fmt::format("the lens could not be fitted to the board's {} views (no fit left the principal point "
-                             "near the image's centre with a focal length a lens can have){}",
-                             corners.size(), lacking())};
+    return Error{
+        fmt::format("the lens could not be fitted to the board's {} views (no fit left the principal point "
+                    "near the image's centre with a focal length a lens can have){}",
+                    corners.size(), lacking())};
   // A view at a grazing angle or with a misread corner pulls the whole fit: views whose error is
   // well above the others' are left out and the fit made again from where it stood, until none is
   // (at most four times: a bad view a first fit absorbed can stand out only once others are gone,
@@ -288,9 +289,10 @@ Result<Intrinsics> calibrate_intrinsics(const std::vector<BoardView>& all, cv::S
   // (With square pixels the fit moves fy and keeps fx to it: fy's deviation is the focal length's.)
   const double f = fit.K.at<double>(1, 1), f_sd = std::max(out.deviation[0], out.deviation[1]);
   if (!(f_sd > 0) || f_sd > 0.02 * f)
-    return Error{fmt::format("the board's {} views do not fix the focal length (the fit gives {:.4g} px, +- {:.2g}); "
-                             "boards tilted towards the camera and at other distances do{}",
-                             corners.size(), f, f_sd, lacking())};
+    return Error{
+        fmt::format("the board's {} views do not fix the focal length (the fit gives {:.4g} px, +- {:.2g}); "
+                    "boards tilted towards the camera and at other distances do{}",
+                    corners.size(), f, f_sd, lacking())};
   out.rms_px = fit.rms;
   out.model.image_size = size;
   out.model.K = cv::Matx33d(fit.K);

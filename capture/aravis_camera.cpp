@@ -137,8 +137,8 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
     link_->camera.reset();
     return s;
   }
-  const LinkBudget budget{settings_.payload,          settings_.frame_rate, config_.link_mbps,   config_.socket_buffer_bytes,
-                          read_rmem_max(),            config_.link_cameras, config_.link};
+  const LinkBudget budget{settings_.payload, settings_.frame_rate, config_.link_mbps, config_.socket_buffer_bytes,
+                          read_rmem_max(),   config_.link_cameras, config_.link};
   if (Status s = preflight(label(), budget); !s.ok()) {
     link_->camera.reset();
     return s;
@@ -153,11 +153,11 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
   if (socket == StreamSocket::OwnPort)
     spdlog::info("{}: {} other camera(s) streaming: this stream takes its packets on a UDP port of its own", label(),
                  others);
-  auto stream = AravisStream::create(link_->camera.get(), index_, connection, settings_.payload, settings_.buffer_count,
-                                     config_.packet_resend, config_.socket_buffer_bytes, losses_, expected,
-                                     AravisChunks::create(link_->camera.get(), chunk_features_, config_.timestamp_marks,
-                                                          settings_.exposure_us),
-                                     socket);
+  auto stream = AravisStream::create(
+      link_->camera.get(), index_, connection, settings_.payload, settings_.buffer_count, config_.packet_resend,
+      config_.socket_buffer_bytes, losses_, expected,
+      AravisChunks::create(link_->camera.get(), chunk_features_, config_.timestamp_marks, settings_.exposure_us),
+      socket);
   if (!stream) {
     link_->camera.reset();
     return Error{fmt::format("{}: {}", label(), stream.error().message)};
@@ -192,10 +192,11 @@ Status AravisCamera::open() {
     // A stream made again while other cameras stream receives on a UDP socket (StreamSocket), whose
     // buffer the kernel caps at rmem_max: under two frames, a reconnected camera would lose frames.
     if (const long rmem = read_rmem_max(); rmem > 0 && std::size_t(rmem) < 2 * st.payload)
-      spdlog::warn("{}: net.core.rmem_max is {} bytes, under two of its frames ({} bytes): after a reconnection its "
-                   "stream receives on a UDP socket capped there and may lose frames; raise it: sysctl -w "
-                   "net.core.rmem_max={}",
-                   label(), rmem, 2 * st.payload, 4 * st.payload);
+      spdlog::warn(
+          "{}: net.core.rmem_max is {} bytes, under two of its frames ({} bytes): after a reconnection its "
+          "stream receives on a UDP socket capped there and may lose frames; raise it: sysctl -w "
+          "net.core.rmem_max={}",
+          label(), rmem, 2 * st.payload, 4 * st.payload);
     std::vector<std::string> used;
     for (const auto& [role, name] : st.features) used.push_back(role + " " + name);
     spdlog::info("{}: features (node map {}): {}", label(), st.node_map_version, fmt::join(used, ", "));
@@ -534,9 +535,9 @@ void AravisCamera::watch_state() {
     arv::GErrorSlot err;
     const char* status = arv_device_get_string_feature_value(dev, ptp.c_str(), err.out());
     if (!err && status && said_ptp_status_ != status) {
-      emit(CameraEvent::Kind::State, fmt::format("{}: PTP status {}{} ({})", label(), status,
-                                                 said_ptp_status_.empty() ? "" : " (was " + said_ptp_status_ + ")",
-                                                 ptp));
+      emit(CameraEvent::Kind::State,
+           fmt::format("{}: PTP status {}{} ({})", label(), status,
+                       said_ptp_status_.empty() ? "" : " (was " + said_ptp_status_ + ")", ptp));
       said_ptp_status_ = status;
     }
   }

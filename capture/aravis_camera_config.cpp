@@ -109,35 +109,37 @@ Status AravisCamera::set_link_pacing(AravisFeatures& f) {
                                          config_.link_mbps, config_.link_cameras);
   if (!f.has(CameraRole::BandwidthLimit)) {
     if (!features_said_)
-      spdlog::warn("{}: on {}, but it has no packet delay or throughput limit (GevSCPD, StreamBytesPerSecond, "
-                   "DeviceLinkThroughputLimit): its frames go out at line rate, and the cameras' bursts may "
-                   "overflow the link's port",
-                   label(), shared);
+      spdlog::warn(
+          "{}: on {}, but it has no packet delay or throughput limit (GevSCPD, StreamBytesPerSecond, "
+          "DeviceLinkThroughputLimit): its frames go out at line rate, and the cameras' bursts may "
+          "overflow the link's port",
+          label(), shared);
     return {};
   }
   const std::string name = f.name(CameraRole::BandwidthLimit);
   if (name == "GevSCPD") {
     // GigE Vision's inter-packet delay counts timestamp ticks (nanoseconds on SFNC 2 cameras).
     ArvDevice* dev = arv_camera_get_device(cam);
-    const std::uint64_t hz = ARV_IS_GV_DEVICE(dev) ? arv_gv_device_get_timestamp_tick_frequency(ARV_GV_DEVICE(dev), nullptr) : 0;
+    const std::uint64_t hz =
+        ARV_IS_GV_DEVICE(dev) ? arv_gv_device_get_timestamp_tick_frequency(ARV_GV_DEVICE(dev), nullptr) : 0;
     const double ticks = std::ceil(p.packet_delay_s * double(hz > 0 ? hz : 1'000'000'000));
     if (Status s = f.set_number(CameraRole::BandwidthLimit, ticks); !s.ok())
-      return Error{fmt::format("{}: on {}, its {}-byte packets need {:.2f} us between them ({:g} ticks of its "
-                               "GevSCPD) to keep to a share of {:.0f} Mbit/s, which it cannot: {}. Use fewer cameras "
-                               "on the link, a larger packet_size, or a faster link",
-                               label(), shared, packet, p.packet_delay_s * 1e6, ticks,
-                               p.share_bytes_per_s * 8 / 1e6, s.error().message)};
-    link_pacing_ = fmt::format("GevSCPD {:g} ticks ({:.2f} us between its {}-byte packets) on {}",
-                               f.number(CameraRole::BandwidthLimit).value_or(-1), p.packet_delay_s * 1e6, packet,
-                               shared);
+      return Error{fmt::format(
+          "{}: on {}, its {}-byte packets need {:.2f} us between them ({:g} ticks of its "
+          "GevSCPD) to keep to a share of {:.0f} Mbit/s, which it cannot: {}. Use fewer cameras "
+          "on the link, a larger packet_size, or a faster link",
+          label(), shared, packet, p.packet_delay_s * 1e6, ticks, p.share_bytes_per_s * 8 / 1e6, s.error().message)};
+    link_pacing_ =
+        fmt::format("GevSCPD {:g} ticks ({:.2f} us between its {}-byte packets) on {}",
+                    f.number(CameraRole::BandwidthLimit).value_or(-1), p.packet_delay_s * 1e6, packet, shared);
   } else {
     // Allied Vision's StreamBytesPerSecond and SFNC's DeviceLinkThroughputLimit: bytes per second.
     if (f.has(CameraRole::BandwidthLimitMode)) (void)f.set_flag(CameraRole::BandwidthLimitMode, true);
     if (Status s = f.set_number(CameraRole::BandwidthLimit, std::floor(p.share_bytes_per_s)); !s.ok())
       return Error{fmt::format("{}: on {}, its share is {:.0f} bytes/s, which its {} cannot be set to: {}", label(),
                                shared, p.share_bytes_per_s, name, s.error().message)};
-    link_pacing_ = fmt::format("{} {:g} bytes/s on {}", name, f.number(CameraRole::BandwidthLimit).value_or(-1),
-                               shared);
+    link_pacing_ =
+        fmt::format("{} {:g} bytes/s on {}", name, f.number(CameraRole::BandwidthLimit).value_or(-1), shared);
   }
   if (!features_said_) spdlog::info("{}: paced: {}", label(), link_pacing_);
   return {};
@@ -198,10 +200,11 @@ Status AravisCamera::set_trigger_and_rate(AravisFeatures& f) {
       if (const auto r = f.number(CameraRole::ResultingFrameRate); r && *r > 0 && *r < most)
         most = *r, said = f.name(CameraRole::ResultingFrameRate);
       if (config_.frame_rate > most * 1.001)
-        return Error{fmt::format("{}: cannot reach {:g} fps at {}x{} {} (its exposure {:g} us as it stands): {} is "
-                                 "{:.2f} there; lower frame_rate, crop width/height, or shorten exposure_us",
-                                 label(), config_.frame_rate, config_.width, config_.height, config_.pixel_format,
-                                 f.number(CameraRole::ExposureTime).value_or(0), said, most)};
+        return Error{
+            fmt::format("{}: cannot reach {:g} fps at {}x{} {} (its exposure {:g} us as it stands): {} is "
+                        "{:.2f} there; lower frame_rate, crop width/height, or shorten exposure_us",
+                        label(), config_.frame_rate, config_.width, config_.height, config_.pixel_format,
+                        f.number(CameraRole::ExposureTime).value_or(0), said, most)};
       PVCAP_TRY(set(f.set_number(CameraRole::FrameRate, config_.frame_rate),
                     fmt::format("the frame rate to {:g} fps", config_.frame_rate)));
     }

@@ -69,9 +69,10 @@ Result<std::unique_ptr<CatalogDb>> CatalogDb::open_read_only(const std::filesyst
   try {
     auto db = std::make_unique<sqlite::Database>(file, sqlite::Database::Mode::ReadOnly);
     if (const int version = db->user_version(); version != kCatalogVersion)
-      return Error{fmt::format("{}: a catalogue of version {}, and this pvcap reads version {}: `{}` rebuilds it "
-                               "from the sessions",
-                               file.string(), version, kCatalogVersion, rebuild)};
+      return Error{
+          fmt::format("{}: a catalogue of version {}, and this pvcap reads version {}: `{}` rebuilds it "
+                      "from the sessions",
+                      file.string(), version, kCatalogVersion, rebuild)};
     return std::unique_ptr<CatalogDb>(new CatalogDb(std::move(db)));
   } catch (const sqlite::SqliteError& e) {
     return Error{fmt::format("{}: the dataset's catalogue cannot be read ({}); `{}` rebuilds it from the sessions",

@@ -680,8 +680,8 @@ TEST(PvcapCommand, CamerasSharingALinkArePacedToTheirShareOrRefusedByName) {
     q.bind(1, c.device_id);
     ASSERT_TRUE(q.step());
     EXPECT_EQ(q.column_text(0).rfind("GevSCPD 120 ticks (0.12 us between its 1500-byte packets) on link 'nic0' "
-                                      "(100000 Mbit/s) shared by 2 cameras",
-                                      0),
+                                     "(100000 Mbit/s) shared by 2 cameras",
+                                     0),
               0u)
         << c.name << ": " << q.column_text(0);
   }

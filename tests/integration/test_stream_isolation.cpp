@@ -112,7 +112,7 @@ TEST(StreamIsolation, AStreamRefusesAnotherCamerasFramesByTheirSizeAndFormat) {
   };
   arv::GPtr<ArvCamera> sender = connect(rig.cameras[0].address), receiver = connect(rig.cameras[1].address);
   ASSERT_TRUE(sender && receiver);
-  arv_camera_set_region(sender.get(), 0, 0, 320, 240, nullptr);  // cam0 sends 320 x 240
+  arv_camera_set_region(sender.get(), 0, 0, 320, 240, nullptr);    // cam0 sends 320 x 240
   arv_camera_set_region(receiver.get(), 0, 0, 160, 120, nullptr);  // cam1 would send 160 x 120
   arv_camera_set_pixel_format_from_string(receiver.get(), "BayerRG8", nullptr);
   ArvDevice* receiving = arv_camera_get_device(receiver.get());
@@ -122,8 +122,8 @@ TEST(StreamIsolation, AStreamRefusesAnotherCamerasFramesByTheirSizeAndFormat) {
     BoundedQueue<FrameLoss> losses(1000);
     // On a UDP port of its own (the stream a reconnection makes): only what is sent there arrives, which
     // here is cam0's flow, sent there on purpose.
-    auto stream =
-        AravisStream::create(receiver.get(), 1, 0, payload, 8, false, 0, losses, expected, nullptr, StreamSocket::OwnPort);
+    auto stream = AravisStream::create(receiver.get(), 1, 0, payload, 8, false, 0, losses, expected, nullptr,
+                                       StreamSocket::OwnPort);
     ASSERT_TRUE(stream) << stream.error().message;
     stream.value()->accept_from_now();
     // cam0 sends to where cam1's stream listens (the stream channel's bootstrap registers).
