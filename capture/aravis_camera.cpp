@@ -135,12 +135,14 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
   }
   if (Status s = apply_features(); !s.ok()) {
     link_->camera.reset();
+    refused_.store(true);  // it answered, and cannot record as asked: waiting will not change that
     return s;
   }
   const LinkBudget budget{settings_.payload, settings_.frame_rate, config_.link_mbps, config_.socket_buffer_bytes,
                           read_rmem_max(),   config_.link_cameras, config_.link};
   if (Status s = preflight(label(), budget); !s.ok()) {
     link_->camera.reset();
+    refused_.store(true);
     return s;
   }
   // The pixel format each frame must carry: by its name where the codec knows it, else the code the
@@ -183,6 +185,7 @@ Status AravisCamera::connect_and_configure(std::uint32_t connection) {
 }
 
 Status AravisCamera::open() {
+  refused_.store(false);
   Status s = connect_and_configure(connection_);
   if (s.ok()) {
     const CameraSettings st = settings();

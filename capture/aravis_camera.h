@@ -119,6 +119,10 @@ class AravisCamera {
   // Connects, applies the configuration, preflights, allocates buffers. Errors name the
   // camera and the feature that failed.
   Status open();
+  // The last open() failed on a camera that answered: its node map or the link cannot do what the
+  // rig file asks (a rate out of reach, a pacing out of range, a pixel format it lacks). Unlike a
+  // camera still booting, trying again will not help.
+  bool refused() const { return refused_.load(); }
   // Waits until the stream may take frames (aravis_stream.h: accept_from_now). start() does it
   // itself; a rig calls it on every camera first, so the cameras then start together.
   void settle();
@@ -219,6 +223,7 @@ class AravisCamera {
   std::atomic<bool> control_lost_{false};
   std::atomic<bool> running_{false};
   std::atomic<std::uint32_t> connection_{0};
+  std::atomic<bool> refused_{false};
   HostNs started_at_;
   std::thread control_thread_;
   std::thread trigger_thread_;

@@ -65,7 +65,8 @@ Status open_with_wait(AravisCamera& camera, double wait_s, const std::atomic<boo
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
   for (;;) {
     Status s = camera.open();
-    if (s.ok() || cancel.load() || std::chrono::steady_clock::now() >= deadline) return s;
+    // A camera that answered and refused the rig file's settings is said at once, not after the wait.
+    if (s.ok() || camera.refused() || cancel.load() || std::chrono::steady_clock::now() >= deadline) return s;
     std::this_thread::sleep_for(200ms);
   }
 }
