@@ -120,8 +120,8 @@ NodeMapCheck check_node_map(const NodeMapView& map, const CameraConfig& camera) 
   if (camera.trigger != TriggerMode::FreeRun) {
     const std::string source = camera.trigger == TriggerMode::Software ? "Software" : camera.trigger_source;
     if (!have(CameraRole::TriggerMode) || !have(CameraRole::TriggerSource))
-      out.missing.push_back(fmt::format("no trigger_mode or trigger_source feature: it cannot take the trigger {}",
-                                        source));
+      out.missing.push_back(
+          fmt::format("no trigger_mode or trigger_source feature: it cannot take the trigger {}", source));
     else if (const auto sources = map.entries(chosen.at(CameraRole::TriggerSource)); !among(sources, source))
       out.missing.push_back(fmt::format("trigger source {} is not among its {}", source, fmt::join(sources, ", ")));
     if (camera.trigger == TriggerMode::Software && !map.has("TriggerSoftware"))
@@ -145,9 +145,47 @@ NodeMapCheck check_node_map(const NodeMapView& map, const CameraConfig& camera) 
   }
   if (have(CameraRole::Gain))
     if (const RawUnit* raw = raw_unit(chosen.at(CameraRole::Gain)); raw && !raw->base)
-      out.warnings.push_back(fmt::format("its gain ({}) is in the camera's own counts, not dB: the rig file's gain "
-                                         "and the stored gain are such counts",
-                                         raw->feature));
+      out.warnings.push_back(
+          fmt::format("its gain ({}) is in the camera's own counts, not dB: the rig file's gain "
+                      "and the stored gain are such counts",
+                      raw->feature));
+  // The lights it drives: each on one of its output lines, from a source that switches it as the rig
+  // file asks (a user output held on or off, or the exposure itself).
+  for (const LightConfig& light : camera.lights) {
+    const std::string what = fmt::format("light {} on {} ({})", light.name, light.line,
+                                         light.strobe ? "strobed with each exposure" : "steady");
+    if (!have(CameraRole::LineSelector) || !have(CameraRole::LineSource)) {
+      out.missing.push_back(
+          fmt::format("{}: it has no output lines to drive it (no line_selector and line_source "
+                      "feature: LineSelector/LineSource, SyncOutSelector/SyncOutSource)",
+                      what));
+      continue;
+    }
+    const auto lines = map.entries(chosen.at(CameraRole::LineSelector));
+    if (!among(lines, light.line)) {
+      out.missing.push_back(
+          fmt::format("{}: {} is not among its lines ({})", what, light.line, fmt::join(lines, ", ")));
+      continue;
+    }
+    const auto sources = map.entries(chosen.at(CameraRole::LineSource));
+    const auto offered = [&](std::initializer_list<const char*> names) {
+      for (const char* n : names)
+        if (among(sources, n)) return true;
+      return false;
+    };
+    if (light.strobe && !offered({"ExposureActive", "Exposing"}))
+      out.missing.push_back(fmt::format("{}: its {} has no exposure source (ExposureActive, Exposing) among {}", what,
+                                        chosen.at(CameraRole::LineSource), fmt::join(sources, ", ")));
+    if (!light.strobe) {
+      const bool user_output = std::any_of(sources.begin(), sources.end(),
+                                           [](const std::string& s) { return s.rfind("UserOutput", 0) == 0; });
+      if ((!user_output && !among(sources, "GPO")) || !have(CameraRole::UserOutputValue))
+        out.missing.push_back(fmt::format(
+            "{}: it cannot hold a line on or off (no UserOutput or GPO source among its {}, or no user_output_value "
+            "feature)",
+            what, chosen.at(CameraRole::LineSource)));
+    }
+  }
   out.ptp = have(CameraRole::PtpEnable);
   out.chunks = have(CameraRole::ChunkModeActive);
   return out;

@@ -19,6 +19,18 @@ std::int64_t stamp_to_mid_exposure_ns(TimestampMarks marks, double exposure_us);
 const char* to_string(TimestampMarks marks);  // "exposure_start", ...
 const char* to_string(TriggerMode mode);
 
+// A light the rig switches through a camera's output line (docs/cameras.md, "Lights"): its name is a
+// letter of the lighting codes (L, C, R: `--lighting LCR`), the camera and the line that drive it,
+// and whether it is lit steadily (a user output: on or off between takes) or strobed, lit during each
+// exposure of that camera.
+struct LightConfig {
+  std::string name;
+  std::string camera;
+  std::string line;  // the camera's output line, under its map's own name (Line2, SyncOut1)
+  bool strobe = false;
+  int line_no = 0;  // where in the file this light is described
+};
+
 struct CameraConfig {
   std::string name;     // short label used in file names and messages, e.g. "cam0"
   std::string serial;   // match by serial number, or
@@ -47,6 +59,7 @@ struct CameraConfig {
   // "" = a link of its own. link_cameras: how many cameras share it (counted by the rig loader).
   std::string link;
   int link_cameras = 1;
+  std::vector<LightConfig> lights;  // the rig's lights this camera drives (the rig loader fills it)
   // What the camera's frame timestamp marks: SFNC and GigE Vision cameras stamp a frame when its
   // exposure starts (the Basler ace 2's map says so), so the image's instant, the middle of its
   // exposure, is half the exposure later (docs/cameras.md: the vendors' exceptions).
@@ -107,6 +120,7 @@ struct RigConfig {
   std::string text;              // the file's text, stored with each session
   std::string name;
   std::vector<CameraConfig> cameras;
+  std::vector<LightConfig> lights;
   std::optional<SenselRigConfig> sensel;
   StoreConfig store;
   // The file has a `sim:` section: its devices are served by the simulator (sim/sim_config.h reads

@@ -146,6 +146,33 @@ TEST(GenicamFeatures, EverySharedMapThatOffersThemGivesItsPtpActionAndOutputLine
   }
 }
 
+// A light on a line the camera cannot drive as asked is refused before recording, naming the line
+// and what the map offers; one it can drive passes, under either family's names.
+TEST(GenicamFeatures, ALightOnALineTheCameraCannotDriveIsNamed) {
+  const auto check = [](const char* file, std::vector<LightConfig> lights) {
+    auto map = GenicamNodeMap::parse(read(kNodeMaps / file));
+    EXPECT_TRUE(map) << file;
+    CameraConfig camera = in_format("Mono8");
+    camera.lights = std::move(lights);
+    return check_node_map(map.value(), camera);
+  };
+  const auto missing = [](const NodeMapCheck& c) {
+    std::string all;
+    for (const auto& m : c.missing) all += m + "\n";
+    return all;
+  };
+  // Basler ace 2: three lines, user outputs and ExposureActive.
+  auto ok = check("Basler-a2A2600-20gmBAS.xml", {{"L", "cam0", "Line2", false}, {"C", "cam0", "Line3", true}});
+  EXPECT_TRUE(ok.usable()) << missing(ok);
+  auto bad = check("Basler-a2A2600-20gmBAS.xml", {{"R", "cam0", "Line9", false}});
+  EXPECT_NE(missing(bad).find("light R on Line9 (steady): Line9 is not among its lines (Line3, Line2, Line1)"),
+            std::string::npos)
+      << missing(bad);
+  // Allied Vision: SyncOut lines, GPO held by SyncOutLevels, or Exposing.
+  auto avt = check("AVT_Manta_G507C.xml", {{"L", "cam0", "SyncOut1", false}, {"C", "cam0", "SyncOut2", true}});
+  EXPECT_TRUE(avt.usable()) << missing(avt);
+}
+
 TEST(GenicamFeatures, APixelFormatTheMapLacksMakesTheCameraUnusableAndSaysWhich) {
   auto map = GenicamNodeMap::parse(read(kNodeMaps / "Basler-a2A2600-20gmBAS.xml"));
   ASSERT_TRUE(map);

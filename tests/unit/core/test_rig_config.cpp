@@ -133,3 +133,28 @@ TEST(RigConfig, CamerasOnOneLinkAreCountedAndShareOneCapacity) {
       "10000}\n");
   EXPECT_NE(e.find("cam0 and cam1 share link 'nic0' but give it 1000 and 10000 Mbit/s"), std::string::npos) << e;
 }
+
+// Lights: a letter of the lighting codes each, driven by a camera of the rig on one of its lines.
+TEST(RigConfig, LightsNameTheirCameraAndLineAndAreCheckedAgainstTheRig) {
+  const auto rig = parse_rig_config(
+      "name: x\ncameras:\n  - {name: top, serial: A}\n  - {name: side, serial: B}\nlights:\n"
+      "  - {name: L, camera: top, line: Line2}\n  - {name: C, camera: top, line: Line3, mode: strobe}\n"
+      "  - {name: R, camera: side, line: SyncOut1}\n",
+      "rig.yaml");
+  ASSERT_EQ(rig.lights.size(), 3u);
+  ASSERT_EQ(rig.cameras[0].lights.size(), 2u);
+  EXPECT_EQ(rig.cameras[0].lights[1].name, "C");
+  EXPECT_TRUE(rig.cameras[0].lights[1].strobe);
+  EXPECT_FALSE(rig.cameras[0].lights[0].strobe) << "steady by default";
+  EXPECT_EQ(rig.cameras[1].lights[0].line, "SyncOut1");
+  const std::string cams = "name: x\ncameras:\n  - {name: top, serial: A}\nlights:\n";
+  EXPECT_NE(error_of(cams + "  - {name: left, camera: top, line: Line2}\n").find("one capital letter"),
+            std::string::npos);
+  EXPECT_NE(error_of(cams + "  - {name: L, camera: bottom, line: Line2}\n").find("'bottom' is not one of the rig's"),
+            std::string::npos);
+  EXPECT_NE(error_of(cams + "  - {name: L, camera: top, line: Line2}\n  - {name: C, camera: top, line: Line2}\n")
+                .find("top's Line2 already drives light L"),
+            std::string::npos);
+  EXPECT_NE(error_of(cams + "  - {name: L, camera: top, line: Line2, mode: flash}\n").find("steady, strobe"),
+            std::string::npos);
+}

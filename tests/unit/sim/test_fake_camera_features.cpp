@@ -144,3 +144,16 @@ TEST(FakeCameraFeatures, AnSfnc2CamerasRateTakesOnlyWithItsEnableOn) {
   EXPECT_EQ(read(fake.get(), sim::kFramePeriodRegister), 16667u);
   sim::stop_serving(&owner);
 }
+
+// Aravis' fake camera has no output lines: a light on it is refused, naming why.
+TEST(FakeCameraFeatures, ALightOnACameraWithoutOutputLinesIsRefused) {
+  auto map = GenicamNodeMap::parse(map_text(sim::NodeMapNaming::Aravis));
+  ASSERT_TRUE(map);
+  CameraConfig camera;
+  camera.lights = {{"C", "cam0", "Line1", false}};
+  const NodeMapCheck c = check_node_map(map.value(), camera);
+  EXPECT_FALSE(c.usable());
+  ASSERT_FALSE(c.missing.empty());
+  EXPECT_NE(c.missing.back().find("light C on Line1 (steady): it has no output lines to drive it"), std::string::npos)
+      << c.missing.back();
+}
