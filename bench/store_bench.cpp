@@ -33,6 +33,7 @@
 #include "codec/pixel_format.h"
 #include "core/frame_pool.h"
 #include "core/rig_config.h"
+#include "core/statistics.h"
 #include "core/time.h"
 #include "storage/index/session_reader.h"
 #include "storage/tools/compact.h"
@@ -169,11 +170,6 @@ Sustained sustained_pace(const fs::path& dir, const std::vector<std::vector<cv::
     out.pace = pace;
   }
   return out;
-}
-
-double percentile(std::vector<double> v, double p) {
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, std::size_t(p * double(v.size())))];
 }
 
 // 6. Raw mode: `pvcap compact` on the finished store (its defaults), then camera 0's mosaics read back

@@ -21,6 +21,7 @@
 #include "codec/image_files.h"
 #include "codec/sensel_units.h"
 #include "core/side_by_side.h"
+#include "core/statistics.h"
 #include "core/time.h"
 #include "protocol/takes.h"
 #include "report/press_windows.h"
@@ -43,13 +44,6 @@ using nlohmann::json;
 
 double seconds(std::int64_t ns, std::int64_t start_ns) { return double(ns - start_ns) / 1e9; }
 double round_to(double v, double unit) { return std::round(v / unit) * unit; }
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const std::size_t k = std::min(v.size() - 1, std::size_t(q * double(v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(k), v.end());
-  return v[k];
-}
 
 // Counts of `values` in `bins` equal bins over [lo, hi), with the ones below and above counted apart.
 json histogram(const std::vector<double>& values, double lo, double hi, int bins) {

@@ -13,6 +13,7 @@
 
 #include "core/result.h"
 #include "core/rig_config.h"
+#include "core/statistics.h"
 #include "sim/truth.h"
 #include "storage/index/session_reader.h"
 
@@ -27,26 +28,20 @@ std::map<std::int64_t, std::int64_t> read_truth(const std::filesystem::path& fil
   return std::move(columns.value());
 }
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, std::size_t(p / 100.0 * double(v.size())))];
-}
-
 StreamTiming timing(std::string name, const std::vector<double>& mapped_err, const std::vector<double>& arrival_err) {
   StreamTiming t;
   t.name = std::move(name);
   t.frames = mapped_err.size();
-  t.bias_ms = percentile(mapped_err, 50);
+  t.bias_ms = percentile(mapped_err, 0.50);
   std::vector<double> dev;
   for (double e : mapped_err) dev.push_back(std::fabs(e - t.bias_ms));
-  t.p50_ms = percentile(dev, 50);
-  t.p99_ms = percentile(dev, 99);
+  t.p50_ms = percentile(dev, 0.50);
+  t.p99_ms = percentile(dev, 0.99);
   t.max_ms = dev.empty() ? 0 : *std::max_element(dev.begin(), dev.end());
-  t.arrival_bias_ms = percentile(arrival_err, 50);
+  t.arrival_bias_ms = percentile(arrival_err, 0.50);
   std::vector<double> adev;
   for (double e : arrival_err) adev.push_back(std::fabs(e - t.arrival_bias_ms));
-  t.arrival_p99_ms = percentile(adev, 99);
+  t.arrival_p99_ms = percentile(adev, 0.99);
   return t;
 }
 
@@ -296,15 +291,19 @@ std::filesystem::path write_eval_scenario(const EvalScenario& o, const std::file
   // cam1 and cam3 name their features as SFNC 2 cameras do (TimestampLatch, ExposureTime, a rate
   // enable) and send chunk data, cam0 and cam2 as Aravis' fake camera, cam2 with its exposure only in
   // the camera's own steps (ExposureTimeRaw x ExposureTimeBaseAbs): the timeline is measured on each
-  // naming family, and on an exposure that pvcap must convert before it times a frame by it. cam3's exposure moves while it records (1000 +- 600 us, frame by frame): only
-  // each frame's chunks say so, and its image's instant moves by +-0.3 ms with it.
+  // naming family, and on an exposure that pvcap must convert before it times a frame by it. cam3's exposure moves
+  // while it records (1000 +- 600 us, frame by frame): only each frame's chunks say so, and its image's instant moves
+  // by +-0.3 ms with it.
   yaml += "  cameras:\n";
   for (int i = 0; i < 4; ++i)
     yaml += fmt::format(
         "    - {{clock_offset_ms: {}, drift_ppm: {}, jitter_us: 0, exposure_latency_ms: 2, node_map: {}, "
         "exposure_wobble_us: {}}}\n",
         offsets_ms[i] + double(o.seed % 97), (i % 2 ? -1 : 1) * o.drift_ppm * (1.0 - 0.2 * i),
-        i % 2 ? "sfnc2" : i == 2 ? "raw" : "aravis", i == 3 ? kCam3ExposureWobbleUs : 0.0);
+        i % 2    ? "sfnc2"
+        : i == 2 ? "raw"
+                 : "aravis",
+        i == 3 ? kCam3ExposureWobbleUs : 0.0);
   const auto path = root / "eval-sync.yaml";
   std::ofstream(path) << yaml;
   return path;
