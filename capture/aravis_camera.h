@@ -170,6 +170,8 @@ class AravisCamera {
   // Paces a camera on a shared link to its share (LinkPacing) through its bandwidth feature; refuses
   // one its feature cannot pace that far, naming the range. After the packet size is settled.
   Status set_link_pacing(AravisFeatures& f);
+  // "cam0 (...): cannot reach 250 fps at 1280x720 BayerRG8 ...": `said` names what says so.
+  Status unreachable_rate(const AravisFeatures& f, const std::string& said, double most) const;
   std::string link_pacing_;  // what set_link_pacing did, for CameraSettings
   std::map<CameraRole, std::string> chunk_features_;
   Status read_back(const AravisFeatures& f, const NodeMapCheck& check);

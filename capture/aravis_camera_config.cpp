@@ -3,7 +3,6 @@
 // back. Its connection, streaming and supervision are in aravis_camera.cpp.
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -99,6 +98,14 @@ Status AravisCamera::set_features(AravisFeatures& f) {
   return set_link_pacing(f);
 }
 
+Status AravisCamera::unreachable_rate(const AravisFeatures& f, const std::string& said, double most) const {
+  return Error{
+      fmt::format("{}: cannot reach {:g} fps at {}x{} {} (exposure {:g} us): {} is {:.2f} there; lower "
+                  "frame_rate, crop width/height, or shorten exposure_us",
+                  label(), config_.frame_rate, config_.width, config_.height, config_.pixel_format,
+                  f.number(CameraRole::ExposureTime).value_or(0), said, most)};
+}
+
 Status AravisCamera::set_link_pacing(AravisFeatures& f) {
   link_pacing_.clear();
   if (config_.link_cameras <= 1) return {};
@@ -190,21 +197,11 @@ Status AravisCamera::set_trigger_and_rate(AravisFeatures& f) {
     // FLIR takes a rate only with its enable on (older Point Grey: ...Enabled).
     if (f.has(CameraRole::FrameRateEnable))
       PVCAP_TRY(set(f.set_flag(CameraRole::FrameRateEnable, true), "the frame rate's enable"));
-    // The fastest it can go at the rig's region and format (set above): its rate's maximum now, and
-    // the rate it says it will reach where it has such a feature. Named before a rate is refused.
+    // The fastest it can go at the rig's region and format (set above), its rate's maximum now: named
+    // before a rate is refused (the rate it says it reaches is checked once the exposure is set too).
     if (f.has(CameraRole::FrameRate)) {
-      double most = std::numeric_limits<double>::infinity();
-      std::string said;
-      if (const auto r = f.range(f.name(CameraRole::FrameRate)); r && r->second < most)
-        most = r->second, said = fmt::format("{}'s maximum", f.name(CameraRole::FrameRate));
-      if (const auto r = f.number(CameraRole::ResultingFrameRate); r && *r > 0 && *r < most)
-        most = *r, said = f.name(CameraRole::ResultingFrameRate);
-      if (config_.frame_rate > most * 1.001)
-        return Error{
-            fmt::format("{}: cannot reach {:g} fps at {}x{} {} (its exposure {:g} us as it stands): {} is "
-                        "{:.2f} there; lower frame_rate, crop width/height, or shorten exposure_us",
-                        label(), config_.frame_rate, config_.width, config_.height, config_.pixel_format,
-                        f.number(CameraRole::ExposureTime).value_or(0), said, most)};
+      if (const auto r = f.range(f.name(CameraRole::FrameRate)); r && config_.frame_rate > r->second * 1.001)
+        return unreachable_rate(f, fmt::format("{}'s maximum", f.name(CameraRole::FrameRate)), r->second);
       PVCAP_TRY(set(f.set_number(CameraRole::FrameRate, config_.frame_rate),
                     fmt::format("the frame rate to {:g} fps", config_.frame_rate)));
     }
@@ -269,6 +266,9 @@ Status AravisCamera::read_back(const AravisFeatures& f, const NodeMapCheck& chec
   if (err || s.payload == 0) return Error{fmt::format("{}: cannot read PayloadSize: {}", label(), err.message())};
   s.buffer_count = buffer_count_for(config_);
   if (config_.trigger == TriggerMode::FreeRun) {
+    // With region, format and exposure all set, the rate the camera says it reaches.
+    if (const auto r = f.number(CameraRole::ResultingFrameRate); r && *r > 0 && config_.frame_rate > *r * 1.01)
+      return unreachable_rate(f, f.name(CameraRole::ResultingFrameRate), *r);
     if (!f.has(CameraRole::FrameRate)) {
       s.frame_rate = config_.frame_rate;  // it cannot say (warned above): the budget takes the rig's
     } else if (std::abs(s.frame_rate - config_.frame_rate) > 0.01 * config_.frame_rate) {

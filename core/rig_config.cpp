@@ -166,6 +166,41 @@ StoreConfig parse_store(const YAML::Node& node, const std::filesystem::path& fil
   return s;
 }
 
+// The rig's lights (LightConfig), each also given to the camera that drives it.
+void parse_lights(const YAML::Node& lights, const std::filesystem::path& source, const MapReader& r, RigConfig& rig) {
+  if (!lights.IsSequence()) r.fail(lights, "lights", "expected a list of lights (name, camera, line, mode)");
+  for (std::size_t i = 0; i < lights.size(); ++i) {
+    const std::string where = fmt::format("lights[{}]", i);
+    MapReader lr(lights[i], source, where);
+    LightConfig l;
+    l.line_no = lights[i].Mark().line + 1;
+    lr.require("name", l.name);
+    lr.require("camera", l.camera);
+    lr.require("line", l.line);
+    std::string mode = "steady";
+    lr.get("mode", mode);
+    if (mode != "steady" && mode != "strobe")
+      lr.fail(lights[i]["mode"], "mode", fmt::format("'{}' is not one of steady, strobe", mode));
+    l.strobe = mode == "strobe";
+    lr.finish();
+    if (l.name.size() != 1 || l.name[0] < 'A' || l.name[0] > 'Z')
+      r.fail(lights[i]["name"], where + ".name",
+             fmt::format("'{}': a light's name is one capital letter of the lighting codes (L, C, R)", l.name));
+    for (const LightConfig& o : rig.lights) {
+      if (o.name == l.name) r.fail(lights[i]["name"], where + ".name", fmt::format("'{}' is used twice", l.name));
+      if (o.camera == l.camera && o.line == l.line)
+        r.fail(lights[i]["line"], where + ".line",
+               fmt::format("{}'s {} already drives light {}", l.camera, l.line, o.name));
+    }
+    auto cam =
+        std::find_if(rig.cameras.begin(), rig.cameras.end(), [&](const CameraConfig& c) { return c.name == l.camera; });
+    if (cam == rig.cameras.end())
+      r.fail(lights[i]["camera"], where + ".camera", fmt::format("'{}' is not one of the rig's cameras", l.camera));
+    cam->lights.push_back(l);
+    rig.lights.push_back(std::move(l));
+  }
+}
+
 }  // namespace
 
 double grouping_rate_hz(const RigConfig& rig) {
@@ -214,39 +249,7 @@ RigConfig parse_rig_config(const std::string& text, const std::filesystem::path&
                              c.name, o.name, c.link, c.link_mbps, o.link_mbps));
       }
     }
-    if (const YAML::Node lights = r.child("lights")) {
-      if (!lights.IsSequence()) r.fail(lights, "lights", "expected a list of lights (name, camera, line, mode)");
-      for (std::size_t i = 0; i < lights.size(); ++i) {
-        const std::string where = fmt::format("lights[{}]", i);
-        MapReader lr(lights[i], source, where);
-        LightConfig l;
-        l.line_no = lights[i].Mark().line + 1;
-        lr.require("name", l.name);
-        lr.require("camera", l.camera);
-        lr.require("line", l.line);
-        std::string mode = "steady";
-        lr.get("mode", mode);
-        if (mode != "steady" && mode != "strobe")
-          lr.fail(lights[i]["mode"], "mode", fmt::format("'{}' is not one of steady, strobe", mode));
-        l.strobe = mode == "strobe";
-        lr.finish();
-        if (l.name.size() != 1 || l.name[0] < 'A' || l.name[0] > 'Z')
-          r.fail(lights[i]["name"], where + ".name",
-                 fmt::format("'{}': a light's name is one capital letter of the lighting codes (L, C, R)", l.name));
-        for (const LightConfig& o : rig.lights) {
-          if (o.name == l.name) r.fail(lights[i]["name"], where + ".name", fmt::format("'{}' is used twice", l.name));
-          if (o.camera == l.camera && o.line == l.line)
-            r.fail(lights[i]["line"], where + ".line",
-                   fmt::format("{}'s {} already drives light {}", l.camera, l.line, o.name));
-        }
-        auto cam = std::find_if(rig.cameras.begin(), rig.cameras.end(),
-                                [&](const CameraConfig& c) { return c.name == l.camera; });
-        if (cam == rig.cameras.end())
-          r.fail(lights[i]["camera"], where + ".camera", fmt::format("'{}' is not one of the rig's cameras", l.camera));
-        cam->lights.push_back(l);
-        rig.lights.push_back(std::move(l));
-      }
-    }
+    if (const YAML::Node lights = r.child("lights")) parse_lights(lights, source, r, rig);
     if (const YAML::Node sensel = r.child("sensel")) rig.sensel = parse_sensel(sensel, source);
     if (const YAML::Node store = r.child("store")) rig.store = parse_store(store, source);
     // The simulator's section: read by sim/sim_config.h, so only its presence is noted here.
