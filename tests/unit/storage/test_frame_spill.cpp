@@ -7,18 +7,15 @@
 
 #include "core/time.h"
 #include "storage/writer/frame_spill.h"
+#include "tests/unit/storage/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;
 using namespace std::chrono_literals;
 
 namespace {
-fs::path spill_dir(const std::string& name) {
-  const auto d = fs::temp_directory_path() / ("pvcap-test-spill-" + name + "-" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+// Removed when the test ends, also when an assertion ends it early (a failed run left one under /tmp).
+pvcap::testing::TempDir spill_dir(const std::string& name) { return {pvcap::testing::fresh_temp_dir("spill", name)}; }
 
 cv::Mat image_of(std::uint64_t i) {
   cv::Mat m(6, 8, CV_8UC1);
@@ -58,7 +55,8 @@ std::size_t spill_files(const fs::path& dir) {
 // An encoder that is behind: the frames beyond the memory queue go through the disk, and all come
 // back in order, pixels and rows intact; once caught up, frames stay in memory again.
 TEST(FrameSpill, FramesBeyondMemoryGoThroughTheDiskAndComeBackInOrder) {
-  const fs::path dir = spill_dir("order");
+  const pvcap::testing::TempDir scratch = spill_dir("order");
+  const fs::path& dir = scratch.path;
   std::vector<cv::Mat> images;
   {
     FrameSpillQueue q(dir, "cam0", /*memory_frames=*/4, /*writer_frames=*/64);
@@ -100,13 +98,13 @@ TEST(FrameSpill, FramesBeyondMemoryGoThroughTheDiskAndComeBackInOrder) {
     EXPECT_FALSE(q.pop_for(10ms));
     EXPECT_TRUE(q.drained());
   }
-  fs::remove_all(dir);
 }
 
 // Pushes and pops from two threads at once, the encoder slower than the camera for a while: nothing
 // lost, nothing reordered.
 TEST(FrameSpill, ACameraFasterThanItsEncoderLosesNothing) {
-  const fs::path dir = spill_dir("race");
+  const pvcap::testing::TempDir scratch = spill_dir("race");
+  const fs::path& dir = scratch.path;
   {
     // The writer's queue is large enough that a stalled writer thread on a loaded machine refuses
     // nothing: this test is about order and completeness across threads, not the disk's speed.
@@ -135,13 +133,13 @@ TEST(FrameSpill, ACameraFasterThanItsEncoderLosesNothing) {
     EXPECT_GT(from_spill, 0u);
     EXPECT_TRUE(q.drained());
   }
-  fs::remove_all(dir);
 }
 
 // A frame waits in memory at most the queue's age limit: when the encoder is held up longer, the
 // frames in memory go to the disk (where a power cut cannot take them), ahead of the new one.
 TEST(FrameSpill, FramesHeldInMemoryTooLongGoToTheDisk) {
-  const fs::path dir = spill_dir("age");
+  const pvcap::testing::TempDir scratch = spill_dir("age");
+  const fs::path& dir = scratch.path;
   {
     FrameSpillQueue q(dir, "cam5", /*memory_frames=*/8, /*writer_frames=*/8, /*memory_age=*/50ms);
     ASSERT_TRUE(q.push(image_of(0), row_of(0)));
@@ -166,14 +164,14 @@ TEST(FrameSpill, FramesHeldInMemoryTooLongGoToTheDisk) {
     EXPECT_FALSE(item->from_spill);
     q.close();
   }
-  fs::remove_all(dir);
 }
 
 // The frame in the encoder's hands is in memory too: an encoder held up with it (a slow first
 // frame, a stalled disk) past the age limit, with no new frame coming, sends it and the others to
 // the disk; once written, its spilled copy is not handed out again, and how long it took is kept.
 TEST(FrameSpill, TheFrameInTheEncodersHandsGoesToTheDiskWhenItIsHeldUp) {
-  const fs::path dir = spill_dir("in-hand");
+  const pvcap::testing::TempDir scratch = spill_dir("in-hand");
+  const fs::path& dir = scratch.path;
   {
     FrameSpillQueue q(dir, "cam6", /*memory_frames=*/8, /*writer_frames=*/8, /*memory_age=*/50ms);
     FrameRecord first = row_of(0), second = row_of(1);
@@ -201,13 +199,13 @@ TEST(FrameSpill, TheFrameInTheEncodersHandsGoesToTheDiskWhenItIsHeldUp) {
     EXPECT_FALSE(q.pop_for(100ms));
     EXPECT_TRUE(q.drained());
   }
-  fs::remove_all(dir);
 }
 
 // Memory stays bounded when the disk is slower than the camera: with the writer's queue full, a
 // frame is refused (the caller records it as lost) instead of piling up.
 TEST(FrameSpill, AWriterThatCannotKeepUpRefusesInsteadOfGrowing) {
-  const fs::path dir = spill_dir("bound");
+  const pvcap::testing::TempDir scratch = spill_dir("bound");
+  const fs::path& dir = scratch.path;
   {
     FrameSpillQueue q(dir, "cam4", 2, 0);  // no room for the writer: every frame past memory is refused
     EXPECT_TRUE(q.push(image_of(0), row_of(0)));
@@ -222,12 +220,12 @@ TEST(FrameSpill, AWriterThatCannotKeepUpRefusesInsteadOfGrowing) {
     EXPECT_FALSE(q.pop_for(10ms));
     EXPECT_TRUE(q.drained());
   }
-  fs::remove_all(dir);
 }
 
 // A spill cut by a crash reads up to its last whole record; a foreign file is named as such.
 TEST(FrameSpill, ACutSpillReadsToItsLastWholeRecord) {
-  const fs::path dir = spill_dir("cut");
+  const pvcap::testing::TempDir scratch = spill_dir("cut");
+  const fs::path& dir = scratch.path;
   {
     FrameSpillQueue q(dir, "cam2", 0, 64);  // no memory: every frame goes to the disk
     for (std::uint64_t i = 0; i < 5; ++i) ASSERT_TRUE(q.push(image_of(i), row_of(i)));
@@ -263,14 +261,14 @@ TEST(FrameSpill, ACutSpillReadsToItsLastWholeRecord) {
   auto refused = read_spill_file(foreign, [](SpillRecord&&) {});
   ASSERT_FALSE(refused);
   EXPECT_NE(refused.error().message.find("not a pvcap spill file"), std::string::npos);
-  fs::remove_all(dir);
 }
 
 // After the disk refused one of the session's writes (the shared halt): the spill's writer appends
 // nothing more and hands its frames back as storage_failed; abandon() hands back the rest and what
 // the spill already holds stays in its file for recover.
 TEST(FrameSpill, AfterAFailedWriteNothingMoreIsWrittenAndTheSpillStaysForRecover) {
-  const fs::path dir = spill_dir("halt");
+  const pvcap::testing::TempDir scratch = spill_dir("halt");
+  const fs::path& dir = scratch.path;
   const auto halt = std::make_shared<std::atomic<bool>>(false);
   fs::path file;
   {
@@ -307,7 +305,6 @@ TEST(FrameSpill, AfterAFailedWriteNothingMoreIsWrittenAndTheSpillStaysForRecover
   auto n = read_spill_file(file, [&](SpillRecord&& r) { kept.push_back(r.rec.sequence); });
   ASSERT_TRUE(n) << n.error().message;
   EXPECT_EQ(kept, (std::vector<std::uint64_t>{0, 1, 2, 3, 4})) << "the spill keeps what it held, for recover";
-  fs::remove_all(dir);
 }
 
 // The spill's writer behind the camera (here: busy with one 256-MB frame, its CRC and its write,
@@ -315,7 +312,8 @@ TEST(FrameSpill, AfterAFailedWriteNothingMoreIsWrittenAndTheSpillStaysForRecover
 // of queued, so that what a power cut can take is bounded in time; once it has caught up, frames are
 // taken again, and every frame taken comes back in order.
 TEST(FrameSpill, AFrameThatWouldWaitForTheWriterTooLongIsRefused) {
-  const fs::path dir = spill_dir("writer-age");
+  const pvcap::testing::TempDir scratch = spill_dir("writer-age");
+  const fs::path& dir = scratch.path;
   {
     FrameSpillQueue q(dir, "cam8", /*memory_frames=*/0, /*writer_frames=*/64, /*memory_age=*/200ms,
                       /*writer_age=*/20ms);
@@ -343,15 +341,14 @@ TEST(FrameSpill, AFrameThatWouldWaitForTheWriterTooLongIsRefused) {
     EXPECT_TRUE(taken.empty()) << taken.size() << " frames taken never came back";
     EXPECT_TRUE(q.push(image_of(11), row_of(11))) << "caught up: frames are taken again";
   }
-  fs::remove_all(dir);
 }
 
 // A read the disk fails is said as the disk's error, never taken for a crash's cut tail (which
 // recover would pass over in silence): here a folder, whose pread fails with EISDIR.
 TEST(FrameSpill, AReadTheDiskFailsIsAnErrorNotACutTail) {
-  const auto dir = spill_dir("unreadable");
+  const pvcap::testing::TempDir scratch = spill_dir("unreadable");
+  const fs::path& dir = scratch.path;
   const auto read = read_spill_file(dir, [](SpillRecord&&) {});
   ASSERT_FALSE(read);
   EXPECT_NE(read.error().message.find("cannot be read: Is a directory"), std::string::npos) << read.error().message;
-  fs::remove_all(dir);
 }
