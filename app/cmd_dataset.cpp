@@ -17,6 +17,7 @@
 #include "dataset/release.h"
 #include "dataset/slurm.h"
 #include "dataset/splits.h"
+#include "dataset/status_files.h"
 #include "dataset/withdrawal.h"
 #include "protocol/protocol.h"
 #include "storage/index/records.h"
@@ -65,22 +66,11 @@ Loaded load(const fs::path& dir, bool rescan, const std::atomic<bool>& stop) {
   l.db = std::move(db.value());
   if (rescan) {
     ProgressLine bar;
-    const auto started = std::chrono::steady_clock::now();
-    auto r = dataset::scan(
-        l.config, *l.db,
-        [&](std::size_t done, std::size_t total, const std::string& folder) {
-          const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-          bar.show(fmt::format("scan: {}/{} session folders, {:.0f} s{}", done, total, s,
-                               folder.empty() ? "" : ": " + folder),
-                   done, total);
-        },
-        stop);
+    auto r = dataset::scan(l.config, *l.db,
+                           bar.counter("scan", "session folders", [](const std::string& f) { return ": " + f; }), stop);
     if (!r) throw UserError(r.error().message);
-    const auto& s = r.value();
-    spdlog::info("catalogue: {} session folders ({} read, {} unchanged{}{}) in {:.1f} s", s.found, s.read, s.unchanged,
-                 s.forgotten ? fmt::format(", {} forgotten", s.forgotten) : "",
-                 s.withdrawn ? fmt::format(", {} of withdrawn participants left out", s.withdrawn) : "", s.seconds);
-    for (const auto& p : s.problems) spdlog::warn("{}", p);
+    spdlog::info("{}", r.value().summary());
+    for (const auto& p : r.value().problems) spdlog::warn("{}", p);
   }
   l.sessions = l.db->sessions();
   l.takes = l.db->takes();
@@ -89,39 +79,10 @@ Loaded load(const fs::path& dir, bool rescan, const std::atomic<bool>& stop) {
   return l;
 }
 
-std::optional<dataset::Splits> load_splits(const fs::path& dir) {
-  const json j = dataset::read_json_file(dir / "splits.json", nullptr);
-  if (j.is_null()) return std::nullopt;
-  return dataset::splits_from_json(j, dir / "splits.json");
-}
-
 std::vector<std::string> leakage(const Loaded& l) {
-  const auto splits = load_splits(l.config.dir);
+  const auto splits = dataset::load_splits(l.config.dir);
   if (!splits) return {};
   return dataset::leakage_problems(*splits, l.sessions, l.withdrawals);
-}
-
-// DIR/remaining/<participant>.yaml for each incomplete participant (the pictograms beside them);
-// a complete participant's old file is removed.
-void write_remaining(const Loaded& l) {
-  const fs::path folder = l.config.dir / "remaining";
-  std::error_code ec;
-  fs::create_directories(folder / "pictograms", ec);
-  if (ec) throw UserError(fmt::format("{}: cannot be made: {}", folder.string(), ec.message()));
-  for (const auto& a : l.protocol.actions) {
-    const fs::path to = folder / "pictograms" / fs::path(a.pictogram).filename();
-    fs::copy_file(a.pictogram, to, fs::copy_options::overwrite_existing, ec);
-    if (ec) throw UserError(fmt::format("{}: cannot be copied to {}: {}", a.pictogram, to.string(), ec.message()));
-  }
-  for (const auto& p : l.status.participants) {
-    const fs::path file = folder / (p.code + ".yaml");
-    const std::string text = dataset::remaining_protocol_yaml(l.protocol, p, "pictograms");
-    if (text.empty()) {
-      fs::remove(file, ec);
-      continue;
-    }
-    if (auto w = write_file_atomically(file, text, Durability::Synced); !w.ok()) throw UserError(w.error().message);
-  }
 }
 
 int run_init(DatasetArgs& a) {
@@ -142,12 +103,7 @@ int run_init(DatasetArgs& a) {
 int run_status(const DatasetArgs& a, const std::atomic<bool>& stop) {
   const Loaded l = load(a.dir, true, stop);
   const auto leaks = leakage(l);
-  write_remaining(l);
-  const json j = dataset::status_json(l.status);
-  if (auto w = write_file_atomically(l.config.dir / "dataset.html", dataset::render_dataset_html(j, leaks),
-                                     Durability::Synced);
-      !w.ok())
-    throw UserError(w.error().message);
+  const json j = dataset::write_status_files(l.config, l.protocol, l.status, leaks);
   if (a.json_out) {
     json out = j;
     out["leakage"] = leaks;
@@ -172,10 +128,7 @@ int run_split(const DatasetArgs& a, const std::atomic<bool>& stop) {
       candidates.push_back({p.code, p.skin_tone, p.lighting.empty() ? "unrecorded" : p.lighting.front()});
   const std::uint64_t seed = a.seed >= 0 ? std::uint64_t(a.seed) : std::random_device{}();
   const auto s = dataset::make_splits(candidates, a.test, a.val, seed);
-  if (auto w = write_file_atomically(l.config.dir / "splits.json", dataset::splits_json(s, candidates).dump(2) + "\n",
-                                     Durability::Synced);
-      !w.ok())
-    throw UserError(w.error().message);
+  if (auto w = dataset::save_splits(l.config.dir, s, candidates); !w.ok()) throw UserError(w.error().message);
   fmt::print("splits (seed {}; --seed {} makes them again):\n  train: {}\n  val:   {}\n  test:  {}\n", seed, seed,
              fmt::join(s.train, " "), fmt::join(s.val, " "), fmt::join(s.test, " "));
   const auto leaks = dataset::leakage_problems(s, l.sessions, l.withdrawals);
@@ -189,7 +142,7 @@ int finish(const fs::path& dir, const fs::path& out, const std::atomic<bool>& st
   const Loaded l = load(dir, false, stop);
   auto plan = dataset::load_plan(l.config.dir, out);
   if (!plan) throw UserError(plan.error().message);
-  const auto splits = load_splits(l.config.dir);
+  const auto splits = dataset::load_splits(l.config.dir);
   if (!splits)
     throw UserError(fmt::format("{}: missing; a release needs its splits", (l.config.dir / "splits.json").string()));
   auto r = dataset::finish_release(l.config, plan.value(), l.status, *splits, l.sessions);
@@ -208,7 +161,7 @@ int run_release(const DatasetArgs& a, const AppContext& ctx) {
   if (Status s = dataset::check_release_metadata(dataset::load_dataset(a.dir)); !s.ok())
     throw UserError(s.error().message);
   const Loaded l = load(a.dir, true, ctx.stop);
-  if (!load_splits(l.config.dir))
+  if (!dataset::load_splits(l.config.dir))
     throw UserError(fmt::format("{}: no splits yet; make them first (pvcap dataset split {} --test N --val N)",
                                 (l.config.dir / "splits.json").string(), a.dir.string()));
   if (const auto leaks = leakage(l); !leaks.empty())
@@ -227,15 +180,8 @@ int run_release(const DatasetArgs& a, const AppContext& ctx) {
     return 0;
   }
   ProgressLine bar;
-  const auto started = std::chrono::steady_clock::now();
   const Status s = dataset::run_local(
-      p, a.jobs,
-      [&](std::size_t done, std::size_t total, const std::string& folder) {
-        const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-        bar.show(fmt::format("release: {}/{} sessions exported, {:.0f} s{}", done, total, t,
-                             folder.empty() ? "" : " (last: " + folder + ")"),
-                 done, total);
-      },
+      p, a.jobs, bar.counter("release", "sessions exported", [](const std::string& f) { return " (last: " + f + ")"; }),
       ctx.stop);
   if (!s.ok()) {
     bar.abandon();

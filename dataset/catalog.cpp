@@ -84,6 +84,12 @@ std::string participant_of(const fs::path& folder) {
 
 }  // namespace
 
+std::string ScanResult::summary() const {
+  return fmt::format("catalogue: {} session folders ({} read, {} unchanged{}{}) in {:.1f} s", found, read, unchanged,
+                     forgotten ? fmt::format(", {} forgotten", forgotten) : "",
+                     withdrawn ? fmt::format(", {} of withdrawn participants left out", withdrawn) : "", seconds);
+}
+
 std::vector<fs::path> find_sessions(const std::vector<fs::path>& roots) {
   std::vector<fs::path> out;
   for (const auto& r : roots) {

@@ -22,6 +22,8 @@ struct ScanResult {
   std::size_t found = 0, read = 0, unchanged = 0, forgotten = 0, withdrawn = 0;
   std::vector<std::string> problems;  // folders that could not be read (catalogued as failed), each with why
   double seconds = 0;
+  // "catalogue: 3 session folders (1 read, 2 unchanged) in 0.4 s", as the scan's command logs it.
+  std::string summary() const;
 };
 
 // Called before each folder is read (done of total) with its name, and while a folder is read with

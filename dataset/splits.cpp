@@ -8,6 +8,9 @@
 
 #include <fmt/format.h>
 
+#include "core/durable_folder.h"
+#include "dataset/dataset_folder.h"
+
 namespace pvcap::dataset {
 
 using json = nlohmann::json;
@@ -136,6 +139,19 @@ std::vector<std::string> leakage_problems(const Splits& s, const std::vector<Cat
                       "again)",
                       code));
   return out;
+}
+
+Status save_splits(const std::filesystem::path& dataset_dir, const Splits& s,
+                   const std::vector<SplitCandidate>& candidates) {
+  return write_file_atomically(dataset_dir / "splits.json", splits_json(s, candidates).dump(2) + "\n",
+                               Durability::Synced);
+}
+
+std::optional<Splits> load_splits(const std::filesystem::path& dataset_dir) {
+  const std::filesystem::path file = dataset_dir / "splits.json";
+  const nlohmann::json j = read_json_file(file, nullptr);
+  if (j.is_null()) return std::nullopt;
+  return splits_from_json(j, file);
 }
 
 }  // namespace pvcap::dataset

@@ -6,10 +6,13 @@
 // their share of it, by largest remainder. The leakage check that status and release also run.
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "core/result.h"
 
 #include "dataset/dataset_folder.h"
 #include "storage/index/catalog_db.h"
@@ -30,6 +33,11 @@ Splits make_splits(std::vector<SplitCandidate> candidates, int test, int val, st
 nlohmann::json splits_json(const Splits& s, const std::vector<SplitCandidate>& candidates);
 // Reads splits.json's content strictly (a UserError naming `file` for a key of the wrong type).
 Splits splits_from_json(const nlohmann::json& j, const std::filesystem::path& file);
+// DIR/splits.json, written whole (splits_json), and read as splits_from_json reads it (nullopt when
+// the dataset has none yet).
+Status save_splits(const std::filesystem::path& dataset_dir, const Splits& s,
+                   const std::vector<SplitCandidate>& candidates);
+std::optional<Splits> load_splits(const std::filesystem::path& dataset_dir);
 
 // What is wrong with the splits against the catalogue: a participant in two splits, a resumed
 // session whose folders belong to different participants (so could land in two splits), a

@@ -24,12 +24,9 @@ Result<DatasetView> open_dataset(const std::filesystem::path& dir) {
     out.name = config.name;
     const auto withdrawals = dataset::load_withdrawals(config.dir);
     for (const auto& w : withdrawals) out.withdrawn.push_back(w.participant);
-    dataset::Splits splits;
-    const nlohmann::json j = dataset::read_json_file(config.dir / "splits.json", nullptr);
-    if (!j.is_null()) {
-      splits = dataset::splits_from_json(j, config.dir / "splits.json");
-      out.has_splits = true;
-    }
+    const std::optional<dataset::Splits> loaded = dataset::load_splits(config.dir);
+    out.has_splits = loaded.has_value();
+    const dataset::Splits splits = loaded.value_or(dataset::Splits{});
     const auto in = [](const std::vector<std::string>& v, const std::string& code) {
       return std::find(v.begin(), v.end(), code) != v.end();
     };
