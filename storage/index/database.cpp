@@ -33,7 +33,17 @@ std::string os_error(sqlite3* db, int rc) {
                                  : fmt::format(": fsync of the folder {}: {}", sync.folder, std::strerror(sync.error));
   }
   const int e = sqlite3_system_errno(db);
-  return e ? fmt::format(": {}", std::strerror(e)) : "";
+  std::string out = e ? fmt::format(": {}", std::strerror(e)) : "";
+  // A read that failed may have been of the write-ahead log beside the index: SQLite does not say
+  // which file, so while there is one, both are named.
+  if (primary == SQLITE_IOERR && (extended == SQLITE_IOERR_READ || extended == SQLITE_IOERR_SHORT_READ)) {
+    const char* file = sqlite3_db_filename(db, "main");
+    std::error_code ec;
+    if (file && *file && std::filesystem::exists(std::string(file) + "-wal", ec))
+      out += fmt::format(" (reading {} or its write-ahead log {}-wal)", std::filesystem::path(file).filename().string(),
+                         std::filesystem::path(file).filename().string());
+  }
+  return out;
 }
 
 [[noreturn]] void fail(sqlite3* db, int rc, std::string_view what) {
