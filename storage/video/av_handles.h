@@ -20,6 +20,15 @@ struct Handle {
   ~Handle() { Free(ptr); }
   Handle(const Handle&) = delete;
   Handle& operator=(const Handle&) = delete;
+  Handle(Handle&& o) noexcept : ptr(o.ptr) { o.ptr = nullptr; }  // kept in vectors (one encoder per tile)
+  Handle& operator=(Handle&& o) noexcept {
+    if (this != &o) {
+      Free(ptr);
+      ptr = o.ptr;
+      o.ptr = nullptr;
+    }
+    return *this;
+  }
   T* operator->() const { return ptr; }
   explicit operator bool() const { return ptr != nullptr; }
 };

@@ -7,6 +7,8 @@ extern "C" {
 #include <libswscale/swscale.h>
 }
 
+#include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 
 #include <fmt/format.h>
@@ -16,6 +18,7 @@ extern "C" {
 #include "storage/video/av_handles.h"
 #include "storage/video/av_log.h"
 #include "storage/video/bayer_planes.h"
+#include "storage/video/bayer_tiles.h"
 #include "storage/video/frame_checksum.h"
 
 namespace pvcap {
@@ -33,6 +36,24 @@ struct VideoReader::Impl {  // members are freed in reverse: the scaler first, t
   int stream = -1;
   bool draining = false;
   bool intra_only = false;  // every frame decodes alone (HuffYUV, MagicYUV; not FFV1): reads skip, not decode
+  // A tiled raw video (storage/video/bayer_tiles.h): one decoder per tile, each its own stream.
+  struct Tile {
+    int stream = -1;
+    av::CodecContext dec;
+    av::Frame frame;
+  };
+  std::vector<Tile> tiles;       // empty: one stream holds the whole picture
+  std::vector<int> stream_tile;  // stream index -> tile (-1: not a tile)
+  TileGrid grid;
+  std::vector<char> wanted;      // the tiles the next read decodes
+  std::vector<char> seen;        // the tiles of the frame being read whose packet came
+  int seen_count = 0;
+  std::int64_t group_pts = INT64_MIN;
+  cv::Mat planes;                // the decoded tiles of the last frame put back in place
+  bool planes_whole = false;     // every tile of the last frame is in `planes`
+  bool key = false;              // the last frame's first tile was a key frame
+  int picture_format = -1;       // what the tiles decode as
+  bool tiled() const { return !tiles.empty(); }
 };
 
 Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::path& path, const Options& options) {
@@ -85,6 +106,10 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
   }
   const AVCodecDescriptor* descriptor = avcodec_descriptor_get(codec->id);
   im.intra_only = descriptor && (descriptor->props & AV_CODEC_PROP_INTRA_ONLY) != 0;
+  if (const std::string tiles = tag("PVCAP_TILES"); !tiles.empty() && r->raw()) {
+    if (Status st = open_tiles(*r, tiles, tag("PVCAP_SIZE"), codec, options); !st.ok()) return st.error();
+    return r;
+  }
   im.dec.ptr = avcodec_alloc_context3(codec);
   avcodec_parameters_to_context(im.dec.ptr, im.fmt.ptr->streams[im.stream]->codecpar);
   // Slice threads: the store writes several slices per frame, so one frame decodes on two cores
@@ -112,8 +137,61 @@ Result<std::unique_ptr<VideoReader>> VideoReader::open(const std::filesystem::pa
 }
 
 VideoReader::~VideoReader() = default;
-int VideoReader::width() const { return raw() ? impl_->dec.ptr->width * 2 : impl_->dec.ptr->width; }
+int VideoReader::width() const {
+  if (impl_->tiled()) return impl_->grid.mosaic.width;
+  return raw() ? impl_->dec.ptr->width * 2 : impl_->dec.ptr->width;
+}
 int VideoReader::height() const { return raw() ? stacked_height_ / 2 : impl_->dec.ptr->height; }
+int VideoReader::tiles() const { return impl_->tiled() ? impl_->grid.count() : 1; }
+
+Status VideoReader::open_tiles(VideoReader& r, const std::string& tiles, const std::string& size, const AVCodec* codec,
+                               const Options& options) {
+  Impl& im = *r.impl_;
+  const std::string where = r.path_.string();
+  int w = 0, h = 0;
+  if (std::sscanf(size.c_str(), "%dx%d", &w, &h) != 2 || w <= 0 || h <= 0)
+    return Error{fmt::format("{}: a tiled raw video without its mosaic's size (PVCAP_SIZE '{}')", where, size)};
+  auto grid = parse_tile_grid(tiles, {w, h});
+  if (!grid) return Error{fmt::format("{}: {}", where, grid.error().message)};
+  im.grid = grid.value();
+  im.tiles.resize(std::size_t(im.grid.count()));
+  im.stream_tile.assign(im.fmt.ptr->nb_streams, -1);
+  for (unsigned i = 0; i < im.fmt.ptr->nb_streams; ++i) {
+    const AVDictionaryEntry* e = av_dict_get(im.fmt.ptr->streams[i]->metadata, "PVCAP_TILE", nullptr, 0);
+    const int t = e ? std::atoi(e->value) : -1;
+    if (t < 0 || t >= im.grid.count() || im.tiles[std::size_t(t)].stream >= 0)
+      return Error{fmt::format("{}: stream {} is not one tile of the {} grid", where, i, tiles)};
+    im.tiles[std::size_t(t)].stream = int(i);
+    im.stream_tile[i] = t;
+  }
+  const cv::Size picture = bayer_planes_size(im.grid.tile_size());
+  r.stacked_height_ = h * 2;
+  r.three_planes_possible_ = r.bit_depth_ == 8 && r.layout_ == kBayerPlanesGreenLastLayout &&
+                             (codec->id == AV_CODEC_ID_FFVHUFF || codec->id == AV_CODEC_ID_HUFFYUV);
+  r.three_planes_ = options.half_size_colour_only && r.three_planes_possible_;
+  if (r.three_planes_) r.demosaic_ = Demosaic::HalfSize;
+  for (std::size_t t = 0; t < im.tiles.size(); ++t) {
+    Impl::Tile& tile = im.tiles[t];
+    if (tile.stream < 0) return Error{fmt::format("{}: tile {} of the {} grid has no stream", where, t, tiles)};
+    const AVCodecParameters* par = im.fmt.ptr->streams[tile.stream]->codecpar;
+    if (par->codec_id != codec->id || par->width != picture.width || par->height != picture.height)
+      return Error{fmt::format("{}: tile {} is not a {}x{} picture of the first tile's codec", where, t, picture.width,
+                               picture.height)};
+    tile.dec.ptr = avcodec_alloc_context3(codec);
+    avcodec_parameters_to_context(tile.dec.ptr, par);
+    tile.dec.ptr->thread_count = 1;  // a tile is small; the read decodes several
+    tile.dec.ptr->flags |= AV_CODEC_FLAG_LOW_DELAY;
+    if (r.three_planes_) tile.dec.ptr->height = picture.height / 4 * 3;
+    if (avcodec_open2(tile.dec.ptr, codec, nullptr) < 0)
+      return Error{fmt::format("{}: cannot open the decoder of tile {}", where, t)};
+    tile.frame.ptr = av_frame_alloc();
+  }
+  im.stream = im.tiles[0].stream;
+  im.wanted.assign(im.tiles.size(), 1);
+  im.seen.assign(im.tiles.size(), 0);
+  im.packet.ptr = av_packet_alloc();
+  return {};
+}
 
 Result<bool> VideoReader::next(cv::Mat& bgr, std::int64_t& pts_ms) {
   const FfmpegLogQuiet quiet;
@@ -137,6 +215,16 @@ Result<cv::Mat> stored_picture(const AVFrame* f, int bit_depth, const std::files
 }
 }  // namespace
 
+Result<cv::Mat> VideoReader::picture() const {
+  const Impl& im = *impl_;
+  if (!im.tiled()) return stored_picture(im.frame.ptr, bit_depth_, path_);
+  const int f = im.picture_format;  // H.264 hands a grey picture out as 4:2:0, its first plane the picture
+  const bool grey8 = f == AV_PIX_FMT_GRAY8 || f == AV_PIX_FMT_YUV420P || f == AV_PIX_FMT_YUVJ420P;
+  if (!(bit_depth_ > 8 ? f == AV_PIX_FMT_GRAY16LE : grey8))
+    return Error{fmt::format("{}: a raw video's pictures must be {}-bit grey", path_.string(), bit_depth_ > 8 ? 16 : 8)};
+  return three_planes_ ? im.planes.rowRange(0, stacked_height_ / 4 * 3) : im.planes;
+}
+
 Result<bool> VideoReader::next_stored(cv::Mat& picture, std::int64_t& pts_ms, bool& key) {
   if (!raw()) return Error{fmt::format("{}: a colour video keeps no stored picture to check", path_.string())};
   if (three_planes_)
@@ -144,16 +232,17 @@ Result<bool> VideoReader::next_stored(cv::Mat& picture, std::int64_t& pts_ms, bo
   const FfmpegLogQuiet quiet;
   auto more = decode_next(pts_ms);
   if (!more || !more.value()) return more;
-  auto p = stored_picture(impl_->frame.ptr, bit_depth_, path_);
+  auto p = this->picture();
   if (!p) return p.error();
   picture = p.value();
-  key = impl_->frame.ptr->key_frame != 0;
+  key = impl_->tiled() ? impl_->key : impl_->frame.ptr->key_frame != 0;
   return true;
 }
 
 std::optional<std::uint32_t> VideoReader::decoded_picture_crc() const {
-  if (!raw() || three_planes_ || last_pts_ms_ == INT64_MIN || !impl_->frame.ptr->data[0]) return std::nullopt;
-  auto p = stored_picture(impl_->frame.ptr, bit_depth_, path_);
+  if (!raw() || three_planes_ || last_pts_ms_ == INT64_MIN) return std::nullopt;
+  if (impl_->tiled() ? !impl_->planes_whole : !impl_->frame.ptr->data[0]) return std::nullopt;
+  auto p = picture();
   if (!p) return std::nullopt;
   return picture_crc(p.value());
 }
@@ -161,7 +250,7 @@ std::optional<std::uint32_t> VideoReader::decoded_picture_crc() const {
 Status VideoReader::to_mosaic(cv::Mat& mosaic) {
   if (three_planes_)
     return Error{fmt::format("{}: opened for half-size colour images only: no mosaic", path_.string())};
-  auto planes = stored_picture(impl_->frame.ptr, bit_depth_, path_);
+  auto planes = picture();
   if (!planes) return planes.error();
   if (planes.value().rows % 4 != 0 || planes.value().cols <= 0)
     return Error{fmt::format("{}: a raw video's pictures must hold four planes stacked", path_.string())};
@@ -181,16 +270,18 @@ Status VideoReader::to_bgr(cv::Mat& bgr) {
 
 Status VideoReader::convert_to_bgr(cv::Mat& bgr) {
   Impl& im = *impl_;
-  if (raw() && demosaic_ == Demosaic::HalfSize && bit_depth_ == 8 && im.frame.ptr->format == AV_PIX_FMT_GRAY8) {
+  const bool grey8 = im.tiled() ? im.picture_format == AV_PIX_FMT_GRAY8 : im.frame.ptr->format == AV_PIX_FMT_GRAY8;
+  if (raw() && demosaic_ == Demosaic::HalfSize && bit_depth_ == 8 && grey8) {
     // The decoded picture already holds the planes (three of them when the decoder stopped before
     // the second green): no mosaic in between.
-    const AVFrame* f = im.frame.ptr;
+    auto picture = this->picture();
+    if (!picture) return picture.error();
+    const cv::Mat& stacked = picture.value();
     const int h = stacked_height_ / 4;
-    const cv::Mat stacked(f->height, f->width, CV_8UC1, f->data[0], std::size_t(f->linesize[0]));
     cv::Mat planes[4];  // by cell
     for (int k = 0; k < 4; ++k)
-      if ((k + 1) * h <= f->height) planes[order_[std::size_t(k)]] = stacked.rowRange(k * h, (k + 1) * h);
-    const cv::Size size = image_size_.empty() ? cv::Size(f->width, h) : image_size_;
+      if ((k + 1) * h <= stacked.rows) planes[order_[std::size_t(k)]] = stacked.rowRange(k * h, (k + 1) * h);
+    const cv::Size size = image_size_.empty() ? cv::Size(stacked.cols, h) : image_size_;
     bgr = im.images.acquire(size.height, size.width, CV_8UC3);
     if (Status s = scaled_half_size_from_planes(planes, bayer_format_, size, bgr); !s.ok())
       return Error{fmt::format("{}: {}", path_.string(), s.error().message)};
@@ -242,6 +333,7 @@ Status VideoReader::convert_to_bgr(cv::Mat& bgr) {
 // Decodes the next frame into the decoder's own frame, without converting it.
 Result<bool> VideoReader::decode_next(std::int64_t& pts_ms, std::int64_t skip_before_ms) {
   Impl& im = *impl_;
+  if (im.tiled()) return decode_next_tiles(pts_ms, skip_before_ms, true);
   for (;;) {
     const int rc = avcodec_receive_frame(im.dec.ptr, im.frame.ptr);
     if (rc == 0) {
@@ -284,23 +376,126 @@ Result<bool> VideoReader::decode_next(std::int64_t& pts_ms, std::int64_t skip_be
   }
 }
 
+// A tiled video's next frame: its tiles' packets (the writer writes a frame's tiles one after
+// another), the wanted ones decoded and put back in place in `planes`. A frame cut short (a crash
+// between its tiles) is passed over, as is a frame stamped before `skip_before_ms` (intra-only
+// codecs). `decode` false: the packets are counted, not decoded.
+Result<bool> VideoReader::decode_next_tiles(std::int64_t& pts_ms, std::int64_t skip_before_ms, bool decode) {
+  Impl& im = *impl_;
+  const int count = im.grid.count();
+  for (;;) {
+    const int rr = av_read_frame(im.fmt.ptr, im.packet.ptr);
+    if (rr == AVERROR(EIO) || (im.fmt.ptr->pb && im.fmt.ptr->pb->error == AVERROR(EIO)))
+      return Error{fmt::format("{}: cannot be read: {}", path_.string(), av::error(AVERROR(EIO))), true};
+    if (rr < 0) {
+      im.draining = true;
+      return false;  // the end (or a cut tail): a frame without all its tiles is not one
+    }
+    AVPacket* pkt = im.packet.ptr;
+    const int t = pkt->stream_index >= 0 && std::size_t(pkt->stream_index) < im.stream_tile.size()
+                      ? im.stream_tile[std::size_t(pkt->stream_index)]
+                      : -1;
+    if (t < 0 || pkt->pts == AV_NOPTS_VALUE) {
+      av_packet_unref(pkt);
+      continue;
+    }
+    const std::int64_t at =
+        av_rescale_q(pkt->pts, im.fmt.ptr->streams[pkt->stream_index]->time_base, AVRational{1, 1000});
+    if (at != im.group_pts) {  // a new frame begins
+      im.group_pts = at;
+      std::fill(im.seen.begin(), im.seen.end(), 0);
+      im.seen_count = 0;
+    }
+    if (im.seen[std::size_t(t)]) {
+      av_packet_unref(pkt);
+      continue;
+    }
+    im.seen[std::size_t(t)] = 1;
+    ++im.seen_count;
+    if (t == 0) im.key = (pkt->flags & AV_PKT_FLAG_KEY) != 0;
+    const bool skipped = im.intra_only && skip_before_ms != INT64_MIN && at < skip_before_ms;
+    if (decode && !skipped && im.wanted[std::size_t(t)]) {
+      Impl::Tile& tile = im.tiles[std::size_t(t)];
+      const int sr = avcodec_send_packet(tile.dec.ptr, pkt);
+      av_packet_unref(pkt);
+      if (sr < 0) return Error{fmt::format("{}: corrupt video packet (tile {})", path_.string(), t)};
+      if (avcodec_receive_frame(tile.dec.ptr, tile.frame.ptr) < 0)
+        return Error{fmt::format("{}: tile {} at {} ms did not decode", path_.string(), t, at)};
+      im.picture_format = tile.frame.ptr->format;
+      ++tiles_decoded_;
+      const cv::Mat picture(tile.frame.ptr->height, tile.frame.ptr->width, bit_depth_ > 8 ? CV_16UC1 : CV_8UC1,
+                            tile.frame.ptr->data[0], std::size_t(tile.frame.ptr->linesize[0]));
+      copy_tile_to_planes(picture, im.grid, t, im.planes);
+    } else {
+      av_packet_unref(pkt);
+    }
+    if (im.seen_count < count || skipped) continue;
+    pts_ms = at;
+    last_pts_ms_ = at;
+    if (decode) {
+      ++frames_decoded_;
+      im.planes_whole = std::all_of(im.wanted.begin(), im.wanted.end(), [](char w) { return w != 0; });
+    }
+    return true;
+  }
+}
+
+Result<bool> VideoReader::read_raw_region_at(std::int64_t pts_ms, cv::Rect box, cv::Mat& mosaic,
+                                             std::int64_t tolerance_ms) {
+  if (!raw()) return Error{fmt::format("{}: a colour video (stored debayered) holds no sensor mosaic", path_.string())};
+  if (box.x % 2 || box.y % 2 || box.width % 2 || box.height % 2 || box.empty() ||
+      (box & cv::Rect(0, 0, width(), height())) != box)
+    return Error{fmt::format("{}: ({}, {}, {}, {}) is not a region of whole Bayer cells inside the {}x{} mosaic",
+                             path_.string(), box.x, box.y, box.width, box.height, width(), height())};
+  return seek_and_convert(pts_ms, mosaic, tolerance_ms, Convert::Region, box);
+}
+
+Status VideoReader::to_mosaic_region(cv::Rect box, cv::Mat& mosaic) {
+  if (three_planes_)
+    return Error{fmt::format("{}: opened for half-size colour images only: no mosaic", path_.string())};
+  auto planes = picture();
+  if (!planes) return planes.error();
+  const cv::Mat& p = planes.value();
+  const int plane_height = stacked_height_ / 4;
+  // The box's part of each plane, stacked as a mosaic of the box's size would stack them.
+  cv::Mat stacked(box.height * 2, box.width / 2, p.type());
+  for (int k = 0; k < 4; ++k) {
+    cv::Mat dst = stacked.rowRange(k * box.height / 2, (k + 1) * box.height / 2);
+    p(cv::Rect(box.x / 2, k * plane_height + box.y / 2, box.width / 2, box.height / 2)).copyTo(dst);
+  }
+  unpack_bayer_planes(stacked, mosaic, order_);
+  return {};
+}
+
 Result<bool> VideoReader::read_at(std::int64_t pts_ms, cv::Mat& bgr, std::int64_t tolerance_ms) {
-  return seek_and_convert(pts_ms, bgr, tolerance_ms, false);
+  return seek_and_convert(pts_ms, bgr, tolerance_ms, Convert::Bgr);
 }
 
 Result<bool> VideoReader::read_raw_at(std::int64_t pts_ms, cv::Mat& mosaic, std::int64_t tolerance_ms) {
   if (!raw()) return Error{fmt::format("{}: a colour video (stored debayered) holds no sensor mosaic", path_.string())};
-  return seek_and_convert(pts_ms, mosaic, tolerance_ms, true);
+  return seek_and_convert(pts_ms, mosaic, tolerance_ms, Convert::Mosaic);
 }
 
 Result<bool> VideoReader::seek_and_convert(std::int64_t pts_ms, cv::Mat& out, std::int64_t tolerance_ms,
-                                           bool as_mosaic) {
+                                           Convert what, cv::Rect region) {
   const FfmpegLogQuiet quiet;
   Impl& im = *impl_;
+  if (im.tiled()) {
+    // A region decodes the tiles under it; a video whose frames refer to earlier ones (a compacted
+    // GOP) decodes every tile, or the tiles left out would lose their references.
+    std::fill(im.wanted.begin(), im.wanted.end(), what == Convert::Region && im.intra_only ? 0 : 1);
+    if (what == Convert::Region && im.intra_only)
+      for (const int t : im.grid.covering(region)) im.wanted[std::size_t(t)] = 1;
+  }
   const AVRational tb = im.fmt.ptr->streams[im.stream]->time_base;
   auto seek = [&](std::int64_t ts, int flags) {
     if (av_seek_frame(im.fmt.ptr, im.stream, ts, flags) < 0) return false;
-    avcodec_flush_buffers(im.dec.ptr);
+    if (im.tiled()) {
+      for (Impl::Tile& t : im.tiles) avcodec_flush_buffers(t.dec.ptr);
+      im.group_pts = INT64_MIN;
+    } else {
+      avcodec_flush_buffers(im.dec.ptr);
+    }
     im.draining = false;
     last_pts_ms_ = INT64_MIN;
     return true;
@@ -315,7 +510,11 @@ Result<bool> VideoReader::seek_and_convert(std::int64_t pts_ms, cv::Mat& out, st
       if (!more.value()) return false;
       if (at >= pts_ms - tolerance_ms) {
         if (at > pts_ms + tolerance_ms) return false;
-        if (as_mosaic) {
+        if (what == Convert::Region) {
+          if (Status s = to_mosaic_region(region, out); !s.ok()) return s.error();
+          return true;
+        }
+        if (what == Convert::Mosaic) {
           if (Status s = to_mosaic(out); !s.ok()) return s.error();
           return true;
         }
@@ -341,6 +540,11 @@ Result<bool> VideoReader::seek_and_convert(std::int64_t pts_ms, cv::Mat& out, st
 Result<bool> VideoReader::next_packet(std::int64_t& pts_ms, bool& key) {
   const FfmpegLogQuiet quiet;
   Impl& im = *impl_;
+  if (im.tiled()) {  // a frame is its tiles' packets, all of them
+    auto more = decode_next_tiles(pts_ms, INT64_MIN, false);
+    key = im.key;
+    return more;
+  }
   for (;;) {
     const int rr = av_read_frame(im.fmt.ptr, im.packet.ptr);
     if (rr == AVERROR(EIO) || (im.fmt.ptr->pb && im.fmt.ptr->pb->error == AVERROR(EIO)))

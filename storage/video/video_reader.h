@@ -15,6 +15,8 @@
 #include "core/result.h"
 #include "storage/video/bayer_planes.h"
 
+struct AVCodec;
+
 namespace pvcap {
 
 class VideoReader {
@@ -45,6 +47,8 @@ class VideoReader {
   // Frames decoded so far by any read (what random access costs: an intra-only video decodes only
   // the frames asked for).
   std::uint64_t frames_decoded() const { return frames_decoded_; }
+  // Tiles decoded so far (a tiled raw video; a region's read decodes only the tiles under it).
+  std::uint64_t tiles_decoded() const { return tiles_decoded_; }
   // Without decoding: the next packet of the video stream (one per frame here: no B-frames),
   // its timestamp and whether it is a key frame; false at the end. Do not mix with next().
   Result<bool> next_packet(std::int64_t& pts_ms, bool& key);
@@ -56,6 +60,11 @@ class VideoReader {
   // The same frame as the sensor's mosaic (CV_8UC1; CV_16UC1 above 8 bits), exactly as captured. An
   // Error for a colour video. (Colour images are always 8-bit: a deeper mosaic's top 8 bits.)
   Result<bool> read_raw_at(std::int64_t pts_ms, cv::Mat& mosaic, std::int64_t tolerance_ms = 1);
+  // A region of the same frame as the sensor's mosaic: `box` in the mosaic's pixels, of whole 2x2
+  // cells (even position and size), inside it; `mosaic` is the box's size. A tiled video
+  // (storage/video/bayer_tiles.h) decodes only the tiles under the box; another decodes the whole
+  // frame. No checksum can be taken of a region (decoded_picture_crc says none).
+  Result<bool> read_raw_region_at(std::int64_t pts_ms, cv::Rect box, cv::Mat& mosaic, std::int64_t tolerance_ms = 1);
   // How raw videos become colour (bilinear unless set; colour videos ignore it; a reader that
   // decodes three planes stays at half size).
   void set_demosaic(Demosaic method) {
@@ -73,6 +82,8 @@ class VideoReader {
   int bit_depth() const { return bit_depth_; }           // a raw video's bits per sample
   const std::string& layout() const { return layout_; }  // a raw video's plane stacking (storage/video/bayer_planes.h)
   const PlaneOrder& plane_order() const { return order_; }
+  // How many tiles a raw video's frames are stored in (1: the whole picture in one stream).
+  int tiles() const;
   // Whether this reader decodes only the first three planes (Options::half_size_colour_only took),
   // and whether the video allows it (so a reader opened without the option can tell).
   bool decodes_three_planes() const { return three_planes_; }
@@ -83,7 +94,15 @@ class VideoReader {
   // `skip_before_ms`: packets stamped earlier are read past, not decoded, where no frame refers to
   // another (intra-only codecs: the raw store's); other codecs decode every frame (references).
   Result<bool> decode_next(std::int64_t& pts_ms, std::int64_t skip_before_ms = INT64_MIN);
-  Result<bool> seek_and_convert(std::int64_t pts_ms, cv::Mat& out, std::int64_t tolerance_ms, bool as_mosaic);
+  Result<bool> decode_next_tiles(std::int64_t& pts_ms, std::int64_t skip_before_ms, bool decode);
+  static Status open_tiles(VideoReader& r, const std::string& tiles, const std::string& size, const AVCodec* codec,
+                           const Options& options);
+  enum class Convert { Bgr, Mosaic, Region };
+  Result<bool> seek_and_convert(std::int64_t pts_ms, cv::Mat& out, std::int64_t tolerance_ms, Convert what,
+                                cv::Rect region = {});
+  // The stored picture last decoded (the planes stacked; a tiled video's tiles put back in place).
+  Result<cv::Mat> picture() const;
+  Status to_mosaic_region(cv::Rect box, cv::Mat& mosaic);
   Status to_bgr(cv::Mat& bgr);
   Status convert_to_bgr(cv::Mat& bgr);  // to_bgr before scaling to image_size_
   Status to_mosaic(cv::Mat& mosaic);
@@ -92,6 +111,7 @@ class VideoReader {
   std::filesystem::path path_;
   std::int64_t last_pts_ms_ = INT64_MIN;  // of the frame next() returned last
   std::uint64_t frames_decoded_ = 0;
+  std::uint64_t tiles_decoded_ = 0;
   std::string bayer_format_;
   std::string layout_;
   PlaneOrder order_ = kCellOrder;

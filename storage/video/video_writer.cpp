@@ -9,6 +9,8 @@ extern "C" {
 #include <libswscale/swscale.h>
 }
 
+#include <vector>
+
 #include <fmt/format.h>
 #include "core/durable_folder.h"
 #include "storage/video/av_handles.h"
@@ -23,14 +25,19 @@ constexpr AVRational kMicros{1, 1'000'000};
 
 struct VideoWriter::Impl {  // members are freed in reverse: the scaler first, the container last
   av::OutputFormat fmt;
-  av::CodecContext enc;
-  AVStream* stream = nullptr;  // owned by fmt
-  av::Frame frame;
+  struct Coder {  // one stream: the whole picture, or one tile of a raw video's
+    av::CodecContext enc;
+    AVStream* stream = nullptr;  // owned by fmt
+    av::Frame frame;
+  };
+  std::vector<Coder> coders;
   av::Packet packet;
   av::Scaler sws;
-  cv::Mat ycbcr;  // yuv444p: the converted image before it is split into the frame's planes
+  cv::Mat ycbcr;   // yuv444p: the converted image before it is split into the frame's planes
+  cv::Mat planes;  // a tiled raw video: the whole mosaic's planes, before they are cut into tiles
   bool header_written = false;
   bool matroska = true;
+  bool wrote = false;  // a packet since the last cluster ended
 };
 
 Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::path& path, const VideoSettings& s) {
@@ -70,47 +77,59 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   im.matroska = s.container == "matroska";
   int rc = avformat_alloc_output_context2(&im.fmt.ptr, nullptr, s.container.c_str(), path.c_str());
   if (rc < 0) return Error{fmt::format("{}: cannot create a {} file: {}", where, s.container, av::error(rc))};
-  im.enc.ptr = avcodec_alloc_context3(codec);
-  im.enc.ptr->width = coded.width;
-  im.enc.ptr->height = coded.height;
-  im.enc.ptr->pix_fmt = pix;
-  im.enc.ptr->time_base = kMicros;
-  im.enc.ptr->framerate = av_d2q(s.nominal_fps > 0 ? s.nominal_fps : 30, 1000);
-  im.enc.ptr->gop_size = std::max(1, s.gop_frames);
-  im.enc.ptr->keyint_min = 1;
-  im.enc.ptr->max_b_frames = 0;
-  im.enc.ptr->thread_count = s.threads;
-  if (im.fmt.ptr->oformat->flags & AVFMT_GLOBALHEADER) im.enc.ptr->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
-  AVDictionary* opts = nullptr;
-  if (codec_name == "libx264") {
-    av_dict_set(&opts, "preset", s.preset.c_str(), 0);
-    if (s.raw())
-      av_dict_set(&opts, "qp", "0", 0);  // lossless
-    else
-      av_dict_set(&opts, "crf", std::to_string(s.crf).c_str(), 0);
-    // In-band SPS/PPS on every key frame: any GOP decodes on its own.
-    av_dict_set(&opts, "x264-params", "repeat-headers=1:bframes=0:slices=4", 0);
-  } else if (codec_name == "magicyuv") {
-    av_dict_set(&opts, "pred", "median", 0);  // the fastest of its predictors here, as small as left
-  } else if (codec_name == "ffv1") {
-    av_dict_set(&opts, "level", "3", 0);
-    av_dict_set(&opts, "slicecrc", "1", 0);
+  w->grid_ = s.raw() ? pvcap::tile_grid({s.width, s.height}, s.tile_cols, s.tile_rows) : TileGrid{1, 1, {s.width, s.height}};
+  const cv::Size picture = w->grid_.tiled() ? bayer_planes_size(w->grid_.tile_size()) : coded;
+  im.coders.resize(std::size_t(w->grid_.count()));
+  for (int t = 0; t < w->grid_.count(); ++t) {
+    Impl::Coder& c = im.coders[std::size_t(t)];
+    c.enc.ptr = avcodec_alloc_context3(codec);
+    AVCodecContext* enc = c.enc.ptr;
+    enc->width = picture.width;
+    enc->height = picture.height;
+    enc->pix_fmt = pix;
+    enc->time_base = kMicros;
+    enc->framerate = av_d2q(s.nominal_fps > 0 ? s.nominal_fps : 30, 1000);
+    enc->gop_size = std::max(1, s.gop_frames);
+    enc->keyint_min = 1;
+    enc->max_b_frames = 0;
+    enc->thread_count = s.threads;
+    if (im.fmt.ptr->oformat->flags & AVFMT_GLOBALHEADER) enc->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
+    AVDictionary* opts = nullptr;
+    if (codec_name == "libx264") {
+      av_dict_set(&opts, "preset", s.preset.c_str(), 0);
+      if (s.raw())
+        av_dict_set(&opts, "qp", "0", 0);  // lossless
+      else
+        av_dict_set(&opts, "crf", std::to_string(s.crf).c_str(), 0);
+      // In-band SPS/PPS on every key frame: any GOP decodes on its own. A tile is small enough for one slice.
+      av_dict_set(&opts, "x264-params",
+                  w->grid_.tiled() ? "repeat-headers=1:bframes=0" : "repeat-headers=1:bframes=0:slices=4", 0);
+    } else if (codec_name == "magicyuv") {
+      av_dict_set(&opts, "pred", "median", 0);  // the fastest of its predictors here, as small as left
+    } else if (codec_name == "ffv1") {
+      av_dict_set(&opts, "level", "3", 0);
+      av_dict_set(&opts, "slicecrc", "1", 0);
+    }
+    rc = avcodec_open2(enc, codec, &opts);
+    av_dict_free(&opts);
+    if (rc < 0)
+      return Error{fmt::format("{}: cannot open encoder {} for {}x{} {}: {}", where, codec_name, picture.width,
+                               picture.height, s.stored_pixel_format(), av::error(rc))};
+    c.stream = avformat_new_stream(im.fmt.ptr, nullptr);
+    if (s.raw()) {
+      // The file says what it holds, so a raw video is readable without the index.
+      av_dict_set(&c.stream->metadata, "PVCAP_LAYOUT", s.layout.c_str(), 0);
+      av_dict_set(&c.stream->metadata, "PVCAP_BAYER_FORMAT", s.bayer_format.c_str(), 0);
+      av_dict_set(&c.stream->metadata, "PVCAP_BIT_DEPTH", std::to_string(s.bit_depth).c_str(), 0);
+      av_dict_set(&c.stream->metadata, "PVCAP_SIZE", fmt::format("{}x{}", s.width, s.height).c_str(), 0);
+      if (w->grid_.tiled()) {
+        av_dict_set(&c.stream->metadata, "PVCAP_TILES", w->grid_.tag().c_str(), 0);
+        av_dict_set(&c.stream->metadata, "PVCAP_TILE", std::to_string(t).c_str(), 0);
+      }
+    }
+    c.stream->time_base = {1, 1000};
+    avcodec_parameters_from_context(c.stream->codecpar, enc);
   }
-  rc = avcodec_open2(im.enc.ptr, codec, &opts);
-  av_dict_free(&opts);
-  if (rc < 0)
-    return Error{fmt::format("{}: cannot open encoder {} for {}x{} {}: {}", where, codec_name, coded.width,
-                             coded.height, s.stored_pixel_format(), av::error(rc))};
-  im.stream = avformat_new_stream(im.fmt.ptr, nullptr);
-  if (s.raw()) {
-    // The file says what it holds, so a raw video is readable without the index.
-    av_dict_set(&im.stream->metadata, "PVCAP_LAYOUT", s.layout.c_str(), 0);
-    av_dict_set(&im.stream->metadata, "PVCAP_BAYER_FORMAT", s.bayer_format.c_str(), 0);
-    av_dict_set(&im.stream->metadata, "PVCAP_BIT_DEPTH", std::to_string(s.bit_depth).c_str(), 0);
-    av_dict_set(&im.stream->metadata, "PVCAP_SIZE", fmt::format("{}x{}", s.width, s.height).c_str(), 0);
-  }
-  im.stream->time_base = {1, 1000};
-  avcodec_parameters_from_context(im.stream->codecpar, im.enc.ptr);
   rc = avio_open(&im.fmt.ptr->pb, path.c_str(), AVIO_FLAG_WRITE);
   if (rc < 0) return Error{fmt::format("{}: cannot create the video file: {}", where, av::error(rc))};
   AVDictionary* mux = nullptr;
@@ -121,11 +140,13 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   av_dict_free(&mux);
   if (rc < 0) return Error{fmt::format("{}: cannot write the video header: {}", where, av::error(rc))};
   im.header_written = true;
-  im.frame.ptr = av_frame_alloc();
-  im.frame.ptr->format = pix;
-  im.frame.ptr->width = coded.width;
-  im.frame.ptr->height = coded.height;
-  if ((rc = av_frame_get_buffer(im.frame.ptr, 0)) < 0) return Error{fmt::format("{}: {}", where, av::error(rc))};
+  for (Impl::Coder& c : im.coders) {
+    c.frame.ptr = av_frame_alloc();
+    c.frame.ptr->format = pix;
+    c.frame.ptr->width = picture.width;
+    c.frame.ptr->height = picture.height;
+    if ((rc = av_frame_get_buffer(c.frame.ptr, 0)) < 0) return Error{fmt::format("{}: {}", where, av::error(rc))};
+  }
   im.packet.ptr = av_packet_alloc();
   w->raw_ = s.raw();
   w->input_type_ = !s.raw() ? CV_8UC3 : s.bit_depth > 8 ? CV_16UC1 : CV_8UC1;
@@ -140,32 +161,40 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
 
 VideoWriter::~VideoWriter() { (void)close(); }
 
-Status VideoWriter::encode(bool flush) {
+Status VideoWriter::encode(std::size_t tile, bool flush) {
   Impl& im = *impl_;
-  int rc = avcodec_send_frame(im.enc.ptr, flush ? nullptr : im.frame.ptr);
-  bool wrote = false;
+  Impl::Coder& c = im.coders[tile];
+  int rc = avcodec_send_frame(c.enc.ptr, flush ? nullptr : c.frame.ptr);
   if (rc < 0 && rc != AVERROR_EOF) return Error{fmt::format("{}: encoder: {}", path_.string(), av::error(rc))};
-  while ((rc = avcodec_receive_packet(im.enc.ptr, im.packet.ptr)) >= 0) {
+  while ((rc = avcodec_receive_packet(c.enc.ptr, im.packet.ptr)) >= 0) {
     // MP4 plays a frame for its duration and drops a last frame without one: give each the nominal
     // frame time (Matroska files, the store's, need none: each frame's timestamp is what counts).
     if (im.packet.ptr->duration == 0 && !im.matroska)
-      im.packet.ptr->duration = av_rescale_q(1, av_inv_q(im.enc.ptr->framerate), im.enc.ptr->time_base);
-    av_packet_rescale_ts(im.packet.ptr, im.enc.ptr->time_base, im.stream->time_base);
-    im.packet.ptr->stream_index = im.stream->index;
-    rc = av_interleaved_write_frame(im.fmt.ptr, im.packet.ptr);
+      im.packet.ptr->duration = av_rescale_q(1, av_inv_q(c.enc.ptr->framerate), c.enc.ptr->time_base);
+    av_packet_rescale_ts(im.packet.ptr, c.enc.ptr->time_base, c.stream->time_base);
+    im.packet.ptr->stream_index = c.stream->index;
+    // Tiles go straight to the muxer, in the order written (each frame's tiles one after another):
+    // its interleaving would hold a frame's tiles back until the next frame's came.
+    rc = im.coders.size() > 1 ? av_write_frame(im.fmt.ptr, im.packet.ptr)
+                              : av_interleaved_write_frame(im.fmt.ptr, im.packet.ptr);
+    av_packet_unref(im.packet.ptr);
     if (rc < 0) return Error{fmt::format("{}: cannot write video: {}", path_.string(), av::error(rc))};
-    wrote = true;
+    im.wrote = true;
   }
   if (rc != AVERROR(EAGAIN) && rc != AVERROR_EOF)
     return Error{fmt::format("{}: encoder: {}", path_.string(), av::error(rc))};
+  return {};
+}
+
+Status VideoWriter::end_cluster() {
   // The muxer holds a Matroska cluster until the next one begins: an encoder then held up (a busy
   // disk, a stalled thread) would keep its last frame out of the file, and a power cut would take
   // a frame seconds old. Ending the cluster now hands the frame to the kernel, whose data the next
   // sync round makes durable (docs/store.md).
-  if (wrote && !flush && im.matroska) {
-    rc = av_write_frame(im.fmt.ptr, nullptr);
-    if (rc < 0) return Error{fmt::format("{}: cannot write video: {}", path_.string(), av::error(rc))};
-  }
+  if (!impl_->matroska || !impl_->wrote) return {};
+  impl_->wrote = false;
+  const int rc = av_write_frame(impl_->fmt.ptr, nullptr);
+  if (rc < 0) return Error{fmt::format("{}: cannot write video: {}", path_.string(), av::error(rc))};
   return {};
 }
 
@@ -184,15 +213,27 @@ Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us)
   if (frames_ > 0 && pts_ms <= last_pts_ms_) pts_ms = last_pts_ms_ + 1;
   last_pts_ms_ = pts_ms;
   pts_us = pts_ms * 1000;
-  int rc = av_frame_make_writable(im.frame.ptr);
-  if (rc < 0) return Error{fmt::format("{}: {}", path_.string(), av::error(rc))};
+  for (Impl::Coder& c : im.coders) {
+    const int rc = av_frame_make_writable(c.frame.ptr);
+    if (rc < 0) return Error{fmt::format("{}: {}", path_.string(), av::error(rc))};
+    c.frame.ptr->pts = pts_us;
+  }
+  AVFrame* frame = im.coders[0].frame.ptr;
+  const auto frame_picture = [this](AVFrame* f) {
+    return cv::Mat(f->height, f->width, input_type_, f->data[0], std::size_t(f->linesize[0]));
+  };
   const std::uint8_t* src[1] = {bgr.data};
   const int src_stride[1] = {int(bgr.step[0])};
-  if (raw_) {
-    cv::Mat planes(im.enc.ptr->height, im.enc.ptr->width, input_type_, im.frame.ptr->data[0],
-                   std::size_t(im.frame.ptr->linesize[0]));
+  if (raw_ && grid_.tiled()) {
+    pack_bayer_planes(bgr, im.planes, order_);
+    for (int t = 0; t < grid_.count(); ++t) {
+      cv::Mat tile = frame_picture(im.coders[std::size_t(t)].frame.ptr);
+      copy_tile_from_planes(im.planes, grid_, t, tile);
+    }
+  } else if (raw_) {
+    cv::Mat planes = frame_picture(frame);
     pack_bayer_planes(bgr, planes, order_);
-  } else if (im.enc.ptr->pix_fmt == AV_PIX_FMT_YUV444P) {
+  } else if (im.coders[0].enc.ptr->pix_fmt == AV_PIX_FMT_YUV444P) {
     // The default format, converted here rather than by swscale (3x faster for this pair): BT.601
     // limited range, the coefficients swscale uses, straight into the frame's three planes.
     static const cv::Matx34f kBgrToYCbCr(25.064f / 256, 129.057f / 256, 65.738f / 256, 16.f,     //
@@ -201,26 +242,29 @@ Result<std::int64_t> VideoWriter::write(const cv::Mat& bgr, std::int64_t pts_us)
     cv::transform(bgr, im.ycbcr, kBgrToYCbCr);
     std::vector<cv::Mat> planes;
     for (int p = 0; p < 3; ++p)
-      planes.emplace_back(bgr.rows, bgr.cols, CV_8UC1, im.frame.ptr->data[p], std::size_t(im.frame.ptr->linesize[p]));
+      planes.emplace_back(bgr.rows, bgr.cols, CV_8UC1, frame->data[p], std::size_t(frame->linesize[p]));
     cv::split(im.ycbcr, planes);
   } else {
-    sws_scale(im.sws.ptr, src, src_stride, 0, bgr.rows, im.frame.ptr->data, im.frame.ptr->linesize);
+    sws_scale(im.sws.ptr, src, src_stride, 0, bgr.rows, frame->data, frame->linesize);
   }
-  im.frame.ptr->pts = pts_us;
-  if (Status s = encode(false); !s.ok()) return s.error();
+  for (std::size_t t = 0; t < im.coders.size(); ++t)
+    if (Status s = encode(t, false); !s.ok()) return s.error();
+  if (Status s = end_cluster(); !s.ok()) return s.error();
   return frames_++;
 }
 
 cv::Mat VideoWriter::stored_planes() const {
   if (!raw_ || frames_ == 0 || !impl_) return {};
-  return cv::Mat(impl_->enc.ptr->height, impl_->enc.ptr->width, input_type_, impl_->frame.ptr->data[0],
-                 std::size_t(impl_->frame.ptr->linesize[0]));
+  if (grid_.tiled()) return impl_->planes;
+  const AVFrame* f = impl_->coders[0].frame.ptr;
+  return cv::Mat(f->height, f->width, input_type_, f->data[0], std::size_t(f->linesize[0]));
 }
 
 Status VideoWriter::close() {
   if (closed_ || !impl_ || !impl_->header_written) return {};
   closed_ = true;
-  Status s = encode(true);
+  Status s;
+  for (std::size_t t = 0; t < impl_->coders.size() && s.ok(); ++t) s = encode(t, true);
   const int rc = av_write_trailer(impl_->fmt.ptr);
   if (s.ok() && rc < 0) s = Error{fmt::format("{}: cannot finish the video: {}", path_.string(), av::error(rc))};
   avio_closep(&impl_->fmt.ptr->pb);

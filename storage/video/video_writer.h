@@ -13,6 +13,7 @@
 
 #include "core/result.h"
 #include "storage/video/bayer_planes.h"
+#include "storage/video/bayer_tiles.h"
 
 namespace pvcap {
 
@@ -26,6 +27,9 @@ struct VideoSettings {
   // Raw mode: how the planes are stacked (storage/video/bayer_planes.h). New recordings take the second
   // green last; a re-encode keeps its source's layout, so the capture checksums still hold.
   std::string layout = kBayerPlanesGreenLastLayout;
+  // Raw mode: the mosaic cut into this grid of tiles, each its own stream of the file
+  // (storage/video/bayer_tiles.h), as near as the size allows; 1 x 1: one stream, as before 2026-12-07.
+  int tile_cols = 1, tile_rows = 1;
   std::string raw_codec = "ffvhuff";
   std::string codec = "libx264";
   int crf = 10;
@@ -64,10 +68,13 @@ class VideoWriter {
   // in plane_order()), until the next write; empty before the first write and in colour mode.
   cv::Mat stored_planes() const;
   const PlaneOrder& plane_order() const { return order_; }
+  // Raw mode: the grid the frames are stored in (1 x 1 when untiled).
+  const TileGrid& tile_grid() const { return grid_; }
 
  private:
   VideoWriter() = default;
-  Status encode(bool flush);
+  Status encode(std::size_t tile, bool flush);
+  Status end_cluster();
   struct Impl;
   std::unique_ptr<Impl> impl_;
   std::filesystem::path path_;
@@ -76,6 +83,7 @@ class VideoWriter {
   bool closed_ = false;
   bool raw_ = false;
   PlaneOrder order_ = kCellOrder;  // raw mode: the planes' stacking
+  TileGrid grid_;                  // raw mode: the tiles
   int input_type_ = 0;             // what write() takes
   int width_ = 0, height_ = 0;
 };
