@@ -7,15 +7,21 @@
 // store must keep 4 cameras x 15 Hz = 60 frames/s beside the capture on 2 cores; its default
 // (ffvhuff) is the first line; above the noisy table, the least any lossless coder can average on
 // those frames (the noise's entropy, bench::noise_bound_bytes). Figures in docs/performance-log.md.
-// Usage: lossless_bench [FRAMES=20] [NOISE_DN=2] [CANDIDATE_SUBSTRING]
+// Below each table, the stored layouts (storage/video/bayer_tiles.h) through the store's own writer
+// and reader: size, encode and decode CPU per frame, whole and for a paper crop.
+// Usage: lossless_bench [FRAMES=20] [NOISE_DN=2] [CANDIDATE_SUBSTRING | layouts]
 extern "C" {
 #include <libavcodec/avcodec.h>
 #include <libavutil/opt.h>
 #include <libavutil/pixdesc.h>
 }
 
+#include <unistd.h>
+
 #include <chrono>
 #include <cstdio>
+#include <ctime>
+#include <filesystem>
 #include <cstring>
 #include <string>
 #include <utility>
@@ -26,6 +32,8 @@ extern "C" {
 #include "bench/bench_mosaics.h"
 #include "storage/video/av_handles.h"
 #include "storage/video/bayer_planes.h"
+#include "storage/video/video_reader.h"
+#include "storage/video/video_writer.h"
 
 using namespace pvcap;
 using Clock = std::chrono::steady_clock;
@@ -176,6 +184,80 @@ Outcome run(const Candidate& cand, const std::vector<cv::Mat>& planes) {
   return o;
 }
 
+double cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) + double(t.tv_nsec) * 1e-9;
+}
+
+// One stored layout through the store's own writer and reader (storage/video): the mosaics written
+// to a file with `codec` cut into `cols` x `rows` tiles, then read back whole and as paper-sized
+// crops (480x384 with the demosaicing margin, at random places), all on one thread: CPU per frame.
+void layout_row(const std::string& label, const std::string& codec, int gop, int cols, int rows,
+                const std::vector<cv::Mat>& mosaics) {
+  const auto file = std::filesystem::temp_directory_path() / ("pvcap-lossless-bench-" + std::to_string(::getpid()) + ".mkv");
+  VideoSettings s;
+  s.bayer_format = "BayerRG8";
+  s.raw_codec = codec;
+  s.width = mosaics[0].cols;
+  s.height = mosaics[0].rows;
+  s.tile_cols = cols;
+  s.tile_rows = rows;
+  s.gop_frames = gop;
+  auto w = VideoWriter::open(file, s);
+  if (!w) {
+    std::printf("%-34s %s\n", label.c_str(), w.error().message.c_str());
+    return;
+  }
+  const std::string grid = w.value()->tile_grid().tag();
+  double t0 = cpu_seconds();
+  for (std::size_t i = 0; i < mosaics.size(); ++i)
+    if (!w.value()->write(mosaics[i], std::int64_t(i + 1) * 66'667)) return;
+  if (!w.value()->close().ok()) return;
+  const double encode_ms = (cpu_seconds() - t0) * 1e3 / double(mosaics.size());
+  const double mb = double(std::filesystem::file_size(file)) / 1e6 / double(mosaics.size());
+  auto r = VideoReader::open(file);
+  if (!r) return;
+  bool exact = true;
+  cv::Mat m;
+  t0 = cpu_seconds();
+  for (std::size_t i = 0; i < mosaics.size(); ++i) {
+    const std::int64_t pts = (std::int64_t(i + 1) * 66'667 + 500) / 1000;
+    exact = exact && r.value()->read_raw_at(pts, m).value() && cv::norm(m, mosaics[i], cv::NORM_INF) == 0;
+  }
+  const double whole_ms = (cpu_seconds() - t0) * 1e3 / double(mosaics.size());
+  cv::RNG rng(5);
+  const int crops = 3 * int(mosaics.size());
+  t0 = cpu_seconds();
+  for (int k = 0; k < crops; ++k) {  // shuffled, as training reads
+    const std::size_t i = std::size_t(rng.uniform(0, int(mosaics.size())));
+    const cv::Rect box(rng.uniform(0, (m.cols - 484) / 2) * 2, rng.uniform(0, (m.rows - 388) / 2) * 2, 484, 388);
+    const std::int64_t pts = (std::int64_t(i + 1) * 66'667 + 500) / 1000;
+    exact = exact && r.value()->read_raw_region_at(pts, box, m).value() &&
+            cv::norm(m, mosaics[i](box), cv::NORM_INF) == 0;
+  }
+  const double crop_ms = (cpu_seconds() - t0) * 1e3 / crops;
+  std::printf("%-34s %5s %8.3f %10.2f %10.2f %9.2f %9.0f %9s\n", label.c_str(), grid.c_str(), mb, encode_ms, whole_ms,
+              crop_ms, 1e3 / crop_ms, exact ? "bit-exact" : "NO");
+  std::fflush(stdout);
+  std::filesystem::remove(file);
+}
+
+void layouts(const std::vector<cv::Mat>& mosaics) {
+  std::printf(
+      "\nstored layouts through the store's writer and reader, one thread, CPU ms per 1080p frame; crop: 484x388 "
+      "(a 480x384 paper crop with its demosaicing margin), shuffled\n");
+  std::printf("%-34s %5s %8s %10s %10s %9s %9s %9s\n", "layout", "tiles", "MB/frame", "encode ms", "whole ms",
+              "crop ms", "crops/s", "exact");
+  layout_row("ffvhuff, one picture (until now)", "ffvhuff", 1, 1, 1, mosaics);
+  for (const auto& [c, r] : std::vector<std::pair<int, int>>{{4, 4}, {8, 6}, {8, 8}, {12, 12}})
+    layout_row("ffvhuff, tiles", "ffvhuff", 1, c, r, mosaics);
+  layout_row("magicyuv, tiles", "magicyuv", 1, 8, 6, mosaics);
+  layout_row("ffv1 intra (compact), tiles", "ffv1", 1, 8, 6, mosaics);
+  layout_row("libx264 qp 0 intra (compact), tiles", "libx264", 1, 8, 6, mosaics);
+  layout_row("libx264 qp 0 gop 15 (compact until now)", "libx264", 15, 1, 1, mosaics);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -183,6 +265,10 @@ int main(int argc, char** argv) {
   const double noise = argc > 2 ? std::atof(argv[2]) : bench::kSensorNoiseDn;
   const std::string only = argc > 3 ? argv[3] : "";
   av_log_set_level(AV_LOG_ERROR);
+  if (only == "layouts") {  // the stored layouts alone
+    layouts(bench::make_mosaics(0, n, noise));
+    return 0;
+  }
   for (const double dn : {noise, 0.0}) {
     std::vector<cv::Mat> planes;
     for (const cv::Mat& m : bench::make_mosaics(0, n, dn)) {
@@ -213,6 +299,7 @@ int main(int argc, char** argv) {
                   o.exact ? "bit-exact" : "NO", o.intra ? "yes" : "no", o.exact ? "" : o.why.c_str());
       std::fflush(stdout);
     }
+    if (only.empty()) layouts(bench::make_mosaics(0, n, dn));
   }
   return 0;
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -145,6 +146,18 @@ StoreConfig parse_store(const YAML::Node& node, const std::filesystem::path& fil
     r.fail(r.node()["raw_codec"], "raw_codec",
            fmt::format("'{}' is not one of ffvhuff, magicyuv, ffv1, libx264 (lossless codecs of grey pictures)",
                        s.raw_codec));
+  std::string tiles = "auto";
+  r.get("raw_tiles", tiles);
+  if (tiles != "auto") {
+    int cols = 0, rows = 0;
+    char extra = 0;
+    if (std::sscanf(tiles.c_str(), "%dx%d%c", &cols, &rows, &extra) != 2 || cols < 1 || rows < 1 || cols > 64 ||
+        rows > 64)
+      r.fail(r.node()["raw_tiles"], "raw_tiles",
+             fmt::format("'{}' is not auto or COLSxROWS (1x1 to 64x64; 1x1: one picture per frame)", tiles));
+    s.raw_tile_cols = cols;
+    s.raw_tile_rows = rows;
+  }
   r.get("video_codec", s.video_codec);
   r.get_in_range("crf", s.crf, 0, 51);
   r.get("preset", s.preset);

@@ -91,6 +91,10 @@ struct StoreConfig {
   // Lossless, intra-only: ffvhuff (the default), magicyuv (8-bit only; 7 % smaller on noisy 1080p
   // mosaics at a similar speed, bench/lossless_bench), ffv1, libx264 (qp 0; up to 10 bits).
   std::string raw_codec = "ffvhuff";
+  // Raw mode: the mosaic stored as a grid of tiles, each its own stream, so that a crop decodes only
+  // the tiles under it (storage/video/bayer_tiles.h). 0 x 0 ("auto"): tiles of about 240 x 180
+  // pixels, 8 x 6 for a 1080p camera; 1 x 1: one picture per frame.
+  int raw_tile_cols = 0, raw_tile_rows = 0;
   std::string video_codec = "libx264";         // colour mode: any FFmpeg encoder; "ffv1" for lossless
   int crf = 10;                                // libx264 quality (lower is better; 0 = lossless)
   std::string preset = "ultrafast";            // libx264 speed preset: real time for 4 x 1080p at 15 Hz on 2 cores

@@ -226,8 +226,12 @@ class SessionReader {
  private:
   SessionReader() = default;
   // `bayer_format`, when given, receives the video's Bayer pattern ("" for a colour video).
-  Result<cv::Mat> camera_image(const SampleCamera& c, bool mosaic = false, std::string* bayer_format = nullptr);
-  Result<cv::Mat> one_image(std::size_t i, std::size_t camera, bool mosaic, std::string* bayer_format = nullptr);
+  // `region` (whole Bayer cells of the mosaic): that part of the mosaic alone (a tiled video decodes
+  // only the tiles under it); nothing is checked against the frame's checksum.
+  Result<cv::Mat> camera_image(const SampleCamera& c, bool mosaic = false, std::string* bayer_format = nullptr,
+                               std::optional<cv::Rect> region = std::nullopt);
+  Result<cv::Mat> one_image(std::size_t i, std::size_t camera, bool mosaic, std::string* bayer_format = nullptr,
+                            std::optional<cv::Rect> region = std::nullopt);
   Demosaic demosaic_ = Demosaic::Bilinear;
   cv::Size image_size_;
   bool check_checksums_ = false;

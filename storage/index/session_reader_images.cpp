@@ -21,7 +21,8 @@ constexpr std::size_t kMaxOpenVideos = 16;
 constexpr std::size_t kMaxOpenVideosPerCamera = 2;
 }  // namespace
 
-Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic, std::string* bayer_format) {
+Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic, std::string* bayer_format,
+                                            std::optional<cv::Rect> region) {
   return guarded(dir_, [&]() -> Result<cv::Mat> {
     // Stores before version 5 have no checksums.
     auto q = db_->cached(fmt::format(
@@ -74,11 +75,14 @@ Result<cv::Mat> SessionReader::camera_image(const SampleCamera& c, bool mosaic, 
     video.set_demosaic(demosaic_);
     video.set_image_size(image_size_);
     cv::Mat bgr;
-    auto found = mosaic ? video.read_raw_at(ts.ms, bgr, ts.tolerance_ms) : video.read_at(ts.ms, bgr, ts.tolerance_ms);
+    if (region && !video.raw()) return cv::Mat();  // a colour video has no mosaic: the caller cuts its image
+    auto found = region   ? video.read_raw_region_at(ts.ms, *region, bgr, ts.tolerance_ms)
+                 : mosaic ? video.read_raw_at(ts.ms, bgr, ts.tolerance_ms)
+                          : video.read_at(ts.ms, bgr, ts.tolerance_ms);
     if (!found) return found.error();
     if (!found.value())
       return Error{fmt::format("{}: no frame at {} ms in {}", dir_.string(), ts.ms, (dir_ / rel).string())};
-    if (check_checksums_ && checksum) {
+    if (check_checksums_ && checksum && !region) {
       const auto crc = video.decoded_picture_crc();
       if (crc && *crc != std::uint32_t(*checksum))
         return Error{fmt::format(
@@ -100,20 +104,26 @@ Result<cv::Mat> SessionReader::image_region(std::size_t i, std::size_t camera, c
     return Error{fmt::format("{}: ({}, {}, {}, {}) is not inside camera {}'s {}x{} image", dir_.string(), box.x, box.y,
                              box.width, box.height, cameras_[camera].name, cameras_[camera].width,
                              cameras_[camera].height)};
-  if (demosaic_ == Demosaic::Bilinear && image_size_ == cv::Size() && !view_videos_) {
+  if (demosaic_ == Demosaic::Bilinear && image_size_ == cv::Size() && !view_videos_ && camera < cameras_.size()) {
+    // Bilinear demosaicing reads each pixel's 3x3 neighbours: a margin of 2 from an even corner
+    // (the pattern's phase kept) gives the box the whole image's pixels. Only that part of the
+    // mosaic is read (a tiled video decodes the tiles under it), unless checksums are checked:
+    // they hold for a whole frame.
+    const cv::Size size(cameras_[camera].width, cameras_[camera].height);
+    const int x0 = std::max(0, box.x - 2) & ~1, y0 = std::max(0, box.y - 2) & ~1;
+    const int x1 = std::min(size.width, (box.br().x + 3) & ~1), y1 = std::min(size.height, (box.br().y + 3) & ~1);
+    const cv::Rect margin(x0, y0, x1 - x0, y1 - y0);
     std::string format;
-    auto mosaic = one_image(i, camera, true, &format);       // an Error for a colour video: cut below
-    if (mosaic && mosaic.value().empty()) return cv::Mat();  // the sample has no stored frame of it
-    if (mosaic && !format.empty() && (box & cv::Rect({0, 0}, mosaic.value().size())) == box) {
-      // Bilinear demosaicing reads each pixel's 3x3 neighbours: a margin of 2 from an even corner
-      // (the pattern's phase kept) gives the box the whole image's pixels.
-      const cv::Mat& m = mosaic.value();
-      const int x0 = std::max(0, box.x - 2) & ~1, y0 = std::max(0, box.y - 2) & ~1;
-      const int x1 = std::min(m.cols, box.br().x + 2), y1 = std::min(m.rows, box.br().y + 2);
+    auto mosaic = check_checksums_ || size.width % 2 || size.height % 2
+                      ? one_image(i, camera, true, &format)  // an Error for a colour video: cut below
+                      : one_image(i, camera, true, &format, margin);
+    if (mosaic && !format.empty() && !mosaic.value().empty()) {
+      const cv::Mat m = mosaic.value().size() == margin.size() ? mosaic.value() : mosaic.value()(margin);
       cv::Mat bgr;
-      if (Status d = debayer(m(cv::Rect(x0, y0, x1 - x0, y1 - y0)), format, demosaic_, bgr); !d.ok()) return d.error();
+      if (Status d = debayer(m, format, demosaic_, bgr); !d.ok()) return d.error();
       return bgr(cv::Rect(box.x - x0, box.y - y0, box.width, box.height)).clone();
     }
+    // No stored frame of the camera in this sample, or a colour video: the whole image, cut below.
   }
   auto whole = image(i, camera);
   if (!whole || whole.value().empty()) return whole;
@@ -123,14 +133,15 @@ Result<cv::Mat> SessionReader::image_region(std::size_t i, std::size_t camera, c
   return whole.value()(box).clone();
 }
 
-Result<cv::Mat> SessionReader::one_image(std::size_t i, std::size_t camera, bool mosaic, std::string* bayer_format) {
+Result<cv::Mat> SessionReader::one_image(std::size_t i, std::size_t camera, bool mosaic, std::string* bayer_format,
+                                         std::optional<cv::Rect> region) {
   if (camera >= cameras_.size())
     return Error{fmt::format("{}: no camera {} (the session has {})", dir_.string(), camera, cameras_.size())};
   auto info = sample_info(i);
   if (!info) return info.error();
   for (const auto& c : info.value().cameras)
     if (c.device_id == cameras_[camera].device_id)
-      return c.in_video ? camera_image(c, mosaic, bayer_format) : Result<cv::Mat>(cv::Mat());
+      return c.in_video ? camera_image(c, mosaic, bayer_format, region) : Result<cv::Mat>(cv::Mat());
   return cv::Mat();
 }
 

@@ -7,6 +7,7 @@ extern "C" {
 
 #include <algorithm>
 #include <cstdlib>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -113,23 +114,36 @@ Status remux_prefix(const std::filesystem::path& from, const std::filesystem::pa
   av::OutputFormat out;
   if (avformat_alloc_output_context2(&out.ptr, nullptr, "matroska", to.c_str()) < 0)
     return Error{fmt::format("{}: cannot create a Matroska file", to.string())};
-  AVStream* os = avformat_new_stream(out.ptr, nullptr);
-  avcodec_parameters_copy(os->codecpar, in.ptr->streams[stream]->codecpar);
-  os->time_base = in.ptr->streams[stream]->time_base;
-  // The file's own description (a raw video's layout and Bayer pattern) goes with its frames.
-  av_dict_copy(&os->metadata, in.ptr->streams[stream]->metadata, 0);
+  // Every video stream goes across: a tiled raw video keeps one per tile (storage/video/bayer_tiles.h),
+  // each with its own description (layout, Bayer pattern, which tile). Frames are counted on the first
+  // tile's stream (the best one: the writer made it first); a frame's other tiles follow it in the file.
+  std::vector<int> out_index(in.ptr->nb_streams, -1);
+  int first = -1;
+  for (unsigned i = 0; i < in.ptr->nb_streams; ++i) {
+    const AVStream* is = in.ptr->streams[i];
+    if (is->codecpar->codec_type != AVMEDIA_TYPE_VIDEO) continue;
+    AVStream* os = avformat_new_stream(out.ptr, nullptr);
+    avcodec_parameters_copy(os->codecpar, is->codecpar);
+    os->time_base = is->time_base;
+    av_dict_copy(&os->metadata, is->metadata, 0);
+    out_index[i] = os->index;
+    const AVDictionaryEntry* tile = av_dict_get(is->metadata, "PVCAP_TILE", nullptr, 0);
+    if (tile ? std::atoi(tile->value) == 0 : int(i) == stream) first = int(i);
+  }
+  if (first < 0) first = stream;
   if (avio_open(&out.ptr->pb, to.c_str(), AVIO_FLAG_WRITE) < 0)
     return Error{fmt::format("{}: cannot create the file", to.string())};
   if (avformat_write_header(out.ptr, nullptr) < 0) return Error{fmt::format("{}: cannot write a header", to.string())};
   av::Packet pkt(av_packet_alloc());
-  for (std::int64_t n = 0; n < frames;) {
+  for (std::int64_t n = 0;;) {
     if (av_read_frame(in.ptr, pkt.ptr) < 0) break;
-    if (pkt.ptr->stream_index == stream) {
-      av_packet_rescale_ts(pkt.ptr, in.ptr->streams[stream]->time_base, os->time_base);
-      pkt.ptr->stream_index = os->index;
+    const int i = pkt.ptr->stream_index;
+    if (i == first && n++ == frames) break;  // the first frame past the prefix begins
+    if (i >= 0 && std::size_t(i) < out_index.size() && out_index[std::size_t(i)] >= 0) {
+      av_packet_rescale_ts(pkt.ptr, in.ptr->streams[i]->time_base, out.ptr->streams[out_index[std::size_t(i)]]->time_base);
+      pkt.ptr->stream_index = out_index[std::size_t(i)];
       pkt.ptr->pos = -1;
-      if (av_interleaved_write_frame(out.ptr, pkt.ptr) < 0) return Error{fmt::format("{}: cannot write", to.string())};
-      ++n;
+      if (av_write_frame(out.ptr, pkt.ptr) < 0) return Error{fmt::format("{}: cannot write", to.string())};
     }
     av_packet_unref(pkt.ptr);
   }

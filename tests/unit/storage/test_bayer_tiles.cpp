@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "sim/scene.h"
+#include "storage/index/video_repair.h"
 #include "storage/video/bayer_tiles.h"
 #include "storage/video/frame_checksum.h"
 #include "storage/video/video_reader.h"
@@ -226,4 +227,22 @@ TEST(TiledVideo, AFrameCutBetweenItsTilesIsNotAFrame) {
     EXPECT_EQ(picture_crc(picture), stored_mosaic_crc(mosaics[std::size_t(i)], again.value()->plane_order()));
   }
   EXPECT_FALSE(again.value()->next_stored(picture, at, key).value());
+
+  // Recovery keeps the whole frames, every tile of them, and nothing of the cut one.
+  ASSERT_TRUE(remux_prefix(dir.path / "whole.mkv", dir.path / "kept.mkv", 3).ok());
+  auto kept = VideoReader::open(dir.path / "kept.mkv");
+  ASSERT_TRUE(kept) << kept.error().message;
+  EXPECT_EQ(kept.value()->tiles(), 12);
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(kept.value()->next_stored(picture, at, key).value()) << i;
+    EXPECT_EQ(at, pts_ms(i));
+    EXPECT_EQ(picture_crc(picture), stored_mosaic_crc(mosaics[std::size_t(i)], kept.value()->plane_order()));
+  }
+  EXPECT_FALSE(kept.value()->next_stored(picture, at, key).value());
+  ASSERT_TRUE(remux_prefix(dir.path / "whole.mkv", dir.path / "two.mkv", 2).ok());
+  auto two = VideoReader::open(dir.path / "two.mkv");
+  ASSERT_TRUE(two);
+  int n = 0;
+  while (two.value()->next_packet(at, key).value()) ++n;
+  EXPECT_EQ(n, 2);
 }

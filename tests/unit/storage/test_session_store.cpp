@@ -99,13 +99,15 @@ struct WrittenStore {
 
 // `raw_first`: the first camera is a Bayer camera stored raw (its frames the mosaic of the noise).
 // `view_videos`: the store's setting (storage/video/view_video.h).
-WrittenStore write_store(const fs::path& root, double seconds, bool raw_first = false, bool view_videos = true) {
+// `raw_tiles`: the store's setting (storage/video/bayer_tiles.h; auto leaves a 64x48 camera untiled).
+WrittenStore write_store(const fs::path& root, double seconds, bool raw_first = false, bool view_videos = true,
+                         const std::string& raw_tiles = "auto") {
   WrittenStore out;
   const auto rig = parse_rig_config(
       fmt::format("name: store-test\ncameras:\n  - {{name: camA, address: 10.0.0.1}}\n  - {{name: camB, address: "
                   "10.0.0.2}}\nstore: {{video_codec: ffv1, video_pixel_format: bgr0, segment_seconds: 1, min_free_mb: "
-                  "0, reserve_mb: 1, view_videos: {}}}\n",
-                  view_videos),
+                  "0, reserve_mb: 1, view_videos: {}, raw_tiles: {}}}\n",
+                  view_videos, raw_tiles),
       "store-test.yaml");
   out.t0 = host_now().ns;
   WriterOptions options;
@@ -556,8 +558,19 @@ TEST(SessionStore, HalfSizeViewsSkipTheSecondGreenAndMosaicReadsStillGetEveryBit
 // there: at odd and even corners, at the image's edges, and the whole image itself; a colour
 // camera's region is its image cut.
 TEST(SessionStore, ARegionDemosaicedAloneIsTheWholeImagesPixels) {
+  for (const std::string tiles : {"auto", "4x3"}) {  // one picture per frame; 16x16 tiles
+  SCOPED_TRACE(tiles);
   const auto root = temp_root("region");
-  const auto st = write_store(root, 1.5, /*raw_first=*/true);
+  const auto st = write_store(root, 1.5, /*raw_first=*/true, true, tiles);
+  {
+    sqlite::Database db(st.dir / "session.db", sqlite::Database::Mode::ReadOnly);
+    auto q = db.prepare("SELECT path FROM video_files WHERE device_id = ? ORDER BY segment LIMIT 1");
+    q.bind_all(st.cams[0]);
+    ASSERT_TRUE(q.step());
+    auto video = VideoReader::open(st.dir / q.column_text(0));
+    ASSERT_TRUE(video) << video.error().message;
+    EXPECT_EQ(video.value()->tiles(), tiles == "4x3" ? 12 : 1);
+  }
   auto r = SessionReader::open(st.dir);
   ASSERT_TRUE(r) << r.error().message;
   for (const std::size_t camera : {0u, 1u})
@@ -574,10 +587,16 @@ TEST(SessionStore, ARegionDemosaicedAloneIsTheWholeImagesPixels) {
             << "camera " << camera << ", sample " << i << ", box " << box;
       }
     }
+  // With checksums checked, the region's frame is read whole and holds to its checksum.
+  r.value()->set_check_checksums(true);
+  auto checked = r.value()->image_region(12, 0, {5, 3, 17, 11});
+  ASSERT_TRUE(checked) << checked.error().message;
+  r.value()->set_check_checksums(false);
   auto outside = r.value()->image_region(3, 0, {10, 10, 10000, 10});
   ASSERT_FALSE(outside);
   EXPECT_NE(outside.error().message.find("is not inside"), std::string::npos) << outside.error().message;
   fs::remove_all(root);
+  }
 }
 
 // The view videos beside the lossless ones (storage/video/view_video.h): one per segment, read by a viewer
