@@ -21,9 +21,9 @@ else
   echo "recording $arg minutes of the protocol into $work (log: $work/pvcap.log)"
   session=$(bash "$here/bench/record_protocol_session.sh" "$work" "$arg")
 fi
-echo "compacting a copy and exporting the takes (--crop-paper)"
+echo "compacting a copy for training (pvcap compact --for training) and exporting the takes (--crop-paper)"
 cp -a "$session" "$work/compacted"
-"$pvcap" --log-level warn compact "$work/compacted" > "$work/compact.log" 2>&1 \
+"$pvcap" --log-level warn compact --for training "$work/compacted" > "$work/compact.log" 2>&1 \
   || { echo "compact failed: $work/compact.log" >&2; exit 1; }
 "$pvcap" --log-level warn export "$session" --layout pressurevision --crop-paper --out "$work/export" \
   > "$work/export.log" 2>&1 || { echo "export failed: $work/export.log" >&2; exit 1; }

@@ -4,11 +4,15 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <ctime>
 #include <map>
 #include <set>
 
 #include <fmt/format.h>
+#include <opencv2/core.hpp>
 
 #include "core/durable_folder.h"
 #include "core/time.h"
@@ -29,7 +33,7 @@ constexpr const char* kPartialSuffix = ".compacting";
 
 // The codecs a segment can be in after a compact, and the tag its file name carries.
 const std::map<std::string, std::string>& compact_tags() {
-  static const std::map<std::string, std::string> tags{{"libx264", "x264"}, {"ffv1", "ffv1"}};
+  static const std::map<std::string, std::string> tags{{"libx264", "x264"}, {"ffv1", "ffv1"}, {"ffvhuff", "huff"}};
   return tags;
 }
 
@@ -41,11 +45,48 @@ std::string base_name(const fs::path& path) {
 
 // The codec a segment is compacted to: the one asked for, but FFV1 for a mosaic of more than 8 bits
 // (x264 keeps at most 10 and this build's 8).
-std::string target_codec(int bit_depth, const CompactOptions& o) { return bit_depth > 8 ? "ffv1" : o.codec; }
+std::string target_codec(int bit_depth, const CompactOptions& o) {
+  return bit_depth > 8 && o.codec == "libx264" ? "ffv1" : o.codec;
+}
 
 fs::path compacted_path(const fs::path& path, const std::string& codec) {
   return path.parent_path() / (base_name(path) + "." + compact_tags().at(codec) + ".mkv");
 }
+
+// Whether segment `s` is already what compacting to `codec` makes of it (its file carries the tag;
+// a store recorded in x264 or FFV1 is already in that codec).
+bool already_compacted(const std::string& path, const std::string& codec, const std::string& stored_codec) {
+  return fs::path(path).filename() == compacted_path(path, codec).filename() ||
+         (codec != "ffvhuff" && stored_codec == codec);
+}
+
+double thread_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return double(t.tv_sec) + double(t.tv_nsec) * 1e-9;
+}
+
+// Shuffled crops of a training read's size (480x384 and the demosaicing margin) from `file`, per
+// second of this thread's CPU: what `pvcap compact` says of the store before and after.
+double crops_per_second(const fs::path& file, const std::vector<std::int64_t>& pts_ms) {
+  auto reader = VideoReader::open(file);
+  if (!reader || pts_ms.empty()) return 0;
+  VideoReader& v = *reader.value();
+  const cv::Size box(std::min(484, v.width()) & ~1, std::min(388, v.height()) & ~1);
+  cv::RNG rng(7);
+  cv::Mat crop;
+  constexpr int kCrops = 24;
+  const double t0 = thread_cpu_seconds();
+  for (int k = 0; k < kCrops; ++k) {
+    const std::int64_t at = pts_ms[std::size_t(rng.uniform(0, int(pts_ms.size())))];
+    const cv::Rect r(rng.uniform(0, (v.width() - box.width) / 2 + 1) * 2, rng.uniform(0, (v.height() - box.height) / 2 + 1) * 2,
+                     box.width, box.height);
+    if (auto ok = v.read_raw_region_at(at, r, crop); !ok || !ok.value()) return 0;
+  }
+  const double s = thread_cpu_seconds() - t0;
+  return s > 0 ? kCrops / s : 0;
+}
+
 
 // Holds the session's recording.lock for the whole run: no recorder, recover or other compact works
 // on the folder meanwhile. The file goes at the end (also one a killed run left: it holds no data).
@@ -175,6 +216,10 @@ class SegmentCompactor {
       fs::remove(partial, ec);
       return c.error();
     }
+    if (!copied.pts_ms.empty()) {
+      report_.crops_per_s_before = crops_per_second(old_file, copied.pts_ms);
+      report_.crops_per_s_after = crops_per_second(partial, copied.pts_ms);
+    }
     if (!step("written")) return false;
     // The new file complete under its name before the index names it.
     fs::rename(partial, new_file);
@@ -224,6 +269,15 @@ class SegmentCompactor {
     vs.raw_codec = codec;
     vs.preset = o_.preset;
     vs.gop_frames = o_.gop_frames;
+    if (codec == "ffvhuff") {
+      // For training: every frame alone, in the source's tiles (or tiles of about 240 x 180 for a
+      // store recorded in one picture), adaptive Huffman tables and median prediction (bench/lossless_bench).
+      vs.raw_codec_options = "pred=median:context=1";
+      vs.gop_frames = 1;
+      vs.threads = 1;  // HuffYUV's adaptive tables are one thread's work
+      vs.tile_cols = in.tiles() > 1 ? in.tile_cols() : std::max(1, int(std::lround(in.width() / 240.0)));
+      vs.tile_rows = in.tiles() > 1 ? in.tile_rows() : std::max(1, int(std::lround(in.height() / 180.0)));
+    }
     vs.threads = o_.threads;
     vs.width = in.width();
     vs.height = in.height();
@@ -306,7 +360,7 @@ class SegmentCompactor {
 Result<CompactReport> compact_session(const fs::path& dir, const CompactOptions& o) {
   const auto started = std::chrono::steady_clock::now();
   if (!compact_tags().count(o.codec))
-    return Error{fmt::format("compact: '{}' is not a codec compact writes (libx264 or ffv1)", o.codec)};
+    return Error{fmt::format("compact: '{}' is not a codec compact writes (libx264, ffvhuff or ffv1)", o.codec)};
   const fs::path db_path = dir / "session.db";
   if (!fs::is_regular_file(db_path))
     return Error{fmt::format("{}: not a session folder (no session.db)", dir.string())};
@@ -327,7 +381,8 @@ Result<CompactReport> compact_session(const fs::path& dir, const CompactOptions&
     std::vector<Segment> todo;
     for (const auto& s : segments) {
       if (const std::string codec = target_codec(s.bit_depth, o);
-          !is_bayer_planes_layout(s.layout) || s.codec == codec || (s.state != "closed" && s.state != "recovered")) {
+          !is_bayer_planes_layout(s.layout) || already_compacted(s.path, codec, s.codec) ||
+          (s.state != "closed" && s.state != "recovered")) {
         ++report.segments_kept;
         continue;
       }

@@ -143,6 +143,8 @@ int VideoReader::width() const {
 }
 int VideoReader::height() const { return raw() ? stacked_height_ / 2 : impl_->dec.ptr->height; }
 int VideoReader::tiles() const { return impl_->tiled() ? impl_->grid.count() : 1; }
+int VideoReader::tile_cols() const { return impl_->tiled() ? impl_->grid.cols : 1; }
+int VideoReader::tile_rows() const { return impl_->tiled() ? impl_->grid.rows : 1; }
 
 Status VideoReader::open_tiles(VideoReader& r, const std::string& tiles, const std::string& size, const AVCodec* codec,
                                const Options& options) {

@@ -84,6 +84,8 @@ class VideoReader {
   const PlaneOrder& plane_order() const { return order_; }
   // How many tiles a raw video's frames are stored in (1: the whole picture in one stream).
   int tiles() const;
+  int tile_cols() const;
+  int tile_rows() const;
   // Whether this reader decodes only the first three planes (Options::half_size_colour_only took),
   // and whether the video allows it (so a reader opened without the option can tell).
   bool decodes_three_planes() const { return three_planes_; }

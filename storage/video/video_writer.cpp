@@ -110,8 +110,17 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
       av_dict_set(&opts, "level", "3", 0);
       av_dict_set(&opts, "slicecrc", "1", 0);
     }
+    if (s.raw() && !s.raw_codec_options.empty() &&
+        av_dict_parse_string(&opts, s.raw_codec_options.c_str(), "=", ":", 0) < 0) {
+      av_dict_free(&opts);
+      return Error{fmt::format("{}: '{}' is not a list of codec options (key=value:key=value)", where,
+                               s.raw_codec_options)};
+    }
     rc = avcodec_open2(enc, codec, &opts);
+    const bool unused = !s.raw_codec_options.empty() && av_dict_count(opts) > 0;
     av_dict_free(&opts);
+    if (rc >= 0 && unused)
+      return Error{fmt::format("{}: {} does not take every option of '{}'", where, codec_name, s.raw_codec_options)};
     if (rc < 0)
       return Error{fmt::format("{}: cannot open encoder {} for {}x{} {}: {}", where, codec_name, picture.width,
                                picture.height, s.stored_pixel_format(), av::error(rc))};

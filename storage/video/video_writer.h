@@ -31,6 +31,8 @@ struct VideoSettings {
   // (storage/video/bayer_tiles.h), as near as the size allows; 1 x 1: one stream, as before 2026-12-07.
   int tile_cols = 1, tile_rows = 1;
   std::string raw_codec = "ffvhuff";
+  // Raw mode: the raw codec's own options, FFmpeg's "key=value:key=value" ("pred=median:context=1").
+  std::string raw_codec_options;
   std::string codec = "libx264";
   int crf = 10;
   std::string preset = "ultrafast";

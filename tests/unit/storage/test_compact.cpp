@@ -50,10 +50,11 @@ cv::Mat scene_mosaic(int i) {
 }
 
 // A finished session of one raw camera, `seconds` at 15 Hz in 1-s segments; returns its folder.
-fs::path write_raw_session(const fs::path& root, double seconds) {
+// `raw_tiles`: the store's (auto leaves a 128x96 camera in one picture).
+fs::path write_raw_session(const fs::path& root, double seconds, const std::string& raw_tiles = "auto") {
   const auto rig = parse_rig_config(
       "name: compact-test\ncameras:\n  - {name: cam0, address: 10.0.0.1}\n"
-      "store: {segment_seconds: 1, min_free_mb: 0, reserve_mb: 1}\n",
+      "store: {segment_seconds: 1, min_free_mb: 0, reserve_mb: 1, raw_tiles: " + raw_tiles + "}\n",
       "compact-test.yaml");
   const std::int64_t t0 = host_now().ns;
   auto w = SessionWriter::create(root, rig, wall_now_ns(), t0);
@@ -203,6 +204,41 @@ TEST(Compact, Ffv1OnRequestKeepsThePicturesToo) {
   }
   EXPECT_EQ(decode_segments(dir), before);
   EXPECT_EQ(verify_session(dir).exit_code(), 0);
+  fs::remove_all(root);
+}
+
+// For training: every frame alone in tiles (a shuffled crop decodes the tiles under it), smaller
+// than the live store, the pictures the same; a second run changes nothing; and it compacts an
+// archive copy too.
+TEST(Compact, ForTrainingEveryFrameDecodesAloneInTilesSmallerThanTheLiveStore) {
+  const auto root = compact_root("training");
+  const fs::path dir = write_raw_session(root, 2, "2x2");
+  const auto before = decode_segments(dir);
+  const auto bytes_before = video_bytes(dir);
+  CompactOptions o;
+  o.codec = "ffvhuff";
+  auto r = compact_session(dir, o);
+  ASSERT_TRUE(r) << r.error().message;
+  EXPECT_EQ(r.value().segments_compacted, std::int64_t(before.size())) << fmt::format("{}", fmt::join(r.value().done, "\n"));
+  EXPECT_LT(video_bytes(dir), bytes_before);
+  EXPECT_GT(r.value().crops_per_s_before, 0);
+  EXPECT_GT(r.value().crops_per_s_after, 0);
+  for (const auto& [path, codec] : codecs_by_path(dir)) {
+    EXPECT_EQ(codec, "ffvhuff") << path;
+    EXPECT_NE(path.find(".huff.mkv"), std::string::npos) << path;
+    auto v = VideoReader::open(dir / path);
+    ASSERT_TRUE(v) << v.error().message;
+    EXPECT_EQ(v.value()->tiles(), 4) << path << ": the live store's tiles";
+    // Every frame a key frame: a shuffled read decodes the frame asked for and nothing before it.
+    std::int64_t pts = 0;
+    bool key = false;
+    while (v.value()->next_packet(pts, key).value()) EXPECT_TRUE(key) << path << " at " << pts;
+  }
+  EXPECT_EQ(decode_segments(dir), before);
+  EXPECT_EQ(verify_session(dir).exit_code(), 0);
+  auto again = compact_session(dir, o);
+  ASSERT_TRUE(again) << again.error().message;
+  EXPECT_EQ(again.value().segments_compacted, 0);
   fs::remove_all(root);
 }
 
