@@ -194,7 +194,7 @@ double cpu_seconds() {
 // to a file with `codec` cut into `cols` x `rows` tiles, then read back whole and as paper-sized
 // crops (480x384 with the demosaicing margin, at random places), all on one thread: CPU per frame.
 void layout_row(const std::string& label, const std::string& codec, int gop, int cols, int rows,
-                const std::vector<cv::Mat>& mosaics) {
+                const std::vector<cv::Mat>& mosaics, const std::string& options = "") {
   const auto file = std::filesystem::temp_directory_path() / ("pvcap-lossless-bench-" + std::to_string(::getpid()) + ".mkv");
   VideoSettings s;
   s.bayer_format = "BayerRG8";
@@ -204,6 +204,7 @@ void layout_row(const std::string& label, const std::string& codec, int gop, int
   s.tile_cols = cols;
   s.tile_rows = rows;
   s.gop_frames = gop;
+  s.raw_codec_options = options;
   auto w = VideoWriter::open(file, s);
   if (!w) {
     std::printf("%-34s %s\n", label.c_str(), w.error().message.c_str());
@@ -226,32 +227,41 @@ void layout_row(const std::string& label, const std::string& codec, int gop, int
     exact = exact && r.value()->read_raw_at(pts, m).value() && cv::norm(m, mosaics[i], cv::NORM_INF) == 0;
   }
   const double whole_ms = (cpu_seconds() - t0) * 1e3 / double(mosaics.size());
-  cv::RNG rng(5);
-  const int crops = 3 * int(mosaics.size());
-  t0 = cpu_seconds();
-  for (int k = 0; k < crops; ++k) {  // shuffled, as training reads
-    const std::size_t i = std::size_t(rng.uniform(0, int(mosaics.size())));
-    const cv::Rect box(rng.uniform(0, (m.cols - 484) / 2) * 2, rng.uniform(0, (m.rows - 388) / 2) * 2, 484, 388);
-    const std::int64_t pts = (std::int64_t(i + 1) * 66'667 + 500) / 1000;
-    exact = exact && r.value()->read_raw_region_at(pts, box, m).value() &&
-            cv::norm(m, mosaics[i](box), cv::NORM_INF) == 0;
-  }
-  const double crop_ms = (cpu_seconds() - t0) * 1e3 / crops;
-  std::printf("%-34s %5s %8.3f %10.2f %10.2f %9.2f %9.0f %9s\n", label.c_str(), grid.c_str(), mb, encode_ms, whole_ms,
-              crop_ms, 1e3 / crop_ms, exact ? "bit-exact" : "NO");
+  // Shuffled, as training reads: a 480x384 box and the simulated rig's paper crop (the pad's box
+  // with its margin, ~900x720 at 1080p), each with the demosaicing margin.
+  const auto crop_ms = [&](cv::Size size) {
+    cv::RNG rng(5);
+    const int crops = 3 * int(mosaics.size());
+    const double start = cpu_seconds();
+    for (int k = 0; k < crops; ++k) {
+      const std::size_t i = std::size_t(rng.uniform(0, int(mosaics.size())));
+      const cv::Size whole = mosaics[i].size();
+      const cv::Rect box(rng.uniform(0, (whole.width - size.width) / 2) * 2,
+                         rng.uniform(0, (whole.height - size.height) / 2) * 2, size.width, size.height);
+      const std::int64_t pts = (std::int64_t(i + 1) * 66'667 + 500) / 1000;
+      exact = exact && r.value()->read_raw_region_at(pts, box, m).value() &&
+              cv::norm(m, mosaics[i](box), cv::NORM_INF) == 0;
+    }
+    return (cpu_seconds() - start) * 1e3 / crops;
+  };
+  const double small = crop_ms({484, 388}), paper = crop_ms({904, 724});
+  std::printf("%-40s %5s %8.3f %10.2f %10.2f %9.2f %10.2f %9s\n", label.c_str(), grid.c_str(), mb, encode_ms, whole_ms,
+              small, paper, exact ? "bit-exact" : "NO");
   std::fflush(stdout);
   std::filesystem::remove(file);
 }
 
 void layouts(const std::vector<cv::Mat>& mosaics) {
   std::printf(
-      "\nstored layouts through the store's writer and reader, one thread, CPU ms per 1080p frame; crop: 484x388 "
-      "(a 480x384 paper crop with its demosaicing margin), shuffled\n");
-  std::printf("%-34s %5s %8s %10s %10s %9s %9s %9s\n", "layout", "tiles", "MB/frame", "encode ms", "whole ms",
-              "crop ms", "crops/s", "exact");
+      "\nstored layouts through the store's writer and reader, one thread, CPU ms per 1080p frame; crops of 480x384 "
+      "and ~900x720 (the simulated rig's paper crop), with the demosaicing margin, shuffled\n");
+  std::printf("%-40s %5s %8s %10s %10s %9s %10s %9s\n", "layout", "tiles", "MB/frame", "encode ms", "whole ms",
+              "480x384", "900x720", "exact");
   layout_row("ffvhuff, one picture (until now)", "ffvhuff", 1, 1, 1, mosaics);
-  for (const auto& [c, r] : std::vector<std::pair<int, int>>{{4, 4}, {8, 6}, {8, 8}, {12, 12}})
-    layout_row("ffvhuff, tiles", "ffvhuff", 1, c, r, mosaics);
+  for (const auto& [c, r] : std::vector<std::pair<int, int>>{{4, 4}, {8, 6}, {16, 12}})
+    layout_row("ffvhuff, tiles (the store's)", "ffvhuff", 1, c, r, mosaics);
+  layout_row("ffvhuff left context=1 (compact), tiles", "ffvhuff", 1, 8, 6, mosaics, "pred=left:context=1");
+  layout_row("ffvhuff median context=1, tiles", "ffvhuff", 1, 8, 6, mosaics, "pred=median:context=1");
   layout_row("magicyuv, tiles", "magicyuv", 1, 8, 6, mosaics);
   layout_row("ffv1 intra (compact), tiles", "ffv1", 1, 8, 6, mosaics);
   layout_row("libx264 qp 0 intra (compact), tiles", "libx264", 1, 8, 6, mosaics);

@@ -56,9 +56,14 @@ void JpegLanes::start(const std::vector<std::size_t>& samples, const fs::path& d
 
 Status JpegLanes::write_one(SessionReader& reader, std::size_t sample, std::size_t k, const fs::path& dir,
                             const fs::path& jpg, Lane& lane) {
-  auto image = reader.image(sample, settings_.cameras[k]);
+  // A crop reads its region alone (a tiled raw video decodes the tiles under it): the same pixels
+  // as the whole image cut there (storage/index/session_reader.h).
+  auto image = settings_.crop ? reader.image_region(sample, settings_.cameras[k], settings_.crops[k])
+                              : reader.image(sample, settings_.cameras[k]);
   if (!image) return image.error();
-  const cv::Mat frame = settings_.crop ? calib::apply_crop(image.value(), settings_.crops[k]) : image.value();
+  if (image.value().empty()) return Error{fmt::format("{}: sample {} has no frame of camera {}", jpg.string(), sample, k)};
+  const cv::Mat frame = settings_.crop ? calib::apply_crop(image.value(), cv::Rect({0, 0}, image.value().size()))
+                                       : image.value();
   const auto size = encode_jpeg_into(frame, settings_.quality, lane.jpeg);
   if (!size) return Error{fmt::format("{}: {}", jpg.string(), size.error().message)};
   const std::string_view encoded(reinterpret_cast<const char*>(lane.jpeg.data()), size.value());

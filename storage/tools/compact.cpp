@@ -271,8 +271,9 @@ class SegmentCompactor {
     vs.gop_frames = o_.gop_frames;
     if (codec == "ffvhuff") {
       // For training: every frame alone, in the source's tiles (or tiles of about 240 x 180 for a
-      // store recorded in one picture), adaptive Huffman tables and median prediction (bench/lossless_bench).
-      vs.raw_codec_options = "pred=median:context=1";
+      // store recorded in one picture), Huffman tables fitted to each frame, left prediction: 9 % fewer
+      // bytes than the live store, decoded as fast (bench/lossless_bench "stored layouts").
+      vs.raw_codec_options = "pred=left:context=1";
       vs.gop_frames = 1;
       vs.threads = 1;  // HuffYUV's adaptive tables are one thread's work
       vs.tile_cols = in.tiles() > 1 ? in.tile_cols() : std::max(1, int(std::lround(in.width() / 240.0)));

@@ -9,6 +9,7 @@ extern "C" {
 #include <libswscale/swscale.h>
 }
 
+#include <optional>
 #include <vector>
 
 #include <fmt/format.h>
@@ -116,7 +117,13 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
       return Error{fmt::format("{}: '{}' is not a list of codec options (key=value:key=value)", where,
                                s.raw_codec_options)};
     }
-    rc = avcodec_open2(enc, codec, &opts);
+    {
+      // HuffYUV with adaptive tables says at every open that it encodes on one thread (as asked):
+      // not news for the operator's console; a failure is returned below, named.
+      std::optional<FfmpegLogQuiet> quiet;
+      if (!s.raw_codec_options.empty()) quiet.emplace();
+      rc = avcodec_open2(enc, codec, &opts);
+    }
     const bool unused = !s.raw_codec_options.empty() && av_dict_count(opts) > 0;
     av_dict_free(&opts);
     if (rc >= 0 && unused)
