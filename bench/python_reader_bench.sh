@@ -5,6 +5,8 @@
 # with their pressure from each, shuffled, on one core, and prints the three rates side by side.
 #
 #   bash bench/python_reader_bench.sh [minutes | SESSION_FOLDER] [ITEMS (300)]   (recording needs root)
+# PVCAP_BENCH_COPY_SESSION=1: a SESSION_FOLDER given is copied first and left as it was (the suite's
+# short form, bench.python_reader_short, reads its export fixture so).
 # What it makes is removed at the end (PVCAP_BENCH_KEEP=1 keeps it).
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -14,7 +16,12 @@ pvcap="$here/build/app/pvcap"
 arg=${1:-2}
 items=${2:-300}
 bench_work_dir python-reader-bench
-if [ -d "$arg" ]; then
+if [ -d "$arg" ] && [ "${PVCAP_BENCH_COPY_SESSION:-0}" = 1 ]; then
+  # A session that must stay as it is (the suite's fixture): calibrated and read as a copy.
+  cp -a "$arg" "$work/session"
+  session="$work/session"
+  bash "$here/bench/calibrate_sim_pad.sh" "$session"
+elif [ -d "$arg" ]; then
   session=$(cd "$arg" && pwd)
   bash "$here/bench/calibrate_sim_pad.sh" "$session"
 else

@@ -10,6 +10,7 @@ extern "C" {
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
@@ -37,12 +38,18 @@ struct VideoReader::Impl {  // members are freed in reverse: the scaler first, t
   bool draining = false;
   bool intra_only = false;  // every frame decodes alone (HuffYUV, MagicYUV; not FFV1): reads skip, not decode
   // A tiled raw video (storage/video/bayer_tiles.h): one decoder per tile, each its own stream.
-  struct Tile {
-    int stream = -1;
+  struct Decoder {
     av::CodecContext dec;
     av::Frame frame;
   };
+  struct Tile {
+    int stream = -1;
+    std::size_t decoder = 0;  // into decoders
+  };
   std::vector<Tile> tiles;       // empty: one stream holds the whole picture
+  // An intra-only codec's tiles of one description (HuffYUV's tables are in it) share a decoder:
+  // each holds its tables and buffers, ~0.5 MB, and a reader keeps several videos open.
+  std::vector<Decoder> decoders;
   std::vector<int> stream_tile;  // stream index -> tile (-1: not a tile)
   TileGrid grid;
   std::vector<char> wanted;      // the tiles the next read decodes
@@ -145,6 +152,7 @@ int VideoReader::height() const { return raw() ? stacked_height_ / 2 : impl_->de
 int VideoReader::tiles() const { return impl_->tiled() ? impl_->grid.count() : 1; }
 int VideoReader::tile_cols() const { return impl_->tiled() ? impl_->grid.cols : 1; }
 int VideoReader::tile_rows() const { return impl_->tiled() ? impl_->grid.rows : 1; }
+int VideoReader::tile_decoders() const { return int(impl_->decoders.size()); }
 
 Status VideoReader::open_tiles(VideoReader& r, const std::string& tiles, const std::string& size, const AVCodec* codec,
                                const Options& options) {
@@ -179,14 +187,28 @@ Status VideoReader::open_tiles(VideoReader& r, const std::string& tiles, const s
     if (par->codec_id != codec->id || par->width != picture.width || par->height != picture.height)
       return Error{fmt::format("{}: tile {} is not a {}x{} picture of the first tile's codec", where, t, picture.width,
                                picture.height)};
-    tile.dec.ptr = avcodec_alloc_context3(codec);
-    avcodec_parameters_to_context(tile.dec.ptr, par);
-    tile.dec.ptr->thread_count = 1;  // a tile is small; the read decodes several
-    tile.dec.ptr->flags |= AV_CODEC_FLAG_LOW_DELAY;
-    if (r.three_planes_) tile.dec.ptr->height = picture.height / 4 * 3;
-    if (avcodec_open2(tile.dec.ptr, codec, nullptr) < 0)
+    if (im.intra_only) {
+      const auto same = [&](const Impl::Tile& other) {
+        const AVCodecParameters* o = im.fmt.ptr->streams[other.stream]->codecpar;
+        return o->extradata_size == par->extradata_size &&
+               (par->extradata_size == 0 || std::memcmp(o->extradata, par->extradata, std::size_t(par->extradata_size)) == 0);
+      };
+      const auto earlier = std::find_if(im.tiles.begin(), im.tiles.begin() + std::ptrdiff_t(t), same);
+      if (earlier != im.tiles.begin() + std::ptrdiff_t(t)) {
+        tile.decoder = earlier->decoder;
+        continue;
+      }
+    }
+    tile.decoder = im.decoders.size();
+    Impl::Decoder& d = im.decoders.emplace_back();
+    d.dec.ptr = avcodec_alloc_context3(codec);
+    avcodec_parameters_to_context(d.dec.ptr, par);
+    d.dec.ptr->thread_count = 1;  // a tile is small; the read decodes several
+    d.dec.ptr->flags |= AV_CODEC_FLAG_LOW_DELAY;
+    if (r.three_planes_) d.dec.ptr->height = picture.height / 4 * 3;
+    if (avcodec_open2(d.dec.ptr, codec, nullptr) < 0)
       return Error{fmt::format("{}: cannot open the decoder of tile {}", where, t)};
-    tile.frame.ptr = av_frame_alloc();
+    d.frame.ptr = av_frame_alloc();
   }
   im.stream = im.tiles[0].stream;
   im.wanted.assign(im.tiles.size(), 1);
@@ -417,7 +439,7 @@ Result<bool> VideoReader::decode_next_tiles(std::int64_t& pts_ms, std::int64_t s
     if (t == 0) im.key = (pkt->flags & AV_PKT_FLAG_KEY) != 0;
     const bool skipped = im.intra_only && skip_before_ms != INT64_MIN && at < skip_before_ms;
     if (decode && !skipped && im.wanted[std::size_t(t)]) {
-      Impl::Tile& tile = im.tiles[std::size_t(t)];
+      Impl::Decoder& tile = im.decoders[im.tiles[std::size_t(t)].decoder];
       const int sr = avcodec_send_packet(tile.dec.ptr, pkt);
       av_packet_unref(pkt);
       if (sr < 0) return Error{fmt::format("{}: corrupt video packet (tile {})", path_.string(), t)};
@@ -493,7 +515,7 @@ Result<bool> VideoReader::seek_and_convert(std::int64_t pts_ms, cv::Mat& out, st
   auto seek = [&](std::int64_t ts, int flags) {
     if (av_seek_frame(im.fmt.ptr, im.stream, ts, flags) < 0) return false;
     if (im.tiled()) {
-      for (Impl::Tile& t : im.tiles) avcodec_flush_buffers(t.dec.ptr);
+      for (Impl::Decoder& d : im.decoders) avcodec_flush_buffers(d.dec.ptr);
       im.group_pts = INT64_MIN;
     } else {
       avcodec_flush_buffers(im.dec.ptr);

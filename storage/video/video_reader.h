@@ -86,6 +86,9 @@ class VideoReader {
   int tiles() const;
   int tile_cols() const;
   int tile_rows() const;
+  // Decoders a tiled video holds open: one for all tiles of an intra-only codec (HuffYUV's tiles
+  // share their tables), one per tile otherwise (each keeps its own references).
+  int tile_decoders() const;
   // Whether this reader decodes only the first three planes (Options::half_size_colour_only took),
   // and whether the video allows it (so a reader opened without the option can tell).
   bool decodes_three_planes() const { return three_planes_; }

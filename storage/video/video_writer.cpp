@@ -39,7 +39,80 @@ struct VideoWriter::Impl {  // members are freed in reverse: the scaler first, t
   bool header_written = false;
   bool matroska = true;
   bool wrote = false;  // a packet since the last cluster ended
+  Status open_coder(const VideoSettings& s, const AVCodec* codec, AVPixelFormat pix, cv::Size picture,
+                    const TileGrid& grid, int t, const std::string& where);
 };
+
+// The encoder and stream of tile `t` (or of the whole picture).
+Status VideoWriter::Impl::open_coder(const VideoSettings& s, const AVCodec* codec, AVPixelFormat pix, cv::Size picture,
+                                     const TileGrid& grid, int t, const std::string& where) {
+  Coder& c = coders[std::size_t(t)];
+  const std::string codec_name = s.stored_codec();
+  c.enc.ptr = avcodec_alloc_context3(codec);
+  AVCodecContext* enc = c.enc.ptr;
+  enc->width = picture.width;
+  enc->height = picture.height;
+  enc->pix_fmt = pix;
+  enc->time_base = kMicros;
+  enc->framerate = av_d2q(s.nominal_fps > 0 ? s.nominal_fps : 30, 1000);
+  enc->gop_size = std::max(1, s.gop_frames);
+  enc->keyint_min = 1;
+  enc->max_b_frames = 0;
+  enc->thread_count = s.threads;
+  if (fmt.ptr->oformat->flags & AVFMT_GLOBALHEADER) enc->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
+  AVDictionary* opts = nullptr;
+  if (codec_name == "libx264") {
+    av_dict_set(&opts, "preset", s.preset.c_str(), 0);
+    if (s.raw())
+      av_dict_set(&opts, "qp", "0", 0);  // lossless
+    else
+      av_dict_set(&opts, "crf", std::to_string(s.crf).c_str(), 0);
+    // In-band SPS/PPS on every key frame: any GOP decodes on its own. A tile is small enough for one slice.
+    av_dict_set(&opts, "x264-params",
+                grid.tiled() ? "repeat-headers=1:bframes=0" : "repeat-headers=1:bframes=0:slices=4", 0);
+  } else if (codec_name == "magicyuv") {
+    av_dict_set(&opts, "pred", "median", 0);  // the fastest of its predictors here, as small as left
+  } else if (codec_name == "ffv1") {
+    av_dict_set(&opts, "level", "3", 0);
+    av_dict_set(&opts, "slicecrc", "1", 0);
+  }
+  if (s.raw() && !s.raw_codec_options.empty() &&
+      av_dict_parse_string(&opts, s.raw_codec_options.c_str(), "=", ":", 0) < 0) {
+    av_dict_free(&opts);
+    return Error{fmt::format("{}: '{}' is not a list of codec options (key=value:key=value)", where,
+                             s.raw_codec_options)};
+  }
+  int rc = 0;
+  {
+    // HuffYUV with adaptive tables says at every open that it encodes on one thread (as asked):
+    // not news for the operator's console; a failure is returned below, named.
+    std::optional<FfmpegLogQuiet> quiet;
+    if (!s.raw_codec_options.empty()) quiet.emplace();
+    rc = avcodec_open2(enc, codec, &opts);
+  }
+  const bool unused = !s.raw_codec_options.empty() && av_dict_count(opts) > 0;
+  av_dict_free(&opts);
+  if (rc >= 0 && unused)
+    return Error{fmt::format("{}: {} does not take every option of '{}'", where, codec_name, s.raw_codec_options)};
+  if (rc < 0)
+    return Error{fmt::format("{}: cannot open encoder {} for {}x{} {}: {}", where, codec_name, picture.width,
+                             picture.height, s.stored_pixel_format(), av::error(rc))};
+  c.stream = avformat_new_stream(fmt.ptr, nullptr);
+  if (s.raw()) {
+    // The file says what it holds, so a raw video is readable without the index.
+    av_dict_set(&c.stream->metadata, "PVCAP_LAYOUT", s.layout.c_str(), 0);
+    av_dict_set(&c.stream->metadata, "PVCAP_BAYER_FORMAT", s.bayer_format.c_str(), 0);
+    av_dict_set(&c.stream->metadata, "PVCAP_BIT_DEPTH", std::to_string(s.bit_depth).c_str(), 0);
+    av_dict_set(&c.stream->metadata, "PVCAP_SIZE", fmt::format("{}x{}", s.width, s.height).c_str(), 0);
+    if (grid.tiled()) {
+      av_dict_set(&c.stream->metadata, "PVCAP_TILES", grid.tag().c_str(), 0);
+      av_dict_set(&c.stream->metadata, "PVCAP_TILE", std::to_string(t).c_str(), 0);
+    }
+  }
+  c.stream->time_base = {1, 1000};
+  avcodec_parameters_from_context(c.stream->codecpar, enc);
+  return {};
+}
 
 Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::path& path, const VideoSettings& s) {
   route_ffmpeg_log();
@@ -81,71 +154,8 @@ Result<std::unique_ptr<VideoWriter>> VideoWriter::open(const std::filesystem::pa
   w->grid_ = s.raw() ? pvcap::tile_grid({s.width, s.height}, s.tile_cols, s.tile_rows) : TileGrid{1, 1, {s.width, s.height}};
   const cv::Size picture = w->grid_.tiled() ? bayer_planes_size(w->grid_.tile_size()) : coded;
   im.coders.resize(std::size_t(w->grid_.count()));
-  for (int t = 0; t < w->grid_.count(); ++t) {
-    Impl::Coder& c = im.coders[std::size_t(t)];
-    c.enc.ptr = avcodec_alloc_context3(codec);
-    AVCodecContext* enc = c.enc.ptr;
-    enc->width = picture.width;
-    enc->height = picture.height;
-    enc->pix_fmt = pix;
-    enc->time_base = kMicros;
-    enc->framerate = av_d2q(s.nominal_fps > 0 ? s.nominal_fps : 30, 1000);
-    enc->gop_size = std::max(1, s.gop_frames);
-    enc->keyint_min = 1;
-    enc->max_b_frames = 0;
-    enc->thread_count = s.threads;
-    if (im.fmt.ptr->oformat->flags & AVFMT_GLOBALHEADER) enc->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
-    AVDictionary* opts = nullptr;
-    if (codec_name == "libx264") {
-      av_dict_set(&opts, "preset", s.preset.c_str(), 0);
-      if (s.raw())
-        av_dict_set(&opts, "qp", "0", 0);  // lossless
-      else
-        av_dict_set(&opts, "crf", std::to_string(s.crf).c_str(), 0);
-      // In-band SPS/PPS on every key frame: any GOP decodes on its own. A tile is small enough for one slice.
-      av_dict_set(&opts, "x264-params",
-                  w->grid_.tiled() ? "repeat-headers=1:bframes=0" : "repeat-headers=1:bframes=0:slices=4", 0);
-    } else if (codec_name == "magicyuv") {
-      av_dict_set(&opts, "pred", "median", 0);  // the fastest of its predictors here, as small as left
-    } else if (codec_name == "ffv1") {
-      av_dict_set(&opts, "level", "3", 0);
-      av_dict_set(&opts, "slicecrc", "1", 0);
-    }
-    if (s.raw() && !s.raw_codec_options.empty() &&
-        av_dict_parse_string(&opts, s.raw_codec_options.c_str(), "=", ":", 0) < 0) {
-      av_dict_free(&opts);
-      return Error{fmt::format("{}: '{}' is not a list of codec options (key=value:key=value)", where,
-                               s.raw_codec_options)};
-    }
-    {
-      // HuffYUV with adaptive tables says at every open that it encodes on one thread (as asked):
-      // not news for the operator's console; a failure is returned below, named.
-      std::optional<FfmpegLogQuiet> quiet;
-      if (!s.raw_codec_options.empty()) quiet.emplace();
-      rc = avcodec_open2(enc, codec, &opts);
-    }
-    const bool unused = !s.raw_codec_options.empty() && av_dict_count(opts) > 0;
-    av_dict_free(&opts);
-    if (rc >= 0 && unused)
-      return Error{fmt::format("{}: {} does not take every option of '{}'", where, codec_name, s.raw_codec_options)};
-    if (rc < 0)
-      return Error{fmt::format("{}: cannot open encoder {} for {}x{} {}: {}", where, codec_name, picture.width,
-                               picture.height, s.stored_pixel_format(), av::error(rc))};
-    c.stream = avformat_new_stream(im.fmt.ptr, nullptr);
-    if (s.raw()) {
-      // The file says what it holds, so a raw video is readable without the index.
-      av_dict_set(&c.stream->metadata, "PVCAP_LAYOUT", s.layout.c_str(), 0);
-      av_dict_set(&c.stream->metadata, "PVCAP_BAYER_FORMAT", s.bayer_format.c_str(), 0);
-      av_dict_set(&c.stream->metadata, "PVCAP_BIT_DEPTH", std::to_string(s.bit_depth).c_str(), 0);
-      av_dict_set(&c.stream->metadata, "PVCAP_SIZE", fmt::format("{}x{}", s.width, s.height).c_str(), 0);
-      if (w->grid_.tiled()) {
-        av_dict_set(&c.stream->metadata, "PVCAP_TILES", w->grid_.tag().c_str(), 0);
-        av_dict_set(&c.stream->metadata, "PVCAP_TILE", std::to_string(t).c_str(), 0);
-      }
-    }
-    c.stream->time_base = {1, 1000};
-    avcodec_parameters_from_context(c.stream->codecpar, enc);
-  }
+  for (int t = 0; t < w->grid_.count(); ++t)
+    if (Status st = im.open_coder(s, codec, pix, picture, w->grid_, t, where); !st.ok()) return st.error();
   rc = avio_open(&im.fmt.ptr->pb, path.c_str(), AVIO_FLAG_WRITE);
   if (rc < 0) return Error{fmt::format("{}: cannot create the video file: {}", where, av::error(rc))};
   AVDictionary* mux = nullptr;

@@ -121,6 +121,7 @@ TEST(TiledVideo, ARegionDecodesOnlyItsTilesBitExactAndTheWholeFrameKeepsItsCheck
     EXPECT_EQ(v.height(), kHeight);
     EXPECT_EQ(v.bit_depth(), c.depth);
     const bool intra = c.codec == "ffvhuff";
+    EXPECT_EQ(v.tile_decoders(), intra ? 1 : 12) << "HuffYUV's tiles share one decoder; a GOP's keep their own";
     // Regions, backwards and across tile edges: exactly the mosaic's pixels; an intra-only codec
     // decodes the tiles under the region alone (80x60 tiles: this box touches tiles 5, 6, 9, 10).
     for (int i = 5; i >= 0; --i) {
