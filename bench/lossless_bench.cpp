@@ -260,7 +260,8 @@ void layouts(const std::vector<cv::Mat>& mosaics) {
   layout_row("ffvhuff, one picture (until now)", "ffvhuff", 1, 1, 1, mosaics);
   for (const auto& [c, r] : std::vector<std::pair<int, int>>{{4, 4}, {8, 6}, {16, 12}})
     layout_row("ffvhuff, tiles (the store's)", "ffvhuff", 1, c, r, mosaics);
-  layout_row("ffvhuff left context=1 (compact), tiles", "ffvhuff", 1, 8, 6, mosaics, "pred=left:context=1");
+  for (const auto& [c, r] : std::vector<std::pair<int, int>>{{4, 3}, {8, 6}})
+    layout_row("ffvhuff left context=1 (compact), tiles", "ffvhuff", 1, c, r, mosaics, "pred=left:context=1");
   layout_row("ffvhuff median context=1, tiles", "ffvhuff", 1, 8, 6, mosaics, "pred=median:context=1");
   layout_row("magicyuv, tiles", "magicyuv", 1, 8, 6, mosaics);
   layout_row("ffv1 intra (compact), tiles", "ffv1", 1, 8, 6, mosaics);

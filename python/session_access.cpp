@@ -104,9 +104,11 @@ Result<cv::Mat> SessionAccess::image_rgb(std::size_t sample, std::size_t camera,
   auto bgr = reader_->image_region(sample, camera, box.value());  // a raw frame: only the box demosaiced
   if (!bgr) return bgr.error();
   if (bgr.value().empty()) return cv::Mat();
-  cv::Mat rgb;
-  cv::cvtColor(bgr.value(), rgb, cv::COLOR_BGR2RGB);
-  return cut_and_size(rgb, cv::Rect({0, 0}, rgb.size()), size, cv::INTER_LINEAR);
+  // Sized first, then its channels swapped: the same pixels (each channel is resized alone), and
+  // the swap works on the network's size, not on the crop's (~900x720 at 1080p).
+  cv::Mat sized = cut_and_size(bgr.value(), cv::Rect({0, 0}, bgr.value().size()), size, cv::INTER_LINEAR), rgb;
+  cv::cvtColor(sized, rgb, cv::COLOR_BGR2RGB);
+  return rgb;
 }
 
 Result<cv::Mat> SessionAccess::pressure_kpa(std::size_t sample) {
