@@ -9,16 +9,14 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <vector>
 
+#include "capture/gige_vision_wire.h"
 #include "core/time.h"
 
 namespace pvcap {
 
 namespace {
-
-constexpr std::uint16_t kGvcpPort = 3956;
-constexpr std::uint8_t kKey = 0x42, kAckRequired = 0x01;
-constexpr std::uint16_t kReadRegCmd = 0x0080, kReadRegAck = 0x0081;
 
 struct Socket {
   int fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
@@ -44,24 +42,15 @@ bool is_ipv4(const std::string& address) {
 bool gvcp_answers(const std::string& ipv4, std::chrono::milliseconds timeout) {
   sockaddr_in to{};
   to.sin_family = AF_INET;
-  to.sin_port = htons(kGvcpPort);
+  to.sin_port = htons(gev::kGvcpPort);
   if (inet_pton(AF_INET, ipv4.c_str(), &to.sin_addr) != 1) return false;
   Socket s;
   if (s.fd < 0) return false;
   const std::uint16_t id = next_request_id();
-  // Header: key, flags, command, payload length, request id; then the address (big-endian).
-  const std::array<std::uint8_t, 12> request{kKey,
-                                             kAckRequired,
-                                             kReadRegCmd >> 8,
-                                             kReadRegCmd & 0xFF,
-                                             0,
-                                             4,
-                                             std::uint8_t(id >> 8),
-                                             std::uint8_t(id & 0xFF),
-                                             0,
-                                             0,
-                                             0,
-                                             0};
+  // A read of the first bootstrap register: any device that answers GVCP answers it.
+  std::vector<std::uint8_t> request;
+  for (const std::uint8_t b : gev::gvcp_header(gev::GvcpCommand::ReadRegister, 4, id)) request.push_back(b);
+  gev::put32(request, 0);
   if (sendto(s.fd, request.data(), request.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) !=
       ssize_t(request.size()))
     return false;
@@ -73,8 +62,10 @@ bool gvcp_answers(const std::string& ipv4, std::chrono::milliseconds timeout) {
     if (poll(&p, 1, int(left_ms)) <= 0) return false;
     std::array<std::uint8_t, 64> ack{};
     const ssize_t n = recv(s.fd, ack.data(), ack.size(), 0);
-    // Ack: status, acknowledge, length, ack id (= our request id), then the value.
-    if (n >= 8 && ((ack[2] << 8) | ack[3]) == kReadRegAck && ((ack[6] << 8) | ack[7]) == id) return true;
+    gev::GvcpAck a;
+    if (n > 0 && gev::parse_gvcp_ack(ack.data(), std::size_t(n), a) &&
+        a.code == std::uint16_t(gev::GvcpCommand::ReadRegisterAck) && a.id == id)
+      return true;
   }
 }
 

@@ -12,34 +12,12 @@
 
 #include <fmt/format.h>
 
+#include "capture/gige_vision_wire.h"
+
 namespace pvcap::sim {
 
-namespace {
-constexpr std::uint16_t kPayloadImageWithChunks = 0x4001;
-constexpr std::uint8_t kLeader = 1, kTrailer = 2, kPayload = 3;
-constexpr unsigned kOverhead = 20 + 8 + 8;  // IP, UDP and GVSP headers
-
-void put16(std::vector<std::uint8_t>& out, std::uint16_t v) {
-  out.push_back(std::uint8_t(v >> 8));
-  out.push_back(std::uint8_t(v));
-}
-void put32(std::vector<std::uint8_t>& out, std::uint32_t v) {
-  put16(out, std::uint16_t(v >> 16));
-  put16(out, std::uint16_t(v));
-}
-void put64(std::vector<std::uint8_t>& out, std::uint64_t v) {
-  put32(out, std::uint32_t(v >> 32));
-  put32(out, std::uint32_t(v));
-}
-
-// GVSP's header: status, block id, then the content type and the packet's id in the block.
-void header(std::vector<std::uint8_t>& out, std::uint16_t block_id, std::uint8_t content, std::uint32_t packet_id) {
-  out.clear();
-  put16(out, 0);
-  put16(out, block_id);
-  put32(out, (std::uint32_t(content) << 24) | (packet_id & 0xffffff));
-}
-}  // namespace
+using gev::put32;
+using gev::put64;
 
 std::vector<std::uint8_t> chunk_data(const GvspFrame& f) {
   std::vector<std::uint8_t> out;
@@ -87,24 +65,25 @@ void GvspSender::send_packet(const sockaddr_in& to, const std::vector<std::uint8
 
 void GvspSender::send(const sockaddr_in& to, unsigned packet_size, const GvspFrame& f, double loss) {
   std::uint32_t packet_id = 0;
-  header(packet_, f.block_id, kLeader, packet_id++);
-  put16(packet_, 0);  // flags
-  put16(packet_, kPayloadImageWithChunks);
+  gev::gvsp_header(packet_, f.block_id, gev::GvspContent::Leader, packet_id++);
+  gev::put16(packet_, 0);  // flags
+  gev::put16(packet_, gev::kPayloadImage | gev::kPayloadChunkFlag);
   put64(packet_, f.timestamp);
   put32(packet_, f.pixel_format);
   put32(packet_, f.width);
   put32(packet_, f.height);
   put32(packet_, f.x);
   put32(packet_, f.y);
-  put16(packet_, 0);  // padding x, y
-  put16(packet_, 0);
+  gev::put16(packet_, 0);  // padding x, y
+  gev::put16(packet_, 0);
   send_packet(to, packet_, loss);
 
   const std::vector<std::uint8_t> chunks = chunk_data(f);
   const std::size_t total = f.image.size() + chunks.size();
-  const std::size_t per_packet = packet_size > kOverhead + 8 ? packet_size - kOverhead : 1400;
+  const std::size_t per_packet =
+      packet_size > gev::kIpUdpGvspOverhead + 8 ? packet_size - gev::kIpUdpGvspOverhead : 1400;
   for (std::size_t at = 0; at < total; at += per_packet) {
-    header(packet_, f.block_id, kPayload, packet_id++);
+    gev::gvsp_header(packet_, f.block_id, gev::GvspContent::Payload, packet_id++);
     const std::size_t end = std::min(total, at + per_packet);
     // The payload is the image, then its chunks: a packet may hold the end of one and the start of the other.
     if (at < f.image.size())
@@ -118,8 +97,8 @@ void GvspSender::send(const sockaddr_in& to, unsigned packet_size, const GvspFra
     send_packet(to, packet_, loss);
   }
 
-  header(packet_, f.block_id, kTrailer, packet_id);
-  put32(packet_, kPayloadImageWithChunks);
+  gev::gvsp_header(packet_, f.block_id, gev::GvspContent::Trailer, packet_id);
+  put32(packet_, gev::kPayloadImage | gev::kPayloadChunkFlag);  // reserved, then the payload type
   put32(packet_, f.height);
   send_packet(to, packet_, loss);
 }

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "capture/gige_vision_wire.h"
 #include "codec/pixel_format.h"
 #include "core/time.h"
 #include "sim/board_motion.h"
@@ -228,7 +229,7 @@ void SimCamera::send_with_chunks(ArvBuffer* buffer, ArvPixelFormat format, std::
   sockaddr_in destination{};
   if (!to || !g_socket_address_to_native(to.get(), &destination, sizeof destination, nullptr)) return;
   arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_GAIN_RAW, &gain);
-  arv_fake_camera_read_register(fake, 0x0d04, &packet_size);  // GigE Vision: GevSCPSPacketSize
+  arv_fake_camera_read_register(fake, gev::stream_packet_size_register(0), &packet_size);
   GvspFrame f;
   f.block_id = std::uint16_t(arv_buffer_get_frame_id(buffer));
   f.timestamp = arv_buffer_get_timestamp(buffer);

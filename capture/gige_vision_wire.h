@@ -1,0 +1,87 @@
+#pragma once
+// The GigE Vision wire formats pvcap speaks itself, in one place (as Aravis keeps each protocol's
+// layout in one header, arvgvcpprivate.h and arvgvspprivate.h): the control protocol's header and
+// commands (GVCP: capture/gvcp_ping.cpp reads a register to see a camera answer), the bootstrap
+// registers it names, and the stream protocol's packets (GVSP: the simulated cameras' sender,
+// sim/gvsp_sender.cpp). Everything on the wire is big-endian. Aravis speaks the rest.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace pvcap::gev {
+
+// --- GVCP (GigE Vision 2.0, chapter 15) ---
+inline constexpr std::uint16_t kGvcpPort = 3956;
+inline constexpr std::uint8_t kGvcpKey = 0x42;          // the first byte of every command
+inline constexpr std::uint8_t kGvcpAckRequired = 0x01;  // the command's flags: answer me
+inline constexpr std::size_t kGvcpHeaderBytes = 8;
+enum class GvcpCommand : std::uint16_t {
+  ReadRegister = 0x0080,
+  ReadRegisterAck = 0x0081,
+  WriteRegister = 0x0082,
+  WriteRegisterAck = 0x0083,
+  Action = 0x0100,  // ACTION_CMD: a scheduled or immediate action to every device of a group
+  ActionAck = 0x0101,
+};
+
+// A command's header: key, flags, command, the payload's length in bytes, the request id (never 0).
+inline std::array<std::uint8_t, kGvcpHeaderBytes> gvcp_header(GvcpCommand command, std::uint16_t payload_bytes,
+                                                              std::uint16_t request_id) {
+  const auto c = std::uint16_t(command);
+  return {kGvcpKey,
+          kGvcpAckRequired,
+          std::uint8_t(c >> 8),
+          std::uint8_t(c),
+          std::uint8_t(payload_bytes >> 8),
+          std::uint8_t(payload_bytes),
+          std::uint8_t(request_id >> 8),
+          std::uint8_t(request_id)};
+}
+
+// An acknowledge's header: status, acknowledge code, length, the id of the request it answers.
+struct GvcpAck {
+  std::uint16_t status = 0, code = 0, length = 0, id = 0;
+};
+inline bool parse_gvcp_ack(const std::uint8_t* data, std::size_t size, GvcpAck& ack) {
+  if (size < kGvcpHeaderBytes) return false;
+  const auto at = [data](int i) { return std::uint16_t((data[i] << 8) | data[i + 1]); };
+  ack = {at(0), at(2), at(4), at(6)};
+  return true;
+}
+
+// Bootstrap registers (GigE Vision 2.0, table 28).
+// GevSCPSPacketSize of stream channel `channel`: the packet size in its low 16 bits.
+constexpr std::uint32_t stream_packet_size_register(int channel) { return 0x0D04 + 0x40 * std::uint32_t(channel); }
+
+// --- GVSP (GigE Vision 2.0, chapter 25), standard 16-bit block ids ---
+enum class GvspContent : std::uint8_t { Leader = 1, Trailer = 2, Payload = 3 };
+inline constexpr std::uint16_t kPayloadImage = 0x0001;
+inline constexpr std::uint16_t kPayloadChunkFlag = 0x4000;  // extended chunk mode: the image, then its chunks
+inline constexpr std::size_t kGvspHeaderBytes = 8;
+inline constexpr unsigned kIpUdpGvspOverhead = 20 + 8 + kGvspHeaderBytes;  // of a packet, before its payload
+
+// Big-endian writers, appending to `out`.
+inline void put16(std::vector<std::uint8_t>& out, std::uint16_t v) {
+  out.push_back(std::uint8_t(v >> 8));
+  out.push_back(std::uint8_t(v));
+}
+inline void put32(std::vector<std::uint8_t>& out, std::uint32_t v) {
+  put16(out, std::uint16_t(v >> 16));
+  put16(out, std::uint16_t(v));
+}
+inline void put64(std::vector<std::uint8_t>& out, std::uint64_t v) {
+  put32(out, std::uint32_t(v >> 32));
+  put32(out, std::uint32_t(v));
+}
+
+// A GVSP packet's header into `out` (cleared): status, block id, content type and the packet's id
+// in its block.
+inline void gvsp_header(std::vector<std::uint8_t>& out, std::uint16_t block_id, GvspContent content,
+                        std::uint32_t packet_id) {
+  out.clear();
+  put16(out, 0);
+  put16(out, block_id);
+  put32(out, (std::uint32_t(content) << 24) | (packet_id & 0xffffff));
+}
+
+}  // namespace pvcap::gev
