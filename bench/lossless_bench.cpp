@@ -194,7 +194,7 @@ double cpu_seconds() {
 // to a file with `codec` cut into `cols` x `rows` tiles, then read back whole and as paper-sized
 // crops (480x384 with the demosaicing margin, at random places), all on one thread: CPU per frame.
 void layout_row(const std::string& label, const std::string& codec, int gop, int cols, int rows,
-                const std::vector<cv::Mat>& mosaics, const std::string& options = "") {
+                const std::vector<cv::Mat>& mosaics, const std::string& options = "", bool fitted = false) {
   const auto file = std::filesystem::temp_directory_path() / ("pvcap-lossless-bench-" + std::to_string(::getpid()) + ".mkv");
   VideoSettings s;
   s.bayer_format = "BayerRG8";
@@ -205,6 +205,11 @@ void layout_row(const std::string& label, const std::string& codec, int gop, int
   s.tile_rows = rows;
   s.gop_frames = gop;
   s.raw_codec_options = options;
+  for (std::size_t i = 0; fitted && i < std::min<std::size_t>(16, mosaics.size()); ++i) {  // as compact fits them
+    cv::Mat planes;
+    pack_bayer_planes(mosaics[i], planes, kCellOrder);
+    add_left_residual_counts(planes, s.residual_counts);
+  }
   auto w = VideoWriter::open(file, s);
   if (!w) {
     std::printf("%-34s %s\n", label.c_str(), w.error().message.c_str());
@@ -260,8 +265,8 @@ void layouts(const std::vector<cv::Mat>& mosaics) {
   layout_row("ffvhuff, one picture (until now)", "ffvhuff", 1, 1, 1, mosaics);
   for (const auto& [c, r] : std::vector<std::pair<int, int>>{{4, 4}, {8, 6}, {16, 12}})
     layout_row("ffvhuff, tiles (the store's)", "ffvhuff", 1, c, r, mosaics);
-  for (const auto& [c, r] : std::vector<std::pair<int, int>>{{4, 3}, {8, 6}})
-    layout_row("ffvhuff left context=1 (compact), tiles", "ffvhuff", 1, c, r, mosaics, "pred=left:context=1");
+  layout_row("ffvhuff left, fitted tables (compact)", "ffvhuff", 1, 8, 6, mosaics, "pred=left", true);
+  layout_row("ffvhuff left context=1, tiles", "ffvhuff", 1, 8, 6, mosaics, "pred=left:context=1");
   layout_row("ffvhuff median context=1, tiles", "ffvhuff", 1, 8, 6, mosaics, "pred=median:context=1");
   layout_row("magicyuv, tiles", "magicyuv", 1, 8, 6, mosaics);
   layout_row("ffv1 intra (compact), tiles", "ffv1", 1, 8, 6, mosaics);

@@ -60,6 +60,24 @@ bool already_compacted(const std::string& path, const std::string& codec, const 
          (codec != "ffvhuff" && stored_codec == codec);
 }
 
+// The left-prediction residuals of a segment's first frames (up to 16), counted: what its Huffman
+// tables are fitted to (the noise of one sensor changes little within a segment). Empty when they
+// cannot be read (the copy then takes HuffYUV's default tables; its own reading says why).
+std::vector<std::uint64_t> residual_counts(const fs::path& file) {
+  std::vector<std::uint64_t> counts;
+  auto reader = VideoReader::open(file);
+  if (!reader) return counts;
+  cv::Mat picture;
+  std::int64_t pts = 0;
+  bool key = false;
+  for (int k = 0; k < 16; ++k) {
+    auto more = reader.value()->next_stored(picture, pts, key);
+    if (!more || !more.value() || picture.type() != CV_8UC1) break;
+    add_left_residual_counts(picture, counts);
+  }
+  return counts;
+}
+
 double thread_cpu_seconds() {
   timespec t{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
@@ -271,11 +289,13 @@ class SegmentCompactor {
     vs.gop_frames = o_.gop_frames;
     if (codec == "ffvhuff") {
       // For training: every frame alone, in the source's tiles (or tiles of about 240 x 180 for a
-      // store recorded in one picture), Huffman tables fitted to each frame, left prediction: 9 % fewer
-      // bytes than the live store, decoded as fast (bench/lossless_bench "stored layouts").
-      vs.raw_codec_options = "pred=left:context=1";
+      // store recorded in one picture), left prediction as the live store, Huffman tables fitted to
+      // the segment's first frames, static: fewer bytes than the live store, decoded as fast (tables
+      // fitted to each frame are as small, but rebuilt for every tile a crop reads; bench/lossless_bench
+      // "stored layouts").
+      vs.raw_codec_options = "pred=left";
       vs.gop_frames = 1;
-      vs.threads = 1;  // HuffYUV's adaptive tables are one thread's work
+      if (vs.bit_depth == 8) vs.residual_counts = residual_counts(old_file);
       vs.tile_cols = in.tiles() > 1 ? in.tile_cols() : std::max(1, int(std::lround(in.width() / 240.0)));
       vs.tile_rows = in.tiles() > 1 ? in.tile_rows() : std::max(1, int(std::lround(in.height() / 180.0)));
     }

@@ -66,3 +66,20 @@ void unpack_bayer_planes(const cv::Mat& planes, cv::Mat& mosaic, const PlaneOrde
 }
 
 }  // namespace pvcap
+
+namespace pvcap {
+
+void add_left_residual_counts(const cv::Mat& picture, std::vector<std::uint64_t>& counts) {
+  CV_Assert(picture.type() == CV_8UC1);
+  counts.resize(256);
+  for (int y = 0; y < picture.rows; ++y) {
+    const std::uint8_t* row = picture.ptr<std::uint8_t>(y);
+    std::uint8_t left = 0;
+    for (int x = 0; x < picture.cols; ++x) {
+      ++counts[std::uint8_t(row[x] - left)];
+      left = row[x];
+    }
+  }
+}
+
+}  // namespace pvcap

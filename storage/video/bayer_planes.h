@@ -11,6 +11,8 @@
 //     not need: a HuffYUV decoder told the picture is 3/4 as tall decodes the first three planes
 //     and stops (storage/video/video_reader.h), a quarter less decoding for the replay's views.
 #include <array>
+#include <cstdint>
+#include <vector>
 #include <string_view>
 
 #include <opencv2/core.hpp>
@@ -39,6 +41,9 @@ inline cv::Size bayer_planes_size(cv::Size mosaic) { return {mosaic.width / 2, m
 // `mosaic` (CV_8UC1 or CV_16UC1, even size) into `planes` (same depth, bayer_planes_size), which
 // may be a view of a codec's buffer: it is written in place when its size and type already fit.
 void pack_bayer_planes(const cv::Mat& mosaic, cv::Mat& planes, const PlaneOrder& order = kCellOrder);
+// How often each left-prediction residual (the sample minus the one before it in its row, mod 256)
+// occurs in an 8-bit picture, added to `counts` (256 of them): what HuffYUV's tables code.
+void add_left_residual_counts(const cv::Mat& picture, std::vector<std::uint64_t>& counts);
 // The inverse: `planes` back into `mosaic` (allocated when its size or type do not fit).
 void unpack_bayer_planes(const cv::Mat& planes, cv::Mat& mosaic, const PlaneOrder& order = kCellOrder);
 

@@ -58,8 +58,20 @@ Status VideoWriter::Impl::open_coder(const VideoSettings& s, const AVCodec* code
   enc->gop_size = std::max(1, s.gop_frames);
   enc->keyint_min = 1;
   enc->max_b_frames = 0;
-  enc->thread_count = s.threads;
+  // A tile is small; and a frame's tiles must leave their encoders together (no frame threads' delay).
+  enc->thread_count = grid.tiled() ? 1 : s.threads;
   if (fmt.ptr->oformat->flags & AVFMT_GLOBALHEADER) enc->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
+  if (!s.residual_counts.empty() && codec_name == "ffvhuff") {
+    // HuffYUV's second pass reads four tables of counts (the grey picture uses the first).
+    std::string stats;
+    for (int table = 0; table < 4; ++table) {
+      for (std::size_t v = 0; v < 256; ++v)
+        stats += std::to_string(table == 0 && v < s.residual_counts.size() ? s.residual_counts[v] : 0) + ' ';
+      stats += '\n';
+    }
+    enc->flags |= AV_CODEC_FLAG_PASS2;
+    enc->stats_in = av_strdup(stats.c_str());  // freed with the context
+  }
   AVDictionary* opts = nullptr;
   if (codec_name == "libx264") {
     av_dict_set(&opts, "preset", s.preset.c_str(), 0);
@@ -67,9 +79,14 @@ Status VideoWriter::Impl::open_coder(const VideoSettings& s, const AVCodec* code
       av_dict_set(&opts, "qp", "0", 0);  // lossless
     else
       av_dict_set(&opts, "crf", std::to_string(s.crf).c_str(), 0);
-    // In-band SPS/PPS on every key frame: any GOP decodes on its own. A tile is small enough for one slice.
+    // Tiles: no look-ahead, so each frame's tiles leave their encoders with it, and a decoder hands
+    // each out at once (storage/video/video_reader.cpp reads a frame's tiles together); no key frame
+    // of a tile's own choosing (scenecut), so every tile's key frames are the same frames and a seek
+    // to one is a seek to all. A tile is small enough for one slice. In-band SPS/PPS on every key
+    // frame: any GOP decodes on its own.
+    if (grid.tiled()) av_dict_set(&opts, "tune", "zerolatency", 0);
     av_dict_set(&opts, "x264-params",
-                grid.tiled() ? "repeat-headers=1:bframes=0" : "repeat-headers=1:bframes=0:slices=4", 0);
+                grid.tiled() ? "repeat-headers=1:bframes=0:scenecut=0" : "repeat-headers=1:bframes=0:slices=4", 0);
   } else if (codec_name == "magicyuv") {
     av_dict_set(&opts, "pred", "median", 0);  // the fastest of its predictors here, as small as left
   } else if (codec_name == "ffv1") {
@@ -286,11 +303,32 @@ cv::Mat VideoWriter::stored_planes() const {
   return cv::Mat(f->height, f->width, input_type_, f->data[0], std::size_t(f->linesize[0]));
 }
 
+// The frames tile encoders still hold (an encoder that looks ahead), a frame's tiles together: one
+// packet from each encoder in turn, so the file keeps each frame's tiles one after another.
+Status VideoWriter::flush_tiles() {
+  Impl& im = *impl_;
+  for (Impl::Coder& c : im.coders) avcodec_send_frame(c.enc.ptr, nullptr);
+  for (bool more = true; more;) {
+    more = false;
+    for (Impl::Coder& c : im.coders) {
+      int rc = avcodec_receive_packet(c.enc.ptr, im.packet.ptr);
+      if (rc == AVERROR_EOF || rc == AVERROR(EAGAIN)) continue;
+      if (rc < 0) return Error{fmt::format("{}: encoder: {}", path_.string(), av::error(rc))};
+      av_packet_rescale_ts(im.packet.ptr, c.enc.ptr->time_base, c.stream->time_base);
+      im.packet.ptr->stream_index = c.stream->index;
+      rc = av_write_frame(im.fmt.ptr, im.packet.ptr);
+      av_packet_unref(im.packet.ptr);
+      if (rc < 0) return Error{fmt::format("{}: cannot write video: {}", path_.string(), av::error(rc))};
+      more = true;
+    }
+  }
+  return {};
+}
+
 Status VideoWriter::close() {
   if (closed_ || !impl_ || !impl_->header_written) return {};
   closed_ = true;
-  Status s;
-  for (std::size_t t = 0; t < impl_->coders.size() && s.ok(); ++t) s = encode(t, true);
+  Status s = impl_->coders.size() > 1 ? flush_tiles() : encode(0, true);
   const int rc = av_write_trailer(impl_->fmt.ptr);
   if (s.ok() && rc < 0) s = Error{fmt::format("{}: cannot finish the video: {}", path_.string(), av::error(rc))};
   avio_closep(&impl_->fmt.ptr->pb);

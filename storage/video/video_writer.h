@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -33,6 +34,10 @@ struct VideoSettings {
   std::string raw_codec = "ffvhuff";
   // Raw mode: the raw codec's own options, FFmpeg's "key=value:key=value" ("pred=median:context=1").
   std::string raw_codec_options;
+  // Raw mode with HuffYUV (ffvhuff): how often each left-prediction residual (0-255, mod 256) occurs
+  // in the frames to come, for Huffman tables fitted to them, static in every stream's header (as
+  // fast to decode as the default tables, which fit a noisy sensor less well). Empty: the defaults.
+  std::vector<std::uint64_t> residual_counts;
   std::string codec = "libx264";
   int crf = 10;
   std::string preset = "ultrafast";
@@ -77,6 +82,7 @@ class VideoWriter {
   VideoWriter() = default;
   Status encode(std::size_t tile, bool flush);
   Status end_cluster();
+  Status flush_tiles();
   struct Impl;
   std::unique_ptr<Impl> impl_;
   std::filesystem::path path_;

@@ -207,9 +207,9 @@ TEST(Compact, Ffv1OnRequestKeepsThePicturesToo) {
   fs::remove_all(root);
 }
 
-// For training: every frame alone in tiles (a shuffled crop decodes the tiles under it), smaller
-// than the live store, the pictures the same; a second run changes nothing; and it compacts an
-// archive copy too.
+// For training: every frame alone in tiles (a shuffled crop decodes the tiles under it), in HuffYUV
+// with tables fitted to the segment (static: one decoder for every tile), smaller than the live
+// store, the pictures the same; a second run changes nothing.
 TEST(Compact, ForTrainingEveryFrameDecodesAloneInTilesSmallerThanTheLiveStore) {
   const auto root = compact_root("training");
   const fs::path dir = write_raw_session(root, 2, "2x2");
@@ -229,6 +229,7 @@ TEST(Compact, ForTrainingEveryFrameDecodesAloneInTilesSmallerThanTheLiveStore) {
     auto v = VideoReader::open(dir / path);
     ASSERT_TRUE(v) << v.error().message;
     EXPECT_EQ(v.value()->tiles(), 4) << path << ": the live store's tiles";
+    EXPECT_EQ(v.value()->tile_decoders(), 1) << path << ": one set of tables, fitted to the segment, for every tile";
     // Every frame a key frame: a shuffled read decodes the frame asked for and nothing before it.
     std::int64_t pts = 0;
     bool key = false;
