@@ -30,7 +30,7 @@ struct CompactOptions {
   // What the compacted store is for (docs/store.md, "Compacting a session"):
   //   - "libx264" (qp 0, a GOP; `--for archive`): the fewest bytes; a shuffled read decodes from the
   //     last key frame, whole pictures;
-  //   - "ffvhuff" (adaptive tables, left prediction, every frame alone, in tiles; `--for training`):
+  //   - "ffvhuff" (tables fitted to the segment, left prediction, every frame alone, in tiles; `--for training`):
   //     reads shuffled crops as fast as the live store, for fewer bytes than it;
   //   - "ffv1" (intra only).
   // A mosaic of more than 8 bits takes ffv1 when libx264 is asked for (x264 keeps at most 10 bits).
