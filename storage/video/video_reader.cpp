@@ -37,7 +37,8 @@ struct VideoReader::Impl {  // members are freed in reverse: the scaler first, t
   int stream = -1;
   bool draining = false;
   bool intra_only = false;  // every frame decodes alone (HuffYUV, MagicYUV; not FFV1): reads skip, not decode
-  // A tiled raw video (storage/video/bayer_tiles.h): one decoder per tile, each its own stream.
+  // A tiled raw video (storage/video/bayer_tiles.h): each tile its own stream, decoded by a decoder
+  // of its own or one it shares.
   struct Decoder {
     av::CodecContext dec;
     av::Frame frame;
