@@ -83,6 +83,13 @@ void read_video(const std::filesystem::path& path) {
     auto more = v.value()->next(bgr, pts);
     if (!more || !more.value()) break;
   }
+  // A region of a raw frame: a tiled video decodes the tiles under it.
+  if (v.value()->raw() && v.value()->width() >= 4 && v.value()->height() >= 4) {
+    cv::Mat region;
+    (void)v.value()->read_raw_region_at(0, {2, 2, (v.value()->width() / 2) & ~1, (v.value()->height() / 2) & ~1},
+                                        region);
+    (void)v.value()->read_raw_region_at(200, {0, 0, 2, 2}, region);
+  }
   // A viewer's reader: a green-last HuffYUV video's decoder told the picture is 3/4 as tall.
   pvcap::VideoReader::Options views;
   views.half_size_colour_only = true;

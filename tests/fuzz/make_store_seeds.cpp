@@ -25,14 +25,15 @@ using namespace pvcap;
 
 namespace {
 
-// A raw store of one Bayer camera (64 x 32) and a Sensel; `interrupted`: the process ends without
+// A raw store of one Bayer camera (64 x 32, stored in 2 x 2 tiles) and a Sensel; `interrupted`: the process ends without
 // closing it (as a kill -9 would), after the index and the segment have been written for a while.
 int write_raw_store(const fs::path& out, bool interrupted) {
   const fs::path root = out / "raw-tmp";
   fs::remove_all(root);
   const auto rig = parse_rig_config(
       "name: seed\ncameras:\n  - {name: a, address: 10.0.0.1}\n"
-      "store: {video_mode: raw, segment_seconds: 0, min_free_mb: 0, reserve_mb: 0, sync_interval_s: 0.2}\n",
+      "store: {video_mode: raw, raw_tiles: 2x2, segment_seconds: 0, min_free_mb: 0, reserve_mb: 0, "
+      "sync_interval_s: 0.2}\n",
       "seed.yaml");
   const std::int64_t t0 = host_now().ns;
   auto w = SessionWriter::create(root, rig, wall_now_ns(), t0);
@@ -180,5 +181,7 @@ int main(int argc, char** argv) {
   fs::remove_all(root);
   // Forked once the first store's writer and its threads are gone (a fork copies only the caller).
   if (write_interrupted_raw_store(out) != 0) return std::cerr << "the interrupted raw store failed\n", 1;
-  return write_raw_store(out, false);
+  if (write_raw_store(out, false) != 0) return 1;
+  seed(out / "raw-finished" / "a-000.mkv", out / "seed-video-tiled", 'V');  // a raw video in tiles
+  return 0;
 }
