@@ -73,6 +73,21 @@ TEST(RigConfig, OutOfRangeValueIsRefused) {
   EXPECT_NE(e.find("out of range"), std::string::npos) << e;
 }
 
+// store.raw_tiles: auto (0 x 0: chosen per camera, storage/video/camera_video_settings.cpp), or a grid.
+TEST(RigConfig, RawTilesAreAutoOrAGridAndAnythingElseIsNamed) {
+  const auto rig = parse_rig_config(kGood, "rig.yaml");
+  EXPECT_EQ(rig.store.raw_tile_cols, 0);
+  EXPECT_EQ(rig.store.raw_tile_rows, 0);
+  const auto grid = parse_rig_config("name: x\ncameras:\n  - serial: A\nstore: {raw_tiles: 8x6}\n", "rig.yaml");
+  EXPECT_EQ(grid.store.raw_tile_cols, 8);
+  EXPECT_EQ(grid.store.raw_tile_rows, 6);
+  for (const char* bad : {"8", "8x", "0x6", "8x6x", "65x1", "eight"}) {
+    const std::string e = error_of(std::string("name: x\ncameras:\n  - serial: A\nstore: {raw_tiles: ") + bad + "}\n");
+    EXPECT_NE(e.find("raw_tiles"), std::string::npos) << bad << ": " << e;
+    EXPECT_NE(e.find("COLSxROWS"), std::string::npos) << bad << ": " << e;
+  }
+}
+
 TEST(RigConfig, CameraNeedsSerialOrAddress) {
   EXPECT_NE(error_of("name: x\ncameras:\n  - name: a\n").find("needs a 'serial' or an 'address'"), std::string::npos);
 }
