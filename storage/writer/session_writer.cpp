@@ -124,10 +124,13 @@ SessionWriter::~SessionWriter() {
 
 // Opens the camera's next segment. Before start() (`direct`) its row is written at once; after,
 // through the index writer, ahead of the segment's frames.
-Status SessionWriter::open_segment(Camera& cam, std::int64_t first_pts_us, bool direct) {
+Status SessionWriter::open_segment(Camera& cam, std::int64_t first_pts_us, bool direct,
+                                   std::vector<std::uint64_t> residual_counts) {
   const int segment = cam.segment + 1;
   const std::string file = fmt::format("{}-{:03}.mkv", safe_file_name(cam.name), segment);
-  auto video = VideoWriter::open(dir_ / file, cam.settings);
+  VideoSettings settings = cam.settings;
+  settings.residual_counts = std::move(residual_counts);
+  auto video = VideoWriter::open(dir_ / file, settings);
   if (!video) return video.error();
   VideoFileRecord rec{next_video_file_id_.fetch_add(1),
                       cam.device_id,

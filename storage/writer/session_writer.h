@@ -139,7 +139,9 @@ class SessionWriter {
   void record_disk_age(const Camera& cam);
   void open_view(Camera& cam, const std::string& segment_file);
   void close_view(Camera& cam);
-  Status open_segment(Camera& cam, std::int64_t first_pts_us, bool direct);
+  // `residual_counts`: a raw HuffYUV segment's tables fitted to them (VideoSettings::residual_counts).
+  Status open_segment(Camera& cam, std::int64_t first_pts_us, bool direct,
+                      std::vector<std::uint64_t> residual_counts = {});
   // `a_write_failed`: the disk refused a write (else a stop before one would: the free-space watch).
   void set_failure(std::string message, bool a_write_failed = true);
   void abandon_backlog(Camera& cam);

@@ -101,7 +101,14 @@ void SessionWriter::encode_loop(Camera& cam) {
     const std::int64_t pts_us = (rec.mapped_ns.value_or(rec.host_ns) - started_host_ns_) / 1000;
     if (!cam.failed.load() && segment_us > 0 && cam.video->frames_written() > 0 &&
         pts_us - cam.segment_start_us >= segment_us) {
-      // Next segment: the finished one gets its trailer (cues, duration) and is final on disk.
+      // Next segment: the finished one gets its trailer (cues, duration) and is final on disk. A raw
+      // HuffYUV segment takes Huffman tables fitted to the last frame before it (8 % fewer bytes on
+      // a noisy sensor than HuffYUV's generic tables, and as fast to decode; bench/lossless_bench
+      // "stored layouts"); the first segment has the generic ones.
+      std::vector<std::uint64_t> residual_counts;
+      if (const cv::Mat last = cam.video->stored_planes();
+          cam.settings.raw() && cam.settings.raw_codec == "ffvhuff" && last.type() == CV_8UC1 && !last.empty())
+        add_left_residual_counts(last, residual_counts);
       const std::int64_t id = cam.video_file_id, frames = cam.video->frames_written();
       close_view(cam);
       if (Status s = cam.video->close(); !s.ok()) {
@@ -111,7 +118,7 @@ void SessionWriter::encode_loop(Camera& cam) {
       } else {
         index_writer_->push(VideoFileClosed{id, frames});
         queue.release_finished();  // spilled frames in the finished segment are safe on disk now
-        if (Status o = open_segment(cam, pts_us, false); !o.ok()) {
+        if (Status o = open_segment(cam, pts_us, false, std::move(residual_counts)); !o.ok()) {
           cam.failed.store(true);
           set_failure(o.error().message);
         }
