@@ -38,6 +38,20 @@ void SessionWriter::close_view(Camera& cam) {
     cam.view->close();
 }
 
+namespace {
+// What the next raw HuffYUV segment's Huffman tables are fitted to: the residuals of the last frame
+// written (8 % fewer bytes on a noisy sensor than HuffYUV's generic tables, decoded as fast;
+// bench/lossless_bench "stored layouts"). Empty for other videos; a camera's first segment, opened
+// before any frame, has the generic tables.
+std::vector<std::uint64_t> fitted_table_counts(const VideoSettings& settings, const VideoWriter& video) {
+  std::vector<std::uint64_t> counts;
+  const cv::Mat last = video.stored_planes();
+  if (settings.raw() && settings.raw_codec == "ffvhuff" && last.type() == CV_8UC1 && !last.empty())
+    add_left_residual_counts(last, counts);
+  return counts;
+}
+}  // namespace
+
 void SessionWriter::encode_loop(Camera& cam) {
   // The encoder is the one stage allowed to fall behind (its frames wait in the spill), so on a
   // busy machine it yields to the threads that may not: capture, the spill's writer, the index.
@@ -101,14 +115,8 @@ void SessionWriter::encode_loop(Camera& cam) {
     const std::int64_t pts_us = (rec.mapped_ns.value_or(rec.host_ns) - started_host_ns_) / 1000;
     if (!cam.failed.load() && segment_us > 0 && cam.video->frames_written() > 0 &&
         pts_us - cam.segment_start_us >= segment_us) {
-      // Next segment: the finished one gets its trailer (cues, duration) and is final on disk. A raw
-      // HuffYUV segment takes Huffman tables fitted to the last frame before it (8 % fewer bytes on
-      // a noisy sensor than HuffYUV's generic tables, and as fast to decode; bench/lossless_bench
-      // "stored layouts"); the first segment has the generic ones.
-      std::vector<std::uint64_t> residual_counts;
-      if (const cv::Mat last = cam.video->stored_planes();
-          cam.settings.raw() && cam.settings.raw_codec == "ffvhuff" && last.type() == CV_8UC1 && !last.empty())
-        add_left_residual_counts(last, residual_counts);
+      // Next segment: the finished one gets its trailer (cues, duration) and is final on disk.
+      std::vector<std::uint64_t> residual_counts = fitted_table_counts(cam.settings, *cam.video);
       const std::int64_t id = cam.video_file_id, frames = cam.video->frames_written();
       close_view(cam);
       if (Status s = cam.video->close(); !s.ok()) {
