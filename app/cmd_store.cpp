@@ -153,7 +153,7 @@ Registered add_compact_command(CLI::App& app, AppContext& ctx) {
                     double(rep.bytes_after) / 1e6, 100.0 * double(rep.bytes_after) / double(rep.bytes_before));
               if (rep.crops_per_s_after > 0)
                 fmt::print(
-                    "read speed, shuffled 480x384 crops on one core (the last segment): {:.0f} crops/s as it was, "
+                    "read speed, shuffled 480x384 crops on one core (the first segment compacted): {:.0f} crops/s as it was, "
                     "{:.0f} crops/s compacted\n",
                     rep.crops_per_s_before, rep.crops_per_s_after);
               if (rep.stopped) {

@@ -234,7 +234,7 @@ class SegmentCompactor {
       fs::remove(partial, ec);
       return c.error();
     }
-    if (!copied.pts_ms.empty()) {
+    if (!copied.pts_ms.empty() && report_.crops_per_s_after == 0) {  // measured once, on the first segment
       report_.crops_per_s_before = crops_per_second(old_file, copied.pts_ms);
       report_.crops_per_s_after = crops_per_second(partial, copied.pts_ms);
     }

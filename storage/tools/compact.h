@@ -56,7 +56,7 @@ struct CompactReport {
   std::int64_t segments_kept = 0;  // not smaller in the new codec, already in it, colour, or not closed
   std::int64_t frames = 0;         // frames re-encoded and checked
   std::uint64_t bytes_before = 0, bytes_after = 0;  // of the segments compacted
-  // Shuffled 480x384 crops (with their demosaicing margin) read per second of one core from the last
+  // Shuffled 480x384 crops (with their demosaicing margin) read per second of one core from the first
   // segment compacted, before and after (0: nothing compacted).
   double crops_per_s_before = 0, crops_per_s_after = 0;
   double elapsed_s = 0;
