@@ -25,6 +25,11 @@ class AutoParticipant : public protocol::RunnerEnv {
   std::vector<protocol::ForcePoint> pressure(std::int64_t from_ns, std::int64_t to_ns) override {
     return inner_->pressure(from_ns, to_ns);
   }
+  std::optional<std::string> set_lighting(const std::string& code) override { return inner_->set_lighting(code); }
+  std::string lighting_seen(std::int64_t from_ns, std::int64_t to_ns) override {
+    return inner_->lighting_seen(from_ns, to_ns);
+  }
+  std::string lighting_now() override { return inner_->lighting_now(); }
   void take_scheduled(const protocol::PlannedTake& take, std::int64_t start_ns, std::int64_t end_ns) override;
   void take_cancelled(std::int64_t at_ns) override;
 

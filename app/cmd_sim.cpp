@@ -18,14 +18,14 @@
 namespace pvcap {
 
 int cmd_sim(const RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration,
-            bool hand_commands, bool board, std::atomic<bool>& stop) {
+            bool hand_commands, bool board, const FaultPlan& faults, std::atomic<bool>& stop) {
   // Started by a recording: end with it, even when it is killed (no orphaned simulator holding the rig).
   if (getppid() != 1) {
     const pid_t parent = getppid();
     prctl(PR_SET_PDEATHSIG, SIGTERM);
     if (getppid() != parent) return 0;  // the parent died before the request took
   }
-  auto made = sim::SimRig::create(rig, truth, board);
+  auto made = sim::SimRig::create(rig, truth, board, faults.sim_light_off, faults.sim_light_lag_s);
   if (!made) throw UserError(made.error().message);
   fmt::print(stderr,
              "pvcap sim: serving {} cameras; pid {} (inspect with: nsenter --net=/proc/{}/ns/net "
@@ -73,7 +73,7 @@ Registered add_sim_command(CLI::App& app, AppContext& ctx) {
             const auto rig = load_rig_config(a->rig);
             if (!rig.simulated) throw UserError(fmt::format("{}: has no sim: section", a->rig));
             prepare_rig_network(rig);
-            return cmd_sim(rig, a->truth, a->duration, a->hand_commands, a->board, ctx.stop);
+            return cmd_sim(rig, a->truth, a->duration, a->hand_commands, a->board, ctx.faults, ctx.stop);
           }};
 }
 

@@ -150,6 +150,10 @@ class AravisCamera {
   BoundedQueue<ClockProbe>& clock_probes() { return probes_; }
   bool has_timestamp_latch() const;
   const CameraConfig& config() const { return config_; }
+  // Switches the lights its output lines drive (config().lights; bit i: lights[i] on) and reads them
+  // back (bit i: lights[i] reads on). From a control thread, never the capture thread: each is a few
+  // GVCP round trips (aravis_camera_lights.cpp).
+  Result<std::uint32_t> set_lights(std::uint32_t on);
   CameraSettings settings() const;
   StreamCounters counters() const;  // summed over every connection
   std::string label() const;        // "cam0 (serial PVSIM0 at 127.0.0.2)"

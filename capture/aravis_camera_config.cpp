@@ -77,8 +77,14 @@ Status AravisCamera::set_features(AravisFeatures& f) {
 
   PVCAP_TRY(set_trigger_and_rate(f));
   // Automatic exposure or gain would change the images within a take and across a dataset.
-  for (CameraRole r : {CameraRole::ExposureAuto, CameraRole::GainAuto})
+  for (CameraRole r : {CameraRole::ExposureAuto, CameraRole::GainAuto}) {
     if (check_entry(f, r, "Off")) PVCAP_TRY(set(f.set_entry(r, "Off"), role_key(r)));
+    // Switched lights are proven by the images' brightness, which an automatic exposure or gain undoes.
+    if (config_.rig_switches_lights && f.has(r) && f.entry(r).value_or("Off") != "Off")
+      return Error{fmt::format("{}: its {} stays {} and cannot be turned Off: with lights switched (lights:), an "
+                               "automatic exposure or gain would hide every switch from the images",
+                               label(), f.name(r), f.entry(r).value_or("?"))};
+  }
   PVCAP_TRY(set(f.set_number(CameraRole::ExposureTime, config_.exposure_us),
                 fmt::format("the exposure to {:g} us", config_.exposure_us)));
   if (f.has(CameraRole::Gain) || config_.gain != 0)

@@ -164,6 +164,7 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
     ro.auto_start = command.auto_participant;
     ro.auto_advance = command.auto_participant;
     ro.fast = command.fast;
+    ro.lighting = recording.lighting_now();  // the session's, switched at its start (docs/lighting.md)
     if (command.continuation) {
       ro.first_step = command.continuation->first_step;
       detail["continues"] = command.continuation->previous.string();

@@ -20,6 +20,11 @@ class RecordingEnv : public protocol::RunnerEnv {
   double stream_silence_ms() override;
   bool has_pressure() override;
   std::vector<protocol::ForcePoint> pressure(std::int64_t from_ns, std::int64_t to_ns) override;
+  std::optional<std::string> set_lighting(const std::string& code) override { return recording_.set_lighting(code); }
+  std::string lighting_seen(std::int64_t from_ns, std::int64_t to_ns) override {
+    return recording_.lighting_seen(from_ns, to_ns);
+  }
+  std::string lighting_now() override { return recording_.lighting_now(); }
 
   static constexpr double kLiveWindowMs = 250;  // "delivered frames in the last 250 ms"
 

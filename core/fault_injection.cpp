@@ -12,10 +12,15 @@ FaultPlan parse_faults(std::string_view spec, std::vector<std::string>& problems
   std::map<std::string, double, std::less<>> values;
   std::stringstream in{std::string(spec)};
   std::string item;
+  FaultPlan plan;
   while (std::getline(in, item, ',')) {
     const auto eq = item.find('=');
     if (eq == std::string::npos) {
       problems.push_back(fmt::format("PVCAP_FAULTS: '{}' is not name=value; ignored", item));
+      continue;
+    }
+    if (item.substr(0, eq) == "sim.light_off") {  // names, not a number
+      plan.sim_light_off = item.substr(eq + 1);
       continue;
     }
     char* end = nullptr;
@@ -27,7 +32,6 @@ FaultPlan parse_faults(std::string_view spec, std::vector<std::string>& problems
     }
     values[item.substr(0, eq)] = v;
   }
-  FaultPlan plan;
   plan.spec = std::string(spec);
   auto take = [&](const char* name) -> std::optional<double> {
     auto it = values.find(name);
@@ -61,6 +65,7 @@ FaultPlan parse_faults(std::string_view spec, std::vector<std::string>& problems
   plan.report_stall_s = std::max(0.0, take("report.stall_s").value_or(0));
   plan.recover_stall_s = std::max(0.0, take("recover.stall_s").value_or(0));
   plan.camera_stop_stall_s = std::max(0.0, take("camera.stop_stall_s").value_or(0));
+  plan.sim_light_lag_s = std::max(0.0, take("sim.light_lag_s").value_or(0));
   for (const auto& [name, v] : values)
     problems.push_back(fmt::format("PVCAP_FAULTS: '{}' is not a fault; ignored", name));
   return plan;

@@ -29,6 +29,8 @@
 //                                  (the frames re-mapped and committed, the samples not yet re-paired)
 //   report.stall_s                 the session's report.html waits this long once begun
 //   recover.stall_s                `pvcap recover` waits this long after its first step
+//   sim.light_off                  letters: the simulated rig's lamps of these names never come on
+//   sim.light_lag_s                every simulated lamp reaches its new state this long after its line
 // (The last three hold a phase open long enough for a kill to land in it, which a test then proves.)
 #include <chrono>
 #include <cstddef>
@@ -55,6 +57,8 @@ struct FaultPlan {
   std::optional<Stall> encoder_stall;
   double realign_stall_s = 0, report_stall_s = 0, recover_stall_s = 0;
   double camera_stop_stall_s = 0;  // the session's stop waits this long after the first camera's stop
+  std::string sim_light_off;        // the simulator's lamps that never light (sim/lights.h)
+  double sim_light_lag_s = 0;       // and how late its lamps follow their lines
   std::string spec;                // as given, for the warning and the log
   bool empty() const { return spec.empty(); }
 };

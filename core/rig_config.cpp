@@ -263,6 +263,7 @@ RigConfig parse_rig_config(const std::string& text, const std::filesystem::path&
       }
     }
     if (const YAML::Node lights = r.child("lights")) parse_lights(lights, source, r, rig);
+    for (CameraConfig& c : rig.cameras) c.rig_switches_lights = !rig.lights.empty();
     if (const YAML::Node sensel = r.child("sensel")) rig.sensel = parse_sensel(sensel, source);
     if (const YAML::Node store = r.child("store")) rig.store = parse_store(store, source);
     // The simulator's section: read by sim/sim_config.h, so only its presence is noted here.

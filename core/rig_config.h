@@ -60,6 +60,7 @@ struct CameraConfig {
   std::string link;
   int link_cameras = 1;
   std::vector<LightConfig> lights;  // the rig's lights this camera drives (the rig loader fills it)
+  bool rig_switches_lights = false;  // the rig has lights: no automatic exposure or gain may hide them
   // What the camera's frame timestamp marks: SFNC and GigE Vision cameras stamp a frame when its
   // exposure starts (the Basler ace 2's map says so), so the image's instant, the middle of its
   // exposure, is half the exposure later (docs/cameras.md: the vendors' exceptions).

@@ -239,6 +239,7 @@ std::string remaining_protocol_yaml(const protocol::Protocol& p, const Participa
       y << YAML::Key << "forces" << YAML::Value << YAML::Flow << std::vector<std::string>{protocol::to_string(a.force)};
     y << YAML::Key << "repetitions" << YAML::Value << a.repetitions;
     y << YAML::Key << "check_side" << YAML::Value << a.check_side;
+    if (!a.lighting.empty()) y << YAML::Key << "lighting" << YAML::Value << a.lighting;
     y << YAML::Key << "hands" << YAML::Value << YAML::Flow << hands;
     y << YAML::Key << "timings" << YAML::Value;
     timings(y, a.timings);

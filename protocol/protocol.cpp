@@ -129,6 +129,13 @@ Protocol parse_protocol(const std::string& text, const std::filesystem::path& so
     MapReader tr(t, source, "fast_timings");
     read_timings(tr, p.fast_timings);
   }
+  // Letters and '-' only: which letters the rig has is the session's to check (docs/lighting.md).
+  const auto read_lighting = [&](MapReader& mr, const YAML::Node& node, std::string& out) {
+    mr.get("lighting", out);
+    if (!out.empty() && !std::all_of(out.begin(), out.end(), [](char c) { return (c >= 'A' && c <= 'Z') || c == '-'; }))
+      mr.fail(node["lighting"], "lighting", fmt::format("'{}' is not a lighting code (capital letters of the rig's lights, '-' for one off: L-R)", out));
+  };
+  read_lighting(r, root, p.lighting);
   if (auto c = r.child("take_check")) {
     MapReader cr(c, source, "take_check");
     cr.get_in_range("contact_newtons", p.check.contact_newtons, 0.0, 1000.0);
@@ -156,6 +163,8 @@ Protocol parse_protocol(const std::string& text, const std::filesystem::path& so
     if (auto refused = pictogram_problem(source, pictogram)) ar.fail(a["pictogram"], "pictogram", *refused);
     ar.get_in_range("repetitions", base.repetitions, 1, 100);
     ar.get("check_side", base.check_side);
+    base.lighting = p.lighting;
+    read_lighting(ar, a, base.lighting);
     if (auto hands = ar.child("hands")) {
       if (!hands.IsSequence() || hands.size() == 0)
         ar.fail(hands, "hands", "expected a list: [left, right], [left] or [right]");

@@ -42,6 +42,9 @@ struct Action {
   // Which hands perform it (both by default): a dataset's "remaining" protocol asks only for the
   // takes a participant still lacks, which may be one hand's.
   bool left_hand = true, right_hand = true;
+  // The lighting its takes are recorded under (a code of the rig's lights, "L-R"; docs/lighting.md):
+  // the action's `lighting:`, else the protocol's, else "" (the session's --lighting).
+  std::string lighting;
   Timings timings;
   int line = 0;  // in the protocol file
 };
@@ -51,6 +54,7 @@ struct Protocol {
   std::string text;  // the file's text, stored with each session
   std::string name;
   Timings timings, fast_timings;
+  std::string lighting;  // the protocol's `lighting:` (every action's unless it names its own)
   TakeCheckConfig check;
   std::vector<Action> actions;  // in order; an action with several force levels is one row per level
 };

@@ -118,6 +118,22 @@ bool Runner::enter_prompt(std::int64_t now) {
                             {"attempt", attempts_of(current_) + 1},
                             {"text", t.action->text}};
   if (!post("prompt", current_, d.dump())) return false;
+  // The take's lighting, switched while its prompt shows (the images confirm it before the take).
+  if (!lighting_known_) {  // the session switched its own lighting at its start
+    lighting_known_ = true;
+    lighting_ = env_.lighting_now();
+    requested_lighting_ = lighting_.empty() ? "" : options_.lighting;
+  }
+  const std::string lighting = t.action->lighting.empty() ? options_.lighting : t.action->lighting;
+  if (!lighting.empty() && lighting != lighting_ && lighting != requested_lighting_) {
+    requested_lighting_ = lighting;
+    if (auto set = env_.set_lighting(lighting)) {
+      lighting_ = *set;
+    } else {
+      lighting_ = lighting;
+      message_ = fmt::format("the lights could not be switched to {} (the log says why)", lighting);
+    }
+  }
   set_phase(Phase::Prompt, now, timings(t).prompt_s);
   holding_ = false;
   return true;
@@ -142,7 +158,9 @@ bool Runner::enter_recording(std::int64_t now) {
   const PlannedTake& t = plan_[std::size_t(current_)];
   const int attempt = attempts_of(current_) + 1;
   const std::string sequence = t.sequence_name(attempt);
-  if (!post("action_start", current_, nlohmann::json{{"take", sequence}, {"attempt", attempt}}.dump())) return false;
+  nlohmann::json start = {{"take", sequence}, {"attempt", attempt}};
+  if (!lighting_.empty()) start["lighting"] = lighting_;
+  if (!post("action_start", current_, start.dump())) return false;
   attempts_.push_back({current_, attempt, sequence, "recording", now, 0, std::nullopt});
   set_phase(Phase::Recording, now, timings(t).record_s);
   max_silence_ms_ = 0;
@@ -164,7 +182,11 @@ bool Runner::finish_take(std::int64_t now, const std::string& status) {
     in.low_mean_newtons = low_mean(t);
     in.max_camera_gap_ms = max_silence_ms_;
     in.has_pressure = env_.has_pressure();
+    in.lighting_commanded = lighting_;
+    if (!lighting_.empty()) in.lighting_seen = env_.lighting_seen(a.start_ns, now);
     check = check_take(in, protocol_.check);
+    if (!in.lighting_commanded.empty())
+      d["lighting"] = {{"commanded", in.lighting_commanded}, {"seen", in.lighting_seen}};
     const auto& m = check->measures;
     d["check"] = {{"ok", check->ok},
                   {"problems", check->problems},

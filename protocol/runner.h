@@ -39,6 +39,14 @@ class RunnerEnv {
   // A take will record from start to end (the automatic participant acts on it); cancelled at `at`.
   virtual void take_scheduled(const PlannedTake&, std::int64_t /*start_ns*/, std::int64_t /*end_ns*/) {}
   virtual void take_cancelled(std::int64_t /*at_ns*/) {}
+  // Switches the rig's lights to `code` (docs/lighting.md) before a take's prompt: the code as
+  // commanded, in the rig's form ("L-R"), or nullopt when the lights could not be switched (why is
+  // logged). A rig without lights keeps its code as a label.
+  virtual std::optional<std::string> set_lighting(const std::string& code) { return code; }
+  // The lighting the images showed over [from, to), in the same form; "" when nothing can tell.
+  virtual std::string lighting_seen(std::int64_t /*from_ns*/, std::int64_t /*to_ns*/) { return ""; }
+  // The lighting commanded now (the session's, set at its start), in the rig's form; "" without lights.
+  virtual std::string lighting_now() { return ""; }
 };
 
 enum class Phase { Idle, Prompt, Countdown, Recording, Rest, Paused, Done, Aborted };
@@ -78,6 +86,7 @@ struct RunnerOptions {
   bool fast = false;            // the protocol's fast timings
   int first_step = 0;           // resume: begin here
   std::string protocol_detail;  // extra JSON fields for the protocol_start event (e.g. what it continues)
+  std::string lighting;         // the session's lighting (--lighting): the takes' unless an action names its own
 };
 
 class Runner {
@@ -124,6 +133,9 @@ class Runner {
   std::optional<int> return_to_;  // after a redo: the step to go on with
   bool holding_ = false, waiting_for_devices_ = false, started_ = false;
   double max_silence_ms_ = 0;  // during the current recording
+  std::string lighting_;            // as last commanded (the rig's form)
+  std::string requested_lighting_;  // as the protocol last asked it (its own form)
+  bool lighting_known_ = false;     // lighting_ read from the session before the first prompt
   std::vector<Attempt> attempts_;
   std::vector<std::string> step_status_;
   std::string message_;

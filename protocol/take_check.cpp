@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 namespace pvcap::protocol {
 
@@ -30,6 +31,17 @@ TakeMeasures measure_take(const std::vector<ForcePoint>& points, std::int64_t fr
   return m;
 }
 
+std::string lighting_difference(const std::string& commanded, const std::string& seen) {
+  std::vector<std::string> lights;
+  for (std::size_t i = 0; i < commanded.size() && i < seen.size(); ++i) {
+    if (commanded[i] == seen[i]) continue;
+    lights.push_back(commanded[i] != '-' ? fmt::format("light {} did not come on", commanded[i])
+                                         : fmt::format("light {} was on", seen[i]));
+  }
+  return fmt::format("the images show lighting {}, not the {} commanded ({})", seen, commanded,
+                     lights.empty() ? std::string("a different code") : fmt::format("{}", fmt::join(lights, ", ")));
+}
+
 TakeCheck check_take(const TakeCheckInput& in, const TakeCheckConfig& cfg) {
   TakeCheck c;
   c.measures = in.measures;
@@ -40,6 +52,8 @@ TakeCheck check_take(const TakeCheckInput& in, const TakeCheckConfig& cfg) {
   };
   if (in.max_camera_gap_ms > cfg.max_gap_ms)
     problem(fmt::format("a camera delivered no frame for {:.0f} ms during the take", in.max_camera_gap_ms));
+  if (!in.lighting_commanded.empty() && !in.lighting_seen.empty() && in.lighting_seen != in.lighting_commanded)
+    problem(lighting_difference(in.lighting_commanded, in.lighting_seen));
   if (!in.has_pressure) return c;
   if (m.max_pressure_gap_ms > cfg.max_gap_ms)
     problem(fmt::format("the Sensel delivered no frame for {:.0f} ms during the take", m.max_pressure_gap_ms));

@@ -44,8 +44,13 @@ struct TakeCheckInput {
   double max_camera_gap_ms = 0;            // longest silence of any camera during the take
   double pad_width_mm = 230;               // left hand on x < width/2, right hand on x >= width/2
   bool has_pressure = true;                // a rig without a Sensel checks only the cameras
+  // The lighting commanded for the take and the lighting its images showed (codes in the rig's form,
+  // "L-R"); either empty: not checked.
+  std::string lighting_commanded, lighting_seen;
 };
 
 TakeCheck check_take(const TakeCheckInput& in, const TakeCheckConfig& cfg);
+// "the images show lighting L--, not the LC- commanded (light C did not come on)": codes of one length.
+std::string lighting_difference(const std::string& commanded, const std::string& seen);
 
 }  // namespace pvcap::protocol

@@ -294,6 +294,7 @@ class CameraWorker {
     }
     pixels.assign(frame.data, frame.data + frame.size);  // reuses the capacity
     p_.tally.last_good_host_ns.store(frame.host_ts.ns, std::memory_order_relaxed);
+    if (p_.light_monitor && rec.mapped_ns) meter(frame, *rec.mapped_ns);
     update_preview(frame, pixels);
     HeldFrame h{std::move(rec), std::move(pixels), frame.pixel_format, frame.width, frame.height};
     frame.lease.reset();  // the camera gets its buffer back before we encode
@@ -315,6 +316,28 @@ class CameraWorker {
     p_.preview.set(std::move(small), std::move(full), frame.host_ts.ns);
   }
 
+  // The frame's light level, as it would read at the connection's first exposure and gain (its chunks'),
+  // for the lights' confirmation (session/recording_lights.cpp).
+  void meter(const CameraFrame& frame, std::int64_t t_ns) {
+    if (frame.width != meter_width_ || frame.height != meter_height_) {
+      meter_width_ = frame.width, meter_height_ = frame.height;
+      const std::size_t pixels = std::size_t(std::max(1, frame.width)) * std::size_t(std::max(1, frame.height));
+      const int bytes = int(std::max<std::size_t>(1, image_bytes(frame.width, frame.height, frame.pixel_format) / pixels));
+      meter_grid_ = lighting::meter_grid(frame.width, frame.height, bytes, p_.pad_corners_px);
+    }
+    const auto levels = lighting::meter_levels(frame.data, frame.size, meter_grid_);
+    const double exposure = frame.chunks.exposure_us.value_or(0), gain = frame.chunks.gain.value_or(0);
+    if (reference_exposure_us_ <= 0 && exposure > 0) reference_exposure_us_ = exposure, reference_gain_ = gain;
+    for (std::size_t r = 0; r < levels.size(); ++r) {
+      if (std::isnan(levels[r])) continue;
+      const double level = exposure > 0 ? lighting::normalised_level(levels[r], exposure, gain,
+                                                                     reference_exposure_us_, reference_gain_)
+                                        : levels[r];
+      // One channel per region of each camera (lighting/light_monitor.h).
+      p_.light_monitor->add(std::size_t(p_.index) * lighting::kMeterRegions + r, t_ns, level);
+    }
+  }
+
   // Pixel buffers are reused: a fresh 2 MB allocation per frame costs page faults by the thousand.
   void recycle(std::vector<std::uint8_t>&& pixels) {
     if (spare_.size() < kMaxSpare) spare_.push_back(std::move(pixels));
@@ -331,6 +354,9 @@ class CameraWorker {
   std::map<std::pair<std::uint32_t, std::uint64_t>, HeldFrame> held_;
   std::vector<std::vector<std::uint8_t>> spare_;
   std::int64_t next_preview_ns_ = 0, first_frame_ns_ = 0;
+  lighting::MeterGrid meter_grid_;
+  int meter_width_ = 0, meter_height_ = 0;
+  double reference_exposure_us_ = 0, reference_gain_ = 0;
   std::uint32_t connection_ = UINT32_MAX;
 };
 

@@ -13,6 +13,8 @@
 #include <opencv2/core.hpp>
 
 #include "capture/aravis_camera.h"
+#include "lighting/light_meter.h"
+#include "lighting/light_monitor.h"
 #include "storage/writer/session_writer.h"
 #include "sync/session_timeline.h"
 
@@ -81,6 +83,10 @@ struct CameraPipeline {
   Preview& preview;
   std::optional<Stall> stall;    // a test's fault (core/fault_injection.h): the worker sleeps once
   std::latch* warmed = nullptr;  // counted down once the worker's buffers are ready, before its first frame
+  // With the rig's lights: each good frame's light level (lighting/light_meter.h) goes here, read off
+  // the pad where its corners in the image are known.
+  lighting::LightMonitor* light_monitor = nullptr;
+  std::optional<std::array<lighting::Point, 4>> pad_corners_px;
 };
 
 // Runs until the camera's frame queue is closed and drained (after the camera stopped).

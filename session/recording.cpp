@@ -15,6 +15,8 @@
 #include "core/allocator.h"
 #include "core/log.h"
 #include "core/time.h"
+#include "lighting/light_monitor.h"
+#include "lighting/lighting_code.h"
 #include "session/camera_pipeline.h"
 #include "session/realign.h"
 #include "session/rig_lock.h"
@@ -105,6 +107,13 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
   r->rig_lock_ = std::move(lock.value());
   // The sessions folder can take a session: said before any device is opened.
   if (Status s = check_sessions_root(options.root); !s.ok()) return s.error();
+  // A lighting the rig's lights cannot make: said before any device is opened.
+  if (!rig.lights.empty() && options.conditions && !options.conditions->lighting.empty()) {
+    lighting::LightNames names;
+    for (const LightConfig& l : rig.lights) names.push_back(l.name);
+    if (auto m = lighting::parse_lighting(options.conditions->lighting, names); !m)
+      return Error{fmt::format("--lighting: {}", m.error().message)};
+  }
 
   // Every camera opened before anything is on disk: a rig that is not ready leaves no empty session.
   const std::size_t n = rig.cameras.size();
@@ -113,6 +122,7 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
   r->warned_spill_.assign(n, false);
   r->warned_behind_.assign(n, false);
   r->warned_foreign_.assign(n, false);
+  r->pad_corners_px_.assign(n, std::nullopt);
   Recording* self = r.get();
   for (std::size_t i = 0; i < n; ++i) {
     r->tallies_.push_back(std::make_unique<CameraTally>());
@@ -171,6 +181,11 @@ void Recording::record_rig_calibration(SessionWriter& writer) {
     const calib::CameraCalibration* c = loaded.value().camera(rig_.cameras[i].name);
     if (!c) continue;
     const calib::MeasuredBy& m = c->pad ? *c->pad : c->intrinsics ? *c->intrinsics : calib::MeasuredBy{"unknown"};
+    if (c->pad_corners_px) {  // the light meter reads off the pad (lighting/light_meter.h)
+      std::array<lighting::Point, 4> q{};
+      for (std::size_t k = 0; k < 4; ++k) q[k] = {(*c->pad_corners_px)[k].x, (*c->pad_corners_px)[k].y};
+      pad_corners_px_[i] = q;
+    }
     const cv::Matx33d h = c->cells_to_ideal.value_or(cv::Matx33d::zeros());
     nlohmann::json details = *c;
     details["calibration_file"] = std::filesystem::absolute(file).string();
@@ -289,18 +304,30 @@ Status Recording::start() {
       request_stop(*start_failure_);
       return {};
     }
+  if (light_monitor_ && !options_.board_session) {
+    // The light check, then the session's lighting (every light, unless --lighting says otherwise).
+    run_light_check();
+    std::string code = options_.conditions ? options_.conditions->lighting : "";
+    if (code.empty())
+      for (const LightConfig& l : rig_.lights) code += l.name;
+    light_thread_running_.store(true);
+    light_thread_ = std::thread([this] { confirm_switches(); });
+    if (!set_lighting(code)) warn(fmt::format("the lights could not be switched to {} (the log says why)", code));
+  }
   return {};
 }
 
 void Recording::start_camera_workers(SessionWriter& writer) {
   workers_warmed_ = std::make_unique<std::latch>(std::ptrdiff_t(cameras_.size()));
+  if (!rig_.lights.empty())
+    light_monitor_ = std::make_unique<lighting::LightMonitor>(cameras_.size() * lighting::kMeterRegions);
   for (std::size_t i = 0; i < cameras_.size(); ++i)
     workers_.emplace_back(
         run_camera_pipeline,
         CameraPipeline{*cameras_[i], int(i), device_ids_[i], writer, *tallies_[i], *timeline_, *timeline_end_,
                        std::size_t(rig_.store.queue_frames), *previews_[i],
                        int(i) == options_.faults.stall_camera ? options_.faults.camera_pipeline_stall : std::nullopt,
-                       workers_warmed_.get()});
+                       workers_warmed_.get(), light_monitor_.get(), pad_corners_px_[i]});
   // The workers write their buffers before the first frame comes (camera_pipeline.cpp, warm_up): a
   // fraction of a second here rather than page faults in the first second's frames. Bounded, so a
   // slower machine still starts.
@@ -472,6 +499,7 @@ RecordingResult Recording::finish(const std::string& end_reason) {
     result.exit_code = 1;
     return result;
   }
+  stop_light_thread();  // its last confirmations are committed before the store closes
   state_.store(kStopping);
   SessionWriter& writer = *writer_;
   result.recorded_s = double(host_now().ns - rec_start_) / 1e9;

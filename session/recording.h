@@ -28,6 +28,8 @@
 #include <opencv2/core.hpp>
 
 #include "core/fault_injection.h"
+#include "lighting/light_meter.h"
+#include "lighting/light_model.h"
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "session/recording_status.h"
@@ -35,6 +37,9 @@
 #include "storage/index/records.h"
 
 namespace pvcap {
+namespace lighting {
+class LightMonitor;
+}
 class AravisCamera;
 class SessionWriter;
 namespace sync {
@@ -108,6 +113,14 @@ class Recording {
   std::vector<PressurePoint> pressure_history(std::int64_t from_ns, std::int64_t to_ns) const;
   bool has_sensel() const { return bool(sensel_); }
 
+  // The rig's lights (session/recording_lights.cpp, docs/lighting.md). Switches them to `code` and
+  // commits the command with its read-back; the images' confirmation follows as its own event. The
+  // code as commanded in the rig's form ("L-R"), or nullopt (why is logged). Any thread.
+  std::optional<std::string> set_lighting(const std::string& code);
+  // The lighting the images showed over [from, to), by the light check's model; "" without one.
+  std::string lighting_seen(std::int64_t from_ns, std::int64_t to_ns) const;
+  std::string lighting_now() const;  // as last commanded; "" on a rig without lights
+
  private:
   Recording();
   void warn(std::string message);
@@ -116,6 +129,12 @@ class Recording {
   void record_rig_calibration(SessionWriter& writer);
   // One worker per camera, started, and waited for until their buffers are ready (at most 3 s).
   void start_camera_workers(SessionWriter& writer);
+  // Lights: each on alone for a moment at the start, learning what each adds to each camera's level,
+  // then the session's lighting; a thread confirms every switch from the images.
+  void run_light_check();
+  Result<std::uint32_t> switch_lights(std::uint32_t mask, const std::string& why);
+  void confirm_switches();
+  void stop_light_thread();
 
   RigConfig rig_;
   RecordingOptions options_;
@@ -141,6 +160,19 @@ class Recording {
   std::string stop_reason_;
   std::optional<std::string> start_failure_;
   std::vector<bool> warned_encoder_, warned_spill_, warned_behind_, warned_foreign_;
+  std::unique_ptr<lighting::LightMonitor> light_monitor_;  // with lights: the cameras' levels
+  std::vector<std::optional<std::array<lighting::Point, 4>>> pad_corners_px_;  // per camera, from its calibration
+  struct PendingSwitch {
+    std::int64_t command_ns;
+    std::uint32_t from, to;
+  };
+  mutable std::mutex light_mu_;  // what follows
+  std::optional<lighting::LightModel> light_model_;
+  std::uint32_t lighting_mask_ = 0;
+  bool lighting_commanded_ = false;
+  std::vector<PendingSwitch> pending_switches_;
+  std::atomic<bool> light_thread_running_{false};
+  std::thread light_thread_;
   bool warned_sensel_behind_ = false, warned_index_ = false, warned_index_behind_ = false;
 
   mutable std::mutex mu_;  // what follows

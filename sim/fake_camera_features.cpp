@@ -43,6 +43,40 @@ void replace_all(std::string& text, const std::string& from, const std::string& 
     text.replace(at, from.size(), to);
 }
 
+// Output lines, as SFNC names them: the selected line's source and the selected user output's value
+// each in a register of their own (GenICam's pIndex: the selector's value x 4 past the first).
+std::string output_line_features() {
+  const auto entries = [](const char* stem, int first, int count, int value0) {
+    std::string e;
+    for (int i = 0; i < count; ++i)
+      e += fmt::format("<EnumEntry Name=\"{}{}\"><Value>{}</Value></EnumEntry>", stem, first + i, value0 + i);
+    return e;
+  };
+  const auto reg = [](const char* name, std::uint32_t address, const char* index) {
+    return fmt::format(
+        R"(<IntReg Name="{}" NameSpace="Custom"><Address>{:#x}</Address>{}<Length>4</Length>
+<AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+)",
+        name, address, index ? fmt::format("<pIndex Offset=\"4\">{}</pIndex>", index) : std::string());
+  };
+  std::string x = fmt::format(
+      R"(<Enumeration Name="LineSelector" NameSpace="Standard"><pSelected>LineSource</pSelected>{}
+<pValue>PvcapLineSelectorRegister</pValue></Enumeration>
+<Enumeration Name="LineSource" NameSpace="Standard"><EnumEntry Name="Off"><Value>0</Value></EnumEntry>
+<EnumEntry Name="ExposureActive"><Value>1</Value></EnumEntry>{}<pValue>PvcapLineSourceRegister</pValue></Enumeration>
+<Enumeration Name="UserOutputSelector" NameSpace="Standard"><pSelected>UserOutputValue</pSelected>{}
+<pValue>PvcapUserOutputSelectorRegister</pValue></Enumeration>
+<Boolean Name="UserOutputValue" NameSpace="Standard"><pValue>PvcapUserOutputValueRegister</pValue></Boolean>
+)",
+      entries("Line", 0, kOutputLines, 0), entries("UserOutput", 1, kUserOutputs, 2),
+      entries("UserOutput", 1, kUserOutputs, 0));
+  x += reg("PvcapLineSelectorRegister", kLineSelectorRegister, nullptr);
+  x += reg("PvcapLineSourceRegister", kLineSourceRegister, "PvcapLineSelectorRegister");
+  x += reg("PvcapUserOutputSelectorRegister", kUserOutputSelectorRegister, nullptr);
+  x += reg("PvcapUserOutputValueRegister", kUserOutputValueRegister, "PvcapUserOutputSelectorRegister");
+  return x;
+}
+
 // Aravis' own map with the features above; `latch` names the latch command.
 std::string aravis_map_with_features(const char* latch) {
   arv::GPtr<ArvFakeCamera> probe(arv_fake_camera_new("PVSIM-XML"));
@@ -65,7 +99,7 @@ std::string aravis_map_with_features(const char* latch) {
       latch, kLatchCommandRegister, kLatchValueRegister, kTriggerSourceRegister);
   const auto end = text.rfind("</RegisterDescription>");
   if (end == std::string::npos) return "";
-  text.insert(end, features);
+  text.insert(end, features + output_line_features());
   // TriggerSource reads and writes our register; the engine's own stays at Software (set per camera).
   const auto source = text.find("<Enumeration Name=\"TriggerSource\"");
   const std::string engine_register = "<pValue>TriggerSourceRegister</pValue>";
@@ -201,12 +235,13 @@ class FeatureService {
     static FeatureService service;
     return service;
   }
-  void add(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line, NodeMapNaming naming) {
+  void add(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line, NodeMapNaming naming,
+           OutputLines outputs) {
     // The engine triggers on a pending software trigger; which source the host chose is ours.
     arv_fake_camera_write_register(fake, kEngineTriggerSource, kSoftware);
     std::lock_guard lock(mu_);
-    cameras_.push_back(
-        {owner, fake, std::move(clock), std::move(line), INT64_MIN, naming == NodeMapNaming::Sfnc2, host_now().ns});
+    cameras_.push_back({owner, fake, std::move(clock), std::move(line), INT64_MIN, naming == NodeMapNaming::Sfnc2,
+                        host_now().ns, std::move(outputs), 0});
     if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
   }
   void remove(const void* owner) {
@@ -231,6 +266,8 @@ class FeatureService {
     std::int64_t last_pulse;  // the line's last pulse that reached this camera (its index)
     bool gated_rate;          // SFNC 2 map: the rate takes only with its enable on
     std::int64_t served_ns;   // when it was first served: its temperature rises from then
+    OutputLines outputs;      // told of each change of its output lines
+    std::uint32_t output_mask;
   };
   // When the host has set the command register, the device clock's value goes into the value
   // register and the command clears.
@@ -271,6 +308,26 @@ class FeatureService {
     arv_fake_camera_write_register(c.fake, kDeviceTemperatureRegister,
                                    guint32(400 + (now_ns - c.served_ns) / 200'000'000));
   }
+  // Each line's level from its source: off, high while acquiring (ExposureActive: a strobe that the
+  // simulated lamp shows as lit while the camera streams), or the selected user output's value.
+  static void serve_outputs(Camera& c, std::int64_t now_ns) {
+    if (!c.outputs) return;
+    guint32 acquiring = 0;
+    arv_fake_camera_read_register(c.fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION, &acquiring);
+    std::uint32_t mask = 0;
+    for (int line = 0; line < kOutputLines; ++line) {
+      guint32 source = 0, value = 0;
+      if (!arv_fake_camera_read_register(c.fake, kLineSourceRegister + 4 * std::uint32_t(line), &source)) continue;
+      bool high = source == 1 && acquiring;
+      if (source >= 2 && source < 2 + kUserOutputs &&
+          arv_fake_camera_read_register(c.fake, kUserOutputValueRegister + 4 * (source - 2), &value))
+        high = value != 0;
+      if (high) mask |= 1u << line;
+    }
+    if (mask == c.output_mask) return;
+    c.output_mask = mask;
+    c.outputs(mask, now_ns);
+  }
   void run() {
     // A camera's latch and trigger input are its hardware's; here a thread serves them every 200 us,
     // 3,000-5,000 wake-ups a second. In the fair scheduler, on saturated cores, the kernel worker
@@ -292,6 +349,7 @@ class FeatureService {
         serve_line(c, now);
         serve_rate(c);
         serve_temperature(c, now);
+        serve_outputs(c, now);
       }
     }
   }
@@ -306,8 +364,9 @@ TriggerLine periodic_line(double hz) {
   return [hz](std::int64_t host_ns) { return std::int64_t(double(host_ns) * hz / 1e9); };
 }
 
-void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line, NodeMapNaming naming) {
-  FeatureService::get().add(owner, fake, std::move(clock), std::move(line), naming);
+void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line, NodeMapNaming naming,
+                    OutputLines outputs) {
+  FeatureService::get().add(owner, fake, std::move(clock), std::move(line), naming, std::move(outputs));
 }
 void stop_serving(const void* owner) { FeatureService::get().remove(owner); }
 

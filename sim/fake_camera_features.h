@@ -36,6 +36,14 @@ inline constexpr std::uint32_t kChunkSelectorRegister = 0xF024;
 inline constexpr std::uint32_t kChunkEnableRegister = 0xF028;
 // SFNC 2 map: DeviceTemperature, in tenths of a degree: 40 C when served, rising 0.5 C a second.
 inline constexpr std::uint32_t kDeviceTemperatureRegister = 0xF030;
+// Every map: output lines as SFNC names them (LineSelector Line0-Line3, LineSource Off,
+// ExposureActive, UserOutput1-3; UserOutputSelector, UserOutputValue), a register per line and per
+// user output (selected by GenICam's pIndex), which drive the simulated rig's lamps (sim/lights.h).
+inline constexpr std::uint32_t kLineSelectorRegister = 0xF040;
+inline constexpr std::uint32_t kLineSourceRegister = 0xF044;  // + 4 x line
+inline constexpr std::uint32_t kUserOutputSelectorRegister = 0xF054;
+inline constexpr std::uint32_t kUserOutputValueRegister = 0xF058;  // + 4 x output
+inline constexpr int kOutputLines = 4, kUserOutputs = 3;
 
 // The raw map's ExposureTimeBaseAbs: one step of its ExposureTimeRaw (Basler's ace classic default).
 inline constexpr double kRawExposureStepUs = 20.0;
@@ -53,14 +61,18 @@ using TriggerLine = std::function<std::int64_t(std::int64_t host_ns)>;
 // A line pulsing at `hz` at whole periods of CLOCK_MONOTONIC (every camera on it together).
 TriggerLine periodic_line(double hz);
 
-// Serves `fake`'s latch with `clock`, and its trigger line, until stop_serving(owner); after
-// stop_serving returns, neither `fake` nor `clock` nor `line` is touched again. A pulse reaches the
+// A camera's output lines as the host has set them (bit N: LineN is driven high), at each change.
+using OutputLines = std::function<void(std::uint32_t line_mask, std::int64_t host_ns)>;
+
+// Serves `fake`'s latch with `clock`, its trigger line, and its output lines to `outputs` (when
+// given), until stop_serving(owner); after stop_serving returns, neither `fake` nor `clock` nor
+// `line` nor `outputs` is touched again. A pulse reaches the
 // camera only while it is set to be triggered by its line (TriggerMode On, TriggerSource Line0);
 // until then the line waits for it.
 // With the SFNC 2 naming, its rate is served too (the engine takes the rate asked only while the
 // enable is on).
 void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line,
-                    NodeMapNaming naming = NodeMapNaming::Aravis);
+                    NodeMapNaming naming = NodeMapNaming::Aravis, OutputLines outputs = {});
 void stop_serving(const void* owner);
 
 }  // namespace pvcap::sim

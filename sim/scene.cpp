@@ -107,8 +107,12 @@ bool bayer_layout(const std::string& pf, int layout[4]) {
 }
 }  // namespace
 
-void draw_fingertip(cv::Mat& img, const std::string& pf, cv::Point2d c, double r) {
-  const cv::Vec3b skin(110, 140, 205), rim(80, 100, 160);  // BGR
+void draw_fingertip(cv::Mat& img, const std::string& pf, cv::Point2d c, double r, double light) {
+  const auto lit = [light](int b, int g, int r) {
+    return cv::Vec3b(cv::saturate_cast<uchar>(b * light), cv::saturate_cast<uchar>(g * light),
+                     cv::saturate_cast<uchar>(r * light));
+  };
+  const cv::Vec3b skin = lit(110, 140, 205), rim = lit(80, 100, 160);  // BGR
   int layout[4];
   const bool bayer = bayer_layout(pf, layout);
   const int x0 = std::max(0, int(c.x - r - 1)), x1 = std::min(img.cols - 1, int(c.x + r + 1));

@@ -39,7 +39,9 @@ cv::Mat render_default_scene_bgr(int index, cv::Size size, double noise_dn = 2.0
 cv::Mat to_sensor_format(const cv::Mat& bgr, const std::string& pixel_format);
 
 // Draws the fingertip's contact disc (skin colour, darker rim) straight into a sensor-format
-// image (what to_sensor_format returns), centred at `centre_px` with `radius_px`.
-void draw_fingertip(cv::Mat& sensor_image, const std::string& pixel_format, cv::Point2d centre_px, double radius_px);
+// image (what to_sensor_format returns), centred at `centre_px` with `radius_px`, its colours
+// scaled by `light` (the simulated lamps' light there, sim/lights.h; 1 without lamps).
+void draw_fingertip(cv::Mat& sensor_image, const std::string& pixel_format, cv::Point2d centre_px, double radius_px,
+                    double light = 1.0);
 
 }  // namespace pvcap::sim

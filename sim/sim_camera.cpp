@@ -20,6 +20,7 @@
 #include "sim/fake_camera_features.h"
 #include "sim/fingertip.h"
 #include "sim/hand.h"
+#include "sim/lights.h"
 #include "sim/scene.h"
 #include "sim/scene_cache.h"
 #include "sim/timecode.h"
@@ -45,7 +46,8 @@ std::string scene_key(const calib::CameraModel& m, const std::string& pixel_form
 Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConfig& camera, const SimCameraClock& clock,
                                                      std::int64_t t0_ns, std::uint64_t seed,
                                                      const std::filesystem::path& truth_dir,
-                                                     std::shared_ptr<const Hand> hand, bool board) {
+                                                     std::shared_ptr<const Hand> hand, bool board,
+                                                     std::shared_ptr<SimLights> lights) {
   if (camera.address.empty())
     return Error{fmt::format("{}: a simulated camera needs an 'address' (127.0.0.x)", camera.name)};
   std::unique_ptr<SimCamera> self(new SimCamera());
@@ -55,6 +57,7 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   self->configured_size_ = cv::Size(camera.width, camera.height);
   self->hand_ = std::move(hand);
   self->board_ = board;
+  if (lights && !lights->empty()) self->lights_ = std::move(lights);
   self->clock_ = SimClock{t0_ns, clock.offset_ms * 1e6, clock.drift_ppm * 1e-6, clock.jitter_us * 1e3};
   self->exposure_latency_ns_ = std::int64_t(clock.exposure_latency_ms * 1e6);
   self->undeclared_latency_ns_ = std::int64_t(std::llround(clock.undeclared_latency_ms * 1e6));
@@ -93,6 +96,10 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   // Render the scene now for the configured format: the first frame must not stall the stream.
   if (const std::uint32_t pf = pixel_format_code(camera.pixel_format)) {
     (void)self->base_image(camera.width, camera.height, ArvPixelFormat(pf));
+    // And as every combination of lamps lights it (a first switch must not stall the stream either).
+    if (self->lights_ && self->lights_->lamps().size() <= 4)
+      for (std::uint32_t lamps = 0; lamps < (1u << self->lights_->lamps().size()); ++lamps)
+        (void)self->lit_base(camera.width, camera.height, ArvPixelFormat(pf), lamps);
     if (board) (void)self->board_image(camera.width, camera.height, ArvPixelFormat(pf), t0_ns);
   }
   arv_fake_camera_set_fill_pattern(arv_gv_fake_camera_get_fake_camera(self->fake_.get()), &SimCamera::fill, self.get());
@@ -102,7 +109,11 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
   serve_features(
       raw, arv_gv_fake_camera_get_fake_camera(raw->fake_.get()),
       [raw](std::int64_t host_ns) { return raw->clock_.device_time(host_ns); },
-      clock.trigger_line ? periodic_line(camera.frame_rate) : TriggerLine(), clock.node_map);
+      clock.trigger_line ? periodic_line(camera.frame_rate) : TriggerLine(), clock.node_map,
+      raw->lights_ ? OutputLines([lights = raw->lights_, index](std::uint32_t mask, std::int64_t host_ns) {
+        lights->outputs(index, mask, host_ns);
+      })
+                   : OutputLines());
   // Free-running, the engine is late once a frame period and 0.3 ms have passed since it began the
   // last frame; triggered, once a trigger has been pending for a look-for-triggers period and 0.3 ms.
   const std::int64_t trigger_period_ns = std::int64_t(1e9 / std::max(100.0, 4 * camera.frame_rate));
@@ -157,6 +168,18 @@ const cv::Mat& SimCamera::base_image(int width, int height, ArvPixelFormat forma
     it = bases_.emplace(key, std::move(image)).first;
     spdlog::debug("sim {}: the scene at {}x{} {} is ready (rendered, or from sim/scene_cache.h)", name_, width, height,
                   pfnc);
+  }
+  return it->second;
+}
+
+const cv::Mat& SimCamera::lit_base(int width, int height, ArvPixelFormat format, std::uint32_t lamps) {
+  if (!lights_) return base_image(width, height, format);
+  const auto key = std::make_tuple(width, height, std::uint32_t(format), lamps);
+  auto it = lit_.find(key);
+  if (it == lit_.end()) {
+    auto& shading = shading_[{width, height}];
+    if (shading.empty()) shading = lamp_shading(model(cv::Size(width, height)), lights_->lamps());
+    it = lit_.emplace(key, lit_image(base_image(width, height, format), shading, lamps)).first;
   }
   return it->second;
 }
@@ -254,7 +277,8 @@ void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t t
   // arv_buffer_get_data reports the received size, which is 0 while filling; the fake camera
   // has already checked that the allocation holds the payload (width x height x pixel size).
   auto* data = static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, nullptr)));
-  const cv::Mat base = board_ ? board_image(width, height, format, true_ns) : base_image(width, height, format);
+  const std::uint32_t lamps = lights_ ? lights_->lit_at(true_ns) : 0;
+  const cv::Mat base = board_ ? board_image(width, height, format, true_ns) : lit_base(width, height, format, lamps);
   if (!data) return;
   std::memcpy(data, base.data, base.total() * base.elemSize());
   const auto frame_id = std::uint16_t(arv_buffer_get_frame_id(buffer));
@@ -266,7 +290,8 @@ void SimCamera::fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t t
       const double r_mm = fingertip_radius_mm(pose.force);
       const cv::Point2d e = m.project({pose.x_mm + r_mm, pose.y_mm, 0.0});
       cv::Mat view(height, width, base.type(), data);
-      draw_fingertip(view, pixel_format_name(format), c, std::hypot(e.x - c.x, e.y - c.y));
+      const double light = lights_ ? light_at(shading_[{width, height}], lamps, c, {width, height}) : 1.0;
+      draw_fingertip(view, pixel_format_name(format), c, std::hypot(e.x - c.x, e.y - c.y), light);
     }
   }
   // A board session's frames carry neither: their cells would cover the board where it reaches the

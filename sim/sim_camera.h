@@ -33,6 +33,7 @@
 namespace pvcap::sim {
 
 class Hand;
+class SimLights;
 
 struct SimClock {
   std::int64_t t0_ns = 0;  // true time (host CLOCK_MONOTONIC) taken as the device's power-on
@@ -54,7 +55,8 @@ class SimCamera {
   static Result<std::unique_ptr<SimCamera>> create(int index, const CameraConfig& camera, const SimCameraClock& clock,
                                                    std::int64_t t0_ns, std::uint64_t seed,
                                                    const std::filesystem::path& truth_dir,
-                                                   std::shared_ptr<const Hand> hand = nullptr, bool board = false);
+                                                   std::shared_ptr<const Hand> hand = nullptr, bool board = false,
+                                                   std::shared_ptr<SimLights> lights = nullptr);
   ~SimCamera();
   SimCamera(const SimCamera&) = delete;
   SimCamera& operator=(const SimCamera&) = delete;
@@ -72,6 +74,8 @@ class SimCamera {
   void align_first_frame();
   void fill_at(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t true_ns, std::int64_t exposure_ns);
   const cv::Mat& base_image(int width, int height, ArvPixelFormat format);
+  // The scene as the rig's lamps lit at `true_ns` light it (the base image without lamps).
+  const cv::Mat& lit_base(int width, int height, ArvPixelFormat format, std::uint32_t lamps);
   // With chunk mode on (SFNC 2 map), the frame goes out through our own sender with its chunks, the
   // engine's packets muted (sim/gvsp_sender.h); off, the engine sends it as before.
   void send_with_chunks(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t exposure_ns);
@@ -103,6 +107,11 @@ class SimCamera {
   std::uint64_t emitted_ = 0;
   std::shared_ptr<const Hand> hand_;
   bool board_ = false;
+  // The rig's lamps (sim/lights.h): per image size their shading, per size, format and lamps lit the
+  // scene so lit (at most 2^lamps images, each made once).
+  std::shared_ptr<SimLights> lights_;
+  std::map<std::pair<int, int>, std::vector<cv::Mat>> shading_;
+  std::map<std::tuple<int, int, std::uint32_t, std::uint32_t>, cv::Mat> lit_;
   // Board sessions: per image size and format, the board's poses rendered ahead of the engine
   // (sim/board_frames.h).
   std::map<std::tuple<int, int, std::uint32_t>, std::unique_ptr<BoardFrames>> board_views_;

@@ -83,6 +83,9 @@ struct SimConfig {
   // SESSION --as-devices` writes such a rig file); `replay_rate` > 1 plays it faster.
   std::optional<std::filesystem::path> replay;
   double replay_rate = 1.0;
+  // Faults of the rig's lamps (sim/lights.h), from PVCAP_FAULTS (`sim.light_off=C`, `sim.light_lag_s=S`).
+  std::string light_off;
+  double light_lag_s = 0;
 };
 
 // The rig's `sim:` section (re-read from the rig file's text), or nullopt when it has none.

@@ -24,7 +24,7 @@ std::vector<std::string> sim_addresses(const RigConfig& rig) {
 }
 
 Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::filesystem::path& truth_dir,
-                                               bool board) {
+                                               bool board, const std::string& light_off, double light_lag_s) {
   std::optional<SimConfig> sim;
   try {
     sim = load_sim_config(rig);
@@ -42,6 +42,10 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
   self->truth_dir_ = truth_dir;
   self->t0_ns_ = host_now().ns;
   self->hand_ = std::make_shared<Hand>(self->sim_.sensel);
+  self->sim_.light_off = light_off;
+  self->sim_.light_lag_s = light_lag_s;
+  if (!rig.lights.empty() && !board)
+    self->lights_ = std::make_shared<SimLights>(rig, light_off, light_lag_s, truth_dir);
   self->returned_.assign(rig.cameras.size(), 0);
 
   nlohmann::json truth;
@@ -62,7 +66,7 @@ Result<std::unique_ptr<SimRig>> SimRig::create(const RigConfig& rig, const std::
     const SimCameraClock& clk = self->sim_.cameras[i];
     const bool sensel_sim = rig.sensel && rig.sensel->tty == "sim";
     auto made = SimCamera::create(int(i), cam, clk, self->t0_ns_, self->sim_.seed, truth_dir,
-                                  sensel_sim ? self->hand_ : nullptr, board);
+                                  sensel_sim ? self->hand_ : nullptr, board, self->lights_);
     if (!made) return made.error();
     const calib::CameraModel model = made.value()->model({cam.width, cam.height});
     const cv::Matx33d h = calib::cells_to_ideal(model, pad);
@@ -289,7 +293,7 @@ void SimRig::run(const std::atomic<bool>& stop) {
         ++returned_[i];
         const bool sensel_sim = rig_.sensel && rig_.sensel->tty == "sim";
         auto made = SimCamera::create(int(i), rig_.cameras[i], clk, t0_ns_, sim_.seed + 1, truth_dir_,
-                                      sensel_sim ? hand_ : nullptr);
+                                      sensel_sim ? hand_ : nullptr, false, lights_);
         if (made) {
           cameras_[i] = std::move(made.value());
           spdlog::warn("sim: camera {} is back (outage {} of {} over)", rig_.cameras[i].name, k + 1, clk.outages);

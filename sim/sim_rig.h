@@ -19,6 +19,7 @@
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "sim/hand.h"
+#include "sim/lights.h"
 #include "sim/replay_camera.h"
 #include "sim/sensel_emulator.h"
 #include "sim/sensel_pty.h"
@@ -32,8 +33,10 @@ namespace pvcap::sim {
 class SimRig {
  public:
   // `board`: a calibration board session (the board moves through its poses; no hand).
+  // `light_off`, `light_lag_s`: the lamps' faults (SimConfig's), which the rig file does not hold.
   static Result<std::unique_ptr<SimRig>> create(const RigConfig& rig, const std::filesystem::path& truth_dir,
-                                                bool board = false);
+                                                bool board = false, const std::string& light_off = "",
+                                                double light_lag_s = 0);
   ~SimRig();
 
   // Serves until `stop` becomes true, removing cameras whose stop_after_s has passed and
@@ -51,6 +54,7 @@ class SimRig {
   std::int64_t t0_ns_ = 0;
   std::vector<int> returned_;  // per camera, how many of its outages have ended
   std::shared_ptr<Hand> hand_;
+  std::shared_ptr<SimLights> lights_;  // the rig's lamps, shared by every camera that shows them
   std::mutex hand_truth_mu_;
   std::ofstream hand_truth_;
   std::ofstream sensel_truth_;
