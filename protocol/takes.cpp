@@ -56,12 +56,20 @@ Status read_one(const std::filesystem::path& dir, SessionTakes& out, int depth) 
       TakeRow t = row_of(e, sequence);
       t.status = "interrupted";  // until its end says otherwise (a killed session's last take stays so)
       t.start_ns = e.host_ns;
+      t.lighting_commanded = d.value("lighting", "");
       by_sequence[sequence] = rows.size();
       rows.push_back(std::move(t));
     } else if (e.kind == "action_end" && by_sequence.count(sequence)) {
       TakeRow& t = rows[by_sequence[sequence]];
       t.status = d.value("status", "done");
       t.end_ns = e.host_ns;
+      if (d.contains("lighting") && d["lighting"].is_object()) {
+        t.lighting_commanded = d["lighting"].value("commanded", t.lighting_commanded);
+        t.lighting_seen = d["lighting"].value("seen", "");
+        for (std::size_t i = 0; i < t.lighting_commanded.size() && i < t.lighting_seen.size(); ++i)
+          if (t.lighting_commanded[i] != t.lighting_seen[i])
+            t.lights_disagreeing += t.lighting_commanded[i] != '-' ? t.lighting_commanded[i] : t.lighting_seen[i];
+      }
       if (d.contains("check")) {
         t.check_ok = d["check"].value("ok", true);
         if (d["check"].contains("problems") && d["check"]["problems"].is_array())
@@ -208,6 +216,10 @@ nlohmann::json takes_json(const SessionTakes& t) {
     row["end_sample"] = r.end_sample ? nlohmann::json(*r.end_sample) : nlohmann::json();
     row["check_ok"] = r.check_ok ? nlohmann::json(*r.check_ok) : nlohmann::json();
     row["check_problems"] = r.check_problems;
+    if (!r.lighting_commanded.empty())
+      row["lighting"] = {{"commanded", r.lighting_commanded},
+                         {"seen", r.lighting_seen},
+                         {"lights_disagreeing", r.lights_disagreeing}};
     j["takes"].push_back(row);
   }
   for (const auto& [force, s] : by_force(t))

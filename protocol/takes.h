@@ -27,6 +27,10 @@ struct TakeRow {
   std::size_t pressure_frames = 0;
   std::optional<bool> check_ok;
   std::vector<std::string> check_problems;  // what the take check found, as the operator was told
+  // The lighting commanded for the take and what its images showed (docs/lighting.md); empty on a rig
+  // without lights. `lights_disagreeing`: the letters of the lights whose state the images contradict.
+  std::string lighting_commanded, lighting_seen;
+  std::string lights_disagreeing;
 };
 
 struct SessionTakes {

@@ -191,7 +191,7 @@ void add_summary(std::string& h, const json& r) {
        "h3{font-size:15px;margin:16px 0 4px}table{border-collapse:collapse;margin:8px 0}"
        "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#f3f3f3}"
        "td:first-child,th:first-child,td.t{text-align:left}.ok{color:#1a7f37;font-weight:600}"
-       ".bad{color:#c62828;font-weight:600}.note{color:#555;font-size:13px;margin:2px 0}"
+       ".bad{color:#c62828;font-weight:600}.code{font-family:monospace;font-size:15px}.note{color:#555;font-size:13px;margin:2px 0}"
        ".banner{padding:10px 14px;border-radius:6px;margin:12px 0;font-size:16px}"
        ".banner.ok{background:#e6f4ea}.banner.bad{background:#fdecea}.thumbs{display:flex;flex-wrap:wrap;gap:12px}"
        ".thumbs figure{margin:0}.thumbs figcaption{font-size:13px}.plots{display:flex;flex-wrap:wrap;gap:8px}"
@@ -385,18 +385,79 @@ void add_protocol(std::string& h, const json& r) {
                            num(v.value("peak_newtons", json()), 2));
         h += "</table>";
       }
-      h += "<h3>Takes</h3><table><tr><th>sequence</th><th>status</th><th>start (s)</th><th>end (s)</th><th>mean "
-           "(N)</th><th>peak (N)</th><th>check</th></tr>";
-      for (const auto& t : p["takes"])
+      // The lighting columns only where the rig switched lights (docs/lighting.md).
+      bool lit = false;
+      for (const auto& t : p["takes"]) lit = lit || t.contains("lighting");
+      h += fmt::format(
+          "<h3>Takes</h3><table><tr><th>sequence</th><th>status</th><th>start (s)</th><th>end (s)</th><th>mean "
+          "(N)</th><th>peak (N)</th>{}<th>check</th></tr>",
+          lit ? "<th>lighting commanded</th><th>lighting the images saw</th>" : "");
+      for (const auto& t : p["takes"]) {
+        std::string lighting;
+        if (lit && t.contains("lighting")) {
+          const json& l = t["lighting"];
+          const bool flagged = l.value("flagged", false);
+          lighting = fmt::format("<td class='code'>{}</td><td class='code'>{}{}</td>", esc(l.value("commanded", "")),
+                                 flagged ? "<span class='bad'>" : "", esc(l.value("seen", "")) + (flagged ? "</span>" : ""));
+          if (flagged) lighting.insert(lighting.size() - 5, " (light " + esc(l.value("lights", "")) + ")");
+        } else if (lit) {
+          lighting = "<td>&ndash;</td><td>&ndash;</td>";
+        }
+        std::string check = "&ndash;";
+        if (t.contains("check_ok")) {
+          std::string problems;
+          for (const auto& pr : t.value("check_problems", json::array())) problems += " " + esc(pr.get<std::string>());
+          check = t["check_ok"].get<bool>() ? "ok" : "<span class='bad'>problem:" + problems + "</span>";
+        }
         h += fmt::format(
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td>{}<td>{}</td></tr>",
             esc(t.value("sequence", "")), esc(t.value("status", "")), num(t.value("start_s", json()), 1),
-            num(t.value("end_s", json()), 1), t.value("mean_newtons", 0.0), t.value("peak_newtons", 0.0),
-            t.contains("check_ok") ? (t["check_ok"].get<bool>() ? "ok" : "<span class='bad'>problem</span>")
-                                   : "&ndash;");
+            num(t.value("end_s", json()), 1), t.value("mean_newtons", 0.0), t.value("peak_newtons", 0.0), lighting,
+            check);
+      }
       h += "</table>";
+      if (p.value("lighting_flagged_takes", 0) > 0)
+        h += fmt::format(
+            "<p class='bad'>{} take(s) were recorded under another lighting than commanded: the images show a light "
+            "that did not come on, or one that was on. Redo them (pvcap dataset status lists what is missing).</p>",
+            p.value("lighting_flagged_takes", 0));
     }
   }
+}
+
+// The light check and every switch of the lights, as the images confirmed it (docs/lighting.md).
+void add_lighting(std::string& h, const json& r) {
+  if (!r.contains("lighting")) return;
+  const json& l = r["lighting"];
+  h += "<h2>Lighting</h2>";
+  if (l.contains("check")) {
+    h += "<h3>Light check (each light on alone at the start)</h3><table><tr><th>light</th><th>seen by the "
+         "cameras</th><th>came on after (ms)</th></tr>";
+    for (const auto& x : l["check"].value("lights", json::array()))
+      h += fmt::format("<tr><td class='code'>{}</td><td>{}</td><td>{}</td></tr>", esc(x.value("light", "")),
+                       x.value("seen", false) ? "yes" : "<span class='bad'>no</span>",
+                       num(x.value("latency_ms", json()), 0));
+    h += "</table>";
+    for (const auto& p : l["check"].value("problems", json::array()))
+      h += "<p class='bad'>" + esc(p.get<std::string>()) + "</p>";
+  }
+  h += fmt::format("<h3>Switches</h3><p class='note'>{} switch(es), {} shown late (more than two frames after the "
+                   "command), {} never shown.</p>",
+                   l["switches"].size(), l.value("late", 0), l.value("unconfirmed", 0));
+  h += "<table><tr><th>at (s)</th><th>from</th><th>to</th><th>the images showed it</th></tr>";
+  for (const auto& sw : l["switches"]) {
+    std::string seen;
+    if (sw.value("confirmed", false))
+      seen = fmt::format("{}after {} ms ({} frames){}", sw.value("on_time", true) ? "" : "<span class='bad'>late: ",
+                         num(sw.value("delay_ms", json()), 0), num(sw.value("frames", json()), 0),
+                         sw.value("on_time", true) ? "" : "</span>");
+    else
+      seen = sw.value("superseded", false) ? "switched again before a frame showed it"
+                                           : "<span class='bad'>never</span>";
+    h += fmt::format("<tr><td>{}</td><td class='code'>{}</td><td class='code'>{}</td><td>{}</td></tr>",
+                     num(sw.value("at_s", json()), 2), esc(sw.value("from", "")), esc(sw.value("code", "")), seen);
+  }
+  h += "</table>";
 }
 
 void add_calibration(std::string& h, const json& r) {
@@ -489,6 +550,7 @@ std::string render_html(const json& r) {
   add_clocks(h, r);
   add_pairing(h, r);
   add_protocol(h, r);
+  add_lighting(h, r);
   add_calibration(h, r);
   add_camera_state(h, r);
   add_events(h, r);

@@ -156,6 +156,7 @@ void Recording::run_light_check() {
   std::vector<std::string> problems;
   for (std::size_t i = 0; i < names.size() && i < lights.size(); ++i) {
     lights[i]["seen"] = model.seen(i);
+    if (!model.seen(i)) lights[i]["latency_ms"] = nullptr;  // what changed then was the light before it going off
     if (!model.seen(i))
       problems.push_back(fmt::format("light {}: no camera saw it come on (a lamp out, or its line wired to another "
                                      "light?): takes lit by {} will be flagged",
@@ -168,6 +169,7 @@ void Recording::run_light_check() {
   for (const auto& p : problems) warn(p);
   std::lock_guard lock(light_mu_);
   light_model_ = std::move(model);
+  lighting_mask_ = names.empty() ? 0 : 1u << (names.size() - 1);  // the check's last step
 }
 
 // The light thread: each switch, confirmed once every camera that can tell the two lightings apart
@@ -190,7 +192,8 @@ void Recording::confirm_switches() {
       std::int64_t until = now;
       for (const PendingSwitch& q : pending)
         if (q.command_ns > p.command_ns) until = std::min(until, q.command_ns);
-      const auto seen = lighting::switch_seen(*model, *light_monitor_, p.command_ns, p.from, p.to, until);
+      const auto seen =
+          lighting::switch_seen(*model, *light_monitor_, p.command_ns, p.from, p.to, until, lighting::kMeterRegions);
       const bool over = now - p.command_ns > kConfirmTimeoutNs || until < now;
       if (!seen.confirmed && !over && seen.visible) continue;
       const std::string code = lighting::lighting_code(p.to, model->names);
@@ -208,6 +211,8 @@ void Recording::confirm_switches() {
           warn(fmt::format("lighting {}: the images showed it {:.0f} ms after the command ({} frames late): a slow "
                            "lamp?",
                            code, seen.delay_ms, seen.frames));
+      } else if (until < now && seen.visible) {
+        d["superseded"] = true;  // switched again before the cameras could show it: nothing to say
       } else {
         std::vector<std::string> waiting;
         for (int c : seen.channels_waiting) {
