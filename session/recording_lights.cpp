@@ -4,6 +4,7 @@
 // confirms every switch (how late, in frames and ms), and a take's lighting is what its levels show.
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <thread>
 
 #include <fmt/format.h>
@@ -26,6 +27,36 @@ lighting::LightNames light_names(const RigConfig& rig) {
   lighting::LightNames names;
   for (const LightConfig& l : rig.lights) names.push_back(l.name);
   return names;
+}
+
+// The first instant after `from_ns` at which some camera's view left `previous` (per channel): at
+// least a third of its regions beyond 5 x their noise (and 1 level), in two of its frames running.
+std::optional<std::int64_t> first_view_change(const lighting::LightMonitor& monitor,
+                                              const std::vector<double>& previous, const std::vector<double>& noise,
+                                              std::int64_t from_ns, std::int64_t to_ns) {
+  std::optional<std::int64_t> first;
+  const std::size_t per = lighting::kMeterRegions;
+  for (std::size_t camera = 0; camera * per < monitor.channels(); ++camera) {
+    std::map<std::int64_t, int> changed_regions;  // per frame
+    for (std::size_t c = camera * per; c < (camera + 1) * per && c < previous.size(); ++c) {
+      if (std::isnan(previous[c])) continue;
+      const double threshold = std::max(1.0, 5 * (std::isnan(noise[c]) ? 0.0 : noise[c]));
+      for (const auto& l : monitor.levels(c, from_ns, to_ns))
+        changed_regions[l.t_ns] += std::abs(l.level - previous[c]) > threshold;
+    }
+    bool last_changed = false;
+    std::int64_t last_t = 0;
+    for (const auto& [t, n] : changed_regions) {
+      const bool now_changed = n * 3 >= int(per);
+      if (now_changed && last_changed) {
+        if (!first || last_t < *first) first = last_t;
+        break;
+      }
+      last_changed = now_changed;
+      last_t = t;
+    }
+  }
+  return first;
 }
 
 // A light check's step: long enough for every camera's frames at the slowest rate to settle and count.
@@ -91,12 +122,14 @@ std::optional<std::string> Recording::set_lighting(const std::string& code) {
     std::lock_guard lock(light_mu_);
     from = lighting_mask_;
   }
-  const std::int64_t command_ns = host_now().ns;
   auto set = switch_lights(mask.value(), "lighting");
   if (!set) {
     spdlog::error("{}", set.error().message);
     return std::nullopt;
   }
+  // From the moment the cameras have read it back (the lines are switched by then), so a loaded host's
+  // slow control round trips are not counted against the lamps.
+  const std::int64_t command_ns = host_now().ns;
   std::lock_guard lock(light_mu_);
   lighting_mask_ = mask.value();
   lighting_commanded_ = true;
@@ -135,16 +168,14 @@ void Recording::run_light_check() {
   for (std::size_t i = 0; i < names.size() && !stop_requested_.load(); ++i) {
     t0 = host_now().ns;
     if (!switch_lights(1u << i, fmt::format("light check: {} alone", names[i]))) return;
-    // The first frame whose level left the previous step's, in any camera: the light's latency.
+    // The first frame whose view left the previous step's: in some camera, at least a third of its
+    // regions changed beyond their noise, in two frames running (a hand moving over one region is not
+    // a lamp). That is the light's latency.
     std::optional<std::int64_t> changed;
-    while (!changed && !stop_requested_.load() && host_now().ns < t0 + std::chrono::nanoseconds(kChangeTimeout).count()) {
+    const auto deadline = t0 + std::chrono::nanoseconds(kChangeTimeout).count();
+    while (!changed && !stop_requested_.load() && host_now().ns < deadline) {
       std::this_thread::sleep_for(20ms);
-      for (std::size_t c = 0; c < monitor.channels() && c < previous.size(); ++c) {
-        if (std::isnan(previous[c])) continue;
-        const double threshold = std::max(1.0, 5 * (std::isnan(noise[c]) ? 0.0 : noise[c]));
-        for (const auto& l : monitor.levels(c, t0, host_now().ns))
-          if (std::abs(l.level - previous[c]) > threshold && (!changed || l.t_ns < *changed)) changed = l.t_ns;
-      }
+      changed = first_view_change(monitor, previous, noise, t0, host_now().ns);
     }
     const std::int64_t from = changed ? *changed + settle_ns / 4 : t0;
     wait_until(from + settle_ns);

@@ -1,0 +1,208 @@
+// Lights switched by the protocol and proven by the images (docs/lighting.md), on the simulated rig:
+// its three lamps (L, C, R) hang on cam0's, cam1's and cam2's output lines and shade every view, so
+// what pvcap confirms is what the images show, checked against the simulator's own record of its lamps.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "session_under_test.h"
+#include "storage/index/session_reader.h"
+
+namespace fs = std::filesystem;
+using namespace pvcap::testing;
+using nlohmann::json;
+
+namespace {
+
+// Four 320x240 cameras at 30 Hz, the Sensel, and three lamps: L and C on the first two cameras'
+// Line1, R on cam2's Line2 (a camera may drive any of its lines).
+fs::path write_lit_rig(const fs::path& dir) {
+  std::string yaml = sim_rig_yaml({{}, {}, {}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  yaml.replace(yaml.find("store:"), 0,
+               "lights:\n  - {name: L, camera: cam0, line: Line1}\n  - {name: C, camera: cam1, line: Line1}\n"
+               "  - {name: R, camera: cam2, line: Line2}\n");
+  std::ofstream(dir / "rig.yaml") << yaml;
+  return dir / "rig.yaml";
+}
+
+// Three actions, right hand only: the first under L alone, the second under C alone (the protocol's
+// `lighting:`), the third under the session's --lighting.
+fs::path write_lit_protocol(const fs::path& dir) {
+  fs::create_directories(dir / "pictograms");
+  for (const char* p : {"press_index_finger", "index_pull_towards", "index_push_left"})
+    fs::copy_file(fs::path(PVCAP_SOURCE_DIR) / "rig-configs/protocols/pictograms" / (std::string(p) + ".svg"),
+                  dir / "pictograms" / (std::string(p) + ".svg"), fs::copy_options::overwrite_existing);
+  std::ofstream(dir / "protocol.yaml")
+      << "name: lights\n"
+         "fast_timings: {prompt_s: 0.6, countdown_s: 0.3, record_s: 1.5, rest_s: 0.3}\n"
+         "actions:\n"
+         "  - {name: press_index_finger, text: Press, pictogram: pictograms/press_index_finger.svg, forces: [low],\n"
+         "     hands: [right], lighting: L--}\n"
+         "  - {name: index_pull_towards, text: Pull, pictogram: pictograms/index_pull_towards.svg, hands: [right],\n"
+         "     lighting: -C-}\n"
+         "  - {name: index_push_left, text: Push, pictogram: pictograms/index_push_left.svg, hands: [right]}\n";
+  return dir / "protocol.yaml";
+}
+
+struct LitSession {
+  CommandResult result;
+  fs::path dir;
+  json report;
+};
+
+LitSession record_lit(const fs::path& work, const std::string& faults = "") {
+  LitSession s;
+  s.result = run_pvcap(fmt::format("session --rig {} --root {} --protocol {} --auto --fast --no-web --lighting L-R",
+                                   write_lit_rig(work).string(), (work / "sessions").string(),
+                                   write_lit_protocol(work).string()),
+                       faults.empty() ? "" : "PVCAP_FAULTS=" + faults);
+  s.dir = only_session(work / "sessions");
+  if (s.dir.empty()) return s;
+  const auto r = run_pvcap(fmt::format("--log-level off report {} --json", s.dir.string()));
+  s.report = json::parse(r.output.substr(std::min(r.output.size(), r.output.find('{'))), nullptr, false);
+  return s;
+}
+
+// The simulator's record of its lamps: each change, the lamps lit from then on.
+std::vector<std::string> lamp_states(const fs::path& session) {
+  std::vector<std::string> lit;
+  std::ifstream in(session / "sim-truth" / "lights.csv");
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    std::stringstream row(line);
+    std::string at, state;
+    std::getline(row, at, ',');
+    std::getline(row, state, ',');
+    lit.push_back(state);
+  }
+  return lit;
+}
+
+}  // namespace
+
+TEST(Lighting, AProtocolWhoseLightingChangesBetweenActionsHasEverySwitchConfirmed) {
+  const fs::path work = work_dir("lighting");
+  const LitSession s = record_lit(work);
+  ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
+  ASSERT_FALSE(s.dir.empty());
+  ASSERT_TRUE(s.report.is_object()) << s.result.output;
+
+  // The light check saw each lamp, in the views it shades.
+  const json& lighting = s.report["lighting"];
+  ASSERT_EQ(lighting["check"]["lights"].size(), 3u) << lighting.dump(1);
+  for (const auto& l : lighting["check"]["lights"]) EXPECT_TRUE(l["seen"].get<bool>()) << l.dump();
+  EXPECT_TRUE(lighting["check"]["problems"].empty()) << lighting.dump(1);
+
+  // Every take's images show the lighting commanded for it: L--, -C-, then the session's L-R.
+  const json& takes = s.report["protocol"]["takes"];
+  ASSERT_EQ(takes.size(), 3u) << s.report["protocol"].dump(1);
+  const char* expected[] = {"L--", "-C-", "L-R"};
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(takes[i]["lighting"]["commanded"], expected[i]) << takes[i].dump();
+    EXPECT_EQ(takes[i]["lighting"]["seen"], expected[i]) << takes[i].dump();
+    EXPECT_FALSE(takes[i]["lighting"]["flagged"].get<bool>()) << takes[i].dump();
+    EXPECT_TRUE(takes[i]["check_ok"].get<bool>()) << takes[i].dump();
+  }
+  EXPECT_EQ(s.report["protocol"]["lighting_flagged_takes"], 0);
+
+  // Every switch is confirmed within two frames of its command (or switched again before a frame
+  // could show it: the session's L-R, at once followed by the first take's L--).
+  int confirmed = 0;
+  for (const auto& sw : lighting["switches"]) {
+    if (sw.value("superseded", false)) continue;
+    EXPECT_TRUE(sw["confirmed"].get<bool>()) << sw.dump();
+    EXPECT_TRUE(sw["on_time"].get<bool>()) << sw.dump();
+    EXPECT_LE(sw["frames"].get<int>(), 2) << sw.dump();
+    ++confirmed;
+  }
+  EXPECT_EQ(confirmed, 3) << lighting.dump(1);
+  EXPECT_EQ(lighting["late"], 0);
+  EXPECT_EQ(lighting["unconfirmed"], 0);
+
+  // Each command's read-back is what it asked, and the simulator's lamps went through the same states.
+  auto reader = pvcap::SessionReader::open(s.dir);
+  ASSERT_TRUE(reader) << reader.error().message;
+  auto events = reader.value()->protocol_events();
+  ASSERT_TRUE(events);
+  std::vector<std::string> commanded;
+  for (const auto& e : events.value()) {
+    if (e.kind != "lighting") continue;
+    const json d = json::parse(e.detail);
+    EXPECT_EQ(d["read_back"], d["code"]) << e.detail;
+    commanded.push_back(d["code"].get<std::string>());
+  }
+  // The check (---, L--, -C-, --R), the session's L-R, then the takes' L--, -C-, L-R.
+  const std::vector<std::string> want = {"---", "L--", "-C-", "--R", "L-R", "L--", "-C-", "L-R"};
+  EXPECT_EQ(commanded, want);
+  const auto lamps = lamp_states(s.dir);
+  std::set<std::string> lit(lamps.begin(), lamps.end());
+  for (const char* state : {"L", "C", "R", "LR"}) EXPECT_TRUE(lit.count(state)) << "the lamps were never " << state;
+}
+
+// A lamp that never comes on and lamps that follow their lines 0.4 s late: the light check names the
+// dead lamp, the take meant to be lit by it is flagged and fails its check, and each late switch is
+// confirmed with its delay measured.
+TEST(Lighting, ADeadLampFlagsItsTakesAndASlowOneIsConfirmedLate) {
+  const fs::path work = work_dir("lighting-faults");
+  const LitSession s = record_lit(work, "sim.light_off=C,sim.light_lag_s=0.4");
+  ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
+  ASSERT_TRUE(s.report.is_object()) << s.result.output;
+  EXPECT_NE(s.result.output.find("light C: no camera saw it come on"), std::string::npos) << s.result.output;
+
+  const json& lighting = s.report["lighting"];
+  for (const auto& l : lighting["check"]["lights"])
+    EXPECT_EQ(l["seen"].get<bool>(), l["light"] != "C") << l.dump();
+  // The slow lamps: the check measured their latency, near the 0.4 s they lag.
+  for (const auto& l : lighting["check"]["lights"])
+    if (l["light"] != "C") {
+      EXPECT_NEAR(l["latency_ms"].get<double>(), 400, 120) << l.dump();
+    }
+
+  const json& takes = s.report["protocol"]["takes"];
+  ASSERT_EQ(takes.size(), 3u);
+  EXPECT_EQ(takes[1]["lighting"]["commanded"], "-C-");
+  EXPECT_EQ(takes[1]["lighting"]["seen"], "---") << takes[1].dump();
+  EXPECT_TRUE(takes[1]["lighting"]["flagged"].get<bool>());
+  EXPECT_EQ(takes[1]["lighting"]["lights"], "C") << "report --json names the light";
+  EXPECT_FALSE(takes[1]["check_ok"].get<bool>());
+  ASSERT_FALSE(takes[1]["check_problems"].empty());
+  EXPECT_NE(takes[1]["check_problems"][0].get<std::string>().find("light C did not come on"), std::string::npos);
+  EXPECT_TRUE(takes[0]["check_ok"].get<bool>()) << takes[0].dump();
+  EXPECT_TRUE(takes[2]["check_ok"].get<bool>()) << takes[2].dump();
+  EXPECT_EQ(s.report["protocol"]["lighting_flagged_takes"], 1);
+
+  // The switch from -C- to L-R (R and L on, 0.4 s late) is confirmed late, its delay measured.
+  bool late = false;
+  for (const auto& sw : lighting["switches"])
+    if (sw["code"] == "L-R" && sw["from"] == "-C-") {
+      ASSERT_TRUE(sw["confirmed"].get<bool>()) << sw.dump();
+      EXPECT_FALSE(sw["on_time"].get<bool>()) << sw.dump();
+      EXPECT_NEAR(sw["delay_ms"].get<double>(), 400, 120) << sw.dump();
+      EXPECT_GT(sw["frames"].get<int>(), 2) << sw.dump();
+      late = true;
+    }
+  EXPECT_TRUE(late) << lighting.dump(1);
+  EXPECT_GE(lighting["late"].get<int>(), 1);
+  // The HTML report says so too.
+  std::ifstream html(s.dir / "report.html");
+  const std::string page((std::istreambuf_iterator<char>(html)), std::istreambuf_iterator<char>());
+  EXPECT_NE(page.find("light C: no camera saw it come on"), std::string::npos);
+  EXPECT_NE(page.find("(light C)"), std::string::npos);
+}
+
+// A lighting the rig's lights cannot make is refused before anything is recorded.
+TEST(Lighting, ALightingCodeWithALightTheRigLacksIsRefusedBeforeRecording) {
+  const fs::path work = work_dir("lighting-bad-code");
+  const auto r = run_pvcap(fmt::format("session --rig {} --root {} --duration 2 --no-web --lighting LXR",
+                                       write_lit_rig(work).string(), (work / "sessions").string()));
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("the rig has no light 'X' (its lights: L, C, R)"), std::string::npos) << r.output;
+  EXPECT_TRUE(!fs::exists(work / "sessions") || fs::is_empty(work / "sessions"));
+}
