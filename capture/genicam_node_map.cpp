@@ -161,7 +161,8 @@ NodeMapCheck check_node_map(const NodeMapView& map, const CameraConfig& camera) 
                       what));
       continue;
     }
-    const auto lines = map.entries(chosen.at(CameraRole::LineSelector));
+    auto lines = map.entries(chosen.at(CameraRole::LineSelector));
+    std::sort(lines.begin(), lines.end());  // maps list them in any order; the message in one
     if (!among(lines, light.line)) {
       out.missing.push_back(
           fmt::format("{}: {} is not among its lines ({})", what, light.line, fmt::join(lines, ", ")));

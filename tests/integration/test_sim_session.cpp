@@ -711,14 +711,15 @@ TEST(PvcapCommand, ARateTheCameraCannotReachAtTheRigsRegionIsNamed) {
   EXPECT_TRUE(s.dir.empty()) << "a session was recorded";
 }
 
-// A light on a camera that cannot drive it (Aravis' fake camera has no output lines) is refused
-// before recording, at once, naming the light, the line and why.
+// A light on a line the camera lacks (the simulated cameras have Line0-Line3) is refused before
+// recording, at once, naming the light, the line and why.
 TEST(PvcapCommand, ALightTheCameraCannotDriveIsRefusedBeforeRecording) {
   std::string yaml = sim_rig_yaml({{}}, 320, 240, 30, 15);
-  yaml.replace(yaml.find("store:"), 0, "lights:\n  - {name: C, camera: cam0, line: Line1}\n");
+  yaml.replace(yaml.find("store:"), 0, "lights:\n  - {name: C, camera: cam0, line: Line7}\n");
   const auto s = record("light-refused", yaml, 2);
   EXPECT_EQ(s.result.exit_code, 1) << s.result.output;
-  EXPECT_NE(s.result.output.find("light C on Line1 (steady): it has no output lines to drive it"), std::string::npos)
+  EXPECT_NE(s.result.output.find("light C on Line7 (steady): Line7 is not among its lines (Line0, Line1, Line2, Line3)"),
+            std::string::npos)
       << s.result.output;
   EXPECT_TRUE(s.dir.empty()) << "a session was recorded";
 }

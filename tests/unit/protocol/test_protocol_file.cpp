@@ -120,3 +120,21 @@ TEST(ProtocolFile, PictogramsAreImagesInsideTheProtocolsFolder) {
   }
   fs::remove_all(dir);
 }
+
+// `lighting:` on the protocol is every action's unless an action names its own; it must be a code.
+TEST(ProtocolFile, LightingIsTheProtocolsUnlessAnActionNamesItsOwn) {
+  const Protocol p = parse_protocol(
+      "name: lit\nlighting: LCR\nactions:\n"
+      "  - {name: a, text: A, pictogram: pictograms/press_palm.svg}\n"
+      "  - {name: b, text: B, pictogram: pictograms/press_palm.svg, lighting: L-R, forces: [low, high]}\n",
+      kDefault);
+  ASSERT_EQ(p.actions.size(), 3u);
+  EXPECT_EQ(p.lighting, "LCR");
+  EXPECT_EQ(p.actions[0].lighting, "LCR");
+  EXPECT_EQ(p.actions[1].lighting, "L-R");
+  EXPECT_EQ(p.actions[2].lighting, "L-R");
+  EXPECT_EQ(load_protocol(kDefault).actions[0].lighting, "") << "the paper's protocol leaves it to the session";
+  EXPECT_NE(error_of("name: x\nactions:\n  - {name: a, text: A, pictogram: pictograms/press_palm.svg, lighting: l1}\n")
+                .find("actions[0].lighting: 'l1' is not a lighting code"),
+            std::string::npos);
+}

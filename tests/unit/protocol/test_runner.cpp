@@ -57,6 +57,16 @@ struct FakeEnv : RunnerEnv {
   }
   bool scripted_force = true;
   void take_cancelled(std::int64_t) override { ++cancelled; }
+  // Lights: every switch asked, in the rig's form; the images show `seen` (empty: as commanded).
+  std::vector<std::string> switched;
+  std::string lit = "LCR", seen;
+  std::optional<std::string> set_lighting(const std::string& code) override {
+    switched.push_back(code);
+    lit = code;
+    return code;
+  }
+  std::string lighting_seen(std::int64_t, std::int64_t) override { return seen.empty() ? lit : seen; }
+  std::string lighting_now() override { return "LCR"; }
   std::vector<std::string> kinds() const {
     std::vector<std::string> k;
     for (const auto& e : events) k.push_back(e.kind);
@@ -360,4 +370,40 @@ TEST(Runner, ResumeStartsAtTheGivenStep) {
   EXPECT_EQ(r.view().phase, Phase::Prompt);
   EXPECT_EQ(r.view().sequence, "press_palm_high_2x_right");
   EXPECT_EQ(r.view().takes_done, 4);
+}
+
+// A protocol's lighting is switched while the take's prompt shows, only when it changes, back to the
+// session's after an action with its own; a take whose images showed another lighting fails its check.
+TEST(Runner, TheLightingIsSwitchedAtThePromptWhenItChangesAndCheckedAtTheTakesEnd) {
+  const Protocol p = parse_protocol(
+      "name: lit\n"
+      "timings: {prompt_s: 1, countdown_s: 1, record_s: 4, rest_s: 1}\n"
+      "actions:\n"
+      "  - {name: a, text: A, pictogram: pictograms/press_palm.svg, lighting: L--, hands: [right]}\n"
+      "  - {name: b, text: B, pictogram: pictograms/press_palm.svg, lighting: L--, hands: [right]}\n"
+      "  - {name: c, text: C, pictogram: pictograms/press_palm.svg, hands: [right]}\n",
+      kPictogram.parent_path().parent_path() / "lit.yaml");
+  FakeEnv env;
+  RunnerOptions o;
+  o.lighting = "LCR";
+  o.auto_advance = true;
+  Runner r(p, "right_first", env, o);
+  ASSERT_TRUE(r.command(Command::Start).ok);
+  run_for(r, env, 8);   // take a under L--
+  env.seen = "---";     // take b: the lamp went out
+  run_for(r, env, 8);
+  env.seen = "";
+  run_for(r, env, 10);  // take c under the session's LCR
+  EXPECT_EQ(env.switched, (std::vector<std::string>{"L--", "LCR"})) << "b keeps a's lighting; c goes back";
+  const auto attempts = r.attempts();
+  ASSERT_EQ(attempts.size(), 3u);
+  EXPECT_TRUE(attempts[0].check->ok);
+  ASSERT_FALSE(attempts[1].check->ok);
+  EXPECT_NE(attempts[1].check->problems[0].find("light L did not come on"), std::string::npos);
+  EXPECT_TRUE(attempts[2].check->ok);
+  // The takes' events carry the lighting commanded and seen.
+  int with_lighting = 0;
+  for (const auto& e : env.events)
+    if (e.kind == "action_end" && e.detail.find("\"commanded\":\"L--\"") != std::string::npos) ++with_lighting;
+  EXPECT_EQ(with_lighting, 2);
 }

@@ -95,3 +95,21 @@ TEST(TakeCheck, ADeviceGapFails) {
   EXPECT_FALSE(check(low, Hand::Right, take(10, 5, 2.0, 160, 3'000'000'000, 3'400'000'000)).ok);
   EXPECT_FALSE(check(low, Hand::Right, take(10, 5, 2.0, 160), {}, 400).ok);
 }
+
+// A take whose images showed another lighting than commanded fails, naming each light that differs.
+TEST(TakeCheck, ALightingTheImagesDidNotShowFailsNamingTheLights) {
+  const Action low = action(Force::Low);
+  TakeCheckInput in;
+  in.action = &low;
+  in.hand = Hand::Right;
+  in.measures = measure_take(take(10, 5, 2.0, 160), 0, 10'000'000'000);
+  in.lighting_commanded = "LC-";
+  in.lighting_seen = "LC-";
+  EXPECT_TRUE(check_take(in, TakeCheckConfig{}).ok);
+  in.lighting_seen = "L-R";
+  const TakeCheck c = check_take(in, TakeCheckConfig{});
+  ASSERT_FALSE(c.ok);
+  EXPECT_EQ(c.problems[0], "the images show lighting L-R, not the LC- commanded (light C did not come on, light R was on)");
+  in.lighting_seen = "";  // nothing could tell (no light check): not checked
+  EXPECT_TRUE(check_take(in, TakeCheckConfig{}).ok);
+}

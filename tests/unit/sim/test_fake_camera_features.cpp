@@ -4,6 +4,7 @@
 // never put to the test.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <fstream>
 #include <iterator>
@@ -145,15 +146,38 @@ TEST(FakeCameraFeatures, AnSfnc2CamerasRateTakesOnlyWithItsEnableOn) {
   sim::stop_serving(&owner);
 }
 
-// Aravis' fake camera has no output lines: a light on it is refused, naming why.
-TEST(FakeCameraFeatures, ALightOnACameraWithoutOutputLinesIsRefused) {
-  auto map = GenicamNodeMap::parse(map_text(sim::NodeMapNaming::Aravis));
-  ASSERT_TRUE(map);
-  CameraConfig camera;
-  camera.lights = {{"C", "cam0", "Line1", false}};
-  const NodeMapCheck c = check_node_map(map.value(), camera);
-  EXPECT_FALSE(c.usable());
-  ASSERT_FALSE(c.missing.empty());
-  EXPECT_NE(c.missing.back().find("light C on Line1 (steady): it has no output lines to drive it"), std::string::npos)
-      << c.missing.back();
+// Every simulated map has SFNC's output lines (Line0-Line3, UserOutput1-3): a steady light on one of
+// them passes the check, a line it lacks is named; and the lines the host sets reach the lamps.
+TEST(FakeCameraFeatures, EveryMapHasOutputLinesAndTheirLevelsReachTheLamps) {
+  for (auto naming : {sim::NodeMapNaming::Aravis, sim::NodeMapNaming::Sfnc2, sim::NodeMapNaming::RawExposure}) {
+    auto map = GenicamNodeMap::parse(map_text(naming));
+    ASSERT_TRUE(map);
+    CameraConfig camera;
+    camera.lights = {{"C", "cam0", "Line1", false}, {"R", "cam0", "Line2", true}};
+    const NodeMapCheck ok = check_node_map(map.value(), camera);
+    EXPECT_TRUE(ok.usable()) << (ok.missing.empty() ? "" : ok.missing.back());
+    camera.lights = {{"C", "cam0", "Line9", false}};
+    const NodeMapCheck bad = check_node_map(map.value(), camera);
+    ASSERT_FALSE(bad.missing.empty());
+    EXPECT_NE(bad.missing.back().find("light C on Line9 (steady): Line9 is not among its lines (Line0, Line1, Line2, "
+                                      "Line3)"),
+              std::string::npos)
+        << bad.missing.back();
+  }
+  // Line1 from UserOutput2, held high; Line3 from ExposureActive, high while the camera acquires.
+  arv::GPtr<ArvFakeCamera> fake(arv_fake_camera_new("PVSIM-LINES"));
+  std::atomic<std::uint32_t> lines{0};
+  int owner = 0;
+  sim::serve_features(
+      &owner, fake.get(), [](std::int64_t t) { return t; }, {}, sim::NodeMapNaming::Aravis,
+      [&](std::uint32_t mask, std::int64_t) { lines.store(mask); });
+  arv_fake_camera_write_register(fake.get(), sim::kLineSourceRegister + 4 * 1, 3);  // UserOutput2
+  arv_fake_camera_write_register(fake.get(), sim::kUserOutputValueRegister + 4 * 1, 1);
+  EXPECT_TRUE(eventually([&] { return lines.load() == 0b0010u; })) << lines.load();
+  arv_fake_camera_write_register(fake.get(), sim::kLineSourceRegister + 4 * 3, 1);  // ExposureActive
+  arv_fake_camera_write_register(fake.get(), ARV_FAKE_CAMERA_REGISTER_ACQUISITION, 1);
+  EXPECT_TRUE(eventually([&] { return lines.load() == 0b1010u; })) << lines.load();
+  arv_fake_camera_write_register(fake.get(), sim::kUserOutputValueRegister + 4 * 1, 0);
+  EXPECT_TRUE(eventually([&] { return lines.load() == 0b1000u; })) << lines.load();
+  sim::stop_serving(&owner);
 }
