@@ -5,11 +5,13 @@
 #include <algorithm>
 #include <chrono>
 #include <future>
+#include <map>
 #include <mutex>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "lighting/lighting_code.h"
 #include "protocol/takes.h"
 #include "report/session_report_data.h"
 #include "storage/index/session_reader.h"
@@ -119,6 +121,25 @@ std::string session_fingerprint(const fs::path& folder) {
   return out;
 }
 
+namespace {
+// The lighting a session's images showed: the code seen most often among its done takes recorded
+// under its label (any of its done takes when none was); "" when no take's images were measured.
+std::string measured_lighting(const std::string& label, const std::vector<CatalogTake>& takes) {
+  std::map<std::string, int> under_label, any;
+  for (const auto& t : takes) {
+    if (t.status != "done" || t.lighting_seen.empty()) continue;
+    ++any[t.lighting_seen];
+    if (lighting::same_lighting(t.lighting_commanded, label)) ++under_label[t.lighting_seen];
+  }
+  const auto& counts = under_label.empty() ? any : under_label;
+  std::string best;
+  int most = 0;
+  for (const auto& [code, n] : counts)
+    if (n > most) best = code, most = n;
+  return best;
+}
+}  // namespace
+
 Result<std::pair<CatalogSession, std::vector<CatalogTake>>> read_session(
     const fs::path& folder, const std::function<void(const std::string&)>& step) {
   CatalogSession s;
@@ -176,9 +197,10 @@ Result<std::pair<CatalogSession, std::vector<CatalogTake>>> read_session(
       std::string problems;
       for (const auto& p : row.check_problems) problems += (problems.empty() ? "" : "\n") + p;
       takes.push_back({s.folder, row.step, row.sequence, row.action, row.hand, row.force, row.status, row.check_ok,
-                       problems, row.start_ns});
+                       problems, row.start_ns, row.lighting_commanded, row.lighting_seen});
     }
   }
+  s.lighting_seen = measured_lighting(s.lighting, takes);
   return std::make_pair(std::move(s), std::move(takes));
 }
 

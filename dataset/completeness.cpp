@@ -8,6 +8,8 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include "lighting/lighting_code.h"
+
 namespace pvcap::dataset {
 
 using json = nlohmann::json;
@@ -62,6 +64,9 @@ void session_flags(const DatasetConfig& c, const CatalogSession& s, std::vector<
   if (!uncalibrated.empty())
     flag("no_calibration",
          fmt::format("no pad calibration for {} (`pvcap calibrate pad`)", fmt::join(uncalibrated, ", ")));
+  if (!s.lighting_seen.empty() && !lighting::same_lighting(s.lighting, s.lighting_seen))
+    flag("condition_mismatch", fmt::format("labelled lighting '{}', but its images show {} (docs/lighting.md)",
+                                           s.lighting, s.lighting_seen));
   if (!c.conditions.empty() && std::find(c.conditions.begin(), c.conditions.end(), s.lighting) == c.conditions.end())
     flag("condition_unplanned", fmt::format("lighting '{}' is not one of the planned conditions ({})", s.lighting,
                                             fmt::join(c.conditions, ", ")));
@@ -78,15 +83,21 @@ ParticipantStatus participant_status(const protocol::Protocol& p, const std::str
     ps.folders.push_back(s->folder);
     mine.insert(s->folder);
     if (ps.skin_tone.empty() || ps.skin_tone == "unrecorded") ps.skin_tone = s->skin_tone;
-    if (std::find(ps.lighting.begin(), ps.lighting.end(), s->lighting) == ps.lighting.end())
-      ps.lighting.push_back(s->lighting);
+    // The condition its images showed where they were measured, else its label (splits stratify by it).
+    const std::string& condition = s->lighting_seen.empty() ? s->lighting : s->lighting_seen;
+    if (std::find(ps.lighting.begin(), ps.lighting.end(), condition) == ps.lighting.end())
+      ps.lighting.push_back(condition);
     if (s->hand_order == "left_first" || s->hand_order == "right_first") hand_order = s->hand_order;
   }
   for (const auto& a : p.actions)
     for (const char* hand : {"left", "right"})
       if (std::string(hand) == "left" ? a.left_hand : a.right_hand) ps.cells[{hand, a.name}];
+  std::map<std::string, std::vector<std::string>> lit_otherwise;  // per folder: takes whose images disagree
   for (const auto& t : takes) {
     if (!mine.count(t.folder)) continue;
+    if (t.status == "done" && !t.lighting_seen.empty() && !lighting::same_lighting(t.lighting_commanded, t.lighting_seen))
+      lit_otherwise[t.folder].push_back(
+          fmt::format("{}: {} commanded, {} seen", t.sequence, t.lighting_commanded, t.lighting_seen));
     if (t.check_ok && !*t.check_ok && (t.status == "done" || t.status == "bad"))
       flags.push_back({code, t.folder, "take_check",
                        fmt::format("{}: {} with a failed take check{}", t.sequence, t.status,
@@ -96,6 +107,10 @@ ParticipantStatus participant_status(const protocol::Protocol& p, const std::str
     if (t.status == "done") ++cell.done_takes;
     if (rank(t.status) > rank(cell.status)) cell.status = t.status;
   }
+  for (const auto& [folder, which] : lit_otherwise)
+    flags.push_back({code, folder, "condition_mismatch",
+                     fmt::format("{} take(s) recorded under another lighting than commanded ({})", which.size(),
+                                 fmt::join(which, "; "))});
   for (const auto& [key, cell] : ps.cells)
     if (cell.done_takes > 1)
       flags.push_back({code, "", "duplicate_take",

@@ -27,7 +27,7 @@ struct Cell {
 
 struct ParticipantStatus {
   std::string code, skin_tone;
-  std::vector<std::string> lighting;  // the conditions its sessions recorded
+  std::vector<std::string> lighting;  // its sessions' conditions: what their images showed, else their labels
   std::vector<std::string> folders;   // its session folders (resumed chains together), oldest first
   bool planned = true;                // in dataset.yaml's participants (or none are listed)
   std::map<std::pair<std::string, std::string>, Cell> cells;   // (hand, action) -> cell
@@ -37,7 +37,8 @@ struct ParticipantStatus {
 struct QaFlag {
   std::string participant, folder;  // folder empty: the participant as a whole
   std::string kind;                 // not_verified_clean, losses, sync_offset, no_calibration, take_check,
-                                    // duplicate_take, unplanned, condition_unplanned, no_sessions
+                                    // duplicate_take, unplanned, condition_unplanned, condition_mismatch,
+                                    // no_sessions
   std::string message;              // in words, with the figures
 };
 

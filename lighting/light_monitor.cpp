@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 
 namespace pvcap::lighting {
 
@@ -55,29 +56,43 @@ std::vector<double> LightMonitor::medians(std::int64_t from_ns, std::int64_t to_
 }
 
 SwitchSeen switch_seen(const LightModel& model, const LightMonitor& monitor, std::int64_t command_ns,
-                       std::uint32_t from, std::uint32_t to, std::int64_t now_ns) {
+                       std::uint32_t from, std::uint32_t to, std::int64_t now_ns, std::size_t channels_per_camera) {
   SwitchSeen s;
   s.visible = false;
   bool all = true;
-  for (std::size_t c = 0; c < monitor.channels() && c < model.dark.size(); ++c) {
-    if (std::isnan(model.dark[c])) continue;
-    const double before = model.predicted(c, from), after = model.predicted(c, to);
-    if (!model.visible(c, after - before)) continue;  // this camera cannot tell them apart
+  const std::size_t per = std::max<std::size_t>(1, channels_per_camera);
+  const std::size_t channels = std::min(monitor.channels(), model.dark.size());
+  for (std::size_t first_channel = 0; first_channel < channels; first_channel += per) {
+    // A camera's frame is the levels of its regions at one instant; it shows `to` when they lie nearer
+    // to what the model predicts under `to` than under `from` (each region scaled by its noise).
+    std::map<std::int64_t, double> closer;  // per frame: distance to `from` minus distance to `to`
+    double separation = 0;
+    for (std::size_t c = first_channel; c < first_channel + per && c < channels; ++c) {
+      if (std::isnan(model.dark[c])) continue;
+      const double before = model.predicted(c, from), after = model.predicted(c, to);
+      const double scale = std::max(0.5, model.noise[c]);
+      separation += (after - before) * (after - before) / (scale * scale);
+      for (const Level& l : monitor.levels(c, command_ns, now_ns + 1)) {
+        const double a = (l.level - after) / scale, b = (l.level - before) / scale;
+        closer[l.t_ns] += b * b - a * a;
+      }
+    }
+    if (separation < 16) continue;  // this camera cannot tell the two apart (less than 4 noise steps)
     s.visible = true;
-    const auto levels = monitor.levels(c, command_ns, now_ns + 1);
-    const auto shows_new = [&](double level) { return std::abs(level - after) < std::abs(level - before); };
-    std::size_t first = levels.size();
-    for (std::size_t i = 0; i + 1 < levels.size(); ++i)
-      if (shows_new(levels[i].level) && shows_new(levels[i + 1].level)) {
+    std::vector<std::pair<std::int64_t, bool>> frames;
+    for (const auto& [t, d] : closer) frames.push_back({t, d > 0});
+    std::size_t first = frames.size();
+    for (std::size_t i = 0; i + 1 < frames.size(); ++i)
+      if (frames[i].second && frames[i + 1].second) {
         first = i;
         break;
       }
-    if (first == levels.size()) {
+    if (first == frames.size()) {
       all = false;
-      s.channels_waiting.push_back(int(c));
+      s.channels_waiting.push_back(int(first_channel));
       continue;
     }
-    s.delay_ms = std::max(s.delay_ms, double(levels[first].t_ns - command_ns) / 1e6);
+    s.delay_ms = std::max(s.delay_ms, double(frames[first].first - command_ns) / 1e6);
     s.frames = std::max(s.frames, int(first));
   }
   s.confirmed = s.visible && all;

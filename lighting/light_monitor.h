@@ -39,15 +39,17 @@ class LightMonitor {
 };
 
 // A switch of the lights from `from` to `to`, commanded at `command_ns`, as the images show it up to
-// `now_ns`: confirmed once every channel that can tell the two apart shows `to` in two frames running.
+// `now_ns`: confirmed once every camera (`channels_per_camera` channels each) that can tell the two
+// apart shows `to` in two frames running.
 struct SwitchSeen {
   bool confirmed = false;
   bool visible = true;   // some camera can tell `from` from `to` (false: the model sees no difference)
   double delay_ms = 0;   // from the command to the first frame showing `to`, slowest camera
   int frames = 0;        // that camera's frames after the command that still showed `from`
-  std::vector<int> channels_waiting;  // channels not yet showing it
+  std::vector<int> channels_waiting;  // the first channel of each camera not yet showing it
 };
 SwitchSeen switch_seen(const LightModel& model, const LightMonitor& monitor, std::int64_t command_ns,
-                       std::uint32_t from, std::uint32_t to, std::int64_t now_ns);
+                       std::uint32_t from, std::uint32_t to, std::int64_t now_ns,
+                       std::size_t channels_per_camera = 1);
 
 }  // namespace pvcap::lighting

@@ -1,5 +1,7 @@
 #include "lighting/lighting_code.h"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -28,6 +30,18 @@ std::string lighting_code(std::uint32_t mask, const LightNames& names) {
   std::string out;
   for (std::size_t i = 0; i < names.size(); ++i) out += (mask >> i & 1u) ? names[i] : "-";
   return out;
+}
+
+bool same_lighting(const std::string& a, const std::string& b) {
+  const auto letters = [](const std::string& code) {
+    std::string l;
+    if (code == "none" || code == "off") return l;
+    for (char c : code)
+      if (c != '-') l += c;
+    std::sort(l.begin(), l.end());
+    return l;
+  };
+  return letters(a) == letters(b);
 }
 
 }  // namespace pvcap::lighting

@@ -18,6 +18,8 @@ using LightNames = std::vector<std::string>;
 Result<std::uint32_t> parse_lighting(const std::string& code, const LightNames& names);
 // The code of `mask`: every light's letter when on, '-' when off (one character each).
 std::string lighting_code(std::uint32_t mask, const LightNames& names);
+// Two codes name the same lights on, whatever their form ("L-R", "LR", "RL"; "---", "none").
+bool same_lighting(const std::string& a, const std::string& b);
 // Every light on.
 inline std::uint32_t all_lights(const LightNames& names) { return (1u << names.size()) - 1u; }
 

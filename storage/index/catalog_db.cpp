@@ -8,7 +8,7 @@ namespace pvcap {
 
 namespace {
 
-constexpr int kCatalogVersion = 1;
+constexpr int kCatalogVersion = 2;  // 2: the lighting the images saw
 
 constexpr const char* kSchema = R"sql(
 CREATE TABLE sessions (
@@ -19,6 +19,7 @@ CREATE TABLE sessions (
   skin_tone TEXT NOT NULL,
   hand_order TEXT NOT NULL,
   lighting TEXT NOT NULL,
+  lighting_seen TEXT NOT NULL,
   overlay TEXT NOT NULL,
   protocol TEXT NOT NULL,
   started_wall_ns INTEGER NOT NULL,
@@ -35,7 +36,9 @@ CREATE TABLE takes (
   status TEXT NOT NULL,
   check_ok INTEGER,
   problems TEXT NOT NULL,
-  start_ns INTEGER
+  start_ns INTEGER,
+  lighting_commanded TEXT NOT NULL,
+  lighting_seen TEXT NOT NULL
 );
 CREATE INDEX takes_by_folder ON takes(folder);
 )sql";
@@ -93,16 +96,17 @@ Status CatalogDb::put(const CatalogSession& s, const std::vector<CatalogTake>& t
     db_->prepare("DELETE FROM sessions WHERE folder = ?").bind(1, s.folder).run();
     db_->prepare(
            "INSERT INTO sessions (folder, fingerprint, original, participant, skin_tone, hand_order, lighting, "
-           "overlay, protocol, started_wall_ns, verify_exit, facts_json) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)")
+           "overlay, protocol, started_wall_ns, verify_exit, facts_json, lighting_seen) VALUES "
+           "(?,?,?,?,?,?,?,?,?,?,?,?,?)")
         .bind_all(s.folder, s.fingerprint, s.original, s.participant, s.skin_tone, s.hand_order, s.lighting, s.overlay,
-                  s.protocol, s.started_wall_ns, s.verify_exit, s.facts_json)
+                  s.protocol, s.started_wall_ns, s.verify_exit, s.facts_json, s.lighting_seen)
         .run();
     auto insert = db_->prepare(
-        "INSERT INTO takes (folder, step, sequence, action, hand, force, status, check_ok, problems, start_ns) "
-        "VALUES (?,?,?,?,?,?,?,?,?,?)");
+        "INSERT INTO takes (folder, step, sequence, action, hand, force, status, check_ok, problems, start_ns, "
+        "lighting_commanded, lighting_seen) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)");
     for (const auto& t : takes) {
       insert.bind_all(s.folder, t.step, t.sequence, t.action, t.hand, t.force, t.status, std::nullopt, t.problems,
-                      t.start_ns);
+                      t.start_ns, t.lighting_commanded, t.lighting_seen);
       if (t.check_ok) insert.bind(8, std::int64_t(*t.check_ok ? 1 : 0));
       insert.run();
     }
@@ -132,7 +136,8 @@ std::vector<CatalogSession> CatalogDb::sessions() {
   std::vector<CatalogSession> out;
   auto q = db_->prepare(
       "SELECT folder, fingerprint, original, participant, skin_tone, hand_order, lighting, overlay, protocol, "
-      "started_wall_ns, verify_exit, facts_json FROM sessions ORDER BY participant, started_wall_ns, folder");
+      "started_wall_ns, verify_exit, facts_json, lighting_seen FROM sessions ORDER BY participant, started_wall_ns, "
+      "folder");
   while (q.step()) {
     CatalogSession s;
     s.folder = q.column_text(0);
@@ -147,6 +152,7 @@ std::vector<CatalogSession> CatalogDb::sessions() {
     s.started_wall_ns = q.column_int(9);
     s.verify_exit = int(q.column_int(10));
     s.facts_json = q.column_text(11);
+    s.lighting_seen = q.column_text(12);
     out.push_back(std::move(s));
   }
   return out;
@@ -155,8 +161,8 @@ std::vector<CatalogSession> CatalogDb::sessions() {
 std::vector<CatalogTake> CatalogDb::takes() {
   std::vector<CatalogTake> out;
   auto q = db_->prepare(
-      "SELECT folder, step, sequence, action, hand, force, status, check_ok, problems, start_ns FROM takes "
-      "ORDER BY folder, step, start_ns");
+      "SELECT folder, step, sequence, action, hand, force, status, check_ok, problems, start_ns, lighting_commanded, "
+      "lighting_seen FROM takes ORDER BY folder, step, start_ns");
   while (q.step()) {
     CatalogTake t;
     t.folder = q.column_text(0);
@@ -169,6 +175,8 @@ std::vector<CatalogTake> CatalogDb::takes() {
     if (!q.column_null(7)) t.check_ok = q.column_int(7) != 0;
     t.problems = q.column_text(8);
     if (!q.column_null(9)) t.start_ns = q.column_int(9);
+    t.lighting_commanded = q.column_text(10);
+    t.lighting_seen = q.column_text(11);
     out.push_back(std::move(t));
   }
   return out;

@@ -23,6 +23,9 @@ struct CatalogSession {
   std::string fingerprint;  // sizes and times of the index and videos when scanned
   std::string original;     // the first folder of a resumed chain (itself when not resumed)
   std::string participant, skin_tone, hand_order, lighting, overlay;
+  // The lighting its takes' images showed (the rig's code, docs/lighting.md), most often among the takes
+  // recorded under its label; "" where nothing measured it (a rig without lights).
+  std::string lighting_seen;
   std::string protocol;  // the protocol's name as the session recorded it ("" without one)
   std::int64_t started_wall_ns = 0;
   int verify_exit = 0;     // pvcap verify's exit code: 0 clean, 3 lossy, 1 failed
@@ -36,6 +39,7 @@ struct CatalogTake {
   std::optional<bool> check_ok;
   std::string problems;  // what the take check found, one per line
   std::optional<std::int64_t> start_ns;
+  std::string lighting_commanded, lighting_seen;  // "" without lights
 };
 
 class CatalogDb {

@@ -482,3 +482,43 @@ TEST(DatasetWithdraw, WhatItRefusesWritesAndDeletes) {
   EXPECT_TRUE(fs::exists(out / "0002_P02" / "take" / "x.jpg"));
   EXPECT_TRUE(fs::exists(s2));
 }
+
+// The lighting the images saw (docs/lighting.md): a session labelled one lighting whose images show
+// another, and a take recorded under another lighting than commanded, are each flagged
+// condition_mismatch; the participant's condition (what the splits stratify by) is the measured one;
+// the catalogue keeps both per take.
+TEST(DatasetStatus, WhatTheImagesSawIsTheConditionAndADisagreementIsFlagged) {
+  Folder f;
+  DatasetConfig c;
+  c.name = "t";
+  auto labelled_otherwise = catalog_session("/s/a", "P01");  // labelled LCR
+  labelled_otherwise.lighting_seen = "L-R";
+  auto agrees = catalog_session("/s/b", "P02");
+  agrees.lighting_seen = "LCR";
+  auto unmeasured = catalog_session("/s/c", "P03");  // a rig without lights: its label stands
+  auto dark_take = take("/s/b", "pull", "right", "done", false);
+  dark_take.lighting_commanded = "-C-";
+  dark_take.lighting_seen = "---";
+  auto lit_take = take("/s/b", "pull", "left", "done");
+  lit_take.lighting_commanded = "L-R";
+  lit_take.lighting_seen = "LR";  // the same lights, in another form
+  const auto s = compute_status(c, f.protocol, {labelled_otherwise, agrees, unmeasured}, {dark_take, lit_take}, {});
+  std::map<std::string, std::vector<std::string>> messages;
+  for (const auto& x : s.flags) messages[x.participant + " " + x.kind].push_back(x.message);
+  ASSERT_EQ(messages["P01 condition_mismatch"].size(), 1u);
+  EXPECT_EQ(messages["P01 condition_mismatch"][0], "labelled lighting 'LCR', but its images show L-R (docs/lighting.md)");
+  ASSERT_EQ(messages["P02 condition_mismatch"].size(), 1u) << "one take; the other saw its own lights";
+  EXPECT_EQ(messages["P02 condition_mismatch"][0],
+            "1 take(s) recorded under another lighting than commanded (pull_x_right: -C- commanded, --- seen)");
+  EXPECT_FALSE(messages.count("P03 condition_mismatch"));
+  EXPECT_EQ(of(s, "P01").lighting, std::vector<std::string>{"L-R"});
+  EXPECT_EQ(of(s, "P02").lighting, std::vector<std::string>{"LCR"});
+  EXPECT_EQ(of(s, "P03").lighting, std::vector<std::string>{"LCR"});
+  // The catalogue keeps what was measured, per session and per take.
+  auto db = CatalogDb::open(f.dir / "catalog.db");
+  ASSERT_TRUE(db) << db.error().message;
+  ASSERT_TRUE(db.value()->put(agrees, {dark_take}).ok());
+  EXPECT_EQ(db.value()->sessions()[0].lighting_seen, "LCR");
+  EXPECT_EQ(db.value()->takes()[0].lighting_commanded, "-C-");
+  EXPECT_EQ(db.value()->takes()[0].lighting_seen, "---");
+}
