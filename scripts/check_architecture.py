@@ -25,11 +25,11 @@ import re
 import sys
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-PRODUCT = ["core", "codec", "capture", "sync", "calib", "storage", "session", "protocol", "console", "report", "export",
+PRODUCT = ["core", "codec", "capture", "sync", "lighting", "calib", "storage", "session", "protocol", "console", "report", "export",
            "dataset", "replay", "sim", "app", "python"]
 NOT_PRODUCT = {"tests", "bench", "build", "scripts", "docs", "rig-configs", ".git"}
 MAX_DEPTH = 7
-OFFLINE_FOLDERS = ["storage", "calib", "protocol", "report", "export", "dataset", "replay", "python"]
+OFFLINE_FOLDERS = ["storage", "lighting", "calib", "protocol", "report", "export", "dataset", "replay", "python"]
 MAX_FUNCTION_LINES = 120
 # storage/'s rooms, and the rooms each may include (docs/architecture.md, "storage/").
 STORAGE_ROOMS = {"video": set(), "index": {"video"}, "writer": {"index", "video"}, "tools": {"index", "video"}}
