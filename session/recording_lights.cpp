@@ -30,7 +30,8 @@ lighting::LightNames light_names(const RigConfig& rig) {
 }
 
 // The first instant after `from_ns` at which some camera's view left `previous` (per channel): at
-// least a third of its regions beyond 5 x their noise (and 1 level), in two of its frames running.
+// least a third of its regions beyond 5 x their noise (and 2 levels), in three of its frames running
+// (the simulator's timecode, a hand at rest or one frame's noise are not a lamp).
 std::optional<std::int64_t> first_view_change(const lighting::LightMonitor& monitor,
                                               const std::vector<double>& previous, const std::vector<double>& noise,
                                               std::int64_t from_ns, std::int64_t to_ns) {
@@ -40,20 +41,19 @@ std::optional<std::int64_t> first_view_change(const lighting::LightMonitor& moni
     std::map<std::int64_t, int> changed_regions;  // per frame
     for (std::size_t c = camera * per; c < (camera + 1) * per && c < previous.size(); ++c) {
       if (std::isnan(previous[c])) continue;
-      const double threshold = std::max(1.0, 5 * (std::isnan(noise[c]) ? 0.0 : noise[c]));
+      const double threshold = std::max(2.0, 5 * (std::isnan(noise[c]) ? 0.0 : noise[c]));
       for (const auto& l : monitor.levels(c, from_ns, to_ns))
         changed_regions[l.t_ns] += std::abs(l.level - previous[c]) > threshold;
     }
-    bool last_changed = false;
-    std::int64_t last_t = 0;
+    int running = 0;
+    std::int64_t run_start = 0;
     for (const auto& [t, n] : changed_regions) {
-      const bool now_changed = n * 3 >= int(per);
-      if (now_changed && last_changed) {
-        if (!first || last_t < *first) first = last_t;
+      running = n * 3 >= int(per) ? running + 1 : 0;
+      if (running == 1) run_start = t;
+      if (running == 3) {
+        if (!first || run_start < *first) first = run_start;
         break;
       }
-      last_changed = now_changed;
-      last_t = t;
     }
   }
   return first;

@@ -113,16 +113,18 @@ TEST(Lighting, AProtocolWhoseLightingChangesBetweenActionsHasEverySwitchConfirme
   EXPECT_EQ(s.report["protocol"]["lighting_flagged_takes"], 0);
 
   // Every switch is confirmed within two frames of its command (or switched again before a frame
-  // could show it: the session's L-R, at once followed by the first take's L--).
-  int confirmed = 0;
+  // could show it: the session's L-R, followed at once by the first take's L--), the takes' three
+  // among them.
+  std::set<std::string> confirmed;
   for (const auto& sw : lighting["switches"]) {
     if (sw.value("superseded", false)) continue;
     EXPECT_TRUE(sw["confirmed"].get<bool>()) << sw.dump();
     EXPECT_TRUE(sw["on_time"].get<bool>()) << sw.dump();
     EXPECT_LE(sw["frames"].get<int>(), 2) << sw.dump();
-    ++confirmed;
+    if (sw["confirmed"].get<bool>()) confirmed.insert(sw["from"].get<std::string>() + ">" + sw["code"].get<std::string>());
   }
-  EXPECT_EQ(confirmed, 3) << lighting.dump(1);
+  for (const char* sw : {"-C->L-R", "L-->-C-"}) EXPECT_TRUE(confirmed.count(sw)) << sw << "\n" << lighting.dump(1);
+  EXPECT_TRUE(confirmed.count("L-R>L--") || confirmed.count("--R>L--")) << lighting.dump(1);
   EXPECT_EQ(lighting["late"], 0);
   EXPECT_EQ(lighting["unconfirmed"], 0);
 
@@ -160,9 +162,12 @@ TEST(Lighting, ADeadLampFlagsItsTakesAndASlowOneIsConfirmedLate) {
   for (const auto& l : lighting["check"]["lights"])
     EXPECT_EQ(l["seen"].get<bool>(), l["light"] != "C") << l.dump();
   // The slow lamps: the check measured their latency, near the 0.4 s they lag.
+  // (From before its command's round trips to the first frame that showed it: the lag, the cameras'
+  // control round trips and up to a frame period; a loaded host stretches the round trips.)
   for (const auto& l : lighting["check"]["lights"])
     if (l["light"] != "C") {
-      EXPECT_NEAR(l["latency_ms"].get<double>(), 400, 120) << l.dump();
+      EXPECT_GE(l["latency_ms"].get<double>(), 380) << l.dump();
+      EXPECT_LE(l["latency_ms"].get<double>(), 700) << l.dump();
     }
 
   const json& takes = s.report["protocol"]["takes"];
@@ -184,7 +189,8 @@ TEST(Lighting, ADeadLampFlagsItsTakesAndASlowOneIsConfirmedLate) {
     if (sw["code"] == "L-R" && sw["from"] == "-C-") {
       ASSERT_TRUE(sw["confirmed"].get<bool>()) << sw.dump();
       EXPECT_FALSE(sw["on_time"].get<bool>()) << sw.dump();
-      EXPECT_NEAR(sw["delay_ms"].get<double>(), 400, 120) << sw.dump();
+      EXPECT_GE(sw["delay_ms"].get<double>(), 300) << sw.dump();  // from the read-back: the lag less the round trips
+      EXPECT_LE(sw["delay_ms"].get<double>(), 600) << sw.dump();
       EXPECT_GT(sw["frames"].get<int>(), 2) << sw.dump();
       late = true;
     }
