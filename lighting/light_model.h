@@ -21,7 +21,7 @@ struct LightModel {
 
   // A step a camera tells from its noise: at least 4 times it and one level.
   bool visible(std::size_t camera, double step) const;
-  // Some camera sees the light come on.
+  // The cameras see the light come on: it adds at least 2 levels, beyond the noise, in two regions.
   bool seen(std::size_t light) const;
   std::uint32_t seen_mask() const;
   // The level camera `camera` shows under `mask`.

@@ -133,6 +133,7 @@ class Recording {
   // then the session's lighting; a thread confirms every switch from the images.
   void run_light_check();
   Result<std::uint32_t> switch_lights(std::uint32_t mask, const std::string& why);
+  std::uint32_t lighting_shown_now() const;  // the lights the last 150 ms of frames show
   void confirm_switches();
   void stop_light_thread();
 

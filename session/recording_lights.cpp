@@ -2,6 +2,7 @@
 // output lines, each command and its read-back a row of the session, and the images' word on each:
 // the light check at the start learns what every light adds to every camera's level, a thread then
 // confirms every switch (how late, in frames and ms), and a take's lighting is what its levels show.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -117,11 +118,9 @@ std::optional<std::string> Recording::set_lighting(const std::string& code) {
     spdlog::error("{}", mask.error().message);
     return std::nullopt;
   }
-  std::uint32_t from = 0;
-  {
-    std::lock_guard lock(light_mu_);
-    from = lighting_mask_;
-  }
+  // From what the images show now (a lamp slower than the last switch may not have followed it yet),
+  // or, before the light check or without frames, from what was last commanded.
+  const std::uint32_t from = lighting_shown_now();
   auto set = switch_lights(mask.value(), "lighting");
   if (!set) {
     spdlog::error("{}", set.error().message);
@@ -135,6 +134,15 @@ std::optional<std::string> Recording::set_lighting(const std::string& code) {
   lighting_commanded_ = true;
   if (from != mask.value()) pending_switches_.push_back({command_ns, from, mask.value()});
   return lighting::lighting_code(mask.value(), names);
+}
+
+std::uint32_t Recording::lighting_shown_now() const {
+  std::lock_guard lock(light_mu_);
+  if (!light_model_ || !light_monitor_) return lighting_mask_;
+  const std::int64_t now = host_now().ns;
+  const auto levels = light_monitor_->medians(now - 150'000'000, now);
+  if (std::all_of(levels.begin(), levels.end(), [](double l) { return std::isnan(l); })) return lighting_mask_;
+  return light_model_->classify(levels);
 }
 
 std::string Recording::lighting_now() const {

@@ -82,6 +82,14 @@ TEST(LightModel, EachCombinationOfSeenLightsIsToldApartAndADeadLampIsNeverSaidOn
   // A channel without a frame (NaN) is left out, not read as dark.
   std::vector<double> partial = {m.predicted(0, 0b001), NAN, m.predicted(2, 0b001), m.predicted(3, 0b001)};
   EXPECT_EQ(m.classify(partial), 0b001u);
+  // A lamp seen in one region only, or darkening one, is not seen: a noisy region, not a lamp.
+  LightModel one_region = m;
+  for (auto& c : one_region.contribution) c[3] = 0;
+  one_region.contribution[1][3] = 6;
+  one_region.contribution[2][3] = -3;
+  EXPECT_FALSE(one_region.seen(3));
+  one_region.contribution[3][3] = 4;
+  EXPECT_TRUE(one_region.seen(3)) << "two regions that brighten";
   // The model survives its JSON (the light_check event).
   LightModel back = nlohmann::json(m).get<LightModel>();
   EXPECT_EQ(back.names, m.names);
