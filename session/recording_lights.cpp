@@ -164,12 +164,28 @@ void Recording::run_light_check() {
   const auto wait_until = [this](std::int64_t until_ns) {
     while (host_now().ns < until_ns && !stop_requested_.load()) std::this_thread::sleep_for(10ms);
   };
+  // The frames of a step's window have arrived: every camera has one past its end (a loaded host's
+  // frames reach the monitor a few hundred ms after their instant), or 1.5 s passed.
+  const auto wait_for_frames_past = [&](std::int64_t end_ns) {
+    const std::int64_t give_up = host_now().ns + 1'500'000'000;
+    for (std::size_t camera = 0; camera * lighting::kMeterRegions < monitor.channels();) {
+      bool arrived = false;
+      for (int r = 0; r < lighting::kMeterRegions && !arrived; ++r)
+        arrived = !monitor.levels(camera * lighting::kMeterRegions + std::size_t(r), end_ns, INT64_MAX).empty();
+      if (arrived || host_now().ns > give_up || stop_requested_.load())
+        ++camera;
+      else
+        std::this_thread::sleep_for(10ms);
+    }
+  };
   const auto settle_ns = std::chrono::nanoseconds(kSettle).count();
   std::vector<double> noise;
   std::int64_t t0 = host_now().ns;
   if (!switch_lights(0, "light check: every light off")) return;
   wait_until(t0 + 2 * settle_ns);
-  std::vector<double> dark = monitor.medians(t0 + settle_ns, host_now().ns, &noise);
+  const std::int64_t dark_end = host_now().ns;
+  wait_for_frames_past(dark_end);
+  std::vector<double> dark = monitor.medians(t0 + settle_ns, dark_end, &noise);
   std::vector<double> previous = dark;
   std::vector<std::vector<double>> alone;
   nlohmann::json lights = nlohmann::json::array();
@@ -187,7 +203,9 @@ void Recording::run_light_check() {
     }
     const std::int64_t from = changed ? *changed + settle_ns / 4 : t0;
     wait_until(from + settle_ns);
-    alone.push_back(monitor.medians(from, host_now().ns));
+    const std::int64_t end = host_now().ns;
+    wait_for_frames_past(end);
+    alone.push_back(monitor.medians(from, end));
     previous = alone.back();
     lights.push_back({{"light", names[i]}, {"latency_ms", changed ? double(*changed - t0) / 1e6 : -1.0}});
   }
