@@ -199,6 +199,10 @@ class AravisCamera {
   // Read once a second from the probe thread, where the camera offers them: its temperature (a State
   // event at the first reading and at each change of a degree) and its PTP status (at each change).
   void watch_state();
+  // The lights as last switched (set_lights), switched back on a reconnection.
+  static constexpr std::uint32_t kLightsNeverSwitched = 0xFFFFFFFFu;
+  std::atomic<std::uint32_t> lights_on_{kLightsNeverSwitched};
+  Result<std::uint32_t> apply_lights(AravisFeatures& f, std::uint32_t on);
   std::optional<double> said_temperature_;
   std::string said_ptp_status_;
   void emit(CameraEvent::Kind kind, std::string message);

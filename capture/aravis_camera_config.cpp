@@ -43,6 +43,11 @@ Status AravisCamera::apply_features() {
       if (check.clock == "latch" || w.find("timestamp latch") == std::string::npos) spdlog::warn("{}: {}", label(), w);
   }
   if (Status s = set_features(f); !s.ok()) return s;
+  // A camera that comes back (power-cycled) has its output lines low: its lights as last switched.
+  if (const std::uint32_t on = lights_on_.load(); on != kLightsNeverSwitched)
+    if (auto lit = apply_lights(f, on); !lit || lit.value() != on)
+      spdlog::warn("{}: its lights could not be switched back on as they were ({})", label(),
+                   lit ? "they read back otherwise" : lit.error().message);
   return read_back(f, check);
 }
 

@@ -32,7 +32,12 @@ Result<std::uint32_t> AravisCamera::set_lights(std::uint32_t on) {
     if (!link_->camera) return Error{fmt::format("{}: not connected: its lights cannot be switched", label())};
     cam.reset(ARV_CAMERA(g_object_ref(link_->camera.get())));
   }
+  lights_on_.store(on);  // what a reconnection switches back on (apply_features)
   AravisFeatures f(arv_camera_get_device(cam.get()));
+  return apply_lights(f, on);
+}
+
+Result<std::uint32_t> AravisCamera::apply_lights(AravisFeatures& f, std::uint32_t on) {
   std::uint32_t read_back = 0;
   int user_output = 0;  // the steady lights take UserOutput1, 2, ... in the rig file's order
   for (std::size_t i = 0; i < config_.lights.size(); ++i) {

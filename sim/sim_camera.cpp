@@ -143,6 +143,7 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
 SimCamera::~SimCamera() {
   kicker_.reset();
   stop_serving(this);
+  if (lights_) lights_->outputs(index_, 0, host_now().ns);  // unplugged: its lines go low, its lamps out
   fake_.reset();  // joins the fake camera's thread: no fill runs after this
   std::lock_guard lock(mu_);
   truth_.flush();

@@ -213,3 +213,34 @@ TEST(Lighting, ALightingCodeWithALightTheRigLacksIsRefusedBeforeRecording) {
   EXPECT_NE(r.output.find("the rig has no light 'X' (its lights: L, C, R)"), std::string::npos) << r.output;
   EXPECT_TRUE(!fs::exists(work / "sessions") || fs::is_empty(work / "sessions"));
 }
+
+// cam0, which drives L, unplugged 3 s in and back (power-cycled, its lines low) 1 s later: pvcap
+// switches its light back on as it was, and the simulator's lamp goes out and comes back.
+TEST(Lighting, ACameraThatComesBackSwitchesItsLightBackOn) {
+  const fs::path work = work_dir("lighting-reconnect");
+  std::vector<SimCameraSpec> cams(4);
+  cams[0].stop_after_s = 3.0;
+  cams[0].return_after_s = 4.0;
+  std::string yaml = sim_rig_yaml(cams, 320, 240, 30, 15, "free-run", /*sensel=*/false);
+  yaml.replace(yaml.find("store:"), 0,
+               "lights:\n  - {name: L, camera: cam0, line: Line1}\n  - {name: C, camera: cam1, line: Line1}\n");
+  std::ofstream(work / "rig.yaml") << yaml;
+  const auto r = run_pvcap(fmt::format("session --rig {} --root {} --duration 8 --no-web --lighting L-",
+                                       (work / "rig.yaml").string(), (work / "sessions").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("cam0"), std::string::npos);
+  const fs::path dir = only_session(work / "sessions");
+  ASSERT_FALSE(dir.empty());
+  // The lamps' states after the light check (its last step C alone), once the session's L- took:
+  // L, out with its camera, L again, and out when the session's end lets the cameras go.
+  const auto lamps = lamp_states(dir);
+  std::size_t at = lamps.size();
+  for (std::size_t i = 0; i < lamps.size(); ++i)
+    if (lamps[i] == "C") at = i;
+  ASSERT_LT(at, lamps.size()) << "no light check in the lamps' record";
+  std::vector<std::string> after;
+  for (std::size_t i = at + 1; i < lamps.size(); ++i)
+    if (lamps[i] != "LC") after.push_back(lamps[i]);  // L on a moment before C goes off (two cameras)
+  EXPECT_EQ(after, (std::vector<std::string>{"L", "-", "L", "-"})) << r.output;
+  EXPECT_EQ(r.output.find("could not be switched back on"), std::string::npos) << r.output;
+}
