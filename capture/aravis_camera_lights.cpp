@@ -2,13 +2,13 @@
 // `lights:`), switched through its map's own names (capture/genicam_features.h: line_selector,
 // line_source, user_output_selector, user_output_value) and read back.
 #include <algorithm>
-#include <cctype>
 
 #include <fmt/format.h>
 
 #include "capture/aravis_camera.h"
 #include "capture/aravis_camera_link.h"
 #include "capture/aravis_features.h"
+#include "capture/genicam_features.h"
 
 namespace pvcap {
 
@@ -16,12 +16,6 @@ namespace {
 bool has_entry(const AravisFeatures& f, CameraRole role, const std::string& entry) {
   const auto e = f.entries(f.name(role));
   return std::find(e.begin(), e.end(), entry) != e.end();
-}
-// The digits that end a line's name (SyncOut2 -> 2); 0 without.
-int line_digit(const std::string& line) {
-  std::size_t at = line.size();
-  while (at > 0 && std::isdigit(static_cast<unsigned char>(line[at - 1]))) --at;
-  return at == line.size() ? 0 : std::stoi(line.substr(at));
 }
 }  // namespace
 
@@ -58,7 +52,7 @@ Result<std::uint32_t> AravisCamera::apply_lights(AravisFeatures& f, std::uint32_
     if (levels == "SyncOutLevels" || levels == "SyncOutGpoLevels") {
       // Allied Vision: the line follows its general-purpose output, whose level is a bit of one register.
       if (Status s = f.set_entry(CameraRole::LineSource, "GPO"); !s.ok()) return failed(s);
-      const int bit = std::max(0, line_digit(light.line) - 1);
+      const int bit = std::max(0, line_number(light.line) - 1);
       const auto now = std::uint32_t(f.number(CameraRole::UserOutputValue).value_or(0));
       const std::uint32_t next = want ? now | 1u << bit : now & ~(1u << bit);
       if (Status s = f.set_number(CameraRole::UserOutputValue, next); !s.ok()) return failed(s);

@@ -1,5 +1,6 @@
 #include "capture/genicam_features.h"
 
+#include <cctype>
 #include <utility>
 
 namespace pvcap {
@@ -75,6 +76,13 @@ const std::vector<RoleNames>& camera_feature_names() {
       {CameraRole::FirmwareVersion, "firmware_version", {"DeviceFirmwareVersion", "DeviceVersion"}},
   };
   return table;
+}
+
+int line_number(const std::string& line) {
+  std::size_t at = line.size();
+  while (at > 0 && std::isdigit(static_cast<unsigned char>(line[at - 1]))) --at;
+  if (at == line.size() || line.size() - at > 6) return -1;
+  return std::stoi(line.substr(at));
 }
 
 const char* role_key(CameraRole role) {

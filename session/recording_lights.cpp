@@ -86,11 +86,9 @@ Result<std::uint32_t> Recording::switch_lights(std::uint32_t mask, const std::st
     for (std::size_t k = 0; k < lights.size(); ++k)
       for (std::size_t i = 0; i < rig_.lights.size(); ++i)
         if (rig_.lights[i].name == lights[k].name && (set.value() >> k & 1u)) read_back |= 1u << i;
-    cams[rig_.cameras[c].name] = lighting::lighting_code(set.value(), [&] {
-      lighting::LightNames n;
-      for (const auto& l : lights) n.push_back(l.name);
-      return n;
-    }());
+    lighting::LightNames own;  // its lights' letters, in its order
+    for (const auto& l : lights) own.push_back(l.name);
+    cams[rig_.cameras[c].name] = lighting::lighting_code(set.value(), own);
   }
   const std::int64_t at = host_now().ns;
   nlohmann::json d = {{"code", lighting::lighting_code(mask, names)},

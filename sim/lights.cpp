@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/pad_layout.h"
+#include "capture/genicam_features.h"
 
 namespace pvcap::sim {
 
@@ -14,13 +15,6 @@ namespace {
 cv::Point2d pad_centre_mm() {
   const auto c = calib::default_pad_layout().grid_corners_mm();
   return {(c[0].x + c[2].x) / 2, (c[0].y + c[2].y) / 2};
-}
-
-// The digits at the end of a line's name (Line2 -> 2, SyncOut1 -> 1); -1 without.
-int line_number(const std::string& line) {
-  std::size_t at = line.size();
-  while (at > 0 && std::isdigit(static_cast<unsigned char>(line[at - 1]))) --at;
-  return at == line.size() ? -1 : std::stoi(line.substr(at));
 }
 }  // namespace
 

@@ -228,9 +228,16 @@ TEST(Lighting, ACameraThatComesBackSwitchesItsLightBackOn) {
   const auto r = run_pvcap(fmt::format("session --rig {} --root {} --duration 8 --no-web --lighting L-",
                                        (work / "rig.yaml").string(), (work / "sessions").string()));
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("cam0"), std::string::npos);
   const fs::path dir = only_session(work / "sessions");
   ASSERT_FALSE(dir.empty());
+  // cam0 was lost and reconnected (what switched its light back on).
+  auto reader = pvcap::SessionReader::open(dir);
+  ASSERT_TRUE(reader) << reader.error().message;
+  auto events = reader.value()->events();
+  ASSERT_TRUE(events);
+  int reconnected = 0;
+  for (const auto& e : events.value()) reconnected += e.kind == "camera_reconnected";
+  EXPECT_EQ(reconnected, 1) << r.output;
   // The lamps' states after the light check (its last step C alone), once the session's L- took:
   // L, out with its camera, L again, and out when the session's end lets the cameras go.
   const auto lamps = lamp_states(dir);

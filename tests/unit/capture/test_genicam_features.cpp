@@ -224,3 +224,12 @@ TEST(GenicamFeatures, ATriggerLineTheCameraLacksIsNamedWithTheLinesItHas) {
   camera.trigger = TriggerMode::Software;  // its TriggerSource has Software and it has TriggerSoftware
   EXPECT_TRUE(check_node_map(map.value(), camera).usable());
 }
+
+// A line's number from its name, whatever the family's stem; none, or one too long, is -1.
+TEST(GenicamFeatures, ALinesNumberIsTheNumberItsNameEndsWith) {
+  EXPECT_EQ(line_number("Line2"), 2);
+  EXPECT_EQ(line_number("SyncOut1"), 1);
+  EXPECT_EQ(line_number("Line0"), 0);
+  EXPECT_EQ(line_number("UserOutput"), -1);
+  EXPECT_EQ(line_number("Line99999999999999999999"), -1) << "not thrown out of std::stoi";
+}
