@@ -174,7 +174,7 @@ void AravisCamera::set_chunks(AravisFeatures& f) {
   (void)f.set_flag(CameraRole::ChunkModeActive, false);
   if (!config_.chunk_data || !selectable) return;
   for (CameraRole role : {CameraRole::ChunkFrameCounter, CameraRole::ChunkTimestamp, CameraRole::ChunkExposureTime,
-                          CameraRole::ChunkGain}) {
+                          CameraRole::ChunkGain, CameraRole::ChunkLineStatus}) {
     if (!f.has(role)) continue;
     // The selector's entry is the value's name without "Chunk" (ChunkExposureTime: ExposureTime).
     const std::string entry = f.name(role).substr(5);

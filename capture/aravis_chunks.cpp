@@ -39,6 +39,7 @@ FrameChunks AravisChunks::read(ArvBuffer* buffer) const {
     if (role == CameraRole::ChunkTimestamp) out.timestamp = i;
     if (role == CameraRole::ChunkExposureTime) out.exposure_us = real ? f : double(i);
     if (role == CameraRole::ChunkGain) out.gain = real ? f : double(i);
+    if (role == CameraRole::ChunkLineStatus) out.line_status = i;
   }
   return out;
 }

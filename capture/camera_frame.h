@@ -70,6 +70,7 @@ struct FrameChunks {
   std::optional<std::int64_t> timestamp;       // its timestamp, in the camera's ticks (ns on SFNC 2)
   std::optional<double> exposure_us;           // the exposure this frame had
   std::optional<double> gain;                  // its gain, in the camera's unit (dB on SFNC 2)
+  std::optional<std::int64_t> line_status;     // its lines' levels, bit N for LineN (ChunkLineStatusAll)
 };
 
 struct CameraFrame {

@@ -63,6 +63,8 @@ const std::vector<RoleNames>& camera_feature_names() {
       {CameraRole::ChunkExposureTime, "chunk_exposure_time", {"ChunkExposureTime"}},
       // Basler ace classic: the gain of all channels.
       {CameraRole::ChunkGain, "chunk_gain", {"ChunkGain", "ChunkGainAll"}},
+      // Basler ace 2 and ace classic; FLIR Blackfly S (the lines' levels at the exposure's end).
+      {CameraRole::ChunkLineStatus, "chunk_line_status", {"ChunkLineStatusAll", "ChunkExposureEndLineStatusAll"}},
       {CameraRole::ActionSelector, "action_selector", {"ActionSelector"}},
       {CameraRole::ActionDeviceKey, "action_device_key", {"ActionDeviceKey"}},
       {CameraRole::ActionGroupKey, "action_group_key", {"ActionGroupKey"}},

@@ -46,6 +46,8 @@ enum class CameraRole {
   ChunkTimestamp,
   ChunkExposureTime,
   ChunkGain,
+  // Every line's level as the frame was taken, a bit per line (bit N: LineN).
+  ChunkLineStatus,
   // Scheduled action commands (GigE Vision 2.0 ACTION_CMD): the keys a camera answers to.
   ActionSelector,
   ActionDeviceKey,

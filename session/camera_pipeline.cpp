@@ -251,6 +251,7 @@ class CameraWorker {
     rec.chunk_timestamp = frame.chunks.timestamp;
     rec.chunk_exposure_us = frame.chunks.exposure_us;
     rec.chunk_gain = frame.chunks.gain;
+    rec.chunk_line_status = frame.chunks.line_status;
     if (frame.identity != FrameIdentity::Own) {
       // A buffer that is not the frame it names (the frame it was is counted in a gap): recorded,
       // never used, with sequence 0 (unknown). The id it carries (kept in frame_id) is another

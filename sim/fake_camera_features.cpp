@@ -149,7 +149,7 @@ std::string sfnc2_map() {
 )",
       kFrameRateEnableRegister, kFramePeriodRegister, kBalanceWhiteAutoRegister, kDeviceTemperatureRegister);
   text.insert(text.rfind("</RegisterDescription>"), features);
-  // Chunk data: the four values each frame carries (sim/gvsp_sender.h sends them), and a payload that
+  // Chunk data: the five values each frame carries (sim/gvsp_sender.h sends them), and a payload that
   // grows by them while chunk mode is on.
   const auto int_register = [](const char* name, std::uint32_t address) {
     return fmt::format(
@@ -172,6 +172,7 @@ std::string sfnc2_map() {
 <Enumeration Name="ChunkSelector" NameSpace="Standard">
 <EnumEntry Name="FrameID"><Value>0</Value></EnumEntry><EnumEntry Name="Timestamp"><Value>1</Value></EnumEntry>
 <EnumEntry Name="ExposureTime"><Value>2</Value></EnumEntry><EnumEntry Name="Gain"><Value>3</Value></EnumEntry>
+<EnumEntry Name="LineStatusAll"><Value>4</Value></EnumEntry>
 <pValue>PvcapChunkSelectorRegister</pValue></Enumeration>
 <Boolean Name="ChunkEnable" NameSpace="Standard"><pValue>PvcapChunkEnableRegister</pValue></Boolean>
 )";
@@ -182,6 +183,7 @@ std::string sfnc2_map() {
   chunks += chunk_value("ChunkTimestamp", "IntReg", kTimestampChunkId);
   chunks += chunk_value("ChunkExposureTime", "FloatReg", kExposureTimeChunkId);
   chunks += chunk_value("ChunkGain", "FloatReg", kGainChunkId);
+  chunks += chunk_value("ChunkLineStatusAll", "IntReg", kLineStatusChunkId);
   text.insert(text.rfind("</RegisterDescription>"), chunks);
   const std::string payload = "<Formula>WIDTH * HEIGHT * ((PIXELFORMAT>>16)&amp;0xFF) / 8</Formula>";
   const auto at = text.find(payload);
@@ -309,9 +311,9 @@ class FeatureService {
                                    guint32(400 + (now_ns - c.served_ns) / 200'000'000));
   }
   // Each line's level from its source: off, high while acquiring (ExposureActive: a strobe that the
-  // simulated lamp shows as lit while the camera streams), or the selected user output's value.
+  // simulated lamp shows as lit while the camera streams), or the selected user output's value; kept
+  // in the line-status register (each frame's chunk reads it) and told to the lamps.
   static void serve_outputs(Camera& c, std::int64_t now_ns) {
-    if (!c.outputs) return;
     guint32 acquiring = 0;
     arv_fake_camera_read_register(c.fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION, &acquiring);
     std::uint32_t mask = 0;
@@ -326,7 +328,8 @@ class FeatureService {
     }
     if (mask == c.output_mask) return;
     c.output_mask = mask;
-    c.outputs(mask, now_ns);
+    arv_fake_camera_write_register(c.fake, kLineStatusRegister, mask);
+    if (c.outputs) c.outputs(mask, now_ns);
   }
   void run() {
     // A camera's latch and trigger input are its hardware's; here a thread serves them every 200 us,

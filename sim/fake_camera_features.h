@@ -29,13 +29,16 @@ inline constexpr std::uint32_t kTriggerSourceRegister = 0xF010;     // 0 = Line0
 inline constexpr std::uint32_t kFrameRateEnableRegister = 0xF014;   // SFNC 2 map: AcquisitionFrameRateEnable
 inline constexpr std::uint32_t kFramePeriodRegister = 0xF018;       // SFNC 2 map: the rate asked, as a period (us)
 inline constexpr std::uint32_t kBalanceWhiteAutoRegister = 0xF01C;  // SFNC 2 map: 0 Off, 2 Continuous
-// SFNC 2 map: ChunkModeActive, ChunkSelector (0 FrameID, 1 Timestamp, 2 ExposureTime, 3 Gain) and
-// ChunkEnable (one for all: the camera sends its four chunks together, sim/gvsp_sender.h).
+// SFNC 2 map: ChunkModeActive, ChunkSelector (0 FrameID, 1 Timestamp, 2 ExposureTime, 3 Gain,
+// 4 LineStatusAll) and ChunkEnable (one for all: the camera sends its five chunks together,
+// sim/gvsp_sender.h).
 inline constexpr std::uint32_t kChunkModeRegister = 0xF020;
 inline constexpr std::uint32_t kChunkSelectorRegister = 0xF024;
 inline constexpr std::uint32_t kChunkEnableRegister = 0xF028;
 // SFNC 2 map: DeviceTemperature, in tenths of a degree: 40 C when served, rising 0.5 C a second.
 inline constexpr std::uint32_t kDeviceTemperatureRegister = 0xF030;
+// SFNC 2 map: its lines' levels as served (bit N: LineN high), which each frame's ChunkLineStatusAll carries.
+inline constexpr std::uint32_t kLineStatusRegister = 0xF034;
 // Every map: output lines as SFNC names them (LineSelector Line0-Line3, LineSource Off,
 // ExposureActive, UserOutput1-3; UserOutputSelector, UserOutputValue), a register per line and per
 // user output (selected by GenICam's pIndex), which drive the simulated rig's lamps (sim/lights.h).

@@ -33,6 +33,7 @@ std::vector<std::uint8_t> chunk_data(const GvspFrame& f) {
   value(f.timestamp, kTimestampChunkId);
   value(std::bit_cast<std::uint64_t>(f.exposure_us), kExposureTimeChunkId);
   value(std::bit_cast<std::uint64_t>(f.gain), kGainChunkId);
+  value(f.line_status, kLineStatusChunkId);
   return out;
 }
 

@@ -23,8 +23,9 @@ inline constexpr std::uint32_t kFrameIdChunkId = 0x00010001;
 inline constexpr std::uint32_t kTimestampChunkId = 0x00010002;
 inline constexpr std::uint32_t kExposureTimeChunkId = 0x00010003;
 inline constexpr std::uint32_t kGainChunkId = 0x00010004;
-// What the chunks add to a frame's payload: the image's tag, and four 8-byte values with their tags.
-inline constexpr std::size_t kChunkBytes = 8 + 4 * (8 + 8);
+inline constexpr std::uint32_t kLineStatusChunkId = 0x00010005;
+// What the chunks add to a frame's payload: the image's tag, and five 8-byte values with their tags.
+inline constexpr std::size_t kChunkBytes = 8 + 5 * (8 + 8);
 
 struct GvspFrame {
   std::uint16_t block_id = 0;  // the frame id (never 0 on GigE Vision)
@@ -34,6 +35,7 @@ struct GvspFrame {
   std::span<const std::uint8_t> image;
   std::uint64_t frame_counter = 0;  // the chunks' values
   double exposure_us = 0, gain = 0;
+  std::uint64_t line_status = 0;  // bit N: LineN high
 };
 
 // The chunk data of `frame` as it follows its image in the payload.

@@ -242,7 +242,7 @@ void SimCamera::wobble_exposure() {
 void SimCamera::send_with_chunks(ArvBuffer* buffer, ArvPixelFormat format, std::int64_t exposure_ns) {
   if (!sender_) return;
   ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(fake_.get());
-  guint32 chunk_mode = 0, gain = 0, packet_size = 0;
+  guint32 chunk_mode = 0, gain = 0, packet_size = 0, line_status = 0;
   arv_fake_camera_read_register(fake, kChunkModeRegister, &chunk_mode);
   if (bool(chunk_mode) != engine_muted_) {  // read by the engine after this fill, for this frame's packets
     engine_muted_ = bool(chunk_mode);
@@ -253,6 +253,7 @@ void SimCamera::send_with_chunks(ArvBuffer* buffer, ArvPixelFormat format, std::
   sockaddr_in destination{};
   if (!to || !g_socket_address_to_native(to.get(), &destination, sizeof destination, nullptr)) return;
   arv_fake_camera_read_register(fake, ARV_FAKE_CAMERA_REGISTER_GAIN_RAW, &gain);
+  arv_fake_camera_read_register(fake, kLineStatusRegister, &line_status);
   arv_fake_camera_read_register(fake, gev::stream_packet_size_register(0), &packet_size);
   GvspFrame f;
   f.block_id = std::uint16_t(arv_buffer_get_frame_id(buffer));
@@ -268,6 +269,7 @@ void SimCamera::send_with_chunks(ArvBuffer* buffer, ArvPixelFormat format, std::
   f.frame_counter = arv_buffer_get_frame_id(buffer);
   f.exposure_us = double(exposure_ns) / 1000.0;
   f.gain = double(gain);
+  f.line_status = line_status;
   sender_->send(destination, packet_size & 0xffff, f, packet_loss_);
 }
 

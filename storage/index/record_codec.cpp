@@ -9,12 +9,14 @@
 namespace pvcap {
 namespace {
 
-// Each record kind's fields, in one list that both directions walk.
+// Each record kind's fields, in one list that both directions walk; a field added later is walked only
+// in the codec versions that have it (`f.version`).
 template <class F>
 void fields(FrameRecord& r, F&& f) {
   f(r.device_id), f(r.connection), f(r.sequence), f(r.frame_id), f(r.device_ns), f(r.host_ns), f(r.aravis_system_ns),
       f(r.status), f(r.kept), f(r.reason), f(r.video_file_id), f(r.video_index), f(r.mapped_ns), f(r.video_pts_ms),
       f(r.checksum), f(r.chunk_frame_counter), f(r.chunk_timestamp), f(r.chunk_exposure_us), f(r.chunk_gain);
+  if (f.version >= 2) f(r.chunk_line_status);
 }
 template <class F>
 void fields(PressureRecord& r, F&& f) {
@@ -62,13 +64,17 @@ void fields(OperatorNoteRecord& r, F&& f) {
   f(r.host_ns), f(r.text);
 }
 
-template <class T>
-concept HasFields = requires(T& t) {
-  fields(t, [](auto&) {});
+struct FieldProbe {
+  int version = 0;
+  template <class T>
+  void operator()(T&) {}
 };
+template <class T>
+concept HasFields = requires(T& t, FieldProbe& probe) { fields(t, probe); };
 
 struct Writer {
   std::string& out;
+  int version;
   template <class T>
   void operator()(const T& v) {
     if constexpr (std::is_arithmetic_v<T>) {
@@ -91,6 +97,7 @@ struct Writer {
 struct Reader {
   const std::string& in;
   std::size_t& pos;
+  int version;
   bool ok = true;
   template <class T>
   void operator()(T& v) {
@@ -140,15 +147,15 @@ std::optional<IndexRecord> decode_kind(std::size_t kind, Reader& r) {
 
 }  // namespace
 
-void encode_record(const IndexRecord& record, std::string& out) {
-  Writer w{out};
+void encode_record(const IndexRecord& record, std::string& out, int version) {
+  Writer w{out, version};
   w(std::uint8_t(record.index()));
   std::visit([&](const auto& r) { fields(const_cast<std::decay_t<decltype(r)>&>(r), w); }, record);
 }
 
-std::optional<IndexRecord> decode_record(const std::string& bytes, std::size_t& pos) {
+std::optional<IndexRecord> decode_record(const std::string& bytes, std::size_t& pos, int version) {
   std::size_t at = pos;
-  Reader r{bytes, at};
+  Reader r{bytes, at, version};
   std::uint8_t kind = 0;
   r(kind);
   if (!r.ok) return std::nullopt;
@@ -158,20 +165,28 @@ std::optional<IndexRecord> decode_record(const std::string& bytes, std::size_t& 
 }
 
 namespace {
-constexpr char kChunkMagic[4] = {'P', 'V', 'I', 'X'};
+// A chunk's magic says its records' codec version: "PVIX" 1, "PVI2" 2.
+constexpr char kChunkMagics[2][4] = {{'P', 'V', 'I', 'X'}, {'P', 'V', 'I', '2'}};
+static_assert(std::size(kChunkMagics) == kRecordCodecVersion);
+
+int chunk_version(const char* magic) {
+  for (int v = 1; v <= kRecordCodecVersion; ++v)
+    if (std::memcmp(magic, kChunkMagics[v - 1], 4) == 0) return v;
+  return 0;
+}
 
 std::uint32_t crc_of(const char* data, std::size_t size) {
   return std::uint32_t(crc32(0L, reinterpret_cast<const Bytef*>(data), uInt(size)));
 }
 }  // namespace
 
-void encode_record_chunk(const std::vector<IndexRecord>& records, std::string& out) {
+void encode_record_chunk(const std::vector<IndexRecord>& records, std::string& out, int version) {
   const std::size_t at = out.size();
   out.append(kRecordChunkHeader, '\0');
-  for (const auto& r : records) encode_record(r, out);
+  for (const auto& r : records) encode_record(r, out, version);
   const auto size = std::uint32_t(out.size() - at - kRecordChunkHeader);
   const auto crc = crc_of(out.data() + at + kRecordChunkHeader, size);
-  std::memcpy(out.data() + at, kChunkMagic, 4);
+  std::memcpy(out.data() + at, kChunkMagics[version - 1], 4);
   std::memcpy(out.data() + at + 4, &size, 4);
   std::memcpy(out.data() + at + 8, &crc, 4);
 }
@@ -181,7 +196,8 @@ RecordChunks decode_record_chunks(const std::string& bytes) {
   std::size_t pos = 0;
   while (pos + kRecordChunkHeader <= bytes.size()) {
     std::uint32_t size = 0, crc = 0;
-    if (std::memcmp(bytes.data() + pos, kChunkMagic, 4) != 0) break;
+    const int version = chunk_version(bytes.data() + pos);
+    if (version == 0) break;
     std::memcpy(&size, bytes.data() + pos + 4, 4);
     std::memcpy(&crc, bytes.data() + pos + 8, 4);
     if (size > bytes.size() - pos - kRecordChunkHeader) break;  // cut by the crash
@@ -192,7 +208,7 @@ RecordChunks decode_record_chunks(const std::string& bytes) {
     std::vector<IndexRecord> chunk;
     std::size_t at = 0;
     while (at < body.size()) {
-      auto r = decode_record(body, at);
+      auto r = decode_record(body, at, version);
       if (!r) break;
       chunk.push_back(std::move(*r));
     }

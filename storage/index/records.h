@@ -66,11 +66,13 @@ struct FrameRecord {
   // CRC-32 of the picture kept in a raw video, taken at capture (storage/video/frame_checksum.h)
   std::optional<std::uint32_t> checksum;
   // The frame's own state from its chunk data, where the camera sent it (capture/aravis_chunks.h):
-  // the camera's frame counter, its timestamp (device ticks), exposure (us) and gain.
+  // the camera's frame counter, its timestamp (device ticks), exposure (us) and gain; and its lines'
+  // levels as the frame was taken (bit N: LineN high; store version 7).
   std::optional<std::int64_t> chunk_frame_counter;
   std::optional<std::int64_t> chunk_timestamp;
   std::optional<double> chunk_exposure_us;
   std::optional<double> chunk_gain;
+  std::optional<std::int64_t> chunk_line_status;
   bool operator==(const FrameRecord&) const = default;
 };
 

@@ -211,6 +211,12 @@ ALTER TABLE frames ADD COLUMN chunk_exposure_us REAL;
 ALTER TABLE frames ADD COLUMN chunk_gain REAL;
 )sql";
 
+// 6 -> 7: each frame's line levels from its chunk data (ChunkLineStatusAll: the lights a camera
+// drives, per frame); NULL where the camera sent none, as in every older store.
+constexpr const char* kTo7 = R"sql(
+ALTER TABLE frames ADD COLUMN chunk_line_status INTEGER;
+)sql";
+
 // Decodes every stored device payload once and stores its counts in the portable form. Read in
 // pages by rowid, each page before its updates: rows are never changed under a running SELECT.
 void fill_pressure_counts(sqlite::Database& db, const std::function<void(const std::string&)>& progress) {
@@ -274,6 +280,7 @@ void apply_step(sqlite::Database& db, int version, const std::function<void(cons
   if (version == 3) db.exec(kTo4);
   if (version == 4) db.exec(kTo5);
   if (version == 5) db.exec(kTo6);
+  if (version == 6) db.exec(kTo7);
   db.set_user_version(version + 1);
 }
 }  // namespace

@@ -1,7 +1,7 @@
 #pragma once
 // The session index's schema and its migrations. PRAGMA user_version is the schema
 // version; docs/store.md documents every table of the current one. A store written
-// by an older pvcap is upgraded step by step (1 -> 2 -> ... -> 6), each step in its own
+// by an older pvcap is upgraded step by step (1 -> 2 -> ... -> 7), each step in its own
 // transaction, so an interrupted upgrade leaves a consistent older version behind.
 #include <filesystem>
 #include <functional>
@@ -20,7 +20,8 @@ namespace pvcap {
 // 5: checksums: each stored frame's CRC-32, taken at capture (frames.checksum, pressure_frames.checksum)
 // 6: each frame's own state from its chunk data (frames.chunk_frame_counter, chunk_timestamp,
 //    chunk_exposure_us, chunk_gain)
-inline constexpr int kSchemaVersion = 6;
+// 7: each frame's line levels from its chunk data (frames.chunk_line_status: the lights, per frame)
+inline constexpr int kSchemaVersion = 7;
 // The oldest version SessionReader reads as it is (3 differs from 4 only by colour-only videos).
 inline constexpr int kOldestReadableSchemaVersion = 3;
 

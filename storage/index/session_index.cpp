@@ -39,8 +39,8 @@ SessionIndex::SessionIndex(std::unique_ptr<sqlite::Database> db) : db_(std::move
   insert_frame_.emplace(db_->prepare(
       "INSERT INTO frames (device_id, connection, sequence, frame_id, device_ns, host_ns, aravis_system_ns, status, "
       "kept, reason, video_file_id, video_index, mapped_ns, video_pts_ms, checksum, chunk_frame_counter, "
-      "chunk_timestamp, chunk_exposure_us, chunk_gain) "
-      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)"));
+      "chunk_timestamp, chunk_exposure_us, chunk_gain, chunk_line_status) "
+      "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)"));
   insert_drop_.emplace(db_->prepare(
       "INSERT INTO drops (device_id, connection, first_sequence, count, reason, host_ns) VALUES (?,?,?,?,?,?)"));
   insert_pressure_.emplace(db_->prepare(
@@ -199,7 +199,7 @@ void SessionIndex::add_frame(const FrameRecord& f) {
       ->bind_all(f.device_id, std::int64_t(f.connection), f.sequence, f.frame_id, f.device_ns, f.host_ns,
                  f.aravis_system_ns, f.status, int(f.kept), f.reason, f.video_file_id, f.video_index, f.mapped_ns,
                  f.video_pts_ms, checksum_column(f.checksum), f.chunk_frame_counter, f.chunk_timestamp,
-                 f.chunk_exposure_us, f.chunk_gain)
+                 f.chunk_exposure_us, f.chunk_gain, f.chunk_line_status)
       .run();
 }
 

@@ -377,16 +377,18 @@ Result<std::vector<FrameTiming>> SessionReader::frame_timing(std::int64_t device
   return guarded(dir_, [&]() -> Result<std::vector<FrameTiming>> {
     const bool camera =
         std::any_of(cameras_.begin(), cameras_.end(), [&](const CameraInfo& c) { return c.device_id == device_id; });
-    // Stores before version 6 have no chunk data.
-    const char* chunks = info_.schema_version >= 6
-                             ? "chunk_frame_counter, chunk_timestamp, chunk_exposure_us, chunk_gain"
-                             : "NULL, NULL, NULL, NULL";
+    // Stores before version 6 have no chunk data, before version 7 no line levels.
+    const char* chunks = info_.schema_version >= 7 ? "chunk_frame_counter, chunk_timestamp, chunk_exposure_us, "
+                                                     "chunk_gain, chunk_line_status"
+                         : info_.schema_version >= 6
+                             ? "chunk_frame_counter, chunk_timestamp, chunk_exposure_us, chunk_gain, NULL"
+                             : "NULL, NULL, NULL, NULL, NULL";
     auto q = db_->prepare(camera ? fmt::format("SELECT connection, sequence, host_ns, device_ns, mapped_ns, status = "
                                                "'good', kept, frame_id, 0, {} FROM frames WHERE device_id = ? ORDER "
                                                "BY host_ns",
                                                chunks)
                                  : std::string("SELECT connection, sequence, host_ns, device_ns, mapped_ns, 1, 0, 0, "
-                                               "host_wait_ns, NULL, NULL, NULL, NULL FROM pressure_frames WHERE "
+                                               "host_wait_ns, NULL, NULL, NULL, NULL, NULL FROM pressure_frames WHERE "
                                                "device_id = ? ORDER BY host_ns"));
     q.bind_all(device_id);
     std::vector<FrameTiming> out;
@@ -394,7 +396,7 @@ Result<std::vector<FrameTiming>> SessionReader::frame_timing(std::int64_t device
     while (q.step())
       out.push_back({std::uint32_t(q.column_int(0)), std::uint64_t(q.column_int(1)), q.column_int(2), q.column_int(3),
                      opt_int(q, 4), q.column_int(5) != 0, q.column_int(6) != 0, std::uint64_t(q.column_int(7)),
-                     q.column_int(8), opt_int(q, 9), opt_int(q, 10), opt_real(11), opt_real(12)});
+                     q.column_int(8), opt_int(q, 9), opt_int(q, 10), opt_real(11), opt_real(12), opt_int(q, 13)});
     return out;
   });
 }

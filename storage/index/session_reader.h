@@ -134,9 +134,11 @@ struct FrameTiming {
   std::uint64_t frame_id = 0;     // camera: the id the camera sent it with
   std::int64_t host_wait_ns = 0;  // Sensel: request-to-answer time (host_ns is their midpoint)
   // Camera: the frame's own state from its chunk data (store version 6; absent where the camera sent
-  // none): its counter, timestamp (device ticks), exposure (us) and gain.
+  // none): its counter, timestamp (device ticks), exposure (us) and gain; its lines' levels (bit N:
+  // LineN high; version 7).
   std::optional<std::int64_t> chunk_frame_counter, chunk_timestamp;
   std::optional<double> chunk_exposure_us, chunk_gain;
+  std::optional<std::int64_t> chunk_line_status;
 };
 
 // One pressure frame as the device sent it (the wire frame), on the session clock.

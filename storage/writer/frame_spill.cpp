@@ -23,11 +23,12 @@ void note_age(FrameSpillQueue::DiskAge& worst, std::int64_t arrived_host_ns, boo
   if (age > worst.worst_ns) worst = {age, arrived_host_ns, via_spill};
 }
 
-// Record: "PVS3", u32 total bytes, u32 CRC-32 of everything after it, then the fields below and the
-// pixels. Little-endian (the machine's; a spill is read back by the same machine). "PVS2" records
-// (pvcap before store version 6) are the same without the frame's chunk data, "PVSP" records (before
-// version 5) without its capture checksum too.
-constexpr char kMagic[4] = {'P', 'V', 'S', '3'};
+// Record: "PVS4", u32 total bytes, u32 CRC-32 of everything after it, then the fields below and the
+// pixels. Little-endian (the machine's; a spill is read back by the same machine). "PVS3" records
+// (pvcap before store version 7) are the same without the frame's line levels, "PVS2" records (before
+// version 6) without its chunk data, "PVSP" records (before version 5) without its capture checksum too.
+constexpr char kMagic[4] = {'P', 'V', 'S', '4'};
+constexpr char kMagicWithoutLines[4] = {'P', 'V', 'S', '3'};
 constexpr char kMagicWithoutChunks[4] = {'P', 'V', 'S', '2'};
 constexpr char kMagicWithoutChecksum[4] = {'P', 'V', 'S', 'P'};
 constexpr std::size_t kPrefix = 12;             // magic, size, CRC
@@ -94,11 +95,12 @@ std::vector<std::uint8_t> fields(const SpillItem& item) {
   b.put(std::uint8_t(r.checksum.has_value()));
   b.put(r.checksum.value_or(0));
   b.put(std::uint8_t((r.chunk_frame_counter ? 1 : 0) | (r.chunk_timestamp ? 2 : 0) | (r.chunk_exposure_us ? 4 : 0) |
-                     (r.chunk_gain ? 8 : 0)));
+                     (r.chunk_gain ? 8 : 0) | (r.chunk_line_status ? 16 : 0)));
   b.put(r.chunk_frame_counter.value_or(0));
   b.put(r.chunk_timestamp.value_or(0));
   b.put(r.chunk_exposure_us.value_or(0.0));
   b.put(r.chunk_gain.value_or(0.0));
+  b.put(r.chunk_line_status.value_or(0));
   b.put(std::int32_t(item.image.rows));
   b.put(std::int32_t(item.image.cols));
   b.put(std::int32_t(item.image.type()));
@@ -130,7 +132,8 @@ Error unread(int why, const char* cut) {
 Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off) {
   std::uint8_t prefix[kPrefix];
   if (const int why = full_pread(fd, prefix, kPrefix, off)) return unread(why, "cut before its header");
-  const bool with_chunks = std::memcmp(prefix, kMagic, 4) == 0;
+  const bool with_lines = std::memcmp(prefix, kMagic, 4) == 0;
+  const bool with_chunks = with_lines || std::memcmp(prefix, kMagicWithoutLines, 4) == 0;
   const bool with_checksum = with_chunks || std::memcmp(prefix, kMagicWithoutChunks, 4) == 0;
   if (!with_checksum && std::memcmp(prefix, kMagicWithoutChecksum, 4) != 0) return Error{"not a spill record"};
   std::uint32_t size = 0, crc = 0;
@@ -149,7 +152,7 @@ Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off
   SpillRecord out;
   FrameRecord& r = out.rec;
   std::uint8_t has_mapped = 0, has_checksum = 0, has_chunks = 0;
-  std::int64_t mapped = 0, chunk_counter = 0, chunk_timestamp = 0;
+  std::int64_t mapped = 0, chunk_counter = 0, chunk_timestamp = 0, chunk_lines = 0;
   double chunk_exposure = 0, chunk_gain = 0;
   std::uint32_t checksum = 0;
   std::int32_t rows = 0, cols = 0, type = 0;
@@ -159,6 +162,7 @@ Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off
       !c.get_string(r.status) || (with_checksum && (!c.get(has_checksum) || !c.get(checksum))) ||
       (with_chunks && (!c.get(has_chunks) || !c.get(chunk_counter) || !c.get(chunk_timestamp) ||
                        !c.get(chunk_exposure) || !c.get(chunk_gain))) ||
+      (with_lines && !c.get(chunk_lines)) ||
       !c.get(rows) || !c.get(cols) || !c.get(type) || !c.get(pixel_bytes))
     return Error{"fields cut short"};
   if (has_mapped) r.mapped_ns = mapped;
@@ -167,6 +171,7 @@ Result<std::pair<SpillRecord, std::size_t>> read_record(int fd, std::int64_t off
   if (has_chunks & 2) r.chunk_timestamp = chunk_timestamp;
   if (has_chunks & 4) r.chunk_exposure_us = chunk_exposure;
   if (has_chunks & 8) r.chunk_gain = chunk_gain;
+  if (has_chunks & 16) r.chunk_line_status = chunk_lines;
   if (rows <= 0 || cols <= 0 || rows > 65536 || cols > 65536 ||
       (type != CV_8UC1 && type != CV_8UC3 && type != CV_16UC1))
     return Error{fmt::format("impossible image {}x{} of type {}", cols, rows, type)};

@@ -3,6 +3,7 @@
 // what pvcap confirms is what the images show, checked against the simulator's own record of its lamps.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -21,9 +22,11 @@ using nlohmann::json;
 namespace {
 
 // Four 320x240 cameras at 30 Hz, the Sensel, and three lamps: L and C on the first two cameras'
-// Line1, R on cam2's Line2 (a camera may drive any of its lines).
+// Line1, R on cam2's Line2 (a camera may drive any of its lines). cam1 is an SFNC 2 camera: its frames
+// carry their lines' levels in their chunks.
 fs::path write_lit_rig(const fs::path& dir) {
-  std::string yaml = sim_rig_yaml({{}, {}, {}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  std::string yaml =
+      sim_rig_yaml({{}, {.node_map = "sfnc2"}, {}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
   yaml.replace(yaml.find("store:"), 0,
                "lights:\n  - {name: L, camera: cam0, line: Line1}\n  - {name: C, camera: cam1, line: Line1}\n"
                "  - {name: R, camera: cam2, line: Line2}\n");
@@ -134,11 +137,13 @@ TEST(Lighting, AProtocolWhoseLightingChangesBetweenActionsHasEverySwitchConfirme
   auto events = reader.value()->protocol_events();
   ASSERT_TRUE(events);
   std::vector<std::string> commanded;
+  std::vector<std::int64_t> commanded_at;
   for (const auto& e : events.value()) {
     if (e.kind != "lighting") continue;
     const json d = json::parse(e.detail);
     EXPECT_EQ(d["read_back"], d["code"]) << e.detail;
     commanded.push_back(d["code"].get<std::string>());
+    commanded_at.push_back(e.host_ns);
   }
   // The check (---, L--, -C-, --R), the session's L-R, then the takes' L--, -C-, L-R.
   const std::vector<std::string> want = {"---", "L--", "-C-", "--R", "L-R", "L--", "-C-", "L-R"};
@@ -146,6 +151,38 @@ TEST(Lighting, AProtocolWhoseLightingChangesBetweenActionsHasEverySwitchConfirme
   const auto lamps = lamp_states(s.dir);
   std::set<std::string> lit(lamps.begin(), lamps.end());
   for (const char* state : {"L", "C", "R", "LR"}) EXPECT_TRUE(lit.count(state)) << "the lamps were never " << state;
+
+  // cam1's frames carry its lines' levels (its chunks): Line1, light C's, is high in the frames taken
+  // while C was commanded on and low otherwise (away from each switch's first 100 ms), and its other
+  // lines are low throughout.
+  const auto& cameras = reader.value()->cameras();
+  const auto cam1 = std::find_if(cameras.begin(), cameras.end(), [](const auto& c) { return c.name == "cam1"; });
+  ASSERT_NE(cam1, cameras.end());
+  auto frames = reader.value()->frame_timing(cam1->device_id);
+  ASSERT_TRUE(frames) << frames.error().message;
+  std::size_t with_lines = 0, high = 0, low = 0, disagreeing = 0;
+  for (const auto& f : frames.value()) {
+    if (!f.good) continue;
+    ASSERT_TRUE(f.chunk_line_status) << "cam1's frame " << f.sequence << " without its lines' levels";
+    ++with_lines;
+    const auto after = std::upper_bound(commanded_at.begin(), commanded_at.end(), f.host_ns);
+    if (after == commanded_at.begin() || f.host_ns - *(after - 1) < 100'000'000) continue;
+    const bool c_on = commanded[std::size_t(after - commanded_at.begin()) - 1].find('C') != std::string::npos;
+    const bool line1 = (*f.chunk_line_status & 2) != 0;
+    (line1 ? high : low) += 1;
+    disagreeing += line1 != c_on || (*f.chunk_line_status & ~std::int64_t(2)) != 0;
+  }
+  EXPECT_GT(with_lines, 100u);
+  EXPECT_GT(high, 20u) << "C was commanded on for the check and a take";
+  EXPECT_GT(low, 20u);
+  EXPECT_EQ(disagreeing, 0u);
+  // The other cameras (Aravis' own map) send no chunks: their frames have none.
+  for (const auto& c : cameras) {
+    if (c.name == "cam1") continue;
+    auto other = reader.value()->frame_timing(c.device_id);
+    ASSERT_TRUE(other);
+    for (const auto& f : other.value()) EXPECT_FALSE(f.chunk_line_status) << c.name;
+  }
 }
 
 // A lamp that never comes on and lamps that follow their lines 0.4 s late: the light check names the

@@ -44,25 +44,26 @@ struct Expected {
   const char* bandwidth;
   const char* chunk_counter;  // the chunk values of a frame's own state ("" when the map has none)
   const char* chunk_gain;
+  const char* chunk_line_status;  // the lines' levels per frame ("" when the map has none)
 };
 // As ../shared/data/genicam/README.md describes each map.
 const Expected kExpected[] = {
     {"FLIR-BFS-PGE-23S6C.xml", "TimestampLatch", "ExposureTime", "AcquisitionFrameRate", "AcquisitionFrameRateEnable",
-     "Gain", "GevIEEE1588", "GevSCPD", "ChunkFrameID", "ChunkGain"},
+     "Gain", "GevIEEE1588", "GevSCPD", "ChunkFrameID", "ChunkGain", "ChunkExposureEndLineStatusAll"},
     {"FLIR_ORX_10G_51S5M.xml", "TimestampLatch", "ExposureTime", "AcquisitionFrameRate", "AcquisitionFrameRateEnable",
-     "Gain", "GevIEEE1588", "GevSCPD", "ChunkFrameID", "ChunkGain"},
+     "Gain", "GevIEEE1588", "GevSCPD", "ChunkFrameID", "ChunkGain", ""},
     {"PGR_Blackfly_50S5C.xml", "GevTimestampControlLatch", "ExposureTime", "AcquisitionFrameRate",
-     "AcquisitionFrameRateEnable", "Gain", "", "GevSCPD", "ChunkFrameCounter", "ChunkGain"},
+     "AcquisitionFrameRateEnable", "Gain", "", "GevSCPD", "ChunkFrameCounter", "ChunkGain", ""},
     {"PGR_GS3_PGE_23S6C.xml", "GevTimestampControlLatch", "ExposureTime", "AcquisitionFrameRate",
-     "AcquisitionFrameRateEnabled", "Gain", "", "GevSCPD", "ChunkFrameCounter", "ChunkGain"},
+     "AcquisitionFrameRateEnabled", "Gain", "", "GevSCPD", "ChunkFrameCounter", "ChunkGain", ""},
     {"Basler-acA1920-25gm.xml", "GevTimestampControlLatch", "ExposureTimeAbs", "AcquisitionFrameRateAbs",
-     "AcquisitionFrameRateEnable", "GainRaw", "", "GevSCPD", "ChunkFramecounter", "ChunkGainAll"},
+     "AcquisitionFrameRateEnable", "GainRaw", "", "GevSCPD", "ChunkFramecounter", "ChunkGainAll", "ChunkLineStatusAll"},
     {"Basler-a2A2600-20gmBAS.xml", "TimestampLatch", "ExposureTime", "AcquisitionFrameRate",
-     "AcquisitionFrameRateEnable", "Gain", "PtpEnable", "GevSCPD", "ChunkFrameID", "ChunkGain"},
+     "AcquisitionFrameRateEnable", "Gain", "PtpEnable", "GevSCPD", "ChunkFrameID", "ChunkGain", "ChunkLineStatusAll"},
     {"AVT_Mako_G158C.xml", "GevTimestampControlLatch", "ExposureTimeAbs", "AcquisitionFrameRateAbs", "", "Gain", "",
-     "StreamBytesPerSecond", "", ""},
+     "StreamBytesPerSecond", "", "", ""},
     {"AVT_Manta_G507C.xml", "GevTimestampControlLatch", "ExposureTimeAbs", "AcquisitionFrameRateAbs", "", "Gain",
-     "PtpMode", "StreamBytesPerSecond", "", ""},
+     "PtpMode", "StreamBytesPerSecond", "", "", ""},
 };
 }  // namespace
 
@@ -88,6 +89,7 @@ TEST(GenicamFeatures, EverySharedNodeMapGivesTheLatchAndTheMapsOwnExposureAndRat
     // mode but no chunk values of these).
     EXPECT_EQ(f["chunk_frame_counter"], e.chunk_counter);
     EXPECT_EQ(f["chunk_gain"], e.chunk_gain);
+    EXPECT_EQ(f["chunk_line_status"], e.chunk_line_status);
     EXPECT_EQ(f["chunk_exposure_time"], *e.chunk_counter ? "ChunkExposureTime" : "");
     EXPECT_EQ(f["chunk_timestamp"], *e.chunk_counter ? "ChunkTimestamp" : "");
     EXPECT_TRUE(c.usable()) << (c.missing.empty() ? "" : c.missing.front());

@@ -41,6 +41,7 @@ FrameRecord row_of(std::uint64_t i) {
     r.chunk_exposure_us = 4000.25;
   }
   if (i % 3 == 1) r.chunk_gain = 1.5;
+  if (i % 4 == 1) r.chunk_line_status = std::int64_t(i % 16);
   return r;
 }
 
@@ -83,6 +84,7 @@ TEST(FrameSpill, FramesBeyondMemoryGoThroughTheDiskAndComeBackInOrder) {
       EXPECT_EQ(item->rec.chunk_timestamp, want.chunk_timestamp) << i;
       EXPECT_EQ(item->rec.chunk_exposure_us, want.chunk_exposure_us) << i;
       EXPECT_EQ(item->rec.chunk_gain, want.chunk_gain) << i;
+      EXPECT_EQ(item->rec.chunk_line_status, want.chunk_line_status) << i;
     }
     EXPECT_EQ(q.backlog(), 0u);
     // Caught up: the episode's file waits for its segment to be finished, then goes.

@@ -47,7 +47,8 @@ FrameRecord frame(std::uint64_t i) {
                 std::int64_t(i) + 70000,
                 std::int64_t(i) * 1000 - 3,
                 6000.5,
-                2.25};
+                2.25,
+                std::int64_t(i % 16)};
   return r;
 }
 
@@ -111,6 +112,30 @@ TEST(RecordCodec, EveryKindReadsBackAsItWasAndACutRecordIsNoRecord) {
     EXPECT_FALSE(decode_record(one.substr(0, cut), at)) << cut;
     EXPECT_EQ(at, 0u);
   }
+}
+
+// A journal an older pvcap left (codec version 1: frames without their line levels) reads back in its
+// own field list, beside chunks of the current one in the same file.
+TEST(RecordCodec, AnOlderPvcapsChunksReadInTheirOwnVersion) {
+  const auto records = one_of_each();
+  std::string bytes;
+  encode_record_chunk(records, bytes, 1);
+  encode_record_chunk(records, bytes);
+  const RecordChunks back = decode_record_chunks(bytes);
+  EXPECT_EQ(back.unreadable_bytes, 0u);
+  ASSERT_EQ(back.records.size(), 2 * records.size());
+  FrameRecord old_frame = std::get<FrameRecord>(records[0]);
+  old_frame.chunk_line_status.reset();  // version 1 had no line levels
+  EXPECT_TRUE(std::get<FrameRecord>(back.records[0]) == old_frame);
+  for (std::size_t i = 1; i < records.size(); ++i) EXPECT_TRUE(back.records[i] == records[i]) << "kind " << i;
+  for (std::size_t i = 0; i < records.size(); ++i)
+    EXPECT_TRUE(back.records[records.size() + i] == records[i]) << "kind " << i;
+  // Read in the wrong version, a frame's bytes are no record: the magic is what keeps them apart.
+  std::string frame_bytes;
+  encode_record(records[0], frame_bytes, 1);
+  std::size_t at = 0;
+  const auto misread = decode_record(frame_bytes, at, 2);
+  EXPECT_FALSE(misread && at == frame_bytes.size());
 }
 
 TEST(IndexOverflow, RecordsLeaveInTheirOrderThroughMemoryAndTheFile) {

@@ -449,12 +449,13 @@ TEST(SessionStore, OlderSchemasAreMigratedAfterABackup) {
   {
     auto index = SessionIndex::open_for_update(path, &passed, [&](const std::string& s) { said.push_back(s); });
   }
-  EXPECT_EQ(passed, (std::vector<int>{2, 3, 4, 5, 6}));
+  EXPECT_EQ(passed, (std::vector<int>{2, 3, 4, 5, 6, 7}));
   // The operator sees each step, and how far the long one (every pressure frame decoded) has come.
   EXPECT_EQ(said, (std::vector<std::string>{
                       "upgrading the index from version 1 to 2", "upgrading the index from version 2 to 3",
                       "raw pressure counts: 1 of 1 frames", "upgrading the index from version 3 to 4",
-                      "upgrading the index from version 4 to 5", "upgrading the index from version 5 to 6"}));
+                      "upgrading the index from version 4 to 5", "upgrading the index from version 5 to 6",
+                      "upgrading the index from version 6 to 7"}));
   EXPECT_TRUE(fs::exists(root / "session.db.v1.bak"));
   {
     sqlite::Database backup(root / "session.db.v1.bak", sqlite::Database::Mode::ReadOnly);
