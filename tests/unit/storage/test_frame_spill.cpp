@@ -354,3 +354,23 @@ TEST(FrameSpill, AReadTheDiskFailsIsAnErrorNotACutTail) {
   ASSERT_FALSE(read);
   EXPECT_NE(read.error().message.find("cannot be read: Is a directory"), std::string::npos) << read.error().message;
 }
+
+// A spill an older pvcap left (records "PVS3": chunk data without line levels) reads as it was
+// written, beside the current layout ("PVS4"), both kept in the spill reader's fuzz seeds.
+TEST(FrameSpill, AnOlderPvcapsSpillReadsInItsOwnLayout) {
+  const fs::path seeds = fs::path(PVCAP_SOURCE_DIR) / "tests/fuzz/seeds_spill_reader";
+  for (const char* name : {"whole-with-chunks.spill", "whole-with-line-levels.spill"}) {
+    SCOPED_TRACE(name);
+    const bool with_lines = std::string(name) == "whole-with-line-levels.spill";
+    std::vector<SpillRecord> records;
+    auto n = read_spill_file(seeds / name, [&](SpillRecord&& r) { records.push_back(std::move(r)); });
+    ASSERT_TRUE(n) << n.error().message;
+    ASSERT_EQ(records.size(), 3u);
+    for (const SpillRecord& r : records) {
+      EXPECT_EQ(r.rec.status, "good");
+      EXPECT_TRUE(r.rec.chunk_exposure_us);
+      EXPECT_FALSE(r.image.empty());
+      EXPECT_EQ(r.rec.chunk_line_status, with_lines ? std::optional<std::int64_t>(2) : std::nullopt);
+    }
+  }
+}
