@@ -24,6 +24,7 @@ inline constexpr std::uint32_t kBayerRG12 = 0x01100011;
 inline constexpr std::uint32_t kBayerGB12 = 0x01100012;
 inline constexpr std::uint32_t kBayerBG12 = 0x01100013;
 inline constexpr std::uint32_t kRGB8 = 0x02180014;
+inline constexpr std::uint32_t kMono16 = 0x01100007;  // not one pvcap stores: refused by to_bgr
 }  // namespace pfnc
 
 // Debayers / converts `data` (width x height, PFNC `pixel_format`) into `bgr` (CV_8UC3).

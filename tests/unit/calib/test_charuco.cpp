@@ -1,7 +1,6 @@
 // Intrinsics from the simulated board session's views, against the simulator's lenses.
 #include <gtest/gtest.h>
 
-#include <arv.h>
 
 #include <limits>
 
@@ -42,7 +41,7 @@ TEST(Charuco, BoardViewsOfTheSimulatedRigRecoverEachLens) {
       const cv::Mat mosaic = sim::to_sensor_format(img, "BayerRG8");
       cv::Mat seen;
       ASSERT_TRUE(
-          to_bgr(mosaic.data, mosaic.total(), mosaic.cols, mosaic.rows, ARV_PIXEL_FORMAT_BAYER_RG_8, seen).ok());
+          to_bgr(mosaic.data, mosaic.total(), mosaic.cols, mosaic.rows, pvcap::pfnc::kBayerRG8, seen).ok());
       views.push_back(detect_board(seen, spec));
     }
     auto got = calibrate_intrinsics(views, kImageSize, spec);

@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <fstream>
 
-#include <arv.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -32,7 +31,7 @@ cv::Mat camera_image(int camera) {
   const cv::Mat bgr = sim::render_scene_bgr(default_pad_layout(), truth(camera));
   const cv::Mat mosaic = sim::to_sensor_format(bgr, "BayerRG8");
   cv::Mat out;
-  EXPECT_TRUE(to_bgr(mosaic.data, mosaic.total(), mosaic.cols, mosaic.rows, ARV_PIXEL_FORMAT_BAYER_RG_8, out).ok());
+  EXPECT_TRUE(to_bgr(mosaic.data, mosaic.total(), mosaic.cols, mosaic.rows, pvcap::pfnc::kBayerRG8, out).ok());
   return out;
 }
 

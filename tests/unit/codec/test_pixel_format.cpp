@@ -1,6 +1,5 @@
 #include <gtest/gtest.h>
 
-#include <arv.h>
 
 #include "codec/pixel_format.h"
 #include "sim/scene.h"
@@ -20,17 +19,17 @@ void expect_colour_survives(const char* name, std::uint32_t pfnc) {
 }  // namespace
 
 TEST(PixelFormat, EveryBayerLayoutKeepsColours) {
-  expect_colour_survives("BayerRG8", ARV_PIXEL_FORMAT_BAYER_RG_8);
-  expect_colour_survives("BayerBG8", ARV_PIXEL_FORMAT_BAYER_BG_8);
-  expect_colour_survives("BayerGR8", ARV_PIXEL_FORMAT_BAYER_GR_8);
-  expect_colour_survives("BayerGB8", ARV_PIXEL_FORMAT_BAYER_GB_8);
-  expect_colour_survives("RGB8", ARV_PIXEL_FORMAT_RGB_8_PACKED);
+  expect_colour_survives("BayerRG8", pvcap::pfnc::kBayerRG8);
+  expect_colour_survives("BayerBG8", pvcap::pfnc::kBayerBG8);
+  expect_colour_survives("BayerGR8", pvcap::pfnc::kBayerGR8);
+  expect_colour_survives("BayerGB8", pvcap::pfnc::kBayerGB8);
+  expect_colour_survives("RGB8", pvcap::pfnc::kRGB8);
 }
 
 TEST(PixelFormat, ShortBufferIsAnErrorNotARead) {
   std::vector<std::uint8_t> small(100);
   cv::Mat out;
-  const auto s = pvcap::to_bgr(small.data(), small.size(), 64, 64, ARV_PIXEL_FORMAT_BAYER_RG_8, out);
+  const auto s = pvcap::to_bgr(small.data(), small.size(), 64, 64, pvcap::pfnc::kBayerRG8, out);
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("needs 4096"), std::string::npos) << s.error().message;
 }
@@ -38,7 +37,7 @@ TEST(PixelFormat, ShortBufferIsAnErrorNotARead) {
 TEST(PixelFormat, UnsupportedFormatIsNamed) {
   std::vector<std::uint8_t> buf(64 * 64 * 2);
   cv::Mat out;
-  const auto s = pvcap::to_bgr(buf.data(), buf.size(), 64, 64, ARV_PIXEL_FORMAT_MONO_16, out);
+  const auto s = pvcap::to_bgr(buf.data(), buf.size(), 64, 64, pvcap::pfnc::kMono16, out);
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("not supported"), std::string::npos);
 }

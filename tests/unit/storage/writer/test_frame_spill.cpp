@@ -7,7 +7,7 @@
 
 #include "core/time.h"
 #include "storage/writer/frame_spill.h"
-#include "tests/unit/storage/temp_dir.h"
+#include "tests/unit/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;

@@ -17,7 +17,7 @@
 #include "storage/writer/index_overflow.h"
 #include "storage/writer/index_writer.h"
 #include "storage/writer/recover.h"
-#include "tests/unit/storage/temp_dir.h"
+#include "tests/unit/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;

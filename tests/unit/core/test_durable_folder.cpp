@@ -7,7 +7,7 @@
 #include <thread>
 
 #include "core/durable_folder.h"
-#include "tests/unit/storage/temp_dir.h"
+#include "tests/unit/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;

@@ -11,7 +11,7 @@
 #include "storage/video/frame_checksum.h"
 #include "storage/video/video_reader.h"
 #include "storage/video/video_writer.h"
-#include "tests/unit/storage/temp_dir.h"
+#include "tests/unit/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace pvcap;

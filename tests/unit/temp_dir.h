@@ -1,5 +1,5 @@
 #pragma once
-// A scratch folder for a storage unit test: made empty, removed when the test ends, also when an
+// A scratch folder for a unit test: made empty, removed when the test ends, also when an
 // assertion ends it early.
 #include <unistd.h>
 
