@@ -21,42 +21,6 @@ std::string read_file(const std::string& path) {
   return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
 }
 
-nlohmann::json as_json(const NodeMapCheck& c) {
-  nlohmann::json features = nlohmann::json::object(), types = nlohmann::json::object(),
-                 roles = nlohmann::json::object();
-  for (const auto& f : c.features) {
-    features[f.role] = f.name, types[f.role] = f.type;
-    nlohmann::json role = {{"name", f.name}, {"type", f.type}, {"access", f.access}};
-    if (!f.entries.empty()) role["entries"] = f.entries;
-    if (f.range) role["range"] = {f.range->first, f.range->second};
-    roles[f.role] = role;
-  }
-  return {{"usable", c.usable()}, {"clock", c.clock},     {"features", features},   {"types", types},
-          {"roles", roles},       {"missing", c.missing}, {"warnings", c.warnings}, {"ptp", c.ptp},
-          {"chunks", c.chunks},   {"vendor", c.vendor},   {"model", c.model},       {"version", c.version}};
-}
-
-void print(const NodeMapCheck& c, const std::string& file) {
-  fmt::print("{}: {} {} (node map version {})\n", file, c.vendor, c.model, c.version);
-  for (const auto& f : c.features) {
-    std::string entries;
-    if (!f.entries.empty())
-      entries = f.entries.size() <= 12 ? fmt::format(": {}", fmt::join(f.entries, ", "))
-                                       : fmt::format(": {} entries", f.entries.size());
-    else if (f.range)
-      entries = fmt::format(": {:.10g} to {:.10g}", f.range->first, f.range->second);
-    else if (f.type == "Integer" || f.type == "Float")
-      entries = ": range from the camera";
-    fmt::print("  {:<26} {:<30} {:<2} {}{}\n", f.role, f.name, f.access, f.type, entries);
-  }
-  fmt::print("clock: {}\nPTP: {}\nchunk data: {}\n",
-             c.clock == "latch" ? "latch (the camera's own, latched)" : "arrival (host arrival times)",
-             c.ptp ? "yes" : "no", c.chunks ? "yes" : "no");
-  for (const auto& w : c.warnings) fmt::print("warning: {}\n", w);
-  for (const auto& m : c.missing) fmt::print("missing: {}\n", m);
-  fmt::print("{}\n", c.usable() ? "usable" : "NOT usable");
-}
-
 }  // namespace
 
 Registered add_camera_command(CLI::App& app, AppContext&) {
@@ -97,9 +61,9 @@ Registered add_camera_command(CLI::App& app, AppContext&) {
             }
             const NodeMapCheck c = check_node_map(map.value(), camera);
             if (a->json)
-              fmt::print("{}\n", as_json(c).dump(2));
+              fmt::print("{}\n", node_map_check_json(c).dump(2));
             else
-              print(c, a->node_map);
+              fmt::print("{}", describe_node_map_check(c, a->node_map));
             return c.usable() ? 0 : 1;
           }};
 }

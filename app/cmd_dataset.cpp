@@ -8,19 +8,12 @@
 #include <spdlog/spdlog.h>
 
 #include "app/command.h"
-#include "app/progress_line.h"
+#include "console/progress_line.h"
 #include "core/durable_folder.h"
-#include "dataset/catalog.h"
-#include "dataset/completeness.h"
-#include "dataset/dataset_folder.h"
-#include "dataset/dataset_page.h"
+#include "dataset/dataset_state.h"
 #include "dataset/release.h"
 #include "dataset/slurm.h"
-#include "dataset/splits.h"
 #include "dataset/status_files.h"
-#include "dataset/withdrawal.h"
-#include "protocol/protocol.h"
-#include "storage/index/records.h"
 
 namespace pvcap {
 
@@ -46,43 +39,13 @@ struct DatasetArgs {
   bool purge = false;
 };
 
-// The catalogue brought up to date (progress on stderr), and the dataset's state from it.
-struct Loaded {
-  dataset::DatasetConfig config;
-  protocol::Protocol protocol;
-  std::unique_ptr<CatalogDb> db;
-  std::vector<CatalogSession> sessions;
-  std::vector<CatalogTake> takes;
-  std::vector<dataset::Withdrawal> withdrawals;
-  dataset::DatasetStatus status;
-};
-
-Loaded load(const fs::path& dir, bool rescan, const std::atomic<bool>& stop) {
-  Loaded l;
-  l.config = dataset::load_dataset(dir);
-  l.protocol = protocol::load_protocol(l.config.protocol);
-  auto db = CatalogDb::open(l.config.dir / "catalog.db");
-  if (!db) throw UserError(db.error().message);
-  l.db = std::move(db.value());
-  if (rescan) {
-    ProgressLine bar;
-    auto r = dataset::scan(l.config, *l.db,
-                           bar.counter("scan", "session folders", [](const std::string& f) { return ": " + f; }), stop);
-    if (!r) throw UserError(r.error().message);
-    spdlog::info("{}", r.value().summary());
-    for (const auto& p : r.value().problems) spdlog::warn("{}", p);
-  }
-  l.sessions = l.db->sessions();
-  l.takes = l.db->takes();
-  l.withdrawals = dataset::load_withdrawals(l.config.dir);
-  l.status = dataset::compute_status(l.config, l.protocol, l.sessions, l.takes, l.withdrawals);
-  return l;
-}
-
-std::vector<std::string> leakage(const Loaded& l) {
-  const auto splits = dataset::load_splits(l.config.dir);
-  if (!splits) return {};
-  return dataset::leakage_problems(*splits, l.sessions, l.withdrawals);
+// The dataset, its catalogue brought up to date first when `rescan` (progress on stderr).
+dataset::DatasetState load(const fs::path& dir, bool rescan, const std::atomic<bool>& stop) {
+  if (!rescan) return dataset::open_dataset(dir, nullptr, stop);
+  console::ProgressLine bar;
+  const dataset::ScanProgress progress =
+      bar.counter("scan", "session folders", [](const std::string& f) { return ": " + f; });
+  return dataset::open_dataset(dir, &progress, stop);
 }
 
 int run_init(DatasetArgs& a) {
@@ -101,8 +64,8 @@ int run_init(DatasetArgs& a) {
 }
 
 int run_status(const DatasetArgs& a, const std::atomic<bool>& stop) {
-  const Loaded l = load(a.dir, true, stop);
-  const auto leaks = leakage(l);
+  const dataset::DatasetState l = load(a.dir, true, stop);
+  const auto leaks = dataset::split_leakage(l);
   const json j = dataset::write_status_files(l.config, l.protocol, l.status, leaks);
   if (a.json_out) {
     json out = j;
@@ -121,11 +84,8 @@ int run_status(const DatasetArgs& a, const std::atomic<bool>& stop) {
 }
 
 int run_split(const DatasetArgs& a, const std::atomic<bool>& stop) {
-  const Loaded l = load(a.dir, true, stop);
-  std::vector<dataset::SplitCandidate> candidates;
-  for (const auto& p : l.status.participants)
-    if (!p.folders.empty())
-      candidates.push_back({p.code, p.skin_tone, p.lighting.empty() ? "unrecorded" : p.lighting.front()});
+  const dataset::DatasetState l = load(a.dir, true, stop);
+  const auto candidates = dataset::split_candidates(l);
   const std::uint64_t seed = a.seed >= 0 ? std::uint64_t(a.seed) : std::random_device{}();
   const auto s = dataset::make_splits(candidates, a.test, a.val, seed);
   if (auto w = dataset::save_splits(l.config.dir, s, candidates); !w.ok()) throw UserError(w.error().message);
@@ -139,7 +99,7 @@ int run_split(const DatasetArgs& a, const std::atomic<bool>& stop) {
 // The release's last step, from the catalogue as the release was prepared.
 int finish(const fs::path& dir, const fs::path& out, const std::atomic<bool>& stop) {
   const auto started = std::chrono::steady_clock::now();
-  const Loaded l = load(dir, false, stop);
+  const dataset::DatasetState l = load(dir, false, stop);
   auto plan = dataset::load_plan(l.config.dir, out);
   if (!plan) throw UserError(plan.error().message);
   const auto splits = dataset::load_splits(l.config.dir);
@@ -160,11 +120,11 @@ int run_release(const DatasetArgs& a, const AppContext& ctx) {
   // export, then a refusal, would be the worst order), then the splits and their leakage.
   if (Status s = dataset::check_release_metadata(dataset::load_dataset(a.dir)); !s.ok())
     throw UserError(s.error().message);
-  const Loaded l = load(a.dir, true, ctx.stop);
+  const dataset::DatasetState l = load(a.dir, true, ctx.stop);
   if (!dataset::load_splits(l.config.dir))
     throw UserError(fmt::format("{}: no splits yet; make them first (pvcap dataset split {} --test N --val N)",
                                 (l.config.dir / "splits.json").string(), a.dir.string()));
-  if (const auto leaks = leakage(l); !leaks.empty())
+  if (const auto leaks = dataset::split_leakage(l); !leaks.empty())
     throw UserError(fmt::format("the splits leak, so no release:\n  {}", fmt::join(leaks, "\n  ")));
   auto plan = dataset::prepare_release(l.config.dir, l.sessions, l.takes, l.withdrawals, a.out, a.layout, a.compact);
   if (!plan) throw UserError(plan.error().message);
@@ -179,7 +139,7 @@ int run_release(const DatasetArgs& a, const AppContext& ctx) {
                a.wait ? " (finished)" : "; logs in " + (p.book / "slurm-logs").string());
     return 0;
   }
-  ProgressLine bar;
+  console::ProgressLine bar;
   const Status s = dataset::run_local(
       p, a.jobs, bar.counter("release", "sessions exported", [](const std::string& f) { return " (last: " + f + ")"; }),
       ctx.stop);
@@ -201,7 +161,7 @@ int run_release_job(const DatasetArgs& a, const std::atomic<bool>& stop) {
 }
 
 int run_withdraw(const DatasetArgs& a, const std::atomic<bool>& stop) {
-  const Loaded l = load(a.dir, true, stop);
+  const dataset::DatasetState l = load(a.dir, true, stop);
   std::vector<std::string> participants;
   for (const auto& p : l.status.participants) participants.push_back(p.code);
   dataset::WithdrawRequest request{

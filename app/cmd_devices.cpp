@@ -1,4 +1,6 @@
-#include "app/cmd_devices.h"
+// `pvcap devices`: the GigE Vision cameras that answer discovery and the Sensel Morphs on a tty or
+// the USB bus (read without resetting them), as a table or one JSON object per line; or one camera's
+// node map, written to a file (`--dump-node-map`). With `--sim`, a simulated rig is started first.
 #include "app/command.h"
 #include "app/rig_launcher.h"
 
@@ -8,52 +10,21 @@
 
 #include <fmt/format.h>
 
-#include "capture/aravis_discovery.h"
-#include "capture/sensel_discovery.h"
+#include <functional>
+#include "capture/device_listing.h"
 #include "core/durable_folder.h"
 #include "sim/sim_rig.h"
 
 namespace pvcap {
+
+namespace {
 
 int cmd_devices(bool json, const std::vector<std::string>& extra_ttys) {
   const auto cams = discover_gige_cameras();
   const auto listing = sensel::list_sensels(extra_ttys);
   for (const auto& note : listing.notes) fmt::print(stderr, "{}\n", note);
   const auto& sensels = listing.found;
-  if (json) {
-    for (const auto& c : cams)
-      fmt::print(
-          "{{\"kind\":\"camera\",\"vendor\":\"{}\",\"model\":\"{}\",\"serial\":\"{}\",\"address\":\"{}\","
-          "\"interface\":\"{}\",\"mac\":\"{}\",\"id\":\"{}\"}}\n",
-          c.vendor, c.model, c.serial, c.address, c.protocol, c.physical_id, c.device_id);
-    for (const auto& s : sensels)
-      fmt::print(
-          "{{\"kind\":\"sensel\",\"serial\":\"{}\",\"firmware\":\"{}\",\"tty\":\"{}\",\"usb_serial\":\"{}\","
-          "\"grid\":[{},{}]}}\n",
-          s.info.serial, s.info.firmware, s.tty, s.usb_serial, s.info.grid.cols, s.info.grid.rows);
-    return 0;
-  }
-  if (cams.empty())
-    fmt::print(
-        "no GigE Vision camera answered discovery (check power, cabling, and that the cameras are on a "
-        "subnet of one of this machine's interfaces)\n");
-  else {
-    fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} {}\n", "interface", "vendor", "model", "serial", "address", "mac");
-    for (const auto& c : cams)
-      fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} {}\n", c.protocol, c.vendor, c.model, c.serial, c.address,
-                 c.physical_id);
-  }
-  if (sensels.empty())
-    fmt::print(
-        "no Sensel Morph answered on /dev/ttyACM*, /dev/morph* or USB 2c2f:0003 (check the cable; the "
-        "user needs the dialout group or a udev rule)\n");
-  else
-    for (const auto& s : sensels) {
-      std::string where = s.tty;
-      if (!s.usb_serial.empty()) where += (where.empty() ? "" : ", ") + fmt::format("usb: {}", s.usb_serial);
-      fmt::print("{:<10} {:<14} {:<14} {:<16} {:<12} firmware {}, grid {}x{}\n", "sensel", "Sensel", "Morph",
-                 s.info.serial, where, s.info.firmware, s.info.grid.cols, s.info.grid.rows);
-    }
+  fmt::print("{}", device_listing(cams, sensels, json));
   return 0;
 }
 
@@ -86,6 +57,8 @@ int cmd_devices_of_sim(bool json, const RigConfig& rig, const std::function<int(
   made.value().reset();
   return rc;
 }
+
+}  // namespace
 
 Registered add_devices_command(CLI::App& app, AppContext&) {
   struct Args {

@@ -1,4 +1,6 @@
-#include "app/cmd_eval_sync.h"
+// `pvcap eval-sync`: records a simulated session with a hard timing scenario and measures it against
+// the simulator's ground truth (sim/sync_evaluation.h). Without --root it records into a temporary
+// folder, says so, and removes it at the end; `--evaluate SESSION` measures one it recorded before.
 
 #include <unistd.h>
 
@@ -11,8 +13,18 @@
 #include "app/command.h"
 #include "app/rig_launcher.h"
 #include "core/rig_config.h"
+#include "sim/sync_evaluation.h"
 
 namespace pvcap {
+
+namespace {
+struct EvalSyncOptions {
+  sim::EvalScenario scenario;
+  double warmup_s = 3;
+  std::filesystem::path root;      // where the scenario and its session go (empty: a temporary folder, removed)
+  std::filesystem::path evaluate;  // a recorded session to measure again (nothing recorded)
+};
+}  // namespace
 
 namespace {
 

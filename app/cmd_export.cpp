@@ -1,22 +1,34 @@
-#include "app/cmd_export.h"
+// `pvcap export SESSION... --layout pressurevision|pressurevision-plus --out DIR [options]`: each
+// session written in a released dataset layout (export/dataset_export.h), one after the other, with
+// progress and the time left; an interrupted export resumes when run again.
 #include "app/command.h"
 
-#include "app/progress_line.h"
+#include "console/progress_line.h"
 
 #include <chrono>
 #include <cstdio>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include "export/dataset_export.h"
 
 namespace pvcap {
+
+namespace {
+struct ExportCommand {
+  std::vector<std::filesystem::path> sessions;
+  exporting::ExportOptions options;
+};
+}  // namespace
+
+namespace {
 
 int cmd_export(const ExportCommand& c, const std::atomic<bool>& stop) {
   int rc = 0;
   for (const auto& session : c.sessions) {
     exporting::ExportOptions o = c.options;
     const auto started = std::chrono::steady_clock::now();
-    ProgressLine bar;
+    console::ProgressLine bar;
     o.progress = [&](std::size_t done, std::size_t total) {
       const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       const double rate = s > 0 ? double(done) / s : 0;
@@ -57,6 +69,8 @@ int cmd_export(const ExportCommand& c, const std::atomic<bool>& stop) {
   }
   return rc;
 }
+
+}  // namespace
 
 Registered add_export_command(CLI::App& app, AppContext& ctx) {
   struct Args {

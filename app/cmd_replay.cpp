@@ -1,7 +1,11 @@
-#include "app/cmd_replay.h"
+// `pvcap replay SESSION`: the session in a window, steered by keys (replay/replay_window.h); with
+// `--out FILE.mp4 [--take NAME] [--from S] [--to S] [--speed X]`, its views with the pressure overlaid,
+// the pressure image and the take's labels rendered into a video without a display
+// (replay/render_video.h); with `--as-devices [--rate X] [--rig-out FILE]`, the rig file under which the
+// simulated devices re-serve it (sim/replay_rig.h) and the command that records it again.
 #include "app/command.h"
 
-#include "app/progress_line.h"
+#include "console/progress_line.h"
 
 #include <chrono>
 #include <cmath>
@@ -11,9 +15,22 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "replay/render_video.h"
+#include "replay/replay_window.h"
 #include "sim/replay_rig.h"
 
 namespace pvcap {
+
+namespace {
+struct ReplayCommand {
+  std::filesystem::path session;
+  replay::RenderOptions options;
+  bool as_devices = false;       // write the rig file that re-serves the session (sim/replay_rig.h)
+  replay::WindowOptions window;  // neither --out nor --as-devices: the window (replay/replay_window.h)
+  double rate = 1.0;
+  std::filesystem::path rig_out;
+};
+}  // namespace
 
 namespace {
 // Whether there is a display to open a window on (DISPLAY, WAYLAND_DISPLAY or QT_QPA_PLATFORM set).
@@ -45,6 +62,8 @@ int replay_as_devices(const ReplayCommand& c) {
 }
 }  // namespace
 
+namespace {
+
 int cmd_replay(const ReplayCommand& c, const std::atomic<bool>& stop) {
   if (c.as_devices) {
     if (!c.options.out.empty()) {
@@ -73,7 +92,7 @@ int cmd_replay(const ReplayCommand& c, const std::atomic<bool>& stop) {
     return 0;
   }
   const auto started = std::chrono::steady_clock::now();
-  ProgressLine bar;
+  console::ProgressLine bar;
   auto progress = [&](std::size_t done, std::size_t total) {
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     const double rate = s > 0 ? double(done) / s : 0;
@@ -97,6 +116,8 @@ int cmd_replay(const ReplayCommand& c, const std::atomic<bool>& stop) {
       v.seconds_taken > 0 ? v.session_seconds / v.seconds_taken : 0);
   return 0;
 }
+
+}  // namespace
 
 Registered add_replay_command(CLI::App& app, AppContext& ctx) {
   struct Args {

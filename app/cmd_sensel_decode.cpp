@@ -1,9 +1,13 @@
-#include "app/cmd_sensel_decode.h"
+// `pvcap sensel decode FILE`: prints what a Sensel wire dump (.json / .jsonl) holds
+// (codec/sensel_capture_file.h decodes it); the process fails when any frame does.
 #include "app/command.h"
 
 #include <fmt/format.h>
+#include "codec/sensel_capture_file.h"
 
 namespace pvcap {
+
+namespace {
 
 int print_sensel_summary(const std::filesystem::path& path, const sensel::CaptureSummary& s) {
   fmt::print("{}\n", path.string());
@@ -24,6 +28,8 @@ int print_sensel_summary(const std::filesystem::path& path, const sensel::Captur
   }
   return 0;
 }
+
+}  // namespace
 
 Registered add_sensel_command(CLI::App& app, AppContext&) {
   auto files = std::make_shared<std::vector<std::string>>();

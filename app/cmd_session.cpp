@@ -18,7 +18,6 @@
 #include "app/command.h"
 #include "app/rig_launcher.h"
 #include "core/durable_folder.h"
-#include "protocol/takes.h"
 #include "report/session_text.h"
 #include "storage/index/session_reader.h"
 
@@ -37,53 +36,14 @@ struct SessionArgs {
   bool root_given = false;
 };
 
-// `--resume SESSION` without `--rig`: the rig the session recorded (its file when unchanged).
-RigConfig rig_of_resumed_session(const std::filesystem::path& session) {
-  auto reader = SessionReader::open(session);
-  if (!reader) throw UserError(fmt::format("--resume {}: {}", session.string(), reader.error().message));
-  const SessionInfo& info = reader.value()->info();
-  std::error_code ec;
-  if (!info.rig_path.empty() && std::filesystem::exists(info.rig_path, ec)) {
-    RigConfig current = load_rig_config(info.rig_path);
-    if (current.text == info.rig_config) return current;
-    spdlog::warn(
-        "{} changed since {} was recorded: the session continues with the rig it recorded (give --rig to "
-        "use the file as it is now)",
-        info.rig_path, session.string());
-  }
-  return parse_rig_config(info.rig_config,
-                          info.rig_path.empty() ? session / "rig.yaml" : std::filesystem::path(info.rig_path));
-}
-
-// The pages' token: --web-token-file (its first line), else PVCAP_WEB_TOKEN, else --web-token (which
-// `ps` shows to every user), else one generated and printed in the addresses.
-console::WebOptions web_options(const SessionArgs& a) {
-  console::WebOptions web = a.web;
-  const int given = int(!a.web_token_file.empty()) + int(!web.token.empty()) + int(web.no_token);
-  if (given > 1) throw UserError("give one of --web-token, --web-token-file and --no-web-token");
-  if (!a.web_token_file.empty()) {
-    std::ifstream in(a.web_token_file);
-    if (!in) throw UserError(fmt::format("{}: cannot read the pages' token file", a.web_token_file));
-    std::getline(in, web.token);
-    while (!web.token.empty() && std::isspace(static_cast<unsigned char>(web.token.back()))) web.token.pop_back();
-    if (web.token.empty()) throw UserError(fmt::format("{}: the token file's first line is empty", a.web_token_file));
-  } else if (const char* env = std::getenv("PVCAP_WEB_TOKEN"); env && *env && web.token.empty() && !web.no_token) {
-    web.token = env;
-  }
-  if (!web.token.empty() && web.token.size() < 8) throw UserError("the pages' token must be at least 8 characters");
-  for (const char c : web.token)
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_')
-      throw UserError("the pages' token may hold letters, digits, '-' and '_' only (it goes into addresses)");
-  return web;
-}
-
 console::SessionSetup setup_from(const SessionArgs& a, const RigConfig& rig) {
   run_under_rig_preload(rig);  // before the pages' socket is bound: it may start this process again
   console::SessionSetup setup;
   if (!a.no_web) {
     // Bound here, before a simulated rig's private network namespace: the pages stay reachable
     // from this machine's own browser.
-    auto bound = console::WebConsole::bind(web_options(a));
+    const char* env_token = std::getenv("PVCAP_WEB_TOKEN");  // the token out of `ps`'s sight
+    auto bound = console::WebConsole::bind(console::with_token(a.web, a.web_token_file, env_token ? env_token : ""));
     if (!bound) throw UserError(bound.error().message);
     setup.web = std::move(bound.value());
   }
@@ -115,7 +75,7 @@ int run_session_command(const SessionArgs& a, AppContext& ctx) {
     throw UserError(
         "pvcap session needs a rig: --rig RIG.yaml (or --resume SESSION, which records on the rig "
         "that session recorded)");
-  const RigConfig rig = a.rig_path.empty() ? rig_of_resumed_session(a.resume) : load_rig_config(a.rig_path);
+  const RigConfig rig = a.rig_path.empty() ? console::rig_of_session(a.resume) : load_rig_config(a.rig_path);
   console::SessionSetup setup = setup_from(a, rig);
   return report_recorded_session(record_session(rig, setup, ctx), ctx.faults.report_stall_s);
 }
@@ -153,34 +113,15 @@ console::SessionOutcome record_session(const RigConfig& rig, console::SessionSet
 int report_recorded_session(const console::SessionOutcome& outcome, double report_stall_s) {
   const auto& rec = outcome.recording;
   if (rec.dir.empty()) return rec.exit_code;
-  // The report the operator reads, from what the store holds (also kept as report.txt).
-  // A report that cannot be made or written (the disk failing under the session) fails the command:
-  // exit 1, the file and the error named; the recorded data stays as it is.
-  int exit_code = rec.exit_code;
-  auto text = report::session_text(rec.dir, rec.recorded_s);
-  if (!text) {
-    spdlog::error("the report could not be made: {}", text.error().message);
-    exit_code = 1;
-  }
-  std::string report =
-      text ? text.value()
-           : fmt::format("session: {}\nthe report could not be made: {}\n", rec.dir.string(), text.error().message);
-  for (const auto& note : rec.notes) report += note + "\n";
+  // The report the operator reads, from what the store holds (also kept as report.txt). A report that
+  // cannot be made or written (the disk failing under the session) fails the command: exit 1, the
+  // file and the error named; the recorded data stays as it is.
+  const auto closing = report::closing_report(rec.dir, rec.recorded_s, rec.notes, outcome.protocol);
+  int exit_code = closing.errors.empty() ? rec.exit_code : 1;
+  for (const auto& e : closing.errors) spdlog::error("{}", e);
   // fputs, not fmt::print: a terminal that went away (a dropped ssh) is not an error here.
-  std::fputs(("\n" + report).c_str(), stdout);
-  if (outcome.protocol) {
-    if (auto takes = protocol::read_takes(rec.dir)) {
-      // Every take in report.txt (and report.html); the console keeps to the totals.
-      const std::string table = protocol::format_takes(takes.value());
-      report += "\n" + table;
-      const auto at = table.find(" takes done of ");
-      std::fputs(("\n" + (at == std::string::npos ? table : table.substr(table.rfind('\n', at) + 1))).c_str(), stdout);
-    } else {
-      spdlog::error("the takes could not be read back: {}", takes.error().message);
-      exit_code = 1;
-    }
-  }
-  if (Status s = write_file_atomically(rec.dir / "report.txt", report, Durability::Renamed); !s.ok()) {
+  std::fputs(closing.terminal.c_str(), stdout);
+  if (Status s = write_file_atomically(rec.dir / "report.txt", closing.file, Durability::Renamed); !s.ok()) {
     spdlog::error("{}", s.error().message);
     exit_code = 1;
   }

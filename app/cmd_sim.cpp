@@ -1,4 +1,7 @@
-#include "app/cmd_sim.h"
+// `pvcap sim`: serves a simulated rig (GigE Vision cameras over loopback, the Sensel emulator) until
+// stopped or its duration passes; with `--hand-commands`, the simulated hand follows the commands read
+// from stdin (what a recording with --auto sends); with `--board`, the cameras see the calibration
+// board moving through its poses; PVCAP_FAULTS' sim.* entries break the simulated lamps.
 #include "app/command.h"
 #include "app/rig_launcher.h"
 
@@ -12,10 +15,13 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "core/fault_injection.h"
 #include "sim/hand.h"
 #include "sim/sim_rig.h"
 
 namespace pvcap {
+
+namespace {
 
 int cmd_sim(const RigConfig& rig, const std::filesystem::path& truth, std::optional<double> duration,
             bool hand_commands, bool board, const FaultPlan& faults, std::atomic<bool>& stop) {
@@ -55,6 +61,8 @@ int cmd_sim(const RigConfig& rig, const std::filesystem::path& truth, std::optio
   if (timer.joinable()) timer.join();
   return 0;
 }
+
+}  // namespace
 
 Registered add_sim_command(CLI::App& app, AppContext& ctx) {
   struct Args {

@@ -5,7 +5,7 @@
 #include <thread>
 
 #include "app/command.h"
-#include "app/progress_line.h"
+#include "console/progress_line.h"
 #include "protocol/takes.h"
 #include "session/realign.h"
 #include "storage/tools/compact.h"
@@ -122,7 +122,7 @@ Registered add_compact_command(CLI::App& app, AppContext& ctx) {
             if (!purpose->empty()) o->codec = *purpose == "training" ? "ffvhuff" : "libx264";
             int failed = 0;
             for (const auto& dir : *dirs) {
-              ProgressLine line;
+              console::ProgressLine line;
               CompactOptions options = *o;
               options.stop = &ctx.stop;
               const auto started = std::chrono::steady_clock::now();
@@ -142,27 +142,9 @@ Registered add_compact_command(CLI::App& app, AppContext& ctx) {
                 ++failed;
                 continue;
               }
-              const auto& rep = r.value();
-              fmt::print("session {}\n", dir);
-              for (const auto& d : rep.done) fmt::print("  {}\n", d);
-              if (rep.segments_compacted > 0)
-                fmt::print(
-                    "compacted {} segments, {} frames in {:.1f} s ({:.1f} frames/s): {:.1f} -> {:.1f} MB ({:.0f} %)\n",
-                    rep.segments_compacted, rep.frames, rep.elapsed_s,
-                    rep.elapsed_s > 0 ? double(rep.frames) / rep.elapsed_s : 0, double(rep.bytes_before) / 1e6,
-                    double(rep.bytes_after) / 1e6, 100.0 * double(rep.bytes_after) / double(rep.bytes_before));
-              if (rep.crops_per_s_after > 0)
-                fmt::print(
-                    "read speed, shuffled 480x384 crops on one core (the first segment compacted): {:.0f} crops/s as it was, "
-                    "{:.0f} crops/s compacted\n",
-                    rep.crops_per_s_before, rep.crops_per_s_after);
-              if (rep.stopped) {
-                line.abandon();
-                fmt::print(
-                    "stopped: the segments above are compacted, the rest are as they were; run it again to "
-                    "go on\n");
-                return 130;
-              }
+              if (r.value().stopped) line.abandon();
+              fmt::print("{}", describe_compact_report(dir, r.value()));
+              if (r.value().stopped) return 130;
             }
             return failed ? 1 : 0;
           }};

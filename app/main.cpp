@@ -1,14 +1,9 @@
 // pvcap: capture and synchronization for visual hand-pressure datasets.
 // Thin: each subcommand registers its own options (app/command.h); main parses the line, sets up
 // logging and signals, and runs the one given. See docs/ for the user guide.
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/resource.h>
 #include <sys/stat.h>
-#include <unistd.h>
 
 #include <atomic>
-#include <cerrno>
 #include <cstdlib>
 #include <filesystem>
 #include <set>
@@ -22,58 +17,12 @@
 #include "core/allocator.h"
 #include "core/log.h"
 #include "core/result.h"
+#include "core/stop_signals.h"
 #include "core/version.h"
 
 namespace {
 
 std::atomic<bool> g_stop{false};
-// /dev/null, opened at start: where a hang-up sends the output that went to the terminal.
-int g_dev_null = -1;
-bool g_stdout_tty = false, g_stderr_tty = false;
-
-void on_signal(int sig) {
-  if (sig == SIGHUP) {
-    // The terminal is gone (a dropped ssh, a closed window): stop cleanly, whatever repeats. The
-    // shell forwards a hang-up more than once, and a write to the dead terminal fails with EIO, so
-    // what went to it goes to /dev/null from now on (dup2 is safe in a handler); the session's log
-    // file keeps every line.
-    if (g_dev_null >= 0) {
-      if (g_stdout_tty) dup2(g_dev_null, STDOUT_FILENO);
-      if (g_stderr_tty) dup2(g_dev_null, STDERR_FILENO);
-    }
-    g_stop.store(true);
-    return;
-  }
-  if (g_stop.exchange(true)) _exit(130);  // a second Ctrl-C or SIGTERM: leave now
-}
-
-// Whether pvcap was started with hang-ups ignored (`nohup pvcap session ...`, a `trap '' HUP`): the
-// user asked for the session to outlive the terminal, and pvcap keeps to that.
-bool hangups_ignored_by_the_caller() {
-  struct sigaction now {};
-  return sigaction(SIGHUP, nullptr, &now) == 0 && now.sa_handler == SIG_IGN;
-}
-
-void install_stop_handlers(bool keep_hangups_ignored) {
-  g_stdout_tty = isatty(STDOUT_FILENO) == 1;
-  g_stderr_tty = isatty(STDERR_FILENO) == 1;
-  g_dev_null = open("/dev/null", O_WRONLY | O_CLOEXEC);
-  struct sigaction sa {};
-  sa.sa_handler = on_signal;
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
-  // An ssh connection that drops stops the session cleanly, unless the caller asked to ignore it.
-  if (!keep_hangups_ignored) sigaction(SIGHUP, &sa, nullptr);
-  signal(SIGPIPE, SIG_IGN);         // a closed pipe or socket is an error return, not death
-  // A background job that writes to its terminal must not be stopped for it (the session runs on).
-  signal(SIGTTOU, SIG_IGN);
-}
-
-std::filesystem::path self_exe() {
-  std::error_code ec;
-  auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
-  return ec ? std::filesystem::path("pvcap") : p;
-}
 
 // A test's faults, read once here and passed down as a plain value (core/fault_injection.h).
 pvcap::FaultPlan read_faults() {
@@ -102,14 +51,8 @@ bool works_offline_on_images(const CLI::App& command) {
 void yield_to_recordings(const CLI::App& command) {
   static const std::set<std::string> after_the_session = {"calibrate", "export", "report",  "compact",
                                                           "dataset",   "verify", "recover", "migrate"};
-  errno = 0;
-  const int now = getpriority(PRIO_PROCESS, 0);
-  // The calling thread's (Linux: a thread's own); every thread it starts after this inherits it.
-  if (after_the_session.count(command.get_name()) && errno == 0 && now < kOfflineNice)
-    (void)setpriority(PRIO_PROCESS, 0, kOfflineNice);
-  errno = 0;
-  const int after = getpriority(PRIO_PROCESS, 0);
-  if (errno == 0) spdlog::debug("pvcap {}: at nice {}", command.get_name(), after);
+  if (!after_the_session.count(command.get_name())) return;
+  spdlog::debug("pvcap {}: at nice {}", command.get_name(), pvcap::lower_priority_to(kOfflineNice));
 }
 
 }  // namespace
@@ -121,7 +64,7 @@ int main(int argc, char** argv) {
   std::string log_level = "info";
   app.add_option("--log-level", log_level, "console log level: trace, debug, info, warn, error, off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
-  pvcap::AppContext ctx{g_stop, self_exe(), {}};
+  pvcap::AppContext ctx{g_stop, pvcap::self_exe(), {}};
   const std::vector<pvcap::Registered> commands = {
       pvcap::add_devices_command(app, ctx), pvcap::add_session_command(app, ctx),
       pvcap::add_takes_command(app, ctx),   pvcap::add_report_command(app, ctx),
@@ -141,8 +84,8 @@ int main(int argc, char** argv) {
   // What pvcap writes (a participant's videos, their index, reports, exports) is not for other
   // users of the machine: folders 0750, files 0640. A lab shares with its group (store.group).
   umask(027);
-  const bool nohup = hangups_ignored_by_the_caller();
-  install_stop_handlers(nohup);
+  const bool nohup = pvcap::hangups_ignored_by_the_caller();
+  pvcap::install_stop_handlers(g_stop, nohup);
   if (nohup && app.got_subcommand("session"))
     spdlog::info("hang-ups are ignored, as the caller asked (nohup): Ctrl-C or SIGTERM stops the session");
   ctx.faults = read_faults();

@@ -3,9 +3,11 @@
 #include <arv.h>
 
 #include <algorithm>
+#include <iterator>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <nlohmann/json.hpp>
 
 #include "capture/aravis_handles.h"
 #include "capture/genicam_features.h"
@@ -189,6 +191,45 @@ NodeMapCheck check_node_map(const NodeMapView& map, const CameraConfig& camera) 
   }
   out.ptp = have(CameraRole::PtpEnable);
   out.chunks = have(CameraRole::ChunkModeActive);
+  return out;
+}
+
+nlohmann::json node_map_check_json(const NodeMapCheck& c) {
+  nlohmann::json features = nlohmann::json::object(), types = nlohmann::json::object(),
+                 roles = nlohmann::json::object();
+  for (const auto& f : c.features) {
+    features[f.role] = f.name, types[f.role] = f.type;
+    nlohmann::json role = {{"name", f.name}, {"type", f.type}, {"access", f.access}};
+    if (!f.entries.empty()) role["entries"] = f.entries;
+    if (f.range) role["range"] = {f.range->first, f.range->second};
+    roles[f.role] = role;
+  }
+  return {{"usable", c.usable()}, {"clock", c.clock},     {"features", features},   {"types", types},
+          {"roles", roles},       {"missing", c.missing}, {"warnings", c.warnings}, {"ptp", c.ptp},
+          {"chunks", c.chunks},   {"vendor", c.vendor},   {"model", c.model},       {"version", c.version}};
+}
+
+std::string describe_node_map_check(const NodeMapCheck& c, const std::string& file) {
+  std::string out;
+  auto to = std::back_inserter(out);
+  fmt::format_to(to, "{}: {} {} (node map version {})\n", file, c.vendor, c.model, c.version);
+  for (const auto& f : c.features) {
+    std::string entries;
+    if (!f.entries.empty())
+      entries = f.entries.size() <= 12 ? fmt::format(": {}", fmt::join(f.entries, ", "))
+                                       : fmt::format(": {} entries", f.entries.size());
+    else if (f.range)
+      entries = fmt::format(": {:.10g} to {:.10g}", f.range->first, f.range->second);
+    else if (f.type == "Integer" || f.type == "Float")
+      entries = ": range from the camera";
+    fmt::format_to(to, "  {:<26} {:<30} {:<2} {}{}\n", f.role, f.name, f.access, f.type, entries);
+  }
+  fmt::format_to(to, "clock: {}\nPTP: {}\nchunk data: {}\n",
+                 c.clock == "latch" ? "latch (the camera's own, latched)" : "arrival (host arrival times)",
+                 c.ptp ? "yes" : "no", c.chunks ? "yes" : "no");
+  for (const auto& w : c.warnings) fmt::format_to(to, "warning: {}\n", w);
+  for (const auto& m : c.missing) fmt::format_to(to, "missing: {}\n", m);
+  fmt::format_to(to, "{}\n", c.usable() ? "usable" : "NOT usable");
   return out;
 }
 

@@ -9,6 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "core/result.h"
 #include "core/rig_config.h"
 
@@ -77,5 +79,9 @@ struct NodeMapCheck {
   bool usable() const { return missing.empty(); }
 };
 NodeMapCheck check_node_map(const NodeMapView& map, const CameraConfig& camera);
+// The check as `pvcap camera check` shows it: each role found (name, access, type, entries or range),
+// the clock, PTP, chunk data, warnings, what is missing and the verdict; and the same as JSON.
+std::string describe_node_map_check(const NodeMapCheck& c, const std::string& file);
+nlohmann::json node_map_check_json(const NodeMapCheck& c);
 
 }  // namespace pvcap

@@ -22,6 +22,23 @@
 
 namespace pvcap::console {
 
+RigConfig rig_of_session(const std::filesystem::path& session) {
+  auto reader = SessionReader::open(session);
+  if (!reader) throw UserError(fmt::format("--resume {}: {}", session.string(), reader.error().message));
+  const SessionInfo& info = reader.value()->info();
+  std::error_code ec;
+  if (!info.rig_path.empty() && std::filesystem::exists(info.rig_path, ec)) {
+    RigConfig current = load_rig_config(info.rig_path);
+    if (current.text == info.rig_config) return current;
+    spdlog::warn(
+        "{} changed since {} was recorded: the session continues with the rig it recorded (give --rig to "
+        "use the file as it is now)",
+        info.rig_path, session.string());
+  }
+  return parse_rig_config(info.rig_config,
+                          info.rig_path.empty() ? session / "rig.yaml" : std::filesystem::path(info.rig_path));
+}
+
 void prepare_session(const RigConfig& rig, SessionSetup& c) {
   if (c.recording.board_session && (c.protocol || c.resume))
     throw UserError("--board records a calibration board session: it runs no protocol (leave out --protocol/--resume)");

@@ -43,6 +43,10 @@ struct SessionSetup {
   std::function<std::unique_ptr<protocol::RunnerEnv>(std::unique_ptr<protocol::RunnerEnv>)> decorate_env;
 };
 
+// The rig `session` recorded, for `--resume` without `--rig`: its file when unchanged since, else the
+// rig as the session recorded it (warned). Throws UserError when the session cannot be read.
+RigConfig rig_of_session(const std::filesystem::path& session);
+
 // Checks and completes the setup before any device is opened (throws UserError): the participant
 // code is pseudonymous, --auto is on a simulated rig, a board session runs no protocol, a resumed
 // session's protocol and participant are taken over.

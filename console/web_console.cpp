@@ -143,6 +143,25 @@ std::vector<std::string> local_host_names(const std::string& bind) {
 
 }  // namespace
 
+WebOptions with_token(WebOptions web, const std::string& token_file, const std::string& env_token) {
+  const int given = int(!token_file.empty()) + int(!web.token.empty()) + int(web.no_token);
+  if (given > 1) throw UserError("give one of --web-token, --web-token-file and --no-web-token");
+  if (!token_file.empty()) {
+    std::ifstream in(token_file);
+    if (!in) throw UserError(fmt::format("{}: cannot read the pages' token file", token_file));
+    std::getline(in, web.token);
+    while (!web.token.empty() && std::isspace(static_cast<unsigned char>(web.token.back()))) web.token.pop_back();
+    if (web.token.empty()) throw UserError(fmt::format("{}: the token file's first line is empty", token_file));
+  } else if (!env_token.empty() && web.token.empty() && !web.no_token) {
+    web.token = env_token;
+  }
+  if (!web.token.empty() && web.token.size() < 8) throw UserError("the pages' token must be at least 8 characters");
+  for (const char c : web.token)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_')
+      throw UserError("the pages' token may hold letters, digits, '-' and '_' only (it goes into addresses)");
+  return web;
+}
+
 bool is_loopback_address(const std::string& address) {
   if (address == "localhost" || address == "::1") return true;
   in_addr a{};

@@ -52,6 +52,12 @@ inline constexpr int kMaxOtherStreams = 12;
 
 bool is_loopback_address(const std::string& address);
 
+// `options` with the pages' token chosen: from `token_file` (its first line) when given, else
+// `env_token` (PVCAP_WEB_TOKEN, read by the caller) when options has none; at least 8 letters,
+// digits, '-' or '_' (it goes into addresses). Throws UserError for two sources, an unreadable or
+// empty file, or a token not so made.
+WebOptions with_token(WebOptions options, const std::string& token_file, const std::string& env_token);
+
 class WebConsole {
  public:
   // Binds the listening socket (nothing is served yet). A UserError-worthy failure (a bad address)

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "protocol/takes.h"
 #include "storage/index/session_reader.h"
 
 namespace pvcap::report {
@@ -104,6 +105,29 @@ Result<std::string> session_text(const std::filesystem::path& dir, std::optional
   if (any_loss)
     fmt::format_to(out, "frames were lost: see the drops and frames tables (reason column) in session.db\n");
   return fmt::to_string(buf);
+}
+
+ClosingReport closing_report(const std::filesystem::path& dir, std::optional<double> recorded_s,
+                             const std::vector<std::string>& notes, bool protocol) {
+  ClosingReport out;
+  auto text = session_text(dir, recorded_s);
+  if (!text) out.errors.push_back(fmt::format("the report could not be made: {}", text.error().message));
+  out.file = text ? text.value()
+                  : fmt::format("session: {}\nthe report could not be made: {}\n", dir.string(), text.error().message);
+  for (const auto& note : notes) out.file += note + "\n";
+  out.terminal = "\n" + out.file;
+  if (!protocol) return out;
+  auto takes = protocol::read_takes(dir);
+  if (!takes) {
+    out.errors.push_back(fmt::format("the takes could not be read back: {}", takes.error().message));
+    return out;
+  }
+  // Every take in report.txt (and report.html); the terminal keeps to the totals.
+  const std::string table = protocol::format_takes(takes.value());
+  out.file += "\n" + table;
+  const auto at = table.find(" takes done of ");
+  out.terminal += "\n" + (at == std::string::npos ? table : table.substr(table.rfind('\n', at) + 1));
+  return out;
 }
 
 }  // namespace pvcap::report

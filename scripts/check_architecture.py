@@ -9,7 +9,7 @@
 - The offline readers (storage, calib, protocol, report, export, dataset, replay, python) include nothing
   from capture/, the drivers: what a frame's bytes mean is codec/'s.
 - The include graph between folders has no cycle and is at most 7 levels deep.
-- No function of the product is longer than 120 lines.
+- No function of the product is longer than 120 lines; app/ holds at most 2,000 lines, no file over 300.
 - No module below app/ reads the environment (settings and test faults come down as values).
 
 - With `--graphviz FILE` (CMake's `--graphviz` output): the offline libraries (report, export, replay,
@@ -31,6 +31,9 @@ NOT_PRODUCT = {"tests", "bench", "build", "scripts", "docs", "rig-configs", ".gi
 MAX_DEPTH = 7
 OFFLINE_FOLDERS = ["storage", "lighting", "calib", "protocol", "report", "export", "dataset", "replay", "python"]
 MAX_FUNCTION_LINES = 120
+# app/ wires: each command a thin parse-and-call over a library function (docs/architecture.md).
+MAX_APP_LINES = 2000
+MAX_APP_FILE_LINES = 300
 # storage/'s rooms, and the rooms each may include (docs/architecture.md, "storage/").
 STORAGE_ROOMS = {"video": set(), "index": {"video"}, "writer": {"index", "video"}, "tools": {"index", "video"}}
 SQL_ROOM = "storage/index"
@@ -38,6 +41,20 @@ INCLUDE = re.compile(r'^\s*#\s*include\s+"([a-z_]+)/[^"]+"', re.M)
 # A statement of SQL: a string literal that starts with a statement keyword and names a table.
 SQL = re.compile(r'"\s*(SELECT\s|INSERT\s+INTO|UPDATE\s+\w+\s+SET|DELETE\s+FROM|CREATE\s+(TABLE|INDEX)|'
                  r'PRAGMA\s+\w+|ALTER\s+TABLE|DROP\s+TABLE|BEGIN\b|COMMIT\b)')
+
+
+def app_size_problems():
+    """app/ stays wiring: its sources at most MAX_APP_LINES lines, none over MAX_APP_FILE_LINES."""
+    problems, total = [], 0
+    for path in sorted(sources("app")):
+        lines = read(path).count("\n")
+        total += lines
+        if lines > MAX_APP_FILE_LINES:
+            problems.append(f"{os.path.relpath(path, ROOT)}: {lines} lines (an app/ file holds at most "
+                            f"{MAX_APP_FILE_LINES}: move the work into a library)")
+    if total > MAX_APP_LINES:
+        problems.append(f"app/: {total} lines of sources (at most {MAX_APP_LINES}: app/ wires, libraries work)")
+    return problems
 
 
 def sources(folder):
@@ -244,6 +261,7 @@ def main():
                 if SQL.search(line):
                     problems.append(f"{rel}:{n}: an SQL statement outside {SQL_ROOM}/")
     problems += storage_room_problems()
+    problems += app_size_problems()
     for folder in OFFLINE_FOLDERS:
         for path in sources(folder):
             if re.search(r'#\s*include\s+"capture/', read(path)):
@@ -276,7 +294,7 @@ def main():
         return 1
     print("architecture: no simulator below app/, storage/ in its rooms, no SQL outside storage/index/, no driver "
           "or live writer in an offline reader, "
-          "no folder cycle, at most "
+          f"no folder cycle, app/ within {MAX_APP_LINES} lines (no file over {MAX_APP_FILE_LINES}), at most "
           f"{max(d.values())} levels, no function over {MAX_FUNCTION_LINES} lines")
     return 0
 

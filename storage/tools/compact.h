@@ -67,4 +67,8 @@ struct CompactReport {
 // failed (a damaged frame, a full disk, a refused lock); segments already compacted stay compacted.
 Result<CompactReport> compact_session(const std::filesystem::path& dir, const CompactOptions& options = {});
 
+// What `pvcap compact` prints of a session compacted: what was done, the size gained and the read
+// speed of the result, and how to go on when it was stopped.
+std::string describe_compact_report(const std::filesystem::path& dir, const CompactReport& r);
+
 }  // namespace pvcap

@@ -11,7 +11,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-namespace pvcap {
+namespace pvcap::console {
 
 class ProgressLine {
  public:
@@ -46,4 +46,4 @@ class ProgressLine {
   int last_decile_ = -1;
 };
 
-}  // namespace pvcap
+}  // namespace pvcap::console
