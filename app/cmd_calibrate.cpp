@@ -1,4 +1,5 @@
-// `pvcap calibrate board|intrinsics|pad|check` (calib/session_calibration.h). The reference a
+// `pvcap calibrate board|intrinsics|pad|check` (calib/session_calibration.h): its results printed as
+// they come, each camera's failure on stderr, progress on the terminal. The reference a
 // calibration is compared against is loaded here: `--ground-truth` a simulated run's sim-truth/
 // (the simulator's own record of its lenses and poses), or `--reference` an earlier rig calibration.
 #include <fmt/format.h>
@@ -6,6 +7,7 @@
 #include "app/command.h"
 #include "calib/rig_calibration.h"
 #include "calib/session_calibration.h"
+#include "console/progress_line.h"
 #include "sim/truth.h"
 
 namespace pvcap {
@@ -79,14 +81,21 @@ Registered add_calibrate_command(CLI::App& app, AppContext&) {
                   "pose)");
   check->add_option("--calibration", a->o.calibration, "the calibration file to check");
   return {calibrate, [a, board, intrinsics, pad, check] {
-            if (*board) return calib::write_board(a->board_out);
+            if (*board) return fmt::print("{}", calib::write_board(a->board_out)), 0;
+            console::ProgressLine bar;
+            a->o.sinks = {[](const std::string& text) { fmt::print("{}", text); },
+                          [](const std::string& line) { fmt::print(stderr, "pvcap: {}\n", line); },
+                          [&bar](const std::string& what, std::size_t done, std::size_t total) {
+                            bar.show(fmt::format("{}: {}/{} frames", what, done, total), done, total);
+                          }};
             if (a->o.calibration.empty() && !a->rig.empty()) a->o.calibration = calib::default_calibration_path(a->rig);
             if (!a->ground_truth.empty()) a->o.reference = reference_from_truth(a->ground_truth);
             if (!a->reference.empty()) a->o.reference = reference_from_file(a->reference);
-            if (*check) return calib::check_against_presses(a->o);
-            if (*pad) return calib::pad_from_session(a->o);
             (void)intrinsics;
-            return calib::intrinsics_from_session(a->o);
+            const bool ok = *check ? calib::check_against_presses(a->o)
+                            : *pad ? calib::pad_from_session(a->o)
+                                   : calib::intrinsics_from_session(a->o);
+            return ok ? 0 : 1;  // 1: a camera failed or missed its target (what succeeded is saved)
           }};
 }
 

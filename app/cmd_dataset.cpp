@@ -10,6 +10,7 @@
 #include "app/command.h"
 #include "console/progress_line.h"
 #include "core/durable_folder.h"
+#include "core/time.h"
 #include "dataset/dataset_state.h"
 #include "dataset/release.h"
 #include "dataset/slurm.h"
@@ -164,10 +165,7 @@ int run_withdraw(const DatasetArgs& a, const std::atomic<bool>& stop) {
   const dataset::DatasetState l = load(a.dir, true, stop);
   std::vector<std::string> participants;
   for (const auto& p : l.status.participants) participants.push_back(p.code);
-  dataset::WithdrawRequest request{
-      a.participant, a.reason, a.purge,
-      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-          .count()};
+  dataset::WithdrawRequest request{a.participant, a.reason, a.purge, wall_now_ns()};
   auto done = dataset::withdraw(l.config, participants, l.sessions, request);
   if (!done) throw UserError(done.error().message);
   const dataset::WithdrawReport& r = done.value();

@@ -51,8 +51,8 @@ bool works_offline_on_images(const CLI::App& command) {
 void yield_to_recordings(const CLI::App& command) {
   static const std::set<std::string> after_the_session = {"calibrate", "export", "report",  "compact",
                                                           "dataset",   "verify", "recover", "migrate"};
-  if (!after_the_session.count(command.get_name())) return;
-  spdlog::debug("pvcap {}: at nice {}", command.get_name(), pvcap::lower_priority_to(kOfflineNice));
+  const bool lower = after_the_session.count(command.get_name()) > 0;
+  spdlog::debug("pvcap {}: at nice {}", command.get_name(), pvcap::lower_priority_to(lower ? kOfflineNice : -20));
 }
 
 }  // namespace

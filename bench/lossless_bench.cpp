@@ -20,9 +20,9 @@ extern "C" {
 
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
-#include <cstring>
 #include <string>
 #include <utility>
 #include <vector>
@@ -30,6 +30,7 @@ extern "C" {
 #include <opencv2/core.hpp>
 
 #include "bench/bench_mosaics.h"
+#include "core/time.h"
 #include "storage/video/av_handles.h"
 #include "storage/video/bayer_planes.h"
 #include "storage/video/video_reader.h"
@@ -184,18 +185,13 @@ Outcome run(const Candidate& cand, const std::vector<cv::Mat>& planes) {
   return o;
 }
 
-double cpu_seconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return double(t.tv_sec) + double(t.tv_nsec) * 1e-9;
-}
-
 // One stored layout through the store's own writer and reader (storage/video): the mosaics written
 // to a file with `codec` cut into `cols` x `rows` tiles, then read back whole and as paper-sized
 // crops (480x384 with the demosaicing margin, at random places), all on one thread: CPU per frame.
 void layout_row(const std::string& label, const std::string& codec, int gop, int cols, int rows,
                 const std::vector<cv::Mat>& mosaics, const std::string& options = "", bool fitted = false) {
-  const auto file = std::filesystem::temp_directory_path() / ("pvcap-lossless-bench-" + std::to_string(::getpid()) + ".mkv");
+  const auto file =
+      std::filesystem::temp_directory_path() / ("pvcap-lossless-bench-" + std::to_string(::getpid()) + ".mkv");
   VideoSettings s;
   s.bayer_format = "BayerRG8";
   s.raw_codec = codec;
@@ -216,28 +212,28 @@ void layout_row(const std::string& label, const std::string& codec, int gop, int
     return;
   }
   const std::string grid = w.value()->tile_grid().tag();
-  double t0 = cpu_seconds();
+  double t0 = process_cpu_seconds();
   for (std::size_t i = 0; i < mosaics.size(); ++i)
     if (!w.value()->write(mosaics[i], std::int64_t(i + 1) * 66'667)) return;
   if (!w.value()->close().ok()) return;
-  const double encode_ms = (cpu_seconds() - t0) * 1e3 / double(mosaics.size());
+  const double encode_ms = (process_cpu_seconds() - t0) * 1e3 / double(mosaics.size());
   const double mb = double(std::filesystem::file_size(file)) / 1e6 / double(mosaics.size());
   auto r = VideoReader::open(file);
   if (!r) return;
   bool exact = true;
   cv::Mat m;
-  t0 = cpu_seconds();
+  t0 = process_cpu_seconds();
   for (std::size_t i = 0; i < mosaics.size(); ++i) {
     const std::int64_t pts = (std::int64_t(i + 1) * 66'667 + 500) / 1000;
     exact = exact && r.value()->read_raw_at(pts, m).value() && cv::norm(m, mosaics[i], cv::NORM_INF) == 0;
   }
-  const double whole_ms = (cpu_seconds() - t0) * 1e3 / double(mosaics.size());
+  const double whole_ms = (process_cpu_seconds() - t0) * 1e3 / double(mosaics.size());
   // Shuffled, as training reads: a 480x384 box and the simulated rig's paper crop (the pad's box
   // with its margin, ~900x720 at 1080p), each with the demosaicing margin.
   const auto crop_ms = [&](cv::Size size) {
     cv::RNG rng(5);
     const int crops = 3 * int(mosaics.size());
-    const double start = cpu_seconds();
+    const double start = process_cpu_seconds();
     for (int k = 0; k < crops; ++k) {
       const std::size_t i = std::size_t(rng.uniform(0, int(mosaics.size())));
       const cv::Size whole = mosaics[i].size();
@@ -247,7 +243,7 @@ void layout_row(const std::string& label, const std::string& codec, int gop, int
       exact = exact && r.value()->read_raw_region_at(pts, box, m).value() &&
               cv::norm(m, mosaics[i](box), cv::NORM_INF) == 0;
     }
-    return (cpu_seconds() - start) * 1e3 / crops;
+    return (process_cpu_seconds() - start) * 1e3 / crops;
   };
   const double small = crop_ms({484, 388}), paper = crop_ms({904, 724});
   std::printf("%-40s %5s %8.3f %10.2f %10.2f %9.2f %10.2f %9s\n", label.c_str(), grid.c_str(), mb, encode_ms, whole_ms,

@@ -1,10 +1,6 @@
 #include "calib/session_calibration.h"
 
-#include <unistd.h>
-
 #include <algorithm>
-#include <chrono>
-#include <cstdio>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -21,6 +17,7 @@
 #include "codec/image_files.h"
 #include "core/result.h"
 #include "core/side_by_side.h"
+#include "core/time.h"
 #include "storage/index/session_index.h"
 #include "storage/index/session_reader.h"
 
@@ -31,16 +28,15 @@ namespace {
 constexpr double kFocalTolerance = 0.005, kPrincipalTolerancePx = 2.0;
 constexpr double kCornerMedianPx = 0.3, kCornerMaxPx = 1.0;
 
-std::int64_t wall_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
+// The sinks' calls, each a no-op when the caller gave none.
+void say(const CalibrationSinks& out, const std::string& text) {
+  if (out.say) out.say(text);
 }
-
-// One line, rewritten in place on a terminal; nothing in a log.
-void progress(const std::string& what, std::size_t done, std::size_t total) {
-  if (isatty(STDERR_FILENO) != 1) return;
-  fmt::print(stderr, "\r{}: {}/{} frames {}", what, done, total, done == total ? "\n" : "");
-  std::fflush(stderr);
+void warn(const CalibrationSinks& out, const std::string& line) {
+  if (out.warn) out.warn(line);
+}
+void progress(const CalibrationSinks& out, const std::string& what, std::size_t done, std::size_t total) {
+  if (out.progress) out.progress(what, done, total);
 }
 
 std::unique_ptr<SessionReader> open_session(const std::filesystem::path& dir) {
@@ -70,13 +66,13 @@ std::vector<std::size_t> samples_to_read(const SessionReader& session, const Ses
 // with progress on the terminal.
 template <typename Use>
 void for_each_image(SessionReader& session, std::size_t c, const std::vector<std::size_t>& samples,
-                    const std::string& what, Use use) {
+                    const std::string& what, const CalibrationSinks& out, Use use) {
   std::size_t done = 0;
   for (std::size_t i : samples) {
     auto image = session.image(i, c);
     if (!image) throw UserError(image.error().message);
     if (!image.value().empty()) use(image.value());
-    progress(session.cameras()[c].name + ": " + what, ++done, samples.size());
+    progress(out, session.cameras()[c].name + ": " + what, ++done, samples.size());
   }
 }
 
@@ -136,6 +132,7 @@ struct CalibrationRun {
   calib::RigCalibration cal;
   std::vector<std::size_t> samples;
   const std::optional<ReferenceCalibration>& reference;
+  const CalibrationSinks& out;
   std::vector<std::string> failed;
   bool within_targets = true;
 
@@ -144,15 +141,16 @@ struct CalibrationRun {
         file(calibration_file(o)),
         cal(load_or_new(file, *session)),
         samples(samples_to_read(*session, o, frames_by_default)),
-        reference(o.reference) {}
+        reference(o.reference),
+        out(o.sinks) {}
 
-  // What succeeded is saved whatever failed; the failures are named; exit 1 when any camera failed
+  // What succeeded is saved whatever failed; the failures are named; false when any camera failed
   // or missed its target against the reference.
-  int save_and_report(const std::string& next) const {
+  bool save_and_report(const std::string& next) const {
     if (Status s = calib::save_rig_calibration(file, cal); !s.ok()) throw UserError(s.error().message);
-    fmt::print("wrote {}{}\n", file.string(), next);
-    for (const auto& f : failed) fmt::print(stderr, "pvcap: {}\n", f);
-    return failed.empty() && within_targets ? 0 : 1;
+    say(out, fmt::format("wrote {}{}\n", file.string(), next));
+    for (const auto& f : failed) warn(out, f);
+    return failed.empty() && within_targets;
   }
 };
 
@@ -174,7 +172,7 @@ ReferenceCalibration reference_from(const RigCalibration& calibration, std::stri
   return r;
 }
 
-int write_board(const std::filesystem::path& out) {
+std::string write_board(const std::filesystem::path& out) {
   const calib::BoardSpec spec;
   const std::string ext = out.extension().string();
   if (ext == ".pdf") {
@@ -186,11 +184,10 @@ int write_board(const std::filesystem::path& out) {
   } else {
     throw UserError(fmt::format("{}: the board is written as .pdf or .png", out.string()));
   }
-  fmt::print(
+  return fmt::format(
       "wrote {}: ChArUco board {} x {} squares of {} mm, markers {} mm ({}). Print at 100 % (\"actual "
       "size\"), check one square measures {} mm, and mount it flat and rigid.\n",
       out.string(), spec.squares_x, spec.squares_y, spec.square_mm, spec.marker_mm, "DICT_5X5_100", spec.square_mm);
-  return 0;
 }
 
 // Every camera's intrinsics from its board views, the cameras shared among the machine's cores
@@ -214,7 +211,7 @@ std::vector<Result<calib::Intrinsics>> intrinsics_of_cameras(const CalibrationRu
       if (!image) throw UserError(image.error().message);
       if (!image.value().empty()) views.push_back(calib::detect_board(image.value(), spec));
       const std::lock_guard lock(mutex);  // one line, its count rising
-      progress("finding the board (all cameras)", ++frames_done, frames_total);
+      progress(run.out, "finding the board (all cameras)", ++frames_done, frames_total);
     }
     const cv::Size size(cameras[c].width, cameras[c].height);
     if (!o.save_views.empty()) {  // before the fit: a fit that fails is what they are kept for
@@ -228,7 +225,7 @@ std::vector<Result<calib::Intrinsics>> intrinsics_of_cameras(const CalibrationRu
   return out;
 }
 
-int intrinsics_from_session(const SessionCalibrationOptions& o) {
+bool intrinsics_from_session(const SessionCalibrationOptions& o) {
   CalibrationRun run(o, 150);
   if (!o.save_views.empty()) {
     std::error_code ec;
@@ -270,14 +267,16 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
                          {"coverage_grid", {calib::Intrinsics::coverage_cols, calib::Intrinsics::coverage_rows}},
                          {"empty_regions", in.empty_regions}}};
     entry->intrinsics = m;
-    fmt::print(
-        "{}: {} views ({} left out, {} repeats of a still board skipped), {} corners ({} misread left out), RMS "
-        "{:.3f} px; fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f} (the fit's standard deviation: focal {:.1f}, cx {:.1f}, "
-        "cy {:.1f} px)\n",
-        camera.name, in.views, in.rejected_views, in.repeated_views, in.corners, in.misread_corners, in.rms_px,
-        in.model.K(0, 0), in.model.K(1, 1), in.model.K(0, 2), in.model.K(1, 2),
-        // with fx = fy fixed, OpenCV reports the focal length's deviation under one of the two
-        std::max(in.deviation[0], in.deviation[1]), in.deviation[2], in.deviation[3]);
+    say(run.out,
+        fmt::format(
+            "{}: {} views ({} left out, {} repeats of a still board skipped), {} corners ({} misread left out), RMS "
+            "{:.3f} px; fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f} (the fit's standard deviation: focal {:.1f}, cx "
+            "{:.1f}, "
+            "cy {:.1f} px)\n",
+            camera.name, in.views, in.rejected_views, in.repeated_views, in.corners, in.misread_corners, in.rms_px,
+            in.model.K(0, 0), in.model.K(1, 1), in.model.K(0, 2), in.model.K(1, 2),
+            // with fx = fy fixed, OpenCV reports the focal length's deviation under one of the two
+            std::max(in.deviation[0], in.deviation[1]), in.deviation[2], in.deviation[3]));
     std::string grid;
     for (int r = 0; r < calib::Intrinsics::coverage_rows; ++r) {
       grid += "    ";
@@ -285,16 +284,15 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
         grid += fmt::format("{:>6}", in.coverage[std::size_t(r * calib::Intrinsics::coverage_cols + k)]);
       grid += '\n';
     }
-    fmt::print("  corners per image region:\n{}", grid);
+    say(run.out, "  corners per image region:\n" + grid);
     if (!in.empty_regions.empty())
-      fmt::print(
-          "  no corners yet in: {}. Record more board views there: the lens is not known where the board "
-          "has not been\n",
-          fmt::join(in.empty_regions, ", "));
+      say(run.out, fmt::format("  no corners yet in: {}. Record more board views there: the lens is not known "
+                               "where the board has not been\n",
+                               fmt::join(in.empty_regions, ", ")));
     if (!in.missing.empty())
-      fmt::print(
-          "  not covered (the board session's rule): {}; the lens was fitted, but is less certain without them\n",
-          fmt::join(in.missing, "; "));
+      say(run.out, fmt::format("  not covered (the board session's rule): {}; the lens was fitted, but is less "
+                               "certain without them\n",
+                               fmt::join(in.missing, "; ")));
     if (run.reference) {
       const calib::CameraModel& tm = reference_camera(*run.reference, camera.name).model;
       const double efx = in.model.K(0, 0) / tm.K(0, 0) - 1, efy = in.model.K(1, 1) / tm.K(1, 1) - 1;
@@ -302,17 +300,18 @@ int intrinsics_from_session(const SessionCalibrationOptions& o) {
       const bool ok = std::abs(efx) <= kFocalTolerance && std::abs(efy) <= kFocalTolerance &&
                       std::abs(ecx) <= kPrincipalTolerancePx && std::abs(ecy) <= kPrincipalTolerancePx;
       run.within_targets = run.within_targets && ok;
-      fmt::print("  against {}: focal {:+.3f} % / {:+.3f} %, principal point {:+.2f} / {:+.2f} px ({})\n",
-                 run.reference->label, 100 * efx, 100 * efy, ecx, ecy,
-                 ok ? "within targets"
-                    : fmt::format("OUTSIDE the targets {} % and {} px", 100 * kFocalTolerance, kPrincipalTolerancePx));
+      say(run.out, fmt::format("  against {}: focal {:+.3f} % / {:+.3f} %, principal point {:+.2f} / {:+.2f} px ({})\n",
+                               run.reference->label, 100 * efx, 100 * efy, ecx, ecy,
+                               ok ? "within targets"
+                                  : fmt::format("OUTSIDE the targets {} % and {} px", 100 * kFocalTolerance,
+                                                kPrincipalTolerancePx)));
     }
     add_to_session(o.session, camera, *entry, m, run.file);
   }
   return run.save_and_report(fmt::format("; next: pvcap calibrate pad SESSION --calibration {}", run.file.string()));
 }
 
-int pad_from_session(const SessionCalibrationOptions& o) {
+bool pad_from_session(const SessionCalibrationOptions& o) {
   if (const auto file = calibration_file(o); !std::filesystem::exists(file))
     throw UserError(
         fmt::format("{}: no calibration file with the cameras' intrinsics; make one first with `pvcap "
@@ -337,7 +336,7 @@ int pad_from_session(const SessionCalibrationOptions& o) {
       continue;
     }
     calib::MarkerAccumulator markers(run.cal.pad);
-    for_each_image(*run.session, c, run.samples, "finding the mat's markers",
+    for_each_image(*run.session, c, run.samples, "finding the mat's markers", run.out,
                    [&](const cv::Mat& image) { markers.add(image); });
     auto got = calib::calibrate_pad(markers.median(), entry->model, run.cal.pad);
     if (!got) {
@@ -353,12 +352,13 @@ int pad_from_session(const SessionCalibrationOptions& o) {
                         p.rms_mm,      {{"markers", p.marker_ids}, {"frames", markers.frames()}}};
     entry->pad = m;
     const cv::Point3d centre = p.model.centre_mm();
-    fmt::print(
-        "{}: {} markers over {} frames, RMS {:.3f} px / {:.3f} mm on the pad; camera at ({:.0f}, {:.0f}) mm, "
-        "{:.0f} mm above the pad; grid corners {} {} {} {}\n",
-        camera.name, p.marker_ids.size(), markers.frames(), p.rms_px, p.rms_mm, centre.x, centre.y, -centre.z,
-        fmt_point(p.pad_corners_px[0]), fmt_point(p.pad_corners_px[1]), fmt_point(p.pad_corners_px[2]),
-        fmt_point(p.pad_corners_px[3]));
+    say(run.out,
+        fmt::format(
+            "{}: {} markers over {} frames, RMS {:.3f} px / {:.3f} mm on the pad; camera at ({:.0f}, {:.0f}) mm, "
+            "{:.0f} mm above the pad; grid corners {} {} {} {}\n",
+            camera.name, p.marker_ids.size(), markers.frames(), p.rms_px, p.rms_mm, centre.x, centre.y, -centre.z,
+            fmt_point(p.pad_corners_px[0]), fmt_point(p.pad_corners_px[1]), fmt_point(p.pad_corners_px[2]),
+            fmt_point(p.pad_corners_px[3])));
     if (run.reference) {
       const ReferenceCamera& t = reference_camera(*run.reference, camera.name);
       std::vector<double> errors;
@@ -367,8 +367,10 @@ int pad_from_session(const SessionCalibrationOptions& o) {
       const double median = (errors[1] + errors[2]) / 2, max = errors[3];
       const bool ok = median <= kCornerMedianPx && max <= kCornerMaxPx;
       run.within_targets = run.within_targets && ok;
-      fmt::print("  against {}: pad corners median {:.3f} px, max {:.3f} px ({})\n", run.reference->label, median, max,
-                 ok ? "within targets" : fmt::format("OUTSIDE the targets {} / {} px", kCornerMedianPx, kCornerMaxPx));
+      say(run.out,
+          fmt::format(
+              "  against {}: pad corners median {:.3f} px, max {:.3f} px ({})\n", run.reference->label, median, max,
+              ok ? "within targets" : fmt::format("OUTSIDE the targets {} / {} px", kCornerMedianPx, kCornerMaxPx)));
     }
     add_to_session(o.session, camera, *entry, m, run.file);
   }
@@ -387,7 +389,7 @@ struct Presses {
   double highest = 0;  // the session's highest total pressure (counts)
 };
 
-Presses find_presses(SessionReader& session, std::size_t most) {
+Presses find_presses(SessionReader& session, std::size_t most, const CalibrationSinks& out) {
   std::vector<std::pair<std::size_t, double>> totals;
   Presses found;
   for (std::size_t i = 0; i < session.sample_count(); ++i) {
@@ -400,9 +402,9 @@ Presses find_presses(SessionReader& session, std::size_t most) {
     for (auto c : frame.value().counts) total += c;
     totals.emplace_back(i, total);
     found.highest = std::max(found.highest, total);
-    if (i % 64 == 0) progress("finding presses", i, session.sample_count());
+    if (i % 64 == 0) progress(out, "finding presses", i, session.sample_count());
   }
-  progress("finding presses", session.sample_count(), session.sample_count());
+  progress(out, "finding presses", session.sample_count(), session.sample_count());
   std::vector<std::pair<std::size_t, double>> press;  // the samples of the press under way
   const auto close_press = [&] {
     if (press.empty()) return;
@@ -433,7 +435,7 @@ struct Mark {
   std::int64_t frame_ns;
 };
 
-std::map<std::string, std::vector<Mark>> fingertip_marks(SessionReader& session) {
+std::map<std::string, std::vector<Mark>> fingertip_marks(SessionReader& session, const CalibrationSinks& out) {
   std::map<std::string, std::vector<Mark>> marks;
   auto events = session.protocol_events();
   if (!events) throw UserError(events.error().message);
@@ -444,7 +446,7 @@ std::map<std::string, std::vector<Mark>> fingertip_marks(SessionReader& session)
       marks[d.at("name").get<std::string>()].push_back(
           {d.at("x").get<double>(), d.at("y").get<double>(), d.at("frame_ns").get<std::int64_t>()});
     } catch (const nlohmann::json::exception&) {
-      fmt::print(stderr, "pvcap: a fingertip mark at {} ns is unreadable; left out\n", e.host_ns);
+      warn(out, fmt::format("a fingertip mark at {} ns is unreadable; left out", e.host_ns));
     }
   }
   return marks;
@@ -470,11 +472,12 @@ double rms_of(const std::vector<double>& v) {
   return std::sqrt(s / double(v.size()));
 }
 
-void print_disagreements(const std::string& camera, const char* what, const Disagreements& d) {
-  if (d.px.empty()) return;
-  fmt::print("{}: {} {}presses; pressure vs {}fingertip: median {:.2f} px / {:.2f} mm, max {:.2f} px / {:.2f} mm\n",
-             camera, d.px.size(), what, what, median_of(d.px), median_of(d.mm),
-             *std::max_element(d.px.begin(), d.px.end()), *std::max_element(d.mm.begin(), d.mm.end()));
+std::string describe_disagreements(const std::string& camera, const char* what, const Disagreements& d) {
+  if (d.px.empty()) return "";
+  return fmt::format(
+      "{}: {} {}presses; pressure vs {}fingertip: median {:.2f} px / {:.2f} mm, max {:.2f} px / {:.2f} mm\n", camera,
+      d.px.size(), what, what, median_of(d.px), median_of(d.mm), *std::max_element(d.px.begin(), d.px.end()),
+      *std::max_element(d.mm.begin(), d.mm.end()));
 }
 
 // The fingertip found in the image at each press, against that press's pressure centroid.
@@ -506,7 +509,7 @@ Disagreements check_found_fingertips(SessionReader& session, std::size_t c, cons
 // The operator's marks: each against the pressure of the sample nearest the marked frame.
 Disagreements check_marked_fingertips(SessionReader& session, const std::string& camera, const std::vector<Mark>& marks,
                                       const calib::CameraCalibration& entry, const calib::PadLayout& pad,
-                                      double highest, nlohmann::json& each) {
+                                      double highest, nlohmann::json& each, const CalibrationSinks& sinks) {
   Disagreements out;
   for (const Mark& mark : marks) {
     auto i = session.sample_at(mark.frame_ns);
@@ -516,8 +519,8 @@ Disagreements check_marked_fingertips(SessionReader& session, const std::string&
     double total = 0;
     for (auto v : s.value().pressure->counts) total += v;
     if (total <= 0.3 * highest) {
-      fmt::print("{}: the fingertip marked at ({:.1f}, {:.1f}) was not during a press; left out\n", camera, mark.x,
-                 mark.y);
+      say(sinks, fmt::format("{}: the fingertip marked at ({:.1f}, {:.1f}) was not during a press; left out\n", camera,
+                             mark.x, mark.y));
       continue;
     }
     const auto centroid = calib::pressure_centroid(s.value().pressure_image, s.value().pressure->grid_xscale,
@@ -537,7 +540,7 @@ Disagreements check_marked_fingertips(SessionReader& session, const std::string&
 
 }  // namespace
 
-int check_against_presses(const SessionCalibrationOptions& o) {
+bool check_against_presses(const SessionCalibrationOptions& o) {
   auto session = open_session(o.session);
   const std::filesystem::path file = calibration_file(o);
   if (!std::filesystem::exists(file))
@@ -546,38 +549,37 @@ int check_against_presses(const SessionCalibrationOptions& o) {
   calib::RigCalibration cal = load_or_new(file, *session);
   if (!session->pressure_device())
     throw UserError(fmt::format("{}: the session has no pressure frames to check against", o.session.string()));
-  const Presses presses = find_presses(*session, std::size_t(o.frames > 0 ? o.frames : 40));
+  const Presses presses = find_presses(*session, std::size_t(o.frames > 0 ? o.frames : 40), o.sinks);
   if (presses.samples.empty())
     throw UserError(
         fmt::format("{}: no presses found; record a few presses on the pad (the protocol's calibration "
                     "routine, or any pressing) and check again",
                     o.session.string()));
-  auto marks = fingertip_marks(*session);
+  auto marks = fingertip_marks(*session, o.sinks);
 
-  int rc = 0;
+  bool ok = true;
   for (std::size_t c = 0; c < session->cameras().size(); ++c) {
     const CameraInfo& camera = session->cameras()[c];
     calib::CameraCalibration* entry = cal.camera(camera.name);
     if (!entry || !entry->pad) {
-      fmt::print(stderr, "pvcap: {}: no pad calibration in {}; run `pvcap calibrate pad` first\n", camera.name,
-                 file.string());
-      rc = 1;
+      warn(o.sinks,
+           fmt::format("{}: no pad calibration in {}; run `pvcap calibrate pad` first", camera.name, file.string()));
+      ok = false;
       continue;
     }
     nlohmann::json each = nlohmann::json::array();
     const Disagreements found = check_found_fingertips(*session, c, *entry, cal.pad, presses, each);
-    const Disagreements marked =
-        check_marked_fingertips(*session, camera.name, marks[camera.name], *entry, cal.pad, presses.highest, each);
+    const Disagreements marked = check_marked_fingertips(*session, camera.name, marks[camera.name], *entry, cal.pad,
+                                                         presses.highest, each, o.sinks);
     if (found.px.empty() && marked.px.empty()) {
-      fmt::print(stderr,
-                 "pvcap: {}: the fingertip was not seen in any of the {} presses and none was marked (click "
-                 "it on the operator page's camera view during a press)\n",
-                 camera.name, presses.samples.size());
-      rc = 1;
+      warn(o.sinks, fmt::format("{}: the fingertip was not seen in any of the {} presses and none was marked (click "
+                                "it on the operator page's camera view during a press)",
+                                camera.name, presses.samples.size()));
+      ok = false;
       continue;
     }
-    print_disagreements(camera.name, "", found);
-    print_disagreements(camera.name, "marked ", marked);
+    say(o.sinks,
+        describe_disagreements(camera.name, "", found) + describe_disagreements(camera.name, "marked ", marked));
     Disagreements all = found;
     all.px.insert(all.px.end(), marked.px.begin(), marked.px.end());
     all.mm.insert(all.mm.end(), marked.mm.begin(), marked.mm.end());
@@ -586,7 +588,7 @@ int check_against_presses(const SessionCalibrationOptions& o) {
                         rms_of(all.mm), {{"presses", each}}};
     add_to_session(o.session, camera, *entry, m, file);
   }
-  return rc;
+  return ok;
 }
 
 }  // namespace pvcap::calib

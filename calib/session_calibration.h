@@ -1,15 +1,15 @@
 #pragma once
-// What `pvcap calibrate board|intrinsics|pad|check` does: the printable board, each camera's
-// intrinsics from a board session, the pad's pose and homography from any session that shows the
-// mat, and the press check of a calibration against a session's presses. Results go into the rig
-// calibration file (calib/rig_calibration.h) and into the session's calibrations table, and are
-// printed per camera as they come (progress on a terminal). Given a reference calibration (an
-// earlier calibration of the rig, or, on a simulated rig, the simulator's truth that app/ reads),
-// also the errors against it. Each returns the command's exit code: 1 when a camera failed or
-// missed a target against the reference (what succeeded is saved); a user's mistake throws UserError.
-// The one part of calib/ that reads a store: a library of its own (pvcap_calib_session).
+// Calibration from recorded sessions: the printable board, each camera's intrinsics from a board
+// session, the pad's pose and homography from any session that shows the mat, and the press check of
+// a calibration against a session's presses. Results go into the rig calibration file
+// (calib/rig_calibration.h) and into the session's calibrations table, and are told per camera as
+// they come to the caller's sinks (`pvcap calibrate` prints them); nothing here prints. Given a
+// reference calibration (an earlier calibration of the rig, or, on a simulated rig, the simulator's
+// truth that app/ reads), also the errors against it. A user's mistake throws UserError. The one
+// part of calib/ that reads a store: a library of its own (pvcap_calib_session).
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -37,17 +37,28 @@ struct ReferenceCalibration {
 // otherwise projected through the model).
 ReferenceCalibration reference_from(const RigCalibration& calibration, std::string label);
 
+// Where a calibration's results and progress go (unset: nowhere).
+struct CalibrationSinks {
+  std::function<void(const std::string& text)> say;   // results, as the operator reads them (lines)
+  std::function<void(const std::string& line)> warn;  // a camera that failed, or a mark left out
+  std::function<void(const std::string& what, std::size_t done, std::size_t total)> progress;
+};
+
 struct SessionCalibrationOptions {
   std::filesystem::path session;
   std::filesystem::path calibration;              // the rig calibration file to read/update
   std::optional<ReferenceCalibration> reference;  // compare against it and hold the targets (none: no comparison)
   int frames = 0;                                 // frames per camera to use (0: the command's default)
-  std::filesystem::path save_views;               // intrinsics: each camera's board views written here (a fit elsewhere)
+  std::filesystem::path save_views;  // intrinsics: each camera's board views written here (a fit elsewhere)
+  CalibrationSinks sinks;
 };
 
-int write_board(const std::filesystem::path& out);  // .pdf or .png
-int intrinsics_from_session(const SessionCalibrationOptions& options);
-int pad_from_session(const SessionCalibrationOptions& options);
-int check_against_presses(const SessionCalibrationOptions& options);
+// Writes the board to print (.pdf or .png); returns what was written and how to print it.
+std::string write_board(const std::filesystem::path& out);
+// Each returns whether every camera succeeded (and, against a reference, met its targets); what
+// succeeded is saved either way.
+bool intrinsics_from_session(const SessionCalibrationOptions& options);
+bool pad_from_session(const SessionCalibrationOptions& options);
+bool check_against_presses(const SessionCalibrationOptions& options);
 
 }  // namespace pvcap::calib

@@ -25,6 +25,11 @@ HostNs host_now();
 // session so monotonic stamps can be related to calendar time.
 std::int64_t wall_now_ns();
 
+// CPU time used so far, in seconds: by the calling thread (CLOCK_THREAD_CPUTIME_ID) and by the whole
+// process (CLOCK_PROCESS_CPUTIME_ID, every thread): what a speed figure per core is measured in.
+double thread_cpu_seconds();
+double process_cpu_seconds();
+
 // "2026-11-22T14:05:03Z"-style UTC text for a wall-clock time.
 std::string format_utc(std::int64_t wall_ns);
 

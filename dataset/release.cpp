@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "core/durable_folder.h"
+#include "core/time.h"
 #include "core/version.h"
 #include "export/dataset_export.h"
 #include "export/sha256.h"
@@ -502,12 +503,7 @@ Result<ReleaseSummary> finish_release(const DatasetConfig& c, const ReleasePlan&
   std::error_code ec;
   for (fs::recursive_directory_iterator it(plan.out, ec), end; !ec && it != end; it.increment(ec))
     if (it->is_regular_file()) sum.bytes += it->file_size();
-  const auto now = std::chrono::system_clock::now().time_since_epoch();
-  if (auto r = record_release(
-          c.dir,
-          {plan.out.string(), std::chrono::duration_cast<std::chrono::nanoseconds>(now).count(), plan.participants});
-      !r.ok())
-    return r.error();
+  if (auto r = record_release(c.dir, {plan.out.string(), wall_now_ns(), plan.participants}); !r.ok()) return r.error();
   return sum;
 }
 

@@ -79,12 +79,6 @@ std::vector<std::uint64_t> residual_counts(const fs::path& file) {
   return counts;
 }
 
-double thread_cpu_seconds() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return double(t.tv_sec) + double(t.tv_nsec) * 1e-9;
-}
-
 // Shuffled crops of a training read's size (480x384 and the demosaicing margin) from `file`, per
 // second of this thread's CPU: what `pvcap compact` says of the store before and after.
 double crops_per_second(const fs::path& file, const std::vector<std::int64_t>& pts_ms) {

@@ -33,23 +33,31 @@ Recorded record_export_session(const fs::path& work) {
       "--overlay white_vinyl --no-web",
       (out.work / "rig.yaml").string(), (out.work / "sessions").string(),
       write_press_protocol(out.work, "[low, high]", 0.5, 0.4, 1.5, 0.3).string()));
-  EXPECT_EQ(run.exit_code, 0) << run.output;
   out.session = only_session(out.work / "sessions");
-  EXPECT_EQ(write_truth_lenses(out.session, out.work / "lenses.yaml"), "");
+  if (run.exit_code != 0 || out.session.empty()) {
+    out.problem = fmt::format("the session failed (exit {}):\n{}", run.exit_code, run.output);
+    return out;
+  }
+  if (std::string lenses = write_truth_lenses(out.session, out.work / "lenses.yaml"); !lenses.empty()) {
+    out.problem = "the simulator's lenses could not be written: " + lenses;
+    return out;
+  }
   const auto pad = run_pvcap(
       fmt::format("calibrate pad {} --calibration {}", out.session.string(), (out.work / "lenses.yaml").string()));
-  EXPECT_EQ(pad.exit_code, 0) << pad.output;
+  if (pad.exit_code != 0) out.problem = fmt::format("calibrate pad failed (exit {}):\n{}", pad.exit_code, pad.output);
   return out;
 }
 
 const Recorded& recorded() {
   static const Recorded r = [] {
     if (const char* shared = std::getenv("PVCAP_EXPORT_FIXTURE")) {
-      Recorded out{shared, only_session(fs::path(shared) / "sessions")};
-      EXPECT_FALSE(out.session.empty()) << "ExportFixture.Record did not record into " << shared;
+      Recorded out{shared, only_session(fs::path(shared) / "sessions"), ""};
+      EXPECT_FALSE(out.session.empty()) << "the fixture step fixture.export_session did not record into " << shared;
       return out;
     }
-    return record_export_session(process_work_dir("export"));  // shared by the tests of this process
+    Recorded out = record_export_session(process_work_dir("export"));  // shared by the tests of this process
+    EXPECT_EQ(out.problem, "");
+    return out;
   }();
   return r;
 }

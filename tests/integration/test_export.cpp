@@ -67,15 +67,6 @@ double store_kpa_sum(pvcap::SessionReader& r, std::size_t sample) {
 
 }  // namespace
 
-// ctest's fixture (tests/CMakeLists.txt): records the export tests' session into PVCAP_EXPORT_FIXTURE.
-TEST(ExportFixture, Record) {
-  const char* shared = std::getenv("PVCAP_EXPORT_FIXTURE");
-  if (!shared) GTEST_SKIP() << "ctest runs it before the export tests";
-  fs::remove_all(shared);
-  const Recorded r = record_export_session(shared);
-  ASSERT_FALSE(r.session.empty());
-}
-
 TEST(Export, ThePressureVisionLayoutReadsBackAsTheLoadersReadIt) {
   const Recorded& rec = recorded();
   ASSERT_FALSE(rec.session.empty());

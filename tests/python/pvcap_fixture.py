@@ -12,5 +12,5 @@ def only_session():
     found = glob.glob(os.path.join(FIXTURE, "sessions", "*", "session.db"))
     if len(found) != 1:
         raise AssertionError(f"{len(found)} recorded sessions under {FIXTURE!r}, not one: run under ctest, whose "
-                             "ExportFixture.Record records it (PVCAP_EXPORT_FIXTURE names its folder)")
+                             "the fixture step fixture.export_session records it (PVCAP_EXPORT_FIXTURE names its folder)")
     return os.path.dirname(found[0])
