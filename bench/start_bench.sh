@@ -8,6 +8,8 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 runs=${1:-15}
 build=${2:-$here/build}
+# The simulator's and the session's starts are slower: 5 and 3 of them (fewer when RUNS is smaller).
+sim_runs=$((runs < 5 ? runs : 5)) session_runs=$((runs < 3 ? runs : 3))
 pvcap=$build/app/pvcap
 source "$here/bench/work_dir.sh"
 bench_work_dir start-bench
@@ -26,7 +28,7 @@ n=$(median < "$work/nothing.ms") v=$(median < "$work/version.ms")
 echo "pvcap --version: ${v} ms (median of $runs; $libs libraries loaded); a program that links nothing: ${n} ms"
 
 mkdir -p "$work/truth"
-for i in $(seq 5); do
+for i in $(seq "$sim_runs"); do
   t=$(date +%s%N)
   "$pvcap" --log-level warn sim --rig "$here/rig-configs/sim.yaml" --truth "$work/truth" 2> "$work/sim.err" &
   pid=$!
@@ -39,13 +41,13 @@ for i in $(seq 5); do
   t=$(date +%s%N); kill -TERM "$pid"; wait "$pid" || true; ms "$t" >> "$work/exit.ms"
   rm -rf "$work/truth"/*
 done
-echo "pvcap sim (4 x 1080p): serving after $(median < "$work/serving.ms") ms, ended $(median < "$work/exit.ms") ms after SIGTERM (median of 5; PVCAP_SIM_CACHE=${PVCAP_SIM_CACHE:-default})"
+echo "pvcap sim (4 x 1080p): serving after $(median < "$work/serving.ms") ms, ended $(median < "$work/exit.ms") ms after SIGTERM (median of $sim_runs; PVCAP_SIM_CACHE=${PVCAP_SIM_CACHE:-default})"
 
-for i in $(seq 3); do
+for i in $(seq "$session_runs"); do
   rm -rf "$work/sessions"
   t=$(date +%s%N)
   "$pvcap" --log-level warn session --rig "$here/rig-configs/sim.yaml" --root "$work/sessions" --duration 1 --no-web \
     > "$work/session.log" 2>&1
   ms "$t" >> "$work/session.ms"
 done
-echo "pvcap session --duration 1 on the simulated rig, start to exit: $(median < "$work/session.ms") ms (median of 3)"
+echo "pvcap session --duration 1 on the simulated rig, start to exit: $(median < "$work/session.ms") ms (median of $session_runs)"
