@@ -13,9 +13,10 @@
 #include <opencv2/core.hpp>
 
 #include "capture/aravis_camera.h"
+#include "core/fault_injection.h"
 #include "lighting/light_meter.h"
 #include "lighting/light_monitor.h"
-#include "storage/writer/session_writer.h"
+#include "storage/writer/recording_store.h"
 #include "sync/session_timeline.h"
 
 namespace pvcap::session {
@@ -75,7 +76,7 @@ struct CameraPipeline {
   AravisCamera& camera;
   int index;
   std::int64_t device_id;
-  SessionWriter& writer;
+  RecordingStore& writer;
   CameraTally& tally;
   sync::SessionTimeline& timeline;
   TimelineEnd& end;

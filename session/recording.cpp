@@ -141,7 +141,7 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
                          : e.kind == CameraEvent::Kind::NoTrigger ? "camera_no_trigger"
                          : e.kind == CameraEvent::Kind::State     ? "camera_state"
                                                                   : "camera_reconnected";
-      if (SessionWriter* w = self->events_writer_.load())
+      if (RecordingStore* w = self->events_writer_.load())
         w->record(EventRecord{e.at.ns, kind, self->device_ids_[i], e.message});
     };
     r->cameras_.push_back(std::make_unique<AravisCamera>(int(i), rig.cameras[i], on_event));
@@ -168,7 +168,7 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
 // The rig calibration file beside the rig file (pvcap calibrate writes it), if there is one: each
 // camera's entry goes into the session's calibrations table, so the session says which calibration
 // it was recorded with. A broken file is a warning, not a reason to lose a session.
-void Recording::record_rig_calibration(SessionWriter& writer) {
+void Recording::record_rig_calibration(RecordingStore& writer) {
   if (rig_.source.empty()) return;
   const auto file = calib::default_calibration_path(rig_.source);
   if (!std::filesystem::exists(file)) return;
@@ -206,10 +206,16 @@ Status Recording::start() {
   writer_options.index_stall = options_.faults.index_writer_stall;
   writer_options.encoder_frame_delay = options_.faults.encoder_frame_delay;
   writer_options.encoder_stall = options_.faults.encoder_stall;
-  auto created = SessionWriter::create(options_.root, rig_, wall0_, host0_, writer_options);
-  if (!created) return created.error();
-  writer_ = std::move(created.value());
-  SessionWriter& writer = *writer_;
+  if (options_.make_store) {
+    auto made = options_.make_store(rig_, wall0_, host0_);
+    if (!made) return made.error();
+    writer_ = std::move(made.value());
+  } else {
+    auto created = SessionWriter::create(options_.root, rig_, wall0_, host0_, writer_options);
+    if (!created) return created.error();
+    writer_ = std::move(created.value());
+  }
+  RecordingStore& writer = *writer_;
   log::add_session_file(writer.dir());
   rig_lock_->set_session(writer.dir());
   spdlog::info("recording session {}", writer.dir().string());
@@ -317,7 +323,7 @@ Status Recording::start() {
   return {};
 }
 
-void Recording::start_camera_workers(SessionWriter& writer) {
+void Recording::start_camera_workers(RecordingStore& writer) {
   workers_warmed_ = std::make_unique<std::latch>(std::ptrdiff_t(cameras_.size()));
   if (!rig_.lights.empty())
     light_monitor_ = std::make_unique<lighting::LightMonitor>(cameras_.size() * lighting::kMeterRegions);
@@ -501,7 +507,7 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   }
   stop_light_thread();  // its last confirmations are committed before the store closes
   state_.store(kStopping);
-  SessionWriter& writer = *writer_;
+  RecordingStore& writer = *writer_;
   result.recorded_s = double(host_now().ns - rec_start_) / 1e9;
   if (timeline_end_) timeline_end_->stopping.store(true);
   // All cameras stop at once; one blocked on a reconnect attempt must not keep the others recording.

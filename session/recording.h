@@ -28,10 +28,10 @@
 #include <opencv2/core.hpp>
 
 #include "core/fault_injection.h"
-#include "lighting/light_meter.h"
-#include "lighting/light_model.h"
 #include "core/result.h"
 #include "core/rig_config.h"
+#include "lighting/light_meter.h"
+#include "lighting/light_model.h"
 #include "session/recording_status.h"
 #include "session/sensel_pipeline.h"
 #include "storage/index/records.h"
@@ -41,7 +41,7 @@ namespace lighting {
 class LightMonitor;
 }
 class AravisCamera;
-class SessionWriter;
+class RecordingStore;
 namespace sync {
 class SessionTimeline;
 }
@@ -66,6 +66,10 @@ struct RecordingOptions {
   // Called once every device has stopped streaming and every frame is handed to the store, before
   // the store is drained and closed (what served the devices may stop then).
   std::function<void()> on_devices_stopped;
+  // The store the session is written into, made at start() (the rig, the session's wall-clock and
+  // host-clock start); none: a SessionWriter making its folder under `root`. A test gives its own.
+  std::function<Result<std::unique_ptr<RecordingStore>>(const RigConfig&, std::int64_t wall0_ns, std::int64_t host0_ns)>
+      make_store;
 };
 
 // The sessions folder can take a session (made if missing, writable); an Error names it and why.
@@ -126,9 +130,9 @@ class Recording {
   void warn(std::string message);
   void warn_of_losses();  // session/recording_warnings.cpp
   void log_progress(double elapsed_s);
-  void record_rig_calibration(SessionWriter& writer);
+  void record_rig_calibration(RecordingStore& writer);
   // One worker per camera, started, and waited for until their buffers are ready (at most 3 s).
-  void start_camera_workers(SessionWriter& writer);
+  void start_camera_workers(RecordingStore& writer);
   // Lights: each on alone for a moment at the start, learning what each adds to each camera's level,
   // then the session's lighting; a thread confirms every switch from the images.
   void run_light_check();
@@ -145,8 +149,8 @@ class Recording {
   std::vector<std::unique_ptr<CameraTally>> tallies_;
   std::vector<std::unique_ptr<Preview>> previews_;
   std::unique_ptr<SenselPipeline> sensel_;
-  std::unique_ptr<SessionWriter> writer_;
-  std::atomic<SessionWriter*> events_writer_{nullptr};  // camera events reach the store once it exists
+  std::unique_ptr<RecordingStore> writer_;
+  std::atomic<RecordingStore*> events_writer_{nullptr};  // camera events reach the store once it exists
   std::vector<std::int64_t> device_ids_;
   std::int64_t sensel_id_ = 0;
   std::unique_ptr<sync::SessionTimeline> timeline_;
@@ -161,7 +165,7 @@ class Recording {
   std::string stop_reason_;
   std::optional<std::string> start_failure_;
   std::vector<bool> warned_encoder_, warned_spill_, warned_behind_, warned_foreign_;
-  std::unique_ptr<lighting::LightMonitor> light_monitor_;  // with lights: the cameras' levels
+  std::unique_ptr<lighting::LightMonitor> light_monitor_;                      // with lights: the cameras' levels
   std::vector<std::optional<std::array<lighting::Point, 4>>> pad_corners_px_;  // per camera, from its calibration
   struct PendingSwitch {
     std::int64_t command_ns;

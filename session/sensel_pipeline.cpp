@@ -97,7 +97,7 @@ std::string SenselPipeline::connection() const {
   return config_.usb_serial->empty() ? "usb" : "usb:" + *config_.usb_serial;
 }
 
-Status SenselPipeline::start(SessionWriter& writer, std::int64_t device_id, sync::SessionTimeline& timeline) {
+Status SenselPipeline::start(RecordingStore& writer, std::int64_t device_id, sync::SessionTimeline& timeline) {
   writer_ = &writer;
   device_id_ = device_id;
   timeline_ = &timeline;
@@ -140,7 +140,7 @@ void SenselPipeline::on_event(const sensel::SenselEvent& e) {
   static const char* kinds[] = {"sensel_stall", "sensel_garbage", "sensel_unplugged", "sensel_reconnected",
                                 "sensel_wrong_device"};
   static_assert(std::size(kinds) == std::size_t(sensel::SenselEvent::Kind::WrongDevice) + 1);
-  SessionWriter* w = writer_;
+  RecordingStore* w = writer_;
   if (!w) return;
   w->record(EventRecord{e.at.ns, kinds[int(e.kind)], device_id_, e.message});
   // The frames it would have sent while it was away: lost, with the reason.
@@ -151,7 +151,7 @@ void SenselPipeline::on_event(const sensel::SenselEvent& e) {
     record_losses(*w, e.connection - 1, e.dropped.front(), e.dropped.back() + 1, e.dropped, e.at.ns);
 }
 
-void SenselPipeline::record_losses(SessionWriter& writer, std::uint32_t connection, std::uint64_t from,
+void SenselPipeline::record_losses(RecordingStore& writer, std::uint32_t connection, std::uint64_t from,
                                    std::uint64_t to, const std::vector<std::uint64_t>& dropped, std::int64_t host_ns) {
   for_each_loss_run(from, to, dropped, [&](std::uint64_t first, std::uint64_t count, bool by_queue) {
     writer.record(
@@ -161,7 +161,7 @@ void SenselPipeline::record_losses(SessionWriter& writer, std::uint32_t connecti
 
 void SenselPipeline::run() {
   auto& q = device_->samples();
-  SessionWriter& writer = *writer_.load();
+  RecordingStore& writer = *writer_.load();
   // A worker that falls behind, on purpose (core/fault_injection.h): tests meet a full queue.
   std::optional<Stall> stall = stall_;
   std::int64_t first_ns = 0;

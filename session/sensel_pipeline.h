@@ -18,7 +18,7 @@
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "session/recording_status.h"
-#include "storage/writer/session_writer.h"
+#include "storage/writer/recording_store.h"
 #include "sync/session_timeline.h"
 
 namespace pvcap::session {
@@ -47,7 +47,7 @@ class SenselPipeline {
   DeviceRecord device_record() const;
   std::string connection() const;  // how the Morph is reached, for the operator and the devices table
 
-  Status start(SessionWriter& writer, std::int64_t device_id, sync::SessionTimeline& timeline);
+  Status start(RecordingStore& writer, std::int64_t device_id, sync::SessionTimeline& timeline);
   void stop();
 
   std::uint64_t stored() const { return stored_.load(); }
@@ -66,14 +66,14 @@ class SenselPipeline {
   void on_event(const sensel::SenselEvent& e);
   // Drops rows for the sequences [from, to) of `connection`: runs in `dropped` as queue_overflow,
   // the others as not_received.
-  void record_losses(SessionWriter& writer, std::uint32_t connection, std::uint64_t from, std::uint64_t to,
+  void record_losses(RecordingStore& writer, std::uint32_t connection, std::uint64_t from, std::uint64_t to,
                      const std::vector<std::uint64_t>& dropped, std::int64_t host_ns);
   void run();
 
   SenselRigConfig config_;
   std::optional<Stall> stall_;
   std::unique_ptr<sensel::SenselDevice> device_;
-  std::atomic<SessionWriter*> writer_{nullptr};
+  std::atomic<RecordingStore*> writer_{nullptr};
   std::int64_t device_id_ = 0;
   sync::SessionTimeline* timeline_ = nullptr;
   std::thread worker_;

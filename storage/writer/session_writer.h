@@ -32,17 +32,9 @@
 #include "storage/index/session_index.h"
 #include "storage/video/video_writer.h"
 #include "storage/writer/index_writer.h"
+#include "storage/writer/recording_store.h"
 
 namespace pvcap {
-
-struct CameraStoreStats {
-  std::uint64_t frames_in_video = 0;
-  std::uint64_t encoder_drops = 0;  // kept frames neither the encoder nor its spill could take
-  std::uint64_t segments = 0;
-  std::size_t encoder_backlog = 0;  // kept frames waiting for the encoder now (memory and spill)
-  std::size_t spill_backlog = 0;    // of which on disk
-  std::uint64_t spilled = 0;        // frames that went through the spill so far
-};
 
 // How the writer's threads run: the index queue's size, and a test's faults (core/fault_injection.h).
 struct WriterOptions {
@@ -59,78 +51,78 @@ struct WriterOptions {
   std::size_t view_backlog_frames = 2;
 };
 
-class SessionWriter {
+class SessionWriter : public RecordingStore {
  public:
   // Makes `<root>/<UTC date-time>_<rig name>` (suffixing -2, -3... if taken).
   static Result<std::unique_ptr<SessionWriter>> create(const std::filesystem::path& root, const RigConfig& rig,
                                                        std::int64_t started_wall_ns, std::int64_t started_host_ns,
                                                        const WriterOptions& options = {});
-  ~SessionWriter();
+  ~SessionWriter() override;
 
   // Registers a camera and opens its first video segment; returns its device id in the index.
   // `pixel_format` is what the camera sends (PFNC name): a Bayer mosaic is stored raw when
   // store.video_mode is raw (submit_video then takes the mosaic), anything else in colour.
   Result<std::int64_t> add_camera(const DeviceRecord& device, int width, int height,
-                                  const std::string& pixel_format = "");
+                                  const std::string& pixel_format = "") override;
   // Whether this camera's video takes the sensor's mosaic (CV_8UC1) rather than BGR images.
-  bool stores_raw(std::int64_t device_id) const;
+  bool stores_raw(std::int64_t device_id) const override;
   // How its raw video stacks the mosaic's planes: the order its capture checksums run over.
-  PlaneOrder raw_plane_order(std::int64_t device_id) const;
+  PlaneOrder raw_plane_order(std::int64_t device_id) const override;
   // Registers a non-video device (the Sensel); returns its device id.
-  Result<std::int64_t> add_device(const DeviceRecord& device);
+  Result<std::int64_t> add_device(const DeviceRecord& device) override;
   // Session conditions and calibrations, written before start().
-  Status set_participant(const ParticipantRecord& p);
-  Status set_conditions(const ConditionsRecord& c);
-  Result<std::int64_t> add_calibration(const CalibrationRecord& c);
-  void start();
+  Status set_participant(const ParticipantRecord& p) override;
+  Status set_conditions(const ConditionsRecord& c) override;
+  Result<std::int64_t> add_calibration(const CalibrationRecord& c) override;
+  void start() override;
 
   // Index records (any thread, never waits).
-  void record(FrameRecord frame) { index_writer_->push(std::move(frame)); }
-  void record(DropRecord drop) { index_writer_->push(std::move(drop)); }
-  void record(PressureRecord pressure) { index_writer_->push(std::move(pressure)); }
-  void record(EventRecord event) { index_writer_->push(std::move(event)); }
-  void record(SampleRecord sample) { index_writer_->push(std::move(sample)); }
-  void record(ClockModelRecord clock) { index_writer_->push(std::move(clock)); }
-  void record(ProtocolEventRecord event) { index_writer_->push(std::move(event)); }
-  void record(OperatorNoteRecord note) { index_writer_->push(std::move(note)); }
+  void record(FrameRecord frame) override { index_writer_->push(std::move(frame)); }
+  void record(DropRecord drop) override { index_writer_->push(std::move(drop)); }
+  void record(PressureRecord pressure) override { index_writer_->push(std::move(pressure)); }
+  void record(EventRecord event) override { index_writer_->push(std::move(event)); }
+  void record(SampleRecord sample) override { index_writer_->push(std::move(sample)); }
+  void record(ClockModelRecord clock) override { index_writer_->push(std::move(clock)); }
+  void record(ProtocolEventRecord event) override { index_writer_->push(std::move(event)); }
+  void record(OperatorNoteRecord note) override { index_writer_->push(std::move(note)); }
   // Records and waits until committed (at most `timeout`): protocol transitions are on disk before
   // they are acknowledged. False when not committed in time or the index failed.
-  bool record_committed(ProtocolEventRecord event, std::chrono::milliseconds timeout) {
+  bool record_committed(ProtocolEventRecord event, std::chrono::milliseconds timeout) override {
     return index_writer_->push_committed(std::move(event), timeout);
   }
-  bool record_committed(OperatorNoteRecord note, std::chrono::milliseconds timeout) {
+  bool record_committed(OperatorNoteRecord note, std::chrono::milliseconds timeout) override {
     return index_writer_->push_committed(std::move(note), timeout);
   }
   // Written at close (the timeline's tallies: groups, missed ticks, unpaired samples by reason).
-  void add_timeline_count(std::string what, std::uint64_t count) {
+  void add_timeline_count(std::string what, std::uint64_t count) override {
     timeline_counts_.emplace_back(std::move(what), count);
   }
   // Queues a kept frame (BGR, or the mosaic when stores_raw) for its camera's video: in memory, or
   // through the camera's spill on disk when the encoder is behind (storage/writer/frame_spill.h). False
   // (nothing queued) only when the spill cannot keep up either, or the disk refused it; the caller
   // records the frame as not kept, reason "encoder_behind" ("storage_failed" once writes_failed()).
-  bool submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecord frame);
+  bool submit_video(std::int64_t device_id, cv::Mat bgr, FrameRecord frame) override;
   // The disk refused a write of this session (a video, the index, a spill, an fsync): nothing more
   // is written: the encoders stop, so that the reserve finishes the index, and their queues refuse.
-  bool writes_failed() const;
+  bool writes_failed() const override;
 
-  void add_stream_stats(const StreamStatsRecord& stats) { stream_stats_.push_back(stats); }
+  void add_stream_stats(const StreamStatsRecord& stats) override { stream_stats_.push_back(stats); }
   // Set when storage failed or the disk is nearly full: capture should stop.
-  std::optional<std::string> failure() const;
+  std::optional<std::string> failure() const override;
 
   // Runs on the finished index at close, before the session is marked ended (the timeline's
   // final re-mapping); it commits its own transactions. A failure is reported, and leaves the
   // values recorded online (or its committed steps) in place.
-  void set_finalizer(std::function<void(SessionIndex&)> finalize) { finalizer_ = std::move(finalize); }
+  void set_finalizer(std::function<void(SessionIndex&)> finalize) override { finalizer_ = std::move(finalize); }
   // Drains every queue (a spill to its end, with progress in the log), finishes videos and index.
   // Returns the first error, if any.
-  Status close(const std::string& end_reason);
+  Status close(const std::string& end_reason) override;
 
-  const std::filesystem::path& dir() const { return dir_; }
-  CameraStoreStats camera_stats(std::int64_t device_id) const;
-  std::uint64_t index_records_lost() const { return index_writer_->records_lost(); }
-  std::uint64_t index_records_waited() const { return index_writer_->records_waited(); }
-  std::string index_records_lost_by_kind() const { return index_writer_->lost_records_by_kind(); }
+  const std::filesystem::path& dir() const override { return dir_; }
+  CameraStoreStats camera_stats(std::int64_t device_id) const override;
+  std::uint64_t index_records_lost() const override { return index_writer_->records_lost(); }
+  std::uint64_t index_records_waited() const override { return index_writer_->records_waited(); }
+  std::string index_records_lost_by_kind() const override { return index_writer_->lost_records_by_kind(); }
 
  private:
   SessionWriter() = default;
