@@ -5,7 +5,7 @@
 #include <filesystem>
 
 #include "app/command.h"
-#include "console/participant_session.h"
+#include "console/session_command.h"
 
 namespace pvcap {
 

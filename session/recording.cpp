@@ -198,7 +198,8 @@ void Recording::record_rig_calibration(RecordingStore& writer) {
   spdlog::info("calibration: {} (recorded in the session)", file.string());
 }
 
-Status Recording::start() {
+Result<std::unique_ptr<RecordingStore>> Recording::make_store() const {
+  if (options_.make_store) return options_.make_store(rig_, wall0_, host0_);
   WriterOptions writer_options;
   if (options_.faults.index_queue_records) writer_options.index_queue_records = *options_.faults.index_queue_records;
   if (options_.faults.index_overflow_memory_records)
@@ -206,15 +207,15 @@ Status Recording::start() {
   writer_options.index_stall = options_.faults.index_writer_stall;
   writer_options.encoder_frame_delay = options_.faults.encoder_frame_delay;
   writer_options.encoder_stall = options_.faults.encoder_stall;
-  if (options_.make_store) {
-    auto made = options_.make_store(rig_, wall0_, host0_);
-    if (!made) return made.error();
-    writer_ = std::move(made.value());
-  } else {
-    auto created = SessionWriter::create(options_.root, rig_, wall0_, host0_, writer_options);
-    if (!created) return created.error();
-    writer_ = std::move(created.value());
-  }
+  auto created = SessionWriter::create(options_.root, rig_, wall0_, host0_, writer_options);
+  if (!created) return created.error();
+  return std::unique_ptr<RecordingStore>(std::move(created.value()));
+}
+
+Status Recording::start() {
+  auto made = make_store();
+  if (!made) return made.error();
+  writer_ = std::move(made.value());
   RecordingStore& writer = *writer_;
   log::add_session_file(writer.dir());
   rig_lock_->set_session(writer.dir());

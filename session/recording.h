@@ -130,6 +130,9 @@ class Recording {
   void warn(std::string message);
   void warn_of_losses();  // session/recording_warnings.cpp
   void log_progress(double elapsed_s);
+  // The session's store: the options' make_store, or a SessionWriter under the root with the faults'
+  // writer settings.
+  Result<std::unique_ptr<RecordingStore>> make_store() const;
   void record_rig_calibration(RecordingStore& writer);
   // One worker per camera, started, and waited for until their buffers are ready (at most 3 s).
   void start_camera_workers(RecordingStore& writer);

@@ -1,9 +1,8 @@
 #pragma once
-// A participant session: a session::Recording of the rig, with (when a protocol
-// is given) the protocol's Runner prompting the participant, the operator's
-// terminal console and the session's web pages attached, until the duration
-// ends, the protocol is done, or the operator stops it. What `pvcap session`
-// runs; the command line only fills a SessionSetup.
+// `pvcap session`'s body (app/cmd_session.cpp parses its command line into a SessionSetup): a
+// participant session, a session::Recording of the rig, with (when a protocol is given) the
+// protocol's Runner prompting the participant, the operator's terminal console and the session's
+// web pages attached, until the duration ends, the protocol is done, or the operator stops it.
 #include <atomic>
 #include <filesystem>
 #include <functional>

@@ -1,4 +1,4 @@
-#include "console/participant_session.h"
+#include "console/session_command.h"
 
 #include <unistd.h>
 
