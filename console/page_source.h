@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <utility>
 
 #include <opencv2/core.hpp>
@@ -25,6 +26,8 @@ class PageSource {
   virtual std::optional<session::PressureSnapshot> pressure_now() const = 0;
   // Committed to the store before it returns true (the page is answered only then).
   virtual bool post(ProtocolEventRecord event) = 0;
+  // Asks the recording to stop (the remote-control API's stop); it ends as Ctrl-C ends it.
+  virtual void request_stop(std::string reason) = 0;
 };
 
 }  // namespace pvcap::console

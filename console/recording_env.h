@@ -43,6 +43,7 @@ class RecordingPages : public PageSource {
   }
   std::optional<session::PressureSnapshot> pressure_now() const override { return recording_.pressure_now(); }
   bool post(ProtocolEventRecord event) override { return recording_.post(std::move(event)); }
+  void request_stop(std::string reason) override { recording_.request_stop(std::move(reason)); }
 
  private:
   session::Recording& recording_;

@@ -216,6 +216,9 @@ SessionOutcome run_session(const RigConfig& rig, const SessionSetup& command, co
     command.web->serve(pages, runner.get());
     spdlog::info("participant display: {}", command.web->url("participant"));
     spdlog::info("operator console:    {}", command.web->url("operator"));
+    const std::string api = command.web->url("api/v1/");
+    spdlog::info("remote-control API:  {} (docs/remote.md: the same token, as a bearer token)",
+                 api.substr(0, api.find('?')));
   }
 
   // The operator's keyboard, when pvcap runs in a terminal.

@@ -1,4 +1,5 @@
 #include "console/web_console.h"
+#include "console/web_request.h"
 
 #include <arpa/inet.h>
 #include <ifaddrs.h>
@@ -100,11 +101,6 @@ bool well_formed_utf8(const std::string& text) {
   return true;
 }
 
-bool parameters_are_text(const httplib::Request& req) {
-  return std::all_of(req.params.begin(), req.params.end(),
-                     [](const auto& p) { return well_formed_utf8(p.first) && well_formed_utf8(p.second); });
-}
-
 // A number in a route's path (\d+ matched); one too long to be an index is no index (a 404).
 std::size_t index_in_path(const std::string& digits) {
   return digits.size() > 6 ? SIZE_MAX : std::size_t(std::stoul(digits));
@@ -142,6 +138,11 @@ std::vector<std::string> local_host_names(const std::string& bind) {
 }
 
 }  // namespace
+
+bool parameters_are_text(const httplib::Request& req) {
+  return std::all_of(req.params.begin(), req.params.end(),
+                     [](const auto& p) { return well_formed_utf8(p.first) && well_formed_utf8(p.second); });
+}
 
 WebOptions with_token(WebOptions web, const std::string& token_file, const std::string& env_token) {
   const int given = int(!token_file.empty()) + int(!web.token.empty()) + int(web.no_token);
@@ -242,9 +243,12 @@ std::string WebConsole::url(const std::string& page) const {
   return u;
 }
 
-bool WebConsole::authorized(const std::string& query_token, const std::string& cookie) const {
+bool WebConsole::authorized(const std::string& query_token, const std::string& cookie,
+                            const std::string& authorization) const {
   if (options_.token.empty()) return true;
-  return same_token(query_token, options_.token) || same_token(cookie, options_.token);
+  const std::string bearer = authorization.rfind("Bearer ", 0) == 0 ? authorization.substr(7) : "";
+  return same_token(query_token, options_.token) || same_token(cookie, options_.token) ||
+         same_token(bearer, options_.token);
 }
 
 void WebConsole::serve(PageSource& recording, Runner* runner) {
@@ -282,6 +286,7 @@ void WebConsole::routes() {
   route_state();
   route_images();
   route_commands();
+  route_api();
 }
 
 // Every request passes the checks first; an exception in a handler is answered, never fatal.
@@ -311,7 +316,8 @@ void WebConsole::route_guard() {
       res.set_content("commands are taken from this session's own pages only\n", "text/plain; charset=utf-8");
       return httplib::Server::HandlerResponse::Handled;
     }
-    if (authorized(req.get_param_value("token"), cookie_value(req.get_header_value("Cookie"), "pvcap_token")))
+    if (authorized(req.get_param_value("token"), cookie_value(req.get_header_value("Cookie"), "pvcap_token"),
+                   req.get_header_value("Authorization")))
       return httplib::Server::HandlerResponse::Unhandled;
     res.status = 401;
     res.set_content(

@@ -43,6 +43,9 @@ struct WebOptions {
   bool no_token = false;  // loopback only: no token at all (bind() refuses it elsewhere)
 };
 
+// The remote-control API's version: its routes are /api/v1/... (docs/remote.md).
+inline constexpr int kRemoteApiVersion = 1;
+
 // What a request may be: a command's form is a few hundred bytes.
 inline constexpr std::size_t kMaxBodyBytes = 64 * 1024;
 // Open event streams, each holding a server thread (of 32): the participant's page is counted
@@ -84,8 +87,10 @@ class WebConsole {
   void route_state();
   void route_images();
   void route_commands();
+  void route_api();  // the remote-control API, /api/v1/ (console/web_api.cpp, docs/remote.md)
   std::string state_json() const;
-  bool authorized(const std::string& query_token, const std::string& cookie) const;
+  // The session's token in the query, the pages' cookie, or an `Authorization: Bearer` header (the API's).
+  bool authorized(const std::string& query_token, const std::string& cookie, const std::string& authorization) const;
   bool allowed_host(const std::string& host_header) const;
 
   WebOptions options_;

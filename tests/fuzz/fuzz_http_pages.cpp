@@ -73,10 +73,15 @@ class FakePages : public pvcap::console::PageSource {
   }
   std::optional<pvcap::session::PressureSnapshot> pressure_now() const override { return pressure_; }
   bool post(pvcap::ProtocolEventRecord e) override {
-    if (e.kind != "fingertip_marked" && e.kind != "prompt_shown") __builtin_trap();  // only what the routes post
+    // Only what the routes post.
+    if (e.kind != "fingertip_marked" && e.kind != "prompt_shown" && e.kind != "remote_mark" &&
+        e.kind != "remote_stop" && e.kind != "remote_command")
+      __builtin_trap();
     posted.fetch_add(1);
     return true;
   }
+  void request_stop(std::string) override { stops.fetch_add(1); }
+  std::atomic<long> stops{0};
   std::atomic<long> posted{0};
 
  private:
