@@ -52,7 +52,8 @@ void yield_to_recordings(const CLI::App& command) {
   static const std::set<std::string> after_the_session = {"calibrate", "export", "report",  "compact",
                                                           "dataset",   "verify", "recover", "migrate"};
   const bool lower = after_the_session.count(command.get_name()) > 0;
-  spdlog::debug("pvcap {}: at nice {}", command.get_name(), pvcap::lower_priority_to(lower ? kOfflineNice : -20));
+  spdlog::debug("pvcap {}: at nice {}", command.get_name(),
+                lower ? pvcap::lower_priority_to(kOfflineNice) : pvcap::current_nice());
 }
 
 }  // namespace

@@ -61,9 +61,13 @@ int lower_priority_to(int nice) {
   const int now = getpriority(PRIO_PROCESS, 0);
   // The calling thread's (Linux: a thread's own); every thread it starts after this inherits it.
   if (errno == 0 && now < nice) (void)setpriority(PRIO_PROCESS, 0, nice);
+  return current_nice();
+}
+
+int current_nice() {
   errno = 0;
-  const int after = getpriority(PRIO_PROCESS, 0);
-  return errno == 0 ? after : INT_MIN;
+  const int now = getpriority(PRIO_PROCESS, 0);
+  return errno == 0 ? now : INT_MIN;
 }
 
 }  // namespace pvcap

@@ -20,8 +20,9 @@ void install_stop_handlers(std::atomic<bool>& stop, bool keep_hangups_ignored);
 std::filesystem::path self_exe();
 
 // Lowers the process's priority to `nice` if it runs higher (every thread started later inherits
-// it; -20, the highest, leaves it as it is); returns the nice it runs at then, INT_MIN when it
+// it); returns the nice it runs at then. current_nice: the nice it runs at. Both INT_MIN when it
 // cannot be read.
 int lower_priority_to(int nice);
+int current_nice();
 
 }  // namespace pvcap
