@@ -3,6 +3,7 @@
 #include <iterator>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 namespace pvcap {
 
@@ -10,17 +11,22 @@ std::string device_listing(const std::vector<DiscoveredCamera>& cams, const std:
                            bool json) {
   std::string out;
   auto to = std::back_inserter(out);
+  // One object per line, its fields in this order; names from the wire escaped (bytes that are not
+  // UTF-8 replaced: a camera may send any).
   if (json) {
     for (const auto& c : cams)
-      fmt::format_to(to,
-                     "{{\"kind\":\"camera\",\"vendor\":\"{}\",\"model\":\"{}\",\"serial\":\"{}\",\"address\":\"{}\","
-                     "\"interface\":\"{}\",\"mac\":\"{}\",\"id\":\"{}\"}}\n",
-                     c.vendor, c.model, c.serial, c.address, c.protocol, c.physical_id, c.device_id);
+      out += nlohmann::ordered_json{{"kind", "camera"},     {"vendor", c.vendor},   {"model", c.model},
+                                    {"serial", c.serial},   {"address", c.address}, {"interface", c.protocol},
+                                    {"mac", c.physical_id}, {"id", c.device_id}}
+                 .dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) +
+             "\n";
     for (const auto& s : sensels)
-      fmt::format_to(to,
-                     "{{\"kind\":\"sensel\",\"serial\":\"{}\",\"firmware\":\"{}\",\"tty\":\"{}\",\"usb_serial\":\"{}\","
-                     "\"grid\":[{},{}]}}\n",
-                     s.info.serial, s.info.firmware, s.tty, s.usb_serial, s.info.grid.cols, s.info.grid.rows);
+      out +=
+          nlohmann::ordered_json{
+              {"kind", "sensel"}, {"serial", s.info.serial},    {"firmware", s.info.firmware},
+              {"tty", s.tty},     {"usb_serial", s.usb_serial}, {"grid", {s.info.grid.cols, s.info.grid.rows}}}
+              .dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace) +
+          "\n";
     return out;
   }
   if (cams.empty())
