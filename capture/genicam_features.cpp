@@ -80,13 +80,6 @@ const std::vector<RoleNames>& camera_feature_names() {
   return table;
 }
 
-int line_number(const std::string& line) {
-  std::size_t at = line.size();
-  while (at > 0 && std::isdigit(static_cast<unsigned char>(line[at - 1]))) --at;
-  if (at == line.size() || line.size() - at > 6) return -1;
-  return std::stoi(line.substr(at));
-}
-
 const char* role_key(CameraRole role) {
   for (const auto& r : camera_feature_names())
     if (r.role == role) return r.key;

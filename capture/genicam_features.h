@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "core/rig_config.h"  // line_number
+
 namespace pvcap {
 
 enum class CameraRole {
@@ -70,9 +72,6 @@ struct RoleNames {
 // Every role with its names.
 const std::vector<RoleNames>& camera_feature_names();
 const char* role_key(CameraRole role);
-// The number that ends an I/O line's name (Line2 -> 2, SyncOut1 -> 1); -1 without one (or one too
-// long to be a line's).
-int line_number(const std::string& line);
 
 // A feature that counts in the camera's own steps, and the feature giving one step's size in
 // pvcap's unit: ExposureTimeRaw x ExposureTimeBaseAbs (us), as Basler's ace classic and older Allied

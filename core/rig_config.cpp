@@ -1,5 +1,7 @@
 #include "core/rig_config.h"
 
+#include <cctype>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -215,6 +217,13 @@ void parse_lights(const YAML::Node& lights, const std::filesystem::path& source,
 }
 
 }  // namespace
+
+int line_number(const std::string& line) {
+  std::size_t at = line.size();
+  while (at > 0 && std::isdigit(static_cast<unsigned char>(line[at - 1]))) --at;
+  if (at == line.size() || line.size() - at > 6) return -1;
+  return std::stoi(line.substr(at));
+}
 
 double grouping_rate_hz(const RigConfig& rig) {
   double fastest = 0;

@@ -23,6 +23,10 @@ const char* to_string(TriggerMode mode);
 // letter of the lighting codes (L, C, R: `--lighting LCR`), the camera and the line that drive it,
 // and whether it is lit steadily (a user output: on or off between takes) or strobed, lit during each
 // exposure of that camera.
+// The number that ends an I/O line's name (Line2 -> 2, SyncOut1 -> 1); -1 without one (or one too
+// long to be a line's). A light's line, and its bit in a frame's line levels (LineStatusAll).
+int line_number(const std::string& line);
+
 struct LightConfig {
   std::string name;
   std::string camera;
@@ -59,7 +63,7 @@ struct CameraConfig {
   // "" = a link of its own. link_cameras: how many cameras share it (counted by the rig loader).
   std::string link;
   int link_cameras = 1;
-  std::vector<LightConfig> lights;  // the rig's lights this camera drives (the rig loader fills it)
+  std::vector<LightConfig> lights;   // the rig's lights this camera drives (the rig loader fills it)
   bool rig_switches_lights = false;  // the rig has lights: no automatic exposure or gain may hide them
   // What the camera's frame timestamp marks: SFNC and GigE Vision cameras stamp a frame when its
   // exposure starts (the Basler ace 2's map says so), so the image's instant, the middle of its

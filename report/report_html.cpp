@@ -191,7 +191,8 @@ void add_summary(std::string& h, const json& r) {
        "h3{font-size:15px;margin:16px 0 4px}table{border-collapse:collapse;margin:8px 0}"
        "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#f3f3f3}"
        "td:first-child,th:first-child,td.t{text-align:left}.ok{color:#1a7f37;font-weight:600}"
-       ".bad{color:#c62828;font-weight:600}.code{font-family:monospace;font-size:15px}.note{color:#555;font-size:13px;margin:2px 0}"
+       ".bad{color:#c62828;font-weight:600}.code{font-family:monospace;font-size:15px}.note{color:#555;font-size:13px;"
+       "margin:2px 0}"
        ".banner{padding:10px 14px;border-radius:6px;margin:12px 0;font-size:16px}"
        ".banner.ok{background:#e6f4ea}.banner.bad{background:#fdecea}.thumbs{display:flex;flex-wrap:wrap;gap:12px}"
        ".thumbs figure{margin:0}.thumbs figcaption{font-size:13px}.plots{display:flex;flex-wrap:wrap;gap:8px}"
@@ -397,8 +398,9 @@ void add_protocol(std::string& h, const json& r) {
         if (lit && t.contains("lighting")) {
           const json& l = t["lighting"];
           const bool flagged = l.value("flagged", false);
-          lighting = fmt::format("<td class='code'>{}</td><td class='code'>{}{}</td>", esc(l.value("commanded", "")),
-                                 flagged ? "<span class='bad'>" : "", esc(l.value("seen", "")) + (flagged ? "</span>" : ""));
+          lighting =
+              fmt::format("<td class='code'>{}</td><td class='code'>{}{}</td>", esc(l.value("commanded", "")),
+                          flagged ? "<span class='bad'>" : "", esc(l.value("seen", "")) + (flagged ? "</span>" : ""));
           if (flagged) lighting.insert(lighting.size() - 5, " (light " + esc(l.value("lights", "")) + ")");
         } else if (lit) {
           lighting = "<td>&ndash;</td><td>&ndash;</td>";
@@ -441,21 +443,36 @@ void add_lighting(std::string& h, const json& r) {
     for (const auto& p : l["check"].value("problems", json::array()))
       h += "<p class='bad'>" + esc(p.get<std::string>()) + "</p>";
   }
-  h += fmt::format("<h3>Switches</h3><p class='note'>{} switch(es), {} shown late (more than two frames after the "
-                   "command), {} never shown.</p>",
-                   l["switches"].size(), l.value("late", 0), l.value("unconfirmed", 0));
+  h += fmt::format(
+      "<h3>Switches</h3><p class='note'>{} switch(es), {} shown late (more than two frames after the "
+      "command), {} never shown.</p>",
+      l["switches"].size(), l.value("late", 0), l.value("unconfirmed", 0));
   h += "<table><tr><th>at (s)</th><th>from</th><th>to</th><th>the images showed it</th></tr>";
   for (const auto& sw : l["switches"]) {
     std::string seen;
     if (sw.value("confirmed", false))
-      seen = fmt::format("{}after {} ms ({} frames){}", sw.value("on_time", true) ? "" : "<span class='bad'>late: ",
-                         num(sw.value("delay_ms", json()), 0), num(sw.value("frames", json()), 0),
-                         sw.value("on_time", true) ? "" : "</span>");
+      seen =
+          fmt::format("{}after {} ms ({} frames){}",
+                      sw.value("on_time", true) ? "" : "<span class='bad'>late: ", num(sw.value("delay_ms", json()), 0),
+                      num(sw.value("frames", json()), 0), sw.value("on_time", true) ? "" : "</span>");
     else
-      seen = sw.value("superseded", false) ? "switched again before a frame showed it"
-                                           : "<span class='bad'>never</span>";
+      seen =
+          sw.value("superseded", false) ? "switched again before a frame showed it" : "<span class='bad'>never</span>";
     h += fmt::format("<tr><td>{}</td><td class='code'>{}</td><td class='code'>{}</td><td>{}</td></tr>",
                      num(sw.value("at_s", json()), 2), esc(sw.value("from", "")), esc(sw.value("code", "")), seen);
+  }
+  h += "</table>";
+  if (!l.contains("lines")) return;
+  h += "<h3>Output lines, frame by frame</h3><p class='note'>Where a camera's chunk data gave its lines' levels: the "
+       "frames whose lines were not as the lights were commanded (the first 100 ms after each command left out).</p>"
+       "<table><tr><th>camera</th><th>its lights</th><th>frames checked</th><th>lines not as commanded</th></tr>";
+  for (const auto& x : l["lines"]) {
+    const std::uint64_t bad = x.value("disagreeing", std::uint64_t(0));
+    h += fmt::format("<tr><td>{}</td><td class='code'>{}</td><td>{}</td><td>{}</td></tr>", esc(x.value("camera", "")),
+                     esc(x.value("lights", "")), x.value("frames_checked", std::uint64_t(0)),
+                     bad == 0 ? std::string("0")
+                              : fmt::format("<span class='bad'>{} (the first at {} s)</span>", bad,
+                                            num(x.value("first_disagreement_s", json()), 2)));
   }
   h += "</table>";
 }

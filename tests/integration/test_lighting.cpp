@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -13,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "session_under_test.h"
+#include "storage/index/database.h"
 #include "storage/index/session_reader.h"
 
 namespace fs = std::filesystem;
@@ -25,8 +27,7 @@ namespace {
 // Line1, R on cam2's Line2 (a camera may drive any of its lines). cam1 is an SFNC 2 camera: its frames
 // carry their lines' levels in their chunks.
 fs::path write_lit_rig(const fs::path& dir) {
-  std::string yaml =
-      sim_rig_yaml({{}, {.node_map = "sfnc2"}, {}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
+  std::string yaml = sim_rig_yaml({{}, {.node_map = "sfnc2"}, {}, {}}, 320, 240, 30, 15, "free-run", /*sensel=*/true);
   yaml.replace(yaml.find("store:"), 0,
                "lights:\n  - {name: L, camera: cam0, line: Line1}\n  - {name: C, camera: cam1, line: Line1}\n"
                "  - {name: R, camera: cam2, line: Line2}\n");
@@ -61,10 +62,10 @@ struct LitSession {
 
 LitSession record_lit(const fs::path& work, const std::string& faults = "") {
   LitSession s;
-  s.result = run_pvcap(fmt::format("session --rig {} --root {} --protocol {} --auto --fast --no-web --lighting L-R",
-                                   write_lit_rig(work).string(), (work / "sessions").string(),
-                                   write_lit_protocol(work).string()),
-                       faults.empty() ? "" : "PVCAP_FAULTS=" + faults);
+  s.result = run_pvcap(
+      fmt::format("session --rig {} --root {} --protocol {} --auto --fast --no-web --lighting L-R",
+                  write_lit_rig(work).string(), (work / "sessions").string(), write_lit_protocol(work).string()),
+      faults.empty() ? "" : "PVCAP_FAULTS=" + faults);
   s.dir = only_session(work / "sessions");
   if (s.dir.empty()) return s;
   const auto r = run_pvcap(fmt::format("--log-level off report {} --json", s.dir.string()));
@@ -124,7 +125,8 @@ TEST(Lighting, AProtocolWhoseLightingChangesBetweenActionsHasEverySwitchConfirme
     EXPECT_TRUE(sw["confirmed"].get<bool>()) << sw.dump();
     EXPECT_TRUE(sw["on_time"].get<bool>()) << sw.dump();
     EXPECT_LE(sw["frames"].get<int>(), 2) << sw.dump();
-    if (sw["confirmed"].get<bool>()) confirmed.insert(sw["from"].get<std::string>() + ">" + sw["code"].get<std::string>());
+    if (sw["confirmed"].get<bool>())
+      confirmed.insert(sw["from"].get<std::string>() + ">" + sw["code"].get<std::string>());
   }
   for (const char* sw : {"-C->L-R", "L-->-C-"}) EXPECT_TRUE(confirmed.count(sw)) << sw << "\n" << lighting.dump(1);
   EXPECT_TRUE(confirmed.count("L-R>L--") || confirmed.count("--R>L--")) << lighting.dump(1);
@@ -183,6 +185,34 @@ TEST(Lighting, AProtocolWhoseLightingChangesBetweenActionsHasEverySwitchConfirme
     ASSERT_TRUE(other);
     for (const auto& f : other.value()) EXPECT_FALSE(f.chunk_line_status) << c.name;
   }
+
+  // The report holds the same check: cam1's frames, every one's lines as commanded.
+  ASSERT_TRUE(lighting.contains("lines")) << lighting.dump(1);
+  ASSERT_EQ(lighting["lines"].size(), 1u) << lighting.dump(1);
+  EXPECT_EQ(lighting["lines"][0]["camera"], "cam1");
+  EXPECT_EQ(lighting["lines"][0]["lights"], "C");
+  EXPECT_GT(lighting["lines"][0]["frames_checked"].get<int>(), 100);
+  EXPECT_EQ(lighting["lines"][0]["disagreeing"], 0);
+  // A rig file that wires C to another line than the camera drives: the frames say so.
+  reader.value().reset();
+  {
+    pvcap::sqlite::Database db(s.dir / "session.db", pvcap::sqlite::Database::Mode::ReadWrite);
+    db.exec(
+        "UPDATE session SET rig_config = replace(rig_config, '{name: C, camera: cam1, line: Line1}', "
+        "'{name: C, camera: cam1, line: Line2}')");
+  }
+  const auto again = run_pvcap(fmt::format("--log-level off report {} --json", s.dir.string()));
+  const json rewired =
+      json::parse(again.output.substr(std::min(again.output.size(), again.output.find('{'))), nullptr, false);
+  ASSERT_TRUE(rewired.is_object()) << again.output;
+  const json& lines = rewired["lighting"]["lines"];
+  ASSERT_EQ(lines.size(), 1u) << rewired["lighting"].dump(1);
+  EXPECT_GT(lines[0]["disagreeing"].get<int>(), 20) << "C was commanded on, and Line2 never went high";
+  EXPECT_LT(lines[0]["disagreeing"].get<int>(), lines[0]["frames_checked"].get<int>()) << "C off: Line2 low agrees";
+  EXPECT_TRUE(lines[0].contains("first_disagreement_s"));
+  std::printf("cam1's lines: %d frames checked, %d not as commanded; wired to Line2 in the rig file: %d of %d\n",
+              lighting["lines"][0]["frames_checked"].get<int>(), lighting["lines"][0]["disagreeing"].get<int>(),
+              lines[0]["disagreeing"].get<int>(), lines[0]["frames_checked"].get<int>());
 }
 
 // A lamp that never comes on and lamps that follow their lines 0.4 s late: the light check names the
@@ -196,8 +226,7 @@ TEST(Lighting, ADeadLampFlagsItsTakesAndASlowOneIsConfirmedLate) {
   EXPECT_NE(s.result.output.find("light C: no camera saw it come on"), std::string::npos) << s.result.output;
 
   const json& lighting = s.report["lighting"];
-  for (const auto& l : lighting["check"]["lights"])
-    EXPECT_EQ(l["seen"].get<bool>(), l["light"] != "C") << l.dump();
+  for (const auto& l : lighting["check"]["lights"]) EXPECT_EQ(l["seen"].get<bool>(), l["light"] != "C") << l.dump();
   // The slow lamps: the check measured their latency, near the 0.4 s they lag.
   // (From before its command's round trips to the first frame that showed it: the lag, the cameras'
   // control round trips and up to a frame period; a loaded host stretches the round trips.)
@@ -239,6 +268,11 @@ TEST(Lighting, ADeadLampFlagsItsTakesAndASlowOneIsConfirmedLate) {
   const std::string page((std::istreambuf_iterator<char>(html)), std::istreambuf_iterator<char>());
   EXPECT_NE(page.find("light C: no camera saw it come on"), std::string::npos);
   EXPECT_NE(page.find("(light C)"), std::string::npos);
+  // C's line was driven as commanded in every frame (cam1's chunks): the lamp failed, not the camera.
+  ASSERT_TRUE(lighting.contains("lines")) << lighting.dump(1);
+  EXPECT_EQ(lighting["lines"][0]["camera"], "cam1");
+  EXPECT_EQ(lighting["lines"][0]["disagreeing"], 0);
+  EXPECT_NE(page.find("Output lines, frame by frame"), std::string::npos);
 }
 
 // A lighting the rig's lights cannot make is refused before anything is recorded.
