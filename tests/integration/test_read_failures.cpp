@@ -54,11 +54,17 @@ long count_reads(const fs::path& root, const std::string& args, const fs::path& 
   return reads;
 }
 
-// The file the injected failure hit ("" when the drawn read never came: a run that read less).
+// The file the injected failure hit ("" when the drawn read never came: a run that read less). A read
+// of the index's write-ahead log or shared memory is the index's: SQLite reports it as the index's I/O
+// error, and pvcap names the index (session.db), the file a user knows.
 std::string failed_file(const std::string& output) {
   static const std::regex failed_call(R"(io_faults: read #\d+ of (\S+) failed with EIO)");
   std::smatch m;
-  return std::regex_search(output, m, failed_call) ? fs::path(m[1].str()).filename().string() : "";
+  if (!std::regex_search(output, m, failed_call)) return "";
+  std::string file = fs::path(m[1].str()).filename().string();
+  for (const char* part : {"-wal", "-shm"})
+    if (file.size() > 4 && file.ends_with(part)) file.resize(file.size() - 4);
+  return file;
 }
 
 // An error line of pvcap's log ("[time error] ...") or of a verdict ("ERROR ...") that names `file`
