@@ -215,27 +215,17 @@ TEST(Lighting, AProtocolWhoseLightingChangesBetweenActionsHasEverySwitchConfirme
               lines[0]["disagreeing"].get<int>(), lines[0]["frames_checked"].get<int>());
 }
 
-// A lamp that never comes on and lamps that follow their lines 0.4 s late: the light check names the
-// dead lamp, the take meant to be lit by it is flagged and fails its check, and each late switch is
-// confirmed with its delay measured.
-TEST(Lighting, ADeadLampFlagsItsTakesAndASlowOneIsConfirmedLate) {
+// A lamp that never comes on: the light check names it, the take meant to be lit by it is flagged and
+// fails its check, and its line was driven all along.
+TEST(Lighting, ADeadLampIsNamedByTheLightCheckAndItsTakeFlagged) {
   const fs::path work = work_dir("lighting-faults");
-  const LitSession s = record_lit(work, "sim.light_off=C,sim.light_lag_s=0.4");
+  const LitSession s = record_lit(work, "sim.light_off=C");
   ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
   ASSERT_TRUE(s.report.is_object()) << s.result.output;
   EXPECT_NE(s.result.output.find("light C: no camera saw it come on"), std::string::npos) << s.result.output;
 
   const json& lighting = s.report["lighting"];
   for (const auto& l : lighting["check"]["lights"]) EXPECT_EQ(l["seen"].get<bool>(), l["light"] != "C") << l.dump();
-  // The slow lamps: the check measured their latency, near the 0.4 s they lag.
-  // (From before its command's round trips to the first frame that showed it: the lag, the cameras'
-  // control round trips and up to a frame period; a loaded host stretches the round trips.)
-  for (const auto& l : lighting["check"]["lights"])
-    if (l["light"] != "C") {
-      EXPECT_GE(l["latency_ms"].get<double>(), 380) << l.dump();
-      EXPECT_LE(l["latency_ms"].get<double>(), 700) << l.dump();
-    }
-
   const json& takes = s.report["protocol"]["takes"];
   ASSERT_EQ(takes.size(), 3u);
   EXPECT_EQ(takes[1]["lighting"]["commanded"], "-C-");
@@ -249,20 +239,6 @@ TEST(Lighting, ADeadLampFlagsItsTakesAndASlowOneIsConfirmedLate) {
   EXPECT_TRUE(takes[2]["check_ok"].get<bool>()) << takes[2].dump();
   EXPECT_EQ(s.report["protocol"]["lighting_flagged_takes"], 1);
 
-  // The last switch, to L-R (L and R on, 0.4 s late), is confirmed late with its delay measured. It
-  // is compared with what the images showed before it: "---", C being dead.
-  bool late = false;
-  for (const auto& sw : lighting["switches"])
-    if (sw["code"] == "L-R" && sw["from"] == "---") {
-      ASSERT_TRUE(sw["confirmed"].get<bool>()) << sw.dump();
-      EXPECT_FALSE(sw["on_time"].get<bool>()) << sw.dump();
-      EXPECT_GE(sw["delay_ms"].get<double>(), 300) << sw.dump();  // from the read-back: the lag less the round trips
-      EXPECT_LE(sw["delay_ms"].get<double>(), 600) << sw.dump();
-      EXPECT_GT(sw["frames"].get<int>(), 2) << sw.dump();
-      late = true;
-    }
-  EXPECT_TRUE(late) << lighting.dump(1);
-  EXPECT_GE(lighting["late"].get<int>(), 1);
   // The HTML report says so too.
   std::ifstream html(s.dir / "report.html");
   const std::string page((std::istreambuf_iterator<char>(html)), std::istreambuf_iterator<char>());
@@ -276,6 +252,40 @@ TEST(Lighting, ADeadLampFlagsItsTakesAndASlowOneIsConfirmedLate) {
 }
 
 // A lighting the rig's lights cannot make is refused before anything is recorded.
+// Lamps that follow their lines 0.4 s late: the light check measures their latency, and a switch is
+// confirmed late with its delay measured. (Apart from the dead lamp's test: a lamp still going off
+// during the next light's step of the check is what the check can mistake for that light; see
+// docs/lighting.md, "Limits known".)
+TEST(Lighting, ASlowLampIsConfirmedLateWithItsDelayMeasured) {
+  const fs::path work = work_dir("lighting-slow");
+  const LitSession s = record_lit(work, "sim.light_lag_s=0.4");
+  ASSERT_EQ(s.result.exit_code, 0) << s.result.output;
+  ASSERT_TRUE(s.report.is_object()) << s.result.output;
+  const json& lighting = s.report["lighting"];
+  for (const auto& l : lighting["check"]["lights"]) EXPECT_TRUE(l["seen"].get<bool>()) << l.dump();
+  // The slow lamps: the check measured their latency, near the 0.4 s they lag.
+  // (From before its command's round trips to the first frame that showed it: the lag, the cameras'
+  // control round trips and up to a frame period; a loaded host stretches the round trips.)
+  for (const auto& l : lighting["check"]["lights"]) {
+    EXPECT_GE(l["latency_ms"].get<double>(), 380) << l.dump();
+    EXPECT_LE(l["latency_ms"].get<double>(), 700) << l.dump();
+  }
+
+  // The last switch, to L-R (L and R on, 0.4 s late), is confirmed late with its delay measured.
+  bool late = false;
+  for (const auto& sw : lighting["switches"])
+    if (sw["code"] == "L-R" && sw["from"] == "-C-") {
+      ASSERT_TRUE(sw["confirmed"].get<bool>()) << sw.dump();
+      EXPECT_FALSE(sw["on_time"].get<bool>()) << sw.dump();
+      EXPECT_GE(sw["delay_ms"].get<double>(), 300) << sw.dump();  // from the read-back: the lag less the round trips
+      EXPECT_LE(sw["delay_ms"].get<double>(), 600) << sw.dump();
+      EXPECT_GT(sw["frames"].get<int>(), 2) << sw.dump();
+      late = true;
+    }
+  EXPECT_TRUE(late) << lighting.dump(1);
+  EXPECT_GE(lighting["late"].get<int>(), 1);
+}
+
 TEST(Lighting, ALightingCodeWithALightTheRigLacksIsRefusedBeforeRecording) {
   const fs::path work = work_dir("lighting-bad-code");
   const auto r = run_pvcap(fmt::format("session --rig {} --root {} --duration 2 --no-web --lighting LXR",
