@@ -1,6 +1,5 @@
 #include "capture/genicam_features.h"
 
-#include <cctype>
 #include <utility>
 
 namespace pvcap {

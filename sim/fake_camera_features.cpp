@@ -314,6 +314,7 @@ class FeatureService {
   // simulated lamp shows as lit while the camera streams), or the selected user output's value; kept
   // in the line-status register (each frame's chunk reads it) and told to the lamps.
   static void serve_outputs(Camera& c, std::int64_t now_ns) {
+    if (!c.outputs && !c.gated_rate) return;  // no lamps, and no line-status chunk (SFNC 2 map only)
     guint32 acquiring = 0;
     arv_fake_camera_read_register(c.fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION, &acquiring);
     std::uint32_t mask = 0;
