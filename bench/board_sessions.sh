@@ -7,11 +7,17 @@
 # fitted; its views are kept in the work folder when a fit fails (PVCAP_BENCH_KEEP=1 keeps all).
 #
 #   bash bench/board_sessions.sh [SESSIONS (10)] [SECONDS (26)]   (as root; ~1.5 min a session)
+#   bash bench/board_sessions.sh --short   (the suite's short form: one 12-s session; a fit outside
+#                                           the targets is printed, not failed: 12 s of board is less
+#                                           than they assume; a fit that fails still fails)
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 source "$here/bench/work_dir.sh"
+short=0
+if [ "${1:-}" = "--short" ]; then short=1; shift; fi
 sessions=${1:-10}
 seconds=${2:-26}
+((short)) && sessions=1 seconds=12
 pvcap="$here/build/app/pvcap"
 bench_work_dir board-sessions
 fits=0 failed=0 outside=0 loaded=0 worst_focal=0 worst_pp=0
@@ -51,4 +57,4 @@ for ((i = 1; i <= sessions; i++)); do
 done
 echo "board sessions: $sessions recorded ($loaded beside a busy loop), $((fits + failed)) camera fits, $failed failed," \
   "$outside outside the targets; worst focal error $worst_focal %, worst principal point error $worst_pp px"
-((failed == 0 && outside == 0))
+((failed == 0 && (outside == 0 || short)))

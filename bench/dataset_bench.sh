@@ -8,10 +8,15 @@
 # made. Needs root, and slurm-wlm and munge (scripts/deps.sh --tests).
 #
 #   bash bench/dataset_bench.sh [participants]
+#   bash bench/dataset_bench.sh --short   (the suite's short form: 2 participants of 2 takes each on
+#                                          640x480 cameras; every step and line, figures not to quote)
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 pvcap=$here/build/app/pvcap
+short=0
+if [ "${1:-}" = "--short" ]; then short=1; shift; fi
 n=${1:-3}
+((short)) && n=2
 work=$(mktemp -d /tmp/pvcap-dataset-bench-XXXXXX)
 pids=()
 cleanup() {
@@ -36,10 +41,17 @@ actions:
   - {name: press_palm, text: Press with your palm, pictogram: pictograms/press_palm.svg, forces: [low, high],
      repetitions: 2}
 YAML
+rig=$here/rig-configs/sim.yaml
+if ((short)); then
+  rig=$work/rig.yaml
+  sed 's/width: 1920/width: 640/; s/height: 1080/height: 480/' "$here/rig-configs/sim.yaml" > "$rig"
+  sed -i 's/forces: \[low, high, no_contact\], repetitions: 2/forces: [low], repetitions: 1/; s/forces: \[low, high\],/forces: [low],/; s/^     repetitions: 2}/     repetitions: 1}/' \
+    "$work/protocol.yaml"
+fi
 echo "recording $n participants into $work"
 for i in $(seq 1 "$n"); do
   code=$(printf 'B%02d' "$i")
-  "$pvcap" session --rig "$here/rig-configs/sim.yaml" --root "$work/sessions" --protocol "$work/protocol.yaml" --auto \
+  "$pvcap" session --rig "$rig" --root "$work/sessions" --protocol "$work/protocol.yaml" --auto \
     --fast --no-web --participant "$code" --skin-tone light --lighting LCR > "$work/$code.log" 2>&1 \
     || { echo "the session of $code failed: $work/$code.log" >&2; exit 1; }
 done

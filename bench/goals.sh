@@ -11,7 +11,10 @@
 #   replay    `pvcap replay --out`, four 1080p views, x real time                          >= 3
 # Each bench's own lines are kept in the work folder's logs and repeated under the table.
 #
-#   bash bench/goals.sh [--docs] [minutes=2]   (as root: the capture bench makes a network namespace)
+#   bash bench/goals.sh [--docs] [--short] [--session SESSION] [minutes=2]
+#   (as root: the capture bench makes a network namespace; --session measures a recorded, calibrated
+#   protocol session instead of recording one, and compacts it in place: give a copy; --short is the
+#   suite's short form, which prints the table but measures too little to quote)
 # With --docs the table, dated, with the commit and the machine, replaces docs/PERFORMANCE.md's
 # current figures (between its goals:begin and goals:end markers); the dated log keeps the past.
 # About 17 minutes for the default 2-minute session; everything it records is removed at the end
@@ -23,9 +26,20 @@ pvcap=$here/build/app/pvcap
 for b in capture_bench store_bench export_bench; do
   [ -x "$here/build/bench/$b" ] || { echo "build first: bash scripts/build.sh (no build/bench/$b)" >&2; exit 1; }
 done
-docs=0
-if [ "${1:-}" = "--docs" ]; then docs=1; shift; fi
+docs=0 short=0 given_session=""
+while [ $# -gt 0 ]; do
+  case $1 in
+    --docs) docs=1; shift ;;
+    --short) short=1; shift ;;
+    --session) given_session=${2:?--session needs a recorded session folder}; shift 2 ;;
+    *) break ;;
+  esac
+done
 minutes=${1:-2}
+# The short form (the suite's bench.goals_short): every step and the table in seconds, not figures to
+# quote: one capture round of 1 s a path, the store bench on 15 frames, and the session given.
+capture_args=(20 6 ratio) store_args=(90 2 "" raw)  # raw: the default store alone (the table's)
+((short)) && capture_args=(1 1 ratio) store_args=(15 2 "" quick)
 bench_work_dir goals
 step() { echo "[$(date +%H:%M:%S)] $*" >&2; }
 # run NAME COMMAND...: COMMAND's output into $work/NAME.txt; a failure names that file and stops.
@@ -35,12 +49,18 @@ run() {
   "$@" > "$work/$name.txt" 2>&1 || { echo "goals: the $name step failed; its output: $work/$name.txt" >&2; exit 1; }
 }
 
-step "capture bench: 6 rounds of 20 s per path, each path first in three"
-run capture "$here/build/bench/capture_bench" 20 6 ratio
-step "store bench: 90 noisy frames per camera, then compact"
-run store "$here/build/bench/store_bench"
-step "recording a $minutes-minute protocol session (log: $work/pvcap.log)"
-session=$(bash "$here/bench/record_protocol_session.sh" "$work" "$minutes")
+step "capture bench: ${capture_args[1]} rounds of ${capture_args[0]} s per path, each path first in half of them"
+run capture "$here/build/bench/capture_bench" "${capture_args[@]}"
+step "store bench: ${store_args[0]} noisy frames per camera, then compact"
+run store "$here/build/bench/store_bench" "${store_args[@]}"
+if [ -n "$given_session" ]; then
+  session=$given_session  # a protocol session of the simulated rig (compact rewrites it: pass a copy)
+  step "the session given: $session"
+  bash "$here/bench/calibrate_sim_pad.sh" "$session"  # nothing when it has its calibration
+else
+  step "recording a $minutes-minute protocol session (log: $work/pvcap.log)"
+  session=$(bash "$here/bench/record_protocol_session.sh" "$work" "$minutes")
+fi
 step "export bench on it"
 run export "$here/build/bench/export_bench" "$session"
 step "replay bench on it"

@@ -4,16 +4,23 @@
 # size, and how long the end-of-session re-mapping takes. Memory must not grow with time.
 #
 #   bash bench/long_session.sh [minutes]      (default 20; needs root: the simulated rig's namespace)
+#   bash bench/long_session.sh --seconds N    (the suite's short form: the same lines, none of the marks)
 # The session is removed at the end (PVCAP_BENCH_KEEP=1 keeps it).
 set -euo pipefail
-minutes=${1:-20}
+if [ "${1:-}" = "--seconds" ]; then
+  seconds=${2:?--seconds needs a number}
+  minutes=0
+else
+  minutes=${1:-20}
+  seconds=$((minutes * 60))
+fi
 here=$(cd "$(dirname "$0")/.." && pwd)
 pvcap=$here/build/app/pvcap
 [ -x "$pvcap" ] || { echo "build first: bash scripts/build.sh" >&2; exit 1; }
 source "$here/bench/work_dir.sh"
 bench_work_dir long-session
 sed 's/width: 1920/width: 640/; s/height: 1080/height: 480/' "$here/rig-configs/sim.yaml" > "$work/rig.yaml"
-"$pvcap" session --rig "$work/rig.yaml" --root "$work/sessions" --duration $((minutes * 60)) --no-web \
+"$pvcap" session --rig "$work/rig.yaml" --root "$work/sessions" --duration "$seconds" --no-web \
   > "$work/pvcap.log" 2>&1 &
 pid=$!
 start=$(date +%s)
@@ -35,7 +42,7 @@ while kill -0 "$pid" 2>/dev/null; do
 done
 wait "$pid" || { echo "the session failed: $work/pvcap.log" >&2; exit 1; }
 session=$(ls -d "$work"/sessions/*/ | head -1)
-echo "minutes recorded:          $minutes"
+echo "seconds recorded:          $seconds"
 for m in 1 10 20; do
   [ -n "${rss_at[$m]:-}" ] && echo "recorder RSS at $(printf '%2d' "$m") min:    $((rss_at[$m] / 1024)) MB"
 done

@@ -13,8 +13,10 @@
 //  6. raw mode: `pvcap compact` on the finished store, bytes per frame before and after, its speed,
 //     and the mosaics read back again.
 // The speed figures come with the same measure for the ffmpeg command line, run in the same run.
-// Usage: store_bench [FRAMES=90] [NOISE_DN=2] ["STORE SETTINGS" for both modes, e.g. "crf: 16"] [short]
-// (`short`: the suite's short form, see short_form below)
+// Usage: store_bench [FRAMES=90] [NOISE_DN=2] ["STORE SETTINGS" for both modes, e.g. "crf: 16"] [short|raw|quick]
+// (`short`: the suite's short form, see short_form below; `raw`: the raw default alone, without the
+// lossy colour mode's figures, as bench/goals.sh reads them; `quick`: raw alone in a few seconds, for
+// goals.sh --short)
 // Frames are the simulator's scene with a moving fingertip and sensor noise, prepared beforehand.
 #include <algorithm>
 #include <atomic>
@@ -26,6 +28,7 @@
 #include <thread>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 #include <opencv2/core.hpp>
 
@@ -253,8 +256,10 @@ int short_form(const fs::path& work, const std::vector<std::vector<cv::Mat>>& fr
 }
 
 // Steps 1-5 for one mode (`fields`: the store settings of the mode), printed with `label`.
+// `quick` (goals.sh --short): two paces at each rate and one durability round, figures to check the
+// bench runs, not to quote.
 void bench_mode(const std::string& label, const fs::path& work, const std::vector<std::vector<cv::Mat>>& frames,
-                const std::string& fields, double noise) {
+                const std::string& fields, double noise, bool quick = false) {
   const StoreConfig store = bench_rig(1, fields).store;
   const bool raw = store.video_mode == "raw";
   const int n = int(frames[0].size());
@@ -315,7 +320,8 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
   // at which it keeps every frame, at 15 Hz (one frame of each camera per sample) and at 60 Hz with
   // every frame stored; beside them, four ffmpeg command lines run side by side (what the machine
   // allows at these settings), and the encoders' own throughput fed at full speed.
-  const Sustained at15 = sustained_pace(dir, frames, fields, 15, 1);
+  const Sustained at15 = quick ? sustained_pace(dir, frames, fields, 15, 1, {1.0, 2.0})
+                               : sustained_pace(dir, frames, fields, 15, 1);
   std::printf(
       "pipeline, 4 cameras: real-time factor %.2f for 4 x 1080p at 15 Hz, every frame kept and the encoders keeping up "
       "(goal >= 1.5; %s)\n",
@@ -337,7 +343,8 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
       four_fps, four_fps / 60.0, ffmpeg_four_fps / 60.0, four_fps / ffmpeg_four_fps);
   if (raw) {
     const std::string every = fields.empty() ? "video_fps: 0" : fields + ", video_fps: 0";
-    const Sustained at60 = sustained_pace(dir, frames, every, 60, 4);
+    const Sustained at60 = quick ? sustained_pace(dir, frames, every, 60, 4, {0.5, 1.0})
+                                 : sustained_pace(dir, frames, every, 60, 4);
     std::printf(
         "full rate: real-time factor %.2f for 4 x 1080p at 60 Hz, every frame stored (goal >= 1.0; %s); the encoders "
         "at full speed reach %.2f x of it\n",
@@ -350,7 +357,7 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
   {
     const std::string no_sync = fields.empty() ? "sync_interval_s: 0" : fields + ", sync_interval_s: 0";
     std::vector<double> with, without;
-    for (int round = 0; round < 3; ++round) {
+    for (int round = 0; round < (quick ? 1 : 3); ++round) {
       with.push_back(4.0 * n / run_pipeline(dir / fmt::format("sync-{}", round), frames, fields, nullptr).seconds /
                      60.0);
       without.push_back(4.0 * n /
@@ -361,9 +368,10 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
     }
     const double w = percentile(with, 0.5), wo = percentile(without, 0.5);
     std::printf(
-        "durability: 4 cameras, every file fsynced each second: real-time factor %.2f (median of %.2f %.2f %.2f); "
-        "without the fsyncs: %.2f (%.2f %.2f %.2f); the fsyncs cost %.1f %% (goal < 5 %%)\n",
-        w, with[0], with[1], with[2], wo, without[0], without[1], without[2], 100.0 * (1.0 - w / wo));
+        "durability: 4 cameras, every file fsynced each second: real-time factor %.2f (median of %s); "
+        "without the fsyncs: %.2f (%s); the fsyncs cost %.1f %% (goal < 5 %%)\n",
+        w, fmt::format("{:.2f}", fmt::join(with, " ")).c_str(), wo,
+        fmt::format("{:.2f}", fmt::join(without, " ")).c_str(), 100.0 * (1.0 - w / wo));
   }
 
   // 3. Random access and 4. sequential reading, on the four-camera store.
@@ -472,8 +480,9 @@ int main(int argc, char** argv) {
     return rc;
   }
   try {
-    bench_mode("default", work, frames, with("video_mode: raw"), noise);
-    bench_mode("lossy", work, frames, with("video_mode: color"), noise);
+    const std::string only = argc > 4 ? argv[4] : "";
+    bench_mode("default", work, frames, with("video_mode: raw"), noise, only == "quick");
+    if (only.empty()) bench_mode("lossy", work, frames, with("video_mode: color"), noise);
   } catch (const std::exception& e) {
     std::printf("%s\n", e.what());
     return 1;

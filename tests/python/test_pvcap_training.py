@@ -66,12 +66,17 @@ class TrainingLoopTest(unittest.TestCase):
         first, last = sum(losses[:10]) / 10, sum(losses[-20:]) / 20
         with torch.no_grad():
             predicted = net(test_x).squeeze(1) > 0
-        # A crop is in contact when at least 3 of its pixels are predicted so.
-        accuracy = float(((predicted.flatten(1).sum(dim=1) >= 3).float() == test_contact).float().mean())
+            train_counts = (net(train_x).squeeze(1) > 0).flatten(1).sum(dim=1)
+        # A crop is in contact when at least k of its pixels are predicted so, k chosen on the training
+        # crops alone (a fixed k of 3 failed 1 run in 6: a few false-positive pixels on the held-out
+        # hand's crops decided it).
+        train_contact = (train_y.flatten(1).amax(dim=1) > 0).float()
+        k = max(range(1, 65), key=lambda k: (float(((train_counts >= k).float() == train_contact).float().mean()), -k))
+        accuracy = float(((predicted.flatten(1).sum(dim=1) >= k).float() == test_contact).float().mean())
         chance = max(float(test_contact.mean()), 1 - float(test_contact.mean()))
         iou = float((predicted & (test_y > 0)).sum()) / max(1.0, float((predicted | (test_y > 0)).sum()))
         print(f"training: loss {first:.3f} over the first 10 steps, {last:.3f} over the last 20 of 250; held out "
-              f"(the left hand's {len(test_y)} crops): contact told right in {accuracy:.2f} (answering the commoner "
+              f"(the left hand's {len(test_y)} crops): contact (at least {k} pixels) told right in {accuracy:.2f} (answering the commoner "
               f"kind: {chance:.2f}), contact pixels' IoU {iou:.2f}")
         self.assertLess(last, 0.3 * first, "the loss falls")
         self.assertGreater(accuracy, chance + 0.2, "held out, it beats answering the commoner kind")
