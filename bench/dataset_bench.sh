@@ -8,15 +8,15 @@
 # made. Needs root, and slurm-wlm and munge (scripts/deps.sh --tests).
 #
 #   bash bench/dataset_bench.sh [participants]
-#   bash bench/dataset_bench.sh --short   (the suite's short form: 2 participants of 2 takes each on
-#                                          640x480 cameras; every step and line, figures not to quote)
+#   bash bench/dataset_bench.sh --short   (the suite's short form: records nothing; the dataset is a
+#                                          copy of the export tests' session, PVCAP_EXPORT_FIXTURE;
+#                                          every step and line, figures not to quote)
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 pvcap=$here/build/app/pvcap
 short=0
 if [ "${1:-}" = "--short" ]; then short=1; shift; fi
 n=${1:-3}
-((short)) && n=2
 work=$(mktemp -d /tmp/pvcap-dataset-bench-XXXXXX)
 pids=()
 cleanup() {
@@ -41,17 +41,20 @@ actions:
   - {name: press_palm, text: Press with your palm, pictogram: pictograms/press_palm.svg, forces: [low, high],
      repetitions: 2}
 YAML
-rig=$here/rig-configs/sim.yaml
 if ((short)); then
-  rig=$work/rig.yaml
-  sed 's/width: 1920/width: 640/; s/height: 1080/height: 480/' "$here/rig-configs/sim.yaml" > "$rig"
-  sed -i 's/forces: \[low, high, no_contact\], repetitions: 2/forces: [low], repetitions: 1/; s/forces: \[low, high\],/forces: [low],/; s/^     repetitions: 2}/     repetitions: 1}/' \
-    "$work/protocol.yaml"
+  fixture=${PVCAP_EXPORT_FIXTURE:?--short reads the export tests\' session (ctest sets PVCAP_EXPORT_FIXTURE)}
+  n=0
+  mkdir -p "$work/sessions"
+  cp -a "$fixture/sessions/." "$work/sessions/"
+  cp -a "$fixture/protocol.yaml" "$work/protocol.yaml"
+  cp -a "$fixture/pictograms/." "$work/pictograms/"
+  echo "the export tests' session, copied into $work"
+else
+  echo "recording $n participants into $work"
 fi
-echo "recording $n participants into $work"
 for i in $(seq 1 "$n"); do
   code=$(printf 'B%02d' "$i")
-  "$pvcap" session --rig "$rig" --root "$work/sessions" --protocol "$work/protocol.yaml" --auto \
+  "$pvcap" session --rig "$here/rig-configs/sim.yaml" --root "$work/sessions" --protocol "$work/protocol.yaml" --auto \
     --fast --no-web --participant "$code" --skin-tone light --lighting LCR > "$work/$code.log" 2>&1 \
     || { echo "the session of $code failed: $work/$code.log" >&2; exit 1; }
 done
@@ -64,7 +67,8 @@ t0=$(now); "$pvcap" --log-level warn dataset status "$work/dataset" > /dev/null;
 "$pvcap" --log-level warn dataset status "$work/dataset" > /dev/null; t2=$(now)
 echo "dataset scan, first: $sessions sessions in $(per "$t0" "$t1" "$sessions") (verify, report figures and self-check of each)"
 echo "dataset scan, again with nothing changed: $(per "$t1" "$t2" "$sessions")"
-"$pvcap" --log-level warn dataset split "$work/dataset" --test 1 --val 0 --seed 1 > /dev/null
+test_share=1; ((short)) && test_share=0  # one participant: all for training
+"$pvcap" --log-level warn dataset split "$work/dataset" --test "$test_share" --val 0 --seed 1 > /dev/null
 
 t0=$(now); "$pvcap" --log-level warn dataset release "$work/dataset" --out "$work/local" > "$work/local.log"; t1=$(now)
 echo "dataset release, local (--jobs 2): $(per "$t0" "$t1" "$sessions"); $(tail -1 "$work/local.log" | cut -d';' -f1-2)"

@@ -175,7 +175,7 @@ Sustained sustained_pace(const fs::path& dir, const std::vector<std::vector<cv::
 
 // 6. Raw mode: `pvcap compact` on the finished store (its defaults), then camera 0's mosaics read back
 // against the sensor's again.
-void bench_compact(const fs::path& session, const std::vector<cv::Mat>& sensor, int n, double noise) {
+void bench_compact(const fs::path& session, const std::vector<cv::Mat>& sensor, int n, double noise, int reads = 60) {
   CompactOptions o;
   const auto t = Clock::now();
   auto c = compact_session(session, o);
@@ -186,7 +186,7 @@ void bench_compact(const fs::path& session, const std::vector<cv::Mat>& sensor, 
   if (!reader) throw std::runtime_error("cannot read the compacted store: " + reader.error().message);
   std::mt19937 rng(11);
   std::vector<double> ms;
-  for (int k = 0; k < 60; ++k) {
+  for (int k = 0; k < reads; ++k) {
     const std::size_t i = rng() % reader.value()->sample_count(), cam = rng() % reader.value()->cameras().size();
     const auto t_read = Clock::now();
     auto img = reader.value()->image(i, cam);
@@ -256,8 +256,8 @@ int short_form(const fs::path& work, const std::vector<std::vector<cv::Mat>>& fr
 }
 
 // Steps 1-5 for one mode (`fields`: the store settings of the mode), printed with `label`.
-// `quick` (goals.sh --short): two paces at each rate and one durability round, figures to check the
-// bench runs, not to quote.
+// `quick` (goals.sh --short): one pace at each rate, no reference command lines, no durability
+// rounds: figures to check that the bench runs, not to quote.
 void bench_mode(const std::string& label, const fs::path& work, const std::vector<std::vector<cv::Mat>>& frames,
                 const std::string& fields, double noise, bool quick = false) {
   const StoreConfig store = bench_rig(1, fields).store;
@@ -273,7 +273,7 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
   fs::create_directories(dir);
 
   // 1. One camera: pvcap's pipeline against the ffmpeg command line on the same frames.
-  const FeedResult one_run = run_pipeline(dir / "one", {frames[0]}, fields, nullptr);
+  const FeedResult one_run = quick ? FeedResult{} : run_pipeline(dir / "one", {frames[0]}, fields, nullptr);
   const double one = one_run.seconds;
   if (one_run.refused)
     std::printf("  (1 camera at full speed: the store refused %llu of %llu frames)\n",
@@ -310,8 +310,9 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
     if (rc != 0) std::printf("ffmpeg command line failed (%d): %s\n", rc, cmd.c_str());
     return seconds_since(t);
   };
-  const double ffmpeg_fps = n / run_timed(ffmpeg_cmd(0));
-  std::printf(
+  const double ffmpeg_fps = quick ? 0 : n / run_timed(ffmpeg_cmd(0));
+  if (!quick)
+    std::printf(
       "pipeline, 1 camera (%s + index): %.1f fps; ffmpeg command line, same frames and settings: %.1f fps; "
       "ratio %.2f (goal >= 1.0)\n",
       raw ? "plane split + encode" : "debayer + encode", pipeline_fps, ffmpeg_fps, pipeline_fps / ffmpeg_fps);
@@ -320,7 +321,7 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
   // at which it keeps every frame, at 15 Hz (one frame of each camera per sample) and at 60 Hz with
   // every frame stored; beside them, four ffmpeg command lines run side by side (what the machine
   // allows at these settings), and the encoders' own throughput fed at full speed.
-  const Sustained at15 = quick ? sustained_pace(dir, frames, fields, 15, 1, {1.0, 2.0})
+  const Sustained at15 = quick ? sustained_pace(dir, frames, fields, 15, 1, {1.0})
                                : sustained_pace(dir, frames, fields, 15, 1);
   std::printf(
       "pipeline, 4 cameras: real-time factor %.2f for 4 x 1080p at 15 Hz, every frame kept and the encoders keeping up "
@@ -336,14 +337,15 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
   std::string all = "(";
   for (int c = 0; c < 4; ++c) all += ffmpeg_cmd(c) + " & ";
   all += "wait)";
-  const double ffmpeg_four_fps = 4.0 * n / run_timed(all);
-  std::printf(
+  const double ffmpeg_four_fps = quick ? 0 : 4.0 * n / run_timed(all);
+  if (!quick)
+    std::printf(
       "  encoders at full speed: %.1f frames/s in all = %.2f x (4 x 15 Hz); 4 ffmpeg command lines at once: %.2f x; "
       "ratio %.2f\n",
       four_fps, four_fps / 60.0, ffmpeg_four_fps / 60.0, four_fps / ffmpeg_four_fps);
   if (raw) {
     const std::string every = fields.empty() ? "video_fps: 0" : fields + ", video_fps: 0";
-    const Sustained at60 = quick ? sustained_pace(dir, frames, every, 60, 4, {0.5, 1.0})
+    const Sustained at60 = quick ? sustained_pace(dir, frames, every, 60, 4, {0.5})
                                  : sustained_pace(dir, frames, every, 60, 4);
     std::printf(
         "full rate: real-time factor %.2f for 4 x 1080p at 60 Hz, every frame stored (goal >= 1.0; %s); the encoders "
@@ -354,10 +356,10 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
   // The durability horizon's cost: the same four cameras with the fsyncs on (the default) and off
   // (store.sync_interval_s: 0), alternated three times in the same run, medians compared (one
   // short run of each differs by +-10 % here from the machine alone).
-  {
+  if (!quick) {
     const std::string no_sync = fields.empty() ? "sync_interval_s: 0" : fields + ", sync_interval_s: 0";
     std::vector<double> with, without;
-    for (int round = 0; round < (quick ? 1 : 3); ++round) {
+    for (int round = 0; round < 3; ++round) {
       with.push_back(4.0 * n / run_pipeline(dir / fmt::format("sync-{}", round), frames, fields, nullptr).seconds /
                      60.0);
       without.push_back(4.0 * n /
@@ -446,7 +448,7 @@ void bench_mode(const std::string& label, const fs::path& work, const std::vecto
       "(%.3f MB per frame)\n",
       double(bytes) / 1e6, n, double(bytes) / 1e6 / (4.0 * n), double(view_bytes) / 1e6,
       double(view_bytes) / 1e6 / (4.0 * n));
-  if (raw) bench_compact(session, frames[0], n, noise);
+  if (raw) bench_compact(session, frames[0], n, noise, quick ? 10 : 60);
 }
 }  // namespace
 
