@@ -137,6 +137,17 @@ SenselRigConfig parse_sensel(const YAML::Node& node, const std::filesystem::path
   return c;
 }
 
+PtpRigConfig parse_ptp(const YAML::Node& node, const std::filesystem::path& file) {
+  PtpRigConfig c;
+  MapReader r(node, file, "ptp");
+  c.line = node.Mark().line + 1;
+  r.get("ptp4l_socket", c.ptp4l_socket);
+  if (c.ptp4l_socket.empty()) r.fail(node["ptp4l_socket"], "ptp4l_socket", "empty: give ptp4l's uds_address");
+  r.get_in_range("max_offset_us", c.max_offset_us, 0.001, 10'000.0);
+  r.finish();
+  return c;
+}
+
 StoreConfig parse_store(const YAML::Node& node, const std::filesystem::path& file) {
   StoreConfig s;
   MapReader r(node, file, "store");
@@ -275,6 +286,10 @@ RigConfig parse_rig_config(const std::string& text, const std::filesystem::path&
     for (CameraConfig& c : rig.cameras) c.rig_switches_lights = !rig.lights.empty();
     if (const YAML::Node sensel = r.child("sensel")) rig.sensel = parse_sensel(sensel, source);
     if (const YAML::Node store = r.child("store")) rig.store = parse_store(store, source);
+    if (const YAML::Node ptp = r.child("ptp")) {  // `ptp:` alone: every default
+      rig.ptp = parse_ptp(ptp.IsNull() ? YAML::Node(YAML::NodeType::Map) : ptp, source);
+      if (ptp.IsNull()) rig.ptp->line = ptp.Mark().line + 1;
+    }
     // The simulator's section: read by sim/sim_config.h, so only its presence is noted here.
     if (const YAML::Node sim = r.child("sim")) {
       if (!sim.IsMap()) r.fail(sim, "sim", "expected a mapping (the simulated devices' settings)");

@@ -124,6 +124,16 @@ struct StoreConfig {
   bool view_videos = true;
 };
 
+// The host's PTP time (docs/multihost.md): read from linuxptp's ptp4l through `pmc` before the
+// session (a host out of time is refused) and every second while it records (sync/ptp_host.h).
+struct PtpRigConfig {
+  std::string ptp4l_socket = "/var/run/ptp4l";  // ptp4l's uds_address
+  // The largest offset from its master at which the host counts as in time: 1 us for hardware
+  // timestamping; software timestamping (a NIC without a PTP clock) needs tens of microseconds.
+  double max_offset_us = 1.0;
+  int line = 0;
+};
+
 struct RigConfig {
   std::filesystem::path source;  // the file it came from
   std::string text;              // the file's text, stored with each session
@@ -132,6 +142,7 @@ struct RigConfig {
   std::vector<LightConfig> lights;
   std::optional<SenselRigConfig> sensel;
   StoreConfig store;
+  std::optional<PtpRigConfig> ptp;  // a `ptp:` section: the host's PTP time is read and stored
   // The file has a `sim:` section: its devices are served by the simulator (sim/sim_config.h reads
   // the section; app/'s rig launcher starts it).
   bool simulated = false;

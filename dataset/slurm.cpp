@@ -1,7 +1,5 @@
 #include "dataset/slurm.h"
 
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -14,52 +12,22 @@
 #include <fmt/format.h>
 
 #include "core/durable_folder.h"
+#include "core/subprocess.h"
 
 namespace pvcap::dataset {
 
 namespace fs = std::filesystem;
-
-extern "C" char** environ;
 
 namespace {
 
 // Runs argv[0] (found on PATH) and returns its standard output, or an Error with its exit status and
 // what it printed.
 Result<std::string> run(const std::vector<std::string>& args) {
-  int out[2];
-  if (pipe(out) != 0) return Error{fmt::format("cannot run {}: {}", args[0], std::strerror(errno))};
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, out[1], STDOUT_FILENO);
-  posix_spawn_file_actions_adddup2(&actions, out[1], STDERR_FILENO);
-  posix_spawn_file_actions_addclose(&actions, out[0]);
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  const int rc = posix_spawnp(&pid, args[0].c_str(), &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  close(out[1]);
-  if (rc != 0) {
-    close(out[0]);
-    return Error{
-        fmt::format("cannot run {}: {} (is Slurm installed, and {} on PATH?)", args[0], std::strerror(rc), args[0])};
-  }
-  std::string text;
-  char buf[4096];
-  for (ssize_t n; (n = read(out[0], buf, sizeof buf)) != 0;) {
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) break;
-    text.append(buf, std::size_t(n));
-  }
-  close(out[0]);
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    return Error{fmt::format("{} failed (exit {}): {}", fmt::join(args, " "),
-                             WIFEXITED(status) ? WEXITSTATUS(status) : -1, text)};
-  return text;
+  auto ran = run_program(args);
+  if (!ran) return Error{fmt::format("{} (is Slurm installed, and {} on PATH?)", ran.error().message, args[0])};
+  if (ran.value().exit_code != 0)
+    return Error{fmt::format("{} failed (exit {}): {}", fmt::join(args, " "), ran.value().exit_code, ran.value().text)};
+  return ran.value().text;
 }
 
 std::string quoted(const std::string& s) {

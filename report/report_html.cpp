@@ -543,6 +543,29 @@ void add_camera_state(std::string& h, const json& r) {
   }
 }
 
+// The host's PTP time (report/ptp_time.h), for a session recorded with the rig file's `ptp:`.
+void add_ptp_time(std::string& h, const json& r) {
+  if (!r.contains("ptp_time")) return;
+  const json& p = r["ptp_time"];
+  h += "<h2>PTP time</h2>";
+  std::string gms;
+  for (const auto& g : p.at("grandmasters")) gms += (gms.empty() ? "" : ", ") + esc(g.get<std::string>());
+  h += fmt::format(
+      "<p>The host's PTP time was read {} times (once a second, from ptp4l): in time at {}, following grandmaster "
+      "{}; the largest offset from its master {:.0f} ns.</p>",
+      p.value("readings", 0), p.value("in_time", 0), gms.empty() ? "none" : gms, p.value("worst_offset_ns", 0.0));
+  if (p.at("out_of_time").empty()) {
+    h += "<p>Never out of time.</p>";
+    return;
+  }
+  h += fmt::format("<p class='bad'>Out of time for {} s:</p>", p.value("seconds_out_of_time", 0));
+  h += "<table><tr><th>from (s)</th><th>to (s)</th><th>seconds</th><th>why</th></tr>";
+  for (const auto& s : p["out_of_time"])
+    h += fmt::format("<tr><td>{:.1f}</td><td>{:.1f}</td><td>{}</td><td class='t'>{}</td></tr>", s.value("from_s", 0.0),
+                     s.value("to_s", 0.0), s.value("seconds", 0), esc(s.value("why", "")));
+  h += "</table>";
+}
+
 void add_events(std::string& h, const json& r) {
   h += "<h2>Events</h2>";
   if (r.at("events").empty())
@@ -565,6 +588,7 @@ std::string render_html(const json& r) {
   add_self_check(h, r);
   add_intervals(h, r);
   add_clocks(h, r);
+  add_ptp_time(h, r);
   add_pairing(h, r);
   add_protocol(h, r);
   add_lighting(h, r);

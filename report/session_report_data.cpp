@@ -1,6 +1,7 @@
 #include "report/session_report_data.h"
 
 #include "report/camera_state.h"
+#include "report/ptp_time.h"
 
 #include <algorithm>
 #include <cmath>
@@ -522,9 +523,11 @@ Result<json> build_report(const std::filesystem::path& dir, const ReportOptions&
     }
     auto events = r.events();
     if (!events) return events.error();
+    if (auto ptp = ptp_time_section(events.value(), start)) j["ptp_time"] = *ptp;
     j["events"] = json::array();
     for (const auto& e : events.value())
-      j["events"].push_back(
+      if (!is_ptp_reading(e))  // one a second: summed up in ptp_time
+        j["events"].push_back(
           {{"t_s", round_to(seconds(e.host_ns, start), 1e-3)}, {"kind", e.kind}, {"message", e.message}});
     json calibration;
     const calib::PadLayout pad = calib::default_pad_layout();

@@ -30,6 +30,7 @@ if [ "${1:-}" = "--tests" ]; then
     tmux                                # the operator's terminal console is tested in it
     chromium                            # the session's pages are tested in headless Chromium
     slurm-wlm munge                     # `pvcap dataset release --scheduler slurm` on a one-node cluster
+    linuxptp                            # ptp4l and pmc: the host's PTP time, read from a real ptp4l (docs/multihost.md)
   )
 fi
 missing=()

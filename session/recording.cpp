@@ -18,6 +18,7 @@
 #include "lighting/light_monitor.h"
 #include "lighting/lighting_code.h"
 #include "session/camera_pipeline.h"
+#include "session/ptp_host_watch.h"
 #include "session/realign.h"
 #include "session/rig_lock.h"
 #include "session/sample_record.h"
@@ -113,6 +114,13 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
     for (const LightConfig& l : rig.lights) names.push_back(l.name);
     if (auto m = lighting::parse_lighting(options.conditions->lighting, names); !m)
       return Error{fmt::format("--lighting: {}", m.error().message)};
+  }
+
+  // A host out of PTP time: said before any device is opened (docs/multihost.md).
+  if (rig.ptp) {
+    auto ptp = check_ptp_host(*rig.ptp);
+    if (!ptp) return Error{fmt::format("{}\nno session was recorded", ptp.error().message)};
+    spdlog::info("the host's PTP time: {}", sync::describe(ptp.value()));
   }
 
   // Every camera opened before anything is on disk: a rig that is not ready leaves no empty session.
@@ -297,6 +305,10 @@ Status Recording::start() {
   for (auto& cam : cameras_) cam->settle();
   state_.store(kRecording);
   rec_start_ = host_now().ns;
+  if (rig_.ptp)
+    ptp_watch_ = std::make_unique<PtpHostWatch>(*rig_.ptp, [this](const EventRecord& e) {
+      if (RecordingStore* w = events_writer_.load()) w->record(e);
+    });
   if (sensel_)
     if (Status s = sensel_->start(writer, sensel_id_, *timeline_); !s.ok()) {
       spdlog::error("Sensel: {}; stopping", s.error().message);
@@ -507,6 +519,11 @@ RecordingResult Recording::finish(const std::string& end_reason) {
     return result;
   }
   stop_light_thread();  // its last confirmations are committed before the store closes
+  std::optional<PtpHostTally> ptp;
+  if (ptp_watch_) {
+    ptp = ptp_watch_->tally();
+    ptp_watch_.reset();  // its last reading stored before the store closes
+  }
   state_.store(kStopping);
   RecordingStore& writer = *writer_;
   result.recorded_s = double(host_now().ns - rec_start_) / 1e9;
@@ -574,6 +591,14 @@ RecordingResult Recording::finish(const std::string& end_reason) {
   state_.store(kEnded);
   result.dir = writer.dir();
 
+  if (ptp)
+    result.notes.push_back(
+        ptp->seconds_out_of_time == 0
+            ? fmt::format("host PTP time: in time at each of {} readings (grandmaster {}, worst offset {:.0f} ns)",
+                          ptp->readings, ptp->grandmaster, ptp->worst_offset_ns)
+            : fmt::format("WARNING: host PTP time: {} s out of time of {} readings (the last: {}); the session's "
+                          "ptp_host_out_of_time events say when",
+                          ptp->seconds_out_of_time, ptp->readings, ptp->last_problem));
   if (writer.index_records_lost() > 0)
     result.notes.push_back(fmt::format("WARNING: {} index records were lost ({})", writer.index_records_lost(),
                                        writer.index_records_lost_by_kind()));

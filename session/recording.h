@@ -50,6 +50,7 @@ class SessionTimeline;
 namespace pvcap::session {
 
 struct CameraTally;
+class PtpHostWatch;
 class Preview;
 class RigLock;
 struct TimelineEnd;
@@ -179,6 +180,7 @@ class Recording {
   std::uint32_t lighting_mask_ = 0;
   bool lighting_commanded_ = false;
   std::vector<PendingSwitch> pending_switches_;
+  std::unique_ptr<PtpHostWatch> ptp_watch_;  // rig file `ptp:`: the host's PTP time, every second
   std::atomic<bool> light_thread_running_{false};
   std::thread light_thread_;
   bool warned_sensel_behind_ = false, warned_index_ = false, warned_index_behind_ = false;

@@ -173,3 +173,21 @@ TEST(RigConfig, LightsNameTheirCameraAndLineAndAreCheckedAgainstTheRig) {
   EXPECT_NE(error_of(cams + "  - {name: L, camera: top, line: Line2, mode: flash}\n").find("steady, strobe"),
             std::string::npos);
 }
+
+TEST(RigConfig, APtpSectionGivesPtp4lsSocketAndTheOffsetLimit) {
+  EXPECT_FALSE(parse_rig_config(kGood, "rig.yaml").ptp) << "no section, no PTP";
+  const auto defaults = parse_rig_config(std::string(kGood) + "ptp:\n", "rig.yaml");
+  ASSERT_TRUE(defaults.ptp);
+  EXPECT_EQ(defaults.ptp->ptp4l_socket, "/var/run/ptp4l");
+  EXPECT_DOUBLE_EQ(defaults.ptp->max_offset_us, 1.0);
+  const auto set = parse_rig_config(std::string(kGood) + "ptp:\n  ptp4l_socket: /run/lab/ptp4l\n  max_offset_us: 50\n",
+                                    "rig.yaml");
+  ASSERT_TRUE(set.ptp);
+  EXPECT_EQ(set.ptp->ptp4l_socket, "/run/lab/ptp4l");
+  EXPECT_DOUBLE_EQ(set.ptp->max_offset_us, 50.0);
+  EXPECT_EQ(set.ptp->line, 13);
+  const std::string typo = error_of(std::string(kGood) + "ptp:\n  ptp4l_sock: /run/ptp4l\n");
+  EXPECT_NE(typo.find("ptp.ptp4l_sock: unknown key; did you mean 'ptp4l_socket'?"), std::string::npos) << typo;
+  const std::string zero = error_of(std::string(kGood) + "ptp:\n  max_offset_us: 0\n");
+  EXPECT_NE(zero.find("ptp.max_offset_us"), std::string::npos) << zero;
+}
