@@ -1,5 +1,6 @@
 #include "capture/aravis_camera.h"
 #include "capture/aravis_camera_link.h"
+#include "capture/aravis_features.h"
 
 #include "capture/aravis_handles.h"
 #include "capture/aravis_stream.h"
@@ -522,10 +523,15 @@ void AravisCamera::watch_state() {
     if (const auto t = features.find(role_key(CameraRole::DeviceTemperature)); t != features.end())
       temperature = t->second;
     if (const auto p = features.find(role_key(CameraRole::PtpStatus)); p != features.end()) ptp = p->second;
-    if (temperature.empty() && ptp.empty()) return;
+    if (temperature.empty() && ptp.empty() && !config_.ptp) return;
     cam.reset(ARV_CAMERA(g_object_ref(link_->camera.get())));
   }
   ArvDevice* dev = arv_camera_get_device(cam.get());
+  if (config_.ptp) {  // its state a second, each reading an event (aravis_camera_ptp.cpp)
+    AravisFeatures f(dev);
+    watch_ptp(f);
+    ptp.clear();  // said there
+  }
   if (!temperature.empty()) {
     arv::GErrorSlot err;
     const double t = arv_device_get_float_feature_value(dev, temperature.c_str(), err.out());

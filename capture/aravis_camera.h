@@ -62,11 +62,25 @@ struct CameraSettings {
 struct CameraEvent {
   // NoTrigger: a camera on a trigger line sends nothing but answers: no trigger reaches it.
   // State: what the camera says of itself changed (its temperature by a degree, its PTP status).
-  enum class Kind { Lost, Reconnected, NoTrigger, State };
+  // PtpReading: its PTP state, once a second when the rig enables PTP (message: JSON, see
+  // CameraPtpState); PtpOutOfLock: each second it is not locked (message: why).
+  enum class Kind { Lost, Reconnected, NoTrigger, State, PtpReading, PtpOutOfLock };
   int camera = 0;
   Kind kind = Kind::Lost;
   HostNs at;
   std::string message;
+};
+
+// A camera's PTP state as its features say it (capture/genicam_features.h: ptp_status,
+// ptp_servo_status, ptp_offset_from_master after ptp_data_set_latch).
+struct CameraPtpState {
+  std::string status;                     // as the camera names it: Slave, Master, Listening, ...
+  std::optional<std::string> servo;       // PtpServoStatus, where it has one (Locked, Unknown)
+  std::optional<std::int64_t> offset_ns;  // from its master, latched now, where it can say
+  // Following a master (or being one) with its servo, where it says, locked.
+  bool locked() const;
+  std::string json() const;  // {"status", "servo", "offset_ns", "locked"}
+  std::string describe() const;  // "Slave, servo Locked, offset -35 ns"
 };
 
 // The link and kernel limits a configuration must fit in.
@@ -154,6 +168,8 @@ class AravisCamera {
   // back (bit i: lights[i] reads on). From a control thread, never the capture thread: each is a few
   // GVCP round trips (aravis_camera_lights.cpp).
   Result<std::uint32_t> set_lights(std::uint32_t on);
+  // Its PTP state now (a data set latched and read: a few GVCP round trips), from a control thread.
+  Result<CameraPtpState> read_ptp();
   CameraSettings settings() const;
   StreamCounters counters() const;  // summed over every connection
   std::string label() const;        // "cam0 (serial PVSIM0 at 127.0.0.2)"
@@ -205,6 +221,10 @@ class AravisCamera {
   Result<std::uint32_t> apply_lights(AravisFeatures& f, std::uint32_t on);
   std::optional<double> said_temperature_;
   std::string said_ptp_status_;
+  bool ptp_out_of_lock_ = false;  // config().ptp: the last reading was not locked
+  Status enable_ptp(AravisFeatures& f);  // config().ptp: at each configuration
+  Result<CameraPtpState> read_ptp(AravisFeatures& f);
+  void watch_ptp(AravisFeatures& f);  // config().ptp: a reading a second, each as an event
   void emit(CameraEvent::Kind kind, std::string message);
 
   const int index_;

@@ -81,6 +81,7 @@ Status AravisCamera::set_features(AravisFeatures& f) {
     if (v != 0 || f.has(r)) PVCAP_TRY(set(f.set_number(r, v), region));
 
   PVCAP_TRY(set_trigger_and_rate(f));
+  if (config_.ptp) PVCAP_TRY(enable_ptp(f));
   // Automatic exposure or gain would change the images within a take and across a dataset.
   for (CameraRole r : {CameraRole::ExposureAuto, CameraRole::GainAuto}) {
     if (check_entry(f, r, "Off")) PVCAP_TRY(set(f.set_entry(r, "Off"), role_key(r)));

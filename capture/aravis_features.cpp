@@ -225,6 +225,17 @@ Status AravisFeatures::set_flag(CameraRole role, bool on) {
   return {};
 }
 
+Status AravisFeatures::execute(CameraRole role) {
+  ArvGcNode* n = node(role);
+  if (!n) return absent(role);
+  const std::string feature = name(role);
+  if (!ARV_IS_GC_COMMAND(n)) return Error{fmt::format("{} is not a Command ({})", feature, type(feature))};
+  arv::GErrorSlot err;
+  arv_gc_command_execute(ARV_GC_COMMAND(n), err.out());
+  if (err) return Error{with_error(fmt::format("executing {}", feature), err)};
+  return {};
+}
+
 std::optional<double> AravisFeatures::number(CameraRole role) const {
   ArvGcNode* n = node(role);
   arv::GErrorSlot err;

@@ -45,6 +45,7 @@ class AravisFeatures final : public NodeMapView {
   // base (ExposureTimeRaw x ExposureTimeBaseAbs) is converted both ways; without one (GainRaw), its counts.
   Status set_number(CameraRole role, double value);             // a Float, or an Integer (rounded)
   Status set_flag(CameraRole role, bool on);  // a Boolean, an Integer 0/1, or an On/Off enumeration
+  Status execute(CameraRole role);             // a Command
   std::optional<double> number(CameraRole role) const;
   std::optional<std::string> entry(CameraRole role) const;
   std::optional<std::string> text(CameraRole role) const;  // any feature's value as the map writes it

@@ -51,6 +51,13 @@ const std::vector<RoleNames>& camera_feature_names() {
       // enumeration: Off, Slave, Master, Auto).
       {CameraRole::PtpEnable, "ptp_enable", {"PtpEnable", "GevIEEE1588", "PtpMode"}},
       {CameraRole::PtpStatus, "ptp_status", {"PtpStatus", "GevIEEE1588Status"}},
+      // Basler ace 2; FLIR Blackfly S: latches the data set the offset below is read from.
+      {CameraRole::PtpDataSetLatch, "ptp_data_set_latch", {"PtpDataSetLatch", "GevIEEE1588DataSetLatch"}},
+      {CameraRole::PtpOffsetFromMaster,
+       "ptp_offset_from_master",
+       {"PtpOffsetFromMaster", "GevIEEE1588OffsetFromMasterLatched"}},
+      // Basler ace 2: whether its clock servo has locked (Allied Vision's PtpSyncLocked is an event).
+      {CameraRole::PtpServoStatus, "ptp_servo_status", {"PtpServoStatus"}},
       {CameraRole::ChunkModeActive, "chunk_mode_active", {"ChunkModeActive"}},
       {CameraRole::ChunkSelector, "chunk_selector", {"ChunkSelector"}},
       {CameraRole::ChunkEnable, "chunk_enable", {"ChunkEnable"}},

@@ -141,6 +141,9 @@ PtpRigConfig parse_ptp(const YAML::Node& node, const std::filesystem::path& file
   PtpRigConfig c;
   MapReader r(node, file, "ptp");
   c.line = node.Mark().line + 1;
+  r.get("host", c.host);
+  r.get("cameras", c.cameras);
+  r.get_in_range("lock_wait_s", c.lock_wait_s, 0.0, 600.0);
   r.get("ptp4l_socket", c.ptp4l_socket);
   if (c.ptp4l_socket.empty()) r.fail(node["ptp4l_socket"], "ptp4l_socket", "empty: give ptp4l's uds_address");
   r.get_in_range("max_offset_us", c.max_offset_us, 0.001, 10'000.0);
@@ -289,6 +292,7 @@ RigConfig parse_rig_config(const std::string& text, const std::filesystem::path&
     if (const YAML::Node ptp = r.child("ptp")) {  // `ptp:` alone: every default
       rig.ptp = parse_ptp(ptp.IsNull() ? YAML::Node(YAML::NodeType::Map) : ptp, source);
       if (ptp.IsNull()) rig.ptp->line = ptp.Mark().line + 1;
+      for (CameraConfig& c : rig.cameras) c.ptp = rig.ptp->cameras;
     }
     // The simulator's section: read by sim/sim_config.h, so only its presence is noted here.
     if (const YAML::Node sim = r.child("sim")) {

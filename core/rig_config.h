@@ -65,6 +65,7 @@ struct CameraConfig {
   int link_cameras = 1;
   std::vector<LightConfig> lights;   // the rig's lights this camera drives (the rig loader fills it)
   bool rig_switches_lights = false;  // the rig has lights: no automatic exposure or gain may hide them
+  bool ptp = false;  // the rig's ptp.cameras: PTP enabled, locked before the session, read each second
   // What the camera's frame timestamp marks: SFNC and GigE Vision cameras stamp a frame when its
   // exposure starts (the Basler ace 2's map says so), so the image's instant, the middle of its
   // exposure, is half the exposure later (docs/cameras.md: the vendors' exceptions).
@@ -127,6 +128,9 @@ struct StoreConfig {
 // The host's PTP time (docs/multihost.md): read from linuxptp's ptp4l through `pmc` before the
 // session (a host out of time is refused) and every second while it records (sync/ptp_host.h).
 struct PtpRigConfig {
+  bool host = true;     // the host's ptp4l is read (through pmc)
+  bool cameras = true;  // every camera's PTP enabled, each locked before the session starts
+  double lock_wait_s = 10;  // how long the cameras may take to lock before the session is refused
   std::string ptp4l_socket = "/var/run/ptp4l";  // ptp4l's uds_address
   // The largest offset from its master at which the host counts as in time: 1 us for hardware
   // timestamping; software timestamping (a NIC without a PTP clock) needs tens of microseconds.

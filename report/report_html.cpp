@@ -548,6 +548,20 @@ void add_ptp_time(std::string& h, const json& r) {
   if (!r.contains("ptp_time")) return;
   const json& p = r["ptp_time"];
   h += "<h2>PTP time</h2>";
+  if (p.contains("cameras") && !p["cameras"].empty()) {
+    h += "<table><tr><th>camera</th><th>readings</th><th>locked</th><th>largest offset (ns)</th><th>out of lock</th></tr>";
+    for (const auto& c : p["cameras"]) {
+      std::string out;
+      for (const auto& s : c.at("out_of_lock"))
+        out += fmt::format("{}{:.1f}-{:.1f} s ({})", out.empty() ? "" : "; ", s.value("from_s", 0.0), s.value("to_s", 0.0),
+                           esc(s.value("why", "")));
+      h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.0f}</td><td class='{}'>{}</td></tr>",
+                       esc(c.value("name", "")), c.value("readings", 0), c.value("locked", 0),
+                       c.value("worst_offset_ns", 0.0), out.empty() ? "t" : "t bad", out.empty() ? "never" : out);
+    }
+    h += "</table>";
+  }
+  if (!p.contains("readings")) return;  // the host's ptp4l was not read (ptp: host: false)
   std::string gms;
   for (const auto& g : p.at("grandmasters")) gms += (gms.empty() ? "" : ", ") + esc(g.get<std::string>());
   h += fmt::format(

@@ -523,7 +523,11 @@ Result<json> build_report(const std::filesystem::path& dir, const ReportOptions&
     }
     auto events = r.events();
     if (!events) return events.error();
-    if (auto ptp = ptp_time_section(events.value(), start)) j["ptp_time"] = *ptp;
+    {
+      std::map<std::int64_t, std::string> names;
+      for (const auto& c : r.cameras()) names[c.device_id] = c.name;
+      if (auto ptp = ptp_time_section(events.value(), start, names)) j["ptp_time"] = *ptp;
+    }
     j["events"] = json::array();
     for (const auto& e : events.value())
       if (!is_ptp_reading(e))  // one a second: summed up in ptp_time

@@ -3,9 +3,11 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "capture/aravis_camera.h"
 #include "core/thread_name.h"
 #include "core/time.h"
 
@@ -21,6 +23,35 @@ Result<sync::PtpHostState> check_ptp_host(const PtpRigConfig& config) {
   if (auto why = sync::ptp_host_out_of_time(state.value(), config.max_offset_us * 1000.0))
     return Error{fmt::format("the host is not in PTP time ({}): {}: {}", where, sync::describe(state.value()), *why)};
   return state;
+}
+
+Status wait_for_ptp_lock(const std::vector<std::unique_ptr<AravisCamera>>& cameras, const PtpRigConfig& config,
+                         const std::atomic<bool>& cancel) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto give_up = start + std::chrono::duration<double>(config.lock_wait_s);
+  std::vector<std::string> waiting;
+  for (bool first = true;; first = false) {
+    waiting.clear();
+    for (const auto& cam : cameras) {
+      const auto s = cam->read_ptp();
+      if (!s)
+        waiting.push_back(s.error().message);
+      else if (!s.value().locked())
+        waiting.push_back(fmt::format("{}: {}", cam->label(), s.value().describe()));
+    }
+    if (waiting.empty()) {
+      spdlog::info("every camera locked to PTP time after {:.1f} s",
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      return {};
+    }
+    if (first) spdlog::info("waiting up to {:g} s for the cameras to lock to PTP time", config.lock_wait_s);
+    if (cancel.load() || std::chrono::steady_clock::now() >= give_up) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  }
+  return Error{fmt::format(
+      "not locked to PTP time after {:g} s (ptp.lock_wait_s): {}\nis each camera's port on the PTP switch, and its "
+      "grandmaster up? (pvcap camera check names a camera's PTP features; docs/multihost.md)",
+      config.lock_wait_s, fmt::join(waiting, "; "))};
 }
 
 PtpHostWatch::PtpHostWatch(const PtpRigConfig& config, Sink sink, std::chrono::milliseconds period)

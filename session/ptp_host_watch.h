@@ -1,5 +1,6 @@
 #pragma once
-// The host's PTP time while a session records (rig file `ptp:`; docs/multihost.md): ptp4l's state
+// PTP time around a session (rig file `ptp:`; docs/multihost.md): the cameras locked before it starts,
+// and the host's PTP time while it records (rig file `ptp:`; docs/multihost.md): ptp4l's state
 // read through pmc once a second on a thread of its own, each reading stored as an event
 // (`ptp_host_state`, its fields as JSON), and each second the host is out of time, or ptp4l does
 // not answer, named by an event of its own (`ptp_host_out_of_time`) and, when it begins and ends, in
@@ -8,14 +9,20 @@
 #include <atomic>
 #include <condition_variable>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "core/result.h"
 #include "core/rig_config.h"
 #include "storage/index/records.h"
 #include "sync/ptp_host.h"
+
+namespace pvcap {
+class AravisCamera;
+}
 
 namespace pvcap::session {
 
@@ -30,6 +37,12 @@ struct PtpHostTally {
 
 // Before a session: the host's state, or an Error saying why the host is not in time and what to do.
 Result<sync::PtpHostState> check_ptp_host(const PtpRigConfig& config);
+
+// Before a session, the cameras opened (their PTP enabled): waits up to config.lock_wait_s for every
+// camera to lock, reading each four times a second; an Error naming each camera not locked by then,
+// its state, and what to check.
+Status wait_for_ptp_lock(const std::vector<std::unique_ptr<AravisCamera>>& cameras, const PtpRigConfig& config,
+                         const std::atomic<bool>& cancel);
 
 class PtpHostWatch {
  public:

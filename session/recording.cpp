@@ -117,7 +117,7 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
   }
 
   // A host out of PTP time: said before any device is opened (docs/multihost.md).
-  if (rig.ptp) {
+  if (rig.ptp && rig.ptp->host) {
     auto ptp = check_ptp_host(*rig.ptp);
     if (!ptp) return Error{fmt::format("{}\nno session was recorded", ptp.error().message)};
     spdlog::info("the host's PTP time: {}", sync::describe(ptp.value()));
@@ -137,6 +137,14 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
     r->previews_.push_back(std::make_unique<Preview>());
     auto on_event = [self, i](const CameraEvent& e) {
       const bool lost = e.kind == CameraEvent::Kind::Lost;
+      if (e.kind == CameraEvent::Kind::PtpReading || e.kind == CameraEvent::Kind::PtpOutOfLock) {
+        // A second's PTP reading: stored, not logged (its changes come as State events).
+        if (RecordingStore* w = self->events_writer_.load())
+          w->record(EventRecord{e.at.ns,
+                                e.kind == CameraEvent::Kind::PtpReading ? "ptp_camera_state" : "ptp_camera_out_of_lock",
+                                self->device_ids_[i], e.message});
+        return;
+      }
       if (lost) {
         spdlog::error("{}", e.message);
         self->tallies_[i]->lost_events.fetch_add(1);
@@ -158,6 +166,10 @@ Result<std::unique_ptr<Recording>> Recording::open(const RigConfig& rig, const R
     if (Status s = open_with_wait(*cam, options.device_wait_s, cancel); !s.ok())
       return Error{fmt::format("{}\nno session was recorded: every camera of {} must be ready", s.error().message,
                                rig.source.string())};
+  if (rig.ptp && rig.ptp->cameras)
+    if (Status s = wait_for_ptp_lock(r->cameras_, *rig.ptp, cancel); !s.ok())
+      return Error{fmt::format("{}\nno session was recorded: every camera of {} must be locked to PTP time",
+                               s.error().message, rig.source.string())};
   if (rig.sensel) {
     SenselPipelineOptions so;
     so.ports_dir = options.sensel_ports_dir;
@@ -305,7 +317,7 @@ Status Recording::start() {
   for (auto& cam : cameras_) cam->settle();
   state_.store(kRecording);
   rec_start_ = host_now().ns;
-  if (rig_.ptp)
+  if (rig_.ptp && rig_.ptp->host)
     ptp_watch_ = std::make_unique<PtpHostWatch>(*rig_.ptp, [this](const EventRecord& e) {
       if (RecordingStore* w = events_writer_.load()) w->record(e);
     });

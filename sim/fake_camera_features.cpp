@@ -7,10 +7,12 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <mutex>
+#include <random>
 #include <string>
 #include <thread>
 #include <vector>
@@ -146,8 +148,31 @@ std::string sfnc2_map() {
 <pValue>PvcapTemperatureRegister</pValue></Converter>
 <IntReg Name="PvcapTemperatureRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
 <AccessMode>RO</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+<Boolean Name="PtpEnable" NameSpace="Standard"><ToolTip>PTP on</ToolTip><pValue>PvcapPtpEnableRegister</pValue></Boolean>
+<IntReg Name="PvcapPtpEnableRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
+<AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+<Command Name="PtpDataSetLatch" NameSpace="Standard"><ToolTip>Latches the PTP data set (PtpOffsetFromMaster)</ToolTip>
+<pValue>PvcapPtpLatchRegister</pValue><CommandValue>1</CommandValue></Command>
+<IntReg Name="PvcapPtpLatchRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
+<AccessMode>RW</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+<Enumeration Name="PtpStatus" NameSpace="Standard"><ToolTip>The PTP port's state</ToolTip>
+<EnumEntry Name="Disabled"><Value>0</Value></EnumEntry><EnumEntry Name="Listening"><Value>2</Value></EnumEntry>
+<EnumEntry Name="Uncalibrated"><Value>3</Value></EnumEntry><EnumEntry Name="Slave"><Value>4</Value></EnumEntry>
+<pValue>PvcapPtpStatusRegister</pValue></Enumeration>
+<IntReg Name="PvcapPtpStatusRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
+<AccessMode>RO</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+<Enumeration Name="PtpServoStatus" NameSpace="Standard"><ToolTip>The PTP clock servo's state</ToolTip>
+<EnumEntry Name="Unknown"><Value>0</Value></EnumEntry><EnumEntry Name="Locked"><Value>1</Value></EnumEntry>
+<pValue>PvcapPtpServoRegister</pValue></Enumeration>
+<IntReg Name="PvcapPtpServoRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
+<AccessMode>RO</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Unsigned</Sign><Endianess>BigEndian</Endianess></IntReg>
+<Integer Name="PtpOffsetFromMaster" NameSpace="Standard"><ToolTip>Offset from the PTP master at the last PtpDataSetLatch, ns</ToolTip>
+<pValue>PvcapPtpOffsetRegister</pValue><Unit>ns</Unit></Integer>
+<IntReg Name="PvcapPtpOffsetRegister" NameSpace="Custom"><Address>{:#x}</Address><Length>4</Length>
+<AccessMode>RO</AccessMode><pPort>Device</pPort><Cachable>NoCache</Cachable><Sign>Signed</Sign><Endianess>BigEndian</Endianess></IntReg>
 )",
-      kFrameRateEnableRegister, kFramePeriodRegister, kBalanceWhiteAutoRegister, kDeviceTemperatureRegister);
+      kFrameRateEnableRegister, kFramePeriodRegister, kBalanceWhiteAutoRegister, kDeviceTemperatureRegister,
+      kPtpEnableRegister, kPtpLatchRegister, kPtpStatusRegister, kPtpServoRegister, kPtpOffsetRegister);
   text.insert(text.rfind("</RegisterDescription>"), features);
   // Chunk data: the five values each frame carries (sim/gvsp_sender.h sends them), and a payload that
   // grows by them while chunk mode is on.
@@ -238,12 +263,13 @@ class FeatureService {
     return service;
   }
   void add(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line, NodeMapNaming naming,
-           OutputLines outputs) {
+           OutputLines outputs, PtpBehaviour ptp) {
     // The engine triggers on a pending software trigger; which source the host chose is ours.
     arv_fake_camera_write_register(fake, kEngineTriggerSource, kSoftware);
     std::lock_guard lock(mu_);
     cameras_.push_back({owner, fake, std::move(clock), std::move(line), INT64_MIN, naming == NodeMapNaming::Sfnc2,
-                        host_now().ns, std::move(outputs), 0});
+                        host_now().ns, std::move(outputs), 0, ptp, -1, false,
+                        std::mt19937_64(std::uint64_t(reinterpret_cast<std::uintptr_t>(owner)))});
     if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
   }
   void remove(const void* owner) {
@@ -270,6 +296,10 @@ class FeatureService {
     std::int64_t served_ns;   // when it was first served: its temperature rises from then
     OutputLines outputs;      // told of each change of its output lines
     std::uint32_t output_mask;
+    PtpBehaviour ptp;
+    std::int64_t ptp_enabled_ns;  // when PtpEnable was set (-1: off)
+    bool ptp_locked;              // as last served
+    std::mt19937_64 rng;          // the servo's error
   };
   // When the host has set the command register, the device clock's value goes into the value
   // register and the command clears.
@@ -332,6 +362,36 @@ class FeatureService {
     arv_fake_camera_write_register(c.fake, kLineStatusRegister, mask);
     if (c.outputs) c.outputs(mask, now_ns);
   }
+  // The SFNC 2 map's PTP: listening from PtpEnable for lock_after_s, then a locked slave (but for its
+  // unlock window: uncalibrated, the servo unknown); PtpDataSetLatch latches an offset from the
+  // master, the servo's error drawn each time (microseconds while it is not locked).
+  static void serve_ptp(Camera& c, std::int64_t now_ns) {
+    if (!c.gated_rate) return;
+    guint32 enabled = 0;
+    if (!arv_fake_camera_read_register(c.fake, kPtpEnableRegister, &enabled)) return;
+    if (!enabled) {
+      c.ptp_enabled_ns = -1;
+      arv_fake_camera_write_register(c.fake, kPtpStatusRegister, 0);
+      arv_fake_camera_write_register(c.fake, kPtpServoRegister, 0);
+      return;
+    }
+    if (c.ptp_enabled_ns < 0) c.ptp_enabled_ns = now_ns;
+    const double on_s = double(now_ns - c.ptp_enabled_ns) / 1e9;
+    const bool unlocked = c.ptp.unlock_at_s && on_s >= *c.ptp.unlock_at_s && on_s < *c.ptp.unlock_at_s + c.ptp.unlock_for_s;
+    const bool locked = on_s >= c.ptp.lock_after_s && !unlocked;
+    arv_fake_camera_write_register(c.fake, kPtpStatusRegister, locked ? 4 : unlocked ? 3 : 2);
+    arv_fake_camera_write_register(c.fake, kPtpServoRegister, locked ? 1 : 0);
+    // A latch is served up to 200 us after the host's command, which the host may read before: the
+    // offset is drawn again at each change of lock too, so what it reads is of the state it reads.
+    guint32 latch = 0;
+    const bool latched = arv_fake_camera_read_register(c.fake, kPtpLatchRegister, &latch) && latch != 0;
+    if (!latched && locked == c.ptp_locked) return;
+    c.ptp_locked = locked;
+    std::normal_distribution<double> error(0.0, locked ? c.ptp.servo_error_ns : 20'000.0);
+    const double offset = std::clamp(error(c.rng), -2e9, 2e9);
+    arv_fake_camera_write_register(c.fake, kPtpOffsetRegister, guint32(std::int32_t(std::lround(offset))));
+    if (latched) arv_fake_camera_write_register(c.fake, kPtpLatchRegister, 0);
+  }
   void run() {
     // A camera's latch and trigger input are its hardware's; here a thread serves them every 200 us,
     // 3,000-5,000 wake-ups a second. In the fair scheduler, on saturated cores, the kernel worker
@@ -354,6 +414,7 @@ class FeatureService {
         serve_rate(c);
         serve_temperature(c, now);
         serve_outputs(c, now);
+        serve_ptp(c, now);
       }
     }
   }
@@ -369,8 +430,8 @@ TriggerLine periodic_line(double hz) {
 }
 
 void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line, NodeMapNaming naming,
-                    OutputLines outputs) {
-  FeatureService::get().add(owner, fake, std::move(clock), std::move(line), naming, std::move(outputs));
+                    OutputLines outputs, PtpBehaviour ptp) {
+  FeatureService::get().add(owner, fake, std::move(clock), std::move(line), naming, std::move(outputs), ptp);
 }
 void stop_serving(const void* owner) { FeatureService::get().remove(owner); }
 

@@ -16,6 +16,7 @@
 // through real GVCP against two naming families.
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "capture/aravis_handles.h"
@@ -47,6 +48,22 @@ inline constexpr std::uint32_t kLineSourceRegister = 0xF044;  // + 4 x line
 inline constexpr std::uint32_t kUserOutputSelectorRegister = 0xF054;
 inline constexpr std::uint32_t kUserOutputValueRegister = 0xF058;  // + 4 x output
 inline constexpr int kOutputLines = 4, kUserOutputs = 3;
+// SFNC 2 map: PTP as a Basler ace 2 names it. PtpEnable; PtpStatus (0 Disabled, 2 Listening,
+// 3 Uncalibrated, 4 Slave) and PtpServoStatus (0 Unknown, 1 Locked) as they are now;
+// PtpDataSetLatch, which latches PtpOffsetFromMaster (ns, signed).
+inline constexpr std::uint32_t kPtpEnableRegister = 0xF070;
+inline constexpr std::uint32_t kPtpLatchRegister = 0xF074;
+inline constexpr std::uint32_t kPtpStatusRegister = 0xF078;
+inline constexpr std::uint32_t kPtpServoRegister = 0xF07C;
+inline constexpr std::uint32_t kPtpOffsetRegister = 0xF080;
+
+// How a simulated camera's PTP behaves once enabled (sim_config.h: ptp_lock_after_s, ...).
+struct PtpBehaviour {
+  double lock_after_s = 1.0;
+  double servo_error_ns = 50.0;
+  std::optional<double> unlock_at_s;
+  double unlock_for_s = 5.0;
+};
 
 // The raw map's ExposureTimeBaseAbs: one step of its ExposureTimeRaw (Basler's ace classic default).
 inline constexpr double kRawExposureStepUs = 20.0;
@@ -75,7 +92,7 @@ using OutputLines = std::function<void(std::uint32_t line_mask, std::int64_t hos
 // With the SFNC 2 naming, its rate is served too (the engine takes the rate asked only while the
 // enable is on).
 void serve_features(const void* owner, ArvFakeCamera* fake, DeviceClock clock, TriggerLine line,
-                    NodeMapNaming naming = NodeMapNaming::Aravis, OutputLines outputs = {});
+                    NodeMapNaming naming = NodeMapNaming::Aravis, OutputLines outputs = {}, PtpBehaviour ptp = {});
 void stop_serving(const void* owner);
 
 }  // namespace pvcap::sim

@@ -113,7 +113,8 @@ Result<std::unique_ptr<SimCamera>> SimCamera::create(int index, const CameraConf
       raw->lights_ ? OutputLines([lights = raw->lights_, index](std::uint32_t mask, std::int64_t host_ns) {
         lights->outputs(index, mask, host_ns);
       })
-                   : OutputLines());
+                   : OutputLines(),
+      PtpBehaviour{clock.ptp_lock_after_s, clock.ptp_servo_error_ns, clock.ptp_unlock_at_s, clock.ptp_unlock_for_s});
   // Free-running, the engine is late once a frame period and 0.3 ms have passed since it began the
   // last frame; triggered, once a trigger has been pending for a look-for-triggers period and 0.3 ms.
   const std::int64_t trigger_period_ns = std::int64_t(1e9 / std::max(100.0, 4 * camera.frame_rate));

@@ -10,6 +10,53 @@ namespace pvcap::sim {
 
 namespace {
 
+// The simulated Morph (sim: sensel:).
+SimSenselConfig parse_sim_sensel(const YAML::Node& sn, const std::filesystem::path& file) {
+  SimSenselConfig c;
+  MapReader sr(sn, file, "sim.sensel");
+  sr.get("transport", c.transport);
+  if (c.transport != "pty" && c.transport != "usb")
+    sr.fail(sn["transport"], "transport", fmt::format("'{}' is not pty or usb", c.transport));
+  sr.get_in_range("press_x_mm", c.press_x_mm, 0.0, 230.0);
+  sr.get_in_range("press_y_mm", c.press_y_mm, 0.0, 130.0);
+  sr.get_in_range("peak_grams", c.peak_grams, 0.0, 4000.0);
+  sr.get_in_range("period_s", c.period_s, 0.1, 1000.0);
+  sr.get_in_range("clock_start_us", c.clock_start_us, 0.0, 4294967295.0);
+  sr.get_in_range("drift_ppm", c.drift_ppm, -10000.0, 10000.0);
+  sr.get_in_range("usb_jitter_mean_ms", c.usb_jitter_mean_ms, 0.0, 100.0);
+  sr.get_in_range("usb_jitter_max_ms", c.usb_jitter_max_ms, 0.0, 1000.0);
+  sr.get_in_range("drop_fraction", c.drop_fraction, 0.0, 0.5);
+  if (sr.has("clock_reset_at_s")) {
+    double v = 0;
+    sr.get_in_range("clock_reset_at_s", v, 0.0, 1e7);
+    c.clock_reset_at_s = v;
+  }
+  if (sr.has("unplug_at_s")) {
+    double v = 0;
+    sr.get_in_range("unplug_at_s", v, 0.0, 1e7);
+    c.unplug_at_s = v;
+  }
+  if (sr.has("replug_after_s")) {
+    double v = 0;
+    sr.get_in_range("replug_after_s", v, 0.0, 1e7);
+    if (!c.unplug_at_s) sr.fail(sn["replug_after_s"], "replug_after_s", "needs an unplug_at_s before it");
+    if (c.transport != "pty")
+      sr.fail(sn["replug_after_s"], "replug_after_s", "a Sensel plugged back in is emulated on transport: pty only");
+    c.replug_after_s = v;
+  }
+  if (sr.has("replug_serial")) {
+    std::string v;
+    sr.get("replug_serial", v);
+    c.replug_serial = v;
+  }
+  if (sr.has("replug_renamed")) {
+    sr.get("replug_renamed", c.replug_renamed);
+    if (!c.replug_after_s) sr.fail(sn["replug_renamed"], "replug_renamed", "needs a replug_after_s before it");
+  }
+  sr.finish();
+  return c;
+}
+
 SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, std::size_t n_cameras) {
   SimConfig s;
   MapReader r(node, file, "sim");
@@ -68,6 +115,17 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
       cr.get("white_balance_auto", c.white_balance_auto);
       if (c.white_balance_auto && c.node_map != NodeMapNaming::Sfnc2)
         cr.fail(cams[i]["white_balance_auto"], "white_balance_auto", "needs node_map: sfnc2 (the map that has it)");
+      cr.get_in_range("ptp_lock_after_s", c.ptp_lock_after_s, 0.0, 3600.0);
+      cr.get_in_range("ptp_servo_error_ns", c.ptp_servo_error_ns, 0.0, 1e9);
+      if (cr.has("ptp_unlock_at_s")) {
+        double v = 0;
+        cr.get_in_range("ptp_unlock_at_s", v, 0.0, 1e7);
+        c.ptp_unlock_at_s = v;
+      }
+      cr.get_in_range("ptp_unlock_for_s", c.ptp_unlock_for_s, 0.0, 1e7);
+      for (const char* key : {"ptp_lock_after_s", "ptp_servo_error_ns", "ptp_unlock_at_s", "ptp_unlock_for_s"})
+        if (cr.has(key) && c.node_map != NodeMapNaming::Sfnc2)
+          cr.fail(cams[i][key], key, "needs node_map: sfnc2 (the map with the PTP features)");
       cr.get_numbers("position_mm", c.position_mm);
       cr.get_numbers("look_at_mm", c.look_at_mm);
       if (cr.has("focal_px")) {
@@ -84,49 +142,7 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
   } else {
     s.cameras.resize(n_cameras);
   }
-  if (const YAML::Node sn = r.child("sensel")) {
-    MapReader sr(sn, file, "sim.sensel");
-    sr.get("transport", s.sensel.transport);
-    if (s.sensel.transport != "pty" && s.sensel.transport != "usb")
-      sr.fail(sn["transport"], "transport", fmt::format("'{}' is not pty or usb", s.sensel.transport));
-    sr.get_in_range("press_x_mm", s.sensel.press_x_mm, 0.0, 230.0);
-    sr.get_in_range("press_y_mm", s.sensel.press_y_mm, 0.0, 130.0);
-    sr.get_in_range("peak_grams", s.sensel.peak_grams, 0.0, 4000.0);
-    sr.get_in_range("period_s", s.sensel.period_s, 0.1, 1000.0);
-    sr.get_in_range("clock_start_us", s.sensel.clock_start_us, 0.0, 4294967295.0);
-    sr.get_in_range("drift_ppm", s.sensel.drift_ppm, -10000.0, 10000.0);
-    sr.get_in_range("usb_jitter_mean_ms", s.sensel.usb_jitter_mean_ms, 0.0, 100.0);
-    sr.get_in_range("usb_jitter_max_ms", s.sensel.usb_jitter_max_ms, 0.0, 1000.0);
-    sr.get_in_range("drop_fraction", s.sensel.drop_fraction, 0.0, 0.5);
-    if (sr.has("clock_reset_at_s")) {
-      double v = 0;
-      sr.get_in_range("clock_reset_at_s", v, 0.0, 1e7);
-      s.sensel.clock_reset_at_s = v;
-    }
-    if (sr.has("unplug_at_s")) {
-      double v = 0;
-      sr.get_in_range("unplug_at_s", v, 0.0, 1e7);
-      s.sensel.unplug_at_s = v;
-    }
-    if (sr.has("replug_after_s")) {
-      double v = 0;
-      sr.get_in_range("replug_after_s", v, 0.0, 1e7);
-      if (!s.sensel.unplug_at_s) sr.fail(sn["replug_after_s"], "replug_after_s", "needs an unplug_at_s before it");
-      if (s.sensel.transport != "pty")
-        sr.fail(sn["replug_after_s"], "replug_after_s", "a Sensel plugged back in is emulated on transport: pty only");
-      s.sensel.replug_after_s = v;
-    }
-    if (sr.has("replug_serial")) {
-      std::string v;
-      sr.get("replug_serial", v);
-      s.sensel.replug_serial = v;
-    }
-    if (sr.has("replug_renamed")) {
-      sr.get("replug_renamed", s.sensel.replug_renamed);
-      if (!s.sensel.replug_after_s) sr.fail(sn["replug_renamed"], "replug_renamed", "needs a replug_after_s before it");
-    }
-    sr.finish();
-  }
+  if (const YAML::Node sn = r.child("sensel")) s.sensel = parse_sim_sensel(sn, file);
   r.finish();
   return s;
 }

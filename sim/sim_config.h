@@ -68,6 +68,14 @@ struct SimCameraClock {
   NodeMapNaming node_map = NodeMapNaming::Aravis;
   bool white_balance_auto =
       false;  // sfnc2 only: its BalanceWhiteAuto is left Continuous (a camera set so by another program)
+  // sfnc2 only (its PtpEnable, PtpStatus, PtpServoStatus, PtpDataSetLatch, PtpOffsetFromMaster):
+  // once PTP is enabled it listens for `ptp_lock_after_s`, then follows the grandmaster locked, its
+  // offset from its master each latch drawn with this standard deviation (the servo's error); from
+  // `ptp_unlock_at_s` (seconds after it was enabled) it loses lock for `ptp_unlock_for_s`.
+  double ptp_lock_after_s = 1.0;
+  double ptp_servo_error_ns = 50.0;
+  std::optional<double> ptp_unlock_at_s;
+  double ptp_unlock_for_s = 5.0;
   // Its lens and where it stands (pad coordinates in mm, z = height above the pad); any left out
   // take the default of the camera's position in the rig (see sim/camera_views.cpp).
   std::optional<std::array<double, 3>> position_mm, look_at_mm;

@@ -120,6 +120,10 @@ std::optional<std::string> ptp_host_out_of_time(const PtpHostState& s, double ma
                        s.port_state);
   if (s.port_state != "SLAVE" && s.port_state != "UNCALIBRATED")
     return fmt::format("ptp4l's port is {}, not following grandmaster {}: see ptp4l's log", s.port_state, s.grandmaster);
+  // Both exactly zero: ptp4l has chosen its master but measured nothing yet (its first exchange of
+  // Sync and Delay_Req is still to come); a measurement is never exactly zero in both.
+  if (s.offset_ns == 0 && s.path_delay_ns == 0)
+    return fmt::format("ptp4l follows grandmaster {} but has not measured its offset yet (wait for it)", s.grandmaster);
   if (std::abs(s.offset_ns) > max_offset_ns)
     return fmt::format(
         "{:.0f} ns from its master, over the limit of {:.0f} ns (ptp.max_offset_us): ptp4l has not locked yet (wait "

@@ -46,6 +46,7 @@ std::string sim_rig_yaml(const std::vector<SimCameraSpec>& cameras, int width, i
     if (!c.trigger_line) y += ", trigger_line: false";
     if (!c.node_map.empty()) y += ", node_map: " + c.node_map;
     if (c.white_balance_auto) y += ", white_balance_auto: true";
+    if (!c.sim_keys.empty()) y += ", " + c.sim_keys;
     y += "}\n";
   }
   return y;

@@ -23,6 +23,7 @@ struct SimCameraSpec {
   double offset_ms = 1000;  // fields are set by name in the tests ({.packet_loss = 0.01})
   std::string node_map;     // "sfnc2": its node map in SFNC 2's names (sim/fake_camera_features.h)
   bool white_balance_auto = false;
+  std::string sim_keys;  // more of its sim: entry's keys, as YAML flow ("ptp_lock_after_s: 2, ptp_servo_error_ns: 40")
 };
 
 // A rig of `cameras` simulated cameras at 127.0.0.2.. with the given size and rate.

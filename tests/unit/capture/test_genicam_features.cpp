@@ -128,6 +128,17 @@ TEST(GenicamFeatures, EverySharedMapThatOffersThemGivesItsPtpActionAndOutputLine
       {"PGR_Blackfly_50S5C.xml", "", "", false, "LineSelector", "LineSource", "UserOutputValue"},
       {"PGR_GS3_PGE_23S6C.xml", "", "", false, "LineSelector", "LineSource", "UserOutputValue"},
   };
+  // The PTP data set pvcap reads each second: the latch, the offset it latches, the servo's state.
+  struct PtpDataSet {
+    const char* file;
+    const char* latch;
+    const char* offset;
+    const char* servo;
+  };
+  const PtpDataSet kDataSets[] = {
+      {"Basler-a2A2600-20gmBAS.xml", "PtpDataSetLatch", "PtpOffsetFromMaster", "PtpServoStatus"},
+      {"FLIR-BFS-PGE-23S6C.xml", "GevIEEE1588DataSetLatch", "GevIEEE1588OffsetFromMasterLatched", ""},
+  };
   for (const Roles& e : kRoles) {
     SCOPED_TRACE(e.file);
     auto map = GenicamNodeMap::parse(read(kNodeMaps / e.file));
@@ -135,6 +146,13 @@ TEST(GenicamFeatures, EverySharedMapThatOffersThemGivesItsPtpActionAndOutputLine
     auto f = features_of(check_node_map(map.value(), in_format("Mono8")));
     EXPECT_EQ(f["ptp_enable"], e.ptp_enable);
     EXPECT_EQ(f["ptp_status"], e.ptp_status);
+    const PtpDataSet none{e.file, "", "", ""};
+    const PtpDataSet* d = &none;
+    for (const PtpDataSet& k : kDataSets)
+      if (std::string(k.file) == e.file) d = &k;
+    EXPECT_EQ(f["ptp_data_set_latch"], d->latch);
+    EXPECT_EQ(f["ptp_offset_from_master"], d->offset);
+    EXPECT_EQ(f["ptp_servo_status"], d->servo);
     for (const char* role : {"action_selector", "action_device_key", "action_group_key", "action_group_mask"}) {
       std::string name = role;  // action_device_key -> ActionDeviceKey
       std::string want;

@@ -57,3 +57,32 @@ TEST(PtpTime, AReadingThatIsNotJsonOrHasOddFieldsIsCountedAndSkipped) {
 }
 
 }  // namespace
+
+namespace {
+TEST(PtpTime, EachCamerasReadingsAndSecondsOutOfLockAreSummedByName) {
+  auto cam = [](double s, std::int64_t device, bool locked, double offset) {
+    return EventRecord{at(s), "ptp_camera_state", device,
+                       nlohmann::json{{"status", locked ? "Slave" : "Uncalibrated"}, {"locked", locked},
+                                      {"offset_ns", offset}}
+                           .dump()};
+  };
+  const std::vector<EventRecord> events = {
+      cam(1, 7, true, -30), cam(1, 8, true, 45),  cam(2, 7, true, 12), cam(2, 8, false, 20000),
+      {at(2), "ptp_camera_out_of_lock", 8, "cam1: PTP not locked: Uncalibrated"},
+      cam(3, 7, true, 8),   cam(3, 8, true, -60)};
+  const auto p = ptp_time_section(events, kStart, {{7, "cam0"}, {8, "cam1"}});
+  ASSERT_TRUE(p);
+  EXPECT_FALSE(p->contains("readings")) << "the host was not read";
+  const auto& cams = (*p)["cameras"];
+  ASSERT_EQ(cams.size(), 2u);
+  EXPECT_EQ(cams[0]["name"], "cam0");
+  EXPECT_EQ(cams[0]["readings"], 3);
+  EXPECT_EQ(cams[0]["locked"], 3);
+  EXPECT_DOUBLE_EQ(cams[0]["worst_offset_ns"].get<double>(), 30);
+  EXPECT_EQ(cams[1]["name"], "cam1");
+  EXPECT_EQ(cams[1]["locked"], 2);
+  EXPECT_EQ(cams[1]["seconds_out_of_lock"], 1);
+  EXPECT_DOUBLE_EQ(cams[1]["worst_offset_ns"].get<double>(), 60) << "only locked readings count";
+  EXPECT_EQ(cams[1]["out_of_lock"][0]["why"], "cam1: PTP not locked: Uncalibrated");
+}
+}  // namespace

@@ -137,6 +137,12 @@ TEST(PtpHost, AHostHearingNoGrandmasterOrNotFollowingIsOutOfTimeWithWhy) {
   EXPECT_NE(faulty->find("port is FAULTY, not following grandmaster 860239.fffe.868401"), std::string::npos) << *faulty;
   s.port_state = "SLAVE";
   EXPECT_EQ(ptp_host_out_of_time(s, 1000), std::nullopt);
+  // Its master chosen, nothing measured yet (pmc says 0.0 for both until the first exchange).
+  s.offset_ns = 0;
+  s.path_delay_ns = 0;
+  const auto unmeasured = ptp_host_out_of_time(s, 1000);
+  ASSERT_TRUE(unmeasured);
+  EXPECT_NE(unmeasured->find("has not measured its offset yet"), std::string::npos) << *unmeasured;
 }
 
 TEST(PtpHost, AMissingAnswerOrFieldIsNamed) {

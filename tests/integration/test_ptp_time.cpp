@@ -1,12 +1,14 @@
-// The host's PTP time (rig file `ptp:`; docs/multihost.md), read from real linuxptp: two ptp4l in
+// PTP time (rig file `ptp:`; docs/multihost.md). The host's, read from real linuxptp: two ptp4l in
 // network namespaces of the test's own joined by a veth pair (tests/integration/ptp_pair.h; software
-// timestamping, free_running 1: they measure, never adjust this machine's clock).
+// timestamping, free_running 1: they measure, never adjust this machine's clock). The cameras', from
+// the simulated SFNC 2 cameras' PTP features over GVCP (they lock after a delay, with a servo error).
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <thread>
 
 #include <fmt/format.h>
@@ -22,16 +24,15 @@ using namespace pvcap::testing;
 
 namespace {
 
-// The follower's state once it follows the grandmaster (ptp4l picks its master within seconds).
+// The follower's state once it follows the grandmaster and has measured its offset (ptp4l picks its
+// master within seconds).
 pvcap::Result<pvcap::sync::PtpHostState> wait_until_following(const fs::path& socket, std::chrono::seconds limit) {
   const auto end = std::chrono::steady_clock::now() + limit;
   pvcap::Result<pvcap::sync::PtpHostState> last = pvcap::Error{"not read yet"};
   while (std::chrono::steady_clock::now() < end) {
     last = pvcap::sync::PmcClient(socket).query();
-    if (last && last.value().gm_present && !last.value().grandmaster.empty() &&
-        last.value().grandmaster != last.value().clock_identity &&
-        (last.value().port_state == "SLAVE" || last.value().port_state == "UNCALIBRATED"))
-      return last;
+    // Following another clock, its offset measured (within any limit).
+    if (last && !last.value().is_grandmaster() && !pvcap::sync::ptp_host_out_of_time(last.value(), 1e12)) return last;
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
   return last;
@@ -40,7 +41,8 @@ pvcap::Result<pvcap::sync::PtpHostState> wait_until_following(const fs::path& so
 // A rig of two simulated 320x240 cameras with the host's PTP time read from `socket`.
 fs::path write_ptp_rig(const fs::path& dir, const fs::path& socket, double max_offset_us) {
   std::string yaml = sim_rig_yaml({{}, {}}, 320, 240, 30, 15);
-  yaml += fmt::format("ptp:\n  ptp4l_socket: {}\n  max_offset_us: {}\n", socket.string(), max_offset_us);
+  yaml += fmt::format("ptp:\n  cameras: false\n  ptp4l_socket: {}\n  max_offset_us: {}\n", socket.string(),
+                      max_offset_us);
   const fs::path rig = dir / "rig.yaml";
   std::ofstream(rig) << yaml;
   return rig;
@@ -151,4 +153,106 @@ TEST(PtpHost, ASessionStoresTheHostsTimeEverySecondAndNamesEachSecondPtp4lIsGone
   ASSERT_EQ(r["ptp_time"]["out_of_time"].size(), 1u) << r["ptp_time"].dump();
   EXPECT_GE(r["ptp_time"]["out_of_time"][0]["from_s"].get<double>(), 2.5);
   for (const auto& e : r["events"]) EXPECT_NE(e["kind"], "ptp_host_state") << "readings are summed up, not listed";
+}
+
+namespace {
+// Two SFNC 2 cameras with PTP; `keys` are each camera's sim keys.
+fs::path write_ptp_camera_rig(const fs::path& dir, const std::string& keys0, const std::string& keys1,
+                              double lock_wait_s) {
+  std::vector<SimCameraSpec> cams(2);
+  cams[0].node_map = cams[1].node_map = "sfnc2";
+  cams[0].sim_keys = keys0;
+  cams[1].sim_keys = keys1;
+  std::string yaml = sim_rig_yaml(cams, 320, 240, 30, 15);
+  yaml += fmt::format("ptp:\n  host: false\n  lock_wait_s: {}\n", lock_wait_s);
+  const fs::path rig = dir / "rig.yaml";
+  std::ofstream(rig) << yaml;
+  return rig;
+}
+}  // namespace
+
+TEST(PtpTime, CamerasAreLockedBeforeTheStartThenReadEachSecondAndALostLockIsNamedEachSecond) {
+  const fs::path work = work_dir("ptp-cameras");
+  // Both lock 1.5 s after PTP is enabled (at their configuration); cam1 loses lock 4 s after that, for 2 s.
+  const fs::path rig = write_ptp_camera_rig(work, "ptp_lock_after_s: 1.5, ptp_servo_error_ns: 40",
+                                            "ptp_lock_after_s: 1.5, ptp_servo_error_ns: 40, ptp_unlock_at_s: 4, "
+                                            "ptp_unlock_for_s: 2",
+                                            10);
+  const auto r = run_pvcap(
+      fmt::format("session --rig {} --duration 8 --root {} --no-web", rig.string(), (work / "sessions").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("waiting up to 10 s for the cameras to lock to PTP time"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("every camera locked to PTP time after"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("cam1 (serial PVSIM1 at 127.0.0.3): PTP not locked: Uncalibrated, servo Unknown"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("cam1 (serial PVSIM1 at 127.0.0.3): PTP locked again: Slave, servo Locked"), std::string::npos)
+      << r.output;
+  const fs::path session = only_session(work / "sessions");
+  pvcap::sqlite::Database db(session / "session.db", pvcap::sqlite::Database::Mode::ReadOnly);
+  auto q = db.prepare(
+      "SELECT d.name, e.kind, e.message FROM events e JOIN devices d ON d.id = e.device_id WHERE e.kind LIKE "
+      "'ptp_camera_%' ORDER BY e.host_ns");
+  std::map<std::string, int> readings, locked, out_of_lock;
+  double worst_locked_offset = 0;
+  while (q.step()) {
+    const std::string camera = q.column_text(0), kind = q.column_text(1), message = q.column_text(2);
+    if (kind == "ptp_camera_out_of_lock") {
+      ++out_of_lock[camera];
+      continue;
+    }
+    ++readings[camera];
+    const auto j = nlohmann::json::parse(message);
+    if (!j.at("locked").get<bool>()) continue;
+    ++locked[camera];
+    EXPECT_EQ(j.at("status"), "Slave");
+    EXPECT_EQ(j.at("servo"), "Locked");
+    worst_locked_offset = std::max(worst_locked_offset, std::abs(j.at("offset_ns").get<double>()));
+  }
+  std::printf("readings cam0 %d (locked %d), cam1 %d (locked %d, %d s out of lock); worst locked offset %.0f ns\n",
+              readings["cam0"], locked["cam0"], readings["cam1"], locked["cam1"], out_of_lock["cam1"],
+              worst_locked_offset);
+  for (const char* cam : {"cam0", "cam1"}) EXPECT_GE(readings[cam], 5) << cam << ": read each second";
+  EXPECT_EQ(locked["cam0"], readings["cam0"]) << "cam0 never lost lock";
+  EXPECT_EQ(out_of_lock["cam0"], 0);
+  EXPECT_GE(out_of_lock["cam1"], 1) << "cam1's 2 s out of lock named";
+  EXPECT_LE(out_of_lock["cam1"], 3);
+  EXPECT_EQ(locked["cam1"] + out_of_lock["cam1"], readings["cam1"]);
+  EXPECT_LE(worst_locked_offset, 5 * 40.0) << "the servo's error, 40 ns";
+  // The report: each camera's readings and its stretch out of lock.
+  const auto report = run_pvcap(fmt::format("report {} --json", session.string()));
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  const auto j = nlohmann::json::parse(report.output.substr(report.output.find('{')));
+  ASSERT_TRUE(j.contains("ptp_time")) << report.output;
+  const auto& cams = j["ptp_time"]["cameras"];
+  ASSERT_EQ(cams.size(), 2u);
+  EXPECT_EQ(cams[1]["name"], "cam1");
+  EXPECT_EQ(cams[1]["seconds_out_of_lock"], out_of_lock["cam1"]);
+  ASSERT_EQ(cams[1]["out_of_lock"].size(), 1u) << cams.dump();
+  EXPECT_TRUE(cams[0]["out_of_lock"].empty());
+}
+
+TEST(PtpTime, ACameraNotLockedInTimeOrWithoutPtpIsRefusedByName) {
+  const fs::path work = work_dir("ptp-camera-refused");
+  const fs::path rig = write_ptp_camera_rig(work, "ptp_lock_after_s: 0.5", "ptp_lock_after_s: 60", 1.5);
+  const auto slow = run_pvcap(
+      fmt::format("session --rig {} --duration 2 --root {} --no-web", rig.string(), (work / "sessions").string()));
+  EXPECT_EQ(slow.exit_code, 1) << slow.output;
+  EXPECT_NE(slow.output.find("not locked to PTP time after 1.5 s (ptp.lock_wait_s): cam1 (serial PVSIM1 at "
+                             "127.0.0.3): Listening, servo Unknown"),
+            std::string::npos)
+      << slow.output;
+  EXPECT_EQ(slow.output.find("cam0 (serial PVSIM0 at 127.0.0.2): Listening"), std::string::npos) << "cam0 locked";
+  EXPECT_NE(slow.output.find("no session was recorded: every camera of"), std::string::npos) << slow.output;
+  EXPECT_TRUE(!fs::exists(work / "sessions") || fs::is_empty(work / "sessions"));
+  // Aravis' own fake camera's names: no PTP at all.
+  std::string yaml = sim_rig_yaml({{}}, 320, 240, 30, 15) + "ptp:\n  host: false\n";
+  std::ofstream(work / "plain.yaml") << yaml;
+  const auto plain = run_pvcap(fmt::format("session --rig {} --duration 2 --root {} --no-web",
+                                           (work / "plain.yaml").string(), (work / "sessions").string()));
+  EXPECT_EQ(plain.exit_code, 1) << plain.output;
+  EXPECT_NE(plain.output.find("cam0 (serial PVSIM0 at 127.0.0.2): has no PTP feature (PtpEnable, GevIEEE1588 or "
+                              "PtpMode)"),
+            std::string::npos)
+      << plain.output;
 }
