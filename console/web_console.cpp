@@ -319,6 +319,7 @@ void WebConsole::route_guard() {
     if (authorized(req.get_param_value("token"), cookie_value(req.get_header_value("Cookie"), "pvcap_token"),
                    req.get_header_value("Authorization")))
       return httplib::Server::HandlerResponse::Unhandled;
+    if (req.path.rfind("/api/", 0) == 0) log_refused_api_request(req);
     res.status = 401;
     res.set_content(
         "This pvcap session's pages need its token: open the address pvcap printed at the start "
@@ -342,6 +343,20 @@ void WebConsole::route_guard() {
 }
 
 // The pages themselves, and the pictograms they show.
+void WebConsole::log_refused_api_request(const httplib::Request& req) {
+  std::lock_guard lock(refused_mu_);
+  const auto now = std::chrono::steady_clock::now();
+  if (now - refused_logged_ < std::chrono::seconds(5)) {
+    ++refused_unlogged_;
+    return;
+  }
+  spdlog::warn("remote-control API: {} {} from {} refused: no token or a wrong one{}", req.method, req.path,
+               req.remote_addr,
+               refused_unlogged_ ? fmt::format(" ({} more refused since the last such line)", refused_unlogged_) : "");
+  refused_logged_ = now;
+  refused_unlogged_ = 0;
+}
+
 void WebConsole::route_pages() {
   auto& s = *server_;
   auto page = [this](const char* html) {

@@ -16,6 +16,7 @@
 // The socket is bound before the simulated rig moves pvcap into its private network
 // namespace, so the pages open in the machine's own browser on the simulated rig too.
 #include <atomic>
+#include <chrono>
 #include <cstddef>
 #include <memory>
 #include <mutex>
@@ -28,6 +29,7 @@
 
 namespace httplib {
 class Server;
+struct Request;
 }
 
 namespace pvcap::protocol {
@@ -101,6 +103,12 @@ class WebConsole {
   std::atomic<bool> stopping_{false};
   std::atomic<int> streams_{0};  // event streams open
   std::atomic<int> participant_pages_{0}, operator_pages_{0};
+  // Requests to the remote-control API refused for their token: each logged, at most one line in
+  // 5 s (the rest counted into the next), so a client retrying in a loop cannot flood the log.
+  void log_refused_api_request(const httplib::Request& req);
+  std::mutex refused_mu_;
+  std::chrono::steady_clock::time_point refused_logged_{};
+  int refused_unlogged_ = 0;
   PageSource* recording_ = nullptr;
   protocol::Runner* runner_ = nullptr;
 };

@@ -91,6 +91,7 @@ class RemoteControl(unittest.TestCase):
         self.assertEqual(self.proc.wait(60), 0, "".join(self.output))
         log = "".join(self.output)
         self.assertIn("stopped through the remote-control API: experiment over", log)
+        self.assertIn("remote-control API: GET /api/v1/status from 127.0.0.1 refused: no token or a wrong one", log)
 
         # Both are in the session, the mark on the session's clock (CLOCK_MONOTONIC, as Python's).
         db = sqlite3.connect(f"file:{os.path.join(session, 'session.db')}?mode=ro", uri=True)
