@@ -1,7 +1,8 @@
 #pragma once
 // The GigE Vision wire formats pvcap speaks itself, in one place (as Aravis keeps each protocol's
 // layout in one header, arvgvcpprivate.h and arvgvspprivate.h): the control protocol's header and
-// commands (GVCP: capture/gvcp_ping.cpp reads a register to see a camera answer), the bootstrap
+// commands (GVCP: capture/gvcp_ping.cpp reads a register to see a camera answer; ACTION_CMD, the
+// scheduled actions of a multi-host rig, docs/multihost.md), the bootstrap
 // registers it names, and the stream protocol's packets (GVSP: the simulated cameras' sender,
 // sim/gvsp_sender.cpp). Everything on the wire is big-endian. Aravis speaks the rest.
 #include <array>
@@ -46,6 +47,47 @@ inline bool parse_gvcp_ack(const std::uint8_t* data, std::size_t size, GvcpAck& 
   if (size < kGvcpHeaderBytes) return false;
   const auto at = [data](int i) { return std::uint16_t((data[i] << 8) | data[i + 1]); };
   ack = {at(0), at(2), at(4), at(6)};
+  return true;
+}
+
+// ACTION_CMD (GigE Vision 2.0, 16.5): every device whose ActionDeviceKey equals `device_key`, and one
+// of whose action signals has `group_key` with a mask sharing a bit with `group_mask`, performs that
+// action: at once, or, with an action time (its flag 0x80), when its PTP clock reaches that time
+// (ns). Payload: the three keys (32 bits each), then the time (64 bits) when scheduled.
+inline constexpr std::uint8_t kGvcpScheduledAction = 0x80;
+struct ActionCommand {
+  std::uint32_t device_key = 0, group_key = 0, group_mask = 0;
+  bool scheduled = false;
+  std::uint64_t action_time_ns = 0;  // when scheduled
+  bool operator==(const ActionCommand&) const = default;
+};
+inline std::vector<std::uint8_t> action_command_packet(const ActionCommand& a, std::uint16_t request_id) {
+  const auto h = gvcp_header(GvcpCommand::Action, std::uint16_t(a.scheduled ? 20 : 12), request_id);
+  std::vector<std::uint8_t> out(h.begin(), h.end());
+  if (a.scheduled) out[1] |= kGvcpScheduledAction;
+  for (std::uint32_t v : {a.device_key, a.group_key, a.group_mask})
+    for (int shift = 24; shift >= 0; shift -= 8) out.push_back(std::uint8_t(v >> shift));
+  if (a.scheduled)
+    for (int shift = 56; shift >= 0; shift -= 8) out.push_back(std::uint8_t(a.action_time_ns >> shift));
+  return out;
+}
+// A received ACTION_CMD (a device's side: the simulated cameras): false for anything else, or a
+// length that does not match its flag.
+inline bool parse_action_command(const std::uint8_t* data, std::size_t size, ActionCommand& a,
+                                 std::uint16_t& request_id) {
+  if (size < kGvcpHeaderBytes || data[0] != kGvcpKey) return false;
+  const auto at16 = [data](std::size_t i) { return std::uint16_t((data[i] << 8) | data[i + 1]); };
+  if (at16(2) != std::uint16_t(GvcpCommand::Action)) return false;
+  const bool scheduled = (data[1] & kGvcpScheduledAction) != 0;
+  const std::size_t length = at16(4);
+  if (length != (scheduled ? 20u : 12u) || size < kGvcpHeaderBytes + length) return false;
+  const auto at32 = [data](std::size_t i) {
+    return std::uint32_t(data[i]) << 24 | std::uint32_t(data[i + 1]) << 16 | std::uint32_t(data[i + 2]) << 8 |
+           std::uint32_t(data[i + 3]);
+  };
+  a = {at32(8), at32(12), at32(16), scheduled,
+       scheduled ? (std::uint64_t(at32(20)) << 32 | at32(24)) : 0};
+  request_id = at16(6);
   return true;
 }
 

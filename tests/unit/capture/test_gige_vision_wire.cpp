@@ -41,3 +41,32 @@ TEST(GigeVisionWire, StreamPacketsAndRegisters) {
   EXPECT_EQ(gev::stream_packet_size_register(1), 0x0D44u);
   EXPECT_EQ(gev::kPayloadImage | gev::kPayloadChunkFlag, 0x4001);
 }
+
+// ACTION_CMD as GigE Vision 2.0 lays it out (and Wireshark's GVCP dissector reads it): the scheduled
+// flag 0x80 beside the acknowledge flag, the device, group key and mask, then the 64-bit time.
+TEST(GigeVisionWire, AnActionCommandImmediateOrScheduledReadsBackAsSent) {
+  const gev::ActionCommand now{0x11223344, 0x00112233, 0xFFFFFFFF, false, 0};
+  const auto p = gev::action_command_packet(now, 0x0102);
+  EXPECT_EQ(p, (std::vector<std::uint8_t>{0x42, 0x01, 0x01, 0x00, 0x00, 0x0C, 0x01, 0x02, 0x11, 0x22, 0x33, 0x44,
+                                          0x00, 0x11, 0x22, 0x33, 0xFF, 0xFF, 0xFF, 0xFF}));
+  const gev::ActionCommand at{7, 1, 0x3, true, 1'796'690'033'855'857'181ull};
+  const auto q = gev::action_command_packet(at, 9);
+  ASSERT_EQ(q.size(), 28u);
+  EXPECT_EQ(q[1], 0x81) << "scheduled, acknowledge required";
+  EXPECT_EQ(q[5], 20);
+  EXPECT_EQ(q[20], 0x18);  // 1796690033855857181 = 0x18EF...: its most significant byte first
+  gev::ActionCommand back;
+  std::uint16_t id = 0;
+  ASSERT_TRUE(gev::parse_action_command(q.data(), q.size(), back, id));
+  EXPECT_EQ(back, at);
+  EXPECT_EQ(id, 9);
+  ASSERT_TRUE(gev::parse_action_command(p.data(), p.size(), back, id));
+  EXPECT_EQ(back, now);
+  // A length that does not match the flag, a cut packet, another command: refused.
+  auto wrong = q;
+  wrong[1] = 0x01;
+  EXPECT_FALSE(gev::parse_action_command(wrong.data(), wrong.size(), back, id));
+  EXPECT_FALSE(gev::parse_action_command(q.data(), q.size() - 1, back, id));
+  const auto read = gev::gvcp_header(gev::GvcpCommand::ReadRegister, 4, 1);
+  EXPECT_FALSE(gev::parse_action_command(read.data(), read.size(), back, id));
+}
