@@ -608,8 +608,8 @@ RecordingResult Recording::finish(const std::string& end_reason) {
         ptp->seconds_out_of_time == 0
             ? fmt::format("host PTP time: in time at each of {} readings (grandmaster {}, worst offset {:.0f} ns)",
                           ptp->readings, ptp->grandmaster, ptp->worst_offset_ns)
-            : fmt::format("WARNING: host PTP time: {} s out of time of {} readings (the last: {}); the session's "
-                          "ptp_host_out_of_time events say when",
+            : fmt::format("WARNING: host PTP time: out of time for {} s ({} answers read from ptp4l; the last "
+                          "problem: {}); the session's ptp_host_out_of_time events say when",
                           ptp->seconds_out_of_time, ptp->readings, ptp->last_problem));
   if (writer.index_records_lost() > 0)
     result.notes.push_back(fmt::format("WARNING: {} index records were lost ({})", writer.index_records_lost(),
