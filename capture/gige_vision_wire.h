@@ -55,6 +55,9 @@ inline bool parse_gvcp_ack(const std::uint8_t* data, std::size_t size, GvcpAck& 
 // action: at once, or, with an action time (its flag 0x80), when its PTP clock reaches that time
 // (ns). Payload: the three keys (32 bits each), then the time (64 bits) when scheduled.
 inline constexpr std::uint8_t kGvcpScheduledAction = 0x80;
+// An acknowledge's status for a scheduled action whose time had passed when it arrived (an error:
+// bit 15, and the code Aravis names ARV_GVCP_ERROR_ACTION_LATE, 0x16).
+inline constexpr std::uint16_t kGvcpStatusActionLate = 0x8016;
 struct ActionCommand {
   std::uint32_t device_key = 0, group_key = 0, group_mask = 0;
   bool scheduled = false;

@@ -7,9 +7,13 @@
 #include <unistd.h>
 
 #include <array>
+#include <cstring>
 #include <atomic>
+#include <cerrno>
 #include <cstdint>
 #include <vector>
+
+#include <fmt/format.h>
 
 #include "capture/gige_vision_wire.h"
 #include "core/time.h"
@@ -67,6 +71,49 @@ bool gvcp_answers(const std::string& ipv4, std::chrono::milliseconds timeout) {
         a.code == std::uint16_t(gev::GvcpCommand::ReadRegisterAck) && a.id == id)
       return true;
   }
+}
+
+Result<std::vector<ActionAnswer>> send_action_command(const std::vector<std::string>& addresses,
+                                                      const gev::ActionCommand& action,
+                                                      std::chrono::milliseconds wait, std::uint16_t port) {
+  Socket s;
+  if (s.fd < 0) return Error{fmt::format("cannot open a socket for an action command: {}", std::strerror(errno))};
+  std::vector<ActionAnswer> answers;
+  std::vector<std::uint16_t> ids;
+  for (const std::string& address : addresses) {
+    sockaddr_in to{};
+    to.sin_family = AF_INET;
+    to.sin_port = htons(port);
+    if (inet_pton(AF_INET, address.c_str(), &to.sin_addr) != 1)
+      return Error{fmt::format("an action command goes to an IPv4 address, not '{}'", address)};
+    const std::uint16_t id = next_request_id();
+    const auto packet = gev::action_command_packet(action, id);
+    if (sendto(s.fd, packet.data(), packet.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) !=
+        ssize_t(packet.size()))
+      return Error{fmt::format("cannot send an action command to {}: {}", address, std::strerror(errno))};
+    answers.push_back({address});
+    ids.push_back(id);
+  }
+  const std::int64_t deadline = host_now().ns + std::chrono::nanoseconds(wait).count();
+  for (std::size_t left = answers.size(); left > 0;) {
+    const std::int64_t left_ms = (deadline - host_now().ns) / 1'000'000;
+    if (left_ms <= 0) break;
+    pollfd p{s.fd, POLLIN, 0};
+    if (poll(&p, 1, int(left_ms)) <= 0) break;
+    std::array<std::uint8_t, 64> ack{};
+    const ssize_t n = recv(s.fd, ack.data(), ack.size(), 0);
+    gev::GvcpAck a;
+    if (n <= 0 || !gev::parse_gvcp_ack(ack.data(), std::size_t(n), a) ||
+        a.code != std::uint16_t(gev::GvcpCommand::ActionAck))
+      continue;
+    for (std::size_t i = 0; i < ids.size(); ++i)
+      if (ids[i] == a.id && !answers[i].acknowledged) {
+        answers[i].acknowledged = true;
+        answers[i].status = a.status;
+        --left;
+      }
+  }
+  return answers;
 }
 
 }  // namespace pvcap
