@@ -165,7 +165,9 @@ class Recording {
   std::vector<std::thread> workers_;
   std::atomic<std::uint64_t> samples_{0};
   std::atomic<bool> stop_requested_{false};
-  std::atomic<int> state_{0};  // index into kStates
+  enum State { kOpened, kRecording, kStopping, kEnded };
+  static constexpr const char* kStates[] = {"opened", "recording", "stopping", "ended"};
+  std::atomic<int> state_{kOpened};  // a State; kStates names it
   std::string stop_reason_;
   std::optional<std::string> start_failure_;
   std::vector<bool> warned_encoder_, warned_spill_, warned_behind_, warned_foreign_;
