@@ -84,6 +84,16 @@ class MapReader {
       fail(node_[key], key, fmt::format("{} is out of range [{}, {}]", out, lo, hi));
   }
 
+  // An optional value: set only when the key is given (and then in range).
+  template <typename T>
+  void get_in_range(const char* key, std::optional<T>& out, T lo, T hi) {
+    used_.insert(key);
+    if (!has(key)) return;
+    T v{};
+    get_in_range(key, v, lo, hi);
+    out = v;
+  }
+
   // A list of exactly `n` numbers, e.g. position_mm: [115, 65, 480].
   template <std::size_t N>
   void get_numbers(const char* key, std::optional<std::array<double, N>>& out) {

@@ -26,23 +26,13 @@ SimSenselConfig parse_sim_sensel(const YAML::Node& sn, const std::filesystem::pa
   sr.get_in_range("usb_jitter_mean_ms", c.usb_jitter_mean_ms, 0.0, 100.0);
   sr.get_in_range("usb_jitter_max_ms", c.usb_jitter_max_ms, 0.0, 1000.0);
   sr.get_in_range("drop_fraction", c.drop_fraction, 0.0, 0.5);
-  if (sr.has("clock_reset_at_s")) {
-    double v = 0;
-    sr.get_in_range("clock_reset_at_s", v, 0.0, 1e7);
-    c.clock_reset_at_s = v;
-  }
-  if (sr.has("unplug_at_s")) {
-    double v = 0;
-    sr.get_in_range("unplug_at_s", v, 0.0, 1e7);
-    c.unplug_at_s = v;
-  }
-  if (sr.has("replug_after_s")) {
-    double v = 0;
-    sr.get_in_range("replug_after_s", v, 0.0, 1e7);
+  sr.get_in_range("clock_reset_at_s", c.clock_reset_at_s, 0.0, 1e7);
+  sr.get_in_range("unplug_at_s", c.unplug_at_s, 0.0, 1e7);
+  sr.get_in_range("replug_after_s", c.replug_after_s, 0.0, 1e7);
+  if (c.replug_after_s) {
     if (!c.unplug_at_s) sr.fail(sn["replug_after_s"], "replug_after_s", "needs an unplug_at_s before it");
     if (c.transport != "pty")
       sr.fail(sn["replug_after_s"], "replug_after_s", "a Sensel plugged back in is emulated on transport: pty only");
-    c.replug_after_s = v;
   }
   if (sr.has("replug_serial")) {
     std::string v;
@@ -84,18 +74,10 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
       cr.get_in_range("drift_ppm", c.drift_ppm, -10000.0, 10000.0);
       cr.get_in_range("jitter_us", c.jitter_us, 0.0, 1e6);
       cr.get_in_range("packet_loss", c.packet_loss, 0.0, 1.0);
-      if (cr.has("stop_after_s")) {
-        double v = 0;
-        cr.get_in_range("stop_after_s", v, 0.0, 1e7);
-        c.stop_after_s = v;
-      }
-      if (cr.has("return_after_s")) {
-        double v = 0;
-        cr.get_in_range("return_after_s", v, 0.0, 1e7);
-        if (!c.stop_after_s || v <= *c.stop_after_s)
-          cr.fail(cams[i]["return_after_s"], "return_after_s", "needs a stop_after_s before it");
-        c.return_after_s = v;
-      }
+      cr.get_in_range("stop_after_s", c.stop_after_s, 0.0, 1e7);
+      cr.get_in_range("return_after_s", c.return_after_s, 0.0, 1e7);
+      if (c.return_after_s && (!c.stop_after_s || *c.return_after_s <= *c.stop_after_s))
+        cr.fail(cams[i]["return_after_s"], "return_after_s", "needs a stop_after_s before it");
       cr.get_in_range("outages", c.outages, 1, 10000);
       cr.get_in_range("outage_every_s", c.outage_every_s, 0.0, 1e7);
       if (c.outages > 1 && (!c.return_after_s || c.outage_every_s <= *c.return_after_s - *c.stop_after_s))
@@ -117,22 +99,14 @@ SimConfig parse_sim(const YAML::Node& node, const std::filesystem::path& file, s
         cr.fail(cams[i]["white_balance_auto"], "white_balance_auto", "needs node_map: sfnc2 (the map that has it)");
       cr.get_in_range("ptp_lock_after_s", c.ptp_lock_after_s, 0.0, 3600.0);
       cr.get_in_range("ptp_servo_error_ns", c.ptp_servo_error_ns, 0.0, 1e9);
-      if (cr.has("ptp_unlock_at_s")) {
-        double v = 0;
-        cr.get_in_range("ptp_unlock_at_s", v, 0.0, 1e7);
-        c.ptp_unlock_at_s = v;
-      }
+      cr.get_in_range("ptp_unlock_at_s", c.ptp_unlock_at_s, 0.0, 1e7);
       cr.get_in_range("ptp_unlock_for_s", c.ptp_unlock_for_s, 0.0, 1e7);
       for (const char* key : {"ptp_lock_after_s", "ptp_servo_error_ns", "ptp_unlock_at_s", "ptp_unlock_for_s"})
         if (cr.has(key) && c.node_map != NodeMapNaming::Sfnc2)
           cr.fail(cams[i][key], key, "needs node_map: sfnc2 (the map with the PTP features)");
       cr.get_numbers("position_mm", c.position_mm);
       cr.get_numbers("look_at_mm", c.look_at_mm);
-      if (cr.has("focal_px")) {
-        double v = 0;
-        cr.get_in_range("focal_px", v, 50.0, 100000.0);
-        c.focal_px = v;
-      }
+      cr.get_in_range("focal_px", c.focal_px, 50.0, 100000.0);
       cr.get_numbers("distortion", c.distortion);
       if (c.position_mm && (*c.position_mm)[2] <= 0)
         cr.fail(cams[i]["position_mm"], "position_mm", "the camera must stand above the pad (z > 0 mm)");
