@@ -1,8 +1,10 @@
 // The host's PTP state from linuxptp's pmc (sync/ptp_host.h): answers as pmc 3.1.1 (Debian 12) printed
-// them for a ptp4l grandmaster and a follower in two network namespaces joined by a veth pair
+// them (captured once, kept as files) for a ptp4l grandmaster and a follower in two network namespaces joined by a veth pair
 // (software timestamping, free_running 1), and the judgement a session's start makes of them.
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include "sync/ptp_host.h"
@@ -12,87 +14,13 @@ namespace {
 using pvcap::sync::parse_pmc_answer;
 using pvcap::sync::ptp_host_out_of_time;
 
-const std::string kGrandmaster = R"(sending: GET CURRENT_DATA_SET
-sending: GET PORT_DATA_SET
-sending: GET TIME_STATUS_NP
-sending: GET PARENT_DATA_SET
-	860239.fffe.868401-0 seq 0 RESPONSE MANAGEMENT CURRENT_DATA_SET 
-		stepsRemoved     0
-		offsetFromMaster 0.0
-		meanPathDelay    0.0
-	860239.fffe.868401-1 seq 1 RESPONSE MANAGEMENT PORT_DATA_SET 
-		portIdentity            860239.fffe.868401-1
-		portState               MASTER
-		logMinDelayReqInterval  0
-		peerMeanPathDelay       0
-		logAnnounceInterval     1
-		announceReceiptTimeout  3
-		logSyncInterval         -2
-		delayMechanism          1
-		logMinPdelayReqInterval 0
-		versionNumber           2
-	860239.fffe.868401-0 seq 2 RESPONSE MANAGEMENT TIME_STATUS_NP 
-		master_offset              0
-		ingress_time               0
-		cumulativeScaledRateOffset +0.000000000
-		scaledLastGmPhaseChange    0
-		gmTimeBaseIndicator        0
-		lastGmPhaseChange          0x0000'0000000000000000.0000
-		gmPresent                  false
-		gmIdentity                 860239.fffe.868401
-	860239.fffe.868401-0 seq 3 RESPONSE MANAGEMENT PARENT_DATA_SET 
-		parentPortIdentity                    860239.fffe.868401-0
-		parentStats                           0
-		observedParentOffsetScaledLogVariance 0xffff
-		observedParentClockPhaseChangeRate    0x7fffffff
-		grandmasterPriority1                  1
-		gm.ClockClass                         248
-		gm.ClockAccuracy                      0xfe
-		gm.OffsetScaledLogVariance            0xffff
-		grandmasterPriority2                  128
-		grandmasterIdentity                   860239.fffe.868401
-)";
-
-const std::string kFollower = R"(sending: GET CURRENT_DATA_SET
-sending: GET PORT_DATA_SET
-sending: GET TIME_STATUS_NP
-sending: GET PARENT_DATA_SET
-	ae0e5a.fffe.382930-0 seq 0 RESPONSE MANAGEMENT CURRENT_DATA_SET 
-		stepsRemoved     1
-		offsetFromMaster -292.0
-		meanPathDelay    2245.0
-	ae0e5a.fffe.382930-1 seq 1 RESPONSE MANAGEMENT PORT_DATA_SET 
-		portIdentity            ae0e5a.fffe.382930-1
-		portState               UNCALIBRATED
-		logMinDelayReqInterval  0
-		peerMeanPathDelay       0
-		logAnnounceInterval     1
-		announceReceiptTimeout  3
-		logSyncInterval         -2
-		delayMechanism          1
-		logMinPdelayReqInterval 0
-		versionNumber           2
-	ae0e5a.fffe.382930-0 seq 2 RESPONSE MANAGEMENT TIME_STATUS_NP 
-		master_offset              -292
-		ingress_time               1796690190522266100
-		cumulativeScaledRateOffset +0.000000000
-		scaledLastGmPhaseChange    0
-		gmTimeBaseIndicator        0
-		lastGmPhaseChange          0x0000'0000000000000000.0000
-		gmPresent                  true
-		gmIdentity                 860239.fffe.868401
-	ae0e5a.fffe.382930-0 seq 3 RESPONSE MANAGEMENT PARENT_DATA_SET 
-		parentPortIdentity                    860239.fffe.868401-1
-		parentStats                           0
-		observedParentOffsetScaledLogVariance 0xffff
-		observedParentClockPhaseChangeRate    0x7fffffff
-		grandmasterPriority1                  1
-		gm.ClockClass                         248
-		gm.ClockAccuracy                      0xfe
-		gm.OffsetScaledLogVariance            0xffff
-		grandmasterPriority2                  128
-		grandmasterIdentity                   860239.fffe.868401
-)";
+// The captures themselves are the pmc fuzzer's seeds (tests/fuzz/seeds_pmc_answer/), read in place.
+std::string capture(const char* name) {
+  std::ifstream in(std::string(PVCAP_SOURCE_DIR) + "/tests/fuzz/seeds_pmc_answer/" + name);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+const std::string kGrandmaster = capture("grandmaster");
+const std::string kFollower = capture("follower");
 
 TEST(PtpHost, AGrandmastersAnswerIsItsOwnTime) {
   const auto s = parse_pmc_answer(kGrandmaster);
