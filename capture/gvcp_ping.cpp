@@ -36,6 +36,31 @@ std::uint16_t next_request_id() {
   return v;
 }
 
+bool send_to(const Socket& s, const std::string& ipv4, std::uint16_t port, const std::vector<std::uint8_t>& packet) {
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(port);
+  if (inet_pton(AF_INET, ipv4.c_str(), &to.sin_addr) != 1) return false;
+  return sendto(s.fd, packet.data(), packet.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) ==
+         ssize_t(packet.size());
+}
+
+// Acknowledges arriving on `s` until `done` says so of one, or `wait` has passed.
+template <typename Done>
+void await_acks(const Socket& s, std::chrono::milliseconds wait, Done done) {
+  const std::int64_t deadline = host_now().ns + std::chrono::nanoseconds(wait).count();
+  for (;;) {
+    const std::int64_t left_ms = (deadline - host_now().ns) / 1'000'000;
+    if (left_ms <= 0) return;
+    pollfd p{s.fd, POLLIN, 0};
+    if (poll(&p, 1, int(left_ms)) <= 0) return;
+    std::array<std::uint8_t, 64> ack{};
+    const ssize_t n = recv(s.fd, ack.data(), ack.size(), 0);
+    gev::GvcpAck a;
+    if (n > 0 && gev::parse_gvcp_ack(ack.data(), std::size_t(n), a) && done(a)) return;
+  }
+}
+
 }  // namespace
 
 bool is_ipv4(const std::string& address) {
@@ -44,10 +69,6 @@ bool is_ipv4(const std::string& address) {
 }
 
 bool gvcp_answers(const std::string& ipv4, std::chrono::milliseconds timeout) {
-  sockaddr_in to{};
-  to.sin_family = AF_INET;
-  to.sin_port = htons(gev::kGvcpPort);
-  if (inet_pton(AF_INET, ipv4.c_str(), &to.sin_addr) != 1) return false;
   Socket s;
   if (s.fd < 0) return false;
   const std::uint16_t id = next_request_id();
@@ -55,22 +76,13 @@ bool gvcp_answers(const std::string& ipv4, std::chrono::milliseconds timeout) {
   std::vector<std::uint8_t> request;
   for (const std::uint8_t b : gev::gvcp_header(gev::GvcpCommand::ReadRegister, 4, id)) request.push_back(b);
   gev::put32(request, 0);
-  if (sendto(s.fd, request.data(), request.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) !=
-      ssize_t(request.size()))
-    return false;
-  const std::int64_t deadline = host_now().ns + std::chrono::nanoseconds(timeout).count();
-  for (;;) {
-    const std::int64_t left_ms = (deadline - host_now().ns) / 1'000'000;
-    if (left_ms <= 0) return false;
-    pollfd p{s.fd, POLLIN, 0};
-    if (poll(&p, 1, int(left_ms)) <= 0) return false;
-    std::array<std::uint8_t, 64> ack{};
-    const ssize_t n = recv(s.fd, ack.data(), ack.size(), 0);
-    gev::GvcpAck a;
-    if (n > 0 && gev::parse_gvcp_ack(ack.data(), std::size_t(n), a) &&
-        a.code == std::uint16_t(gev::GvcpCommand::ReadRegisterAck) && a.id == id)
-      return true;
-  }
+  if (!send_to(s, ipv4, gev::kGvcpPort, request)) return false;
+  bool answered = false;
+  await_acks(s, timeout, [&](const gev::GvcpAck& a) {
+    answered = a.code == std::uint16_t(gev::GvcpCommand::ReadRegisterAck) && a.id == id;
+    return answered;
+  });
+  return answered;
 }
 
 Result<std::vector<ActionAnswer>> send_action_command(const std::vector<std::string>& addresses,
@@ -81,38 +93,25 @@ Result<std::vector<ActionAnswer>> send_action_command(const std::vector<std::str
   std::vector<ActionAnswer> answers;
   std::vector<std::uint16_t> ids;
   for (const std::string& address : addresses) {
-    sockaddr_in to{};
-    to.sin_family = AF_INET;
-    to.sin_port = htons(port);
-    if (inet_pton(AF_INET, address.c_str(), &to.sin_addr) != 1)
-      return Error{fmt::format("an action command goes to an IPv4 address, not '{}'", address)};
+    if (!is_ipv4(address)) return Error{fmt::format("an action command goes to an IPv4 address, not '{}'", address)};
     const std::uint16_t id = next_request_id();
-    const auto packet = gev::action_command_packet(action, id);
-    if (sendto(s.fd, packet.data(), packet.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) !=
-        ssize_t(packet.size()))
+    if (!send_to(s, address, port, gev::action_command_packet(action, id)))
       return Error{fmt::format("cannot send an action command to {}: {}", address, std::strerror(errno))};
     answers.push_back({address});
     ids.push_back(id);
   }
-  const std::int64_t deadline = host_now().ns + std::chrono::nanoseconds(wait).count();
-  for (std::size_t left = answers.size(); left > 0;) {
-    const std::int64_t left_ms = (deadline - host_now().ns) / 1'000'000;
-    if (left_ms <= 0) break;
-    pollfd p{s.fd, POLLIN, 0};
-    if (poll(&p, 1, int(left_ms)) <= 0) break;
-    std::array<std::uint8_t, 64> ack{};
-    const ssize_t n = recv(s.fd, ack.data(), ack.size(), 0);
-    gev::GvcpAck a;
-    if (n <= 0 || !gev::parse_gvcp_ack(ack.data(), std::size_t(n), a) ||
-        a.code != std::uint16_t(gev::GvcpCommand::ActionAck))
-      continue;
-    for (std::size_t i = 0; i < ids.size(); ++i)
-      if (ids[i] == a.id && !answers[i].acknowledged) {
-        answers[i].acknowledged = true;
-        answers[i].status = a.status;
-        --left;
-      }
-  }
+  std::size_t left = answers.size();
+  if (left > 0)
+    await_acks(s, wait, [&](const gev::GvcpAck& a) {
+      if (a.code != std::uint16_t(gev::GvcpCommand::ActionAck)) return false;
+      for (std::size_t i = 0; i < ids.size(); ++i)
+        if (ids[i] == a.id && !answers[i].acknowledged) {
+          answers[i].acknowledged = true;
+          answers[i].status = a.status;
+          --left;
+        }
+      return left == 0;
+    });
   return answers;
 }
 
