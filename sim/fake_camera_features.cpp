@@ -268,7 +268,7 @@ class FeatureService {
     arv_fake_camera_write_register(fake, kEngineTriggerSource, kSoftware);
     std::lock_guard lock(mu_);
     cameras_.push_back({owner, fake, std::move(clock), std::move(line), INT64_MIN, naming == NodeMapNaming::Sfnc2,
-                        host_now().ns, std::move(outputs), 0, ptp, -1, false,
+                        host_now().ns, std::move(outputs), 0, ptp, -1, false, 0,
                         std::mt19937_64(std::uint64_t(reinterpret_cast<std::uintptr_t>(owner)))});
     if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
   }
@@ -299,6 +299,7 @@ class FeatureService {
     PtpBehaviour ptp;
     std::int64_t ptp_enabled_ns;  // when PtpEnable was set (-1: off)
     bool ptp_locked;              // as last served
+    std::uint32_t ptp_status;     // PtpStatus as last written (0: Disabled, the registers' start)
     std::mt19937_64 rng;          // the servo's error
   };
   // When the host has set the command register, the device clock's value goes into the value
@@ -370,17 +371,23 @@ class FeatureService {
     guint32 enabled = 0;
     if (!arv_fake_camera_read_register(c.fake, kPtpEnableRegister, &enabled)) return;
     if (!enabled) {
+      if (c.ptp_enabled_ns >= 0) {  // switched off: Disabled, the servo unknown
+        arv_fake_camera_write_register(c.fake, kPtpStatusRegister, 0);
+        arv_fake_camera_write_register(c.fake, kPtpServoRegister, 0);
+      }
       c.ptp_enabled_ns = -1;
-      arv_fake_camera_write_register(c.fake, kPtpStatusRegister, 0);
-      arv_fake_camera_write_register(c.fake, kPtpServoRegister, 0);
+      c.ptp_status = 0;
       return;
     }
     if (c.ptp_enabled_ns < 0) c.ptp_enabled_ns = now_ns;
     const double on_s = double(now_ns - c.ptp_enabled_ns) / 1e9;
     const bool unlocked = c.ptp.unlock_at_s && on_s >= *c.ptp.unlock_at_s && on_s < *c.ptp.unlock_at_s + c.ptp.unlock_for_s;
     const bool locked = on_s >= c.ptp.lock_after_s && !unlocked;
-    arv_fake_camera_write_register(c.fake, kPtpStatusRegister, locked ? 4 : unlocked ? 3 : 2);
-    arv_fake_camera_write_register(c.fake, kPtpServoRegister, locked ? 1 : 0);
+    if (const std::uint32_t status = locked ? 4 : unlocked ? 3 : 2; status != c.ptp_status) {  // as it changes
+      c.ptp_status = status;
+      arv_fake_camera_write_register(c.fake, kPtpStatusRegister, status);
+      arv_fake_camera_write_register(c.fake, kPtpServoRegister, locked ? 1 : 0);
+    }
     // A latch is served up to 200 us after the host's command, which the host may read before: the
     // offset is drawn again at each change of lock too, so what it reads is of the state it reads.
     guint32 latch = 0;
